@@ -1,0 +1,59 @@
+"""The ``linkedit`` command line: a thin typer shell over the library.
+
+Each command lives in ``linkedit/commands/<name>.py`` with a ``register(app)`` function; this
+module only assembles them. Errors are mapped to exit codes in
+:func:`linkedit.commands.common.guard`.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import typer
+
+from linkedit import __version__
+
+COMMAND_MODULES = [
+    "linkedit.commands.simulate",
+    "linkedit.commands.edit",
+    "linkedit.commands.solve3d",
+    "linkedit.commands.curves",
+    "linkedit.commands.bench",
+    "linkedit.commands.schemas",
+]
+
+app = typer.Typer(
+    name="linkedit",
+    help="Design mechanisms: simulate and edit planar linkages, solve 3D mechanisms, compare motion curves.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"linkedit {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True, help="Print the version."),
+) -> None:
+    """linkedit: closed-form linkage kinematics, editing, 3D constraint solving, curve features."""
+
+
+for _name in COMMAND_MODULES:
+    try:
+        _module = importlib.import_module(_name)
+    except ModuleNotFoundError as exc:  # a command whose module is not written yet
+        if exc.name != _name:
+            raise
+        continue
+    _module.register(app)
+
+
+def main() -> None:
+    """Console-script entry point."""
+    app()

@@ -1,0 +1,45 @@
+"""``linkedit bench``: print the benchmark figures each capability promises.
+
+Each section is ``linkedit.<package>.bench.run(echo, quick)``; figures are ratios against a
+baseline measured in the same run where possible. ``--quick`` runs tiny sizes (for tests).
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import typer
+
+from linkedit.commands.common import guard
+
+SECTIONS = {
+    "planar": "linkedit.planar.bench",
+    "edit": "linkedit.edit.bench",
+    "gcs": "linkedit.gcs.bench",
+    "curves": "linkedit.curves.bench",
+}
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    @guard
+    def bench(
+        section: list[str] = typer.Option(None, "--section", "-s", help=f"Only these sections: {', '.join(SECTIONS)}."),
+        quick: bool = typer.Option(False, "--quick", help="Tiny sizes and few repeats: checks the benchmark runs."),
+    ) -> None:
+        """Print benchmark figures (µs per step, ratios against baselines measured in the same run)."""
+        chosen = section or list(SECTIONS)
+        for name in chosen:
+            if name not in SECTIONS:
+                from linkedit.errors import InputError
+
+                raise InputError(f"unknown section {name!r} (choose from {', '.join(SECTIONS)})", field="--section")
+        for name in chosen:
+            try:
+                module = importlib.import_module(SECTIONS[name])
+            except ModuleNotFoundError as exc:
+                if exc.name != SECTIONS[name]:
+                    raise
+                continue
+            typer.echo(f"== {name}")
+            module.run(typer.echo, quick=quick)

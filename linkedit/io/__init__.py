@@ -1,0 +1,1 @@
+"""Result files: HDF5 (one versioned layout per kind) and SVG pictures."""

@@ -1,0 +1,21 @@
+"""Shared pieces of the input models: strict config, finite numbers."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import pydantic
+
+#: Every spec model: unknown keys are errors, NaN/inf are errors, models are immutable.
+STRICT = pydantic.ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+
+Finite = Annotated[float, pydantic.Field(allow_inf_nan=False)]
+Vec2 = tuple[Finite, Finite]
+Vec3 = tuple[Finite, Finite, Finite]
+Name = Annotated[str, pydantic.StringConstraints(min_length=1, strip_whitespace=True)]
+
+
+class SpecModel(pydantic.BaseModel):
+    """Base of every spec model."""
+
+    model_config = STRICT

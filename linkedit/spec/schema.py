@@ -1,0 +1,47 @@
+"""JSON Schema export of every input format (``specs/*.schema.json``)."""
+
+from __future__ import annotations
+
+import importlib
+import json
+from pathlib import Path
+
+from linkedit.io.atomic import write_text
+
+#: format name → "module:Model". Each format's reference page is ``specs/<name>.md``.
+FORMATS = {
+    "linkage": "linkedit.spec.linkage:LinkageSpec",
+    "edit-script": "linkedit.spec.edit_script:EditScript",
+    "mechanism3d": "linkedit.spec.mechanism3d:MechanismSpec",
+    "curve-set": "linkedit.spec.curveset:CurveSet",
+}
+
+
+def available_formats() -> dict[str, type]:
+    """The formats whose models exist, name → pydantic model class."""
+    out = {}
+    for name, ref in FORMATS.items():
+        module_name, cls = ref.split(":")
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as exc:
+            if exc.name != module_name:
+                raise
+            continue
+        out[name] = getattr(module, cls)
+    return out
+
+
+def schema_text(model: type) -> str:
+    """The JSON Schema of a model, as stable pretty-printed text."""
+    return json.dumps(model.model_json_schema(), indent=2, sort_keys=True) + "\n"
+
+
+def write_schemas(out_dir: str | Path) -> list[Path]:
+    """Write ``<out_dir>/<format>.schema.json`` for every format; returns the paths."""
+    paths = []
+    for name, model in available_formats().items():
+        path = Path(out_dir) / f"{name}.schema.json"
+        write_text(path, schema_text(model))
+        paths.append(path)
+    return paths

@@ -1,0 +1,121 @@
+"""YAML loading that remembers where every value came from.
+
+``load_yaml`` returns the plain data and a map from field paths to 1-based line numbers, and
+rejects duplicate keys (PyYAML silently keeps the last one). ``load_model`` validates the data
+with a pydantic model and turns the first problem into one :class:`InputError` line:
+``file:line: field.path: what is wrong``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, TypeVar
+
+import pydantic
+import yaml
+
+from linkedit.errors import InputError
+
+Path_ = tuple[str | int, ...]
+M = TypeVar("M", bound=pydantic.BaseModel)
+
+
+class LineMap(dict[Path_, int]):
+    """Field path → line number; ``line_of`` falls back to the closest enclosing field."""
+
+    def line_of(self, path: Path_ | None) -> int | None:
+        path = tuple(path or ())
+        while path:
+            if path in self:
+                return self[path]
+            path = path[:-1]
+        return self.get((), None)
+
+
+def _walk(loader: yaml.SafeLoader, node: yaml.Node, path: Path_, lines: LineMap, file: str) -> None:
+    lines.setdefault(path, node.start_mark.line + 1)
+    if isinstance(node, yaml.MappingNode):
+        seen: set[Any] = set()
+        for key_node, value_node in node.value:
+            key = loader.construct_object(key_node, deep=True)
+            line = key_node.start_mark.line + 1
+            if not isinstance(key, (str, int, float, bool)) or key is None:
+                raise InputError("mapping keys must be plain names", file=file, line=line, field=path)
+            if key in seen:
+                raise InputError(f"duplicate key {key!r}", file=file, line=line, field=path + (key,))
+            seen.add(key)
+            lines[path + (key,)] = line
+            _walk(loader, value_node, path + (key,), lines, file)
+    elif isinstance(node, yaml.SequenceNode):
+        for index, item in enumerate(node.value):
+            _walk(loader, item, path + (index,), lines, file)
+
+
+def load_yaml(source: str | Path, text: str | None = None) -> tuple[Any, LineMap]:
+    """Parse YAML from ``source`` (a path; or a display name when ``text`` is given).
+
+    Returns ``(data, lines)``. Raises :class:`InputError` for unreadable files, malformed YAML
+    and duplicate keys.
+    """
+    file = str(source)
+    if text is None:
+        try:
+            text = Path(source).read_text(encoding="utf-8")
+        except OSError as exc:
+            raise InputError(f"cannot read file: {exc.strerror or exc}", file=file) from None
+        except UnicodeDecodeError:
+            raise InputError("not a UTF-8 text file", file=file) from None
+    loader = yaml.SafeLoader(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            raise InputError("the file is empty", file=file, line=1)
+        data = loader.construct_document(node)
+        lines = LineMap()
+        _walk(loader, node, (), lines, file)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line = mark.line + 1 if mark is not None else None
+        raise InputError(f"malformed YAML: {exc.problem or exc.context}", file=file, line=line) from None
+    except yaml.YAMLError as exc:
+        raise InputError(f"malformed YAML: {exc}", file=file) from None
+    finally:
+        loader.dispose()
+    return data, lines
+
+
+def _first_problem(exc: pydantic.ValidationError) -> tuple[Path_, str]:
+    err = exc.errors(include_url=False)[0]
+    loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and ("[" in p or p.startswith("function-"))))
+    msg = err["msg"]
+    if err["type"] == "extra_forbidden":
+        msg = "unknown field (not part of this format)"
+    elif err["type"] == "missing":
+        msg = "required field is missing"
+    elif msg.startswith("Value error, "):
+        msg = msg[len("Value error, "):]
+    return loc, msg
+
+
+def validate(model: type[M], data: Any, *, file: str, lines: LineMap | None = None,
+             context: dict[str, Any] | None = None) -> M:
+    """Validate ``data`` with ``model``; any problem becomes one located :class:`InputError`."""
+    lines = lines or LineMap()
+    try:
+        return model.model_validate(data, context=context)
+    except pydantic.ValidationError as exc:
+        loc, msg = _first_problem(exc)
+        raise InputError(msg, file=file, line=lines.line_of(loc), field=loc) from None
+    except InputError as exc:
+        # semantic checks raise InputError(field=...) from inside validators
+        exc.file = exc.file or file
+        if exc.line is None:
+            exc.line = lines.line_of(exc.field)
+        raise exc from None
+
+
+def load_model(model: type[M], source: str | Path, text: str | None = None,
+               context: dict[str, Any] | None = None) -> M:
+    """Load a YAML file and validate it as ``model`` (see :func:`validate`)."""
+    data, lines = load_yaml(source, text)
+    return validate(model, data, file=str(source), lines=lines, context=context)
