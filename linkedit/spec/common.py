@@ -12,7 +12,8 @@ STRICT = pydantic.ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
 Finite = Annotated[float, pydantic.Field(allow_inf_nan=False)]
 Vec2 = tuple[Finite, Finite]
 Vec3 = tuple[Finite, Finite, Finite]
-Name = Annotated[str, pydantic.StringConstraints(min_length=1, strip_whitespace=True)]
+#: A name of a joint, link, track, member…: becomes an HDF5 group name, so no "/" and no leading ".".
+Name = Annotated[str, pydantic.StringConstraints(min_length=1, strip_whitespace=True, pattern=r"^[^/.][^/]*$")]
 
 
 class SpecModel(pydantic.BaseModel):

@@ -1,0 +1,246 @@
+"""Compile a linkage once into a reconstruction plan; evaluate it many times.
+
+The plan holds everything that depends only on topology and the rest-pose branch: the rules
+(i, j) → k in evaluation order, their levels, the triangle orientations, and index arrays that
+let each level be computed as one batched array operation (one batch of rigid rules and one of
+dyad rules per level). Points are joints (0..J-1, spec order) followed by tracked points
+attached to links (J..). Internally, rows are ordered ground, motor, then batch by batch, so
+every batch writes one contiguous block.
+
+The numeric constants that come from a rest pose (link lengths, rigid coefficients, motor arm)
+are a separate :class:`Geometry`, so an optimizer can change the rest pose without recompiling.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from linkedit.errors import MechanismError
+from linkedit.planar.graph import LinkageGraph, Mobility, mobility
+from linkedit.planar.ordering import order_joints
+from linkedit.spec.linkage import JointTrack, LinkageSpec
+
+
+@dataclass(frozen=True)
+class Batch:
+    """Rules of one kind in one level. Rows ``start:stop`` are written; inputs are rows ``i``, ``j``."""
+
+    rigid: bool
+    level: int
+    start: int
+    stop: int
+    i: np.ndarray  # (R,) input rows
+    j: np.ndarray  # (R,) input rows
+    k_point: np.ndarray  # (R,) point ids written (joint index, or J + track-point number)
+    i_point: np.ndarray  # (R,) point ids of the inputs
+    j_point: np.ndarray
+    rule: np.ndarray  # (R,) index into Plan.rules, or -1 for a tracked point
+    sign: np.ndarray  # (R, 1) orientation of triangle (i, j, k) at rest (dyads), ±1
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A compiled linkage (see module docstring)."""
+
+    spec: LinkageSpec
+    graph: LinkageGraph
+    mobility: Mobility
+    rules: np.ndarray  # (R, 3) joint indices (i, j, k) in evaluation order
+    level: np.ndarray  # (R,)
+    rigid: np.ndarray  # (R,) bool
+    orientation: np.ndarray  # (R,) rest orientation of (i, j, k): +1 ccw, −1 cw, 0 collinear
+    batches: tuple[Batch, ...]
+    row_of: np.ndarray  # (P,) internal row of each point
+    ground_rows: np.ndarray  # (G,) == row_of[ground]
+    motor_row: int
+    pivot_row: int
+    track_names: tuple[str, ...]
+    track_points: np.ndarray  # (K,) point id of each track
+    rest_points: np.ndarray  # (P, 2) rest positions of all points (joints, then track points)
+
+    @property
+    def joint_names(self) -> list[str]:
+        return list(self.graph.joint_names)
+
+    @property
+    def n_joints(self) -> int:
+        return self.graph.n_joints
+
+    @property
+    def n_points(self) -> int:
+        return len(self.row_of)
+
+    @property
+    def pairs(self) -> np.ndarray:
+        """(P, 2) joint index pairs held at constant distance."""
+        return self.graph.pairs
+
+    @property
+    def direction(self) -> float:
+        """+1 for a counter-clockwise motor, −1 for clockwise."""
+        return 1.0 if self.spec.motor.direction == "ccw" else -1.0
+
+    def geometry(self, rest: np.ndarray | None = None) -> "Geometry":
+        """Numeric constants for a rest pose of the joints, (J, 2); default: the spec's."""
+        return Geometry.of(self, self.rest_points if rest is None else self.points_for(rest))
+
+    def points_for(self, rest: np.ndarray) -> np.ndarray:
+        """Rest positions of all points (P, 2) for new joint positions (J, 2).
+
+        Tracked points attached to links move with their link's frame (defined by the two
+        joints that rebuild them), so they stay in place relative to the link.
+        """
+        rest = np.asarray(rest, dtype=float)
+        if rest.shape == self.rest_points.shape:
+            return rest
+        out = np.empty_like(self.rest_points)
+        out[: self.n_joints] = rest
+        old = self.rest_points[:, 0] + 1j * self.rest_points[:, 1]
+        new = out[:, 0] + 1j * out[:, 1]
+        for b in self.batches:
+            mask = b.k_point >= self.n_joints
+            if b.rigid and mask.any():
+                ip, jp, kp = b.i_point[mask], b.j_point[mask], b.k_point[mask]
+                coef = (old[kp] - old[ip]) / (old[jp] - old[ip])
+                new[kp] = new[ip] + coef * (new[jp] - new[ip])
+        out[self.n_joints:] = np.column_stack([new.real, new.imag])[self.n_joints:]
+        return out
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Constants of a plan at one rest pose. Per batch: rigid ``coef`` or dyad lengths, (R, 1)."""
+
+    rest: np.ndarray  # (P,) complex rest positions of all points
+    pivot: complex
+    arm: complex  # motor joint − pivot at rest
+    rest_angle: float  # motor angle at rest, radians
+    ground: np.ndarray  # (G, 1) complex
+    coef: tuple[np.ndarray | None, ...]  # rigid batches: (R, 1) complex
+    lik2: tuple[np.ndarray | None, ...]  # dyad batches: l_ik², (R, 1)
+    ljk2: tuple[np.ndarray | None, ...]
+    half_diff: tuple[np.ndarray | None, ...]  # (l_ik² − l_jk²)/2
+
+    @classmethod
+    def of(cls, plan: Plan, points: np.ndarray) -> "Geometry":
+        z = points[:, 0] + 1j * points[:, 1]
+        g = plan.graph
+        coef, lik2, ljk2, half = [], [], [], []
+        for b in plan.batches:
+            zi, zj, zk = z[b.i_point, None], z[b.j_point, None], z[b.k_point, None]
+            if b.rigid:
+                coef.append((zk - zi) / (zj - zi))
+                lik2.append(None), ljk2.append(None), half.append(None)
+            else:
+                a, c = np.abs(zk - zi) ** 2, np.abs(zk - zj) ** 2
+                coef.append(None), lik2.append(a), ljk2.append(c), half.append(0.5 * (a - c))
+        arm = complex(z[g.motor] - z[g.pivot])
+        return cls(
+            rest=z, pivot=complex(z[g.pivot]), arm=arm, rest_angle=float(np.angle(arm)),
+            ground=z[list(g.ground), None], coef=tuple(coef), lik2=tuple(lik2),
+            ljk2=tuple(ljk2), half_diff=tuple(half),
+        )
+
+
+def _orientation(p: np.ndarray, i: int, j: int, k: int) -> int:
+    u, v = p[j] - p[i], p[k] - p[i]
+    cross = u[0] * v[1] - u[1] * v[0]
+    scale = np.hypot(*u) * np.hypot(*v)
+    return 0 if abs(cross) <= 1e-12 * scale else int(np.sign(cross))
+
+
+def _fail_ordering(graph: LinkageGraph, mob: Mobility, undetermined: tuple[int, ...]) -> MechanismError:
+    names = ", ".join(graph.joint_names[k] for k in undetermined)
+    if mob.rank > 1:
+        why = f"the linkage is under-constrained ({mob.describe()}; one motor drives 1)"
+    else:
+        why = ("no joint among them has two known neighbours: they close a complex kinematic loop "
+               f"that closed-form kinematics cannot order ({mob.describe()})")
+    return MechanismError(f"joints {names} cannot be determined from the ground and the motor: {why}")
+
+
+def compile_plan(spec: LinkageSpec) -> Plan:
+    """Order the joints (Algorithm 1) and build the batched plan.
+
+    Raises :class:`MechanismError` for over- or under-constrained linkages, complex loops and
+    dyads that are collinear at the rest pose (whose branch is undefined).
+    """
+    graph = LinkageGraph.from_spec(spec)
+    mob = mobility(graph)
+    if mob.rank < 1:
+        raise MechanismError(f"the linkage cannot move: it is over-constrained ({mob.describe()})")
+    ordering = order_joints(graph)
+    if ordering.undetermined:
+        raise _fail_ordering(graph, mob, ordering.undetermined)
+    if mob.rank > 1:
+        raise MechanismError(f"the linkage is under-constrained ({mob.describe()}; one motor drives 1)")
+
+    rest = graph.rest
+    J = graph.n_joints
+    rules = ordering.rules
+    orientation = np.array([_orientation(rest, r.i, r.j, r.k) for r in rules], dtype=int)
+    for r, o in zip(rules, orientation):
+        if not r.rigid and o == 0:
+            n = graph.joint_names
+            raise MechanismError(
+                f"joint {n[r.k]} is collinear with {n[r.i]} and {n[r.j]} at the rest pose (motor angle "
+                f"{np.degrees(np.angle(complex(*(rest[graph.motor] - rest[graph.pivot])))):.1f}°): "
+                "the branch of its triangle is undefined; move it off the line")
+
+    # tracked points attached to links: rigid rules from the two farthest joints of the link
+    level_of = {g: 0 for g in graph.ground} | {graph.motor: 0}
+    level_of.update({r.k: r.level for r in rules})
+    track_names, track_points, extra_rest, extra_rules = [], [], [], []
+    for name, track in spec.tracks.items():
+        track_names.append(name)
+        if isinstance(track, JointTrack):
+            track_points.append(graph.joint_names.index(track.joint))
+            continue
+        li = graph.link_names.index(track.link)
+        link = graph.links[li]
+        i, j = max(((a, b) for a in link for b in link if a < b),
+                    key=lambda p: np.hypot(*(rest[p[0]] - rest[p[1]])))
+        point = J + len(extra_rest)
+        extra_rest.append(track.at)
+        extra_rules.append((i, j, point, max(level_of[i], level_of[j]) + 1))
+        track_points.append(point)
+    points = np.vstack([rest, np.array(extra_rest, dtype=float).reshape(-1, 2)])
+
+    # rows: ground, motor, then per level: rigid batch, dyad batch
+    order = list(graph.ground) + [graph.motor]
+    entries = [(r.level, not r.rigid, idx, r.i, r.j, r.k) for idx, r in enumerate(rules)]
+    entries += [(lv, False, -1, i, j, k) for i, j, k, lv in extra_rules]
+    entries.sort(key=lambda e: (e[0], e[1]))
+    row_of = np.empty(len(points), dtype=int)
+    for row, p in enumerate(order):
+        row_of[p] = row
+    batches = []
+    row = len(order)
+    groups: dict[tuple[int, bool], list] = {}
+    for e in entries:
+        groups.setdefault((e[0], e[1]), []).append(e)
+    for (lv, is_dyad), members in groups.items():
+        for n, e in enumerate(members):
+            row_of[e[5]] = row + n
+        ip = np.array([e[3] for e in members])
+        jp = np.array([e[4] for e in members])
+        kp = np.array([e[5] for e in members])
+        rule_idx = np.array([e[2] for e in members])
+        sign = np.array([orientation[e[2]] if e[2] >= 0 else 1 for e in members], dtype=float)[:, None]
+        batches.append(Batch(rigid=not is_dyad, level=lv, start=row, stop=row + len(members),
+                             i=row_of[ip], j=row_of[jp], k_point=kp, i_point=ip, j_point=jp,
+                             rule=rule_idx, sign=sign))
+        row += len(members)
+
+    return Plan(
+        spec=spec, graph=graph, mobility=mob,
+        rules=np.array([(r.i, r.j, r.k) for r in rules], dtype=int).reshape(-1, 3),
+        level=np.array([r.level for r in rules], dtype=int),
+        rigid=np.array([r.rigid for r in rules], dtype=bool),
+        orientation=orientation, batches=tuple(batches), row_of=row_of,
+        ground_rows=row_of[list(graph.ground)], motor_row=int(row_of[graph.motor]),
+        pivot_row=int(row_of[graph.pivot]), track_names=tuple(track_names),
+        track_points=np.array(track_points, dtype=int), rest_points=points,
+    )
