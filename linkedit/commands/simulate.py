@@ -1,0 +1,191 @@
+"""``linkedit simulate`` and ``linkedit validate``: planar linkages from YAML specs."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from linkedit.commands.common import guard, print_json
+from linkedit.errors import InputError, LinkeditError
+
+
+def _outputs(specs: list[Path], out: Path | None, svg: Path | None, animate: bool) -> list[tuple[Path, Path | None]]:
+    """Result and picture path per spec: a path with a suffix is a file (one spec only), else a folder."""
+    batch = len(specs) > 1
+    for option, value, suffix in (("--output", out, ".h5"), ("--svg", svg, ".svg")):
+        if value is not None and batch and value.suffix:
+            raise InputError(f"{value}: with several specs, give a folder (one file per spec is written)", field=option)
+    pairs = []
+    for spec in specs:
+        h5 = out if out is not None and out.suffix else (out or Path("out")) / f"{spec.stem}.h5"
+        pic = None
+        if svg is not None:
+            pic = svg if svg.suffix else svg / f"{spec.stem}.svg"
+        elif animate:
+            pic = h5.with_suffix(".svg")
+        pairs.append((h5, pic))
+    return pairs
+
+
+def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int | None, animate: bool,
+                  partial: bool, engine: str) -> dict[str, Any]:
+    from linkedit.io.planar_hdf5 import write_motion
+    from linkedit.planar import simulate
+    from linkedit.planar.plan import compile_plan
+    from linkedit.spec.linkage import LinkageSpec
+    from linkedit.spec.yamlload import load_model
+
+    text = spec_path.read_text(encoding="utf-8") if spec_path.is_file() else None
+    spec = load_model(LinkageSpec, spec_path, text)
+    plan = compile_plan(spec)
+    if engine == "numeric":
+        from linkedit.gcs.planar_bridge import numeric_motion
+
+        motion = numeric_motion(plan, samples)
+    else:
+        motion = simulate(plan, samples, partial=partial)
+    options = {"samples": int(motion.t.size), "engine": engine, "partial": partial}
+    write_motion(h5, motion, spec_text=text or "", options=options)
+    result = {"spec": str(spec_path), "output": str(h5)} | motion.summary()
+    if svg is not None:
+        from linkedit.io.svg import animated_motion, motion_plot
+
+        draw = animated_motion if animate else motion_plot
+        draw(svg, **_drawing(motion))
+        result["svg"] = str(svg)
+    return result
+
+
+def _drawing(motion: Any) -> dict[str, Any]:
+    import numpy as np
+
+    plan = motion.plan
+    ok = motion.assembled
+    return dict(
+        joint_names=plan.joint_names, positions=motion.positions[ok],
+        links={n: list(m) for n, m in zip(plan.graph.link_names, plan.graph.links)},
+        ground=list(plan.graph.ground), motor=(plan.graph.motor, plan.graph.pivot),
+        tracks={n: tr.position[ok] for n, tr in motion.tracks.items()},
+        units=plan.spec.units, title=f"{plan.spec.name} ({int(np.sum(ok))} samples)",
+    )
+
+
+def _line(r: dict[str, Any]) -> str:
+    parts = [f"{r['spec']}: {r['samples']} samples, {r['rules']} rules in {r['levels']} levels"]
+    if "min_singularity" in r:
+        m = r["min_singularity"]
+        parts.append(f"min d_s {m['value']:.4f} (joint {m['joint']} at {m['motor_angle_deg']:.1f}°)")
+    if r.get("lockups"):
+        parts.append("PARTIAL: " + "; ".join(r["lockups"]))
+    out = ", ".join(parts) + f"\n  → {r['output']}"
+    if r.get("svg"):
+        out += f", {r['svg']}"
+    return out
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    @guard
+    def simulate(
+        specs: list[Path] = typer.Argument(..., help="Linkage spec YAML files."),
+        output: Path = typer.Option(None, "--output", "-o", help="Result .h5 (one spec) or folder [default: out/]."),
+        svg: Path = typer.Option(None, "--svg", help="Motion plot .svg (one spec) or folder."),
+        animate: bool = typer.Option(False, "--animate", help="Make the SVG an animation (SMIL) of the cycle."),
+        samples: int = typer.Option(None, "--samples", "-n", min=1, help="Time samples per cycle [default: spec's, else 360]."),
+        engine: str = typer.Option("symbolic", "--engine", help="symbolic (closed form) or numeric (3D constraint solver)."),
+        partial: bool = typer.Option(False, "--partial", help="Write a cycle that locks up somewhere (positions NaN there, flagged in /diagnostics/assembled) instead of failing."),
+        as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+    ) -> None:
+        """Simulate planar linkages; write HDF5 trajectories (and SVG motion plots)."""
+        if engine not in ("symbolic", "numeric"):
+            raise InputError(f"unknown engine {engine!r} (symbolic or numeric)", field="--engine")
+        if engine == "numeric" and partial:
+            raise InputError("--partial works with the symbolic engine only", field="--partial")
+        targets = _outputs(specs, output, svg, animate)
+        results, worst = [], 0
+        progress = _progress(len(specs))
+        for spec_path, (h5, pic) in zip(specs, targets):
+            try:
+                r = _simulate_one(spec_path, h5, pic, samples=samples, animate=animate, partial=partial, engine=engine)
+            except LinkeditError as exc:
+                if len(specs) == 1:
+                    raise
+                message = str(exc) if str(exc).startswith(str(spec_path)) else f"{spec_path}: {exc}"
+                typer.echo(f"linkedit: error: {message}", err=True)
+                r = {"spec": str(spec_path), "error": str(exc), "exit_code": exc.exit_code}
+                worst = max(worst, exc.exit_code)
+            results.append(r)
+            if not as_json and "error" not in r:
+                typer.echo(_line(r))
+            progress()
+        if as_json:
+            print_json(results)
+        elif len(specs) > 1:
+            failed = sum("error" in r for r in results)
+            typer.echo(f"{len(specs) - failed} of {len(specs)} specs simulated" + (f", {failed} failed" if failed else ""))
+        if worst:
+            raise typer.Exit(worst)
+
+    @app.command()
+    @guard
+    def validate(
+        specs: list[Path] = typer.Argument(..., help="Linkage spec YAML files."),
+        samples: int = typer.Option(None, "--samples", "-n", min=1, help="Samples for the diagnostics [default: 360]."),
+        as_json: bool = typer.Option(False, "--json", help="Print as JSON."),
+    ) -> None:
+        """Check specs: print the joint ordering (rules per level), mobility and diagnostics. Writes nothing."""
+        from linkedit.planar import compile_plan, simulate as run
+        from linkedit.spec.linkage import LinkageSpec
+        from linkedit.spec.yamlload import load_model
+
+        reports = []
+        for path in specs:
+            plan = compile_plan(load_model(LinkageSpec, path))
+            motion = run(plan, samples, partial=True)
+            names = plan.joint_names
+            levels: dict[int, list[str]] = {}
+            for (i, j, k), lv, rigid in zip(plan.rules, plan.level, plan.rigid):
+                kind = "rigid" if rigid else "dyad"
+                levels.setdefault(int(lv), []).append(f"{names[k]} ← ({names[i]}, {names[j]}) {kind}")
+            reports.append({"spec": str(path)} | motion.summary() | {"grubler": plan.mobility.grubler,
+                            "redundant": plan.mobility.redundant, "levels": levels})
+        if as_json:
+            print_json(reports)
+        else:
+            for r in reports:
+                typer.echo(f"{r['spec']}: {r['name']}, {r['joints']} joints, mobility {r['mobility']} "
+                           f"(Grübler count {r['grubler']}, {r['redundant']} redundant)")
+                typer.echo("  level 0: ground and motor")
+                for lv, items in r["levels"].items():
+                    typer.echo(f"  level {lv}: " + "; ".join(items))
+                if "min_singularity" in r:
+                    m = r["min_singularity"]
+                    typer.echo(f"  min d_s {m['value']:.4f} (joint {m['joint']} at {m['motor_angle_deg']:.1f}°), "
+                               f"worst transmission angle {r['worst_transmission_angle_deg']:.1f}°")
+                for lk in r.get("lockups", []):
+                    typer.echo(f"  LOCK-UP: {lk}")
+        if any(r.get("lockups") for r in reports):
+            raise typer.Exit(1)
+
+
+def _progress(total: int):
+    """A progress bar on a terminal for batches; returns the 'one done' callback."""
+    if total < 4 or not sys.stderr.isatty():
+        return lambda: None
+    from rich.progress import Progress
+
+    bar = Progress(transient=True)
+    task = bar.add_task("simulating", total=total)
+    bar.start()
+    done = [0]
+
+    def step() -> None:
+        done[0] += 1
+        bar.advance(task)
+        if done[0] == total:
+            bar.stop()
+
+    return step

@@ -1,0 +1,70 @@
+"""HDF5 conventions shared by every result kind: root attributes, atomic writing, strings."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from linkedit import __version__
+from linkedit.errors import InputError
+from linkedit.io.atomic import atomic_path
+
+FORMAT_VERSION = "1"
+
+
+@contextlib.contextmanager
+def result_file(path: str | Path, *, kind: str, units: str, spec_text: str,
+                options: dict[str, Any]) -> Iterator[h5py.File]:
+    """Open a new result file for writing; it appears at ``path`` only if the block succeeds.
+
+    Root attributes: ``format_version``, ``generator``, ``kind``, ``units``, ``spec`` (the
+    input text) and ``options`` (JSON of the options used).
+    """
+    with atomic_path(path) as tmp:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["format_version"] = FORMAT_VERSION
+            f.attrs["generator"] = f"linkedit {__version__}"
+            f.attrs["kind"] = kind
+            f.attrs["units"] = units
+            f.attrs["spec"] = spec_text
+            f.attrs["options"] = json.dumps(options, sort_keys=True)
+            yield f
+
+
+def put(group: h5py.Group, name: str, data: Any, **attrs: Any) -> h5py.Dataset:
+    """Create a dataset (strings as UTF-8 variable-length) with attributes (e.g. units)."""
+    arr = np.asarray(data)
+    if arr.dtype.kind in "UO":
+        ds = group.create_dataset(name, data=np.asarray(arr, dtype=object), dtype=h5py.string_dtype())
+    else:
+        ds = group.create_dataset(name, data=arr)
+    for key, value in attrs.items():
+        ds.attrs[key] = value
+    return ds
+
+
+def open_result(path: str | Path, kind: str | None = None) -> h5py.File:
+    """Open a linkedit result for reading; InputError if it is not one (or not of ``kind``)."""
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise InputError(f"cannot open as HDF5: {exc}", file=str(path)) from None
+    if "format_version" not in f.attrs:
+        f.close()
+        raise InputError("not a linkedit result file (no format_version attribute)", file=str(path))
+    if kind is not None and f.attrs.get("kind") != kind:
+        found = f.attrs.get("kind")
+        f.close()
+        raise InputError(f"expected a {kind!r} result, found {found!r}", file=str(path))
+    return f
+
+
+def strings(dataset: h5py.Dataset) -> list[str]:
+    """Read a string dataset as a list of str."""
+    return [s.decode() if isinstance(s, bytes) else str(s) for s in dataset[()]]

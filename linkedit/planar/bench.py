@@ -1,0 +1,49 @@
+"""Benchmark of the closed-form engine: µs per time step at 360 samples and at 1 sample.
+
+"positions" is the reconstruction alone (:func:`linkedit.planar.kinematics.positions`);
+"+derivatives" adds analytic velocities and accelerations and the singularity distances
+(:func:`linkedit.planar.kinematics.evaluate`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from linkedit.planar import catalog
+from linkedit.planar.kinematics import evaluate, positions
+from linkedit.planar.plan import compile_plan
+from linkedit.planar.simulate import motor_angles
+
+TARGETS_360 = {"Jansen leg": 0.3, "Strandbeest 3 pairs": 0.7, "Strandbeest 10 pairs": 1.5}
+
+
+def best_time(fn: Callable[[], object], budget_s: float) -> float:
+    """Best wall time of one call, repeating for about ``budget_s`` seconds."""
+    fn()
+    best = np.inf
+    end = time.perf_counter() + budget_s
+    while True:
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+        if time.perf_counter() > end:
+            return best
+
+
+def run(echo: Callable[[str], None], quick: bool = False) -> None:
+    budget = 0.02 if quick else 0.5
+    mechanisms = {"Jansen leg": catalog.jansen_leg(), "Strandbeest 3 pairs": catalog.strandbeest(3),
+                  "Strandbeest 10 pairs": catalog.strandbeest(10)}
+    echo(f"{'mechanism':<22}{'joints':>7}{'levels':>7}  {'samples':>7}  {'positions µs/step':>18}  {'+derivatives µs/step':>21}  target")
+    for name, spec in mechanisms.items():
+        plan = compile_plan(spec)
+        geom = plan.geometry()
+        for samples in (360, 1):
+            angle = motor_angles(spec, samples)[1]
+            pos = best_time(lambda: positions(plan, geom, angle), budget) / samples * 1e6
+            full = best_time(lambda: evaluate(plan, geom, angle, order=2), budget) / samples * 1e6
+            target = f"≤ {TARGETS_360[name]}" if samples == 360 else ""
+            echo(f"{name:<22}{plan.n_joints:>7}{int(plan.level.max()):>7}  {samples:>7}  {pos:>18.3f}  {full:>21.3f}  {target}")

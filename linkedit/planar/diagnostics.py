@@ -1,0 +1,84 @@
+"""What can go wrong during a cycle, and how close it comes: lock-up, singularity, transmission.
+
+* **Lock-up**: a dyad's triangle cannot be closed (its two links are too short or too long
+  for the distance between the known joints); d_s < 0 there.
+* **Singularity distance** d_s = sin²α (LinkEdit Eq. 6), α the angle at the rebuilt joint:
+  0 at a toggle position, 1 when the two links are perpendicular.
+* **Transmission angle**: α itself, in radians; designers want it near 90°.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class LockUp:
+    """A run of samples where the linkage cannot be assembled, and the joint responsible."""
+
+    start_deg: float  #: motor angle at the first failing sample, degrees
+    end_deg: float  #: motor angle at the last failing sample, degrees
+    joint: str  #: the joint whose triangle cannot close first (in evaluation order)
+    inputs: tuple[str, str]  #: the two known joints it is rebuilt from
+    stretched: bool  #: True: the known joints are too far apart; False: too close
+
+    def describe(self) -> str:
+        i, j = self.inputs
+        how = "too far apart" if self.stretched else "too close together"
+        return (f"the linkage cannot be assembled for motor angles {self.start_deg:.1f}°…{self.end_deg:.1f}°: "
+                f"joint {self.joint} cannot be placed ({i} and {j} are {how} for its links)")
+
+
+def _runs(mask: np.ndarray, cyclic: bool) -> list[tuple[int, int]]:
+    """Inclusive (start, end) index runs of True in ``mask``; a run may wrap when ``cyclic``."""
+    idx = np.flatnonzero(mask)
+    if idx.size == 0:
+        return []
+    breaks = np.flatnonzero(np.diff(idx) > 1)
+    starts = np.concatenate([[idx[0]], idx[breaks + 1]])
+    ends = np.concatenate([idx[breaks], [idx[-1]]])
+    runs = list(zip(starts.tolist(), ends.tolist()))
+    if cyclic and len(runs) > 1 and runs[0][0] == 0 and runs[-1][1] == mask.size - 1:
+        runs = [(runs[-1][0], runs[0][1])] + runs[1:-1]
+    return runs
+
+
+def lockups(ds: np.ndarray, d: np.ndarray, lik: np.ndarray, ljk: np.ndarray, rules: np.ndarray,
+            angle_deg: np.ndarray, names: list[str], cyclic: bool) -> list[LockUp]:
+    """Lock-up intervals from d_s (T, R) (< 0 or NaN: cannot close) in evaluation order.
+
+    ``d`` (T, R): distance between each rule's known joints; ``lik``, ``ljk`` (R,): link lengths.
+    """
+    bad = ~(ds >= 0.0)  # NaN counts as bad
+    failing = bad.any(axis=1)
+    own = (ds < 0.0) | (bad & np.isfinite(d))  # fails on its own, not from a failed input
+    first = np.where(own.any(axis=1), own.argmax(axis=1), bad.argmax(axis=1))
+    out = []
+    for s, e in _runs(failing, cyclic):
+        span = np.arange(s, e + 1) if s <= e else np.r_[s:failing.size, 0:e + 1]
+        r = int(np.bincount(first[span]).argmax())
+        where = span[first[span] == r][0]
+        i, j, k = rules[r]
+        out.append(LockUp(start_deg=float(angle_deg[s]), end_deg=float(angle_deg[e]), joint=names[k],
+                          inputs=(names[i], names[j]), stretched=bool(d[where, r] > lik[r] + ljk[r]) if np.isfinite(d[where, r]) else False))
+    return out
+
+
+def triangle_orientation(p: np.ndarray, rules: np.ndarray) -> np.ndarray:
+    """Sign of the orientation of every rule's triangle (i, j, k), (T, R) int8, from positions (T, J, 2)."""
+    u = p[:, rules[:, 1]] - p[:, rules[:, 0]]
+    v = p[:, rules[:, 2]] - p[:, rules[:, 0]]
+    cross = u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+    scale = np.linalg.norm(u, axis=-1) * np.linalg.norm(v, axis=-1)
+    return np.where(np.abs(cross) <= 1e-12 * scale, 0, np.sign(cross)).astype(np.int8)
+
+
+def transmission_angle(p: np.ndarray, rules: np.ndarray) -> np.ndarray:
+    """Angle at the rebuilt joint k between k→i and k→j, radians, (T, R), from positions (T, J, 2)."""
+    a = p[:, rules[:, 0]] - p[:, rules[:, 2]]
+    b = p[:, rules[:, 1]] - p[:, rules[:, 2]]
+    cross = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    dot = (a * b).sum(axis=-1)
+    return np.abs(np.arctan2(cross, dot))
