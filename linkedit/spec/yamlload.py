@@ -84,9 +84,25 @@ def load_yaml(source: str | Path, text: str | None = None) -> tuple[Any, LineMap
     return data, lines
 
 
-def _first_problem(exc: pydantic.ValidationError) -> tuple[Path_, str]:
+def _data_path(data: Any, loc: tuple) -> Path_:
+    """Keep the parts of a pydantic location that exist in the data (drops union-member tags)."""
+    out: list[str | int] = []
+    for part in loc:
+        if isinstance(data, dict) and part in data:
+            data = data[part]
+        elif isinstance(data, list) and isinstance(part, int) and 0 <= part < len(data):
+            data = data[part]
+        elif isinstance(data, (dict, list)) or not isinstance(part, str) or part[:1].isupper() or "[" in part:
+            continue
+        out.append(part)
+    return tuple(out)
+
+
+def _first_problem(exc: pydantic.ValidationError, data: Any) -> tuple[Path_, str]:
     err = exc.errors(include_url=False)[0]
-    loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and ("[" in p or p.startswith("function-"))))
+    loc = _data_path(data, tuple(err["loc"]))
+    if err["type"] in ("missing", "extra_forbidden") and err["loc"]:
+        loc = loc + (err["loc"][-1],) if loc[-1:] != (err["loc"][-1],) else loc
     msg = err["msg"]
     if err["type"] == "extra_forbidden":
         msg = "unknown field (not part of this format)"
@@ -104,7 +120,7 @@ def validate(model: type[M], data: Any, *, file: str, lines: LineMap | None = No
     try:
         return model.model_validate(data, context=context)
     except pydantic.ValidationError as exc:
-        loc, msg = _first_problem(exc)
+        loc, msg = _first_problem(exc, data)
         raise InputError(msg, file=file, line=lines.line_of(loc), field=loc) from None
     except InputError as exc:
         # semantic checks raise InputError(field=...) from inside validators
