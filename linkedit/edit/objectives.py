@@ -9,9 +9,10 @@ E(x̄) = μ_e·f_edit + μ_s·f_singularity + μ_r·f_regularization, with
   displacement targets for a set of joints;
 * envelope ½·mean_t of the squared distance outside the box, per joint;
 * regularization ½Σ(l_ij(x̄) − l̃_ij)² over joint pairs on one link, l̃ from the operation's start;
-* the singularity barrier (:mod:`linkedit.edit.barrier`), mean over samples.
+* the singularity barrier (:mod:`linkedit.edit.barrier`), summed over samples and triangles.
 
-Means over samples make the weights independent of the sample count. The energy is +inf where
+Tracking and envelope terms are means over samples, so their weights do not depend on the
+sample count; the barrier is a sum (as in LinkEdit), so a single near-toggle sample counts. The energy is +inf where
 the linkage cannot be assembled at some sample or a triangle of x̄ has flipped.
 """
 
@@ -148,7 +149,7 @@ class Problem:
             if ds is None:
                 grads.append(None)
                 continue
-            value, g = barrier(ds, self.eps, 1.0 / T)
+            value, g = barrier(ds, self.eps, 1.0)
             total += value
             grads.append(None if scale is None else scale * g)
         return total, (grads if scale is not None else None)

@@ -169,14 +169,9 @@ def compile_plan(spec: LinkageSpec) -> Plan:
     """
     graph = LinkageGraph.from_spec(spec)
     mob = mobility(graph)
-    if mob.rank < 1:
-        raise MechanismError(f"the linkage cannot move: it is over-constrained ({mob.describe()})")
     ordering = order_joints(graph)
     if ordering.undetermined:
         raise _fail_ordering(graph, mob, ordering.undetermined)
-    if mob.rank > 1:
-        raise MechanismError(f"the linkage is under-constrained ({mob.describe()}; one motor drives 1)")
-
     rest = graph.rest
     J = graph.n_joints
     rules = ordering.rules
@@ -188,6 +183,10 @@ def compile_plan(spec: LinkageSpec) -> Plan:
                 f"joint {n[r.k]} is collinear with {n[r.i]} and {n[r.j]} at the rest pose (motor angle "
                 f"{np.degrees(np.angle(complex(*(rest[graph.motor] - rest[graph.pivot])))):.1f}°): "
                 "the branch of its triangle is undefined; move it off the line")
+    if mob.rank < 1:
+        raise MechanismError(f"the linkage cannot move: it is over-constrained ({mob.describe()})")
+    if mob.rank > 1:
+        raise MechanismError(f"the linkage is under-constrained ({mob.describe()}; one motor drives 1)")
 
     # tracked points attached to links: rigid rules from the two farthest joints of the link
     level_of = {g: 0 for g in graph.ground} | {graph.motor: 0}

@@ -1,0 +1,129 @@
+"""``linkedit edit SPEC SCRIPT``: function-preserving linkage editing."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from linkedit.commands.common import guard, print_json
+from linkedit.errors import InputError
+
+
+def _load(spec_path: Path | None, script_path: Path):
+    from linkedit.spec.edit_script import EditScript, check_against
+    from linkedit.spec.linkage import LinkageSpec
+    from linkedit.spec.yamlload import load_model, load_yaml, validate
+
+    data, lines = load_yaml(script_path)
+    script = validate(EditScript, data, file=str(script_path), lines=lines)
+    if spec_path is None:
+        if script.linkage is None:
+            raise InputError("no linkage: give SPEC on the command line or `linkage:` in the script",
+                             file=str(script_path), line=1, field="linkage")
+        spec_path = (script_path.parent / script.linkage)
+        if not spec_path.is_file():
+            raise InputError(f"linkage file not found: {spec_path}", file=str(script_path),
+                             line=lines.line_of(("linkage",)), field="linkage")
+    linkage = load_model(LinkageSpec, spec_path)
+    try:
+        check_against(script, linkage)
+    except InputError as exc:
+        exc.file, exc.line = str(script_path), lines.line_of(exc.field)
+        raise
+    return spec_path, linkage, script
+
+
+def _report_lines(result: Any) -> list[str]:
+    out = []
+    for op in result.operations:
+        status = "" if op.converged else " (iteration limit)"
+        out.append(f"{op.name}: {op.iterations} iterations, {op.seconds * 1e3:.0f} ms{status}")
+        for key in op.before:
+            if key.startswith("energy"):
+                continue
+            out.append(f"  {key}: {op.before[key]:.4g} → {op.after[key]:.4g}")
+    return out
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    @guard
+    def edit(
+        spec: Path = typer.Argument(..., help="Linkage spec YAML (or the edit script, when it names its linkage)."),
+        script: Path = typer.Argument(None, help="Edit script YAML."),
+        out_dir: Path = typer.Option(Path("out"), "--output", "-o", help="Folder for the edited spec, HDF5 and SVG."),
+        as_json: bool = typer.Option(False, "--json", help="Print the report as JSON."),
+    ) -> None:
+        """Edit a linkage: displace joints, preserve or reshape track curves, fit a box — keeping it working."""
+        from linkedit.edit.runner import EditFailed, run_script
+        from linkedit.io.atomic import write_text
+        from linkedit.io.edit_hdf5 import write_edit
+        from linkedit.spec.linkage_yaml import dump_linkage
+
+        spec_path, script_path = (None, spec) if script is None else (spec, script)
+        spec_path, linkage, parsed = _load(spec_path, script_path)
+        failure = None
+        with _Progress() as progress:
+            try:
+                result = run_script(linkage, parsed, progress=progress.update)
+            except EditFailed as exc:
+                result, failure = exc.result, exc
+        stem = Path(spec_path).stem
+        edited_yaml = out_dir / f"{stem}-edited.yaml"
+        h5 = out_dir / f"{stem}-edit.h5"
+        svg = out_dir / f"{stem}-edit.svg"
+        edited_text = dump_linkage(result.edited)
+        write_text(edited_yaml, edited_text)
+        write_edit(h5, result, script_text=script_path.read_text(encoding="utf-8"),
+                   linkage_text=Path(spec_path).read_text(encoding="utf-8"), edited_text=edited_text,
+                   options={"spec": str(spec_path), "script": str(script_path)})
+        _overlay(svg, result, parsed)
+        if as_json:
+            print_json({"spec": str(spec_path), "script": str(script_path), "edited": str(edited_yaml),
+                        "output": str(h5), "svg": str(svg), "ok": failure is None,
+                        "operations": [{"name": o.name, "iterations": o.iterations, "seconds": o.seconds,
+                                        "converged": o.converged, "before": o.before, "after": o.after}
+                                       for o in result.operations]})
+        else:
+            for line in _report_lines(result):
+                typer.echo(line)
+            typer.echo(f"→ {edited_yaml}, {h5}, {svg}")
+        if failure is not None:
+            raise failure
+
+
+def _overlay(path: Path, result: Any, script: Any) -> None:
+    """Before faint, after solid, target curves dashed, the (last) envelope box drawn."""
+    from linkedit.commands.simulate import _drawing
+    from linkedit.io.svg import edit_overlay
+
+    targets = {label: curve for op in result.operations for label, curve in op.targets.items()}
+    boxes = [op.envelope for op in script.operations if op.envelope is not None]
+    envelope = (boxes[-1].xmin, boxes[-1].xmax, boxes[-1].ymin, boxes[-1].ymax) if boxes else None
+    edit_overlay(path, before=_drawing(result.before), after=_drawing(result.after), targets=targets,
+                 envelope=envelope, units=result.original.units, title=f"{result.original.name}: edit")
+
+
+class _Progress:
+    """A spinner with the current operation, iteration and energy, on a terminal only."""
+
+    def __enter__(self) -> "_Progress":
+        self.bar = None
+        if sys.stderr.isatty():
+            from rich.progress import Progress, SpinnerColumn, TextColumn
+
+            self.bar = Progress(SpinnerColumn(), TextColumn("{task.description}"), transient=True)
+            self.task = self.bar.add_task("editing")
+            self.bar.start()
+        return self
+
+    def update(self, name: str, iteration: int, energy: float) -> None:
+        if self.bar is not None:
+            self.bar.update(self.task, description=f"{name}: iteration {iteration}, energy {energy:.6g}")
+
+    def __exit__(self, *exc: object) -> None:
+        if self.bar is not None:
+            self.bar.stop()

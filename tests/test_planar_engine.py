@@ -1,0 +1,170 @@
+"""The closed-form engine: law of cosines, ordering, derivatives, diagnostics."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from linkedit.errors import MechanismError
+from linkedit.planar import compile_plan, simulate
+from linkedit.planar import law_of_cosines as loc
+from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.yamlload import load_model
+from tests.planar_specs import FIVEBAR, FOURBAR, LOCKING, TRIAD
+
+
+def spec_of(text: str) -> LinkageSpec:
+    return load_model(LinkageSpec, "inline.yaml", text)
+
+
+def test_dyad_keeps_lengths_and_orientation():
+    rng = np.random.default_rng(1)
+    zi = rng.normal(size=(5, 7)) + 1j * rng.normal(size=(5, 7))
+    zj = zi + (2 + rng.random((5, 7))) * np.exp(1j * rng.uniform(0, 6.3, (5, 7)))
+    lik = 2.0 + rng.random((5, 1))
+    ljk = 2.0 + rng.random((5, 1))
+    sign = np.where(rng.random((5, 1)) > 0.5, 1.0, -1.0)
+    zk, _ = loc.dyad(zi, zj, 0.5 * (lik**2 - ljk**2), lik**2, sign)
+    assert np.allclose(np.abs(zk - zi), lik, atol=1e-12)
+    assert np.allclose(np.abs(zk - zj), ljk, atol=1e-12)
+    cross = ((zj - zi).conj() * (zk - zi)).imag
+    assert np.all(np.sign(cross) == sign)
+
+
+def test_dyad_derivatives_match_central_differences():
+    rng = np.random.default_rng(2)
+    z0i, z0j = rng.normal(size=(3, 1)) + 1j * rng.normal(size=(3, 1)), rng.normal(size=(3, 1)) * 0 + 3.0
+    vi, vj = rng.normal(size=(3, 1)) + 1j * rng.normal(size=(3, 1)), rng.normal(size=(3, 1)) + 1j * rng.normal(size=(3, 1))
+    ai, aj = rng.normal(size=(3, 1)) + 1j * rng.normal(size=(3, 1)), rng.normal(size=(3, 1)) + 1j * rng.normal(size=(3, 1))
+    lik2, ljk2 = np.full((3, 1), 6.0), np.full((3, 1), 5.0)
+    half, sign = 0.5 * (lik2 - ljk2), np.ones((3, 1))
+
+    def at(s: float) -> np.ndarray:  # inputs moving along quadratic paths
+        return loc.dyad(z0i + vi * s + 0.5 * ai * s * s, z0j + vj * s + 0.5 * aj * s * s, half, lik2, sign)[0]
+
+    z, terms = loc.dyad(z0i, z0j, half, lik2, sign)
+    dz, de, du, dw = loc.dyad_velocity(terms, vi, vj, half, lik2)
+    ddz = loc.dyad_acceleration(terms, de, du, dw, ai, aj, half, lik2)
+    h = 1e-4
+    assert np.allclose(dz, (at(h) - at(-h)) / (2 * h), atol=1e-7)
+    assert np.allclose(ddz, (at(h) - 2 * z + at(-h)) / h**2, atol=1e-5)
+
+
+def test_motion_derivatives_match_central_differences():
+    spec = spec_of(FOURBAR)
+    plan = compile_plan(spec)
+    m = simulate(plan, 720)
+    h = 2 * np.pi / 720  # one sample in motor angle
+    p = m.positions
+    fd_v = (np.roll(p, -1, 0) - np.roll(p, 1, 0)) / (2 * h)
+    fd_a = (np.roll(p, -1, 0) - 2 * p + np.roll(p, 1, 0)) / h**2
+    scale = np.abs(m.velocity).max()
+    assert np.abs(m.velocity - fd_v).max() < 1e-4 * scale
+    assert np.abs(m.acceleration - fd_a).max() < 1e-3 * np.abs(m.acceleration).max()
+    track = m.tracks["coupler_point"]
+    fd_tv = (np.roll(track.position, -1, 0) - np.roll(track.position, 1, 0)) / (2 * h)
+    assert np.abs(track.velocity - fd_tv).max() < 1e-4 * scale
+
+
+def test_link_lengths_and_rigid_track_point_are_kept():
+    m = simulate(compile_plan(spec_of(FOURBAR)), 360)
+    p = m.positions
+    rest = m.plan.graph.rest
+    for a, b in m.plan.pairs:
+        assert np.abs(np.linalg.norm(p[:, a] - p[:, b], axis=1) - np.linalg.norm(rest[a] - rest[b])).max() < 1e-12
+    c = m.tracks["coupler_point"].position
+    for j, d in ((1, np.hypot(0.2, 1.6)), (2, np.hypot(1.0, 0.5))):
+        assert np.abs(np.linalg.norm(c - p[:, j], axis=1) - d).max() < 1e-12
+    assert np.all(m.orientation == m.orientation[0])
+
+
+def test_jansen_ordering_levels():
+    plan = compile_plan(spec_of(JANSEN))
+    names = plan.joint_names
+    levels = {names[k]: int(lv) for (_, _, k), lv in zip(plan.rules, plan.level)}
+    assert levels == {"C": 1, "D": 1, "E": 2, "F": 3, "G": 4}
+    rigid = {names[k] for (_, _, k), r in zip(plan.rules, plan.rigid) if r}
+    assert rigid == {"E", "G"}
+
+
+def test_complex_loop_is_rejected_naming_the_joints():
+    with pytest.raises(MechanismError, match=r"joints T1, T2, T3 cannot be determined.*complex kinematic loop.*mobility 1"):
+        compile_plan(spec_of(TRIAD))
+
+
+def test_under_constrained_linkage_reports_mobility():
+    with pytest.raises(MechanismError, match=r"under-constrained \(mobility 2"):
+        compile_plan(spec_of(FIVEBAR))
+
+
+def test_over_constrained_structure_is_rejected():
+    text = FOURBAR.replace("  rocker: [D, B]\n", "  rocker: [D, B]\n  brace: [O, B]\n")
+    with pytest.raises(MechanismError, match=r"over-constrained \(mobility 0"):
+        compile_plan(spec_of(text))
+
+
+def test_collinear_dyad_at_rest_is_rejected():
+    text = FOURBAR.replace("B: [2.2, 2.1]", "B: [2.2, 0]").replace("at: [1.2, 1.6]", "at: [1.2, 0.5]")
+    with pytest.raises(MechanismError, match="collinear"):
+        compile_plan(spec_of(text))
+
+
+def test_lockup_names_joint_and_motor_angles():
+    spec = spec_of(LOCKING)
+    with pytest.raises(MechanismError, match=r"cannot be assembled for motor angles \d+\.\d°…\d+\.\d°: joint B"):
+        simulate(spec, 360)
+    m = simulate(spec, 360, partial=True)
+    assert 0 < m.assembled.sum() < 360
+    assert np.isnan(m.positions[~m.assembled]).all() and np.isfinite(m.positions[m.assembled]).all()
+    lk = m.lockups[0]
+    assert lk.joint == "B" and lk.stretched
+    # the reported interval is where the crank tip is farther from D than coupler + rocker
+    angles = np.radians(np.arange(360))
+    tip = 1.9 * np.exp(1j * angles)
+    far = np.abs(tip - 3.0) > np.hypot(0.3, 2.1) + np.hypot(0.8, 2.1)
+    assert np.array_equal(~m.assembled, far)
+
+
+def test_partial_range_sweep_includes_both_ends():
+    text = LOCKING.replace("motor: {joint: A, pivot: O}", "motor: {joint: A, pivot: O, range_deg: [-60, 60]}")
+    m = simulate(spec_of(text), 121)
+    assert m.assembled.all()
+    assert np.isclose(np.degrees(m.motor_angle[0]), -60) and np.isclose(np.degrees(m.motor_angle[-1]), 60)
+
+
+def test_clockwise_motor_turns_the_other_way():
+    m = simulate(spec_of(FOURBAR.replace("pivot: O}", "pivot: O, direction: cw}")), 4)
+    assert np.allclose(m.positions[1, 1], [0, -1])
+
+
+def test_singularity_distance_is_sin_squared_of_the_angle_at_the_joint():
+    m = simulate(spec_of(FOURBAR), 90)
+    dyad = np.flatnonzero(~m.plan.rigid)[0]
+    assert np.allclose(m.singularity[:, dyad], np.sin(m.transmission[:, dyad]) ** 2, atol=1e-12)
+
+
+JANSEN = """\
+name: jansen
+units: mm
+joints:
+  O: [0, 0]
+  A: [15, 0]
+  B: [-38, -7.8]
+  C: [-24.0135, 31.2721]
+  D: [-26.9521, -45.5152]
+  E: [-74.7944, 8.1432]
+  F: [-59.2315, -28.0529]
+  G: [-43.1601, -91.7569]
+ground: [O, B]
+links:
+  crank: [O, A]
+  AC: [A, C]
+  AD: [A, D]
+  BCE: [B, C, E]
+  BD: [B, D]
+  EF: [E, F]
+  DFG: [D, F, G]
+motor: {joint: A, pivot: O}
+tracks:
+  foot: {joint: G}
+"""
