@@ -64,3 +64,31 @@ motor: {joint: A, pivot: O}
 
 # Non-Grashof: the crank cannot turn fully (locks up for part of the turn).
 LOCKING = FOURBAR.replace("A: [1, 0]", "A: [1.9, 0]")
+
+
+# Jansen's leg with the rest pose rounded as in the issue (the exact one is examples/jansen.yaml).
+JANSEN = """\
+name: jansen
+units: mm
+joints:
+  O: [0, 0]
+  A: [15, 0]
+  B: [-38, -7.8]
+  C: [-24.0135, 31.2721]
+  D: [-26.9521, -45.5152]
+  E: [-74.7944, 8.1432]
+  F: [-59.2315, -28.0529]
+  G: [-43.1601, -91.7569]
+ground: [O, B]
+links:
+  crank: [O, A]
+  AC: [A, C]
+  AD: [A, D]
+  BCE: [B, C, E]
+  BD: [B, D]
+  EF: [E, F]
+  DFG: [D, F, G]
+motor: {joint: A, pivot: O}
+tracks:
+  foot: {joint: G}
+"""

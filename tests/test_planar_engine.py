@@ -10,7 +10,7 @@ from linkedit.planar import compile_plan, simulate
 from linkedit.planar import law_of_cosines as loc
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.yamlload import load_model
-from tests.planar_specs import FIVEBAR, FOURBAR, LOCKING, TRIAD
+from tests.planar_specs import FIVEBAR, FOURBAR, JANSEN, LOCKING, TRIAD
 
 
 def spec_of(text: str) -> LinkageSpec:
@@ -142,29 +142,3 @@ def test_singularity_distance_is_sin_squared_of_the_angle_at_the_joint():
     dyad = np.flatnonzero(~m.plan.rigid)[0]
     assert np.allclose(m.singularity[:, dyad], np.sin(m.transmission[:, dyad]) ** 2, atol=1e-12)
 
-
-JANSEN = """\
-name: jansen
-units: mm
-joints:
-  O: [0, 0]
-  A: [15, 0]
-  B: [-38, -7.8]
-  C: [-24.0135, 31.2721]
-  D: [-26.9521, -45.5152]
-  E: [-74.7944, 8.1432]
-  F: [-59.2315, -28.0529]
-  G: [-43.1601, -91.7569]
-ground: [O, B]
-links:
-  crank: [O, A]
-  AC: [A, C]
-  AD: [A, D]
-  BCE: [B, C, E]
-  BD: [B, D]
-  EF: [E, F]
-  DFG: [D, F, G]
-motor: {joint: A, pivot: O}
-tracks:
-  foot: {joint: G}
-"""
