@@ -29,7 +29,8 @@ def strandbeest_scale(pairs: int) -> dict:
     spec = catalog.strandbeest(pairs)
     return {"samples": 120, "lock": ["O"], "operations": [
         {"name": "smaller, same gait", "preserve": list(spec.tracks),
-         "transform": {"joints": "all", "scale": 0.8, "about": [0, 0]}}]}
+         "transform": {"joints": "all", "scale": 0.8, "about": [0, 0]},
+         "terms": {"preserve": 1000, "transform": 0.3}}]}
 
 
 def gradient_ratio(spec, budget: float) -> tuple[float, float, float]:
