@@ -1,0 +1,224 @@
+"""SVG pictures of planar linkages: a motion plot, an animation (SMIL) and an edit overlay.
+
+All coordinates are world coordinates in the linkage's units (x right, y up). Every function
+returns the SVG text and, when given a path, also writes it atomically. Inputs that are not
+finite (NaN, inf) raise ValueError: nothing non-finite is ever written into a picture.
+
+The drawn elements carry classes and names so programs (and tests) can find them:
+``class="link"`` / ``"track"`` / ``"joint"`` / ``"joint-path"`` / ``"ground"`` / ``"motor"`` /
+``"target"`` / ``"envelope"``, with ``data-name`` = the link, track or joint name; the edit
+overlay adds ``before`` or ``after`` to the class list.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from linkedit.io.atomic import write_text
+from linkedit.io.svg_figure import ENVELOPE_GREEN, INK, PALETTE, PATH_GREY, Figure, Stroke, finite
+
+MAX_FRAMES = 120          # animation frames per cycle at most (file size)
+MAX_NAMED_JOINTS = 24     # joint names are written beside the joints up to this many joints
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """One linkage's motion, checked: ``positions`` (T, J, 2), ``tracks`` name → (T, 2)."""
+
+    joint_names: list[str]
+    positions: np.ndarray
+    links: dict[str, list[int]]
+    ground: list[int]
+    motor: tuple[int, int] | None
+    tracks: dict[str, np.ndarray]
+
+    @classmethod
+    def check(cls, joint_names: Sequence[str], positions: np.ndarray, links: Mapping[str, Sequence[int]],
+              ground: Sequence[int], motor: tuple[int, int] | None,
+              tracks: Mapping[str, np.ndarray]) -> Drawing:
+        """Validate shapes, indices and finiteness (ValueError naming the offending input)."""
+        names = [str(n) for n in joint_names]
+        pos = finite("positions", positions, (None, len(names), 2))
+        if pos.shape[0] == 0:
+            raise ValueError("positions: no time samples")
+
+        def index(what: str, i: object) -> int:
+            k = int(i)  # type: ignore[call-overload]
+            if k != i or not 0 <= k < len(names):
+                raise ValueError(f"{what}: joint index {i!r} out of range 0..{len(names) - 1}")
+            return k
+
+        body = {}
+        for name, members in links.items():
+            body[str(name)] = [index(f"link {name}", i) for i in members]
+            if len(body[str(name)]) < 2:
+                raise ValueError(f"link {name}: needs at least 2 joints")
+        paths = {str(n): finite(f"track {n}", c, (pos.shape[0], 2)) for n, c in tracks.items()}
+        pair = None if motor is None else (index("motor joint", motor[0]), index("motor pivot", motor[1]))
+        return cls(names, pos, body, [index("ground", i) for i in ground], pair, paths)
+
+    def motor_turns_ccw(self) -> bool:
+        """Whether the motor joint turns counter-clockwise about its pivot over the samples."""
+        if self.motor is None:
+            return True
+        r = self.positions[:, self.motor[0]] - self.positions[:, self.motor[1]]
+        angle = np.unwrap(np.arctan2(r[:, 1], r[:, 0]))
+        return bool(angle[-1] >= angle[0])
+
+
+def motion_plot(path: str | Path | None, *, joint_names: Sequence[str], positions: np.ndarray,
+                links: Mapping[str, Sequence[int]], ground: Sequence[int], motor: tuple[int, int] | None,
+                tracks: Mapping[str, np.ndarray], units: str = "", title: str = "", cyclic: bool = True) -> str:
+    """A static motion plot; returns the SVG text and writes it to ``path`` (atomically) if given.
+
+    ``positions`` (T, J, 2): joint positions over the cycle in ``units``, sample 0 = rest pose;
+    ``joint_names`` (J names); ``links``: link name → joint indices (2 or more); ``ground``:
+    joint indices fixed to the frame; ``motor``: (driven joint, pivot joint) indices or None;
+    ``tracks``: track name → (T, 2) positions. Draws the links at the rest pose, ground and
+    motor symbols, every track's curve (one colour each, in the legend), the other joints'
+    paths faint, axes in ``units``. ``cyclic``: the samples are one full cycle (curves closed).
+    """
+    d = Drawing.check(joint_names, positions, links, ground, motor, tracks)
+    fig = Figure(title=title, units=units, cyclic=cyclic)
+    colors = _colors(d.tracks)
+    _joint_paths(fig, d)
+    _tracks(fig, d, colors, closed=cyclic)
+    _mechanism(fig, d, d.positions[0])
+    for name, curve in d.tracks.items():
+        fig.joints(curve[0][None], names=[name], fill=colors[name], stroke=Stroke(colors[name], 1.0),
+                   cls="track-point")
+    if len(d.joint_names) <= MAX_NAMED_JOINTS:
+        for name, p in zip(d.joint_names, d.positions[0]):
+            fig.annotate(p, name, cls="joint-label")
+    return _finish(path, fig)
+
+
+def animated_motion(path: str | Path | None, *, joint_names: Sequence[str], positions: np.ndarray,
+                    links: Mapping[str, Sequence[int]], ground: Sequence[int], motor: tuple[int, int] | None,
+                    tracks: Mapping[str, np.ndarray], units: str = "", title: str = "", duration_s: float = 4.0,
+                    cyclic: bool = True) -> str:
+    """An animated motion plot (SMIL, plays in a browser); returns the SVG text, writes ``path`` if given.
+
+    Same inputs as :func:`motion_plot`. The cycle plays in ``duration_s`` seconds, forever; the
+    T samples are thinned evenly to at most ``MAX_FRAMES`` frames (every element's
+    ``<animate values=...>`` has one value per frame, plus frame 0 again at the end when
+    ``cyclic``). Links, joints and track points move; track curves, joint paths, ground and
+    motor symbols are drawn still underneath.
+    """
+    if not (np.isfinite(duration_s) and duration_s > 0):
+        raise ValueError(f"duration_s must be a positive number of seconds, got {duration_s}")
+    d = Drawing.check(joint_names, positions, links, ground, motor, tracks)
+    samples = d.positions.shape[0]
+    frames = np.arange(samples) if samples <= MAX_FRAMES else (
+        np.round(np.linspace(0, samples, MAX_FRAMES, endpoint=False)).astype(int))
+    fig = Figure(title=title, units=units, duration_s=float(duration_s), cyclic=cyclic)
+    colors = _colors(d.tracks)
+    _joint_paths(fig, d)
+    _tracks(fig, d, colors, closed=cyclic)
+    _mechanism(fig, d, d.positions[frames])
+    for name, curve in d.tracks.items():
+        fig.joints(curve[frames][:, None], names=[name], fill=colors[name], stroke=Stroke(colors[name], 1.0),
+                   cls="track-point")
+    return _finish(path, fig)
+
+
+def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after: Mapping[str, object],
+                 targets: Mapping[str, np.ndarray],
+                 envelope: tuple[float | None, float | None, float | None, float | None] | None,
+                 units: str = "", title: str = "") -> str:
+    """The edit picture: before faint, after solid, targets dashed, envelope box; returns the SVG text.
+
+    ``before`` / ``after``: the keyword arguments of :func:`motion_plot` for the linkage before
+    and after the edit (``joint_names``, ``positions`` (T, J, 2), ``links``, ``ground``,
+    ``motor``, ``tracks``; ``units`` and ``title`` keys, if present, are ignored — this
+    function's own are used). ``targets``: label → (T', 2) target curve in ``units``, coloured
+    like the track whose name is a word of the label (``"retarget foot"`` → ``foot``).
+    ``envelope``: (xmin, xmax, ymin, ymax) with None for an open side (drawn to the plot edge),
+    or None for no box. Writes ``path`` atomically if given.
+    """
+    old, new = _drawing("before", before), _drawing("after", after)
+    fig = Figure(title=title, units=units)
+    colors = _colors({**new.tracks, **old.tracks})
+    if envelope is not None:
+        if len(envelope) != 4:
+            raise ValueError(f"envelope: expected (xmin, xmax, ymin, ymax), got {envelope!r}")
+        fig.box(*envelope)
+    for name, curve in old.tracks.items():
+        fig.polyline(curve, Stroke(colors[name], 1.6, "faint"), closed=True, cls="track before", name=name)
+    for link, members in old.links.items():
+        fig.link(old.positions[0][members], name=link, style="faint", cls="link before")
+    _joint_paths(fig, new, cls="joint-path after")
+    spare = iter(PALETTE[len(colors) % len(PALETTE):] + PALETTE[:len(colors) % len(PALETTE)])
+    for label, curve in targets.items():
+        words = str(label).split()
+        color = next((colors[w] for w in words if w in colors), None) or next(spare)
+        fig.polyline(finite(f"target {label}", curve, (None, 2)), Stroke(color, 1.6, "dashed"), closed=True,
+                     cls="target", name=str(label))
+    _tracks(fig, new, colors, closed=True, cls="track after")
+    _mechanism(fig, new, new.positions[0], cls="after")
+    fig.legend("before", Stroke(PATH_GREY, 2.0, "faint"))
+    fig.legend("after", Stroke(INK, 2.0))
+    if targets:
+        fig.legend("target", Stroke(INK, 1.6, "dashed"))
+    if envelope is not None:
+        fig.legend("envelope", Stroke(ENVELOPE_GREEN, 1.8, "dashed"), "box")
+    return _finish(path, fig)
+
+
+def _drawing(which: str, kw: Mapping[str, object]) -> Drawing:
+    fields = ("joint_names", "positions", "links", "ground", "motor", "tracks")
+    unknown = set(kw) - set(fields) - {"units", "title"}
+    missing = set(fields) - set(kw)
+    if unknown or missing:
+        raise ValueError(f"{which}: unknown keys {sorted(unknown)}, missing keys {sorted(missing)}")
+    try:
+        return Drawing.check(**{k: kw[k] for k in fields})  # type: ignore[arg-type]
+    except ValueError as exc:
+        raise ValueError(f"{which}: {exc}") from None
+
+
+def _colors(tracks: Mapping[str, np.ndarray]) -> dict[str, str]:
+    return {name: PALETTE[n % len(PALETTE)] for n, name in enumerate(tracks)}
+
+
+def _joint_paths(fig: Figure, d: Drawing, cls: str = "joint-path") -> None:
+    """Faint paths of the joints that move and are not already drawn as a track."""
+    p = d.positions
+    moves = np.ptp(p, axis=0).max(axis=1) > 1e-12 * max(1.0, float(np.abs(p).max()))
+    curves = list(d.tracks.values())
+    drawn = False
+    for j in np.flatnonzero(moves):
+        if any(np.allclose(p[:, j], c, rtol=0, atol=1e-9 * max(1.0, float(np.abs(c).max()))) for c in curves):
+            continue
+        fig.polyline(p[:, j], Stroke(PATH_GREY, 0.9, "faint"), closed=fig.cyclic, cls=cls, name=d.joint_names[j],
+                     label=None if drawn else "joint paths")
+        drawn = True
+
+
+def _tracks(fig: Figure, d: Drawing, colors: Mapping[str, str], *, closed: bool, cls: str = "track") -> None:
+    for name, curve in d.tracks.items():
+        fig.polyline(curve, Stroke(colors[name], 2.2), closed=closed, cls=cls, name=name, label=name)
+
+
+def _mechanism(fig: Figure, d: Drawing, pose: np.ndarray, cls: str = "") -> None:
+    """Ground and motor symbols, links and joints at ``pose`` (J, 2) or frames (F, J, 2)."""
+    rest = pose if pose.ndim == 2 else pose[0]
+    for g in d.ground:
+        fig.ground(rest[g], name=d.joint_names[g])
+    if d.motor is not None:
+        fig.motor(rest[d.motor[1]], ccw=d.motor_turns_ccw(), name=d.joint_names[d.motor[0]])
+    extra = f" {cls}" if cls else ""
+    for name, members in d.links.items():
+        fig.link(pose[..., members, :], name=name, cls="link" + extra)
+    fig.joints(pose, names=d.joint_names, cls="joint" + extra)
+
+
+def _finish(path: str | Path | None, fig: Figure) -> str:
+    svg = fig.render()
+    if path is not None:
+        write_text(path, svg)
+    return svg

@@ -1,0 +1,425 @@
+"""SVG pictures: valid XML, geometry inside the viewBox, y flipped, equal aspect, ticks at the
+right places, SMIL animation following the motion, every link and track present, no NaN."""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+import subprocess
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from linkedit.io.svg import MAX_FRAMES, animated_motion, edit_overlay, motion_plot
+from linkedit.io.svg_figure import Figure, Stroke, nice_ticks, tick_label
+
+NS = "{http://www.w3.org/2000/svg}"
+
+
+def crank_rocker(samples: int = 90, *, reverse: bool = False) -> dict:
+    """A Grashof crank-rocker (crank 1, coupler 3, rocker 2.5, ground 3) with a coupler point P."""
+    t = np.arange(samples) / samples
+    phi = (-1 if reverse else 1) * 2 * np.pi * t
+    O, B = np.zeros((samples, 2)), np.tile([3.0, 0.0], (samples, 1))
+    A = np.column_stack([np.cos(phi), np.sin(phi)])
+    d = B - A
+    dist = np.linalg.norm(d, axis=1)
+    a = (3.0**2 - 2.5**2 + dist**2) / (2 * dist)
+    h = np.sqrt(3.0**2 - a**2)
+    u = d / dist[:, None]
+    C = A + a[:, None] * u + h[:, None] * np.column_stack([-u[:, 1], u[:, 0]])  # upper branch
+    P = A + 0.5 * (C - A) + 1.2 * np.column_stack([-(C - A)[:, 1], (C - A)[:, 0]]) / 3.0
+    return dict(joint_names=["O", "A", "C", "B", "P"], positions=np.stack([O, A, C, B, P], axis=1),
+                links={"crank": [0, 1], "coupler": [1, 2, 4], "rocker": [3, 2]}, ground=[0, 3], motor=(1, 0),
+                tracks={"tracer": P.copy(), "mid <A&C>": (A + C) / 2}, units="m", title="crank-rocker")
+
+
+def parse(svg: str) -> ET.Element:
+    root = ET.fromstring(svg.encode("utf-8"))
+    assert root.tag == NS + "svg"
+    return root
+
+
+def classes(el: ET.Element) -> list[str]:
+    return (el.get("class") or "").split()
+
+
+def find(root: ET.Element, cls: str) -> list[ET.Element]:
+    return [el for el in root.iter() if cls in classes(el)]
+
+
+def drawn_points(root: ET.Element) -> np.ndarray:
+    """Every coordinate pair of lines, circles, polylines, polygons, rects, texts and animations."""
+    pts = []
+    for el in root.iter():
+        tag = el.tag.removeprefix(NS)
+        if tag in ("polyline", "polygon"):
+            pts += [tuple(map(float, p.split(","))) for p in el.get("points").split()]
+        elif tag == "line":
+            pts += [(float(el.get("x1")), float(el.get("y1"))), (float(el.get("x2")), float(el.get("y2")))]
+        elif tag == "circle":
+            pts.append((float(el.get("cx")), float(el.get("cy"))))
+        elif tag == "rect" and el.get("x") is not None:
+            x, y, w, h = (float(el.get(k)) for k in ("x", "y", "width", "height"))
+            pts += [(x, y), (x + w, y + h)]
+        elif tag == "text" and el.get("x") is not None:
+            pts.append((float(el.get("x")), float(el.get("y"))))
+        elif tag == "animate":
+            name = el.get("attributeName")
+            values = el.get("values").split(";")
+            if name == "points":
+                pts += [tuple(map(float, p.split(","))) for v in values for p in v.split()]
+            elif name in ("cx", "x1", "x2"):
+                pts += [(float(v), 1.0) for v in values]
+            else:
+                pts += [(1.0, float(v)) for v in values]
+    return np.array(pts)
+
+
+def viewbox(root: ET.Element) -> tuple[float, float, float, float]:
+    x, y, w, h = map(float, root.get("viewBox").split())
+    assert (float(root.get("width")), float(root.get("height"))) == (w, h)
+    return x, y, w, h
+
+
+def joint_pixels(root: ET.Element, also: str = "joint") -> dict[str, tuple[float, float]]:
+    """Joint marker centres by joint name (markers whose classes include ``joint`` and ``also``)."""
+    return {el.get("data-name"): (float(el.get("cx")), float(el.get("cy"))) for el in find(root, "joint")
+            if also in classes(el)}
+
+
+def fit_map(world: np.ndarray, px: np.ndarray) -> tuple[float, float, float, float]:
+    """Least-squares px = ax + sx·x, py = ay + sy·y; returns (ax, sx, ay, sy)."""
+    (sx, ax), *_ = np.linalg.lstsq(np.column_stack([world[:, 0], np.ones(len(world))]), px[:, 0], rcond=None)
+    (sy, ay), *_ = np.linalg.lstsq(np.column_stack([world[:, 1], np.ones(len(world))]), px[:, 1], rcond=None)
+    return ax, sx, ay, sy
+
+
+# -- the motion plot ---------------------------------------------------------------------------
+
+
+def test_motion_plot_is_xml_with_everything_inside_the_viewbox(tmp_path):
+    kw = crank_rocker()
+    svg = motion_plot(tmp_path / "plot.svg", **kw)
+    assert (tmp_path / "plot.svg").read_text(encoding="utf-8") == svg
+    assert [p.name for p in tmp_path.iterdir()] == ["plot.svg"]  # no temporary left behind
+    root = parse(svg)
+    x0, y0, w, h = viewbox(root)
+    pts = drawn_points(root)
+    assert len(pts) > 4 * 90  # two tracks and two joint paths at least
+    assert np.all(pts >= [x0, y0]) and np.all(pts <= [x0 + w, y0 + h])
+    assert "nan" not in svg.lower() and "inf" not in svg.lower()
+
+
+def test_y_axis_is_flipped_and_aspect_is_equal():
+    kw = crank_rocker()
+    root = parse(motion_plot(None, **kw))
+    px = joint_pixels(root)
+    world = kw["positions"][0]
+    pix = np.array([px[n] for n in kw["joint_names"]])
+    ax, sx, ay, sy = fit_map(world, pix)
+    assert sx > 0 and sy < 0
+    assert sx == pytest.approx(-sy, rel=1e-4)  # one scale for both axes
+    np.testing.assert_allclose(pix, np.column_stack([ax + sx * world[:, 0], ay + sy * world[:, 1]]), atol=0.01)
+    c, a = px["C"], px["A"]  # at rest C is above A: drawn higher (smaller SVG y)
+    assert world[2, 1] > world[1, 1] and c[1] < a[1]
+
+
+def test_figure_draws_larger_y_higher():
+    fig = Figure()
+    fig.polyline(np.array([[0.0, 0.0], [0.0, 10.0], [5.0, 10.0]]), cls="probe")
+    (el,) = find(parse(fig.render()), "probe")
+    p = [tuple(map(float, q.split(","))) for q in el.get("points").split()]
+    assert p[1][1] < p[0][1] and p[1][0] == p[0][0]
+    assert p[2][0] > p[1][0] and p[2][1] == p[1][1]
+    assert p[0][1] - p[1][1] == pytest.approx(2 * (p[2][0] - p[1][0]), abs=0.02)
+
+
+def test_every_link_track_and_joint_appears_with_its_shape():
+    kw = crank_rocker()
+    root = parse(motion_plot(None, **kw))
+    links = {el.get("data-name"): el.tag.removeprefix(NS) for el in find(root, "link")}
+    assert links == {"crank": "line", "rocker": "line", "coupler": "polygon"}
+    assert {el.get("data-name") for el in find(root, "track")} == {"tracer", "mid <A&C>"}
+    assert set(joint_pixels(root)) == set(kw["joint_names"])
+    assert {el.get("data-name") for el in find(root, "ground")} == {"O", "B"}
+    assert [el.get("data-name") for el in find(root, "motor")] == ["A"]
+    # moving joints that are not tracks get a faint path; the ground joints don't move
+    assert {el.get("data-name") for el in find(root, "joint-path")} == {"A", "C"}
+    legend = [t.text for t in find(root, "legend")[0].iter(NS + "text")]
+    assert legend == ["joint paths", "tracer", "mid <A&C>"]
+    colors = {el.get("data-name"): el.get("stroke") for el in find(root, "track")}
+    assert len(set(colors.values())) == 2
+
+
+def test_track_curve_is_the_track_in_pixels():
+    kw = crank_rocker(60)
+    root = parse(motion_plot(None, **kw))
+    px = joint_pixels(root)
+    ax, sx, ay, sy = fit_map(kw["positions"][0], np.array([px[n] for n in kw["joint_names"]]))
+    (el,) = [e for e in find(root, "track") if e.get("data-name") == "tracer"]
+    assert el.tag == NS + "polygon"  # one full cycle: a closed curve
+    got = np.array([tuple(map(float, q.split(","))) for q in el.get("points").split()])
+    P = kw["tracks"]["tracer"]
+    np.testing.assert_allclose(got, np.column_stack([ax + sx * P[:, 0], ay + sy * P[:, 1]]), atol=0.02)
+
+
+def test_axes_ticks_are_round_numbers_at_their_world_positions():
+    kw = crank_rocker()
+    root = parse(motion_plot(None, **kw))
+    px = joint_pixels(root)
+    ax, sx, ay, sy = fit_map(kw["positions"][0], np.array([px[n] for n in kw["joint_names"]]))
+    ticks = find(root, "tick")
+    xs = [(float(t.text), float(t.get("x"))) for t in ticks if t.get("text-anchor") == "middle"]
+    ys = [(float(t.text), float(t.get("y")) - 4) for t in ticks if t.get("text-anchor") == "end"]
+    assert len(xs) >= 3 and len(ys) >= 3
+    for value, x in xs:
+        assert x == pytest.approx(ax + sx * value, abs=0.02)
+    for value, y in ys:
+        assert y == pytest.approx(ay + sy * value, abs=0.02)
+    steps = {round(b - a, 9) for (a, _), (b, _) in zip(xs, xs[1:])}
+    assert len(steps) == 1
+    assert {u.text for u in find(root, "unit")} == {"x (m)", "y (m)"}
+    assert find(root, "title")[0].text == "crank-rocker"
+
+
+@given(st.floats(-1e6, 1e6), st.floats(1e-6, 1e6), st.floats(2, 12))
+def test_nice_ticks_are_round_and_inside(lo, span, target):
+    hi = lo + span
+    step, ticks = nice_ticks(lo, hi, target)
+    mantissa = step / 10 ** math.floor(math.log10(step) + 1e-12)
+    assert min(abs(mantissa - m) for m in (1, 2, 2.5, 5, 10)) < 1e-9
+    assert step >= span / target * (1 - 1e-9)
+    assert len(ticks) >= 1 and len(ticks) <= target + 2
+    assert np.all(ticks >= lo - 1e-9 * step) and np.all(ticks <= hi + 1e-9 * step)
+    np.testing.assert_allclose(ticks / step, np.round(ticks / step), atol=1e-6)
+    for t in ticks:
+        assert float(tick_label(float(t), step)) == pytest.approx(t, abs=1e-6 * step + 1e-12 * abs(t))
+
+
+def test_tick_labels():
+    assert [tick_label(v, 0.25) for v in (-0.5, 0.0, 0.25)] == ["-0.50", "0", "0.25"]
+    assert [tick_label(v, 2.5) for v in (5.0, 7.5)] == ["5.0", "7.5"]
+    assert [tick_label(v, 20.0) for v in (-40.0, -0.0)] == ["-40", "0"]
+
+
+def test_motor_arrow_follows_the_turning_direction():
+    def sweep(reverse: bool) -> str:
+        (motor,) = find(parse(motion_plot(None, **crank_rocker(reverse=reverse))), "motor")
+        (arc,) = motor.iter(NS + "path")
+        return re.search(r"A[\d.]+,[\d.]+ 0 1 ([01])", arc.get("d")).group(1)
+
+    assert sweep(False) == "0"  # counter-clockwise in the world = counter-clockwise on screen
+    assert sweep(True) == "1"
+
+
+def test_collinear_ternary_link_is_a_bar_between_its_outer_joints():
+    fig = Figure()
+    fig.link(np.array([[0.0, 0.0], [2.0, 1.0], [1.0, 0.5]]), name="coupler")
+    fig.joints(np.array([[0.0, 0.0], [2.0, 1.0]]), names=["a", "b"])
+    root = parse(fig.render())
+    (bar,) = find(root, "link")
+    px = joint_pixels(root)
+    assert bar.tag == NS + "line" and bar.get("stroke-linecap") == "round"
+    ends = {(float(bar.get("x1")), float(bar.get("y1"))), (float(bar.get("x2")), float(bar.get("y2")))}
+    assert ends == {px["a"], px["b"]}
+
+
+# -- the animation -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("samples, frames", [(360, MAX_FRAMES), (50, 50), (MAX_FRAMES + 1, MAX_FRAMES)])
+def test_animation_values_follow_the_subsampled_motion(samples, frames):
+    kw = crank_rocker(samples)
+    svg = animated_motion(None, **kw, duration_s=3.0)
+    root = parse(svg)
+    x0, y0, w, h = viewbox(root)
+    pts = drawn_points(root)
+    assert np.all(pts >= [x0, y0]) and np.all(pts <= [x0 + w, y0 + h])
+    animates = list(root.iter(NS + "animate"))
+    assert animates
+    for a in animates:
+        assert (a.get("dur"), a.get("repeatCount"), a.get("calcMode")) == ("3s", "indefinite", "linear")
+        assert len(a.get("values").split(";")) == frames + 1  # closes the loop with frame 0
+    idx = np.round(np.linspace(0, samples, frames, endpoint=False)).astype(int)
+    assert len(set(idx)) == frames
+    px = joint_pixels(root)
+    ax, sx, ay, sy = fit_map(kw["positions"][0], np.array([px[n] for n in kw["joint_names"]]))
+    for el in find(root, "joint"):
+        j = kw["joint_names"].index(el.get("data-name"))
+        series = {a.get("attributeName"): np.array(a.get("values").split(";"), float) for a in el}
+        if j in (0, 3):  # ground joints stand still: no animation
+            assert series == {}
+            continue
+        world = kw["positions"][idx, j]
+        np.testing.assert_allclose(series["cx"][:-1], ax + sx * world[:, 0], atol=0.06)
+        np.testing.assert_allclose(series["cy"][:-1], ay + sy * world[:, 1], atol=0.06)
+        assert (series["cx"][-1], series["cy"][-1]) == (series["cx"][0], series["cy"][0])
+    (coupler,) = [e for e in find(root, "link") if e.get("data-name") == "coupler"]
+    (anim,) = coupler.iter(NS + "animate")
+    assert anim.get("attributeName") == "points"
+    assert all(len(v.split()) == 3 for v in anim.get("values").split(";"))
+    for name in ("crank", "rocker"):
+        (bar,) = [e for e in find(root, "link") if e.get("data-name") == name]
+        assert {a.get("attributeName") for a in bar} <= {"x1", "y1", "x2", "y2"} and len(list(bar)) == 2
+    assert {el.get("data-name") for el in find(root, "track")} == {"tracer", "mid <A&C>"}
+    assert len(find(root, "track-point")) == 2 and all(len(list(e)) == 2 for e in find(root, "track-point"))
+
+
+def test_animation_not_cyclic_has_one_value_per_frame():
+    root = parse(animated_motion(None, **crank_rocker(30), cyclic=False))
+    assert {len(a.get("values").split(";")) for a in root.iter(NS + "animate")} == {30}
+    assert all(e.tag == NS + "polyline" for e in find(root, "track"))
+
+
+def test_animation_size_does_not_grow_with_samples():
+    def animation_chars(samples: int) -> int:
+        root = parse(animated_motion(None, **crank_rocker(samples)))
+        return sum(len(a.get("values")) for a in root.iter(NS + "animate"))
+
+    assert animation_chars(3600) == pytest.approx(animation_chars(240), rel=0.05)
+
+
+# -- the edit overlay --------------------------------------------------------------------------
+
+
+def test_edit_overlay_draws_before_after_targets_and_envelope(tmp_path):
+    before = crank_rocker()
+    after = dict(before, positions=before["positions"] * 0.8,
+                 tracks={k: v * 0.8 for k, v in before["tracks"].items()})
+    target = before["tracks"]["tracer"] * [1.1, 1.0]
+    svg = edit_overlay(tmp_path / "edit.svg", before=before, after=after,
+                       targets={"retarget tracer": target, "other": target + 0.1},
+                       envelope=(-1.2, None, None, 2.5), units="m", title="edit <1> & 'two'")
+    assert (tmp_path / "edit.svg").read_text(encoding="utf-8") == svg
+    root = parse(svg)
+    x0, y0, w, h = viewbox(root)
+    pts = drawn_points(root)
+    assert np.all(pts >= [x0, y0]) and np.all(pts <= [x0 + w, y0 + h])
+    assert find(root, "title")[0].text == "edit <1> & 'two'"
+    for which, style in (("before", "faint"), ("after", "solid")):
+        links = [e for e in find(root, "link") if which in classes(e)]
+        tracks = [e for e in find(root, "track") if which in classes(e)]
+        assert {e.get("data-name") for e in links} == {"crank", "coupler", "rocker"}
+        assert {e.get("data-name") for e in tracks} == {"tracer", "mid <A&C>"}
+        faint = [e.get("stroke-opacity") is not None for e in tracks]
+        assert all(faint) if style == "faint" else not any(faint)
+    targets = {e.get("data-name"): e for e in find(root, "target")}
+    assert set(targets) == {"retarget tracer", "other"}
+    assert all(e.get("stroke-dasharray") for e in targets.values())
+    tracer = [e for e in find(root, "track") if e.get("data-name") == "tracer" and "after" in classes(e)][0]
+    assert targets["retarget tracer"].get("stroke") == tracer.get("stroke")
+    assert targets["other"].get("stroke") not in {e.get("stroke") for e in find(root, "track")}
+    # envelope: xmin and ymax drawn where they are, open sides reach the plot frame
+    px = joint_pixels(root, "after")
+    ax, sx, ay, sy = fit_map(after["positions"][0], np.array([px[n] for n in after["joint_names"]]))
+    (env,) = find(root, "envelope")
+    sides = {ln.get("data-side"): ln for ln in env.iter(NS + "line")}
+    assert set(sides) == {"xmin", "ymax"}
+    assert float(sides["xmin"].get("x1")) == pytest.approx(ax + sx * -1.2, abs=0.02)
+    assert float(sides["ymax"].get("y1")) == pytest.approx(ay + sy * 2.5, abs=0.02)
+    (shade,) = env.iter(NS + "rect")
+    frame = [e for e in find(root, "axes")[0] if e.tag == NS + "rect"][0]
+    right = float(frame.get("x")) + float(frame.get("width"))
+    bottom = float(frame.get("y")) + float(frame.get("height"))
+    assert float(shade.get("x")) + float(shade.get("width")) == pytest.approx(right, abs=0.02)
+    assert float(shade.get("y")) + float(shade.get("height")) == pytest.approx(bottom, abs=0.02)
+    legend = [t.text for t in find(root, "legend")[0].iter(NS + "text")]
+    assert legend[-4:] == ["before", "after", "target", "envelope"]
+
+
+def test_edit_overlay_accepts_the_motion_plot_keywords_and_no_envelope():
+    before = crank_rocker()
+    root = parse(edit_overlay(None, before=before, after=before, targets={}, envelope=None))
+    assert not find(root, "envelope") and not find(root, "target")
+    with pytest.raises(ValueError, match="after: unknown keys"):
+        edit_overlay(None, before=before, after=dict(before, colour="red"), targets={}, envelope=None)
+
+
+# -- bad input ---------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("spoil, message", [
+    (lambda kw: kw["positions"].__setitem__((3, 2, 0), np.nan), "positions: contains NaN"),
+    (lambda kw: kw["tracks"]["tracer"].__setitem__((0, 1), np.inf), "track tracer: contains NaN"),
+    (lambda kw: kw.update(positions=kw["positions"][:, :4]), "positions: expected an array of shape"),
+    (lambda kw: kw["tracks"].update(tracer=kw["tracks"]["tracer"][:10]), "track tracer: expected"),
+    (lambda kw: kw["links"].update(crank=[0, 7]), "link crank: joint index 7 out of range"),
+    (lambda kw: kw["links"].update(crank=[0]), "link crank: needs at least 2 joints"),
+    (lambda kw: kw.update(motor=(1, -1)), "motor pivot: joint index -1"),
+    (lambda kw: kw.update(ground=[0.5]), "ground: joint index 0.5"),
+])
+def test_bad_input_raises_value_error(spoil, message):
+    for draw in (motion_plot, animated_motion):
+        kw = crank_rocker(20)
+        spoil(kw)
+        with pytest.raises(ValueError, match=message):
+            draw(None, **kw)
+
+
+def test_non_finite_overlay_inputs_raise(tmp_path):
+    kw = crank_rocker(20)
+    bad = dict(kw, positions=np.where(np.arange(5)[None, :, None] == 2, -np.inf, kw["positions"]))
+    with pytest.raises(ValueError, match="after: positions"):
+        edit_overlay(tmp_path / "x.svg", before=kw, after=bad, targets={}, envelope=None)
+    with pytest.raises(ValueError, match="target foot"):
+        edit_overlay(tmp_path / "x.svg", before=kw, after=kw, targets={"foot": np.full((4, 2), np.nan)},
+                     envelope=None)
+    with pytest.raises(ValueError, match="box xmax: not finite"):
+        edit_overlay(tmp_path / "x.svg", before=kw, after=kw, targets={}, envelope=(0, math.inf, None, None))
+    with pytest.raises(ValueError, match="xmin 2 > xmax 1"):
+        edit_overlay(tmp_path / "x.svg", before=kw, after=kw, targets={}, envelope=(2, 1, None, None))
+    with pytest.raises(ValueError, match="duration_s"):
+        animated_motion(None, **kw, duration_s=float("nan"))
+    assert not list(tmp_path.iterdir())  # nothing written
+
+
+def test_names_are_escaped():
+    kw = crank_rocker(20)
+    kw["joint_names"] = ['O"', "A<", "C&", "B'", "P\x01>"]
+    kw["links"] = {"a<b>&'\"": [0, 1], "coupler": [1, 2, 4], "rocker": [3, 2]}
+    root = parse(motion_plot(None, **dict(kw, title="</svg> & <script>")))
+    assert set(joint_pixels(root)) == {'O"', "A<", "C&", "B'", "P\ufffd>"}
+    assert "a<b>&'\"" in {e.get("data-name") for e in find(root, "link")}
+    assert find(root, "title")[0].text == "</svg> & <script>"
+
+
+def test_degenerate_drawings_still_have_a_sensible_view():
+    fig = Figure(units="mm")
+    fig.polyline(np.array([[5.0, 2.0], [5.0, 2.0]]), cls="dot")  # a single point
+    root = parse(fig.render())
+    _, _, w, h = viewbox(root)
+    assert 100 < w < 2000 and 100 < h < 2000
+    fig = Figure()
+    fig.polyline(np.array([[0.0, 1.0], [1000.0, 1.0]]), Stroke(style="dashed"), cls="flat")  # no height
+    root = parse(fig.render())
+    assert len(find(root, "tick")) >= 4
+    fig = Figure()
+    fig.polyline(np.array([[0.0, 76654.0], [1e-5, 76654.00001]]), cls="far")  # long tick labels
+    root = parse(fig.render())
+    for t in find(root, "tick"):
+        if t.get("text-anchor") == "end":  # y labels end left of the axis and leave room for the unit
+            assert len(t.text) > 10 and float(t.get("x")) - 6.5 * len(t.text) >= 24
+
+
+# -- a real renderer, when one is installed ----------------------------------------------------
+
+
+@pytest.mark.skipif(shutil.which("chromium") is None, reason="headless chromium not installed")
+def test_chromium_renders_the_plot(tmp_path):
+    blank = Figure()
+    blank.polyline(np.array([[0.0, 0.0], [1.0, 1.0]]), Stroke(color="#ffffff", width=0.1))
+    sizes = {}
+    for name, svg in (("blank", blank.render()), ("plot", motion_plot(None, **crank_rocker()))):
+        (tmp_path / f"{name}.svg").write_text(svg, encoding="utf-8")
+        root = parse(svg)
+        subprocess.run(["chromium", "--headless", "--disable-gpu", "--no-sandbox",
+                        f"--screenshot={tmp_path / name}.png",
+                        f"--window-size={root.get('width')},{root.get('height')}",
+                        (tmp_path / f"{name}.svg").as_uri()], check=True, capture_output=True, timeout=60)
+        sizes[name] = (tmp_path / f"{name}.png").stat().st_size
+    assert sizes["plot"] > 3 * sizes["blank"]
