@@ -97,13 +97,13 @@ def register(app: typer.Typer) -> None:
 
 def _overlay(path: Path, result: Any, script: Any) -> None:
     """Before faint, after solid, target curves dashed, the (last) envelope box drawn."""
-    from linkedit.commands.simulate import _drawing
+    from linkedit.io.planar_svg import drawing
     from linkedit.io.svg import edit_overlay
 
     targets = {label: curve for op in result.operations for label, curve in op.targets.items()}
     boxes = [op.envelope for op in script.operations if op.envelope is not None]
     envelope = (boxes[-1].xmin, boxes[-1].xmax, boxes[-1].ymin, boxes[-1].ymax) if boxes else None
-    edit_overlay(path, before=_drawing(result.before), after=_drawing(result.after), targets=targets,
+    edit_overlay(path, before=drawing(result.before), after=drawing(result.after), targets=targets,
                  envelope=envelope, units=result.original.units, title=f"{result.original.name}: edit")
 
 

@@ -51,26 +51,11 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
     write_motion(h5, motion, spec_text=text or "", options=options)
     result = {"spec": str(spec_path), "output": str(h5)} | motion.summary()
     if svg is not None:
-        from linkedit.io.svg import animated_motion, motion_plot
+        from linkedit.io.planar_svg import draw_motion
 
-        draw = animated_motion if animate else motion_plot
-        draw(svg, **_drawing(motion))
+        draw_motion(svg, motion, animate=animate)
         result["svg"] = str(svg)
     return result
-
-
-def _drawing(motion: Any) -> dict[str, Any]:
-    import numpy as np
-
-    plan = motion.plan
-    ok = motion.assembled
-    return dict(
-        joint_names=plan.joint_names, positions=motion.positions[ok],
-        links={n: list(m) for n, m in zip(plan.graph.link_names, plan.graph.links)},
-        ground=list(plan.graph.ground), motor=(plan.graph.motor, plan.graph.pivot),
-        tracks={n: tr.position[ok] for n, tr in motion.tracks.items()},
-        units=plan.spec.units, title=f"{plan.spec.name} ({int(np.sum(ok))} samples)",
-    )
 
 
 def _line(r: dict[str, Any]) -> str:

@@ -64,7 +64,7 @@ class Mobility:
     """Degrees of freedom of the linkage: Grübler's count and the rank-based value."""
 
     grubler: int  #: 3(n−1) − 2·Σ(bodies at a joint − 1), n bodies including the frame
-    rank: int  #: 2·(free joints) − rank of the distance-constraint Jacobian at the rest pose
+    rank: int  #: 2·(free joints) − rank of the rigid-link constraint Jacobian at the rest pose
     redundant: int  #: distance constraints that are implied by the others (at the rest pose)
 
     def describe(self) -> str:
@@ -85,17 +85,34 @@ def mobility(graph: LinkageGraph) -> Mobility:
 
     free = [j for j in range(graph.n_joints) if j not in ground]
     column = {j: c for c, j in enumerate(free)}
-    pairs = graph.pairs
-    x = graph.rest
-    jac = np.zeros((len(pairs), 2 * len(free)))
-    for row, (a, b) in enumerate(pairs):
-        d = x[a] - x[b]
-        if a in column:
-            jac[row, 2 * column[a]: 2 * column[a] + 2] = d
-        if b in column:
-            jac[row, 2 * column[b]: 2 * column[b] + 2] = -d
+    x = graph.rest[:, 0] + 1j * graph.rest[:, 1]
+    # Each link as a rigid body (velocity constraints at the rest pose): one distance row for
+    # its farthest pair (i, j), and two rows per other joint k: δz_k = δz_i + c·(δz_j − δz_i),
+    # c = (z_k − z_i)/(z_j − z_i). Unlike pairwise distances this keeps full rank when joints
+    # of one link are collinear (Hoekens' coupler).
+    rows: list[dict[int, np.ndarray]] = []
+    for link in graph.links:
+        if set(link) <= ground:
+            continue
+        i, j = max(((a, b) for a in link for b in link if a < b), key=lambda p: abs(x[p[0]] - x[p[1]]))
+        d = x[i] - x[j]
+        rows.append({i: np.array([[d.real, d.imag]]), j: -np.array([[d.real, d.imag]])})
+        for k in link:
+            if k in (i, j):
+                continue
+            c = (x[k] - x[i]) / (x[j] - x[i])
+            rot = np.array([[c.real, -c.imag], [c.imag, c.real]])
+            rows.append({k: np.eye(2), i: rot - np.eye(2), j: -rot})
+    n_rows = sum(next(iter(r.values())).shape[0] for r in rows)
+    jac = np.zeros((n_rows, 2 * len(free)))
+    at = 0
+    for r in rows:
+        height = next(iter(r.values())).shape[0]
+        for joint, block in r.items():
+            if joint in column:
+                jac[at:at + height, 2 * column[joint]: 2 * column[joint] + 2] += block
+        at += height
+    needed = n_rows
     scale = np.abs(jac).max(initial=1.0)
-    # independent rows: per link only 2n−3 of its n(n−1)/2 pairs count
-    needed = sum(2 * len(link) - 3 for link in graph.links if not set(link) <= ground)
     rank = int(np.linalg.matrix_rank(jac, tol=1e-9 * scale * max(jac.shape, default=1))) if jac.size else 0
     return Mobility(grubler=grubler, rank=2 * len(free) - rank, redundant=max(needed - rank, 0))

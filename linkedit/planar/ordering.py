@@ -8,7 +8,9 @@ known but can be rebuilt from two known joints becomes a rule (i, j) → k:
 * a **dyad** rule when k has two known neighbours on different links (law of cosines).
 
 All rules of a round form one **level**: their inputs are known, so the whole level is
-evaluated as one batched array operation. The pair (i, j) is chosen to be the best conditioned
+evaluated as one batched array operation (one batch per kind). Rules that are not on a critical
+path may move to a later level, within their slack, to join a batch of their kind there
+(:func:`merge_levels`): fewer, larger batches evaluate faster. The pair (i, j) is chosen to be the best conditioned
 one at the rest pose (rigid: the farthest apart; dyad: the angle at k closest to 90°).
 """
 
@@ -96,4 +98,35 @@ def order_joints(graph: LinkageGraph) -> Ordering:
         rules.extend(found)
         known.update(r.k for r in found)
     undetermined = tuple(k for k in range(graph.n_joints) if k not in known)
-    return Ordering(rules=tuple(rules), undetermined=undetermined)
+    return Ordering(rules=merge_levels(rules), undetermined=undetermined)
+
+
+def merge_levels(rules: list[Rule]) -> tuple[Rule, ...]:
+    """Re-level rules so that same-kind rules share levels where their dependencies allow.
+
+    Each rule may sit anywhere between its earliest level (one after its latest input) and its
+    latest level (one before its earliest consumer). Rules with no slack fix the batches;
+    every other rule, in dependency order, takes the first level of its window that already has
+    a batch of its kind (else the earliest level). Returns the rules sorted by level.
+    """
+    producer = {r.k: n for n, r in enumerate(rules)}
+    consumers: list[list[int]] = [[] for _ in rules]
+    for n, r in enumerate(rules):
+        for inp in (r.i, r.j):
+            if inp in producer:
+                consumers[producer[inp]].append(n)
+    depth = max((r.level for r in rules), default=0)
+    latest = [depth] * len(rules)
+    for n in sorted(range(len(rules)), key=lambda n: -rules[n].level):
+        if consumers[n]:
+            latest[n] = min(latest[c] for c in consumers[n]) - 1
+    fixed = {(r.level, r.rigid) for n, r in enumerate(rules) if r.level == latest[n]}
+    chosen: list[int] = [0] * len(rules)
+    for n in sorted(range(len(rules)), key=lambda n: rules[n].level):
+        r = rules[n]
+        earliest = 1 + max((chosen[producer[x]] for x in (r.i, r.j) if x in producer), default=0)
+        window = range(earliest, latest[n] + 1)
+        chosen[n] = next((lv for lv in window if (lv, r.rigid) in fixed), earliest)
+        fixed.add((chosen[n], r.rigid))
+    out = [Rule(r.i, r.j, r.k, chosen[n], r.link) for n, r in enumerate(rules)]
+    return tuple(sorted(out, key=lambda r: r.level))

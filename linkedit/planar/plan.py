@@ -203,7 +203,9 @@ def compile_plan(spec: LinkageSpec) -> Plan:
                     key=lambda p: np.hypot(*(rest[p[0]] - rest[p[1]])))
         point = J + len(extra_rest)
         extra_rest.append(track.at)
-        extra_rules.append((i, j, point, max(level_of[i], level_of[j]) + 1))
+        earliest = max(level_of[i], level_of[j]) + 1  # join a rigid batch at or after it, if any
+        extra_rules.append((i, j, point, min((r.level for r in rules if r.rigid and r.level >= earliest),
+                                             default=earliest)))
         track_points.append(point)
     points = np.vstack([rest, np.array(extra_rest, dtype=float).reshape(-1, 2)])
 

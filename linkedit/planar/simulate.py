@@ -142,7 +142,7 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
         lik = np.linalg.norm(rest[rules[:, 2]] - rest[rules[:, 0]], axis=-1)
         ljk = np.linalg.norm(rest[rules[:, 2]] - rest[rules[:, 1]], axis=-1)
         found = lockups(ds, d, lik, ljk, rules, np.degrees(angle), plan.joint_names, cyclic=spec.motor.range_deg is None)
-        if not partial:
+        if not partial or not ok.any():
             raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
     _check_link_lengths(plan, p, ok, angle)
 

@@ -1,0 +1,370 @@
+"""The example mechanisms, built from their link lengths: the source of ``examples/*.yaml``.
+
+Every rest pose is computed exactly (circle–circle intersections in double precision) from the
+mechanism's defining lengths, not typed in as rounded coordinates, so link lengths are the
+designer's numbers to the last bit. Each function returns a validated :class:`LinkageSpec`;
+:func:`~linkedit.spec.linkage_yaml.dump_linkage` writes one as YAML (with optional comments) and :data:`EXAMPLES` says which
+file holds which mechanism. Regenerate the files with ``python -m linkedit.planar.catalog``.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.linkage_yaml import dump_linkage
+
+# ---------------------------------------------------------------- geometry helpers
+
+
+def _meet(p: complex, r_p: float, q: complex, r_q: float, left: bool) -> complex:
+    """The point at distance ``r_p`` from ``p`` and ``r_q`` from ``q``, on the left (or right) of p→q."""
+    d = q - p
+    dist = abs(d)
+    along = (r_p * r_p - r_q * r_q + dist * dist) / (2.0 * dist)
+    across = math.sqrt(r_p * r_p - along * along)
+    return p + d / dist * complex(along, across if left else -across)
+
+
+def _xy(z: complex) -> tuple[float, float]:
+    return (z.real, z.imag)
+
+
+def _spec(**fields: object) -> LinkageSpec:
+    """Validate a spec given as plain data (joints as complex numbers)."""
+    joints = {n: _xy(z) for n, z in fields.pop("joints").items()}  # type: ignore[union-attr]
+    return LinkageSpec.model_validate({**fields, "joints": joints})
+
+
+# ---------------------------------------------------------------- Jansen and the Strandbeest
+
+#: Theo Jansen's "holy numbers", mm: a = OB horizontal, l = OB vertical, m = crank OA.
+HOLY = dict(a=38.0, b=41.5, c=39.3, d=40.1, e=55.8, f=39.4, g=36.7, h=65.7, i=49.0, j=50.0, k=61.9,
+            l=7.8, m=15.0)
+
+#: Jansen's links (name → joints), the joints named as in the issue: O crank axle, A crank pin,
+#: B ground pivot, G foot.
+JANSEN_LINKS = {
+    "crank": ["O", "A"], "upper_rod": ["A", "C"], "lower_rod": ["A", "D"], "upper": ["B", "C", "E"],
+    "rocker": ["B", "D"], "knee": ["E", "F"], "lower": ["D", "F", "G"],
+}
+
+
+def _frame_pivot(mirror: bool) -> complex:
+    """Jansen's frame pivot B = (−a, −l), or (+a, −l) for the mirrored leg."""
+    return complex(HOLY["a"] if mirror else -HOLY["a"], -HOLY["l"])
+
+
+def _jansen_pose(pin: complex, mirror: bool = False) -> dict[str, complex]:
+    """Joints B…G of Jansen's leg driven by the crank pin ``pin`` (crank axle O = 0).
+
+    The branch of every triangle is the one of the issue's rest pose (C above the line A–B,
+    D below it, E to the left of B→C, F to the right of E→D, G to the left of D→F).
+    ``mirror``: the leg mirrored about x = 0 (frame pivot at (+a, −l), every triangle of the
+    opposite orientation), driven by the same pin.
+    """
+    n = HOLY
+    a, b = pin, _frame_pivot(mirror)
+    c = _meet(a, n["j"], b, n["b"], left=mirror)
+    d = _meet(a, n["k"], b, n["c"], left=not mirror)
+    e = _meet(b, n["d"], c, n["e"], left=not mirror)
+    f = _meet(e, n["f"], d, n["g"], left=mirror)
+    g = _meet(d, n["i"], f, n["h"], left=not mirror)
+    return {"B": b, "C": c, "D": d, "E": e, "F": f, "G": g}
+
+
+def _crank_pin(angle_deg: float) -> complex:
+    """Jansen's crank pin at ``angle_deg`` (exact at multiples of 90°)."""
+    quarter, rest = divmod(angle_deg, 90.0)
+    return HOLY["m"] * 1j ** int(quarter) * cmath.exp(1j * math.radians(rest))
+
+
+def jansen_leg() -> LinkageSpec:
+    """Theo Jansen's Strandbeest leg (holy numbers, mm); rest pose at crank angle 0, A = (15, 0)."""
+    return _spec(
+        name="jansen-leg", units="mm",
+        description="Theo Jansen's Strandbeest leg with the holy numbers. The crank OA turns about "
+                    "the axle O; B is the frame pivot; G is the foot.",
+        joints={"O": 0j, "A": _crank_pin(0.0), **_jansen_pose(_crank_pin(0.0))},
+        ground=["O", "B"], links=JANSEN_LINKS, motor={"joint": "A", "pivot": "O"}, tracks={"foot": {"joint": "G"}},
+    )
+
+
+def strandbeest(pairs: int) -> LinkageSpec:
+    """A Strandbeest with ``pairs`` leg pairs on one crank (mm).
+
+    The crank is one rigid link [O, A_0, A_1, …] whose pins sit at phases 360°·p/pairs. Pin
+    A_p drives leg p_L (ground pivot B_L = (−38, −7.8)) and its mirror image p_R about x = 0
+    (B_R = (+38, −7.8)); the two pivots are shared by all legs. Tracks foot_<p>_L, foot_<p>_R.
+    """
+    if pairs < 1:
+        raise ValueError("a Strandbeest needs at least one leg pair")
+    pins = {f"A_{p}": _crank_pin(360.0 * p / pairs) for p in range(pairs)}
+    joints: dict[str, complex] = {"O": 0j, "B_L": _frame_pivot(False), "B_R": _frame_pivot(True)}
+    joints.update(pins)
+    links: dict[str, list[str]] = {"crank": ["O", *pins]}
+    tracks: dict[str, dict[str, str]] = {}
+    for p, pin in enumerate(pins.values()):
+        for side in ("L", "R"):
+            pose = _jansen_pose(pin, mirror=side == "R")
+            rename = {j: f"{j}_{p}_{side}" for j in "CDEFG"} | {"A": f"A_{p}", "B": f"B_{side}"}
+            joints.update({rename[j]: z for j, z in pose.items() if j in "CDEFG"})
+            for name, members in JANSEN_LINKS.items():
+                if name != "crank":
+                    links[f"{name}_{p}_{side}"] = [rename[j] for j in members]
+            tracks[f"foot_{p}_{side}"] = {"joint": rename["G"]}
+    return _spec(
+        name=f"strandbeest-{pairs}", units="mm",
+        description=f"A Strandbeest with {pairs} mirrored pairs of Jansen legs on one crank, "
+                    f"the crank pins {360 / pairs:g}° apart.",
+        joints=joints, ground=["O", "B_L", "B_R"], links=links,
+        motor={"joint": "A_0", "pivot": "O"}, tracks=tracks,
+    )
+
+
+# ---------------------------------------------------------------- Klann
+
+#: Klann leg lengths (mm) after the optimized geometry published at boim.com/Walkin8r/Klann.html:
+#: crank A–C, frame pivots B (lower rocker) and D (upper rocker) relative to the crank axle A.
+KLANN = dict(crank=17.5, B=complex(-38.8, -12.5), D=complex(-14.6, 41.9), BH=23.7, CF=73.4, CH=38.8,
+             DE=34.1, EF=57.7, EG=111.7, FG=59.0, FH=35.2)
+
+
+def klann_leg() -> LinkageSpec:
+    """Joe Klann's walking leg (a Stephenson III six-bar, mm); rest pose at crank angle 0.
+
+    The connecting rod C–H–F is driven by the crank pin C and steered by the lower rocker B–H;
+    the leg E–F–G hangs from the upper rocker D–E. The foot G walks a flat-bottomed stride.
+    """
+    k = KLANN
+    a, b, d = 0j, k["B"], k["D"]
+    c = a + k["crank"]
+    h = _meet(c, k["CH"], b, k["BH"], left=False)
+    f = _meet(c, k["CF"], h, k["FH"], left=True)
+    e = _meet(d, k["DE"], f, k["EF"], left=False)
+    g = _meet(e, k["EG"], f, k["FG"], left=True)
+    return _spec(
+        name="klann-leg", units="mm",
+        description="Klann's walking leg: crank A-C, connecting rod C-H-F steered by the lower "
+                    "rocker B-H, leg E-F-G hung from the upper rocker D-E; G is the foot.",
+        joints={"A": a, "B": b, "D": d, "C": c, "H": h, "F": f, "E": e, "G": g},
+        ground=["A", "B", "D"],
+        links={"crank": ["A", "C"], "lower_rocker": ["B", "H"], "connecting_rod": ["C", "H", "F"],
+               "upper_rocker": ["D", "E"], "leg": ["E", "F", "G"]},
+        motor={"joint": "C", "pivot": "A"}, tracks={"foot": {"joint": "G"}},
+    )
+
+
+# ---------------------------------------------------------------- four-bars
+
+#: The crank angles (as motor phases t) over which Hoekens' tracer runs straight.
+HOEKENS_STRAIGHT = (0.25, 0.75)
+
+
+def hoekens() -> LinkageSpec:
+    """Hoekens' straight-line linkage (cm): crank 1, ground 2, coupler 2.5 extended to 5, rocker 2.5.
+
+    The tracer P sits on the coupler line A–B at AP = 5 (a rigid link with three collinear
+    joints). While the crank turns from 90° to 270° (t ∈ :data:`HOEKENS_STRAIGHT`), P runs
+    along a horizontal line within 0.01.
+    """
+    o, d = 0j, 2 + 0j
+    a = 1 + 0j
+    b = _meet(a, 2.5, d, 2.5, left=True)
+    p = a + 2.0 * (b - a)
+    return _spec(
+        name="hoekens", units="cm",
+        description="Hoekens' approximate straight-line linkage. The tracer P runs straight "
+                    "while the crank turns from 90 to 270 degrees.",
+        joints={"O": o, "D": d, "A": a, "B": b, "P": p}, ground=["O", "D"],
+        links={"crank": ["O", "A"], "coupler": ["A", "B", "P"], "rocker": ["D", "B"]},
+        motor={"joint": "A", "pivot": "O"}, tracks={"tracer": {"joint": "P"}},
+    )
+
+
+#: The Grashof crank-rocker shared by :func:`crank_rocker` and the six-bars (mm):
+#: crank 25, coupler 70, rocker 60, ground 75 (s + l = 100 ≤ p + q = 130); transmission 44°…100°.
+CRANK_ROCKER = dict(crank=25.0, coupler=70.0, rocker=60.0, ground=75.0)
+
+
+def _crank_rocker_pose() -> tuple[complex, complex, complex, complex]:
+    """O, D (ground), A, B of the shared crank-rocker at crank angle 0."""
+    n = CRANK_ROCKER
+    o, d, a = 0j, complex(n["ground"], 0), complex(n["crank"], 0)
+    return o, d, a, _meet(a, n["coupler"], d, n["rocker"], left=True)
+
+
+def crank_rocker() -> LinkageSpec:
+    """A Grashof crank-rocker four-bar (mm) with a coupler point traced off the coupler line."""
+    o, d, a, b = _crank_rocker_pose()
+    point = a + (b - a) * complex(0.5, 0.4)  # halfway along the coupler, 0.4·AB to its left
+    return _spec(
+        name="crank-rocker", units="mm",
+        description="A Grashof crank-rocker four-bar (crank 25, coupler 70, rocker 60, ground 75) "
+                    "with a coupler point.",
+        joints={"O": o, "D": d, "A": a, "B": b}, ground=["O", "D"],
+        links={"crank": ["O", "A"], "coupler": ["A", "B"], "rocker": ["D", "B"]},
+        motor={"joint": "A", "pivot": "O"},
+        tracks={"coupler_point": {"link": "coupler", "at": _xy(point)}, "rocker_tip": {"joint": "B"}},
+    )
+
+
+# ---------------------------------------------------------------- six-bars
+
+
+def watt_six_bar() -> LinkageSpec:
+    """A Watt II six-bar (mm): the crank-rocker's rocker is a bell crank driving a second rocker.
+
+    The two ternary links (frame O–D–F and bell crank D–B–C) share the joint D. The bell
+    crank's arm DC = 62 is 100° clockwise from DB; dyad C–E–F (CE = 74, FE = 52, F = (55, −29)).
+    Transmission angles: 44°…100° at B, 81°…99° at E.
+    """
+    o, d, a, b = _crank_rocker_pose()
+    c = d + (b - d) / abs(b - d) * 62.0 * cmath.exp(-1j * math.radians(100.0))
+    f = complex(55.0, -29.0)
+    e = _meet(c, 74.0, f, 52.0, left=True)
+    return _spec(
+        name="watt-six-bar", units="mm",
+        description="A Watt II six-bar: a crank-rocker whose rocker D-B-C is a bell crank driving "
+                    "a second rocker F-E through the link C-E.",
+        joints={"O": o, "D": d, "F": f, "A": a, "B": b, "C": c, "E": e}, ground=["O", "D", "F"],
+        links={"crank": ["O", "A"], "coupler": ["A", "B"], "bell_crank": ["D", "B", "C"],
+               "link": ["C", "E"], "output": ["F", "E"]},
+        motor={"joint": "A", "pivot": "O"}, tracks={"output_tip": {"joint": "E"}, "bell_crank_tip": {"joint": "C"}},
+    )
+
+
+def stephenson_six_bar() -> LinkageSpec:
+    """A Stephenson III six-bar (mm): a point C of the crank-rocker's coupler drives a dyad C–E–F.
+
+    The ternary links (frame O–D–F and coupler A–B–C) do not touch. C = A + (74, −6) in the
+    coupler frame (x along AB); CE = 72, FE = 49, F = (108, −13). The output F–E swings 47°;
+    transmission angles: 44°…100° at B, 75°…93° at E.
+    """
+    o, d, a, b = _crank_rocker_pose()
+    c = a + (b - a) / abs(b - a) * complex(74.0, -6.0)
+    f = complex(108.0, -13.0)
+    e = _meet(c, 72.0, f, 49.0, left=True)
+    return _spec(
+        name="stephenson-six-bar", units="mm",
+        description="A Stephenson III six-bar: the ternary coupler A-B-C of a crank-rocker drives "
+                    "the output rocker F-E through the link C-E.",
+        joints={"O": o, "D": d, "F": f, "A": a, "B": b, "C": c, "E": e}, ground=["O", "D", "F"],
+        links={"crank": ["O", "A"], "coupler": ["A", "B", "C"], "rocker": ["D", "B"],
+               "link": ["C", "E"], "output": ["F", "E"]},
+        motor={"joint": "A", "pivot": "O"}, tracks={"output_tip": {"joint": "E"}, "coupler_point": {"joint": "C"}},
+    )
+
+
+def complex_loop() -> LinkageSpec:
+    """A mobility-1 linkage that closed-form kinematics cannot order (mm): a class-III Assur group.
+
+    The ternary body T1–T2–T3 hangs from the ground pivots P1, P2 and the crank pin A by three
+    binary links. Once O, A, P1, P2 are known, no moving joint has two known neighbours, so
+    Algorithm 1 stops: T1, T2, T3 stay undetermined (the loop needs a numerical solver).
+    """
+    return _spec(
+        name="complex-loop", units="mm",
+        description="A class-III Assur group driven by a crank: mobility 1, but no joint can be "
+                    "placed from two known joints. linkedit rejects it (exit 1).",
+        joints={"O": 0j, "A": 10 + 0j, "P1": -30 + 0j, "P2": 40 + 0j,
+                "T1": -20 + 30j, "T2": 25 + 32j, "T3": 5 + 20j},
+        ground=["O", "P1", "P2"],
+        links={"crank": ["O", "A"], "left": ["P1", "T1"], "right": ["P2", "T2"], "middle": ["A", "T3"],
+               "body": ["T1", "T2", "T3"]},
+        motor={"joint": "A", "pivot": "O"}, tracks={"body_tip": {"joint": "T3"}},
+    )
+
+
+# ---------------------------------------------------------------- YAML files
+
+
+@dataclass(frozen=True)
+class Example:
+    """One file of ``examples/``: which mechanism it holds and the comments written with it."""
+
+    file: str
+    build: Callable[[], LinkageSpec]
+    header: str = ""
+    notes: Mapping[str, str] = field(default_factory=dict)
+    #: False for a linkage that linkedit must reject (the complex loop)
+    simulates: bool = True
+
+    def text(self) -> str:
+        return dump_linkage(self.build(), self.header, self.notes)
+
+
+EXAMPLES: tuple[Example, ...] = (
+    Example(
+        "jansen.yaml", jansen_leg,
+        header="""\
+Theo Jansen's Strandbeest leg, the bundled demo:  linkedit simulate examples/jansen.yaml
+Holy numbers (mm): a=38 l=7.8 (frame pivot B = (-a, -l)), m=15 (crank), j=50 (AC), k=61.9 (AD),
+b=41.5 (BC), c=39.3 (BD), d=40.1 (BE), e=55.8 (CE), f=39.4 (EF), g=36.7 (DF), h=65.7 (FG), i=49 (DG).
+The rest pose below is the crank at 0 degrees, computed exactly from these lengths
+(written by linkedit.planar.catalog; regenerate with: python -m linkedit.planar.catalog).""",
+        notes={
+            "joints": "rest pose, mm: name -> [x, y]",
+            "joints.O": "crank axle (ground)", "joints.A": "crank pin", "joints.B": "frame pivot (ground)",
+            "joints.C": "upper knee", "joints.D": "lower knee", "joints.E": "hip corner",
+            "joints.F": "ankle", "joints.G": "foot",
+            "ground": "joints fixed to the frame",
+            "links": "rigid bodies: name -> the joints they carry",
+            "links.crank": "m = 15", "links.upper_rod": "j = 50", "links.lower_rod": "k = 61.9",
+            "links.upper": "triangle: BC = b, BE = d, CE = e", "links.rocker": "c = 39.3",
+            "links.knee": "f = 39.4", "links.lower": "triangle: DF = g, FG = h, DG = i",
+            "motor": "A turns counter-clockwise about O; t = 0 is the rest pose",
+            "tracks.foot": "the walking foot",
+        },
+    ),
+    Example("strandbeest-3.yaml", lambda: strandbeest(3),
+            header="Strandbeest with 3 leg pairs on one crank (pins 120 degrees apart); "
+                   "written by linkedit.planar.catalog."),
+    Example("strandbeest-10.yaml", lambda: strandbeest(10),
+            header="Strandbeest with 10 leg pairs on one crank (pins 36 degrees apart); "
+                   "written by linkedit.planar.catalog."),
+    Example("klann.yaml", klann_leg,
+            header="Klann's walking leg, lengths after boim.com/Walkin8r/Klann.html (optimized geometry);\n"
+                   "written by linkedit.planar.catalog.",
+            notes={"joints.A": "crank axle", "joints.C": "crank pin", "joints.G": "foot"}),
+    Example("hoekens.yaml", hoekens,
+            header="Hoekens' straight-line linkage: crank 1, ground 2, coupler 2.5 extended to 5, rocker 2.5.\n"
+                   "P runs along a straight line (within 0.01) while the crank turns from 90 to 270 degrees.\n"
+                   "Written by linkedit.planar.catalog.",
+            notes={"links.coupler": "P is on the line A-B, AP = 5", "tracks.tracer": "the straight-line point"}),
+    Example("crank-rocker.yaml", crank_rocker,
+            header="Grashof crank-rocker four-bar; written by linkedit.planar.catalog.",
+            notes={"tracks.coupler_point": "a point fixed to the coupler, given at the rest pose"}),
+    Example("watt-six-bar.yaml", watt_six_bar,
+            header="Watt II six-bar of linkedit's own design; written by linkedit.planar.catalog.",
+            notes={"links.bell_crank": "ternary: shares D with the frame (Watt's chain)"}),
+    Example("stephenson-six-bar.yaml", stephenson_six_bar,
+            header="Stephenson III six-bar of linkedit's own design; written by linkedit.planar.catalog.",
+            notes={"links.coupler": "ternary: touches the frame only through crank and rocker"}),
+    Example("complex-loop.yaml", complex_loop, simulates=False,
+            header="A complex kinematic loop (class-III Assur group). linkedit rejects it:\n"
+                   "  linkedit validate examples/complex-loop.yaml  ->  exit 1, T1, T2, T3 undetermined.\n"
+                   "Written by linkedit.planar.catalog.",
+            notes={"links.body": "ternary body hung from P1, P2 and the crank pin A"}),
+)
+
+
+def write_examples(directory: str | Path) -> list[Path]:
+    """Write every :data:`EXAMPLES` file into ``directory`` (atomically); returns the paths."""
+    from linkedit.io.atomic import write_text
+
+    paths = [Path(directory) / ex.file for ex in EXAMPLES]
+    for ex, path in zip(EXAMPLES, paths):
+        write_text(path, ex.text())
+    return paths
+
+
+if __name__ == "__main__":
+    import sys
+
+    for written in write_examples(sys.argv[1] if len(sys.argv) > 1 else Path(__file__).resolve().parents[2] / "examples"):
+        print(written)
