@@ -1,0 +1,22 @@
+"""`linkedit bench --quick` runs every section and prints figures (a smoke test, not a timing)."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from linkedit.commands.bench import SECTIONS
+
+
+@pytest.mark.parametrize("section", sorted(SECTIONS))
+def test_bench_section_prints_figures(run_cli, section):
+    r = run_cli("bench", "--quick", "--section", section)
+    assert r.exit_code == 0, r.output
+    assert f"== {section}" in r.output
+    assert re.search(r"\d+\.\d+", r.output)
+
+
+def test_unknown_section_exit_2(run_cli):
+    r = run_cli("bench", "--section", "nope")
+    assert r.exit_code == 2 and "unknown section" in r.output
