@@ -142,3 +142,16 @@ def test_singularity_distance_is_sin_squared_of_the_angle_at_the_joint():
     dyad = np.flatnonzero(~m.plan.rigid)[0]
     assert np.allclose(m.singularity[:, dyad], np.sin(m.transmission[:, dyad]) ** 2, atol=1e-12)
 
+
+
+def test_positions_with_workspace_equal_full_evaluation():
+    from linkedit.planar import catalog
+    from linkedit.planar.kinematics import Workspace, evaluate, positions
+
+    plan = compile_plan(catalog.strandbeest(3))
+    geom = plan.geometry()
+    angle = np.linspace(0, 2 * np.pi, 50, endpoint=False)
+    work = Workspace(plan, 50)
+    fast = positions(plan, geom, angle, work).copy()
+    assert np.abs(fast - evaluate(plan, geom, angle, order=0).z).max() < 1e-12
+    assert positions(plan, geom, angle + 0.1, work) is work.z  # reused, not reallocated

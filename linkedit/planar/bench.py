@@ -13,7 +13,7 @@ from collections.abc import Callable
 import numpy as np
 
 from linkedit.planar import catalog
-from linkedit.planar.kinematics import evaluate, positions
+from linkedit.planar.kinematics import Workspace, evaluate, positions
 from linkedit.planar.plan import compile_plan
 from linkedit.planar.simulate import motor_angles
 
@@ -43,7 +43,8 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
         geom = plan.geometry()
         for samples in (360, 1):
             angle = motor_angles(spec, samples)[1]
-            pos = best_time(lambda: positions(plan, geom, angle), budget) / samples * 1e6
+            work = Workspace(plan, samples)
+            pos = best_time(lambda: positions(plan, geom, angle, work), budget) / samples * 1e6
             full = best_time(lambda: evaluate(plan, geom, angle, order=2), budget) / samples * 1e6
             target = f"≤ {TARGETS_360[name]}" if samples == 360 else ""
             echo(f"{name:<22}{plan.n_joints:>7}{int(plan.level.max()):>7}  {samples:>7}  {pos:>18.3f}  {full:>21.3f}  {target}")

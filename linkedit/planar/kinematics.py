@@ -26,21 +26,46 @@ class State:
     ds: np.ndarray | None  # singularity distance per rule (1 for rigid rules); < 0: cannot close
 
 
-def positions(plan: Plan, geom: Geometry, angle: np.ndarray) -> np.ndarray:
+class Workspace:
+    """Preallocated arrays for repeated :func:`positions` calls at T samples.
+
+    The hot path then allocates nothing: every step writes into these buffers (``out=``), so
+    large batches do not pay for fresh memory pages on each call.
+    """
+
+    def __init__(self, plan: Plan, samples: int) -> None:
+        rows = max((b.stop - b.start for b in plan.batches), default=0)
+        self.samples = samples
+        self.z = np.empty((plan.n_points, samples), dtype=complex)
+        self.zi, self.zj, self.e, self.w = (np.empty((rows, samples), dtype=complex) for _ in range(4))
+        self.d2, self.u, self.a, self.b = (np.empty((rows, samples)) for _ in range(4))
+
+
+def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | None = None) -> np.ndarray:
     """Positions only, (P, T) complex, for absolute motor angles ``angle`` (T,) in radians.
 
-    NaN where the linkage cannot be assembled (see :func:`evaluate` for diagnostics).
+    NaN where the linkage cannot be assembled (see :func:`evaluate` for diagnostics). Pass a
+    :class:`Workspace` to evaluate repeatedly without allocating; the result is then
+    ``work.z`` (overwritten by the next call).
     """
-    z = np.empty((plan.n_points, angle.shape[0]), dtype=complex)
+    w = work if work is not None and work.samples == angle.shape[0] else Workspace(plan, angle.shape[0])
+    z = w.z
     z[plan.ground_rows] = geom.ground
-    z[plan.motor_row] = geom.pivot + geom.arm * np.exp(1j * (angle - geom.rest_angle))
-    for n, b in enumerate(plan.batches):
-        zi = z[b.i]
-        if b.rigid:
-            z[b.start:b.stop] = loc.rigid(zi, z[b.j], geom.coef[n])
-        else:
-            with np.errstate(invalid="ignore", divide="ignore"):
-                z[b.start:b.stop] = loc.dyad(zi, z[b.j], geom.half_diff[n], geom.lik2[n], b.sign)[0]
+    np.multiply(geom.arm, np.exp(1j * (angle - geom.rest_angle)), out=z[plan.motor_row])
+    z[plan.motor_row] += geom.pivot
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for n, b in enumerate(plan.batches):
+            r = b.stop - b.start
+            zi, zj, e = np.take(z, b.i, axis=0, out=w.zi[:r]), np.take(z, b.j, axis=0, out=w.zj[:r]), w.e[:r]
+            out = z[b.start:b.stop]
+            np.subtract(zj, zi, out=e)
+            if b.rigid:
+                np.multiply(e, geom.coef[n], out=e)
+            else:
+                loc.dyad_coefficient(e, geom.half_diff[n], geom.lik2[n], b.sign, w.w[:r], w.d2[:r], w.u[:r],
+                                     w.a[:r], w.b[:r])
+                np.multiply(e, w.w[:r], out=e)
+            np.add(zi, e, out=out)
     return z
 
 

@@ -56,6 +56,29 @@ def dyad(zi: np.ndarray, zj: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray
     return zi + w * e, DyadTerms(e, u, a, b, bsq, w)
 
 
+def dyad_coefficient(e: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray, sign: np.ndarray,
+                     w: np.ndarray, d2: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """w = A + iB of :func:`dyad`, computed into the given buffers (no allocation); returns ``w``.
+
+    ``e`` (R, T) complex input; ``w`` (R, T) complex and ``d2``, ``u``, ``a``, ``b`` (R, T)
+    real scratch buffers. NaN where the triangle cannot be closed.
+    """
+    np.multiply(e.real, e.real, out=d2)
+    np.multiply(e.imag, e.imag, out=u)
+    d2 += u
+    np.divide(1.0, d2, out=u)
+    np.multiply(half_diff, u, out=a)
+    a += 0.5
+    np.multiply(lik2, u, out=b)
+    np.multiply(a, a, out=d2)
+    b -= d2
+    np.sqrt(b, out=b)
+    b *= sign
+    w.real = a
+    w.imag = b
+    return w
+
+
 def dyad_velocity(t: DyadTerms, dzi: np.ndarray, dzj: np.ndarray, half_diff: np.ndarray,
                   lik2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """First derivative of a dyad: returns (dz_k, de, du, dw) for the second derivative."""
