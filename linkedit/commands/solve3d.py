@@ -1,0 +1,112 @@
+"""``linkedit solve3d``: solve a 3D mechanism spec over time; write HDF5 (and SVG)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from linkedit.commands.common import guard, print_json
+from linkedit.errors import InputError
+
+
+def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
+    """``[name=]member:x,y,z`` or ``[name=]member:point`` → (name, member, point)."""
+    name, eq, rest = text.partition("=")
+    if not eq:
+        name, rest = text, text
+    member, colon, point = rest.partition(":")
+    if not colon or not member or not point or "/" in name:
+        raise InputError(f"{text!r}: expected [name=]member:x,y,z or [name=]member:point", field="--track")
+    parts = point.split(",")
+    if len(parts) == 1:
+        return name, member, point
+    try:
+        xyz = tuple(float(p) for p in parts)
+    except ValueError:
+        xyz = ()
+    if len(xyz) != 3 or not all(abs(c) < float("inf") for c in xyz):
+        raise InputError(f"{text!r}: the point needs three finite coordinates x,y,z", field="--track")
+    return name, member, xyz  # type: ignore[return-value]
+
+
+def _add_tracks(res, tracks: list[str]) -> None:
+    import numpy as np
+
+    for text in tracks:
+        name, member, point = parse_track(text)
+        if isinstance(point, str):
+            pts = res.points.get(res.member_names[res.member_index(member)], {})
+            if point not in pts:
+                raise InputError(f"{text!r}: member {member!r} has no point {point!r}", field="--track")
+            point = pts[point]
+        res.add_track(name, member, np.asarray(point, dtype=float))
+
+
+def _line(res, out: Path, svg: Path | None) -> str:
+    s = res.summary()
+    st = s["status"]
+    text = (f"{res.name}: {s['steps']} steps, {s['members']} members, {s['constraints']} constraints; "
+            f"{st['converged']} converged")
+    if st["inconsistent"] or st["did not converge"]:
+        text += f", {st['inconsistent']} inconsistent, {st['did not converge']} did not converge"
+    text += f"; max residual {s['max_residual']:.2g}; dof {s['dof']}, redundant {s['redundant']}"
+    if s["redundant_constraints"]:
+        text += f" (redundant: {', '.join(s['redundant_constraints'])})"
+    text += f"\n  → {out}" + (f", {svg}" if svg else "")
+    return text
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    @guard
+    def solve3d(
+        spec: Path = typer.Argument(None, help="3D mechanism spec (YAML); not needed with --from."),
+        output: Path = typer.Option(None, "--output", "-o", help="Result .h5 [default: out/<spec>.h5; with --from: the same file]."),
+        svg: Path = typer.Option(None, "--svg", help="Draw shapes and output curves to this .svg."),
+        view: str = typer.Option("iso", "--view", help="SVG projection: xy, xz, yz or iso."),
+        velocity: bool = typer.Option(False, "--velocity", help="Draw velocity arrows on the curves."),
+        steps: int = typer.Option(None, "--steps", help="Time steps over t in [0, 1] [default: the spec's]."),
+        solver: str = typer.Option("lm", "--solver", help="lm (Gauss-Newton/Levenberg-Marquardt, analytic Jacobians) or slsqp-fd (the paper's: SLSQP, finite differences)."),
+        source: Path = typer.Option(None, "--from", help="Re-use the member states of a gcs result instead of solving."),
+        track: list[str] = typer.Option(None, "--track", help="Extra tracked point [name=]member:x,y,z (or member:point); repeatable."),
+        allow_python: bool = typer.Option(False, "--allow-python", help="Allow custom constraints that run Python code (python: module:function)."),
+        partial: bool = typer.Option(False, "--partial", help="Write the result even if some steps fail (their status says so)."),
+        as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+    ) -> None:
+        """Solve a 3D mechanism (members, constraints, inputs) at every time step."""
+        from linkedit.gcs import check_solved, read_result, solve_spec, write_result
+        from linkedit.gcs.solver import SOLVERS
+        from linkedit.spec.mechanism3d import MechanismSpec
+        from linkedit.spec.yamlload import load_model
+
+        if solver not in SOLVERS:
+            raise InputError(f"unknown solver {solver!r} (choose from {', '.join(SOLVERS)})", field="--solver")
+        if steps is not None and steps < 2:
+            raise InputError("needs at least 2 steps", field="--steps")
+        if view not in ("xy", "xz", "yz", "iso"):
+            raise InputError(f"unknown view {view!r} (choose from xy, xz, yz, iso)", field="--view")
+        if source is not None:
+            if spec is not None:
+                raise InputError("give a spec or --from RESULT.h5, not both", field="--from")
+            res = read_result(source)
+            out = output or source
+        else:
+            if spec is None:
+                raise InputError("missing SPEC (or --from RESULT.h5)", field="spec")
+            text = spec.read_text(encoding="utf-8") if spec.is_file() else None
+            model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
+            res = solve_spec(model, steps=steps, solver=solver, allow_python=allow_python, spec_text=text or "")
+            out = output or Path("out") / f"{spec.stem}.h5"
+            if not partial:
+                check_solved(res)
+        _add_tracks(res, track or [])
+        write_result(out, res)
+        if svg is not None:
+            from linkedit.gcs.svg import draw
+
+            draw(svg, res, view=view, velocity=velocity)
+        if as_json:
+            print_json(res.summary() | {"output": str(out), "svg": str(svg) if svg else None})
+        else:
+            typer.echo(_line(res, out, svg))

@@ -1,0 +1,177 @@
+"""Compile a :class:`~linkedit.spec.mechanism3d.MechanismSpec` into a :class:`System`.
+
+Members keep their spec order. Each named constraint (and each input) becomes one or more
+elementary constraints owned by its name: pin = location + axis, weld = location +
+orientation, a group = all its parts under the group's name. Defaults that refer to "the rest
+pose" (a weld's relative orientation, a pin's other axis, a rotation input's base) are taken
+from the members' spec positions and orientations.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from linkedit.errors import InputError
+from linkedit.gcs import quaternions as quat
+from linkedit.gcs.inputs import Schedule
+from linkedit.gcs.system import WORLD, Custom, Elementary, State, System
+from linkedit.spec import mechanism3d as ms
+
+
+@dataclass(frozen=True)
+class TrackDef:
+    """A tracked point: member index and member-space point (3,)."""
+
+    name: str
+    member: int
+    point: np.ndarray
+
+
+def orientation_quaternion(o: Any) -> np.ndarray:
+    """A spec orientation ([w, x, y, z] or axis + angle_deg) as a unit quaternion (4,)."""
+    if isinstance(o, ms.AxisAngle):
+        axis = np.asarray(o.axis, dtype=float)
+        return quat.from_axis_angle(axis / np.linalg.norm(axis), np.radians(o.angle_deg))
+    q = np.asarray(o, dtype=float)
+    return q / np.linalg.norm(q)
+
+
+def _unit(v: Any) -> tuple[float, float, float]:
+    a = np.asarray(v, dtype=float)
+    return tuple(a / np.linalg.norm(a))
+
+
+class _Builder:
+    def __init__(self, spec: ms.MechanismSpec, allow_python: bool) -> None:
+        self.spec = spec
+        self.allow_python = allow_python
+        self.index = {n: i for i, n in enumerate(spec.members)}
+        self.P0 = np.array([m.position for m in spec.members.values()], dtype=float).reshape(-1, 3)
+        self.Q0 = np.array([orientation_quaternion(m.orientation) for m in spec.members.values()]).reshape(-1, 4)
+        self.R0 = quat.to_matrix(self.Q0)
+        self.names: list[str] = []
+        self.is_input: list[bool] = []
+        self.elems: list[Elementary] = []
+        self.customs: list[Custom] = []
+
+    def point(self, member: str, ref: Any) -> tuple[float, float, float]:
+        if isinstance(ref, str):
+            return tuple(float(c) for c in self.spec.member_points(member)[ref])
+        return tuple(float(c) for c in ref)
+
+    def rest_relative(self, member: str, other: str) -> np.ndarray:
+        """The member's rest orientation in the other's frame: q_other⁻¹ ⊗ q_member."""
+        return quat.multiply(quat.conjugate(self.Q0[self.index[other]]), self.Q0[self.index[member]])
+
+    def axis_target(self, member: str, axis: tuple, other: str | None, given: Any) -> tuple[float, float, float]:
+        """A pin's world / other axis: as given, else the member axis's line at rest."""
+        if given is not None:
+            return _unit(given)
+        world = self.R0[self.index[member]] @ np.asarray(axis)
+        if other is None:
+            return tuple(world)
+        return tuple(self.R0[self.index[other]].T @ world)
+
+    def owner(self, name: str, is_input: bool = False) -> int:
+        self.names.append(name)
+        self.is_input.append(is_input)
+        return len(self.names) - 1
+
+    def add(self, kind: str, owner: int, member: str, other: str | None, **params: Any) -> None:
+        b = WORLD if other is None else self.index[other]
+        self.elems.append(Elementary(kind=kind, owner=owner, a=self.index[member], b=b, **params))
+
+    def constraint(self, c: Any, owner: int) -> None:
+        if isinstance(c, ms.Group):
+            for sub in c.constraints.values():
+                self.constraint(sub, owner)
+            return
+        if isinstance(c, ms.CustomC):
+            if not self.allow_python:
+                raise InputError("a custom constraint runs Python code: pass --allow-python to allow it",
+                                 field=("constraints", self.names[owner], "python"))
+            fn = ms.load_function(c.python, ("constraints", self.names[owner], "python"))
+            self.customs.append(Custom(owner=owner, members=tuple(self.index[m] for m in c.members),
+                                       fn=fn, size=c.size))
+            return
+        other = c.other
+        if isinstance(c, (ms.Location, ms.Pin, ms.Weld)):
+            sb = c.world if other is None else self.point(other, c.other_point)
+            self.add("location", owner, c.member, other, sa=self.point(c.member, c.point), sb=tuple(sb))
+        if isinstance(c, ms.Pin):
+            axis = _unit(c.axis)
+            target = self.axis_target(c.member, axis, other, c.world_axis if other is None else c.other_axis)
+            self.add("axis", owner, c.member, other, sa=axis, sb=target)
+        if isinstance(c, (ms.OrientationC, ms.Weld)):
+            world = c.world if isinstance(c, ms.OrientationC) else c.world_orientation
+            given = world if other is None else c.relative
+            if given is not None:
+                rel = orientation_quaternion(given)
+            elif other is None:
+                rel = self.Q0[self.index[c.member]]
+            else:
+                rel = self.rest_relative(c.member, other)
+            self.add("orientation", owner, c.member, other, rel=tuple(rel))
+        if isinstance(c, ms.AxisC):
+            self.add("axis", owner, c.member, other, sa=_unit(c.axis),
+                     sb=_unit(c.world if other is None else c.other_axis))
+        if isinstance(c, ms.OnPlane):
+            self.add("plane", owner, c.member, other, sa=self.point(c.member, c.point),
+                     sb=tuple(float(x) for x in c.plane.point), nb=_unit(c.plane.normal))
+
+    def input(self, inp: Any, owner: int) -> None:
+        t0, t1 = inp.window
+        other = inp.other
+        if isinstance(inp, ms.OrientationInput) and inp.rotation is not None:
+            rot = inp.rotation
+            if rot.base is not None:
+                base = orientation_quaternion(rot.base)
+            elif other is None:
+                base = self.Q0[self.index[inp.member]]
+            else:
+                base = self.rest_relative(inp.member, other)
+            values = np.radians(np.asarray(rot.angles_deg, dtype=float))
+            sched = dict(mode="rotation", values=values, axis=np.asarray(_unit(rot.axis)), base=base)
+            count = len(values)
+        elif isinstance(inp, ms.OrientationInput):
+            values = np.array([orientation_quaternion(o) for o in inp.keyframes])
+            sched = dict(mode="orientation", values=values)
+            count = len(values)
+        elif isinstance(inp, ms.AxisInput):
+            values = np.array([_unit(v) for v in inp.keyframes])
+            sched = dict(mode="direction", values=values)
+            count = len(values)
+        else:
+            values = np.asarray(inp.keyframes, dtype=float)
+            sched = dict(mode="vector", values=values)
+            count = len(values)
+        times = np.asarray(inp.times, dtype=float) if inp.times is not None else (
+            np.linspace(t0, t1, count) if count > 1 else np.array([t0]))
+        schedule = Schedule(window=(t0, t1), times=times, **sched)
+        first = schedule.evaluate(np.array([t0]))[0]
+        if isinstance(inp, ms.OrientationInput):
+            self.add("orientation", owner, inp.member, other, rel=tuple(first), schedule=schedule)
+        elif isinstance(inp, ms.AxisInput):
+            self.add("axis", owner, inp.member, other, sa=_unit(inp.axis), sb=tuple(first), schedule=schedule)
+        else:
+            self.add("location", owner, inp.member, other, sa=self.point(inp.member, inp.point),
+                     sb=tuple(first), schedule=schedule)
+
+
+def compile_mechanism(spec: ms.MechanismSpec, allow_python: bool = False) -> tuple[System, list[TrackDef]]:
+    """The compiled system and the tracked points of a spec."""
+    b = _Builder(spec, allow_python)
+    for name, c in spec.constraints.items():
+        b.constraint(c, b.owner(name))
+    for name, inp in spec.inputs.items():
+        b.input(inp, b.owner(name, is_input=True))
+    points = {m: {p: np.asarray(v, dtype=float) for p, v in spec.member_points(m).items()} for m in spec.members}
+    system = System.build(list(spec.members), State(b.P0, b.Q0), b.names, b.elems, b.customs,
+                          constraint_inputs=b.is_input, points=points,
+                          lines={m: spec.member_lines(m) for m in spec.members})
+    tracks = [TrackDef(name, b.index[tr.member], np.asarray(b.point(tr.member, tr.point)))
+              for name, tr in spec.outputs.tracks.items()]
+    return system, tracks

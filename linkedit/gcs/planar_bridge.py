@@ -1,0 +1,230 @@
+"""Planar linkages through the 3D solver: the "numeric kinematics" engine.
+
+Each link becomes a member (origin at its first joint, identity orientation, its joints as
+shape points at z = 0). A joint shared by links becomes pins (location + axis z) from the
+first link holding it to each other one; a ground joint pins every link holding it to the
+world. The motor is an orientation input on the crank: a turn about z from the rest pose,
+one revolution over t ∈ [0, 1) (or the spec's ``range_deg`` sweep). Each step is solved from
+the previous ones (:func:`linkedit.gcs.solver.solve_run`).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from linkedit.errors import MechanismError
+from linkedit.gcs import quaternions as quat
+from linkedit.gcs.inputs import Schedule
+from linkedit.gcs.solver import CONVERGED, STATUS_NAMES, Options, Run, solve_run
+from linkedit.gcs.system import WORLD, Elementary, State, System
+from linkedit.spec.linkage import JointTrack, LinkageSpec
+
+if TYPE_CHECKING:
+    from linkedit.planar import Motion, Plan
+
+
+@dataclass(frozen=True)
+class PlanarModel:
+    """A linkage as a 3D system: where each joint is read from (member and member point)."""
+
+    system: System
+    joint_names: list[str]
+    joint_member: np.ndarray  #: (J,) member carrying each joint, −1 for a ground joint
+    joint_point: np.ndarray  #: (J, 3) member-space point (world point for ground joints)
+    motor_rest_angle: float
+    direction: float
+    range_rad: tuple[float, float] | None
+    track_names: list[str]
+    track_member: np.ndarray  #: (K,) member carrying each tracked point, −1 on the ground
+    track_point: np.ndarray  #: (K, 3)
+
+
+@dataclass
+class NumericMotion:
+    """Joint positions over the motor cycle and the solver's per-step diagnostics."""
+
+    t: np.ndarray  #: (T,) motor phase
+    motor_angle: np.ndarray  #: (T,) absolute motor angle, radians
+    positions: np.ndarray  #: (T, J, 2)
+    tracks: np.ndarray  #: (T, K, 2) tracked points in spec order
+    out_of_plane: np.ndarray  #: (T,) largest |z| of any joint (0 for a consistent solve)
+    status: np.ndarray  #: (T,) 0 converged, 1 inconsistent, 2 did not converge
+    residual: np.ndarray  #: (T,) residual norm
+    iterations: np.ndarray  #: (T,) linear solves per step
+    factorizations: np.ndarray  #: (T,)
+    seconds: float  #: wall time of the solve loop
+    run: Run
+
+    @property
+    def ms_per_step(self) -> float:
+        return 1e3 * self.seconds / max(self.t.size, 1)
+
+
+def planar_model(spec: LinkageSpec) -> PlanarModel:
+    """Build the 3D system of a planar linkage (see module docstring)."""
+    joints = list(spec.joints)
+    jindex = {n: i for i, n in enumerate(joints)}
+    rest = np.array([spec.joints[n] for n in joints], dtype=float)
+    ground = set(spec.ground)
+    links = [(name, members) for name, members in spec.links.items() if not all(j in ground for j in members)]
+    names = [name for name, _ in links]
+    origin = np.array([rest[jindex[members[0]]] for _, members in links]).reshape(-1, 2)
+    P0 = np.column_stack([origin, np.zeros(len(links))])
+    Q0 = np.tile([1.0, 0.0, 0.0, 0.0], (len(links), 1))
+
+    def local(li: int, joint: str) -> tuple[float, float, float]:
+        x, y = rest[jindex[joint]] - origin[li]
+        return (float(x), float(y), 0.0)
+
+    cnames: list[str] = []
+    elems: list[Elementary] = []
+    z = (0.0, 0.0, 1.0)
+
+    def pin(label: str, a: int, sa: tuple, b: int, sb: tuple) -> None:
+        cnames.append(label)
+        owner = len(cnames) - 1
+        elems.append(Elementary("location", owner, a, b, sa=sa, sb=sb))
+        elems.append(Elementary("axis", owner, a, b, sa=z, sb=z))
+
+    holders: dict[str, list[int]] = {}
+    for li, (_, members) in enumerate(links):
+        for j in members:
+            holders.setdefault(j, []).append(li)
+    joint_member = np.full(len(joints), -1)
+    joint_point = np.zeros((len(joints), 3))
+    for j, held in holders.items():
+        ji = jindex[j]
+        if j in ground:
+            joint_point[ji] = (*rest[ji], 0.0)
+            for li in held:
+                pin(f"pin {j} ({names[li]}–ground)", li, local(li, j), WORLD, (*rest[ji], 0.0))
+        else:
+            joint_member[ji] = held[0]
+            joint_point[ji] = local(held[0], j)
+            for li in held[1:]:
+                pin(f"pin {j} ({names[held[0]]}–{names[li]})", held[0], local(held[0], j), li, local(li, j))
+    for g in spec.ground:
+        joint_point[jindex[g]] = (*rest[jindex[g]], 0.0)
+
+    crank = next(li for li, (_, m) in enumerate(links) if spec.motor.joint in m and spec.motor.pivot in m)
+    sign = 1.0 if spec.motor.direction == "ccw" else -1.0
+    if spec.motor.range_deg is None:
+        window_angles = (0.0, 2.0 * np.pi)
+    else:
+        window_angles = tuple(np.radians(spec.motor.range_deg))
+    cnames.append(f"motor {spec.motor.joint} about {spec.motor.pivot}")
+    schedule = Schedule(mode="rotation", window=(0.0, 1.0), times=np.array([0.0, 1.0]),
+                        values=sign * np.array(window_angles), axis=np.array(z), base=Q0[crank])
+    first = schedule.evaluate(np.zeros(1))[0]
+    elems.append(Elementary("orientation", len(cnames) - 1, crank, WORLD, rel=tuple(first), schedule=schedule))
+    arm = rest[jindex[spec.motor.joint]] - rest[jindex[spec.motor.pivot]]
+    track_member, track_point = [], []
+    for track in spec.tracks.values():
+        if isinstance(track, JointTrack):
+            track_member.append(joint_member[jindex[track.joint]])
+            track_point.append(joint_point[jindex[track.joint]])
+        elif track.link in names:
+            li = names.index(track.link)
+            track_member.append(li)
+            track_point.append((*(np.asarray(track.at) - origin[li]), 0.0))
+        else:  # a point on the ground link
+            track_member.append(-1)
+            track_point.append((*track.at, 0.0))
+    system = System.build(names, State(P0, Q0), cnames, elems,
+                          constraint_inputs=[False] * (len(cnames) - 1) + [True])
+    return PlanarModel(system=system, joint_names=joints, joint_member=joint_member, joint_point=joint_point,
+                       motor_rest_angle=float(np.arctan2(arm[1], arm[0])), direction=sign,
+                       range_rad=None if spec.motor.range_deg is None else window_angles,
+                       track_names=list(spec.tracks), track_member=np.array(track_member, dtype=int),
+                       track_point=np.array(track_point, dtype=float).reshape(-1, 3))
+
+
+def point_positions(member: np.ndarray, point: np.ndarray, position: np.ndarray,
+                    orientation: np.ndarray) -> np.ndarray:
+    """World positions (T, K, 3) of member points (K,), (K, 3) (member −1: a world point)."""
+    T = position.shape[0]
+    out = np.broadcast_to(point, (T,) + point.shape).copy()
+    moving = member >= 0
+    m = member[moving]
+    R = quat.to_matrix(orientation[:, m])
+    out[:, moving] = position[:, m] + np.einsum("tjab,jb->tja", R, point[moving])
+    return out
+
+
+def simulate_numeric(spec: LinkageSpec, t: np.ndarray, options: Options | None = None,
+                     model: PlanarModel | None = None) -> NumericMotion:
+    """Simulate a planar linkage at motor phases ``t`` (T,) with the 3D solver.
+
+    Raises :class:`MechanismError` naming the unsatisfied constraint and the motor angle when
+    the linkage cannot be assembled at some step.
+    """
+    model = model or planar_model(spec)
+    t = np.asarray(t, dtype=float)
+    system = model.system
+    start = time.perf_counter()
+    run = solve_run(system, t, options)
+    seconds = time.perf_counter() - start
+    if model.range_rad is None:
+        angle = model.motor_rest_angle + model.direction * 2.0 * np.pi * t
+    else:
+        a, b = model.range_rad
+        angle = model.motor_rest_angle + model.direction * (a + (b - a) * t)
+    bad = np.flatnonzero(run.status != CONVERGED)
+    if bad.size:
+        k = int(bad[0])
+        costs = system.costs(run.residual[k])
+        worst = system.constraint_names[int(np.argmax(costs))]
+        raise MechanismError(
+            f"{spec.name}: the linkage cannot be assembled at motor angle {np.degrees(angle[k]):.1f}° "
+            f"({STATUS_NAMES[run.status[k]]}): constraint '{worst}' is off by {np.sqrt(costs.max()):.3g}")
+    xyz = point_positions(model.joint_member, model.joint_point, run.position, run.orientation)
+    tracks = point_positions(model.track_member, model.track_point, run.position, run.orientation)
+    return NumericMotion(
+        t=t, motor_angle=angle, positions=xyz[..., :2], tracks=tracks[..., :2],
+        out_of_plane=np.abs(xyz[..., 2]).max(axis=1),
+        status=run.status, residual=np.linalg.norm(run.residual, axis=1), iterations=run.iterations,
+        factorizations=run.factorizations, seconds=seconds, run=run)
+
+
+def numeric_motion(plan: "Plan", samples: int | None = None) -> "Motion":
+    """A :class:`linkedit.planar.Motion` computed by the numeric engine (``simulate --engine numeric``).
+
+    Positions come from the solver; velocities and accelerations (per radian of motor angle)
+    are three-point parabola derivatives of the solved samples (wrapping around a full
+    revolution), not the closed-form derivatives of the symbolic engine. The singularity
+    distance, transmission angle and triangle orientation are measured on the solved positions.
+    """
+    from linkedit.gcs.outputs import velocity
+    from linkedit.planar.diagnostics import transmission_angle, triangle_orientation
+    from linkedit.planar.simulate import DEFAULT_SAMPLES, Motion, Track, motor_angles
+
+    spec = plan.spec
+    samples = samples or spec.samples or DEFAULT_SAMPLES
+    t, angle = motor_angles(spec, samples)
+    nm = simulate_numeric(spec, t)
+    period = plan.direction * 2.0 * np.pi if spec.motor.range_deg is None else None
+    # an unwrapped angle (a range sweep includes both ends; a revolution does not repeat t = 1)
+    x = np.asarray(angle, dtype=float)
+
+    def derivatives(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        flat = p.reshape(p.shape[0], -1)
+        v = velocity(x, flat, cyclic=False, period=period) if samples >= 3 else np.zeros_like(flat)
+        a = velocity(x, v, cyclic=False, period=period) if samples >= 3 else np.zeros_like(flat)
+        return v.reshape(p.shape), a.reshape(p.shape)
+
+    vel, acc = derivatives(nm.positions)
+    tv, ta = derivatives(nm.tracks)
+    rules = plan.rules
+    with np.errstate(invalid="ignore"):
+        transmission = transmission_angle(nm.positions, rules)
+        orientation = triangle_orientation(nm.positions, rules)
+    singularity = np.where(plan.rigid[None, :], 1.0, np.sin(transmission) ** 2)
+    tracks = {name: Track(position=nm.tracks[:, i], velocity=tv[:, i], acceleration=ta[:, i])
+              for i, name in enumerate(spec.tracks)}
+    return Motion(plan=plan, t=t, motor_angle=angle, positions=nm.positions, velocity=vel, acceleration=acc,
+                  tracks=tracks, singularity=singularity, orientation=orientation, transmission=transmission,
+                  assembled=np.ones(t.size, dtype=bool))

@@ -1,0 +1,160 @@
+"""A solved 3D mechanism over time, and its HDF5 file (kind="gcs", ``specs/gcs-hdf5.md``).
+
+The member states are stored, so new tracked points are evaluated from them without solving
+again (:meth:`GcsResult.add_track`).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from linkedit.errors import InputError
+from linkedit.gcs.diagnostics import Diagnostics
+from linkedit.gcs.outputs import is_closed, track_positions, velocity
+from linkedit.gcs.solver import STATUS_NAMES
+
+KIND = "gcs"
+
+
+@dataclass
+class Track3D:
+    """A tracked member point: position and velocity (T, 3), d/dt with t ∈ [0, 1]."""
+
+    member: str
+    point: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    cyclic: bool
+
+
+@dataclass
+class GcsResult:
+    """Member states, tracks and diagnostics of a solved run (T steps, M members, C constraints)."""
+
+    name: str
+    units: str
+    t: np.ndarray
+    member_names: list[str]
+    position: np.ndarray  #: (T, M, 3)
+    orientation: np.ndarray  #: (T, M, 4) unit quaternions [w, x, y, z], member → world
+    constraint_names: list[str]
+    constraint_inputs: np.ndarray  #: (C,) bool
+    diagnostics: Diagnostics
+    iterations: np.ndarray  #: (T,)
+    points: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+    lines: dict[str, list[list[str]]] = field(default_factory=dict)
+    tracks: dict[str, Track3D] = field(default_factory=dict)
+    spec_text: str = ""
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def member_index(self, member: str) -> int:
+        if member not in self.member_names:
+            raise InputError(f"unknown member {member!r} (members: {', '.join(self.member_names)})", field="--track")
+        return self.member_names.index(member)
+
+    def add_track(self, name: str, member: str, point: np.ndarray) -> Track3D:
+        """Evaluate a member point (3,) at every stored step; no solving."""
+        m = self.member_index(member)
+        p = track_positions(self.position, self.orientation, m, point)
+        closed = is_closed(p)
+        track = Track3D(member=member, point=np.asarray(point, dtype=float), position=p,
+                        velocity=velocity(self.t, p, cyclic=closed), cyclic=closed)
+        self.tracks[name] = track
+        return track
+
+    def summary(self) -> dict[str, Any]:
+        d = self.diagnostics
+        counts = {n: int(np.sum(d.status == i)) for i, n in enumerate(STATUS_NAMES)}
+        out: dict[str, Any] = {
+            "name": self.name, "steps": int(self.t.size), "members": len(self.member_names),
+            "constraints": len(self.constraint_names), "status": counts,
+            "max_residual": float(d.residual.max(initial=0.0)),
+            "dof": sorted({int(x) for x in d.dof}), "redundant": sorted({int(x) for x in d.redundant}),
+            "redundant_constraints": list(d.redundant_names),
+            "iterations_per_step": float(self.iterations.mean()) if self.iterations.size else 0.0,
+            "tracks": {n: {"member": tr.member, "point": tr.point.tolist(), "cyclic": tr.cyclic,
+                           "min": tr.position.min(axis=0).tolist(), "max": tr.position.max(axis=0).tolist(),
+                           "max_speed": float(np.linalg.norm(tr.velocity, axis=1).max())}
+                       for n, tr in self.tracks.items()},
+        }
+        return out
+
+
+def write_result(path: str | Path, res: GcsResult) -> None:
+    """Write atomically (see ``specs/gcs-hdf5.md``)."""
+    from linkedit.io.hdf5 import put, result_file
+
+    u = res.units
+    with result_file(path, kind=KIND, units=u, spec_text=res.spec_text, options=res.options) as f:
+        f.attrs["name"] = res.name
+        put(f, "t", res.t, description="time in [0, 1]")
+        m = f.create_group("members")
+        put(m, "names", res.member_names)
+        put(m, "position", res.position, units=u, description="member origin in the world")
+        put(m, "orientation", res.orientation, convention="unit quaternion [w, x, y, z], member to world")
+        shapes = m.create_group("shapes")
+        for name in res.member_names:
+            pts = res.points.get(name, {})
+            g = shapes.create_group(name)
+            put(g, "points", np.array(list(pts.values()), dtype=float).reshape(-1, 3), units=u,
+                names=json.dumps(list(pts)))
+            g.attrs["lines"] = json.dumps(res.lines.get(name, []))
+        c = f.create_group("constraints")
+        put(c, "names", res.constraint_names)
+        put(c, "is_input", res.constraint_inputs.astype(bool))
+        put(c, "cost", res.diagnostics.costs, description="per constraint: |p1-p2|^2, theta^2 (orientation, axis), d^2")
+        tr = f.create_group("tracks")
+        for name, track in res.tracks.items():
+            g = tr.create_group(name)
+            put(g, "position", track.position, units=u)
+            put(g, "velocity", track.velocity, units=f"{u}/t", description="d position / d t, t in [0, 1]")
+            g.attrs["member"] = track.member
+            g.attrs["point"] = track.point
+            g.attrs["cyclic"] = track.cyclic
+        d = f.create_group("diagnostics")
+        dg = res.diagnostics
+        put(d, "status", dg.status.astype(np.int8), codes=json.dumps(dict(enumerate(STATUS_NAMES))))
+        put(d, "residual", dg.residual, description="residual norm, sqrt of the summed costs")
+        put(d, "dof", dg.dof, description="degrees of freedom left: 6M - rank(J)")
+        put(d, "redundant", dg.redundant, description="redundant equations: independent equations - rank(J)")
+        put(d, "iterations", res.iterations)
+        put(d, "unsatisfied", [", ".join(n) for n in dg.unsatisfied])
+        d.attrs["redundant_constraints"] = json.dumps(dg.redundant_names)
+
+
+def read_result(path: str | Path) -> GcsResult:
+    """Read a kind="gcs" result file."""
+    from linkedit.io.hdf5 import open_result, strings
+
+    with open_result(path, kind=KIND) as f:
+        try:
+            names = strings(f["members/names"])
+            points, lines = {}, {}
+            for name in names:
+                g = f[f"members/shapes/{name}"]
+                pts = g["points"][()]
+                points[name] = dict(zip(json.loads(g["points"].attrs["names"]), pts))
+                lines[name] = json.loads(g.attrs["lines"])
+            d = f["diagnostics"]
+            diag = Diagnostics(status=d["status"][()], residual=d["residual"][()], dof=d["dof"][()],
+                               redundant=d["redundant"][()], costs=f["constraints/cost"][()],
+                               unsatisfied=[[x for x in s.split(", ") if x] for s in strings(d["unsatisfied"])],
+                               redundant_names=json.loads(d.attrs.get("redundant_constraints", "[]")))
+            tracks = {}
+            for name, g in f["tracks"].items():
+                tracks[name] = Track3D(member=str(g.attrs["member"]), point=np.asarray(g.attrs["point"]),
+                                       position=g["position"][()], velocity=g["velocity"][()],
+                                       cyclic=bool(g.attrs["cyclic"]))
+            return GcsResult(
+                name=str(f.attrs["name"]), units=str(f.attrs["units"]), t=f["t"][()], member_names=names,
+                position=f["members/position"][()], orientation=f["members/orientation"][()],
+                constraint_names=strings(f["constraints/names"]), constraint_inputs=f["constraints/is_input"][()],
+                diagnostics=diag, iterations=d["iterations"][()], points=points, lines=lines, tracks=tracks,
+                spec_text=str(f.attrs["spec"]), options=json.loads(f.attrs["options"]))
+        except KeyError as exc:
+            raise InputError(f"not a complete gcs result: missing {exc}", file=str(path)) from None

@@ -1,0 +1,115 @@
+"""Every analytic Jacobian of the 3D solver against central finite differences."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from linkedit.gcs import quaternions as quat
+from linkedit.gcs.system import WORLD, Custom, Elementary, State, System
+
+
+def _random_state(rng, M):
+    return State(rng.normal(size=(M, 3)), quat.normalize(rng.normal(size=(M, 4))))
+
+
+def _fd_jacobian(system, state, table, h=1e-6):
+    N = system.n_unknowns
+    J = np.zeros((system.n_rows, N))
+    for i in range(N):
+        d = np.zeros(N)
+        d[i] = h
+        J[:, i] = (system.evaluate(state.moved(d), table, 0).r - system.evaluate(state.moved(-d), table, 0).r) / (2 * h)
+    return J
+
+
+def _unit(rng):
+    return tuple(quat.normalize(rng.normal(size=3)))
+
+
+def _elementary(kind, rng, b):
+    v = lambda: tuple(rng.normal(size=3))  # noqa: E731
+    if kind == "location":
+        return Elementary("location", 0, 0, b, sa=v(), sb=v())
+    if kind == "orientation":
+        return Elementary("orientation", 0, 0, b, rel=tuple(quat.normalize(rng.normal(size=4))))
+    if kind == "axis":
+        return Elementary("axis", 0, 0, b, sa=_unit(rng), sb=_unit(rng))
+    return Elementary("plane", 0, 0, b, sa=v(), sb=v(), nb=_unit(rng))
+
+
+@pytest.mark.parametrize("relative", [False, True], ids=["fixed", "relative"])
+@pytest.mark.parametrize("kind", ["location", "orientation", "axis", "plane"])
+@pytest.mark.parametrize("seed", range(4))
+def test_jacobian_matches_finite_differences(kind, relative, seed):
+    rng = np.random.default_rng(seed)
+    state = _random_state(rng, 2)
+    system = System.build(["a", "b"], state, ["c"], [_elementary(kind, rng, 1 if relative else WORLD)])
+    table = system.step_table(np.zeros(1))
+    J = system.dense_jacobian(system.evaluate(state, table, 0, jacobian=True))
+    fd = _fd_jacobian(system, state, table)
+    assert np.abs(J - fd).max() < 1e-7 * max(1.0, np.abs(J).max())
+    if not relative:
+        assert np.all(J[:, 6:] == 0)  # member b is not involved
+
+
+def test_axis_jacobian_near_alignment_and_large_angles():
+    """The axis residual θ·n uses series near θ = 0; check there and at obtuse angles."""
+    rng = np.random.default_rng(7)
+    for angle in (1e-6, 1e-4, 0.5, 2.0, 3.0):
+        ua = np.array([0.0, 0.0, 1.0])
+        axis = _unit(rng)
+        ub = quat.rotate(quat.from_axis_angle(np.cross(ua, axis) / np.linalg.norm(np.cross(ua, axis)), angle), ua)
+        state = State(np.zeros((1, 3)), np.array([[1.0, 0, 0, 0]]))
+        system = System.build(["a"], state, ["c"], [Elementary("axis", 0, 0, WORLD, sa=tuple(ua), sb=tuple(ub))])
+        table = system.step_table(np.zeros(1))
+        ev = system.evaluate(state, table, 0, jacobian=True)
+        assert np.isclose(np.linalg.norm(ev.r), angle, rtol=1e-9)  # |r| is the angle: cost = arccos²
+        fd = _fd_jacobian(system, state, table, h=1e-7 if angle < 1e-3 else 1e-6)
+        assert np.abs(system.dense_jacobian(ev) - fd).max() < 1e-6
+
+
+def test_custom_constraint_finite_difference_jacobian():
+    """A custom residual without its own Jacobian gets central differences; with one, it is used."""
+    def distance(P, Q, t):
+        return np.array([np.sum((P[0] - P[1]) ** 2) - 4.0])
+
+    def distance_jac(P, Q, t):
+        d = P[0] - P[1]
+        return np.concatenate([2 * d, np.zeros(3), -2 * d, np.zeros(3)])[None, :]
+
+    rng = np.random.default_rng(3)
+    state = _random_state(rng, 2)
+    for jac in (None, distance_jac):
+        system = System.build(["a", "b"], state, ["c"], [], [Custom(0, (0, 1), distance, 1, jac)])
+        table = system.step_table(np.zeros(1))
+        J = system.dense_jacobian(system.evaluate(state, table, 0, jacobian=True))
+        assert np.abs(J - _fd_jacobian(system, state, table)).max() < 1e-6
+
+
+def test_normal_equations_match_dense_products():
+    """JᵀJ and Jᵀr assembled from the groups (dense and sparse plans) equal the dense products."""
+    from linkedit.gcs import linalg
+
+    rng = np.random.default_rng(11)
+    M = 4
+    state = _random_state(rng, M)
+    elems = [_elementary(k, rng, WORLD) for k in ("location", "axis")]
+    elems += [Elementary(k, 0, a, b, **p) for k, a, b, p in [
+        ("location", 0, 1, dict(sa=(1, 0, 0), sb=(0, 1, 0))), ("axis", 1, 2, dict(sa=_unit(rng), sb=_unit(rng))),
+        ("orientation", 2, 3, dict(rel=(1, 0, 0, 0))), ("plane", 3, 0, dict(sa=(0, 0, 1), sb=(1, 1, 1), nb=_unit(rng)))]]
+    system = System.build(list("abcd"), state, ["c"], elems)
+    table = system.step_table(np.zeros(1))
+    ev = system.evaluate(state, table, 0, jacobian=True)
+    J = system.dense_jacobian(ev)
+    for sparse_above in (1000, 1):
+        old = linalg.SPARSE_ABOVE
+        linalg.SPARSE_ABOVE = sparse_above
+        try:
+            ne = linalg.NormalEquations(system.groups, M)
+        finally:
+            linalg.SPARSE_ABOVE = old
+        assert np.allclose(ne.gradient(ev.jac, ev.r), J.T @ ev.r, atol=1e-12)
+        g = rng.normal(size=6 * M)
+        x = ne.factor(ne.matrix_data(ev.jac), 0.0, 1e-3).solve(g)
+        assert np.allclose((J.T @ J + 1e-3 * np.eye(6 * M)) @ x, g, atol=1e-9)
