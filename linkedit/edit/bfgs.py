@@ -70,6 +70,9 @@ def minimize(energy: Energy, x0: np.ndarray, *, max_iterations: int = 500, max_s
                 break
             alpha *= 0.5
         if not accepted:
+            if scaled:  # the curvature model may be stale: retry once from steepest descent
+                H, scaled = np.eye(n), False
+                continue
             converged = True  # no feasible decrease along the search direction: a minimum to precision
             break
         s, y = x_new - x, g_new - g
