@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from linkedit.spec.schema import available_formats, schema_text
+from linkedit.spec.schema import PAGES, available_formats, schema_text
 from tests.conftest import ROOT
 
 
@@ -20,4 +20,6 @@ def test_schema_file_matches_model(name):
 
 @pytest.mark.parametrize("name", sorted(available_formats()))
 def test_every_format_has_a_reference_page(name):
-    assert (ROOT / "specs" / f"{name}.md").is_file()
+    page = ROOT / "specs" / f"{PAGES.get(name, name)}.md"
+    assert page.is_file()
+    assert f"{name}.schema.json" in page.read_text() or name == PAGES.get(name, name)

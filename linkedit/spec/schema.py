@@ -8,13 +8,17 @@ from pathlib import Path
 
 from linkedit.io.atomic import write_text
 
-#: format name → "module:Model". Each format's reference page is ``specs/<name>.md``.
+#: format name → "module:Model". Each format's reference page is ``specs/<page>.md`` (PAGES).
 FORMATS = {
     "linkage": "linkedit.spec.linkage:LinkageSpec",
     "edit-script": "linkedit.spec.edit_script:EditScript",
     "mechanism3d": "linkedit.spec.mechanism3d:MechanismSpec",
     "curve-set": "linkedit.spec.curveset:CurveSet",
+    "curve-weights": "linkedit.spec.curveset:CurveWeights",
+    "curve-pairs": "linkedit.spec.curveset:LabelledPairs",
 }
+#: formats documented on another format's page
+PAGES = {"curve-weights": "curve-set", "curve-pairs": "curve-set"}
 
 
 def available_formats() -> dict[str, type]:

@@ -1,0 +1,298 @@
+"""``linkedit features`` and ``linkedit compare-curves``: motion-curve descriptors and distances."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from linkedit.commands.common import guard, print_json
+from linkedit.errors import InputError
+
+SAMPLES_HELP = "Points per resampled curve [default: 64, or the weights file's]."
+CLOSED_HELP = "Treat every curve as closed (cyclic) or open [default: detected from the ends, or declared]."
+
+
+def _anchor(text: str | None) -> Any:
+    if text is None:
+        return None
+    import numpy as np
+
+    try:
+        values = np.array([float(v) for v in text.split(",")])
+    except ValueError:
+        raise InputError(f"expected X,Y or X,Y,Z, got {text!r}", field="--anchor") from None
+    if len(values) not in (2, 3) or not np.isfinite(values).all():
+        raise InputError(f"expected 2 or 3 finite numbers, got {text!r}", field="--anchor")
+    return values
+
+
+def _load(inputs: list[str], closed: bool | None, samples: int | None, harmonics: int | None, anchor: str | None,
+          curves: list | None = None):
+    """Load (unless ``curves`` are given) and describe curves."""
+    from linkedit.curves.compare import describe_curves
+    from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES
+    from linkedit.curves.sources import load_inputs
+
+    if curves is None:
+        curves = load_inputs(inputs, closed=closed)
+    desc = describe_curves(curves, samples=samples or DEFAULT_SAMPLES, harmonics=harmonics or DEFAULT_HARMONICS,
+                           anchor=_anchor(anchor))
+    return curves, desc
+
+
+def _feature_rows(curves: list, desc: Any) -> list[dict[str, Any]]:
+    rows = []
+    for i, c in enumerate(curves):
+        values = {n: float(v) for n, v in zip(desc.names, desc.features[i])}
+        values["self_intersections"] = int(values["self_intersections"])
+        rows.append({"name": c.name, "origin": c.origin, "closed": bool(c.closed), "points": len(c.points)} | values)
+    return rows
+
+
+def _write_features(out: Path, curves: list, desc: Any, options: dict[str, Any]) -> None:
+    from linkedit.io.atomic import write_text
+
+    rows = _feature_rows(curves, desc)
+    suffix = out.suffix.lower()
+    if suffix == ".json":
+        write_text(out, json.dumps(rows, indent=2, allow_nan=False) + "\n")
+    elif suffix == ".csv":
+        import csv
+        import io
+
+        buf = io.StringIO()
+        writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+        write_text(out, buf.getvalue())
+    elif suffix in (".h5", ".hdf5"):
+        _write_features_h5(out, curves, desc, options)
+    else:
+        raise InputError(f"{out}: unknown output type (use .h5, .csv or .json)", field="--output")
+
+
+def _write_features_h5(out: Path, curves: list, desc: Any, options: dict[str, Any]) -> None:
+    import numpy as np
+
+    from linkedit.io.hdf5 import put, result_file
+
+    units = {c.units for c in curves}
+    norm = desc.normalized
+    with result_file(out, kind="curve-features", units=units.pop() if len(units) == 1 and None not in units else "",
+                     spec_text="", options=options) as f:
+        put(f, "names", [c.name for c in curves])
+        put(f, "origin", [c.origin for c in curves])
+        put(f, "closed", np.array([c.closed for c in curves]))
+        put(f, "features", desc.features, columns=json.dumps(list(desc.names)),
+            description="per-curve features; lengths in units of the major extent, angles in rad")
+        put(f, "normalized", norm.points, units="major extent",
+            description="resampled curves: centred, principal frame, scaled by the major extent")
+        put(f, "turning", desc.turning, units="rad", description="turning angle at every resampled point")
+        put(f, "efd", desc.efd, columns=json.dumps(["a", "b", "c", "d"]),
+            description="normalized elliptic Fourier descriptors, harmonics 1..H")
+        put(f, "centroid", norm.centroid, description="wire centroid, input units")
+        put(f, "frame", norm.frame, description="principal axes as columns (proper rotation)")
+        put(f, "scale", norm.scale, description="major extent, input units")
+
+
+def _print_table(rows: list[dict[str, Any]]) -> None:
+    cols = [k for k in rows[0] if k != "origin"]
+
+    def cell(v: Any) -> str:
+        return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+    cells = [[cell(r[c]) for c in cols] for r in rows]
+    widths = [max(len(c), *(len(row[k]) for row in cells)) + 2 for k, c in enumerate(cols)]
+    typer.echo("".join(c.ljust(w) for c, w in zip(cols, widths)).rstrip())
+    for row in cells:
+        typer.echo("".join(v.ljust(w) for v, w in zip(row, widths)).rstrip())
+
+
+def _load_weights(path: Path | None, overrides: list[str]) -> tuple[dict[str, float] | None, int | None, int | None]:
+    """Weights from a file (+ --weight term=value overrides), and the samples/harmonics it asks for."""
+    weights, samples, harmonics = None, None, None
+    if path is not None:
+        from linkedit.spec.curveset import CurveWeights
+        from linkedit.spec.yamlload import load_model
+
+        spec = load_model(CurveWeights, path)
+        weights, samples, harmonics = dict(spec.weights), spec.samples, spec.harmonics
+    for item in overrides:
+        name, sep, value = item.partition("=")
+        try:
+            w = float(value)
+        except ValueError:
+            w = -1.0
+        if not sep or not name.strip() or not (w >= 0 and w < float("inf")):
+            raise InputError(f"expected TERM=WEIGHT with a weight ≥ 0, got {item!r}", field="--weight")
+        if weights is None:
+            weights = {}
+        weights[name.strip()] = w
+    return weights, samples, harmonics
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    @guard
+    def features(
+        inputs: list[str] = typer.Argument(..., help="Curves: result.h5:track, result.h5, .csv, curve-set .yaml, folders."),
+        output: Path = typer.Option(None, "--output", "-o", help="Write the table: .h5, .csv or .json [default: print it]."),
+        samples: int = typer.Option(None, "--samples", "-n", min=8, max=4096, help=SAMPLES_HELP),
+        harmonics: int = typer.Option(None, "--harmonics", min=1, max=64, help="Elliptic Fourier harmonics [default: 10]."),
+        closed: bool = typer.Option(None, "--closed/--open", help=CLOSED_HELP),
+        anchor: str = typer.Option(None, "--anchor", help="X,Y[,Z]: anchor point (e.g. the crank axle) for curves without one."),
+        as_json: bool = typer.Option(False, "--json", help="Print the table as JSON."),
+    ) -> None:
+        """Per-curve features of normalized motion curves (one row per curve)."""
+        curves, desc = _load(inputs, closed, samples, harmonics, anchor)
+        if output is not None:
+            options = {"samples": int(desc.points.shape[1]), "harmonics": int(desc.efd.shape[1]), "inputs": inputs}
+            _write_features(output, curves, desc, options)
+            typer.echo(f"{len(curves)} curves → {output}")
+        elif as_json:
+            print_json(_feature_rows(curves, desc))
+        else:
+            _print_table(_feature_rows(curves, desc))
+
+    @app.command("compare-curves")
+    @guard
+    def compare_curves(
+        inputs: list[str] = typer.Argument(None, help="Curves to compare with one another (as for `features`)."),
+        query: str = typer.Option(None, "--query", help="Rank the --library curves by distance to this curve."),
+        library: list[str] = typer.Option(None, "--library", help="Library curves (files or folders; repeatable)."),
+        weights_file: Path = typer.Option(None, "--weights", help="Weights YAML (specs/curve-set.md) [default: all 1]."),
+        weight: list[str] = typer.Option(None, "--weight", help="TERM=WEIGHT, overrides the file (repeatable)."),
+        learn_pairs: Path = typer.Option(None, "--learn-weights", help="Labelled pairs YAML: fit the weights, write them to -o."),
+        output: Path = typer.Option(None, "--output", "-o", help="Weights YAML written by --learn-weights."),
+        samples: int = typer.Option(None, "--samples", "-n", min=8, max=4096, help=SAMPLES_HELP),
+        harmonics: int = typer.Option(None, "--harmonics", min=1, max=64, help="Elliptic Fourier harmonics [default: 10]."),
+        closed: bool = typer.Option(None, "--closed/--open", help=CLOSED_HELP),
+        anchor: str = typer.Option(None, "--anchor", help="X,Y[,Z]: anchor point for curves without one."),
+        top: int = typer.Option(10, "--top", min=1, help="How many library curves to list with --query."),
+        svg: Path = typer.Option(None, "--svg", help="Overlay of the normalized curves (aligned to the first / the query)."),
+        as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
+    ) -> None:
+        """Distances between motion curves, each one's nearest neighbour, or a library ranked against a query."""
+        if learn_pairs is not None:
+            if inputs or query or library:
+                raise InputError("--learn-weights takes its curves from the pairs file", field="--learn-weights")
+            _learn(learn_pairs, output, samples, harmonics, closed, as_json)
+            return
+        if output is not None:
+            raise InputError("-o is for the weights written by --learn-weights", field="--output")
+        weights, w_samples, w_harmonics = _load_weights(weights_file, weight or [])
+        samples, harmonics = samples or w_samples, harmonics or w_harmonics
+        if query is not None or library:
+            if query is None or not library or inputs:
+                raise InputError("ranking needs --query and --library (and no other curves)", field="--query")
+            _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json)
+            return
+        if not inputs:
+            raise InputError("give curves to compare, or --query and --library", field="INPUT")
+        _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json)
+
+
+def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json) -> None:
+    from linkedit.curves.compare import distances, resolve_weights
+    from linkedit.curves.distance import nearest
+
+    curves, desc = _load(inputs, closed, samples, harmonics, anchor)
+    if len(curves) < 2:
+        raise InputError("compare-curves needs at least 2 curves", field="INPUT")
+    w = resolve_weights(desc, weights)
+    dist, _ = distances(desc, w)
+    near = nearest(dist)
+    names = [c.name for c in curves]
+    rows = [{"curve": names[i], "nearest": names[j], "distance": float(dist[i, j])} for i, j in enumerate(near)]
+    if svg is not None:
+        _overlay(svg, names, desc, 0, "curves aligned to " + names[0])
+    if as_json:
+        print_json({"curves": names, "weights": w, "distance": dist, "nearest": rows})
+        return
+    width = max(len(n) for n in names) + 2
+    typer.echo(" " * width + "".join(f"{i:>10d}" for i in range(len(names))))
+    for i, name in enumerate(names):
+        typer.echo(f"{i:>3d} {name}".ljust(width + 4)[: width + 4] + "".join(f"{v:>10.4f}" for v in dist[i]))
+    typer.echo("nearest neighbours:")
+    for r in rows:
+        typer.echo(f"  {r['curve']} → {r['nearest']} ({r['distance']:.4f})")
+
+
+def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json) -> None:
+    import numpy as np
+
+    from linkedit.curves.compare import distances, resolve_weights
+
+    from linkedit.curves.sources import load_inputs
+
+    queried = load_inputs([query], closed=closed)
+    if len(queried) != 1:
+        raise InputError(f"the query holds {len(queried)} curves; name one (result.h5:track)", field="--query")
+    curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed))
+    w = resolve_weights(desc, weights)
+    dist, terms = distances(desc.take([0]), w, desc.take(range(1, len(curves))))
+    order = np.argsort(dist[0], kind="stable")[:top]
+    ranking = [{"rank": k + 1, "curve": curves[1 + i].name, "origin": curves[1 + i].origin,
+                "distance": float(dist[0, i]), "terms": {t: float(m[0, i]) for t, m in terms.items()}}
+               for k, i in enumerate(order)]
+    if svg is not None:
+        chosen = [0] + [1 + int(i) for i in order]
+        _overlay(svg, [curves[i].name for i in chosen], desc.take(chosen), 0, f"library ranked against {curves[0].name}",
+                 labels=[f"query: {curves[0].name}"] + [f"{r['rank']}. {r['curve']} ({r['distance']:.4f})" for r in ranking])
+    if as_json:
+        print_json({"query": curves[0].name, "weights": w, "ranking": ranking})
+        return
+    typer.echo(f"query {curves[0].name}: {len(curves) - 1} library curves, nearest first")
+    for r in ranking:
+        typer.echo(f"{r['rank']:>4d}. {r['curve']}  {r['distance']:.4f}")
+
+
+def _overlay(path: Path, names: list[str], desc: Any, reference: int, title: str, labels: list[str] | None = None) -> None:
+    from linkedit.curves.distance import align
+    from linkedit.curves.svg import overlay
+    from linkedit.io.atomic import write_text
+
+    pts = align(desc.points[reference], bool(desc.closed[reference]), desc.points, desc.closed)
+    write_text(path, overlay(names, pts, desc.closed, title=title, highlight=reference, labels=labels))
+
+
+def _learn(pairs_path: Path, output: Path | None, samples, harmonics, closed, as_json) -> None:
+    from linkedit.curves.compare import describe_curves, learn
+    from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES
+    from linkedit.curves.sources import load_inputs
+    from linkedit.io.atomic import write_text
+    from linkedit.spec.curveset import LabelledPairs
+    from linkedit.spec.yamlload import load_yaml, validate
+
+    if output is None:
+        raise InputError("--learn-weights needs -o WEIGHTS.yaml", field="--output")
+    file = str(pairs_path)
+    data, lines = load_yaml(pairs_path)
+    spec = validate(LabelledPairs, data, file=file, lines=lines)
+    samples = samples or spec.samples or DEFAULT_SAMPLES
+    harmonics = harmonics or spec.harmonics or DEFAULT_HARMONICS
+    curves = load_inputs([str(pairs_path.parent / c) for c in spec.curves], closed=closed)
+    desc = describe_curves(curves, samples=samples, harmonics=harmonics)
+    try:
+        fit = learn(desc, [c.name for c in curves], list(spec.similar), list(spec.dissimilar),
+                    regularization=spec.regularization, terms=spec.terms, file=file)
+    except InputError as exc:
+        if exc.file == file and exc.line is None:
+            exc.line = lines.line_of(exc.field)
+        raise
+    summary = (f"similar pairs: distance ≤ {fit.similar.max():.4g} (mean {fit.similar.mean():.4g}); "
+               f"dissimilar pairs: distance ≥ {fit.dissimilar.min():.4g}; "
+               + ("separated" if fit.separated else "NOT separated"))
+    body = {"description": f"learned by linkedit compare-curves --learn-weights {pairs_path.name}: {summary}",
+            "samples": samples, "harmonics": harmonics, "weights": {k: round(v, 12) for k, v in fit.weights.items()}}
+    import yaml
+
+    write_text(output, yaml.safe_dump(body, sort_keys=False, allow_unicode=True, width=100))
+    if as_json:
+        print_json(body | {"similar": fit.similar, "dissimilar": fit.dissimilar, "separated": fit.separated})
+    else:
+        typer.echo(summary)
+        typer.echo(f"weights → {output}")

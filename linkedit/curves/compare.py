@@ -1,0 +1,97 @@
+"""The comparison workflow behind ``linkedit features`` and ``linkedit compare-curves``.
+
+Loaded curves → one :class:`~linkedit.curves.descriptors.Descriptors` → term matrices → weighted
+distance, nearest neighbours, rankings and learned weights.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES, Descriptors, describe_ragged
+from linkedit.curves.distance import term_distances, term_names, weighted
+from linkedit.curves.learn import Inseparable, LearnedWeights, learn_weights
+from linkedit.curves.sources import Curve
+from linkedit.errors import InputError
+
+
+def describe_curves(curves: list[Curve], *, samples: int = DEFAULT_SAMPLES, harmonics: int = DEFAULT_HARMONICS,
+                    anchor: np.ndarray | None = None) -> Descriptors:
+    """Describe loaded curves (all 2D or all 3D); ``anchor`` applies to curves without their own."""
+    dims = {c.points.shape[1] for c in curves}
+    if len(dims) > 1:
+        two = next(c for c in curves if c.points.shape[1] == 2)
+        three = next(c for c in curves if c.points.shape[1] == 3)
+        raise InputError(f"2D and 3D curves cannot be compared together ({two.name} is 2D, {three.name} is 3D)",
+                         file=three.origin)
+    dim = dims.pop()
+    if anchor is not None and len(anchor) != dim:
+        raise InputError(f"a {len(anchor)}D anchor for {dim}D curves", field="--anchor")
+    anchors = [c.anchor if c.anchor is not None else anchor for c in curves]
+    if any(a is None for a in anchors) and any(a is not None for a in anchors):
+        missing = next(c for c, a in zip(curves, anchors) if a is None)
+        raise InputError("some curves have an anchor and this one has none (give --anchor for the rest)",
+                         file=missing.origin)
+    return describe_ragged([c.points for c in curves], [c.closed for c in curves], samples=samples,
+                           harmonics=harmonics, anchors=None if anchors[0] is None else anchors)
+
+
+def resolve_weights(desc: Descriptors, weights: Mapping[str, float] | None, *, field: str = "--weights") -> dict[str, float]:
+    """The weights of every term of ``desc`` (default all 1); terms of another kind of curve are an error."""
+    terms = term_names(desc)
+    if weights is None:
+        return dict.fromkeys(terms, 1.0)
+    for name in weights:
+        if name not in terms:
+            raise InputError(f"term {name!r} does not apply to these curves (their terms: {', '.join(terms)})",
+                             field=(field, name))
+    out = {name: float(weights.get(name, 0.0)) for name in terms}
+    if not any(out.values()):
+        raise InputError("every weight is 0", field=field)
+    return out
+
+
+def distances(desc: Descriptors, weights: Mapping[str, float],
+              other: Descriptors | None = None) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Weighted distance matrix (C, C) of ``desc`` (or (C, C') against ``other``) and the term matrices."""
+    terms = term_distances(desc, other)
+    return weighted(terms, weights), terms
+
+
+def learn(desc: Descriptors, names: list[str], similar: list[tuple[str, str]], dissimilar: list[tuple[str, str]], *,
+          regularization: float, terms: list[str] | None, file: str) -> LearnedWeights:
+    """Fit weights from pairs of curve names (errors name the pair's field in ``file``)."""
+    available = term_names(desc)
+    chosen = list(terms) if terms is not None else list(available)
+    for i, name in enumerate(chosen):
+        if name not in available:
+            raise InputError(f"term {name!r} does not apply to these curves", file=file, field=("terms", i))
+    index = {n: i for i, n in enumerate(names)}
+
+    def pairs(items: list[tuple[str, str]], label: str) -> np.ndarray:
+        out = np.empty((len(items), 2), dtype=int)
+        for k, pair in enumerate(items):
+            for j, name in enumerate(pair):
+                if name not in index:
+                    raise InputError(f"unknown curve {name!r} (curves: {', '.join(names)})", file=file,
+                                     field=(label, k, j))
+                out[k, j] = index[name]
+            if out[k, 0] == out[k, 1]:
+                raise InputError("a pair of a curve with itself", file=file, field=(label, k))
+        return out
+
+    sim, dis = pairs(similar, "similar"), pairs(dissimilar, "dissimilar")
+    used = np.unique(np.concatenate([sim.ravel(), dis.ravel()]))
+    local = np.full(len(names), -1)
+    local[used] = np.arange(len(used))
+    mats = term_distances(desc.take(used))
+    table = np.stack([mats[t] for t in chosen], axis=-1)  # (U, U, T)
+    try:
+        return learn_weights(chosen, table[local[sim[:, 0]], local[sim[:, 1]]],
+                             table[local[dis[:, 0]], local[dis[:, 1]]], regularization)
+    except Inseparable as exc:
+        a, b = dissimilar[exc.index]
+        raise InputError(f"{a} and {b} do not differ in any term: no weights can separate them", file=file,
+                         field=("dissimilar", exc.index)) from None

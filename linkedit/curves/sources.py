@@ -1,0 +1,251 @@
+"""Where curves come from: tracks of linkedit results, CSV files and YAML curve sets.
+
+An input is written as on the command line:
+
+* ``result.h5:foot`` — track ``foot`` of a result (``/tracks/foot/position``, (T, 2) or (T, 3));
+  ``result.h5`` alone — every track of the file;
+* ``path.csv`` — columns x, y[, z] and optionally t (a header names them; without a header,
+  2 or 3 numeric columns are x, y[, z]); rows are ordered by t when it is given;
+* ``set.yaml`` — a curve set (``specs/curve-set.md``); ``set.yaml:circle`` — one curve of it;
+* a folder — every .h5/.hdf5, .csv and .yaml/.yml file in it.
+
+Every curve is checked: finite numbers, at least 3 distinct points, a positive length.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from linkedit.errors import InputError
+
+HDF5_SUFFIXES = (".h5", ".hdf5")
+YAML_SUFFIXES = (".yaml", ".yml")
+#: A curve is closed when its end lies this close to its start, relative to the bounding-box
+#: diagonal, or within 1.5 median steps.
+CLOSE_GAP = 0.05
+
+
+@dataclass(frozen=True)
+class Curve:
+    """One motion curve as read, in input units."""
+
+    name: str
+    points: np.ndarray  #: (M, D), D = 2 or 3, consecutive duplicates removed
+    closed: bool
+    origin: str  #: the file (and track) it was read from
+    anchor: np.ndarray | None = None  #: (D,) an anchor point (e.g. the crank axle), input units
+    units: str | None = None
+
+
+def load_inputs(inputs: list[str], *, closed: bool | None = None) -> list[Curve]:
+    """Read every input (see the module docstring); names are made unique."""
+    curves: list[Curve] = []
+    for text in inputs:
+        curves += _load_one(str(text), closed)
+    return _unique_names(curves)
+
+
+def _load_one(text: str, closed: bool | None) -> list[Curve]:
+    path, track = _split_track(text)
+    if path.is_dir():
+        files = sorted(p for p in path.iterdir() if p.suffix.lower() in HDF5_SUFFIXES + YAML_SUFFIXES + (".csv",))
+        if not files:
+            raise InputError("no .h5, .csv or .yaml curve files in this folder", file=str(path))
+        return [c for f in files for c in _load_one(str(f), closed)]
+    if not path.is_file():
+        raise InputError("no such file", file=str(path))
+    suffix = path.suffix.lower()
+    if suffix in HDF5_SUFFIXES:
+        return read_tracks(path, None if track is None else [track], closed=closed)
+    if suffix in YAML_SUFFIXES:
+        curves = read_curve_set(path, closed=closed)
+        if track is None:
+            return curves
+        chosen = [c for c in curves if c.name == track]
+        if not chosen:
+            raise InputError(f"unknown curve {track!r}; the set has: {', '.join(c.name for c in curves)}",
+                             file=str(path), field=("curves",))
+        return chosen
+    if track is not None:
+        raise InputError(f"':{track}' selects a track of a result or a curve of a set; this is neither", file=str(path))
+    if suffix == ".csv":
+        return [read_csv(path, closed=closed)]
+    raise InputError("unknown curve file type (use .h5 results, .csv or .yaml curve sets)", file=str(path))
+
+
+def _split_track(text: str) -> tuple[Path, str | None]:
+    """``result.h5:foot`` → (result.h5, "foot"), ``set.yaml:circle`` likewise; anything else → (path, None)."""
+    head, sep, tail = text.rpartition(":")
+    if sep and Path(head).suffix.lower() in HDF5_SUFFIXES + YAML_SUFFIXES and "/" not in tail and "\\" not in tail:
+        return Path(head), tail
+    return Path(text), None
+
+
+def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = None) -> list[Curve]:
+    """Tracks of a result file; ``names=None`` reads all of them."""
+    import h5py
+
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise InputError(f"cannot open as HDF5: {exc}", file=str(path)) from None
+    with f:
+        group = f.get("tracks")
+        if not isinstance(group, h5py.Group) or not len(group):
+            raise InputError("no tracks in this file (expected /tracks/<name>/position)", file=str(path))
+        available = sorted(group)
+        units = f.attrs.get("units")
+        out = []
+        for name in names or available:
+            if name not in group:
+                raise InputError(f"unknown track {name!r}; the file has: {', '.join(available)}", file=str(path),
+                                 field=("tracks", name))
+            field = ("tracks", name, "position")
+            data = group[name].get("position")
+            if not isinstance(data, h5py.Dataset) or data.ndim != 2 or data.shape[1] not in (2, 3):
+                raise InputError("expected a (T, 2) or (T, 3) dataset", file=str(path), field=field)
+            points = np.asarray(data[()], dtype=float)
+            bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
+            if bad.size:
+                raise InputError(f"{bad.size} samples are not finite (first at sample {bad[0]}; did the "
+                                 f"mechanism lock up?)", file=str(path), field=field)
+            out.append(make_curve(f"{path.stem}:{name}", points, closed=closed, origin=f"{path}:{name}",
+                                  file=str(path), field=field, units=None if units is None else str(units)))
+    return out
+
+
+def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
+    """One curve from a CSV file (columns x, y[, z], optional t)."""
+    file = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise InputError("not a UTF-8 text file", file=file) from None
+    rows = [(i + 1, r) for i, r in enumerate(csv.reader(io.StringIO(text)))
+            if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
+    if not rows:
+        raise InputError("the file has no data", file=file)
+    line, first = rows[0]
+    header = [c.strip().lower() for c in first]
+    if all(_is_number(c) for c in header):
+        if len(header) not in (2, 3):
+            raise InputError(f"{len(header)} columns without a header; give x, y[, z] or a header line", file=file,
+                             line=line)
+        columns = ["x", "y", "z"][: len(header)]
+    else:
+        columns = header
+        rows = rows[1:]
+        for name in columns:
+            if name not in ("x", "y", "z", "t"):
+                raise InputError(f"unknown column {name!r} (use x, y, z, t)", file=file, line=line, field=name)
+        if len(set(columns)) != len(columns) or "x" not in columns or "y" not in columns:
+            raise InputError("the header must name x and y once each (and optionally z, t)", file=file, line=line)
+    values = np.empty((len(rows), len(columns)))
+    for r, (line, row) in enumerate(rows):
+        if len(row) != len(columns):
+            raise InputError(f"{len(row)} values, expected {len(columns)}", file=file, line=line)
+        for c, cell in enumerate(row):
+            try:
+                values[r, c] = float(cell)
+            except ValueError:
+                raise InputError(f"not a number: {cell.strip()!r}", file=file, line=line, field=columns[c]) from None
+            if not np.isfinite(values[r, c]):
+                raise InputError(f"not a finite number: {cell.strip()!r}", file=file, line=line,
+                                 field=columns[c]) from None
+    if "t" in columns:
+        values = values[np.argsort(values[:, columns.index("t")], kind="stable")]
+    points = values[:, [columns.index(a) for a in ("x", "y", "z") if a in columns]]
+    return make_curve(path.stem, points, closed=closed, origin=file, file=file)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def read_curve_set(path: Path, *, closed: bool | None = None) -> list[Curve]:
+    """The curves of a YAML curve set; sources are relative to the set's folder."""
+    from linkedit.spec.curveset import CurveSet
+    from linkedit.spec.yamlload import load_yaml, validate
+
+    data, lines = load_yaml(path)
+    spec = validate(CurveSet, data, file=str(path), lines=lines)
+    out = []
+    for i, entry in enumerate(spec.curves):
+        flag = closed if closed is not None else entry.closed
+        if entry.points is not None:
+            field = ("curves", i, "points")
+            curve = make_curve(entry.name, np.asarray(entry.points, dtype=float), closed=flag,
+                               origin=f"{path}:{entry.name}", file=str(path), field=field,
+                               line=lines.line_of(field), units=spec.units)
+        else:
+            loaded = _load_one(str(path.parent / entry.source), flag)
+            if len(loaded) != 1:
+                field = ("curves", i, "source")
+                raise InputError(f"source {entry.source!r} holds {len(loaded)} curves; name one track "
+                                 "(result.h5:track)", file=str(path), field=field, line=lines.line_of(field))
+            curve = loaded[0]
+        anchor = None if entry.anchor is None else np.asarray(entry.anchor, dtype=float)
+        if anchor is not None and anchor.shape != curve.points.shape[1:]:
+            field = ("curves", i, "anchor")
+            raise InputError(f"a {anchor.size}D anchor for a {curve.points.shape[1]}D curve", file=str(path),
+                             field=field, line=lines.line_of(field))
+        out.append(Curve(entry.name, curve.points, curve.closed, curve.origin, anchor, curve.units or spec.units))
+    return out
+
+
+def make_curve(name: str, points: np.ndarray, *, closed: bool | None, origin: str, file: str | None = None,
+               field: tuple[str | int, ...] | None = None, line: int | None = None, units: str | None = None) -> Curve:
+    """Check and clean points (M, D): finite, ≥ 3 distinct points, positive length; decide closedness."""
+    where = dict(file=file or origin, field=field, line=line)
+    points = np.asarray(points, dtype=float)
+    if points.ndim != 2 or points.shape[1] not in (2, 3):
+        raise InputError(f"expected points with 2 or 3 coordinates, got shape {points.shape}", **where)
+    if not np.isfinite(points).all():
+        raise InputError("the points contain NaN or infinite values", **where)
+    keep = np.ones(len(points), dtype=bool)
+    keep[1:] = np.any(points[1:] != points[:-1], axis=1)
+    points = points[keep]
+    distinct = len(np.unique(points, axis=0))
+    if distinct == 1:
+        raise InputError("degenerate curve: all points coincide (zero length)", **where)
+    if distinct < 3:
+        raise InputError(f"a curve needs at least 3 distinct points, this one has {distinct}", **where)
+    looped = bool(np.all(points[-1] == points[0]))
+    if closed is None:
+        closed = looped or is_closed(points)
+    if looped and closed:
+        points = points[:-1]
+    return Curve(name, points, bool(closed), origin, None, units)
+
+
+def is_closed(points: np.ndarray) -> bool:
+    """Whether the end meets the start: gap ≤ 5% of the bounding-box diagonal or ≤ 1.5 median steps."""
+    gap = float(np.linalg.norm(points[-1] - points[0]))
+    diagonal = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+    step = float(np.median(np.linalg.norm(np.diff(points, axis=0), axis=1)))
+    return gap <= CLOSE_GAP * diagonal or gap <= 1.5 * step
+
+
+def _unique_names(curves: list[Curve]) -> list[Curve]:
+    """Curves sharing a name are renamed after their origin (and numbered if still equal)."""
+    counts: dict[str, int] = {}
+    for c in curves:
+        counts[c.name] = counts.get(c.name, 0) + 1
+    renamed = [c if counts[c.name] == 1 else Curve(c.origin, c.points, c.closed, c.origin, c.anchor, c.units)
+               for c in curves]
+    seen: dict[str, int] = {}
+    out = []
+    for c in renamed:
+        seen[c.name] = seen.get(c.name, 0) + 1
+        out.append(c if seen[c.name] == 1 else Curve(f"{c.name}#{seen[c.name]}", c.points, c.closed, c.origin,
+                                                     c.anchor, c.units))
+    return out
