@@ -9,13 +9,13 @@
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 
 import numpy as np
 
 from linkedit.curves.descriptors import describe
 from linkedit.curves.distance import aligned_rms, term_distances
+from linkedit.timing import best_time
 
 FEATURES_TARGET = 20_000  # curves / s
 MATRIX_TARGET = 3.0  # s for 1,000 × 1,000
@@ -29,17 +29,6 @@ def random_curves(count: int, points: int = 360, seed: int = 0) -> np.ndarray:
     basis = np.concatenate([np.cos(np.outer(t, k)), np.sin(np.outer(t, k))], axis=1)
     coeff = rng.normal(size=(count, 8, 2)) / np.concatenate([k, k])[None, :, None] ** 1.5
     return np.einsum("mk,ckd->cmd", basis, coeff)
-
-
-def best_time(fn: Callable[[], object], repeats: int) -> float:
-    """Best wall time of ``repeats`` calls (after one warm-up call)."""
-    fn()
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def direct_rms(a: np.ndarray) -> np.ndarray:

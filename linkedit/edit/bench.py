@@ -16,9 +16,9 @@ import numpy as np
 from linkedit.edit.objectives import build_problem
 from linkedit.edit.runner import pair_lengths, run_script
 from linkedit.planar import catalog
-from linkedit.planar.bench import best_time
 from linkedit.planar.plan import compile_plan
 from linkedit.spec.edit_script import EditScript
+from linkedit.timing import best_time
 
 JANSEN_KNEE = {"samples": 120, "lock": ["O"], "operations": [
     {"name": "move knee, keep gait", "preserve": ["foot"], "displace": {"joint": "C", "to": [-20, 36]}}]}
@@ -43,8 +43,8 @@ def gradient_ratio(spec, budget: float) -> tuple[float, float, float]:
     x = plan.graph.rest.copy()
     problem = build_problem(plan, script, script.operations[0], x, plan.geometry().rest_angle, pair_lengths(plan, x))
     v = x[problem.free]
-    e_only = best_time(lambda: problem.energy(v, with_gradient=False), budget)
-    e_grad = best_time(lambda: problem.energy(v), budget)
+    e_only = best_time(lambda: problem.energy(v, with_gradient=False), budget_s=budget)
+    e_grad = best_time(lambda: problem.energy(v), budget_s=budget)
     return e_only * 1e6, e_grad * 1e6, e_grad / e_only
 
 

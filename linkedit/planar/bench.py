@@ -7,7 +7,6 @@
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 
 import numpy as np
@@ -16,21 +15,9 @@ from linkedit.planar import catalog
 from linkedit.planar.kinematics import Workspace, evaluate, positions
 from linkedit.planar.plan import compile_plan
 from linkedit.planar.simulate import motor_angles
+from linkedit.timing import best_time
 
 TARGETS_360 = {"Jansen leg": 0.3, "Strandbeest 3 pairs": 0.7, "Strandbeest 10 pairs": 1.5}
-
-
-def best_time(fn: Callable[[], object], budget_s: float) -> float:
-    """Best wall time of one call, repeating for about ``budget_s`` seconds."""
-    fn()
-    best = np.inf
-    end = time.perf_counter() + budget_s
-    while True:
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-        if time.perf_counter() > end:
-            return best
 
 
 def run(echo: Callable[[str], None], quick: bool = False) -> None:
@@ -44,7 +31,7 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
         for samples in (360, 1):
             angle = motor_angles(spec, samples)[1]
             work = Workspace(plan, samples)
-            pos = best_time(lambda: positions(plan, geom, angle, work), budget) / samples * 1e6
-            full = best_time(lambda: evaluate(plan, geom, angle, order=2), budget) / samples * 1e6
+            pos = best_time(lambda: positions(plan, geom, angle, work), budget_s=budget) / samples * 1e6
+            full = best_time(lambda: evaluate(plan, geom, angle, order=2), budget_s=budget) / samples * 1e6
             target = f"≤ {TARGETS_360[name]}" if samples == 360 else ""
             echo(f"{name:<22}{plan.n_joints:>7}{int(plan.level.max()):>7}  {samples:>7}  {pos:>18.3f}  {full:>21.3f}  {target}")
