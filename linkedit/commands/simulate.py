@@ -9,7 +9,7 @@ from typing import Any
 import typer
 
 from linkedit.commands.common import guard, print_json
-from linkedit.errors import InputError, LinkeditError
+from linkedit.errors import InputError, LinkeditError, MechanismError
 
 
 def _outputs(specs: list[Path], out: Path | None, svg: Path | None, animate: bool) -> list[tuple[Path, Path | None]]:
@@ -40,13 +40,16 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
 
     text = spec_path.read_text(encoding="utf-8") if spec_path.is_file() else None
     spec = load_model(LinkageSpec, spec_path, text)
-    plan = compile_plan(spec)
-    if engine == "numeric":
-        from linkedit.gcs.planar_bridge import numeric_motion
+    try:
+        plan = compile_plan(spec)
+        if engine == "numeric":
+            from linkedit.gcs.planar_bridge import numeric_motion
 
-        motion = numeric_motion(plan, samples)
-    else:
-        motion = simulate(plan, samples, partial=partial)
+            motion = numeric_motion(plan, samples)
+        else:
+            motion = simulate(plan, samples, partial=partial)
+    except MechanismError as exc:
+        raise MechanismError(f"{spec_path}: {exc}") from None
     options = {"samples": int(motion.t.size), "engine": engine, "partial": partial}
     write_motion(h5, motion, spec_text=text or "", options=options)
     result = {"spec": str(spec_path), "output": str(h5)} | motion.summary()
@@ -59,7 +62,8 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
 
 
 def _line(r: dict[str, Any]) -> str:
-    parts = [f"{r['spec']}: {r['samples']} samples, {r['rules']} rules in {r['levels']} levels"]
+    samples = f"{r['samples']} sample" + ("s" if r["samples"] != 1 else "")
+    parts = [f"{r['spec']}: {samples}, {r['rules']} rules in {r['levels']} levels"]
     if "min_singularity" in r:
         m = r["min_singularity"]
         parts.append(f"min d_s {m['value']:.4f} (joint {m['joint']} at {m['motor_angle_deg']:.1f}°)")
@@ -98,8 +102,7 @@ def register(app: typer.Typer) -> None:
             except LinkeditError as exc:
                 if len(specs) == 1:
                     raise
-                message = str(exc) if str(exc).startswith(str(spec_path)) else f"{spec_path}: {exc}"
-                typer.echo(f"linkedit: error: {message}", err=True)
+                typer.echo(f"linkedit: error: {exc}", err=True)
                 r = {"spec": str(spec_path), "error": str(exc), "exit_code": exc.exit_code}
                 worst = max(worst, exc.exit_code)
             results.append(r)
