@@ -106,10 +106,70 @@ def test_normal_equations_match_dense_products():
         old = linalg.SPARSE_ABOVE
         linalg.SPARSE_ABOVE = sparse_above
         try:
-            ne = linalg.NormalEquations(system.groups, M)
+            ne = linalg.NormalEquations(system.groups, M, system.n_rows)
         finally:
             linalg.SPARSE_ABOVE = old
-        assert np.allclose(ne.gradient(ev.jac, ev.r), J.T @ ev.r, atol=1e-12)
+        lin = ne.linearize(ev.jac)
+        assert np.allclose(lin.gradient(ev.r), J.T @ ev.r, atol=1e-12)
         g = rng.normal(size=6 * M)
-        x = ne.factor(ne.matrix_data(ev.jac), 0.0, 1e-3).solve(g)
+        x = ne.factor(lin.data, 0.0, 1e-3).solve(g)
         assert np.allclose((J.T @ J + 1e-3 * np.eye(6 * M)) @ x, g, atol=1e-9)
+
+
+def test_sparse_factorization_reuses_its_ordering_and_reorders_for_new_nonzeros():
+    """A kept ordering gives the same solutions; a pattern with new nonzeros gets a new ordering."""
+    from linkedit.gcs import linalg
+
+    rng = np.random.default_rng(5)
+    M = 4
+    planar = State(np.column_stack([rng.normal(size=(M, 2)), np.zeros(M)]),
+                   quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), rng.uniform(0, 6, M)))
+    z = (0.0, 0.0, 1.0)
+    elems = [Elementary(k, 0, a, b, sa=sa, sb=sb) for a, b in [(0, WORLD), (0, 1), (1, 2), (2, 3), (3, WORLD)]
+             for k, sa, sb in [("location", (1.0, 0.0, 0.0), (0.0, 0.5, 0.0)), ("axis", z, z)]]
+    system = System.build(list("abcd"), planar, ["c"], elems)
+    table = system.step_table(np.zeros(1))
+    old = linalg.SPARSE_ABOVE
+    linalg.SPARSE_ABOVE = 1
+    try:
+        ne = linalg.NormalEquations(system.groups, M, system.n_rows)
+    finally:
+        linalg.SPARSE_ABOVE = old
+    spatial = State(planar.position + rng.normal(size=(M, 3)) * 0.1, quat.normalize(rng.normal(size=(M, 4))))
+    orderings = []
+    for state in (planar, planar.moved(0.01 * np.tile([1.0, 1.0, 0.0, 0.0, 0.0, 1.0], M)), spatial):
+        ev = system.evaluate(state, table, 0, jacobian=True)
+        J = system.dense_jacobian(ev)
+        g = rng.normal(size=6 * M)
+        x = ne.factor(ne.linearize(ev.jac).data, 0.0, 1e-3).solve(g)
+        assert np.allclose((J.T @ J + 1e-3 * np.eye(6 * M)) @ x, g, atol=1e-9)
+        orderings.append(ne.ordering)
+    # the planar pattern (in-plane and out-of-plane unknowns decoupled) is kept for the second
+    # planar state; the spatial state couples them: a new ordering
+    assert orderings[1] is orderings[0] and orderings[2] is not orderings[1]
+    assert orderings[2].pattern.sum() > orderings[0].pattern.sum()
+
+
+def test_input_outside_its_window_adds_nothing_and_driven_points_follow_their_schedule():
+    from linkedit.gcs.inputs import Schedule
+
+    rng = np.random.default_rng(9)
+    state = _random_state(rng, 1)
+    schedule = Schedule(mode="vector", window=(0.25, 0.75), times=np.array([0.25, 0.75]),
+                        values=np.array([[0.0, 0.0, 0.0], [1.0, 2.0, 0.0]]))
+    elems = [Elementary("axis", 0, 0, WORLD, sa=(0.0, 0.0, 1.0), sb=(0.0, 0.0, 1.0)),
+             Elementary("location", 1, 0, WORLD, sa=(1.0, 0.0, 0.0), sb=(0.0, 0.0, 0.0), schedule=schedule)]
+    system = System.build(["m"], state, ["pin axis", "drive"], elems)
+    t = np.array([0.0, 0.5, 1.0])
+    table = system.step_table(t)
+    tip = state.position[0] + quat.rotate(state.orientation[0], np.array([1.0, 0.0, 0.0]))
+    drive = system.row_owner == 1
+    for k in range(3):
+        ev = system.evaluate(state, table, k, jacobian=True)
+        J = system.dense_jacobian(ev)
+        if k == 1:
+            assert np.allclose(ev.r[drive], tip - [0.5, 1.0, 0.0], atol=1e-14)
+            assert np.abs(J[drive]).max() > 0.5
+        else:
+            assert np.all(ev.r[drive] == 0.0) and np.all(J[drive] == 0.0)
+        assert np.abs(ev.r[~drive]).max() > 1e-3  # the axis constraint is always active

@@ -79,3 +79,17 @@ def test_schedule_window_and_slerp():
     assert np.allclose(mid, quat.from_axis_angle(np.array([0, 1.0, 0]), np.pi / 4))
     v = Schedule(mode="vector", window=(0.0, 1.0), times=np.array([0.0, 0.5, 1.0]), values=np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0.0]]))
     assert np.allclose(v.evaluate(np.array([0.25, 0.75])), [[0.5, 0, 0], [1, 0.5, 0]])
+
+
+def test_turned_is_a_second_order_rotation_increment():
+    """q turned by v agrees with exp(v) ⊗ q up to O(|v|³), stays a unit quaternion."""
+    rng = np.random.default_rng(4)
+    q = quat.normalize(rng.normal(size=(20, 4)))
+    direction = quat.normalize(rng.normal(size=(20, 3)))
+    errors = []
+    for size in (1e-2, 1e-3):
+        v = size * direction
+        turned = quat.turned(q, v)
+        assert np.allclose(np.linalg.norm(turned, axis=1), 1.0, atol=1e-15)
+        errors.append(np.abs(turned - quat.multiply(quat.exp(v), q)).max())
+    assert errors[0] < 1e-6 and errors[1] < errors[0] / 500  # third order: 1000× per decade

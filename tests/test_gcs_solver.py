@@ -109,3 +109,15 @@ def test_slsqp_fd_option_reduces_the_cost():
     _, r_lm, info_lm = Solver(system).solve(system.rest, table, 0)
     assert info_lm.status == 0 and np.abs(r_lm).max() < 1e-12
     assert info.status in (0, NOT_CONVERGED)
+
+
+def test_lagrange_weights_extrapolate_polynomials_exactly():
+    from linkedit.gcs.solver import lagrange_weights
+
+    rng = np.random.default_rng(2)
+    nodes = np.sort(rng.uniform(0, 1, size=(5, 7)), axis=1)
+    t = nodes[:, -1] + 0.05
+    w = lagrange_weights(nodes, t)
+    coeffs = rng.normal(size=7)  # degree 6 through 7 nodes
+    assert np.allclose(np.sum(w * np.polyval(coeffs, nodes), axis=1), np.polyval(coeffs, t), rtol=1e-9)
+    assert np.allclose(lagrange_weights(nodes[0], t[0]), w[0])

@@ -1,11 +1,12 @@
 """Residual vectors and analytic Jacobians of the four elementary constraint kinds, batched.
 
-Every function takes member states already gathered per constraint — positions ``pa``, ``pb``
-(n, 3) and rotation matrices ``Ra``, ``Rb`` (n, 3, 3); the world is a member with zero position
-and identity rotation — and returns the residual (n, k) and, with ``jacobian=True``, the
-Jacobian ``J`` (n, k, 2, 6): ``J[:, :, 0]`` with respect to the local coordinates of member a,
-``J[:, :, 1]`` of member b, ``[dp (3), δθ (3)]``, δθ a world-frame rotation increment
-(``q ← exp(δθ) ⊗ q``).
+The functions take world-frame quantities already gathered per constraint (n of them): member
+vectors turned into the world frame ``wa``, ``wb`` (n, 3), world points ``xa``, ``xb`` (n, 3)
+(position + turned member point) or quaternions ``qa``, ``qb`` (n, 4); the world is a member
+with zero position and identity orientation. Each writes its residual rows into ``out`` (n, k)
+and, with ``jacobian=True``, returns from the same intermediates the Jacobian ``J``
+(n, k, 2, 6): ``J[:, :, 0]`` with respect to the local coordinates of member a, ``J[:, :, 1]``
+of member b, ``[dp (3), δθ (3)]``, δθ a world-frame rotation increment (``q ← exp(δθ) ⊗ q``).
 
 Per-constraint costs (the squared residual norm) are the paper's: |p1 − p2|² for location,
 θ² = 4·arccos²(|Re(o1 o2⁻¹)|) for orientation, θ² = arccos²(â1·â2) for axis, d² for on-plane.
@@ -22,85 +23,109 @@ ROWS = {"location": 3, "orientation": 3, "axis": 3, "plane": 1}
 EQUATIONS = {"location": 3, "orientation": 3, "axis": 2, "plane": 1}
 #: kinds whose residual is a length (the others are angles, radians)
 LENGTH_KINDS = ("location", "plane")
-
+#: member vectors each kind turns into the world frame: (vector, member "a" or "b")
+VECTORS = {"location": (("sa", "a"), ("sb", "b")), "orientation": (),
+           "axis": (("sa", "a"), ("sb", "b")), "plane": (("sa", "a"), ("sb", "b"), ("nb", "b"))}
 
 _EYE = np.eye(3)
 
 
-def _apply(R: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """R v for (n, 3, 3) and (n, 3)."""
-    return (R @ v[:, :, None])[:, :, 0]
+def _rotation_layout(blocks: np.ndarray) -> np.ndarray:
+    """(F, 36): for a residual of the orientations only whose Jacobian block for a is
+    Σ_f x_f B_f (``blocks`` B (F, 3, 3)) and for b its negative transpose, the flat
+    (3, 2, 6) Jacobian is x @ layout for features x (n, F)."""
+    P = np.zeros((len(blocks), 3, 2, 6))
+    P[:, :, 0, 3:] = blocks
+    P[:, :, 1, 3:] = -np.swapaxes(blocks, 1, 2)
+    return P.reshape(len(blocks), 36)
 
 
-def location(pa, Ra, sa, pb, Rb, sb, jacobian=False):
-    """Member point a (member space ``sa``) on point b: r = xa − xb, (n, 3)."""
-    wa, wb = _apply(Ra, sa), _apply(Rb, sb)
-    r = pa + wa - pb - wb
+def _location_layout() -> tuple[np.ndarray, np.ndarray]:
+    """(6, 36) and (36,): the flat location Jacobian [I, −[wa]×, −I, [wb]×] = (wa, wb) @ L + C."""
+    L = np.zeros((6, 3, 2, 6))
+    skews = quat.skew(_EYE)  # [e_k]×
+    L[:3, :, 0, 3:] = -skews
+    L[3:, :, 1, 3:] = skews
+    C = np.zeros((3, 2, 6))
+    C[:, 0, :3] = _EYE
+    C[:, 1, :3] = -_EYE
+    return L.reshape(6, 36), C.ravel()
+
+
+_UNITS = np.eye(9).reshape(9, 3, 3)  # E_ij
+#: axis features: the 9 entries of f·wa wbᵀ − g·c cᵀ, and f·(wa·wb) (times −I)
+_AXIS_LAYOUT = _rotation_layout(np.concatenate([_UNITS, -_EYE[None]]))
+#: orientation features: the 9 entries of c·φφᵀ, 1 − c·θ² (times I), φ (times −½[e_k]×)
+_ORIENTATION_LAYOUT = _rotation_layout(np.concatenate([_UNITS, _EYE[None], -0.5 * quat.skew(_EYE)]))
+_LOCATION_LAYOUT, _LOCATION_CONSTANT = _location_layout()
+
+
+def location(xa: np.ndarray, xb: np.ndarray, wa: np.ndarray, wb: np.ndarray, out: np.ndarray,
+             jacobian: bool = False) -> np.ndarray | None:
+    """Point a on point b: r = xa − xb, (n, 3); ``wa``, ``wb``: the member points turned into
+    the world frame (without the positions). J = [I, −[wa]×] for a, [−I, [wb]×] for b."""
+    np.subtract(xa, xb, out=out)
     if not jacobian:
-        return r
-    J = np.empty((len(r), 3, 2, 6))
-    J[:, :, 0, :3] = _EYE
-    J[:, :, 0, 3:] = quat.skew(-wa)
-    J[:, :, 1, :3] = -_EYE
-    J[:, :, 1, 3:] = quat.skew(wb)
-    return r, J
+        return None
+    J = np.concatenate([wa, wb], axis=1) @ _LOCATION_LAYOUT + _LOCATION_CONSTANT
+    return J.reshape(-1, 3, 2, 6)
 
 
-def orientation(qa, qb, rel, jacobian=False):
-    """Orientation of a equals qb ⊗ rel: r = log(qa ⊗ (qb ⊗ rel)⁻¹), the rotation vector, (n, 3)."""
-    target = quat.multiply(qb, rel)
-    phi = quat.log(quat.multiply(qa, quat.conjugate(target)))
+def orientation(qa: np.ndarray, qb: np.ndarray | None, rel_inverse: np.ndarray, out: np.ndarray,
+                jacobian: bool = False) -> np.ndarray | None:
+    """Orientation of a equals qb ⊗ rel: r = φ = log(qa ⊗ rel⁻¹ ⊗ qb⁻¹), the rotation vector,
+    (n, 3); ``qb`` None: every b is the world (qb = 1). J = J_l⁻¹(φ) for a, −J_l⁻¹(φ)ᵀ for b
+    (:func:`~linkedit.gcs.quaternions.left_jacobian_inverse`)."""
+    err = quat.multiply(qa, rel_inverse)
+    out[:] = quat.log(err if qb is None else quat.multiply(err, quat.conjugate(qb)))
     if not jacobian:
-        return phi
-    jl = quat.left_jacobian_inverse(phi)
-    J = np.zeros((len(phi), 3, 2, 6))
-    J[:, :, 0, 3:] = jl
-    J[:, :, 1, 3:] = -np.swapaxes(jl, 1, 2)
-    return phi, J
+        return None
+    theta2 = quat.dot(out, out)
+    c = quat.left_jacobian_coefficient(theta2)
+    features = np.concatenate([quat.outer(c[:, None] * out, out), (1.0 - c * theta2)[:, None], out], axis=1)
+    return (features @ _ORIENTATION_LAYOUT).reshape(-1, 3, 2, 6)
 
 
-def axis(Ra, ua, Rb, ub, jacobian=False):
-    """Member axis a (``ua``) aligned with axis b: r = θ·n, the rotation vector turning âb onto âa.
+def axis(wa: np.ndarray, wb: np.ndarray, out: np.ndarray, jacobian: bool = False) -> np.ndarray | None:
+    """Axis a (world frame, unit, (n, 3)) aligned with axis b: r = θ·c / |c|, c = âa × âb, the
+    rotation vector turning âb onto âa, (n, 3).
 
     θ = atan2(|âa × âb|, âa·âb) ∈ [0, π] tells aligned (0) from anti-aligned (π) apart, which
-    the bare cross product cannot; |r|² = arccos²(âa·âb).
+    the bare cross product cannot; |r|² = arccos²(âa·âb). The Jacobian with respect to a is
+    A = f·wa wbᵀ − f·(wa·wb) I − g·c cᵀ (f = θ / sin θ, g = (sin θ − θ cos θ) / sin³ θ, series
+    near θ = 0), with respect to b −Aᵀ.
     """
-    wa, wb = _apply(Ra, ua), _apply(Rb, ub)
     c = quat.cross(wa, wb)
-    s = np.sqrt(np.sum(c * c, axis=-1))
-    d = np.sum(wa * wb, axis=-1)
+    s = np.sqrt(quat.dot(c, c))
+    d = quat.dot(wa, wb)
     theta = np.arctan2(s, d)
-    small = theta < 1e-3
-    ss = np.where(small, 1.0, s)
+    # θ / sin θ, whose limit 1 is exact to rounding below θ = 1e-8
+    f = np.divide(theta, s, out=np.ones_like(s), where=theta > 1e-8)
+    np.multiply(f[:, None], c, out=out)
+    if not jacobian:
+        return None
     t2 = theta * theta
-    f = np.where(small, 1.0 + t2 / 6.0, theta / ss)
-    r = f[:, None] * c
-    if not jacobian:
-        return r
-    g = np.where(small, 1.0 / 3.0 + 2.0 * t2 / 15.0, (ss - theta * d) / ss**3)
-    # [wb]×[wa]× = wa wbᵀ − (wa·wb) I and [wa]×[wb]× = wb waᵀ − (wa·wb) I
-    outer = wa[:, :, None] * wb[:, None, :]
-    ccT = g[:, None, None] * (c[:, :, None] * c[:, None, :])
-    fd = (f * d)[:, None, None] * _EYE
-    fo = f[:, None, None] * outer
-    J = np.zeros((len(r), 3, 2, 6))
-    J[:, :, 0, 3:] = fo - fd - ccT
-    J[:, :, 1, 3:] = fd - np.swapaxes(fo, 1, 2) + ccT
-    return r, J
+    large = theta >= 1e-3
+    g = 1.0 / 3.0 + 2.0 * t2 / 15.0
+    np.divide(s - theta * d, s**3, out=g, where=large)
+    # [wb]×[wa]× = wa wbᵀ − (wa·wb) I
+    entries = quat.outer(f[:, None] * wa, wb) - quat.outer(g[:, None] * c, c)
+    features = np.concatenate([entries, (f * d)[:, None]], axis=1)
+    return (features @ _AXIS_LAYOUT).reshape(-1, 3, 2, 6)
 
 
-def plane(pa, Ra, sa, pb, Rb, ob, nb, jacobian=False):
-    """Member point a on the plane (point ``ob``, unit normal ``nb``, in b's space): signed distance, (n, 1)."""
-    wa = _apply(Ra, sa)
-    u = _apply(Rb, ob)
-    normal = _apply(Rb, nb)
-    dist = pa + wa - pb - u
-    r = np.sum(normal * dist, axis=-1)[:, None]
+def plane(xa: np.ndarray, xo: np.ndarray, wa: np.ndarray, u: np.ndarray, normal: np.ndarray, out: np.ndarray,
+          jacobian: bool = False) -> np.ndarray | None:
+    """Point a (``xa``) on the plane through ``xo`` with unit ``normal`` (world frame, (n, 3)):
+    the signed distance, (n, 1); ``wa``, ``u``: the member point and the plane point turned
+    into the world frame (without the positions)."""
+    dist = xa - xo
+    out[:, 0] = quat.dot(normal, dist)
     if not jacobian:
-        return r
-    J = np.empty((len(r), 1, 2, 6))
+        return None
+    J = np.empty((len(xa), 1, 2, 6))
     J[:, 0, 0, :3] = normal
     J[:, 0, 0, 3:] = quat.cross(wa, normal)
     J[:, 0, 1, :3] = -normal
     J[:, 0, 1, 3:] = quat.cross(normal, dist) - quat.cross(u, normal)
-    return r, J
+    return J

@@ -1,14 +1,20 @@
 """Normal equations JᵀJ δ = −Jᵀr assembled from the Jacobian groups, dense or sparse.
 
 The scatter indices depend only on the topology, so they are computed once
-(:class:`NormalEquations`); each assembly is one ``einsum`` per group (the 6×6 blocks of every
-constraint's member pairs) and one ``bincount``. Small systems use a dense Cholesky
-factorization; large ones a sparse LU (SuperLU, symmetric mode, minimum-degree ordering) of the
-block-sparse matrix with its exact zeros dropped (a planar linkage decouples into in-plane and
-out-of-plane unknowns, which the ordering then exploits).
+(:class:`NormalEquations`). Small systems assemble the dense Jacobian and factorize JᵀJ by
+LAPACK's Cholesky directly (no sparse machinery, no argument checks). Large ones assemble
+JᵀJ with one batched product per group (the 6×6 blocks of every constraint's member pairs) and
+one ``bincount``, and factorize it by a sparse LU (SuperLU, symmetric mode, no pivoting) on its
+exact nonzeros (a planar linkage decouples into in-plane and out-of-plane unknowns). The
+minimum-degree ordering is computed for the first pattern and kept: later factorizations with
+no new nonzeros take the matrix already permuted and skip the ordering. Jᵀ is kept as a CSR
+matrix whose structure is computed once.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
@@ -20,80 +26,162 @@ from linkedit.gcs.system import Group
 #: unknowns above which the sparse factorization is used
 SPARSE_ABOVE = 120
 
+_potrf, _potrs = scipy.linalg.get_lapack_funcs(("potrf", "potrs"), dtype=np.float64)
+
 
 class Factor:
-    """A factorized damped normal matrix; ``solve(g)`` returns H⁻¹ g."""
+    """A factorized damped normal matrix H (N, N); ``solve(g)`` returns H⁻¹ g (N,)."""
 
-    def __init__(self, H_dense: np.ndarray | None = None, H_sparse: scipy.sparse.csc_matrix | None = None) -> None:
-        if H_sparse is not None:
-            H_sparse.eliminate_zeros()
-            lu = scipy.sparse.linalg.splu(H_sparse, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                                          options={"SymmetricMode": True})
-            self.solve = lu.solve
-        else:
-            cho = scipy.linalg.cho_factor(H_dense, check_finite=False)
-            self.solve = lambda g: scipy.linalg.cho_solve(cho, g, check_finite=False)
+    def __init__(self, solve: Callable[[np.ndarray], np.ndarray]) -> None:
+        self.solve = solve
+
+    @classmethod
+    def dense(cls, H: np.ndarray) -> "Factor":
+        """Cholesky factorization of a dense symmetric positive definite H (Fortran order)."""
+        c, info = _potrf(H, lower=False, clean=False, overwrite_a=True)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"the normal matrix is not positive definite (potrf info {info})")
+        return cls(lambda g: _potrs(c, g, lower=False)[0])
+
+    @classmethod
+    def sparse(cls, H: scipy.sparse.csc_matrix, order: str) -> tuple["Factor", np.ndarray]:
+        """LU factorization of a sparse symmetric H without pivoting, with SuperLU's column
+        ordering ``order``; also returns that ordering (N,) (H[p][:, p] needs no reordering)."""
+        lu = scipy.sparse.linalg.splu(H, permc_spec=order, diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        return cls(lu.solve), np.argsort(lu.perm_c)
+
+    @classmethod
+    def permuted(cls, B: scipy.sparse.csc_matrix, p: np.ndarray, inverse: np.ndarray) -> "Factor":
+        """LU factorization of H from B = H[p][:, p], already in a fill-reducing order:
+        H x = g is B y = g[p] with x = y[inverse]."""
+        lu = scipy.sparse.linalg.splu(B, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        return cls(lambda g: lu.solve(g.take(p)).take(inverse))
+
+
+@dataclass
+class _Ordering:
+    """A fill-reducing order p of the unknowns for a sparsity pattern of JᵀJ, and the CSC
+    structure of H[p][:, p] on that pattern (``take``: its entries in the plan's storage)."""
+
+    p: np.ndarray
+    inverse: np.ndarray
+    pattern: np.ndarray  #: (nnz,) bool, in the plan's storage
+    take: np.ndarray
+    indices: np.ndarray
+    indptr: np.ndarray
+
+
+class Linearization:
+    """The Jacobian at one state: JᵀJ entries (``data``, in the plan's storage order) and Jᵀ."""
+
+    def __init__(self, data: np.ndarray, JT: np.ndarray | scipy.sparse.csr_matrix) -> None:
+        self.data = data
+        self.JT = JT
+
+    def gradient(self, r: np.ndarray) -> np.ndarray:
+        """Jᵀr (N,) for a residual r (R,)."""
+        return self.JT @ r
 
 
 class NormalEquations:
-    """Scatter plan from the Jacobian groups to JᵀJ and Jᵀr (N = 6M unknowns)."""
+    """Scatter plan from the Jacobian groups (R residual rows, N = 6M unknowns) to J, JᵀJ and Jᵀr."""
 
-    def __init__(self, groups: list[Group], n_members: int) -> None:
+    def __init__(self, groups: list[Group], n_members: int, n_rows: int) -> None:
         M = n_members
         N = 6 * M
         self.N = N
+        self.R = n_rows
         self.sparse = N > SPARSE_ABOVE
+        self.ordering: _Ordering | None = None  #: sparse: the last fill-reducing ordering
         six = np.arange(6)
-        grad, keys = [], []
+        jrow, jcol, keys = [], [], []
         for g in groups:
             mem = g.members  # (n, m)
+            n, k = g.rows.shape
             col = 6 * mem[:, :, None] + six  # (n, m, 6)
-            grad.append(np.where(mem[:, :, None] < M, col, N).ravel())
-            # (n, m·6, m·6) keys row·N + col; pairs touching the world go to a dump slot
-            flat = col.reshape(len(mem), -1)
+            # every Jacobian entry (n, k, m, 6): its row and column (N for the world)
+            jrow.append(np.broadcast_to(g.rows[:, :, None, None], (n, k) + col.shape[1:]).ravel())
+            jcol.append(np.broadcast_to(np.where(mem[:, :, None] < M, col, N)[:, None], (n, k) + col.shape[1:]).ravel())
+            # (n, m·6, m·6) JᵀJ keys row·N + col; pairs touching the world go to a dump slot
+            flat = col.reshape(n, -1)
             out = np.repeat(mem >= M, 6, axis=1)
             world = out[:, :, None] | out[:, None, :]
             keys.append(np.where(world, -1, flat[:, :, None] * N + flat[:, None, :]).ravel())
-        self.grad_index = np.concatenate(grad) if grad else np.zeros(0, dtype=int)
-        keys_all = np.concatenate(keys) if keys else np.zeros(0, dtype=int)
+        cat = lambda xs: np.concatenate(xs) if xs else np.zeros(0, dtype=int)  # noqa: E731
+        jrow, jcol, keys_all = cat(jrow), cat(jcol), cat(keys)
         diag = np.arange(N) * (N + 1)
-        valid = keys_all >= 0
         if self.sparse:
-            uniq, inverse = np.unique(np.concatenate([keys_all[valid], diag]), return_inverse=True)
-            self.nnz = uniq.size
-            index = np.full(keys_all.size, self.nnz)
-            index[valid] = inverse[: valid.sum()]
-            self.diag_index = inverse[valid.sum():]
-            self.indices = (uniq % N).astype(np.int32)
-            self.indptr = np.concatenate([[0], np.cumsum(np.bincount(uniq // N, minlength=N))]).astype(np.int32)
+            self._sparse_plan(jrow, jcol, keys_all, diag)
         else:
+            # dense J (R, N + 1): world entries land in the last column, dropped
+            self.entry_index = jrow * (N + 1) + jcol
             self.nnz = N * N
-            index = np.where(valid, keys_all, self.nnz)
             self.diag_index = diag
-        self.index = index
-        self.groups = groups
 
-    def gradient(self, jac: list[np.ndarray], r: np.ndarray) -> np.ndarray:
-        """Jᵀr, (N,)."""
-        w = np.concatenate([(r[g.rows][:, None, :] @ J.reshape(J.shape[0], J.shape[1], -1)).ravel()
-                            for g, J in zip(self.groups, jac)])
-        return np.bincount(self.grad_index, w, minlength=self.N + 1)[: self.N]
+    def _sparse_plan(self, jrow: np.ndarray, jcol: np.ndarray, keys: np.ndarray, diag: np.ndarray) -> None:
+        """CSC storage of JᵀJ (``index``: slot of each product entry) and CSR structure of Jᵀ."""
+        N = self.N
+        valid = keys >= 0
+        uniq, inverse = np.unique(np.concatenate([keys[valid], diag]), return_inverse=True)
+        self.nnz = uniq.size
+        self.index = np.full(keys.size, self.nnz)
+        self.index[valid] = inverse[: valid.sum()]
+        self.diag_index = inverse[valid.sum():]
+        self.indices = (uniq % N).astype(np.int32)
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(uniq // N, minlength=N))]).astype(np.int32)
+        # Jᵀ in CSR: entries not on the world, sorted by (unknown, row); duplicates stay separate
+        keep = np.flatnonzero(jcol < N)
+        order = keep[np.lexsort((jrow[keep], jcol[keep]))]
+        self.jt_take = order
+        self.jt_indices = jrow[order].astype(np.int32)
+        self.jt_indptr = np.concatenate([[0], np.cumsum(np.bincount(jcol[order], minlength=N))]).astype(np.int32)
 
-    def matrix_data(self, jac: list[np.ndarray]) -> np.ndarray:
-        """The entries of JᵀJ in this plan's storage order (dense row-major, or CSC data)."""
-        flat = [J.reshape(J.shape[0], J.shape[1], -1) for J in jac]
-        w = np.concatenate([(np.swapaxes(F, 1, 2) @ F).ravel() for F in flat])
-        return np.bincount(self.index, w, minlength=self.nnz + 1)[: self.nnz]
+    def linearize(self, jac: list[np.ndarray]) -> Linearization:
+        """JᵀJ entries and Jᵀ from the Jacobian groups of an evaluation."""
+        flat = np.concatenate([J.ravel() for J in jac])
+        if not self.sparse:
+            N = self.N
+            J = np.bincount(self.entry_index, flat, minlength=self.R * (N + 1)).reshape(self.R, N + 1)[:, :N]
+            return Linearization((J.T @ J).ravel(), J.T)
+        F = [J.reshape(J.shape[0], J.shape[1], -1) for J in jac]
+        w = np.concatenate([(np.swapaxes(f, 1, 2) @ f).ravel() for f in F])
+        data = np.bincount(self.index, w, minlength=self.nnz + 1)[: self.nnz]
+        JT = scipy.sparse.csr_matrix((flat.take(self.jt_take), self.jt_indices.copy(), self.jt_indptr.copy()),
+                                     shape=(self.N, self.R))
+        JT.eliminate_zeros()  # in place; Jᵀr is taken several times per factorization
+        return Linearization(data, JT)
 
     def factor(self, data: np.ndarray, damping: float, floor: float) -> Factor:
-        """Factorize JᵀJ + damping·diag(JᵀJ) + floor·I (Levenberg–Marquardt), from ``matrix_data``."""
+        """Factorize JᵀJ + damping·diag(JᵀJ) + floor·I (Levenberg–Marquardt), from ``Linearization.data``."""
         data = data.copy()
         d = data[self.diag_index]
         data[self.diag_index] = d + damping * d + floor
-        if self.sparse:
+        if not self.sparse:
+            return Factor.dense(data.reshape(self.N, self.N).T)  # symmetric: the Fortran-ordered view
+        pattern = data != 0.0
+        o = self.ordering
+        if o is None or (pattern & ~o.pattern).any():
+            # a new pattern: minimum-degree ordering on its exact nonzeros, kept for the next ones
             H = scipy.sparse.csc_matrix((data, self.indices.copy(), self.indptr.copy()), shape=(self.N, self.N))
-            return Factor(H_sparse=H)
-        return Factor(H_dense=data.reshape(self.N, self.N))
+            H.eliminate_zeros()  # in place
+            factor, p = Factor.sparse(H, "MMD_AT_PLUS_A")
+            self.ordering = self._ordering(pattern, p)
+            return factor
+        B = scipy.sparse.csc_matrix((data.take(o.take), o.indices, o.indptr), shape=(self.N, self.N))
+        return Factor.permuted(B, o.p, o.inverse)
+
+    def _ordering(self, pattern: np.ndarray, p: np.ndarray) -> _Ordering:
+        """The CSC structure of H[p][:, p] on the entries of ``pattern``."""
+        inverse = np.argsort(p)
+        entries = np.flatnonzero(pattern)
+        col = np.repeat(np.arange(self.N), np.diff(self.indptr))[entries]
+        row = self.indices[entries]
+        new_row, new_col = inverse[row], inverse[col]
+        order = np.lexsort((new_row, new_col))
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(new_col, minlength=self.N))]).astype(np.int32)
+        return _Ordering(p=p, inverse=inverse, pattern=pattern, take=entries[order],
+                         indices=new_row[order].astype(np.int32), indptr=indptr)
 
     def diagonal(self, data: np.ndarray) -> np.ndarray:
+        """The diagonal (N,) of JᵀJ from ``Linearization.data``."""
         return data[self.diag_index]

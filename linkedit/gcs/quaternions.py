@@ -2,7 +2,8 @@
 
 A rotation vector ``v`` (radians) is the axis times the angle; ``exp`` maps it to a unit
 quaternion and ``log`` back (choosing the sign of q so that w ≥ 0: q and −q are the same
-orientation). Orientation increments are applied in the world frame: ``q ← exp(δ) ⊗ q``.
+orientation). Orientation increments are applied in the world frame: ``q ← exp(δ) ⊗ q``, or
+by the cheaper :func:`turned`, which agrees with it to second order in |δ|.
 """
 
 from __future__ import annotations
@@ -25,7 +26,8 @@ def _product_tensor() -> np.ndarray:
 
 
 def _matrix_tensor() -> np.ndarray:
-    """(16, 9): rotation matrix of a unit q = outer(q, q).ravel() @ T (homogeneous quadratic form)."""
+    """(16, 9): rotation matrix of a unit q = outer(q, q).ravel() @ T (homogeneous quadratic
+    form, symmetric in the pair)."""
     w, x, y, z = range(4)
     T = np.zeros((4, 4, 3, 3))
 
@@ -50,33 +52,63 @@ def _cross_tensor() -> np.ndarray:
     return T.reshape(9, 3)
 
 
+def _pairs(n: int, upper: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i, j) of an n × n outer product, row-major (or its upper triangle)."""
+    return np.triu_indices(n) if upper else np.divmod(np.arange(n * n), n)
+
+
 _PRODUCT = _product_tensor()
-_MATRIX = _matrix_tensor()
 _CROSS = _cross_tensor()
+_P4, _P3 = _pairs(4), _pairs(3)
+_U4 = _pairs(4, upper=True)
+#: the rotation-matrix form on the 10 distinct products q_i q_j (i ≤ j)
+_MATRIX = _matrix_tensor().reshape(4, 4, 9)
+_MATRIX_UPPER = (_MATRIX + np.swapaxes(_MATRIX, 0, 1) * (1.0 - np.eye(4))[:, :, None])[_U4]
+_ONES = {3: np.ones(3), 4: np.ones(4)}
+_CONJUGATE = np.array([1.0, -1.0, -1.0, -1.0])
+_EYE = np.eye(3)
+#: ½ (0, v) ⊗ q = outer(v, q) @ _HALF_PRODUCT_V
+_PV = np.divmod(np.arange(12), 4)
+_HALF_PRODUCT_V = 0.5 * _PRODUCT.reshape(4, 4, 4)[1:].reshape(12, 4)
+
+
+def _outer(a: np.ndarray, b: np.ndarray, pairs: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """The products a_i b_j for the index ``pairs``, (..., len(pairs)) (gathers beat broadcasting)."""
+    return a.take(pairs[0], axis=-1) * b.take(pairs[1], axis=-1)
 
 
 def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product a ⊗ b, (..., 4)."""
     if a.shape != b.shape:
         a, b = np.broadcast_arrays(a, b)
-    return (a[..., :, None] * b[..., None, :]).reshape(a.shape[:-1] + (16,)) @ _PRODUCT
+    return _outer(a, b, _P4) @ _PRODUCT
 
 
 def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """u × v for (..., 3) arrays (faster than ``np.cross`` on small batches)."""
     if u.shape != v.shape:
         u, v = np.broadcast_arrays(u, v)
-    return (u[..., :, None] * v[..., None, :]).reshape(u.shape[:-1] + (9,)) @ _CROSS
+    return _outer(u, v, _P3) @ _CROSS
+
+
+def outer(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Outer products u vᵀ of (..., 3) arrays, flattened: (..., 9)."""
+    return _outer(u, v, _P3)
+
+
+def dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Row-wise dot product of (..., k) arrays, (...) (a matrix product: faster than ``sum``)."""
+    return (u * v) @ _ONES[u.shape[-1]]
 
 
 def conjugate(q: np.ndarray) -> np.ndarray:
     """q⁻¹ for a unit quaternion, (..., 4)."""
-    return q * np.array([1.0, -1.0, -1.0, -1.0])
+    return q * _CONJUGATE
 
 
 def normalize(q: np.ndarray) -> np.ndarray:
     """q / |q|, (..., 4)."""
-    return q / np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
+    return q / np.sqrt(dot(q, q))[..., None]
 
 
 def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
@@ -90,33 +122,39 @@ def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
 def exp(v: np.ndarray) -> np.ndarray:
     """Rotation vector (..., 3) → unit quaternion (..., 4)."""
     v = np.asarray(v, dtype=float)
-    theta = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
+    theta = np.sqrt(dot(v, v))
     half = 0.5 * theta
-    small = theta < 1e-8
-    # sin(θ/2)/θ with its series near 0
-    k = np.where(small, 0.5 - theta**2 / 48.0, np.sin(half) / np.where(small, 1.0, theta))
-    return np.concatenate([np.cos(half), k * v], axis=-1)
+    # sin(θ/2)/θ, whose limit 1/2 is exact to rounding below θ = 1e-8
+    k = np.divide(np.sin(half), theta, out=np.full_like(theta, 0.5), where=theta > 1e-8)
+    q = np.empty(v.shape[:-1] + (4,))
+    np.cos(half, out=q[..., 0])
+    np.multiply(k[..., None], v, out=q[..., 1:])
+    return q
+
+
+def turned(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Unit quaternions (n, 4) turned by world-frame rotation vectors v (n, 3):
+    normalize((1, v/2) ⊗ q), which agrees with exp(v) ⊗ q to second order in |v| (a retraction:
+    the solver's local coordinates only need the first) with no trigonometry."""
+    return normalize(q + _outer(v, q, _PV) @ _HALF_PRODUCT_V)
 
 
 def log(q: np.ndarray) -> np.ndarray:
     """Unit quaternion (..., 4) → rotation vector (..., 3) with angle in [0, π]; q and −q agree."""
     q = np.asarray(q, dtype=float)
-    sign = np.where(q[..., :1] < 0.0, -1.0, 1.0)
-    w = sign * q[..., :1]
-    v = sign * q[..., 1:]
-    s = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
-    angle = 2.0 * np.arctan2(s, w)
-    small = s < 1e-8
-    # θ / |v| with its series near 0: 2/w · (1 − s²/(3w²))
-    ws = np.where(small, w, 1.0)
-    k = np.where(small, 2.0 / ws * (1.0 - s * s / (3.0 * ws * ws)), angle / np.where(small, 1.0, s))
-    return k * v
+    w = q[..., 0]
+    v = q[..., 1:]
+    s = np.sqrt(dot(v, v))
+    # angle / |v| with the sign of w (−q is taken when w < 0): 2 arctan2(s, |w|) / s is
+    # accurate for small s, and for s below 1e-300 the factor is irrelevant (|v| = s)
+    k = 2.0 * np.arctan2(s, np.abs(w)) / np.maximum(s, 1e-300)
+    return np.copysign(k, w)[..., None] * v
 
 
 def to_matrix(q: np.ndarray) -> np.ndarray:
     """Rotation matrices (..., 3, 3) of unit quaternions (..., 4)."""
     q = np.asarray(q, dtype=float)
-    return ((q[..., :, None] * q[..., None, :]).reshape(q.shape[:-1] + (16,)) @ _MATRIX).reshape(q.shape[:-1] + (3, 3))
+    return (_outer(q, q, _U4) @ _MATRIX_UPPER).reshape(q.shape[:-1] + (3, 3))
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -148,16 +186,24 @@ def skew(v: np.ndarray) -> np.ndarray:
     return (v @ _SKEW).reshape(v.shape[:-1] + (3, 3))
 
 
+def left_jacobian_coefficient(theta2: np.ndarray) -> np.ndarray:
+    """c(θ) = (1 − (θ/2) cot(θ/2)) / θ² of :func:`left_jacobian_inverse`, from θ² (...)
+    (series below θ = 1e-4)."""
+    half = 0.5 * np.sqrt(theta2)
+    large = half >= 0.5e-4
+    c = np.where(large, 0.0, 1.0 / 12.0 + theta2 / 720.0)
+    np.divide(1.0 - half / np.tan(half, where=large, out=np.ones_like(half)), theta2, out=c, where=large)
+    return c
+
+
 def left_jacobian_inverse(phi: np.ndarray) -> np.ndarray:
-    """J_l⁻¹(φ) (..., 3, 3): d log(exp(δ) ⊗ exp(φ)) / dδ at δ = 0 (for angles below π).
+    """J_l⁻¹(φ) (..., 3, 3) for rotation vectors φ (..., 3): d log(exp(δ) ⊗ exp(φ)) / dδ at δ = 0
+    (for angles below π); J_l⁻¹ = I − ½[φ]× + c·[φ]×², [φ]×² = φφᵀ − θ² I
+    (c: :func:`left_jacobian_coefficient`).
 
     The right inverse Jacobian (perturbation on the right) is its transpose.
     """
-    theta2 = np.sum(phi * phi, axis=-1)
-    theta = np.sqrt(theta2)
-    small = theta < 1e-4
-    ts = np.where(small, 1.0, theta)
-    c = np.where(small, 1.0 / 12.0 + theta2 / 720.0,
-                 1.0 / ts**2 - (1.0 + np.cos(ts)) / (2.0 * ts * np.sin(np.where(small, 1.0, ts))))
-    k = skew(phi)
-    return np.eye(3) - 0.5 * k + c[..., None, None] * (k @ k)
+    theta2 = dot(phi, phi)
+    c = left_jacobian_coefficient(theta2)
+    k2 = (outer(phi, phi) * c[..., None]).reshape(phi.shape[:-1] + (3, 3))
+    return k2 + (1.0 - c * theta2)[..., None, None] * _EYE - 0.5 * skew(phi)

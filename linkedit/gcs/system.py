@@ -1,15 +1,20 @@
 """A compiled constraint system: members, elementary constraints, index arrays, evaluation.
 
 Unknowns are the members' positions and orientations; a member's local coordinates are
-``[dp (3), δθ (3)]`` (``p ← p + dp``, ``q ← exp(δθ) ⊗ q``), so there are N = 6M unknowns and
-the quaternions never drift. The world is an extra member (index M) with zero position and
+``[dp (3), δθ (3)]`` (``p ← p + dp``, ``q ← exp(δθ) ⊗ q``, applied by the second-order
+equivalent :func:`~linkedit.gcs.quaternions.turned`), so there are N = 6M unknowns and the
+quaternions never drift. The world is an extra member (index M) with zero position and
 identity orientation and no unknowns.
 
 Every named constraint of a spec becomes one or more *elementary* constraints of the kinds in
 :mod:`linkedit.gcs.constraints` (a pin is a location and an axis; a group is the union of its
-parts). Compilation sorts them by kind into blocks of index arrays, so evaluation is a few
-batched array operations per kind whatever the number of constraints. Custom (Python)
-constraints are evaluated one by one, with their own Jacobian or central differences.
+parts). Compilation sorts them by kind into blocks of index arrays, and lists every member
+vector the blocks turn into the world frame (points, axes, plane normals) in one table of
+``(member, member-space vector)`` pairs, so an evaluation turns all of them with one batched
+product and each kind is then a few array operations on slices, whatever the number of
+constraints. Parameters driven by inputs are looked up once per time step
+(:meth:`StepTable.at`). Custom (Python) constraints are evaluated one by one, with their own
+Jacobian or central differences.
 
 The Jacobian is kept per *group* of constraints — one group per block, one per custom
 constraint: ``J`` (n, k, m, 6) holds the derivatives of each constraint's k rows with respect to
@@ -30,6 +35,9 @@ from linkedit.gcs import quaternions as quat
 from linkedit.gcs.inputs import Schedule
 
 WORLD = -1
+_ORIGIN = np.zeros((1, 3))
+_IDENTITY = np.array([[1.0, 0.0, 0.0, 0.0]])
+_ONES = np.ones(3)
 
 
 @dataclass(frozen=True)
@@ -85,15 +93,56 @@ class Block:
     stop: int
     scheduled: np.ndarray  # positions (in this block) of constraints driven by an input
     schedules: tuple[Schedule, ...]
+    vectors: tuple[slice, ...]  # where the kind's vectors (constraints.VECTORS) are in the system's table
+    on_world: bool  # every constraint is against the world
+
+
+@dataclass
+class StepParameters:
+    """What an evaluation needs from one time step."""
+
+    t: float
+    vectors: np.ndarray  #: (K, 9) member-space vectors (driven ones at this step), each 3 times: [v, v, v]
+    rel_inverse: np.ndarray  #: (n, 4) inverse relative orientations of the orientation block (driven ones at this step)
+    active: list[np.ndarray | None]  #: per block (n,) bool, None when all are active
+    inactive_rows: np.ndarray  #: residual rows of inputs outside their window
 
 
 @dataclass
 class StepTable:
-    """Per-step parameters of the blocks driven by inputs: (T, n, 3|4) values, (T, n) active."""
+    """Parameters driven by inputs, evaluated once for the whole run: per step, the driven
+    member-space vectors (T, S, 9) (as :attr:`System.vectors`) and inverse relative
+    orientations (T, S', 4); per block, the activity (T, n) of its constraints (None for a
+    block without inputs), and (T,) whether any input is outside its window."""
 
     t: np.ndarray
-    values: list[np.ndarray | None]
+    vectors: np.ndarray
+    rel_inverse: np.ndarray
     active: list[np.ndarray | None]
+    partial: np.ndarray
+    system: "System" = field(repr=False)
+    _last: tuple[int, StepParameters] | None = field(default=None, repr=False)
+
+    def at(self, step: int) -> StepParameters:
+        """The parameters at one step (kept for the next call: a solve evaluates one step many times)."""
+        if self._last is not None and self._last[0] == step:
+            return self._last[1]
+        sys = self.system
+        vectors, rel_inverse = sys.vectors, sys.rel_inverse
+        if self.vectors.shape[1]:
+            vectors = vectors.copy()
+            vectors[sys.driven_vectors] = self.vectors[step]
+        if self.rel_inverse.shape[1]:
+            rel_inverse = rel_inverse.copy()
+            rel_inverse[sys.driven_rel] = self.rel_inverse[step]
+        active: list[np.ndarray | None] = [None] * len(sys.blocks)
+        rows = np.zeros(0, dtype=int)
+        if self.partial[step]:
+            active = [None if act is None or act[step].all() else act[step] for act in self.active]
+            rows = np.concatenate([blk.rows[~a].ravel() for blk, a in zip(sys.blocks, active) if a is not None])
+        par = StepParameters(float(self.t[step]), vectors, rel_inverse, active, rows)
+        self._last = (step, par)
+        return par
 
 
 @dataclass
@@ -109,8 +158,7 @@ class State:
     def moved(self, delta: np.ndarray) -> "State":
         """The state after a step of local coordinates ``delta`` (6M,)."""
         d = delta.reshape(-1, 6)
-        q = quat.multiply(quat.exp(d[:, 3:]), self.orientation)
-        return State(self.position + d[:, :3], quat.normalize(q))
+        return State(self.position + d[:, :3], quat.turned(self.orientation, d[:, 3:]))
 
 
 @dataclass
@@ -145,6 +193,12 @@ class System:
     row_scale: np.ndarray  #: (R,) 1/length_scale for length rows, 1 for angle rows
     owner_equations: np.ndarray  #: (C,) independent equations of each named constraint
     groups: list[Group]  #: Jacobian layout, in evaluation order
+    vector_member: np.ndarray  #: (K,) member (WORLD as M) of each member vector the blocks turn
+    #: (K, 9) the member vectors in member space, each three times (once per rotation-matrix row)
+    vectors: np.ndarray
+    driven_vectors: np.ndarray  #: (S,) the vectors driven by inputs (StepTable.vectors)
+    rel_inverse: np.ndarray  #: (n, 4) inverse relative orientations of the orientation block ((0, 4) without one)
+    driven_rel: np.ndarray  #: (S',) the relative orientations driven by inputs (StepTable.rel_inverse)
     points: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)  #: member → point name → (3,)
     lines: dict[str, list[list[str]]] = field(default_factory=dict)  #: member → polylines of point names
 
@@ -171,6 +225,8 @@ class System:
             coords += [np.abs(np.array([e.sa, e.sb])).max() for e in elementary if e.kind in ("location", "plane")]
             length_scale = max(1.0, float(max(coords)))
         blocks, row_owner, row_scale, groups = [], [], [], []
+        vec_member, vectors, driven = [], [], []
+        rel, driven_rel = np.zeros((0, 4)), np.zeros(0, dtype=int)
         n_rows = 0
         equations = np.zeros(len(constraint_names), dtype=int)
         for kind, k in kinds.ROWS.items():
@@ -185,11 +241,22 @@ class System:
             a = np.array([e.a for e in group], dtype=int)
             b = np.array([M if e.b == WORLD else e.b for e in group], dtype=int)
             scheduled = np.array([i for i, e in enumerate(group) if e.schedule is not None], dtype=int)
+            params = {p: np.array([getattr(e, p) for e in group], dtype=float) for p in ("sa", "sb", "rel", "nb")}
+            slots = []
+            for vec, side in kinds.VECTORS[kind]:
+                start = sum(len(v) for v in vectors)
+                slots.append(slice(start, start + n))
+                vec_member.append(a if side == "a" else b)
+                vectors.append(params[vec])
+                if vec == "sb":  # an input drives sb (or rel)
+                    driven.append(start + scheduled)
+            if kind == "orientation":
+                rel, driven_rel = params["rel"], scheduled
             blocks.append(Block(
-                kind=kind, owner=owner, a=a, b=b,
-                sa=np.array([e.sa for e in group], dtype=float), sb=np.array([e.sb for e in group], dtype=float),
-                rel=np.array([e.rel for e in group], dtype=float), nb=np.array([e.nb for e in group], dtype=float),
-                rows=rows, start=int(rows[0, 0]), stop=int(rows[-1, -1]) + 1, scheduled=scheduled, schedules=tuple(group[i].schedule for i in scheduled)))
+                kind=kind, owner=owner, a=a, b=b, **params,
+                rows=rows, start=int(rows[0, 0]), stop=int(rows[-1, -1]) + 1, scheduled=scheduled,
+                schedules=tuple(group[i].schedule for i in scheduled), vectors=tuple(slots),
+                on_world=bool(np.all(b == M))))
             row_owner.append(np.repeat(owner, k))
             row_scale.append(np.full(n * k, 1.0 / length_scale if kind in kinds.LENGTH_KINDS else 1.0))
             groups.append(Group(np.column_stack([a, b]), rows))
@@ -206,79 +273,72 @@ class System:
             constraint_inputs=np.array(constraint_inputs or [False] * len(constraint_names), dtype=bool),
             rest=rest, length_scale=float(length_scale), blocks=blocks, customs=list(customs),
             n_rows=n_rows, row_owner=cat(row_owner, int), row_scale=cat(row_scale, float),
-            owner_equations=equations, groups=groups,
-            points=points or {}, lines=lines or {})
+            owner_equations=equations, groups=groups, vector_member=cat(vec_member, int),
+            vectors=np.tile(np.concatenate(vectors), 3) if vectors else np.zeros((0, 9)),
+            driven_vectors=cat(driven, int),
+            rel_inverse=quat.conjugate(rel), driven_rel=driven_rel, points=points or {}, lines=lines or {})
 
     # ---- time -------------------------------------------------------------------------------
 
     def step_table(self, t: np.ndarray) -> StepTable:
-        """Evaluate every input's schedule at the times ``t`` (T,) once, for the whole run: per
-        block with inputs, the full driven parameter array ((T, n, 3) ``sb`` or (T, n, 4) ``rel``)
-        and the activity (T, n) of its constraints."""
+        """Evaluate every input's schedule at the times ``t`` (T,) once, for the whole run."""
         t = np.asarray(t, dtype=float)
-        values, active = [], []
+        vectors, rel_inverse, active = [], [], []
+        partial = np.zeros(t.size, dtype=bool)
         for blk in self.blocks:
-            if not len(blk.scheduled):
-                values.append(None)
-                active.append(None)
-                continue
-            base = blk.rel if blk.kind == "orientation" else blk.sb
-            full = np.repeat(base[None], t.size, axis=0)
-            full[:, blk.scheduled] = np.stack([s.evaluate(t) for s in blk.schedules], axis=1)
-            act = np.ones((t.size, len(blk.a)), dtype=bool)
-            act[:, blk.scheduled] = np.stack([s.active(t) for s in blk.schedules], axis=1)
-            values.append(full)
+            act = None
+            if len(blk.scheduled):
+                values = np.stack([s.evaluate(t) for s in blk.schedules], axis=1)
+                if blk.kind == "orientation":
+                    rel_inverse.append(quat.conjugate(values))
+                else:
+                    vectors.append(np.tile(values, 3))
+                act = np.ones((t.size, len(blk.a)), dtype=bool)
+                act[:, blk.scheduled] = np.stack([s.active(t) for s in blk.schedules], axis=1)
+                partial |= ~act.all(axis=1)
             active.append(act)
-        return StepTable(t=t, values=values, active=active)
+        stack = lambda xs, k: np.concatenate(xs, axis=1) if xs else np.zeros((t.size, 0, k))  # noqa: E731
+        return StepTable(t=t, vectors=stack(vectors, 9), rel_inverse=stack(rel_inverse, 4), active=active,
+                         partial=partial, system=self)
 
     # ---- evaluation -------------------------------------------------------------------------
 
-    def _extended(self, state: State) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Positions, quaternions and rotation matrices with the world appended as member M."""
-        M = self.n_members
-        P = np.zeros((M + 1, 3))
-        Q = np.empty((M + 1, 4))
-        P[:M] = state.position
-        Q[:M] = state.orientation
-        Q[M] = (1.0, 0.0, 0.0, 0.0)
-        return P, Q, quat.to_matrix(Q)
+    def _extended(self, state: State) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (M+1, 3) and quaternions (M+1, 4) with the world appended as member M."""
+        return (np.concatenate((state.position, _ORIGIN)), np.concatenate((state.orientation, _IDENTITY)))
 
     def evaluate(self, state: State, table: StepTable, step: int, jacobian: bool = False) -> Evaluation:
         """Residual (and Jacobian entries) at one time step of ``table``."""
-        P, Q, R = self._extended(state)
+        par = table.at(step)
+        P, Q = self._extended(state)
+        m = self.vector_member
+        # every member vector in the world frame (W) and as a world point (X), (K, 3):
+        # the rows of each member's rotation matrix times the vector, summed in threes
+        R = quat.to_matrix(Q).reshape(-1, 9)
+        W = ((R.take(m, axis=0) * par.vectors).reshape(-1, 3) @ _ONES).reshape(-1, 3)
+        X = P.take(m, axis=0) + W
         r = np.empty(self.n_rows)
         jacs: list[np.ndarray] = []
-        t = float(table.t[step])
-        for bi, blk in enumerate(self.blocks):
-            sb, rel, act = blk.sb, blk.rel, None
-            if table.values[bi] is not None:
-                if blk.kind == "orientation":
-                    rel = table.values[bi][step]
-                else:
-                    sb = table.values[bi][step]
-                act = table.active[bi][step]
-                if act.all():
-                    act = None
-            a, b = blk.a, blk.b
+        for blk, act in zip(self.blocks, par.active):
+            out = r[blk.start:blk.stop].reshape(len(blk.a), -1)
+            v = blk.vectors
             if blk.kind == "location":
-                out = kinds.location(P[a], R[a], blk.sa, P[b], R[b], sb, jacobian)
+                J = kinds.location(X[v[0]], X[v[1]], W[v[0]], W[v[1]], out, jacobian)
             elif blk.kind == "orientation":
-                out = kinds.orientation(Q[a], Q[b], rel, jacobian)
+                qb = None if blk.on_world else Q.take(blk.b, axis=0)
+                J = kinds.orientation(Q.take(blk.a, axis=0), qb, par.rel_inverse, out, jacobian)
             elif blk.kind == "axis":
-                out = kinds.axis(R[a], blk.sa, R[b], sb, jacobian)
+                J = kinds.axis(W[v[0]], W[v[1]], out, jacobian)
             else:
-                out = kinds.plane(P[a], R[a], blk.sa, P[b], R[b], sb, blk.nb, jacobian)
-            res = out[0] if jacobian else out
-            if act is not None:
-                res = res * act[:, None]  # an input outside its window adds nothing
-            r[blk.start:blk.stop] = res.ravel()
+                J = kinds.plane(X[v[0]], X[v[1]], W[v[0]], W[v[1]], W[v[2]], out, jacobian)
             if jacobian:
-                J = out[1]
                 jacs.append(J if act is None else J * act[:, None, None, None])
-        row = sum(blk.rows.size for blk in self.blocks)
+        if len(par.inactive_rows):
+            r[par.inactive_rows] = 0.0  # an input outside its window adds nothing
+        row = self.blocks[-1].stop if self.blocks else 0
         for c in self.customs:
             m = list(c.members)
-            res, jac = _custom(c, P[m], Q[m], t, jacobian)
+            res, jac = _custom(c, P[m], Q[m], par.t, jacobian)
             r[row:row + c.size] = res
             row += c.size
             if jacobian:
@@ -327,7 +387,7 @@ def _custom(c: Custom, P: np.ndarray, Q: np.ndarray, t: float, jacobian: bool) -
         for sgn in (1.0, -1.0):
             d = np.zeros((k, 6))
             d[i // 6, i % 6] = sgn * h
-            q = quat.normalize(quat.multiply(quat.exp(d[:, 3:]), Q))
+            q = quat.turned(Q, d[:, 3:])  # as State.moved
             cols.append(np.asarray(c.fn(P + d[:, :3], q, t), dtype=float).reshape(-1))
         jac[:, i] = (cols[0] - cols[1]) / (2 * h)
     return res, jac
