@@ -173,3 +173,17 @@ def test_input_outside_its_window_adds_nothing_and_driven_points_follow_their_sc
         else:
             assert np.all(ev.r[drive] == 0.0) and np.all(J[drive] == 0.0)
         assert np.abs(ev.r[~drive]).max() > 1e-3  # the axis constraint is always active
+
+
+def test_axis_residual_is_finite_for_exactly_opposite_axes():
+    import numpy as np
+
+    from linkedit.gcs.constraints import axis
+
+    wa = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    wb = -wa
+    out = np.empty((2, 3))
+    jac = axis(wa, wb, out, jacobian=True)
+    assert np.isfinite(out).all() and np.isfinite(jac).all()
+    assert np.allclose(np.linalg.norm(out, axis=1), np.pi)  # cost arccos²(−1) = π²
+    assert np.allclose((out * wa).sum(axis=1), 0.0)  # a rotation about an axis ⊥ a

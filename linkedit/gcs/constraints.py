@@ -98,6 +98,12 @@ def axis(wa: np.ndarray, wb: np.ndarray, out: np.ndarray, jacobian: bool = False
     c = quat.cross(wa, wb)
     s = np.sqrt(quat.dot(c, c))
     d = quat.dot(wa, wb)
+    opposite = (s < 1e-12) & (d < 0.0)
+    if opposite.any():
+        # exactly anti-aligned: any axis ⊥ a turns b onto a; take a fixed one so r = π·n̂ stays
+        # finite (cost π²) and the Jacobian large but finite
+        c[opposite] = 1e-12 * _perpendicular(wa[opposite])
+        s[opposite] = 1e-12
     theta = np.arctan2(s, d)
     # θ / sin θ, whose limit 1 is exact to rounding below θ = 1e-8
     f = np.divide(theta, s, out=np.ones_like(s), where=theta > 1e-8)
@@ -112,6 +118,15 @@ def axis(wa: np.ndarray, wb: np.ndarray, out: np.ndarray, jacobian: bool = False
     entries = quat.outer(f[:, None] * wa, wb) - quat.outer(g[:, None] * c, c)
     features = np.concatenate([entries, (f * d)[:, None]], axis=1)
     return (features @ _AXIS_LAYOUT).reshape(-1, 3, 2, 6)
+
+
+def _perpendicular(v: np.ndarray) -> np.ndarray:
+    """A unit vector perpendicular to each unit vector of ``v`` (n, 3), chosen deterministically."""
+    least = np.argmin(np.abs(v), axis=1)
+    e = np.zeros_like(v)
+    e[np.arange(len(v)), least] = 1.0
+    p = quat.cross(v, e)
+    return p / np.sqrt(quat.dot(p, p))[:, None]
 
 
 def plane(xa: np.ndarray, xo: np.ndarray, wa: np.ndarray, u: np.ndarray, normal: np.ndarray, out: np.ndarray,
