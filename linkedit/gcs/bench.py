@@ -11,24 +11,15 @@
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from linkedit.gcs import quaternions as quat
+from linkedit.timing import best_time
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "3d"
-
-
-def _best(fn: Callable[[], object], repeats: int) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def _strandbeests(echo: Callable[[str], None], quick: bool) -> None:
@@ -47,7 +38,7 @@ def _strandbeests(echo: Callable[[str], None], quick: bool) -> None:
         t, angle = motor_angles(spec, samples)
         geom, work = plan.geometry(), Workspace(plan, samples)
         # like for like: both engines solve positions only
-        sym = _best(lambda: positions(plan, geom, angle, work), 20 * repeats) / samples * 1e3
+        sym = best_time(lambda: positions(plan, geom, angle, work), 20 * repeats) / samples * 1e3
         model = planar_model(spec)
         runs = [simulate_numeric(spec, t, model=model) for _ in range(repeats)]
         num = min(r.ms_per_step for r in runs)
@@ -96,7 +87,7 @@ def _six_bar(echo: Callable[[str], None], quick: bool) -> None:
             engine.reuse = _Reuse()  # no factorization kept from an earlier repeat
             holder["out"] = engine.solve(start, table, 0)
 
-        figures[solver] = (_best(once, repeats), holder["out"])
+        figures[solver] = (best_time(once, repeats), holder["out"])
     echo(f"{name} from a rough start (residual {np.linalg.norm(r0):.3g}): one solve")
     for solver, (sec, (_, r, info)) in figures.items():
         echo(f"  {solver:<9} {sec * 1e3:>10.2f} ms  residual {np.linalg.norm(r):.1e}  "
@@ -107,7 +98,7 @@ def _six_bar(echo: Callable[[str], None], quick: bool) -> None:
     steps = 24 if quick else 360
     t = np.arange(steps) / steps
     table = system.step_table(t)
-    sec = _best(lambda: solve_run(system, t, table=table), 1 if quick else 3)
+    sec = best_time(lambda: solve_run(system, t, table=table), 1 if quick else 3)
     run = solve_run(system, t, table=table)
     echo(f"{name} over {steps} steps: {sec / steps * 1e3:.3f} ms per step, "
          f"{run.iterations.mean():.2f} linear solves per step, max residual {np.abs(run.residual).max():.1e}")
