@@ -60,6 +60,9 @@ class RestPoseKinematics:
         self.fixed_coef = [c if c is not None and (b.k_point >= self.J).any() else None
                            for b, c in zip(plan.batches, original.coef)]
         self.scatter = [(_scatter(b.i, plan.n_points), _scatter(b.j, plan.n_points)) for b in plan.batches]
+        # the same for the rest-pose points each batch's constants come from
+        self.rest_scatter = [(_scatter(b.i_point, plan.n_points), _scatter(b.j_point, plan.n_points))
+                             for b in plan.batches]
         dyads = [b for b in plan.batches if not b.rigid]
         self.dyad_i = np.concatenate([b.i_point for b in dyads]) if dyads else np.zeros(0, int)
         self.dyad_j = np.concatenate([b.j_point for b in dyads]) if dyads else np.zeros(0, int)
@@ -126,9 +129,10 @@ class RestPoseKinematics:
                     m = rest[b.j_point] - rest[b.i_point]
                     g_num = gc / np.conj(m)  # c = num / m, num = z̄k − z̄i
                     g_m = -gc * np.conj(c[:, 0] / m)
-                    np.add.at(grest, b.k_point, g_num)
-                    np.add.at(grest, b.i_point, -g_num - g_m)
-                    np.add.at(grest, b.j_point, g_m)
+                    (ui_p, mi_p), (uj_p, mj_p) = self.rest_scatter[n]
+                    grest[b.k_point] += g_num  # each point is rebuilt once: no duplicates
+                    grest[ui_p] += mi_p @ (-g_num - g_m)
+                    grest[uj_p] += mj_p @ g_m
                 continue
             t = f.terms[n]
             lik2, ljk2 = f.lik2[n], f.ljk2[n]
@@ -159,9 +163,10 @@ class RestPoseKinematics:
             g_ljk2 = (gl_jk - 0.5 * gh).sum(axis=1)
             dik = rest[b.k_point] - rest[b.i_point]
             djk = rest[b.k_point] - rest[b.j_point]
-            np.add.at(grest, b.k_point, 2.0 * (g_lik2 * dik + g_ljk2 * djk))
-            np.add.at(grest, b.i_point, -2.0 * g_lik2 * dik)
-            np.add.at(grest, b.j_point, -2.0 * g_ljk2 * djk)
+            (ui_p, mi_p), (uj_p, mj_p) = self.rest_scatter[n]
+            grest[b.k_point] += 2.0 * (g_lik2 * dik + g_ljk2 * djk)
+            grest[ui_p] -= mi_p @ (2.0 * g_lik2 * dik)
+            grest[uj_p] -= mj_p @ (2.0 * g_ljk2 * djk)
         # motor: z_m = z̄_p + |z̄_m − z̄_p|·exp(iφ)
         gm = G[plan.motor_row]
         g_radius = float(np.sum(gm.real * self.spin.real + gm.imag * self.spin.imag))
