@@ -117,3 +117,25 @@ def test_bad_spec_one_line_exit_2(run_cli, tmp_path, monkeypatch, case, mutate, 
 def test_missing_file_exit_2(run_cli, tmp_path):
     r = run_cli("simulate", tmp_path / "nope.yaml", "-o", tmp_path / "r.h5")
     assert r.exit_code == 2 and "cannot read file" in r.output
+
+
+def test_result_file_given_as_spec_is_one_line_exit_2(run_cli, four_bar, tmp_path):
+    out = tmp_path / "r.h5"
+    assert run_cli("simulate", four_bar, "-o", out).exit_code == 0
+    for command in (("simulate", out, "-o", tmp_path / "again.h5"), ("validate", out), ("edit", four_bar, out)):
+        r = run_cli(*command)
+        assert r.exit_code == 2, r.output
+        assert "not a UTF-8 text file" in r.output and "Traceback" not in r.output
+
+
+def test_json_output_has_no_nan():
+    import io
+    import json
+    from contextlib import redirect_stdout
+
+    from linkedit.commands.common import print_json
+
+    buf = io.StringIO()
+    with redirect_stdout(buf):
+        print_json({"a": float("nan"), "b": [np.inf, 1.5], "c": np.float64(2.0)})
+    assert json.loads(buf.getvalue()) == {"a": None, "b": [None, 1.5], "c": 2.0}

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import sys
 from collections.abc import Callable
 from typing import Any, TypeVar
@@ -44,12 +45,20 @@ def guard(fn: F) -> F:
 
 
 def print_json(data: Any) -> None:
-    """Print ``data`` as JSON on stdout (numpy scalars and arrays converted)."""
+    """Print ``data`` as JSON on stdout (numpy scalars and arrays converted, NaN/inf as null)."""
 
-    def default(o: Any) -> Any:
-        if hasattr(o, "tolist"):
-            return o.tolist()
-        raise TypeError(f"not JSON serializable: {type(o).__name__}")
-
-    json.dump(data, sys.stdout, indent=2, default=default, allow_nan=False)
+    json.dump(_finite(data), sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
+
+
+def _finite(o: Any) -> Any:
+    """JSON-ready copy: numpy values as Python ones, NaN/inf as null (JSON has no NaN)."""
+    if isinstance(o, dict):
+        return {str(k): _finite(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_finite(v) for v in o]
+    if hasattr(o, "tolist"):
+        return _finite(o.tolist())
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    return o

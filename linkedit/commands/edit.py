@@ -62,6 +62,7 @@ def register(app: typer.Typer) -> None:
         from linkedit.io.atomic import write_text
         from linkedit.io.edit_hdf5 import write_edit
         from linkedit.spec.linkage_yaml import dump_linkage
+        from linkedit.spec.yamlload import read_text
 
         spec_path, script_path = (None, spec) if script is None else (spec, script)
         spec_path, linkage, parsed = _load(spec_path, script_path)
@@ -77,8 +78,8 @@ def register(app: typer.Typer) -> None:
         svg = out_dir / f"{stem}-edit.svg"
         edited_text = dump_linkage(result.edited)
         write_text(edited_yaml, edited_text)
-        write_edit(h5, result, script_text=script_path.read_text(encoding="utf-8"),
-                   linkage_text=Path(spec_path).read_text(encoding="utf-8"), edited_text=edited_text,
+        write_edit(h5, result, script_text=read_text(script_path),
+                   linkage_text=read_text(spec_path), edited_text=edited_text,
                    options={"spec": str(spec_path), "script": str(script_path)})
         _overlay(svg, result, parsed)
         if as_json:

@@ -36,9 +36,9 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
     from linkedit.planar import simulate
     from linkedit.planar.plan import compile_plan
     from linkedit.spec.linkage import LinkageSpec
-    from linkedit.spec.yamlload import load_model
+    from linkedit.spec.yamlload import load_model, read_text
 
-    text = spec_path.read_text(encoding="utf-8") if spec_path.is_file() else None
+    text = read_text(spec_path)
     spec = load_model(LinkageSpec, spec_path, text)
     try:
         plan = compile_plan(spec)
@@ -51,7 +51,7 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
     except MechanismError as exc:
         raise MechanismError(f"{spec_path}: {exc}") from None
     options = {"samples": int(motion.t.size), "engine": engine, "partial": partial}
-    write_motion(h5, motion, spec_text=text or "", options=options)
+    write_motion(h5, motion, spec_text=text, options=options)
     result = {"spec": str(spec_path), "output": str(h5)} | motion.summary()
     if svg is not None:
         from linkedit.io.planar_svg import draw_motion

@@ -51,6 +51,16 @@ def _walk(loader: yaml.SafeLoader, node: yaml.Node, path: Path_, lines: LineMap,
             _walk(loader, item, path + (index,), lines, file)
 
 
+def read_text(source: str | Path) -> str:
+    """The text of a spec file; InputError (exit 2) if it cannot be read or is not UTF-8 text."""
+    try:
+        return Path(source).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"cannot read file: {exc.strerror or exc}", file=str(source)) from None
+    except UnicodeDecodeError:
+        raise InputError("not a UTF-8 text file (is it a result file rather than a spec?)", file=str(source)) from None
+
+
 def load_yaml(source: str | Path, text: str | None = None) -> tuple[Any, LineMap]:
     """Parse YAML from ``source`` (a path; or a display name when ``text`` is given).
 
@@ -59,12 +69,7 @@ def load_yaml(source: str | Path, text: str | None = None) -> tuple[Any, LineMap
     """
     file = str(source)
     if text is None:
-        try:
-            text = Path(source).read_text(encoding="utf-8")
-        except OSError as exc:
-            raise InputError(f"cannot read file: {exc.strerror or exc}", file=file) from None
-        except UnicodeDecodeError:
-            raise InputError("not a UTF-8 text file", file=file) from None
+        text = read_text(source)
     loader = yaml.SafeLoader(text)
     try:
         node = loader.get_single_node()
