@@ -230,3 +230,82 @@ def test_bench_quick_runs(run_cli):
     r = run_cli("bench", "--section", "curves", "--quick")
     assert r.exit_code == 0, r.output
     assert "curves/s" in r.output and "distance matrix" in r.output
+
+
+def egg(m=150):
+    t = np.linspace(0, 2 * np.pi, m, endpoint=False)
+    return np.stack([3 * np.cos(t) + 0.5 * np.cos(2 * t), np.sin(t)], axis=1)
+
+
+@pytest.mark.parametrize("size", [1e-170, 1e170])
+def test_tiny_and_huge_curves_in_every_output(run_cli, tmp_path, size):
+    """Squared steps of such curves under/overflowed: NaN features, a crash writing JSON."""
+    np.savetxt(tmp_path / "unit.csv", egg(), delimiter=",", header="x,y", comments="")
+    np.savetxt(tmp_path / "scaled.csv", np.roll(egg() + 7, 40, axis=0) * size, delimiter=",", header="x,y", comments="")
+    np.savetxt(tmp_path / "other.csv", ellipse(2, 1, 100) * size, delimiter=",", header="x,y", comments="")
+    t = np.linspace(0, 1.5, 30)
+    np.savetxt(tmp_path / "arc.csv", np.stack([np.cos(t), np.sin(t)], 1) * size, delimiter=",")
+    inputs = [tmp_path / f"{n}.csv" for n in ("unit", "scaled", "other", "arc")]
+    r = run_cli("features", *inputs, "--json")
+    assert r.exit_code == 0, r.output
+    rows = json.loads(r.output)
+    assert [row["closed"] for row in rows] == [True, True, True, False]
+    for key in ("length", "area", "ellipticity"):
+        assert rows[1][key] == pytest.approx(rows[0][key], abs=1e-9)  # the same egg, moved and scaled
+    assert rows[2]["ellipticity"] == pytest.approx(0.5, abs=1e-12)
+    for suffix in (".json", ".csv"):
+        assert run_cli("features", *inputs, "-o", tmp_path / f"f{suffix}").exit_code == 0
+    assert json.loads((tmp_path / "f.json").read_text()) == rows
+    assert "nan" not in (tmp_path / "f.csv").read_text().lower()
+    out = json.loads(run_cli("compare-curves", *inputs[:3], "--json").output)
+    assert np.isfinite(np.array(out["distance"], dtype=float)).all()
+    assert [row["nearest"] for row in out["nearest"]][:2] == ["scaled", "unit"]
+
+
+def test_curves_beyond_the_float_range_are_one_error_line(run_cli, tmp_path):
+    wide = tmp_path / "wide.csv"
+    wide.write_text("x,y\n-1.5e308,0\n1.5e308,0\n0,1e308\n")
+    one_error_line(run_cli("features", wide, "--json"), r"wide\.csv: curve wide: its descriptors are not finite")
+    np.savetxt(tmp_path / "e.csv", ellipse(3, 1), delimiter=",")
+    one_error_line(run_cli("compare-curves", wide, tmp_path / "e.csv"), r"curve wide: .*not finite")
+
+
+def write_edit_result(path, before: dict[str, np.ndarray], after: dict[str, np.ndarray]) -> None:
+    """An edit result in the layout of specs/edit-hdf5.md: /before/tracks/<name>, /after/tracks/<name>."""
+    with h5py.File(path, "w") as f:
+        f.attrs.update(format_version="1", kind="edit", units="mm")
+        for stage, tracks in (("before", before), ("after", after)):
+            for name, pos in tracks.items():
+                f[f"{stage}/tracks/{name}/position"] = pos
+
+
+def test_edit_results_before_and_after(run_cli, tmp_path):
+    path = tmp_path / "e.h5"
+    write_edit_result(path, {"foot": ellipse(3, 1), "knee": ellipse(4, 1)}, {"foot": ellipse(3, 2), "knee": ellipse(4, 2)})
+    r = run_cli("features", f"{path}:foot", f"{path}:before/foot", f"{path}:after/knee", "--json")
+    assert r.exit_code == 0, r.output
+    rows = json.loads(r.output)
+    assert [row["name"] for row in rows] == ["e:after/foot", "e:before/foot", "e:after/knee"]
+    assert [row["ellipticity"] for row in rows] == pytest.approx([2 / 3, 1 / 3, 1 / 2], abs=1e-12)
+    rows = json.loads(run_cli("features", path, "--json").output)
+    assert [row["name"] for row in rows] == ["e:before/foot", "e:before/knee", "e:after/foot", "e:after/knee"]
+    one_error_line(run_cli("features", f"{path}:hand"), r"e\.h5: after\.tracks\.hand: unknown track 'hand'.*foot, knee")
+    one_error_line(run_cli("features", f"{path}:middle/foot"), r"e\.h5: .*unknown stage 'middle'")
+    plain = tmp_path / "p.h5"
+    write_result(plain, {"foot": ellipse(3, 1)})
+    one_error_line(run_cli("features", f"{plain}:before/foot"), r"p\.h5: .*not one")
+
+
+def test_tracks_of_a_linkedit_edit_run(run_cli, tmp_path):
+    r = run_cli("edit", EXAMPLES / "edits" / "jansen-move-knee.yaml", "-o", tmp_path)
+    assert r.exit_code == 0, r.output
+    (path,) = tmp_path.glob("*.h5")
+    r = run_cli("compare-curves", f"{path}:before/foot", f"{path}:foot", f"{path}:after/foot", "--json")
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output)
+    assert out["curves"] == [f"{path.stem}:before/foot", f"{path}:after/foot", f"{path}:after/foot#2"]
+    dist = np.array(out["distance"])
+    assert dist[1, 2] == pytest.approx(0.0, abs=1e-9) and dist[0, 1] > 1e-3  # the edit moved the foot path
+    with h5py.File(path) as f:
+        assert len(f["before/tracks/foot/position"]) == json.loads(run_cli("features", f"{path}:before/foot",
+                                                                           "--json").output)[0]["points"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from linkedit.curves.descriptors import describe
+from linkedit.curves.descriptors import describe, describe_ragged
 from linkedit.curves.distance import align, aligned_rms, term_distances, weighted
 from linkedit.curves.efd import efd_coefficients, efd_distance, normalize_efd
 from linkedit.curves.features import self_intersections, turning_angles
@@ -106,9 +106,72 @@ def test_resampling_is_equal_arc_length():
     corner_free = steps[np.abs(steps - 0.5) < 1e-9]
     assert len(corner_free) >= 10  # straight stretches: exactly L / N apart
     assert np.all(steps <= 0.5 + 1e-12)
-    # the start: the vertex farthest from the centroid (all four tie here)
+
+
+@pytest.mark.parametrize("m", [60, 200])
+def test_start_is_the_farthest_point_between_vertices(m):
+    """An ellipse with no vertex at the ends of its major axis: the start lies much closer to an
+    end than the nearest vertex (half an input step away)."""
+    t = np.linspace(0, 2 * np.pi, m, endpoint=False) + np.pi / m
+    e = np.stack([3 * np.cos(t), np.sin(t)], axis=1)
+    n = normalize(e[None], True, 64)
+    start = n.points[0, 0] * n.scale[0]
+    half_step = np.sin(np.pi / m)  # the vertices' distance from the axis
+    assert abs(start[1]) < 0.05 * half_step and abs(start[0]) > 2.99
+
+
+def test_a_reversal_at_the_farthest_vertex_stays_the_start():
+    """A path traced there and back (a rocker's): the start is the reversal vertex itself."""
+    t = np.linspace(0, 1, 41)
+    there = np.stack([3 * t, t**2], axis=1)
+    n = normalize(np.concatenate([there, there[-2:0:-1]])[None], True, 64)
     start = n.points[0, 0] @ n.frame[0].T * n.scale[0] + n.centroid[0]
-    assert min(np.linalg.norm(start - v) for v in pts) == pytest.approx(0.0, abs=1e-12)
+    assert np.linalg.norm(start - there[-1]) < 1e-12 or np.linalg.norm(start - there[0]) < 1e-12
+
+
+@pytest.mark.parametrize("size", [1e-300, 1e-170, 1e-12, 1e12, 1e170, 1e300])
+def test_tiny_and_huge_coordinates_give_the_same_features(size):
+    """Squares of steps would under/overflow: the curve is scaled into its bounding box first."""
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    egg = ellipse(3.0, 1.0, 90) + [2.0, 5.0] + 0.3 * ellipse(1.0, 0.0, 90) ** 2
+    curves, anchors = [square, egg], [np.array([2.0, 0.0])] * 2
+    unit = describe_ragged(curves, [True, True], anchors=anchors)
+    scaled = describe_ragged([c * size for c in curves], [True, True], anchors=[a * size for a in anchors])
+    assert np.isfinite(scaled.features).all() and np.isfinite(scaled.efd).all()
+    np.testing.assert_allclose(scaled.features, unit.features, atol=1e-12, rtol=0)
+    np.testing.assert_allclose(scaled.points, unit.points, atol=1e-12, rtol=0)
+    np.testing.assert_allclose(scaled.normalized.scale, unit.normalized.scale * size, rtol=1e-12)
+    assert feature(scaled, "length")[0] == pytest.approx(4.0, abs=1e-12)
+    assert feature(scaled, "area")[0] == pytest.approx(1.0, abs=1e-12)
+
+
+def test_anchor_angle_of_a_centrally_symmetric_curve_is_rotation_invariant():
+    """A 3:1 ellipse has no third moments: rounding used to pick the axis signs (angle ± π)."""
+    base, anchor = ellipse(3.0, 1.0, 120), np.array([1.0, 0.5])
+    rows = []
+    for angle in np.linspace(0.0, 3.0, 7):
+        c, s = np.cos(angle), np.sin(angle)
+        rot = np.array([[c, -s], [s, c]])
+        rows.append(describe((base @ rot.T + [4.0, -2.0])[None], True, anchors=(anchor @ rot.T + [4.0, -2.0])[None]))
+    angles = np.array([feature(d, "anchor_angle")[0] for d in rows])
+    np.testing.assert_allclose(angles, np.arctan2(0.5, 1.0), atol=1e-9)  # anchor on the + side of the major axis
+    np.testing.assert_allclose([feature(d, "anchor_distance")[0] for d in rows], np.hypot(1.0, 0.5) / 6, atol=1e-12)
+
+
+def test_anchor_angle_of_a_symmetric_3d_curve_is_rotation_invariant():
+    t = np.linspace(0, 2 * np.pi, 150, endpoint=False)
+    curve = np.stack([3 * np.cos(t), np.sin(t), 0.4 * np.sin(3 * t)], axis=1)  # x(t + π) = -x(t)
+    anchor = np.array([0.7, -0.4, 0.3])
+    rng = np.random.default_rng(5)
+    angles = []
+    for _ in range(6):
+        q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+        q = q * np.sign(np.diag(r))
+        q *= np.linalg.det(q)
+        d = describe((curve @ q.T + 1.0)[None], True, anchors=(anchor @ q.T + 1.0)[None])
+        angles.append(feature(d, "anchor_angle")[0])
+    np.testing.assert_allclose(angles, angles[0], atol=1e-9)
+    assert abs(angles[0]) < np.pi / 2  # the anchor signs the major axis: it lies on its + side
 
 
 def test_frame_is_proper_and_deterministic():

@@ -34,8 +34,24 @@ def describe_curves(curves: list[Curve], *, samples: int = DEFAULT_SAMPLES, harm
         missing = next(c for c, a in zip(curves, anchors) if a is None)
         raise InputError("some curves have an anchor and this one has none (give --anchor for the rest)",
                          file=missing.origin)
-    return describe_ragged([c.points for c in curves], [c.closed for c in curves], samples=samples,
-                           harmonics=harmonics, anchors=None if anchors[0] is None else anchors)
+    with np.errstate(all="ignore"):  # a non-finite result is reported below, naming the curve
+        desc = describe_ragged([c.points for c in curves], [c.closed for c in curves], samples=samples,
+                               harmonics=harmonics, anchors=None if anchors[0] is None else anchors)
+    check_finite(curves, desc)
+    return desc
+
+
+def check_finite(curves: list[Curve], desc: Descriptors) -> None:
+    """Every descriptor of every curve a finite number, or an InputError naming the first curve that is not."""
+    n = desc.normalized
+    parts = [desc.features, desc.turning, desc.efd, n.points, n.centroid, n.frame, n.scale]
+    finite = np.logical_and.reduce([np.isfinite(a.reshape(len(curves), -1)).all(axis=1) for a in parts])
+    if not finite.all():
+        c = curves[int(np.argmin(finite))]
+        bad = [name for name, v in zip(desc.names, desc.features[int(np.argmin(finite))]) if not np.isfinite(v)]
+        raise InputError(f"curve {c.name}: its descriptors are not finite numbers"
+                         + (f" ({', '.join(bad)})" if bad else "") + " — the coordinates (or the anchor) span more "
+                         "than the floating-point range", file=c.origin)
 
 
 def resolve_weights(desc: Descriptors, weights: Mapping[str, float] | None, *, field: str = "--weights") -> dict[str, float]:

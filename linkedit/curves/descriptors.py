@@ -54,7 +54,7 @@ def describe(points: np.ndarray, closed: np.ndarray | bool, *, samples: int = DE
         return concatenate([describe(points[i:i + BLOCK], closed[i:i + BLOCK], samples=samples, harmonics=harmonics,
                                      anchors=None if anchors is None else anchors[i:i + BLOCK])
                             for i in range(0, len(points), BLOCK)])
-    norm = normalize(points, closed, samples)
+    norm = normalize(points, closed, samples, anchors)
     dim = norm.points.shape[2]
     return Descriptors(names=feature_names(dim, anchors is not None), features=feature_table(norm, anchors),
                        normalized=norm, turning=turning_angles(norm.points, norm.closed),

@@ -110,7 +110,8 @@ def feature_table(curves: Normalized, anchors: np.ndarray | None = None) -> np.n
     """The per-curve features, (C, F), columns as :func:`feature_names`.
 
     ``anchors`` (C, D), input units: the anchor distance is in units of the major extent, the
-    angle is measured in the principal plane from the major axis.
+    angle is measured in the principal plane from the major axis (the anchor signs the axes of
+    centrally symmetric curves, see :mod:`linkedit.curves.normalize`).
     """
     cols = [curves.length[:, None], curves.areas, ellipticities(curves.extents),
             self_intersections(curves.points[:, :, :2], curves.closed)[:, None].astype(float)]

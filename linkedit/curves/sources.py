@@ -3,7 +3,10 @@
 An input is written as on the command line:
 
 * ``result.h5:foot`` — track ``foot`` of a result (``/tracks/foot/position``, (T, 2) or (T, 3));
-  ``result.h5`` alone — every track of the file;
+  ``result.h5`` alone — every track of the file. An edit result (``kind = "edit"``) holds each
+  track before and after the edit (``/before/tracks/<name>``, ``/after/tracks/<name>``):
+  ``edit.h5:foot`` is the edited curve, ``edit.h5:before/foot`` and ``edit.h5:after/foot``
+  choose, ``edit.h5`` alone gives every track before and after;
 * ``path.csv`` — columns x, y[, z] and optionally t (a header names them; without a header,
   2 or 3 numeric columns are x, y[, z]); rows are ordered by t when it is given;
 * ``set.yaml`` — a curve set (``specs/curve-set.md``); ``set.yaml:circle`` — one curve of it;
@@ -25,6 +28,8 @@ from linkedit.errors import InputError
 
 HDF5_SUFFIXES = (".h5", ".hdf5")
 YAML_SUFFIXES = (".yaml", ".yml")
+#: The groups of an edit result (``specs/edit-hdf5.md``); a bare track name means the last one.
+EDIT_STAGES = ("before", "after")
 #: A curve is closed when its end lies this close to its start, relative to the bounding-box
 #: diagonal, or within 1.5 median steps.
 CLOSE_GAP = 0.05
@@ -79,15 +84,19 @@ def _load_one(text: str, closed: bool | None) -> list[Curve]:
 
 
 def _split_track(text: str) -> tuple[Path, str | None]:
-    """``result.h5:foot`` → (result.h5, "foot"), ``set.yaml:circle`` likewise; anything else → (path, None)."""
+    """``result.h5:foot`` → (result.h5, "foot"), ``edit.h5:before/foot`` and ``set.yaml:circle`` likewise;
+    anything else → (path, None)."""
     head, sep, tail = text.rpartition(":")
-    if sep and Path(head).suffix.lower() in HDF5_SUFFIXES + YAML_SUFFIXES and "/" not in tail and "\\" not in tail:
-        return Path(head), tail
+    suffix = Path(head).suffix.lower()
+    if sep and suffix in HDF5_SUFFIXES + YAML_SUFFIXES and "\\" not in tail:
+        stage, slash, name = tail.partition("/")
+        if not slash or (suffix in HDF5_SUFFIXES and stage and name and "/" not in name):
+            return Path(head), tail
     return Path(text), None
 
 
 def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = None) -> list[Curve]:
-    """Tracks of a result file; ``names=None`` reads all of them."""
+    """Tracks of a result file; ``names=None`` reads all of them (of an edit result: before and after)."""
     import h5py
 
     try:
@@ -95,17 +104,30 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
     except OSError as exc:
         raise InputError(f"cannot open as HDF5: {exc}", file=str(path)) from None
     with f:
-        group = f.get("tracks")
-        if not isinstance(group, h5py.Group) or not len(group):
-            raise InputError("no tracks in this file (expected /tracks/<name>/position)", file=str(path))
-        available = sorted(group)
+        edit = f.attrs.get("kind") == "edit" or "tracks" not in f and all(s in f for s in EDIT_STAGES)
+        groups = {s: f.get(f"{s}/tracks") for s in EDIT_STAGES} if edit else {"": f.get("tracks")}
+        expected = "/before/tracks/<name>/position and /after/..." if edit else "/tracks/<name>/position"
+        if not all(isinstance(g, h5py.Group) and len(g) for g in groups.values()):
+            raise InputError(f"no tracks in this file (expected {expected})", file=str(path))
+        available = sorted(next(iter(groups.values())))
         units = f.attrs.get("units")
+        if names is None:
+            chosen = [f"{s}/{n}" for s in EDIT_STAGES for n in available] if edit else available
+        else:
+            chosen = [n if not edit or "/" in n else f"{EDIT_STAGES[-1]}/{n}" for n in names]
         out = []
-        for name in names or available:
+        for key in chosen:
+            stage, _, name = key.rpartition("/")
+            if stage not in groups:
+                raise InputError(f"{key!r}: " + (f"unknown stage {stage!r} (use before/ or after/)" if edit else
+                                                  "before/ and after/ select a stage of an edit result; this file "
+                                                  "is not one"), file=str(path))
+            group = groups[stage]
+            base = (stage, "tracks", name) if stage else ("tracks", name)
             if name not in group:
                 raise InputError(f"unknown track {name!r}; the file has: {', '.join(available)}", file=str(path),
-                                 field=("tracks", name))
-            field = ("tracks", name, "position")
+                                 field=base)
+            field = base + ("position",)
             data = group[name].get("position")
             if not isinstance(data, h5py.Dataset) or data.ndim != 2 or data.shape[1] not in (2, 3):
                 raise InputError("expected a (T, 2) or (T, 3) dataset", file=str(path), field=field)
@@ -114,7 +136,7 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
             if bad.size:
                 raise InputError(f"{bad.size} samples are not finite (first at sample {bad[0]}; did the "
                                  f"mechanism lock up?)", file=str(path), field=field)
-            out.append(make_curve(f"{path.stem}:{name}", points, closed=closed, origin=f"{path}:{name}",
+            out.append(make_curve(f"{path.stem}:{key}", points, closed=closed, origin=f"{path}:{key}",
                                   file=str(path), field=field, units=None if units is None else str(units)))
     return out
 
@@ -229,9 +251,13 @@ def make_curve(name: str, points: np.ndarray, *, closed: bool | None, origin: st
 
 def is_closed(points: np.ndarray) -> bool:
     """Whether the end meets the start: gap ≤ 5% of the bounding-box diagonal or ≤ 1.5 median steps."""
-    gap = float(np.linalg.norm(points[-1] - points[0]))
-    diagonal = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
-    step = float(np.median(np.linalg.norm(np.diff(points, axis=0), axis=1)))
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    with np.errstate(over="ignore"):
+        box = float(np.max(hi - lo))
+    unit = (points - (0.5 * lo + 0.5 * hi)) / box  # no square under- or overflows, whatever the units
+    gap = float(np.linalg.norm(unit[-1] - unit[0]))
+    diagonal = float(np.linalg.norm(unit.max(axis=0) - unit.min(axis=0)))
+    step = float(np.median(np.linalg.norm(np.diff(unit, axis=0), axis=1)))
     return gap <= CLOSE_GAP * diagonal or gap <= 1.5 * step
 
 
