@@ -135,3 +135,92 @@ def test_inconsistent_spec_exit_1_names_the_constraint(run_cli, tmp_path):
 def test_bad_options_exit_2(run_cli, tmp_path, option):
     r = run_cli("solve3d", _write(tmp_path, CRANK_ROCKER), *option)
     assert r.exit_code == 2 and option[0] in r.output and "Traceback" not in r.output
+
+
+def _one_line(r, code):
+    assert r.exit_code == code, r.output
+    lines = [ln for ln in r.output.strip().splitlines() if ln]
+    assert len(lines) == 1 and "Traceback" not in r.output, r.output
+    return lines[0]
+
+
+BAD_PLUGINS = {
+    "raises": ("raise RuntimeError('no luck\\nsecond line')", "RuntimeError: no luck"),
+    "nan": ("return np.array([np.nan])", "non-finite"),
+    "inf": ("return np.array([np.inf])", "non-finite"),
+    "wrong size": ("return np.zeros(2)", "returned 2 values, expected 1"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_PLUGINS))
+def test_misbehaving_python_constraint_is_one_line_exit_1(run_cli, tmp_path, monkeypatch, case):
+    body, message = BAD_PLUGINS[case]
+    module = f"gcs_bad_plugin_{case.replace(' ', '_')}"
+    (tmp_path / f"{module}.py").write_text(f"import numpy as np\n\ndef on_circle(P, Q, t):\n    {body}\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    path = _write(tmp_path, CUSTOM.replace("gcs_plugin_for_tests", module))
+    r = run_cli("solve3d", path, "-o", tmp_path / "o.h5", "--allow-python", "--steps", "5", "--partial")
+    sys.modules.pop(module, None)
+    line = _one_line(r, 1)
+    assert "custom constraint 'circle' at t = 0.0000" in line and message in line, line
+    assert not (tmp_path / "o.h5").exists()
+
+
+def test_slsqp_fd_solves_the_six_bar(run_cli, tmp_path):
+    out = tmp_path / "six.h5"
+    r = run_cli("solve3d", EXAMPLES / "3d" / "six-bar.yaml", "--solver", "slsqp-fd", "--steps", "9", "-o", out)
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        assert (f["diagnostics/status"][()] == 0).all()
+        import json
+
+        options = json.loads(f.attrs["options"])
+        assert options["solver"] == "slsqp-fd" and options["tolerance"] == 1e-6
+        assert f["diagnostics/residual"][()].max() < 1e-5  # SLSQP's accuracy: well short of lm's 1e-12
+
+
+def test_too_many_steps_is_exit_2(run_cli, tmp_path):
+    path = _write(tmp_path, CRANK_ROCKER)
+    line = _one_line(run_cli("solve3d", path, "--steps", str(10**12), "-o", tmp_path / "o.h5"), 2)
+    assert "--steps" in line and "1,000,000" in line
+    big = _write(tmp_path, CRANK_ROCKER.replace("steps: 361", "steps: 100000000"), "big.yaml")
+    _one_line_error(run_cli("solve3d", big, "-o", tmp_path / "o.h5"), big, "outputs.steps")
+    assert not (tmp_path / "o.h5").exists()
+
+
+@pytest.fixture
+def solved_h5(run_cli, tmp_path):
+    out = tmp_path / "cr.h5"
+    assert run_cli("solve3d", _write(tmp_path, CRANK_ROCKER), "-o", out, "--steps", "9").exit_code == 0
+    return out
+
+
+@pytest.mark.parametrize("option", [("--steps", "20"), ("--solver", "lm"), ("--solver", "slsqp-fd"),
+                                    ("--allow-python",), ("--partial",)])
+def test_from_rejects_options_that_only_affect_solving(run_cli, solved_h5, option):
+    before = solved_h5.read_bytes()
+    line = _one_line(run_cli("solve3d", "--from", solved_h5, *option, "--track", "x=coupler:1,0,0"), 2)
+    assert "--from" in line and option[0] in line
+    assert solved_h5.read_bytes() == before
+
+
+def test_track_name_collision_is_exit_2(run_cli, solved_h5, tmp_path):
+    line = _one_line(run_cli("solve3d", "--from", solved_h5, "--track", "P=coupler:1,0,0", "-o", tmp_path / "n.h5"), 2)
+    assert "--track" in line and "'P'" in line
+    r = run_cli("solve3d", "--from", solved_h5, "--track", "n=coupler:1,0,0", "--track", "n=rocker:tip",
+                "-o", tmp_path / "n.h5")
+    assert "'n'" in _one_line(r, 2)
+    assert not (tmp_path / "n.h5").exists()
+    with h5py.File(solved_h5) as f:  # the file's own track is untouched
+        assert np.allclose(f["tracks/P/position"][0], [0.6622, 5.3265, 0.0], atol=1e-4)
+
+
+def test_overflowing_solve_with_partial_json_is_one_line_exit_1(run_cli, tmp_path):
+    text = CRANK_ROCKER.replace(
+        "  rocker_pivot: {type: pin, member: rocker, point: pivot, world: [2, -3, 0]}",
+        "  rocker_pivot: {type: pin, member: rocker, point: pivot, world: [2, -3, 0]}\n"
+        "  far: {type: location, member: rocker, point: tip, world: [1e200, 2.75, 0]}")
+    path = _write(tmp_path, text)
+    line = _one_line(run_cli("solve3d", path, "-o", tmp_path / "x.h5", "--steps", "5", "--partial", "--json"), 1)
+    assert "far" in line and "t = 0.0000" in line and "not finite" in line
+    assert not (tmp_path / "x.h5").exists()

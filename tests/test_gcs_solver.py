@@ -9,7 +9,7 @@ from linkedit.gcs.diagnostics import redundant_constraints, run_diagnostics
 from linkedit.gcs.mechanism import solve_spec
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.outputs import velocity
-from linkedit.gcs.solver import INCONSISTENT, NOT_CONVERGED, Options, Solver, solve_run
+from linkedit.gcs.solver import CONVERGED, INCONSISTENT, SLSQP_TOL, Options, Solver, solve_run
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_model, load_yaml, validate
 from tests.conftest import EXAMPLES
@@ -67,6 +67,10 @@ def test_over_constrained_inconsistent_spec_names_the_constraints():
     k = int(np.flatnonzero(d.status == INCONSISTENT)[0])
     assert "stuck" in d.unsatisfied[k]
     assert d.residual[k] > 1e-3
+    # worst first: the listed names follow the costs, the largest first
+    costs = [d.costs[k, res.constraint_names.index(n)] for n in d.unsatisfied[k]]
+    assert len(costs) >= 2 and costs == sorted(costs, reverse=True)
+    assert d.unsatisfied[k][0] == res.constraint_names[int(np.argmax(d.costs[k]))]
 
 
 def test_under_constrained_member_stays_where_it_was():
@@ -108,7 +112,19 @@ def test_slsqp_fd_option_reduces_the_cost():
     assert r @ r < 1e-8 * (r0 @ r0)
     _, r_lm, info_lm = Solver(system).solve(system.rest, table, 0)
     assert info_lm.status == 0 and np.abs(r_lm).max() < 1e-12
-    assert info.status in (0, NOT_CONVERGED)
+    # judged by its own tolerance: SLSQP's success and a scaled residual ≤ SLSQP_TOL
+    assert info.status == CONVERGED
+    assert np.max(np.abs(r) * system.row_scale) <= SLSQP_TOL
+
+
+def test_slsqp_fd_reports_an_inconsistent_spec_as_inconsistent():
+    spec = _spec({"constraints": {"stuck": {"type": "location", "member": "rocker", "point": "tip",
+                                            "world": [2.0, 2.75, 0.0]}}})
+    system, _ = compile_mechanism(spec)
+    table = system.step_table(np.full(1, 0.25))
+    _, r, info = Solver(system, Options(solver="slsqp-fd")).solve(system.rest, table, 0)
+    assert info.status == INCONSISTENT
+    assert np.max(np.abs(r) * system.row_scale) > SLSQP_TOL
 
 
 def test_lagrange_weights_extrapolate_polynomials_exactly():

@@ -35,6 +35,9 @@ def _add_tracks(res, tracks: list[str]) -> None:
 
     for text in tracks:
         name, member, point = parse_track(text)
+        if name in res.tracks:
+            raise InputError(f"{text!r}: a track named {name!r} exists already (name it: NEW=member:x,y,z)",
+                             field="--track")
         if isinstance(point, str):
             pts = res.points.get(res.member_names[res.member_index(member)], {})
             if point not in pts:
@@ -67,7 +70,7 @@ def register(app: typer.Typer) -> None:
         view: str = typer.Option("iso", "--view", help="SVG projection: xy, xz, yz or iso."),
         velocity: bool = typer.Option(False, "--velocity", help="Draw velocity arrows on the curves."),
         steps: int = typer.Option(None, "--steps", help="Time steps over t in [0, 1] [default: the spec's]."),
-        solver: str = typer.Option("lm", "--solver", help="lm (Gauss-Newton/Levenberg-Marquardt, analytic Jacobians) or slsqp-fd (the paper's: SLSQP, finite differences)."),
+        solver: str = typer.Option(None, "--solver", help="lm (Gauss-Newton/Levenberg-Marquardt, analytic Jacobians; the default) or slsqp-fd (the paper's: SLSQP, finite differences)."),
         source: Path = typer.Option(None, "--from", help="Re-use the member states of a gcs result instead of solving."),
         track: list[str] = typer.Option(None, "--track", help="Extra tracked point [name=]member:x,y,z (or member:point); repeatable."),
         allow_python: bool = typer.Option(False, "--allow-python", help="Allow custom constraints that run Python code (python: module:function)."),
@@ -77,18 +80,23 @@ def register(app: typer.Typer) -> None:
         """Solve a 3D mechanism (members, constraints, inputs) at every time step."""
         from linkedit.gcs import check_solved, read_result, solve_spec, write_result
         from linkedit.gcs.solver import SOLVERS
-        from linkedit.spec.mechanism3d import MechanismSpec
+        from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
         from linkedit.spec.yamlload import load_model
 
-        if solver not in SOLVERS:
+        if solver is not None and solver not in SOLVERS:
             raise InputError(f"unknown solver {solver!r} (choose from {', '.join(SOLVERS)})", field="--solver")
-        if steps is not None and steps < 2:
-            raise InputError("needs at least 2 steps", field="--steps")
+        if steps is not None and not 2 <= steps <= MAX_STEPS:
+            raise InputError(f"needs between 2 and {MAX_STEPS:,} steps, not {steps:,}", field="--steps")
         if view not in ("xy", "xz", "yz", "iso"):
             raise InputError(f"unknown view {view!r} (choose from xy, xz, yz, iso)", field="--view")
         if source is not None:
             if spec is not None:
                 raise InputError("give a spec or --from RESULT.h5, not both", field="--from")
+            given = {"--steps": steps is not None, "--solver": solver is not None,
+                     "--allow-python": allow_python, "--partial": partial}
+            ignored = [option for option, on in given.items() if on]
+            if ignored:
+                raise InputError(f"nothing is solved with --from: drop {', '.join(ignored)}", field="--from")
             res = read_result(source)
             out = output or source
         else:
@@ -96,7 +104,8 @@ def register(app: typer.Typer) -> None:
                 raise InputError("missing SPEC (or --from RESULT.h5)", field="spec")
             text = spec.read_text(encoding="utf-8") if spec.is_file() else None
             model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
-            res = solve_spec(model, steps=steps, solver=solver, allow_python=allow_python, spec_text=text or "")
+            res = solve_spec(model, steps=steps, solver=solver or "lm", allow_python=allow_python,
+                             spec_text=text or "")
             out = output or Path("out") / f"{spec.stem}.h5"
             if not partial:
                 check_solved(res)

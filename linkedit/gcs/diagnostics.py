@@ -4,23 +4,40 @@ degrees of freedom left and redundant equations.
 The rank of the Jacobian is taken from its singular values after scaling lengths by the
 system's length scale (rows and translation columns), so that lengths and angles weigh alike:
 dof = 6M − rank, redundant = (independent equations of the active constraints) − rank.
+
+A rank costs dense SVDs of the blocks the Jacobian decouples into (:func:`jacobian_rank`, at
+most about R·N·min(R, N) operations for R rows and N unknowns), so it is not taken at every
+step of a large system: it is taken at the first step, at every step that did not converge or
+whose status or number of active equations differs from the step before, and every K steps, K
+chosen so that the periodic ranks of a run cost about :data:`RANK_BUDGET` operations (every
+step for small systems; over 360 steps, every 5th for the 3-pair Strandbeest and every 120th
+for the 10-pair one, R = 1089 and N = 726). Steps in between carry the last value;
+:attr:`Diagnostics.dof_evaluated` says which steps were evaluated.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from linkedit.gcs.solver import Run
+from linkedit.gcs.solver import CONVERGED, Run
 from linkedit.gcs.system import State, StepTable, System
 
 #: singular values below this fraction of the largest count as zero
 RANK_TOL = 1e-9
 #: a named constraint is reported unsatisfied when a residual row exceeds this (scaled) value
 UNSATISFIED_TOL = 1e-9
-#: name redundant constraints (one rank per constraint) only up to this many constraints
+#: name redundant constraints (a small SVD per constraint) only up to this many constraints
 MAX_NAMED_CHECKS = 200
+#: a constraint is redundant when the left null space of J restricted to its rows has full
+#: rank: smallest singular value above this (they are O(1) for a repeated constraint)
+NULL_TOL = 1e-6
+#: operations the periodic rank evaluations of one run may take, counted as R·N·min(R, N)
+#: (a dense SVD) plus RANK_OVERHEAD (building the Jacobian) per rank
+RANK_BUDGET = 2e9
+RANK_OVERHEAD = 1e7
 
 
 @dataclass
@@ -32,7 +49,10 @@ class Diagnostics:
     dof: np.ndarray
     redundant: np.ndarray
     costs: np.ndarray  #: (T, C) per named constraint
-    unsatisfied: list[list[str]]
+    unsatisfied: list[list[str]]  #: per step, worst (largest cost) first
+    #: (T,) bool: dof and redundant were evaluated at this step (otherwise carried from the last
+    #: evaluated step); all False when the rank was not asked for (dof = redundant = −1)
+    dof_evaluated: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     #: named constraints that restrict nothing the others do not (at the first step)
     redundant_names: list[str] = field(default_factory=list)
 
@@ -45,12 +65,45 @@ def scaled_jacobian(system: System, state: State, table: StepTable, step: int) -
     return J * cols
 
 
-def _rank(J: np.ndarray) -> np.ndarray:
-    """Numerical rank of each of a stack of matrices (T, R, N)."""
-    if J.shape[-1] == 0 or J.shape[-2] == 0:
-        return np.zeros(J.shape[0], dtype=int)
-    s = np.linalg.svd(J, compute_uv=False)
-    return np.sum(s > RANK_TOL * np.maximum(s[..., :1], 1e-300), axis=-1)
+def decoupled_blocks(J: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The blocks a matrix (R, N) decouples into: (row indices, column indices) of each
+    connected component of the bipartite graph of its nonzero entries (zero rows and columns
+    belong to none). J's singular values are those of its blocks together."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    R, N = J.shape
+    i, j = np.nonzero(J)
+    graph = coo_matrix((np.ones(i.size), (i, R + j)), shape=(R + N, R + N))
+    _, label = connected_components(graph, directed=False)
+    rows, cols = label[:R], label[R:]
+    return [(np.flatnonzero(rows == k), np.flatnonzero(cols == k)) for k in np.unique(label[i])]
+
+
+def jacobian_rank(J: np.ndarray) -> int:
+    """Numerical rank of a matrix (R, N): singular values above RANK_TOL times the largest,
+    taken block by block (:func:`decoupled_blocks`): exact, and a fraction of the work when it
+    decouples (a planar linkage: in-plane and out-of-plane unknowns)."""
+    blocks = decoupled_blocks(J)
+    if not blocks:
+        return 0
+    s = np.concatenate([np.linalg.svd(J[np.ix_(r, c)], compute_uv=False) for r, c in blocks])
+    return int(np.sum(s > RANK_TOL * s.max()))
+
+
+def left_null_space(J: np.ndarray) -> np.ndarray:
+    """An orthonormal basis Y (R, R − rank) of the vectors y with yᵀJ = 0 (rank as
+    :func:`jacobian_rank`), assembled block by block."""
+    R = J.shape[0]
+    blocks = decoupled_blocks(J)
+    svds = [np.linalg.svd(J[np.ix_(r, c)], full_matrices=True) for r, c in blocks]
+    top = max((float(s[0]) for _, s, _ in svds if s.size), default=0.0)
+    basis = [np.eye(R)[:, np.abs(J).max(axis=1, initial=0.0) == 0]]  # zero rows
+    for (rows, _), (U, s, _) in zip(blocks, svds):
+        Y = np.zeros((R, rows.size - int(np.sum(s > RANK_TOL * top))))
+        Y[rows] = U[:, rows.size - Y.shape[1]:]
+        basis.append(Y)
+    return np.concatenate(basis, axis=1)
 
 
 def active_equations(system: System, table: StepTable) -> np.ndarray:
@@ -64,42 +117,62 @@ def active_equations(system: System, table: StepTable) -> np.ndarray:
     return total
 
 
-def run_diagnostics(system: System, run: Run, table: StepTable, rank: bool = True) -> Diagnostics:
-    """Diagnostics of every step of a run (the rank needs one Jacobian per step)."""
+def rank_steps(system: System, run: Run, table: StepTable) -> np.ndarray:
+    """The steps (T,) bool whose rank is evaluated (module docstring)."""
+    T = run.t.size
+    R, N = system.n_rows, system.n_unknowns
+    every = max(1, math.ceil(T / max(1, int(RANK_BUDGET // (R * N * min(R, N) + RANK_OVERHEAD)))))
+    steps = np.zeros(T, dtype=bool)
+    steps[::every] = True
+    steps |= run.status != CONVERGED
+    equations = active_equations(system, table)
+    steps[1:] |= (run.status[1:] != run.status[:-1]) | (equations[1:] != equations[:-1])
+    return steps
+
+
+def run_diagnostics(system: System, run: Run, table: StepTable, rank: bool = True,
+                    unsatisfied_tol: float = UNSATISFIED_TOL) -> Diagnostics:
+    """Diagnostics of every step of a run: a residual row above ``unsatisfied_tol`` (scaled)
+    names its constraint unsatisfied; the rank is evaluated at :func:`rank_steps`."""
     T = run.t.size
     costs = system.costs(run.residual)
-    bad = np.abs(run.residual) * system.row_scale > UNSATISFIED_TOL
-    owners = np.zeros((T, len(system.constraint_names)), dtype=bool)
+    bad = np.abs(run.residual) * system.row_scale > unsatisfied_tol
+    unsatisfied: list[list[str]] = [[] for _ in range(T)]
     for k in np.flatnonzero(bad.any(axis=1)):
-        owners[k, np.unique(system.row_owner[bad[k]])] = True
-    unsatisfied = [[system.constraint_names[c] for c in np.flatnonzero(row)] for row in owners]
+        owners = np.unique(system.row_owner[bad[k]])
+        worst_first = owners[np.argsort(-costs[k, owners], kind="stable")]
+        unsatisfied[k] = [system.constraint_names[c] for c in worst_first]
     if rank:
-        ranks = np.empty(T, dtype=int)
-        chunk = max(1, int(2e7 // max(system.n_rows * system.n_unknowns * 8, 1)))
-        for s in range(0, T, chunk):
-            J = np.stack([scaled_jacobian(system, run.state(k), table, k) for k in range(s, min(T, s + chunk))])
-            ranks[s:s + len(J)] = _rank(J)
-        dof = system.n_unknowns - ranks
-        redundant = active_equations(system, table) - ranks
+        evaluated = rank_steps(system, run, table)
+        steps = np.flatnonzero(evaluated)
+        ranks = np.array([jacobian_rank(scaled_jacobian(system, run.state(k), table, k)) for k in steps], dtype=int)
+        # carry each evaluated rank forward to the next evaluated step (step 0 is always evaluated)
+        rank_at = ranks[np.cumsum(evaluated) - 1]
+        dof = system.n_unknowns - rank_at
+        redundant = active_equations(system, table) - rank_at
     else:
+        evaluated = np.zeros(T, dtype=bool)
         dof = np.full(T, -1)
         redundant = np.full(T, -1)
     names = []
     if rank and len(system.constraint_names) <= MAX_NAMED_CHECKS and redundant[0] > 0:
         names = redundant_constraints(system, run.state(0), table, 0)
     return Diagnostics(status=run.status.copy(), residual=np.sqrt(costs.sum(axis=1)), dof=dof,
-                       redundant=redundant, costs=costs, unsatisfied=unsatisfied, redundant_names=names)
+                       redundant=redundant, costs=costs, unsatisfied=unsatisfied, dof_evaluated=evaluated,
+                       redundant_names=names)
 
 
 def redundant_constraints(system: System, state: State, table: StepTable, step: int) -> list[str]:
-    """Named constraints whose removal leaves the rank unchanged (they restrict nothing more)."""
-    J = scaled_jacobian(system, state, table, step)
-    full = int(_rank(J[None])[0])
+    """Named constraints whose removal leaves the rank unchanged (they restrict nothing more).
+
+    With Y (R, R − rank) an orthonormal basis of the left null space of J (Yᵀ J = 0), removing
+    the k rows of a constraint lowers the rank by k − rank(Y[rows]): the constraint is redundant
+    when Y restricted to its rows has full row rank (smallest singular value above
+    :data:`NULL_TOL`). One null space serves every constraint."""
+    Y = left_null_space(scaled_jacobian(system, state, table, step))
     out = []
     for c, name in enumerate(system.constraint_names):
-        keep = system.row_owner != c
-        if keep.all():
-            continue
-        if int(_rank(J[keep][None])[0]) == full:
+        rows = np.flatnonzero(system.row_owner == c)
+        if 0 < rows.size <= Y.shape[1] and np.linalg.svd(Y[rows], compute_uv=False)[-1] > NULL_TOL:
             out.append(name)
     return out

@@ -6,39 +6,66 @@ import time
 
 import numpy as np
 
-from linkedit.errors import MechanismError
-from linkedit.gcs.diagnostics import run_diagnostics
+from linkedit.errors import InputError, MechanismError
+from linkedit.gcs.diagnostics import UNSATISFIED_TOL, run_diagnostics
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.result import GcsResult
-from linkedit.gcs.solver import CONVERGED, STATUS_NAMES, Options, solve_run
-from linkedit.spec.mechanism3d import MechanismSpec
+from linkedit.gcs.solver import CONVERGED, STATUS_NAMES, Options, Run, solve_run
+from linkedit.gcs.system import System
+from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
 
 
 def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "lm",
                allow_python: bool = False, spec_text: str = "", rank: bool = True) -> GcsResult:
-    """Solve every step t = linspace(0, 1, steps) (default: the spec's ``outputs.steps``)."""
-    system, tracks = compile_mechanism(spec, allow_python=allow_python)
+    """Solve every step t = linspace(0, 1, steps) (default: the spec's ``outputs.steps``).
+
+    Raises :class:`MechanismError` when a step's state or residual is not finite (overflow):
+    a result never holds NaN or inf."""
     steps = steps or spec.outputs.steps
+    if not 2 <= steps <= MAX_STEPS:
+        raise InputError(f"steps must be between 2 and {MAX_STEPS:,}, not {steps:,}", field="steps")
+    system, tracks = compile_mechanism(spec, allow_python=allow_python)
     t = np.linspace(0.0, 1.0, steps)
     table = system.step_table(t)
-    start = time.perf_counter()
-    run = solve_run(system, t, Options(solver=solver), table=table)
-    seconds = time.perf_counter() - start
-    diag = run_diagnostics(system, run, table, rank=rank)
+    options = Options(solver=solver)
+    with np.errstate(all="ignore"):  # overflow is checked (check_run_finite), not warned about
+        start = time.perf_counter()
+        run = solve_run(system, t, options, table=table)
+        seconds = time.perf_counter() - start
+        check_run_finite(spec.name, system, run)
+        diag = run_diagnostics(system, run, table, rank=rank,
+                               unsatisfied_tol=max(UNSATISFIED_TOL, options.satisfied_tol))
     res = GcsResult(
         name=spec.name, units=spec.units, t=t, member_names=system.member_names, position=run.position,
         orientation=run.orientation, constraint_names=system.constraint_names,
         constraint_inputs=system.constraint_inputs, diagnostics=diag, iterations=run.iterations,
         points=system.points, lines=system.lines, spec_text=spec_text,
-        options={"steps": steps, "solver": solver, "seconds": round(seconds, 6)})
+        options={"steps": steps, "solver": solver, "tolerance": options.satisfied_tol,
+                 "seconds": round(seconds, 6)})
     for tr in tracks:
         res.add_track(tr.name, system.member_names[tr.member], tr.point)
     return res
 
 
+def check_run_finite(name: str, system: System, run: Run) -> None:
+    """Raise :class:`MechanismError` at the first step whose member states or constraint costs
+    are not finite (the solver overflowed), naming those constraints and the time."""
+    T = run.t.size
+    costs = system.costs(run.residual)
+    finite = np.isfinite(costs).all(axis=1) & np.isfinite(run.position.reshape(T, -1)).all(axis=1) \
+        & np.isfinite(run.orientation.reshape(T, -1)).all(axis=1)
+    if finite.all():
+        return
+    k = int(np.flatnonzero(~finite)[0])
+    off = np.flatnonzero(~np.isfinite(costs[k]))
+    names = ", ".join(system.constraint_names[c] for c in off) if off.size else "the member states"
+    raise MechanismError(f"{name}: the solution overflowed at step {k} (t = {run.t[k]:.4f}): {names} not finite "
+                         "(coordinates too large?); a result never holds NaN or inf, nothing written")
+
+
 def check_solved(res: GcsResult) -> None:
     """Raise :class:`MechanismError` at the first step that did not converge, naming the
-    unsatisfied constraints and the time."""
+    unsatisfied constraints (worst first) and the time."""
     d = res.diagnostics
     bad = np.flatnonzero(d.status != CONVERGED)
     if not bad.size:

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from linkedit.errors import InputError
+from linkedit.errors import InputError, MechanismError
 from linkedit.gcs.diagnostics import Diagnostics
 from linkedit.gcs.outputs import is_closed, track_positions, velocity
 from linkedit.gcs.solver import STATUS_NAMES
@@ -68,26 +68,55 @@ class GcsResult:
         return track
 
     def summary(self) -> dict[str, Any]:
+        """Counts and ranges for ``--json``; a non-finite number is None (JSON has no NaN or inf)."""
         d = self.diagnostics
         counts = {n: int(np.sum(d.status == i)) for i, n in enumerate(STATUS_NAMES)}
         out: dict[str, Any] = {
             "name": self.name, "steps": int(self.t.size), "members": len(self.member_names),
             "constraints": len(self.constraint_names), "status": counts,
-            "max_residual": float(d.residual.max(initial=0.0)),
+            "max_residual": _finite_or_none(d.residual.max(initial=0.0)),
             "dof": sorted({int(x) for x in d.dof}), "redundant": sorted({int(x) for x in d.redundant}),
+            "dof_evaluated_steps": int(np.sum(d.dof_evaluated)),
             "redundant_constraints": list(d.redundant_names),
             "iterations_per_step": float(self.iterations.mean()) if self.iterations.size else 0.0,
             "tracks": {n: {"member": tr.member, "point": tr.point.tolist(), "cyclic": tr.cyclic,
-                           "min": tr.position.min(axis=0).tolist(), "max": tr.position.max(axis=0).tolist(),
-                           "max_speed": float(np.linalg.norm(tr.velocity, axis=1).max())}
+                           "min": [_finite_or_none(x) for x in tr.position.min(axis=0)],
+                           "max": [_finite_or_none(x) for x in tr.position.max(axis=0)],
+                           "max_speed": _finite_or_none(np.linalg.norm(tr.velocity, axis=1).max())}
                        for n, tr in self.tracks.items()},
         }
         return out
 
 
+def _finite_or_none(x: float) -> float | None:
+    """A summary number for JSON (which has no NaN or inf)."""
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
+def check_finite(res: GcsResult) -> None:
+    """Raise :class:`MechanismError` naming the first step (and array) holding NaN or inf:
+    a result file never holds them."""
+    T = res.t.size
+    d = res.diagnostics
+    arrays = {"member position": res.position, "member orientation": res.orientation,
+              "constraint cost": d.costs, "residual": d.residual}
+    for name, tr in res.tracks.items():
+        arrays[f"track {name!r} position"] = tr.position
+        arrays[f"track {name!r} velocity"] = tr.velocity
+    for what, a in arrays.items():
+        bad = ~np.isfinite(np.asarray(a, dtype=float).reshape(T, -1)).all(axis=1)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise MechanismError(f"{res.name}: {what} is not finite at step {k} (t = {res.t[k]:.4f}); "
+                                 "a result never holds NaN or inf, nothing written")
+
+
 def write_result(path: str | Path, res: GcsResult) -> None:
-    """Write atomically (see ``specs/gcs-hdf5.md``)."""
+    """Write atomically (see ``specs/gcs-hdf5.md``); refuses NaN and inf (:func:`check_finite`)."""
     from linkedit.io.hdf5 import put, result_file
+
+    check_finite(res)
 
     u = res.units
     with result_file(path, kind=KIND, units=u, spec_text=res.spec_text, options=res.options) as f:
@@ -122,6 +151,8 @@ def write_result(path: str | Path, res: GcsResult) -> None:
         put(d, "residual", dg.residual, description="residual norm, sqrt of the summed costs")
         put(d, "dof", dg.dof, description="degrees of freedom left: 6M - rank(J)")
         put(d, "redundant", dg.redundant, description="redundant equations: independent equations - rank(J)")
+        put(d, "dof_evaluated", dg.dof_evaluated.astype(bool),
+            description="rank of J evaluated at this step (else dof and redundant are the last evaluated step's)")
         put(d, "iterations", res.iterations)
         put(d, "unsatisfied", [", ".join(n) for n in dg.unsatisfied])
         d.attrs["redundant_constraints"] = json.dumps(dg.redundant_names)
@@ -144,6 +175,7 @@ def read_result(path: str | Path) -> GcsResult:
             diag = Diagnostics(status=d["status"][()], residual=d["residual"][()], dof=d["dof"][()],
                                redundant=d["redundant"][()], costs=f["constraints/cost"][()],
                                unsatisfied=[[x for x in s.split(", ") if x] for s in strings(d["unsatisfied"])],
+                               dof_evaluated=d["dof_evaluated"][()].astype(bool),
                                redundant_names=json.loads(d.attrs.get("redundant_constraints", "[]")))
             tracks = {}
             for name, g in f["tracks"].items():

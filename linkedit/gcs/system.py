@@ -338,7 +338,7 @@ class System:
         row = self.blocks[-1].stop if self.blocks else 0
         for c in self.customs:
             m = list(c.members)
-            res, jac = _custom(c, P[m], Q[m], par.t, jacobian)
+            res, jac = _custom(c, self.constraint_names[c.owner], P[m], Q[m], par.t, jacobian)
             r[row:row + c.size] = res
             row += c.size
             if jacobian:
@@ -368,19 +368,19 @@ class System:
 
 
 
-def _custom(c: Custom, P: np.ndarray, Q: np.ndarray, t: float, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
-    """Residual of a custom constraint and its Jacobian (given, or by central differences)."""
-    res = np.asarray(c.fn(P, Q, t), dtype=float).reshape(-1)
-    if res.size != c.size:
-        from linkedit.errors import MechanismError
-
-        raise MechanismError(f"custom constraint returned {res.size} values, expected {c.size}")
+def _custom(c: Custom, name: str, P: np.ndarray, Q: np.ndarray, t: float,
+            jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """Residual (size,) of the custom constraint ``name`` and its Jacobian (size, 6k) (given,
+    or by central differences). A user function that raises, or returns a wrong-sized or
+    non-finite array, is a :class:`~linkedit.errors.MechanismError` naming the constraint and
+    the time."""
+    res = _call(c.fn, name, "residual", (c.size,), P, Q, t)
     if not jacobian:
         return res, None
-    if c.jac is not None:
-        return res, np.asarray(c.jac(P, Q, t), dtype=float).reshape(c.size, 6 * len(P))
-    h = 1e-6
     k = len(P)
+    if c.jac is not None:
+        return res, _call(c.jac, name, "Jacobian", (c.size, 6 * k), P, Q, t)
+    h = 1e-6
     jac = np.empty((c.size, 6 * k))
     for i in range(6 * k):
         cols = []
@@ -388,6 +388,26 @@ def _custom(c: Custom, P: np.ndarray, Q: np.ndarray, t: float, jacobian: bool) -
             d = np.zeros((k, 6))
             d[i // 6, i % 6] = sgn * h
             q = quat.turned(Q, d[:, 3:])  # as State.moved
-            cols.append(np.asarray(c.fn(P + d[:, :3], q, t), dtype=float).reshape(-1))
+            cols.append(_call(c.fn, name, "residual", (c.size,), P + d[:, :3], q, t))
         jac[:, i] = (cols[0] - cols[1]) / (2 * h)
     return res, jac
+
+
+def _call(fn: Callable[..., object], name: str, what: str, shape: tuple[int, ...], P: np.ndarray,
+          Q: np.ndarray, t: float) -> np.ndarray:
+    """``fn(P, Q, t)`` as a finite float array of ``shape``, or a MechanismError saying why not."""
+    from linkedit.errors import MechanismError
+
+    where = f"custom constraint {name!r} at t = {t:.4f}"
+    try:
+        out = np.asarray(fn(P.copy(), Q.copy(), t), dtype=float)
+    except Exception as exc:  # noqa: BLE001 — user code (or an output that is not numbers): reported, not a traceback
+        text = (str(exc).strip().splitlines() or [""])[0]
+        raise MechanismError(f"{where}: its {what} function failed: {type(exc).__name__}"
+                             + (f": {text}" if text else "")) from None
+    if out.size != int(np.prod(shape)):
+        raise MechanismError(f"{where}: its {what} function returned {out.size} values, expected "
+                             f"{' x '.join(map(str, shape))}")
+    if not np.isfinite(out).all():
+        raise MechanismError(f"{where}: its {what} function returned a non-finite value (NaN or inf)")
+    return out.reshape(shape)

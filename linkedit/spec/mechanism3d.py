@@ -237,8 +237,12 @@ class TrackSpec(SpecModel):
     point: PointRef
 
 
+#: most time steps a run may have (the arrays of a run grow with steps × members)
+MAX_STEPS = 1_000_000
+
+
 class Outputs(SpecModel):
-    steps: int = pydantic.Field(default=100, ge=2)
+    steps: int = pydantic.Field(default=100, ge=2, le=MAX_STEPS)
     tracks: dict[Name, TrackSpec] = pydantic.Field(default_factory=dict)
 
 
