@@ -86,3 +86,17 @@ def test_simulate_engine_numeric_writes_a_planar_result(run_cli, tmp_path):
         assert np.abs(a["joints/position"][()] - b["joints/position"][()]).max() < 1e-8
         v, w = a["joints/velocity"][()], b["joints/velocity"][()]
         assert np.abs(v - w).max() < 1e-2 * np.abs(w).max()  # parabola differences vs closed form
+
+
+def test_coarse_sampling_stays_on_the_branch():
+    """15° samples would let continuation jump to another assembly; the refined solve does not."""
+    import numpy as np
+
+    from linkedit.gcs.planar_bridge import refined_phases, simulate_numeric
+    from linkedit.planar import catalog, simulate
+
+    fine, keep = refined_phases(np.arange(24) / 24, 360.0)
+    assert np.allclose(fine[keep], np.arange(24) / 24) and np.diff(fine).max() * 360 <= 1.0 + 1e-9
+    spec = catalog.strandbeest(3)
+    numeric = simulate_numeric(spec, np.arange(24) / 24)
+    assert np.abs(numeric.positions - simulate(spec, 24).positions).max() < 1e-8

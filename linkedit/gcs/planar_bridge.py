@@ -155,19 +155,46 @@ def point_positions(member: np.ndarray, point: np.ndarray, position: np.ndarray,
     return out
 
 
+#: largest motor rotation between two solved steps: continuation from the previous steps
+#: stays on the rest pose's branch only if the steps are small (15° steps can jump branches)
+MAX_STEP_DEG = 1.0
+
+
+def refined_phases(t: np.ndarray, sweep_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """Phases to solve so that no two consecutive ones are more than MAX_STEP_DEG apart.
+
+    ``t`` (T,) increasing phases, ``sweep_deg`` motor degrees per unit of phase. Returns the
+    refined phases (F,) ⊇ ``t`` and the index of each requested phase in them (T,).
+    """
+    if t.size < 2:
+        return t, np.arange(t.size)
+    gap = np.diff(t)
+    parts = np.maximum(np.ceil(np.abs(gap) * sweep_deg / MAX_STEP_DEG - 1e-9), 1).astype(int)
+    first = np.cumsum(parts) - parts  # index of each interval's start in the refined phases
+    offset = np.arange(parts.sum()) - np.repeat(first, parts)
+    fine = np.append(np.repeat(t[:-1], parts) + np.repeat(gap / parts, parts) * offset, t[-1])
+    return fine, np.append(first, parts.sum())
+
+
 def simulate_numeric(spec: LinkageSpec, t: np.ndarray, options: Options | None = None,
                      model: PlanarModel | None = None) -> NumericMotion:
     """Simulate a planar linkage at motor phases ``t`` (T,) with the 3D solver.
 
     Raises :class:`MechanismError` naming the unsatisfied constraint and the motor angle when
-    the linkage cannot be assembled at some step.
+    the linkage cannot be assembled at some step. Between requested phases more than
+    MAX_STEP_DEG apart, intermediate steps are solved (and not returned) so the continuation
+    stays on the rest pose's branch.
     """
     model = model or planar_model(spec)
     t = np.asarray(t, dtype=float)
     system = model.system
+    sweep = 360.0 if model.range_rad is None else abs(np.degrees(model.range_rad[1] - model.range_rad[0]))
+    fine, keep = refined_phases(t, sweep)
     start = time.perf_counter()
-    run = solve_run(system, t, options)
+    run = solve_run(system, fine, options)
     seconds = time.perf_counter() - start
+    run = Run(t=t, position=run.position[keep], orientation=run.orientation[keep], residual=run.residual[keep],
+              status=run.status[keep], iterations=run.iterations[keep], factorizations=run.factorizations[keep])
     if model.range_rad is None:
         angle = model.motor_rest_angle + model.direction * 2.0 * np.pi * t
     else:
