@@ -136,31 +136,27 @@ class RestPoseKinematics:
                 continue
             t = f.terms[n]
             lik2, ljk2 = f.lik2[n], f.ljk2[n]
-            half = 0.5 * (lik2 - ljk2)
             gw = np.conj(t.e) * gk
             ge = np.conj(t.w) * gk
-            ga = gw.real
-            gbsq = gw.imag / (2.0 * t.b)
-            gu = gbsq * lik2
-            gl_ik = gbsq * t.u
-            gl_jk = np.zeros_like(gl_ik)
-            if gds is not None and gds[n] is not None:
-                ds, gd = f.ds[n], gds[n]
-                q = ds / t.bsq
-                gbsq_ds = gd * q
-                gu += gbsq_ds * lik2 - 2.0 * gd * ds / t.u
-                gl_ik += gbsq_ds * t.u - gd * ds / lik2
-                gl_jk -= gd * ds / ljk2
-                ga -= 2.0 * t.a * gbsq_ds
-            ga -= 2.0 * t.a * gbsq
-            gh = ga * t.u
-            gu += ga * half
-            gd2 = -gu * t.u * t.u
-            ge += 2.0 * gd2 * t.e
+            gbsq = gw.imag / (2.0 * t.b)  # B = s·sqrt(B²)
+            gu = 0.0
+            g_lik2 = g_ljk2 = 0.0
+            if gds is not None and gds[n] is not None and gds[n].any():
+                # d_s = B²/(u²·l_ik²·l_jk²): through B², and directly through u, l_ik², l_jk²
+                gd_ds = gds[n] * f.ds[n]
+                gbsq = gbsq + gd_ds / t.bsq
+                gu = -2.0 * gd_ds / t.u
+                direct = gd_ds.sum(axis=1)
+                g_lik2 = -direct / lik2[:, 0]
+                g_ljk2 = -direct / ljk2[:, 0]
+            ga = gw.real - 2.0 * t.a * gbsq  # B² = l_ik²·u − A²
+            gu = gu + gbsq * lik2 + ga * (0.5 * (lik2 - ljk2))  # A = ½ + (l_ik² − l_jk²)/2·u
+            ge += (-2.0 * gu * t.u * t.u) * t.e  # u = 1/|e|²
             G[ui] += mi @ (gk - ge)
             G[uj] += mj @ ge
-            g_lik2 = (gl_ik + 0.5 * gh).sum(axis=1)
-            g_ljk2 = (gl_jk - 0.5 * gh).sum(axis=1)
+            gau = (ga * t.u).sum(axis=1)
+            g_lik2 = g_lik2 + np.einsum("rt,rt->r", gbsq, t.u) + 0.5 * gau
+            g_ljk2 = g_ljk2 - 0.5 * gau
             dik = rest[b.k_point] - rest[b.i_point]
             djk = rest[b.k_point] - rest[b.j_point]
             (ui_p, mi_p), (uj_p, mj_p) = self.rest_scatter[n]
