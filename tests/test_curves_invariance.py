@@ -9,7 +9,7 @@ is checked separately with its own, looser, tolerance.
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 from linkedit.curves.descriptors import describe, describe_ragged
@@ -96,6 +96,11 @@ def test_closed_2d_rigid_motion_scale_start_and_direction(c1, c2, angle, scale, 
 @SETTINGS
 @given(coefficients(3), coefficients(3), st.lists(st.floats(-1, 1), min_size=9, max_size=9), st.floats(0.01, 100),
        st.integers(1, 199), st.tuples(*[st.floats(-1e3, 1e3)] * 3))
+# two vertices tied for farthest from the centroid (found by hypothesis): the start point must
+# not depend on which one the input lists first
+@example(c1=np.array([[[2.5, 0, 0.7], [0, 1, 0]], [[0, 0, 0], [0, 0, 0.42]], [[0, 0, 0], [0, 0, 0]]]),
+         c2=np.array([[[0, 0, 0], [0, 0, 0.7]], [[0, 0, 0], [0, 0, 0]], [[0, 0, 0], [0, 0, 0]]]),
+         angles=[0.0] * 9, scale=1.0, shift=1, offset=(0.0, 0.0, 0.0))
 def test_closed_3d_rigid_motion_scale_start_and_direction(c1, c2, angles, scale, shift, offset):
     curve, witness = fourier_curve(c1, 200), fourier_curve(c2, 200)
     assume(np.linalg.svd(curve - curve.mean(0), compute_uv=False)[2] > 1e-3)

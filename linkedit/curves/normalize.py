@@ -165,12 +165,16 @@ def _closed_start(x: np.ndarray, x_next: np.ndarray, step: np.ndarray, seg: np.n
                   width: float) -> np.ndarray:
     """Start of closed curves as a fraction of their length (C,): see the module docstring.
 
-    The vertex farthest from the centroid, moved to the peak of the parabola through r² there
+    The vertex farthest from the centroid (ties: the one with the largest first principal
+    coordinate), moved to the peak of the parabola through r² there
     and at ± ``width`` (a fraction of the length) along the polyline, unless it is a reversal.
     """
     rows = np.arange(len(x))
     r2 = np.einsum("cdm,cdm->cm", x, x)
-    vertex = np.argmax(r2, axis=1)
+    # vertices tied for farthest (to rounding) are told apart by the first principal coordinate,
+    # so the choice does not depend on the input's start index
+    near = r2 >= r2.max(axis=1, keepdims=True) * (1.0 - 1e-9)
+    vertex = np.argmax(np.where(near, x[:, 0, :], -np.inf), axis=1)
     at = frac[rows, vertex]
     side = _points_at(x, x_next, frac, (at[:, None] + np.array([-width, width])) % 1.0)  # (C, D, 2)
     drop = r2[rows, vertex][:, None] - np.einsum("cdk,cdk->ck", side, side)  # ≥ 0: the polyline's maximum is a vertex
