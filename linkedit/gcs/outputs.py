@@ -22,7 +22,7 @@ def track_positions(position: np.ndarray, orientation: np.ndarray, member: int, 
     return position[:, member] + R @ np.asarray(point, dtype=float)
 
 
-def is_closed(p: np.ndarray) -> bool:
+def ends_meet(p: np.ndarray) -> bool:
     """True when the curve's ends meet relative to its size (bounding-box diagonal)."""
     size = float(np.linalg.norm(p.max(axis=0) - p.min(axis=0)))
     return bool(np.linalg.norm(p[-1] - p[0]) <= CLOSED_TOL * max(size, 1e-300))
@@ -42,7 +42,7 @@ def _parabola(t0, t1, t2, p0, p1, p2, at: str) -> np.ndarray:
 def velocity(t: np.ndarray, p: np.ndarray, cyclic: bool | None = None, period: float | None = None) -> np.ndarray:
     """d p / d t (T, D) of samples ``p`` (T, D) at times ``t`` (T,).
 
-    ``cyclic=None`` decides from the curve (:func:`is_closed`; the last sample then repeats the
+    ``cyclic=None`` decides from the curve (:func:`ends_meet`; the last sample then repeats the
     first, one ``period`` = t[-1] − t[0] later). With ``period`` given the samples are one
     period without the repeated end (t = k/T), and the curve wraps from the last to the first.
     """
@@ -59,7 +59,7 @@ def velocity(t: np.ndarray, p: np.ndarray, cyclic: bool | None = None, period: f
         pp = np.concatenate([p[-1:], p, p[:1]])
         return _parabola(tt[:-2], tt[1:-1], tt[2:], pp[:-2], pp[1:-1], pp[2:], "middle")
     if cyclic is None:
-        cyclic = is_closed(p)
+        cyclic = ends_meet(p)
     if cyclic and T >= 4:
         per = t[-1] - t[0]
         inner = velocity(t[:-1], p[:-1], period=per)

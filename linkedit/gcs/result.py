@@ -15,7 +15,7 @@ import numpy as np
 
 from linkedit.errors import InputError, MechanismError
 from linkedit.gcs.diagnostics import Diagnostics
-from linkedit.gcs.outputs import is_closed, track_positions, velocity
+from linkedit.gcs.outputs import ends_meet, track_positions, velocity
 from linkedit.gcs.solver import STATUS_NAMES
 
 KIND = "gcs"
@@ -61,7 +61,7 @@ class GcsResult:
         """Evaluate a member point (3,) at every stored step; no solving."""
         m = self.member_index(member)
         p = track_positions(self.position, self.orientation, m, point)
-        closed = is_closed(p)
+        closed = ends_meet(p)
         track = Track3D(member=member, point=np.asarray(point, dtype=float), position=p,
                         velocity=velocity(self.t, p, cyclic=closed), cyclic=closed)
         self.tracks[name] = track

@@ -15,6 +15,7 @@ from linkedit.errors import InputError
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.result import GcsResult
 from linkedit.io.atomic import write_text
+from linkedit.io.svg_figure import text
 
 VIEWS = ("xy", "xz", "yz", "iso")
 COLORS = ("#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
@@ -77,8 +78,8 @@ def draw(path: str | Path, res: GcsResult, view: str = "iso", velocity: bool = F
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0f}" height="{height + 40:.0f}" '
            f'viewBox="0 0 {width:.0f} {height + 40:.0f}">',
            '<rect width="100%" height="100%" fill="white"/>',
-           f'<text x="10" y="{height + 28:.0f}" font-family="sans-serif" font-size="14">{_esc(res.name)} — view {view}, '
-           f'{T} steps, units {_esc(res.units)}</text>',
+           f'<text x="10" y="{height + 28:.0f}" font-family="sans-serif" font-size="14">{text(res.name)} — view {view}, '
+           f'{T} steps, units {text(res.units)}</text>',
            '<defs><marker id="arrow" markerWidth="8" markerHeight="8" refX="7" refY="4" orient="auto">'
            '<path d="M0,0 L8,4 L0,8 z" fill="#333"/></marker></defs>']
     for k, m, lines in shapes:
@@ -89,13 +90,13 @@ def draw(path: str | Path, res: GcsResult, view: str = "iso", velocity: bool = F
                 out.append(f'<circle cx="{(ln[0, 0] - lo[0]) * scale:.2f}" cy="{height - (ln[0, 1] - lo[1]) * scale:.2f}" '
                            f'r="3" fill="#222"/>')
             else:
-                out.append(f'<polyline points="{xy(ln)}" fill="none" {style}><title>{_esc(res.member_names[m])}</title></polyline>')
+                out.append(f'<polyline points="{xy(ln)}" fill="none" {style}><title>{text(res.member_names[m])}</title></polyline>')
     for i, (name, c) in enumerate(curves.items()):
         color = COLORS[i % len(COLORS)]
         out.append(f'<polyline points="{xy(c)}" fill="none" stroke="{color}" stroke-width="1.5">'
-                   f'<title>{_esc(name)}</title></polyline>')
+                   f'<title>{text(name)}</title></polyline>')
         out.append(f'<text x="{width - 150:.0f}" y="{20 + 18 * i}" font-family="sans-serif" font-size="13" '
-                   f'fill="{color}">{_esc(name)}</text>')
+                   f'fill="{color}">{text(name)}</text>')
         if velocity:
             v2 = project(res.tracks[name].velocity, view)  # the projections are linear
             vmax = float(np.linalg.norm(v2, axis=1).max())
@@ -108,7 +109,3 @@ def draw(path: str | Path, res: GcsResult, view: str = "iso", velocity: bool = F
                                f'marker-end="url(#arrow)"/>')
     out.append("</svg>")
     write_text(path, "\n".join(out) + "\n")
-
-
-def _esc(s: str) -> str:
-    return str(s).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
