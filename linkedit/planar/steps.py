@@ -1,0 +1,255 @@
+"""Rules of the new kinds: sliders, the linear input, translating links, numeric groups.
+
+Each :class:`Step` writes some joints from joints known before it, over T samples at once:
+
+* ``slider`` (circle–line): joint k on a known slot line (point P, unit direction D) at the
+  fixed distance l from the known joint i: with q = z_i − P, a = Re(D̄q), p = Im(D̄q),
+  z_k = P + D·(a + σ·sqrt(l² − p²)); σ = ±1 is the side taken at rest, never changed.
+  l² < p² is a lock-up (the rod cannot reach the line); d_s = (l² − p²)/l² is 0 where the rod
+  stands perpendicular to the line.
+* ``drive``: the linearly driven joint, z_k = P + D·s.
+* ``translate``: the joints of a translating link from its known joint m,
+  z_n = z_m + R·(z̄_n − z̄_m), R the guide's rotation since rest.
+* ``group``: a complex loop: Newton's method on the group's constraint rows at every sample,
+  continued from the previous sample (the samples are dense: see
+  :func:`linkedit.planar.kinematics.evaluate`), keeping the rest pose's branch (the sign of the
+  group Jacobian's determinant never changes; a change means the group passed a singular
+  position, reported as a lock-up).
+
+Velocities and accelerations of every step come from its constraint rows F(z) = 0 by the
+implicit function theorem: J_S·ż_S = −dF[ż_K] + F_s·ṡ and J_S·z̈_S = −dF[z̈_K] − d²F[ż, ż]
+(the rows are bilinear, see :mod:`linkedit.planar.constraints`), one small batched solve.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from linkedit.errors import MechanismError
+from linkedit.planar.constraints import Rows, _Builder, linkage_rows
+from linkedit.planar.graph import LinkageGraph
+from linkedit.planar.ordering import StepRule
+
+#: Newton's method stops when every row is within this of 0 (rows are in units of the
+#: linkage's characteristic length, squared for distance rows)
+GROUP_TOLERANCE = 1e-13
+GROUP_ITERATIONS = 12
+
+
+@dataclass(frozen=True)
+class Step:
+    """One compiled rule of a new kind (see module docstring). Indices are joints (spec order)."""
+
+    kind: str
+    level: int
+    joints: np.ndarray  # (n,) joints written
+    inputs: np.ndarray  # joints read
+    name: str  # the slider's name, or the group's joints
+    rows: Rows  # the rows the written joints satisfy (for derivatives and checks)
+    line: int = -1  # slider/drive: the slot row in ``rows``; translate: the rotation row
+    i: int = -1  # slider: the joint at a fixed distance; translate: the known joint
+    l2: float = 0.0  # slider: squared rod length
+    sign: float = 1.0  # slider: side of i's foot on the line taken at rest
+    offsets: np.ndarray | None = None  # translate: (n,) rest offsets z̄_n − z̄_i
+    det_sign: float = 1.0  # group: sign of det J_S at rest
+
+    def describe(self, names: list[str]) -> str:
+        out = ", ".join(names[k] for k in self.joints)
+        src = ", ".join(names[k] for k in self.inputs)
+        what = {"slider": f"slider {self.name}", "drive": f"linear input {self.name}",
+                "translate": f"translating link, slider {self.name}", "group": "numeric group"}[self.kind]
+        return f"{out} ← ({src}) {what}"
+
+
+def _line(rows: Rows, r: int, k: int, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Point P and direction D (T,) of slot row ``r`` (joint ``k`` removed from E = z_k − P)."""
+    d = rows.dc[r] @ z + rows.d0[r]
+    ec = rows.ec[r].copy()
+    ec[k] = 0.0
+    return -(ec @ z + rows.e0[r]), d
+
+
+def compile_step(graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set[int]) -> Step:
+    """Build the :class:`Step` of ``rule`` at ``graph``'s rest pose."""
+    z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
+    names = graph.joint_names
+    joints = np.array(rule.joints, dtype=int)
+    if rule.kind == "group":
+        inside = known | set(rule.joints)
+        use = np.array([r for r, js in enumerate(all_rows.joints) if js <= inside and js & set(rule.joints)])
+        rows = all_rows.take(use)
+        inputs = sorted(set().union(*rows.joints) - set(rule.joints))
+        jac = rows.jacobian(z[:, None], joints)[0]
+        det = np.linalg.det(jac) if jac.shape[0] == jac.shape[1] else 1.0
+        return Step("group", rule.level, joints, np.array(inputs, dtype=int),
+                    ", ".join(names[k] for k in rule.joints), rows, det_sign=float(np.sign(det)) or 1.0)
+    s = graph.sliders[rule.slider]
+    own = [r for r, lab in enumerate(all_rows.labels) if lab == f"slider {s.name}"]
+    b = _Builder(graph.n_joints)
+    if rule.kind in ("slider", "drive"):
+        k = rule.joints[0]
+        base = all_rows.take(np.array(own))
+        if rule.kind == "drive":
+            drive = [r for r, lab in enumerate(all_rows.labels) if lab == f"linear input {s.name}"]
+            rows = all_rows.take(np.array(own + drive))
+            inputs = sorted(set().union(*rows.joints) - {k})
+            return Step("drive", rule.level, joints, np.array(inputs, dtype=int), s.name, rows, line=0)
+        i = rule.i
+        l2 = abs(z[k] - z[i]) ** 2
+        b.add(False, {k: 1, i: -1}, 0j, {k: 1, i: -1}, 0j, f"slider {s.name} rod", rhs=l2)
+        rows = _concat(base, b.build())
+        p, d = _line(rows, 0, k, z[:, None])
+        foot = (np.conj(d) * (z[i] - p)).real
+        side = (np.conj(d) * (z[k] - p)).real - foot
+        if abs(side[0]) <= 1e-9 * np.sqrt(l2):
+            raise MechanismError(
+                f"joint {names[k]} of slider {s.name}: the rod {names[i]}–{names[k]} stands perpendicular to "
+                "the slot at the rest pose: which side it takes is undefined; move it off the perpendicular")
+        inputs = sorted(set().union(*rows.joints) - {k})
+        return Step("slider", rule.level, joints, np.array(inputs, dtype=int), s.name, rows, line=0, i=i,
+                    l2=float(l2), sign=float(np.sign(side[0])))
+    # translate: z_n = z_i + R·(z̄_n − z̄_i), R = (z_b − z_a)/(z̄_b − z̄_a) (1 on the frame)
+    i = rule.i
+    if graph.fixed(s.guide):
+        rot_d, rot_0 = {}, 1.0 + 0j
+    else:
+        a, bb = graph.frame_pair(s.guide)
+        m = complex(z[bb] - z[a])
+        rot_d, rot_0 = {bb: 1 / m, a: -1 / m}, 0j
+    offsets = np.array([z[n] - z[i] for n in rule.joints])
+    b.add(True, rot_d, rot_0, {}, 1.0 + 0j, f"slider {s.name}")  # placeholder row 0: R (read as D)
+    for n, off in zip(rule.joints, offsets):
+        e = {n: 1.0 + 0j, i: -1.0 + 0j}
+        for j, c in rot_d.items():
+            e[j] = e.get(j, 0) - c * off
+        b.add(False, {}, 1.0 + 0j, e, -rot_0 * off, f"slider {s.name}")
+        b.add(True, {}, 1.0 + 0j, e, -rot_0 * off, f"slider {s.name}")
+    built = b.build()
+    rows = built.take(np.arange(1, built.m))
+    inputs = sorted(set().union(*rows.joints) - set(rule.joints))
+    return Step("translate", rule.level, joints, np.array(inputs, dtype=int), s.name, built, line=0, i=i,
+                offsets=offsets)
+
+
+def _concat(a: Rows, b: Rows) -> Rows:
+    return Rows(np.concatenate([a.imag, b.imag]), np.vstack([a.dc, b.dc]), np.concatenate([a.d0, b.d0]),
+                np.vstack([a.ec, b.ec]), np.concatenate([a.e0, b.e0]), np.concatenate([a.rhs, b.rhs]),
+                np.concatenate([a.drive, b.drive]), a.joints + b.joints, a.labels + b.labels)
+
+
+def derivative_rows(step: Step) -> Rows:
+    """The rows the step's joints satisfy (translate: without its rotation helper row)."""
+    return step.rows.take(np.arange(1, step.rows.m)) if step.kind == "translate" else step.rows
+
+
+def positions(step: Step, z: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions (n, T) of the step's joints and its singularity distance (T,) (< 0 or NaN: cannot place).
+
+    ``z`` (J, T) complex joint positions (the step's inputs filled in), ``s`` (T,) the linear input.
+    """
+    if step.kind == "drive":
+        p, d = _line(step.rows, 0, step.joints[0], z)
+        return (p + d * s)[None], np.ones(z.shape[1])
+    if step.kind == "slider":
+        p, d = _line(step.rows, 0, step.joints[0], z)
+        d = d / np.abs(d)
+        q = np.conj(d) * (z[step.i] - p)
+        h2 = step.l2 - q.imag * q.imag
+        with np.errstate(invalid="ignore"):
+            x = q.real + step.sign * np.sqrt(h2)
+        return (p + d * x)[None], h2 / step.l2
+    if step.kind == "translate":
+        rot = step.rows.dc[0] @ z + step.rows.d0[0]
+        return z[step.i] + step.offsets[:, None] * rot, np.ones(z.shape[1])
+    raise ValueError(step.kind)
+
+
+def solve_group(step: Step, z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Continue the group from ``start`` (n,) through the samples of ``z`` (J, T) one by one.
+
+    Returns positions (n, T) (NaN from the first sample where it fails), the singularity
+    distance (T,) — (σ_min/σ_max)² of the row-scaled group Jacobian — and the index of the
+    first failing sample (−1: none).
+    """
+    rows = step.rows
+    cols = np.concatenate([step.joints, step.inputs])
+    local = rows.columns(cols)
+    n = step.joints.size
+    T = z.shape[1]
+    out = np.full((n, T), np.nan + 0j)
+    ds = np.full(T, np.nan)
+    zl = z[cols].copy()
+    prev = prev2 = np.asarray(start, dtype=complex)
+    own = np.arange(n)
+    for t in range(T):
+        guess = prev if t < 2 else 2.0 * prev - prev2
+        col = zl[:, t:t + 1]
+        col[:n, 0] = guess
+        ok = False
+        for _ in range(GROUP_ITERATIONS):
+            f = local.residual(col, s[t:t + 1])[:, 0]
+            jac = local.jacobian(col, own)[0]
+            if np.max(np.abs(f)) <= GROUP_TOLERANCE:
+                ok = True
+                break
+            step_xy = np.linalg.lstsq(jac, -f, rcond=None)[0]
+            col[:n, 0] += step_xy[0::2] + 1j * step_xy[1::2]
+            if not np.all(np.isfinite(col[:n, 0])):
+                break
+        if ok and jac.shape[0] == jac.shape[1] and np.sign(np.linalg.det(jac)) != step.det_sign:
+            ok = False  # passed a singular position: another assembly branch
+        if not ok:
+            return out, ds, t
+        scaled = jac / np.maximum(np.abs(jac).max(axis=1, keepdims=True), 1e-300)
+        sv = np.linalg.svd(scaled, compute_uv=False)
+        ds[t] = (sv[-1] / sv[0]) ** 2
+        out[:, t] = col[:n, 0]
+        prev2, prev = prev, col[:n, 0].copy()
+    return out, ds, -1
+
+
+def _solve(jac: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Batched least-squares solve: jac (T, m, k), rhs (m, T) → (k, T)."""
+    if jac.shape[1] == jac.shape[2]:
+        return np.linalg.solve(jac, rhs.T[..., None])[..., 0].T
+    jt = np.swapaxes(jac, 1, 2)
+    return np.linalg.solve(jt @ jac, (jt @ rhs.T[..., None]))[..., 0].T
+
+
+def _to_complex(xy: np.ndarray) -> np.ndarray:
+    return xy[0::2] + 1j * xy[1::2]
+
+
+def velocity(step: Step, z: np.ndarray, dz: np.ndarray, ds: float) -> np.ndarray:
+    """ż of the step's joints (n, T) from the known joints' ż in ``dz`` (J, T) (own rows ignored)."""
+    rows = derivative_rows(step)
+    known = dz.copy()
+    known[step.joints] = 0.0
+    rhs = -rows.first(z, known) + rows.drive[:, None] * ds
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        return _to_complex(_solve(rows.jacobian(z, step.joints), rhs))
+
+
+def acceleration(step: Step, z: np.ndarray, dz: np.ndarray, ddz: np.ndarray) -> np.ndarray:
+    """z̈ of the step's joints (n, T), given ż of all joints and z̈ of the known ones."""
+    rows = derivative_rows(step)
+    known = ddz.copy()
+    known[step.joints] = 0.0
+    rhs = -rows.first(z, known) - rows.second(dz)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        return _to_complex(_solve(rows.jacobian(z, step.joints), rhs))
+
+
+def compile_steps(graph: LinkageGraph, rules: tuple[StepRule, ...], known0: set[int],
+                  revolute_levels: dict[int, int]) -> tuple[Step, ...]:
+    """Compile the ordering's step rules (``known0``: joints known before any rule)."""
+    all_rows = linkage_rows(graph)
+    level_of = {k: 0 for k in known0} | revolute_levels
+    out = []
+    for rule in rules:
+        known = {k for k, lv in level_of.items() if lv < rule.level}
+        out.append(compile_step(graph, rule, all_rows, known))
+        level_of.update({k: rule.level for k in rule.joints})
+    return tuple(out)
