@@ -28,12 +28,30 @@ def _load(spec_path: Path | None, script_path: Path):
             raise InputError(f"linkage file not found: {spec_path}", file=str(script_path),
                              line=lines.line_of(("linkage",)), field="linkage")
     linkage = load_model(LinkageSpec, spec_path)
+    _refuse_unsupported(spec_path, linkage)
     try:
         check_against(script, linkage)
     except InputError as exc:
         exc.file, exc.line = str(script_path), lines.line_of(exc.field)
         raise
     return spec_path, linkage, script
+
+
+def _refuse_unsupported(spec_path: Path, linkage: Any) -> None:
+    """edit works on revolute linkages that closed-form rules order completely (one line, exit 2 otherwise)."""
+    from linkedit.planar import compile_plan
+
+    m = linkage.motor
+    why = None
+    if linkage.sliders or m.linear:
+        why = "sliders and linear inputs"
+    elif m.oscillate_deg is not None:
+        why = "oscillating (rocker) inputs"
+    elif compile_plan(linkage).steps:
+        why = "complex loops (numeric groups)"
+    if why is not None:
+        raise InputError(f"edit does not support sliders/numeric groups yet: this linkage has {why}",
+                         file=str(spec_path), field="linkage")
 
 
 def _report_lines(result: Any) -> list[str]:

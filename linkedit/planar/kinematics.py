@@ -113,7 +113,7 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> S
 def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int) -> State:
     T = angle.shape[0]
     P = plan.n_points
-    z = np.empty((P, T), dtype=complex)
+    z = np.zeros((P, T), dtype=complex)  # zeros: step rows multiply not-yet-known joints by 0
     dz = np.zeros((P, T), dtype=complex) if order >= 1 else None
     ddz = np.zeros((P, T), dtype=complex) if order >= 2 else None
     ds = np.ones((len(plan.rules), T))

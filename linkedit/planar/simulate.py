@@ -83,7 +83,8 @@ class Motion:
         }
         worst = self.min_singularity()
         if worst:
-            out["min_singularity"] = {"value": worst[0], "joint": worst[1], "motor_angle_deg": worst[2]}
+            where = "stroke" if self.plan.linear else "motor_angle_deg"
+            out["min_singularity"] = {"value": worst[0], "joint": worst[1], where: worst[2]}
             dyads = ~self.plan.rigid
             if dyads.any():
                 dev = np.abs(np.where(self.assembled[:, None], self.transmission, np.pi / 2)[:, dyads] - np.pi / 2)

@@ -166,47 +166,73 @@ def positions(step: Step, z: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.
     raise ValueError(step.kind)
 
 
+def _newton(local: Rows, col: np.ndarray, s: np.ndarray, n: int, own: np.ndarray) -> tuple[bool, float, np.ndarray]:
+    """Newton's method on the group's joints (the first n of ``col`` (L, 1), updated in place).
+
+    Returns (converged, size of the first step, last Jacobian)."""
+    first = 0.0
+    jac = np.zeros((local.m, 2 * n))
+    for it in range(GROUP_ITERATIONS):
+        f = local.residual(col, s)[:, 0]
+        jac = local.jacobian(col, own)[0]
+        if np.max(np.abs(f)) <= GROUP_TOLERANCE:
+            return True, first, jac
+        step = np.linalg.lstsq(jac, -f, rcond=None)[0]
+        if it == 0:
+            first = float(np.abs(step).max())
+        col[:n, 0] += step[0::2] + 1j * step[1::2]
+        if not np.all(np.isfinite(col[:n, 0])):
+            return False, first, jac
+    return False, first, jac
+
+
 def solve_group(step: Step, z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """Continue the group from ``start`` (n,) through the samples of ``z`` (J, T) one by one.
 
-    Returns positions (n, T) (NaN from the first sample where it fails), the singularity
-    distance (T,) — (σ_min/σ_max)² of the row-scaled group Jacobian — and the index of the
-    first failing sample (−1: none).
+    Each move from one sample to the next is a homotopy in the known joints (interpolated
+    linearly); Newton's first step is the tangent predictor, and a move is accepted only when
+    Newton converges close to it (within half its length) without the Jacobian's determinant
+    changing sign; otherwise it is halved (down to 1/256). Returns positions (n, T) (NaN from
+    the first sample where it fails), the singularity distance (T,) — (σ_min/σ_max)² of the
+    row-scaled group Jacobian — and the index of the first failing sample (−1: none).
     """
-    rows = step.rows
     cols = np.concatenate([step.joints, step.inputs])
-    local = rows.columns(cols)
+    local = step.rows.columns(cols)
     n = step.joints.size
+    own = np.arange(n)
     T = z.shape[1]
     out = np.full((n, T), np.nan + 0j)
     ds = np.full(T, np.nan)
-    zl = z[cols].copy()
-    prev = prev2 = np.asarray(start, dtype=complex)
-    own = np.arange(n)
+    known = z[cols[n:]]
+    x = np.asarray(start, dtype=complex).copy()
+    prev_known, prev_s = None, None
+    square = local.m == 2 * n
     for t in range(T):
-        guess = prev if t < 2 else 2.0 * prev - prev2
-        col = zl[:, t:t + 1]
-        col[:n, 0] = guess
-        ok = False
-        for _ in range(GROUP_ITERATIONS):
-            f = local.residual(col, s[t:t + 1])[:, 0]
-            jac = local.jacobian(col, own)[0]
-            if np.max(np.abs(f)) <= GROUP_TOLERANCE:
-                ok = True
-                break
-            step_xy = np.linalg.lstsq(jac, -f, rcond=None)[0]
-            col[:n, 0] += step_xy[0::2] + 1j * step_xy[1::2]
-            if not np.all(np.isfinite(col[:n, 0])):
-                break
-        if ok and jac.shape[0] == jac.shape[1] and np.sign(np.linalg.det(jac)) != step.det_sign:
-            ok = False  # passed a singular position: another assembly branch
-        if not ok:
-            return out, ds, t
+        if prev_known is None:
+            prev_known, prev_s = known[:, t], s[t]
+        done, piece = 0.0, 1.0
+        jac = None
+        while done < 1.0:
+            f = min(done + piece, 1.0)
+            col = np.concatenate([x, prev_known + f * (known[:, t] - prev_known)])[:, None]
+            ok, first, jac = _newton(local, col, np.array([prev_s + f * (s[t] - prev_s)]), n, own)
+            if ok:
+                moved = float(np.abs(col[:n, 0] - x).max())
+                ok = moved <= 1.5 * first + 1e-9 and first <= 0.1
+                if ok and square and np.sign(np.linalg.det(jac)) != step.det_sign:
+                    ok = False  # passed a singular position: another assembly branch
+            if ok:
+                x, done = col[:n, 0].copy(), f
+                piece = min(2.0 * piece, 1.0)
+            else:
+                piece *= 0.5
+                if piece < 1.0 / 256:
+                    return out, ds, t
         scaled = jac / np.maximum(np.abs(jac).max(axis=1, keepdims=True), 1e-300)
         sv = np.linalg.svd(scaled, compute_uv=False)
         ds[t] = (sv[-1] / sv[0]) ** 2
-        out[:, t] = col[:n, 0]
-        prev2, prev = prev, col[:n, 0].copy()
+        out[:, t] = x
+        prev_known, prev_s = known[:, t], s[t]
     return out, ds, -1
 
 
