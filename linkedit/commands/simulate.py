@@ -10,29 +10,40 @@ import typer
 
 from linkedit.commands.common import guard, print_json
 from linkedit.errors import InputError, LinkeditError, MechanismError
+from linkedit.io.formats import is_stdout, output_format, write_out
+from linkedit.io.planar_out import result_format
 
 
 def _outputs(specs: list[Path], out: Path | None, svg: Path | None, animate: bool) -> list[tuple[Path, Path | None]]:
     """Result and picture path per spec: a path with a suffix is a file (one spec only), else a folder."""
     batch = len(specs) > 1
     for option, value, suffix in (("--output", out, ".h5"), ("--svg", svg, ".svg")):
-        if value is not None and batch and value.suffix:
+        if value is not None and batch and _is_file(value):
             raise InputError(f"{value}: with several specs, give a folder (one file per spec is written)", field=option)
     pairs = []
     for spec in specs:
-        h5 = out if out is not None and out.suffix else (out or Path("out")) / f"{spec.stem}.h5"
+        h5 = out if out is not None and _is_file(out) else (out or Path("out")) / f"{spec.stem}.h5"
+        result_format(h5)
         pic = None
         if svg is not None:
-            pic = svg if svg.suffix else svg / f"{spec.stem}.svg"
+            pic = svg if _is_file(svg) else svg / f"{spec.stem}.svg"
+            output_format(pic, ("svg",), option="--svg", stdout="svg")
         elif animate:
-            pic = h5.with_suffix(".svg")
+            pic = h5.with_suffix(".svg") if not is_stdout(h5) else None
         pairs.append((h5, pic))
+    if sum(is_stdout(p) for pair in pairs for p in pair) > 1:
+        raise InputError("only one output can go to standard output ('-')", field="--svg")
     return pairs
+
+
+def _is_file(path: Path) -> bool:
+    """A path with a suffix, or ``-``, names one file; anything else is a folder."""
+    return bool(path.suffix) or is_stdout(path)
 
 
 def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int | None, animate: bool,
                   partial: bool, engine: str) -> dict[str, Any]:
-    from linkedit.io.planar_hdf5 import write_motion
+    from linkedit.io.planar_out import write_result
     from linkedit.planar import simulate
     from linkedit.planar.plan import compile_plan
     from linkedit.spec.linkage import LinkageSpec
@@ -51,12 +62,12 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
     except MechanismError as exc:
         raise MechanismError(f"{spec_path}: {exc}") from None
     options = {"samples": int(motion.t.size), "engine": engine, "partial": partial}
-    write_motion(h5, motion, spec_text=text, options=options)
+    write_result(h5, motion, spec_text=text, options=options)
     result = {"spec": str(spec_path), "output": str(h5)} | motion.summary()
     if svg is not None:
         from linkedit.io.planar_svg import draw_motion
 
-        draw_motion(svg, motion, animate=animate)
+        write_out(svg, draw_motion(None, motion, animate=animate))
         result["svg"] = str(svg)
     return result
 
@@ -80,8 +91,8 @@ def register(app: typer.Typer) -> None:
     @guard
     def simulate(
         specs: list[Path] = typer.Argument(..., help="Linkage spec YAML files."),
-        output: Path = typer.Option(None, "--output", "-o", help="Result .h5 (one spec) or folder [default: out/]."),
-        svg: Path = typer.Option(None, "--svg", help="Motion plot .svg (one spec) or folder."),
+        output: Path = typer.Option(None, "--output", "-o", help="Result file (one spec): .h5/.hdf5, .csv or .dxf by its suffix, - for CSV on stdout; or a folder of .h5 files [default: out/]."),
+        svg: Path = typer.Option(None, "--svg", help="Motion plot .svg (one spec; - for stdout) or folder."),
         animate: bool = typer.Option(False, "--animate", help="Make the SVG an animation (SMIL) of the cycle."),
         samples: int = typer.Option(None, "--samples", "-n", min=1, help="Time samples per cycle [default: spec's, else 360]."),
         engine: str = typer.Option("symbolic", "--engine", help="symbolic (closed form) or numeric (3D constraint solver)."),
@@ -94,6 +105,7 @@ def register(app: typer.Typer) -> None:
         if engine == "numeric" and partial:
             raise InputError("--partial works with the symbolic engine only", field="--partial")
         targets = _outputs(specs, output, svg, animate)
+        to_stderr = any(is_stdout(p) for pair in targets for p in pair)  # stdout carries the data
         results, worst = [], 0
         progress = _progress(len(specs))
         for spec_path, (h5, pic) in zip(specs, targets):
@@ -107,7 +119,7 @@ def register(app: typer.Typer) -> None:
                 worst = max(worst, exc.exit_code)
             results.append(r)
             if not as_json and "error" not in r:
-                typer.echo(_line(r))
+                typer.echo(_line(r), err=to_stderr)
             progress()
         if as_json:
             print_json(results)
