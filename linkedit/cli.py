@@ -15,6 +15,7 @@ from linkedit import __version__
 
 COMMAND_MODULES = [
     "linkedit.commands.simulate",
+    "linkedit.commands.assemble",
     "linkedit.commands.edit",
     "linkedit.commands.solve3d",
     "linkedit.commands.curves",
