@@ -16,6 +16,7 @@ from linkedit import __version__
 COMMAND_MODULES = [
     "linkedit.commands.simulate",
     "linkedit.commands.assemble",
+    "linkedit.commands.import_",
     "linkedit.commands.edit",
     "linkedit.commands.solve3d",
     "linkedit.commands.curves",
