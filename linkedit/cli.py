@@ -17,6 +17,7 @@ COMMAND_MODULES = [
     "linkedit.commands.simulate",
     "linkedit.commands.assemble",
     "linkedit.commands.import_",
+    "linkedit.commands.plot",
     "linkedit.commands.edit",
     "linkedit.commands.solve3d",
     "linkedit.commands.curves",

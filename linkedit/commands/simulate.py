@@ -151,7 +151,8 @@ def register(app: typer.Typer) -> None:
                 kind = "rigid" if rigid else "dyad"
                 levels.setdefault(int(lv), []).append(f"{names[k]} ← ({names[i]}, {names[j]}) {kind}")
             reports.append({"spec": str(path)} | motion.summary() | {"grubler": plan.mobility.grubler,
-                            "redundant": plan.mobility.redundant, "levels": levels})
+                            "redundant": plan.mobility.redundant, "levels": levels,
+                            "warnings": transmission_warnings(motion)})
         if as_json:
             print_json(reports)
         else:
@@ -167,8 +168,29 @@ def register(app: typer.Typer) -> None:
                                f"worst transmission angle {r['worst_transmission_angle_deg']:.1f}°")
                 for lk in r.get("lockups", []):
                     typer.echo(f"  LOCK-UP: {lk}")
+                for w in r["warnings"]:
+                    typer.echo(f"  warning: {w}")
         if any(r.get("lockups") for r in reports):
             raise typer.Exit(1)
+
+
+def transmission_warnings(motion: Any) -> list[str]:
+    """One line per dyad whose transmission angle leaves 40°–140° (its worst angle and where)."""
+    import numpy as np
+
+    from linkedit.io.kinematics_plot import GOOD_TRANSMISSION
+
+    lo, hi = GOOD_TRANSMISSION
+    plan = motion.plan
+    out = []
+    for r in np.flatnonzero(~plan.rigid):
+        a = np.degrees(motion.transmission[:, r])
+        a = np.where(motion.assembled, a, 90.0)
+        t = int(np.argmax(np.abs(a - 90.0)))
+        if a[t] < lo or a[t] > hi:
+            out.append(f"transmission angle at joint {plan.joint_names[plan.rules[r, 2]]} leaves {lo:g}°–{hi:g}°: "
+                       f"{a[t]:.1f}° at motor angle {np.degrees(motion.motor_angle[t]):.1f}°")
+    return out
 
 
 def _progress(total: int):
