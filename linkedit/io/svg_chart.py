@@ -111,11 +111,16 @@ def _panel(x: np.ndarray, xr: tuple[float, float], p: Panel, top: float, xlabel:
             dash = " stroke-dasharray=\"6 4\"" if s.dashed else ""
             parts.append(f"<polyline{attrs(cls='series', data_name=s.name)} points={attr(points_text(q))}"
                          f" fill=\"none\" stroke=\"{s.color}\" stroke-width=\"1.6\"{dash} stroke-linejoin=\"round\"/>")
-    for mx, my, label in p.marks:
+    placed: list[float] = []  # label baselines, kept 12 px apart so near marks stay readable
+    for mx, my, label in sorted(p.marks, key=lambda m: -m[1]):
         X, Y = px(np.array(mx), np.array(my))
+        ly = float(Y) + 4
+        while any(abs(ly - q) < 12 for q in placed):
+            ly -= 12
+        placed.append(ly)
         parts.append(f"<g class=\"toggle\" data-x=\"{mx:.6g}\" data-y=\"{my:.6g}\"><circle cx=\"{X:.2f}\" cy=\"{Y:.2f}\""
                      f" r=\"4\" fill=\"#ffffff\" stroke=\"{PALETTE[1]}\" stroke-width=\"1.6\"/>"
-                     f"<text x=\"{X + 6:.2f}\" y=\"{Y - 6:.2f}\" font-size=\"10\" fill=\"{PALETTE[1]}\""
+                     f"<text x=\"{X + 8:.2f}\" y=\"{ly:.2f}\" font-size=\"10\" fill=\"{PALETTE[1]}\""
                      f" stroke=\"#ffffff\" stroke-width=\"3\" paint-order=\"stroke\" {FONT}>{text(label)}</text></g>")
     rows = []
     for n, s in enumerate(p.series):
