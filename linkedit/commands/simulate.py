@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from enum import Enum
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +13,13 @@ from linkedit.commands.common import guard, print_json
 from linkedit.errors import InputError, LinkeditError, MechanismError
 from linkedit.io.formats import is_stdout, output_format, write_out
 from linkedit.io.planar_out import result_format
+
+
+class Engine(str, Enum):
+    """How positions are computed."""
+
+    symbolic = "symbolic"
+    numeric = "numeric"
 
 
 def _outputs(specs: list[Path], out: Path | None, svg: Path | None, animate: bool) -> list[tuple[Path, Path | None]]:
@@ -95,14 +103,12 @@ def register(app: typer.Typer) -> None:
         svg: Path = typer.Option(None, "--svg", help="Motion plot .svg (one spec; - for stdout) or folder."),
         animate: bool = typer.Option(False, "--animate", help="Make the SVG an animation (SMIL) of the cycle."),
         samples: int = typer.Option(None, "--samples", "-n", min=1, help="Time samples per cycle [default: spec's, else 360]."),
-        engine: str = typer.Option("symbolic", "--engine", help="symbolic (closed form) or numeric (3D constraint solver)."),
+        engine: Engine = typer.Option(Engine.symbolic, "--engine", help="symbolic (closed form) or numeric (3D constraint solver)."),
         partial: bool = typer.Option(False, "--partial", help="Write a cycle that locks up somewhere (positions NaN there, flagged in /diagnostics/assembled) instead of failing."),
         as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
     ) -> None:
         """Simulate planar linkages; write HDF5 trajectories (and SVG motion plots)."""
-        if engine not in ("symbolic", "numeric"):
-            raise InputError(f"unknown engine {engine!r} (symbolic or numeric)", field="--engine")
-        if engine == "numeric" and partial:
+        if engine == Engine.numeric and partial:
             raise InputError("--partial works with the symbolic engine only", field="--partial")
         targets = _outputs(specs, output, svg, animate)
         to_stderr = any(is_stdout(p) for pair in targets for p in pair)  # stdout carries the data
@@ -110,7 +116,8 @@ def register(app: typer.Typer) -> None:
         progress = _progress(len(specs))
         for spec_path, (h5, pic) in zip(specs, targets):
             try:
-                r = _simulate_one(spec_path, h5, pic, samples=samples, animate=animate, partial=partial, engine=engine)
+                r = _simulate_one(spec_path, h5, pic, samples=samples, animate=animate, partial=partial,
+                                  engine=engine.value)
             except LinkeditError as exc:
                 if len(specs) == 1:
                     raise
