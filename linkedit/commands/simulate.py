@@ -148,10 +148,16 @@ def register(app: typer.Typer) -> None:
         from linkedit.spec.linkage import LinkageSpec
         from linkedit.spec.yamlload import load_model
 
-        reports = []
+        reports, worst = [], 0
         for path in specs:
-            plan = compile_plan(load_model(LinkageSpec, path))
-            motion = run(plan, samples, partial=True)
+            try:
+                plan = compile_plan(load_model(LinkageSpec, path))
+                motion = run(plan, samples, partial=True)
+            except LinkeditError as exc:  # name the bad file, go on with the others
+                typer.echo(f"linkedit: error: {exc}", err=True)
+                reports.append({"spec": str(path), "error": str(exc), "exit_code": exc.exit_code})
+                worst = max(worst, exc.exit_code)
+                continue
             names = plan.joint_names
             levels: dict[int, list[str]] = {}
             for (i, j, k), lv, rigid in zip(plan.rules, plan.level, plan.rigid):
@@ -164,6 +170,8 @@ def register(app: typer.Typer) -> None:
             print_json(reports)
         else:
             for r in reports:
+                if "error" in r:
+                    continue
                 typer.echo(f"{r['spec']}: {r['name']}, {r['joints']} joints, mobility {r['mobility']} "
                            f"(Grübler count {r['grubler']}, {r['redundant']} redundant)")
                 typer.echo("  level 0: ground and motor")
@@ -178,7 +186,9 @@ def register(app: typer.Typer) -> None:
                 for w in r["warnings"]:
                     typer.echo(f"  warning: {w}")
         if any(r.get("lockups") for r in reports):
-            raise typer.Exit(1)
+            worst = max(worst, 1)
+        if worst:
+            raise typer.Exit(worst)
 
 
 def transmission_warnings(motion: Any) -> list[str]:
