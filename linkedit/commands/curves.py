@@ -163,7 +163,8 @@ def register(app: typer.Typer) -> None:
         An input that cannot be read is reported (named) and skipped; the exit code is then 2.
         """
         failures: list[InputError] = []
-        curves, desc = _load(inputs, closed, samples, harmonics, anchor, skip=_skipped(failures))
+        several = len(inputs) > 1 or any(Path(i).is_dir() for i in inputs)
+        curves, desc = _load(inputs, closed, samples, harmonics, anchor, skip=_skipped(failures) if several else None)
         if output is not None:
             options = {"samples": int(desc.points.shape[1]), "harmonics": int(desc.efd.shape[1]), "inputs": inputs}
             _write_features(output, curves, desc, options)
