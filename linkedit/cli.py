@@ -18,6 +18,7 @@ COMMAND_MODULES = [
     "linkedit.commands.assemble",
     "linkedit.commands.import_",
     "linkedit.commands.plot",
+    "linkedit.commands.examples",
     "linkedit.commands.edit",
     "linkedit.commands.solve3d",
     "linkedit.commands.curves",
