@@ -43,6 +43,8 @@ LINKAGES = {
     "four-bar": (catalog.crank_rocker(), {"track": "coupler_point", "joint": "B", "link": "coupler", "point": [40, 20]}),
     "jansen": (with_link_track(catalog.jansen_leg(), "knee", (-66, -10)),
                {"track": "foot", "joint": "C", "link": "lower", "point": [-40, -60]}),
+    "strandbeest, symmetric": (catalog.strandbeest(1), {"track": "foot_0_L", "joint": "C_0_L", "link": "lower_0_L",
+                                                        "point": [-40, -60]}),
 }
 
 
@@ -80,6 +82,7 @@ def test_jacobian_matches_central_differences(linkage, op, free_angle):
                      "ymax": float(x[:, 1].max() - 0.2 * np.ptp(x[:, 1]))}
     script = EditScript.model_validate({"samples": 40, "singularity_epsilon": 0.5, "lock": [spec.ground[0]],
                                         "motor": {"free_angle": free_angle},
+                                        "symmetric": [["_L", "_R"]] if "symmetric" in linkage else [],
                                         "operations": [fill(OPS[op], names)]})
     problem = problem_for(spec, script)
     problem.eps[~problem.plan.rigid] = 0.6  # the barrier active on many samples

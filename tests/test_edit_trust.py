@@ -262,3 +262,27 @@ def test_edit_of_a_linkage_that_locks_up_is_one_line(run_cli, tmp_path):
     r = run_cli("edit", p, s, "-o", tmp_path / "out")
     assert r.exit_code in (1, 2)
     assert "Traceback" not in r.output and len(r.output.strip().splitlines()) == 1
+
+
+def test_symmetric_edit_keeps_mirrored_legs_mirrored(run_cli, tmp_path):
+    beest = catalog.strandbeest(3)
+    p = linkage_file(tmp_path, beest)
+    c = np.add(beest.joints["C_0_L"], (3.0, 2.0))
+    e = Edited(run_cli, tmp_path, p, write(tmp_path, "s.yaml", {
+        "samples": 60, "lock": ["O"], "symmetric": [["_L", "_R"]], "operations": [
+            {"preserve": ["foot_0_L"], "displace": {"joint": "C_0_L", "to": c.tolist()}}]}))
+    e.check(run_cli, preserved=["foot_0_L"])
+    edited = e.edited
+    assert np.hypot(*np.subtract(edited.joints["C_0_L"], c)) < 0.5 * 3.6
+    plan = compile_plan(edited)
+    rest = np.array([edited.joints[n] for n in plan.joint_names])
+    names = plan.joint_names
+    length = {tuple(sorted((names[a], names[b]))): np.hypot(*(rest[a] - rest[b])) for a, b in plan.pairs}
+    mirror = lambda n: n[:-2] + ("_R" if n.endswith("_L") else "_L") if n.endswith(("_L", "_R")) else n  # noqa: E731
+    checked = 0
+    for (a, b), l in length.items():
+        image = tuple(sorted((mirror(a), mirror(b))))
+        if image != (a, b) and image in length:
+            assert abs(l - length[image]) <= 1e-6 * 200, (a, b)
+            checked += 1
+    assert checked >= 20

@@ -10,6 +10,8 @@ not depend on the units (the same edit in mm or m gives the same linkage, scaled
   set of joints);
 * envelope: √(w/T)·(distance outside the box)/L per joint and sample;
 * regularization: √μ_r·(l_ij − l̃_ij)/L over joint pairs on a link and the frame's pivots;
+* symmetry: √(10⁶·μ_e)·(l_ij − l_i'j')/L for every length whose mirror image (i', j') is another
+  length (``symmetric``), so mirrored legs stay mirrored;
 * singularity barrier: √μ_s·ln(d_s/ε_r) where d_s < ε_r, per dyad triangle and sample (so E
   holds LinkEdit's ½·ln²(d_s/ε)). ε_r = min(ε, half the triangle's own smallest d_s at the start
   of the operation): the barrier is inactive on the design as it is (a null edit changes
@@ -141,6 +143,8 @@ class Problem:
     ref_lengths: np.ndarray  # (Q,)
     point_cols: np.ndarray  # (P, C) column map of each point row
     pair_cols: np.ndarray  # (Q, C)
+    mirrored: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))  # (M, 2) pairs of pairs
+    mirror_cols: np.ndarray | None = None  # (M, C)
     tracking: list[Track] = field(default_factory=list)
     displacements: list[Displacement] = field(default_factory=list)
     envelope: Envelope | None = None
@@ -160,7 +164,21 @@ class Problem:
         edit += [d.block(ev, cols, scale) for d in self.displacements]
         if self.envelope is not None:
             edit.append(self.envelope.block(ev, cols, scale, self.samples))
+        if self.mirrored.size:
+            edit.append(self._symmetry(ev))
         return {"edit": edit, "singularity": [self._barrier(ev)], "regularization": [self._regularization(ev)]}
+
+    def _symmetry(self, ev: Evaluation) -> Block:
+        s = np.sqrt(1e6 * self.weights[0]) / self.size
+        r, D = [], []
+        for sign, q in ((1.0, self.mirrored[:, 0]), (-1.0, self.mirrored[:, 1])):
+            a, b = self.pairs[q].T
+            d = ev.rest[b] - ev.rest[a]
+            r.append(sign * np.abs(d))
+            if ev.dz is not None:
+                drest = self.kin.drest
+                D.append(sign * ((d / np.abs(d)).conj()[:, None] * (drest[b] - drest[a])).real)
+        return s * (r[0] + r[1]), (None if ev.dz is None else s * (D[0] + D[1])), self.mirror_cols
 
     def _barrier(self, ev: Evaluation) -> Block:
         T = self.samples
@@ -267,6 +285,19 @@ def regularized_pairs(plan: Plan) -> np.ndarray:
     return np.array(sorted(pairs), dtype=int).reshape(-1, 2)
 
 
+def mirrored_pairs(pairs: np.ndarray, mirror: dict[str, str], index: dict[str, int]) -> np.ndarray:
+    """(M, 2) indices into ``pairs`` of each pair and its distinct mirror image (once each)."""
+    names = {i: n for n, i in index.items()}
+    where = {tuple(p): q for q, p in enumerate(pairs.tolist())}
+    out = []
+    for q, (a, b) in enumerate(pairs.tolist()):
+        image = tuple(sorted((index[mirror.get(names[a], names[a])], index[mirror.get(names[b], names[b])])))
+        other = where.get(image)
+        if other is not None and other > q:
+            out.append((q, other))
+    return np.array(out, dtype=int).reshape(-1, 2)
+
+
 def dependencies(plan: Plan, uses: np.ndarray) -> np.ndarray:
     """(P, n) bool: the variables each point row depends on (``uses`` (J, n): per joint)."""
     dep = np.zeros((plan.n_points, uses.shape[1]), dtype=bool)
@@ -300,7 +331,9 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
     dep = dependencies(plan, uses)
     pairs = regularized_pairs(plan)
     pair_dep = uses[pairs[:, 0]] | uses[pairs[:, 1]]
-    colours = colour(np.vstack([dep, pair_dep])) if var.n else np.zeros(0, dtype=int)
+    mirrored = mirrored_pairs(pairs, script.mirror(names), index)
+    mirror_dep = pair_dep[mirrored[:, 0]] | pair_dep[mirrored[:, 1]]
+    colours = colour(np.vstack([dep, pair_dep, mirror_dep])) if var.n else np.zeros(0, dtype=int)
     C = int(colours.max(initial=-1)) + 1
     kin = RestPoseKinematics(plan, spin, seeds(var, colours, C))
     start = kin.evaluate(var.x0)
@@ -320,7 +353,8 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
 
     problem = Problem(plan=plan, kin=kin, var=var, samples=T, size=size, weights=(me, ms, mr), eps=eps,
                       pairs=pairs, ref_lengths=ref, point_cols=column_map(dep, colours, C),
-                      pair_cols=column_map(pair_dep, colours, C))
+                      pair_cols=column_map(pair_dep, colours, C), mirrored=mirrored,
+                      mirror_cols=column_map(mirror_dep, colours, C))
     track_row = {n: int(plan.row_of[p]) for n, p in zip(plan.track_names, plan.track_points)}
     everywhere = np.arange(T)
 

@@ -197,6 +197,20 @@ class EditScript(SpecModel):
     weights: Weights = Weights()
     singularity_epsilon: pydantic.confloat(gt=0.0, lt=1.0) = 0.05
     solver: Literal["gauss-newton", "bfgs"] = "gauss-newton"
+    #: Mirrored parts: pairs of joint-name suffixes, e.g. [[_L, _R]]: joints whose names differ only
+    #: by them are mirror images, and corresponding lengths stay equal through the edit.
+    symmetric: list[tuple[str, str]] = pydantic.Field(default_factory=list)
+
+    def mirror(self, joints: list[str]) -> dict[str, str]:
+        """Joint → its mirror image, both ways, for the ``symmetric`` suffixes."""
+        out: dict[str, str] = {}
+        names = set(joints)
+        for a, b in self.symmetric:
+            for n in joints:
+                if n.endswith(a) and n[: len(n) - len(a)] + b in names:
+                    out[n] = n[: len(n) - len(a)] + b
+                    out[out[n]] = n
+        return out
 
     def locked(self) -> dict[str, str]:
         """Joint name → locked axes ("xy", "x" or "y")."""
@@ -215,6 +229,10 @@ def check_against(script: EditScript, linkage: LinkageSpec) -> None:
         name = item if isinstance(item, str) else item.joint
         if name not in joints:
             raise InputError(f"unknown joint {name!r}", field=("lock", n) if isinstance(item, str) else ("lock", n, "joint"))
+    for n, (a, b) in enumerate(script.symmetric):
+        single = script.model_copy(update={"symmetric": [(a, b)]})
+        if not single.mirror(list(linkage.joints)):
+            raise InputError(f"no joint name ends in {a!r} with a twin ending in {b!r}", field=("symmetric", n))
     if locked >= joints:
         raise InputError("every joint is locked: nothing is left for the edit to change", field=("lock",))
     for o, op in enumerate(script.operations):
