@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+from scipy.linalg import cho_factor, cho_solve
 
 from linkedit.edit.bfgs import BfgsResult as SolverResult
 from linkedit.edit.objectives import Problem
@@ -46,7 +47,7 @@ def minimize(problem: Problem, v0: np.ndarray, *, max_iterations: int = 200, rto
         g = J.T @ r
         d = np.maximum(np.diag(A), 1e-12 * max(float(np.diag(A).max(initial=0.0)), 1e-300))
         try:
-            step = np.linalg.solve(A + lam * np.diag(d), -g)
+            step = cho_solve(cho_factor(A + lam * np.diag(d)), -g)
         except np.linalg.LinAlgError:
             lam, nu = lam * nu, 2 * nu
             continue

@@ -79,8 +79,9 @@ def colour(sets: np.ndarray) -> np.ndarray:
     conflict = (s.T @ s) > 0
     colours = np.full(n, -1)
     for v in range(n):
-        taken = set(colours[conflict[v]].tolist())
-        colours[v] = next(c for c in range(n + 1) if c not in taken)
+        taken = np.zeros(n + 2, dtype=bool)
+        taken[colours[conflict[v]]] = True  # index −1 (not coloured yet) lands on the spare last slot
+        colours[v] = int(np.argmin(taken[:-1]))
     return colours
 
 
