@@ -106,9 +106,10 @@ def test_jacobian_matches_central_differences(linkage, op, free_angle):
 
 
 @pytest.mark.parametrize("name", ["jansen_leg", "klann_leg", "hoekens", "crank_rocker", "watt_six_bar",
-                                  "stephenson_six_bar", "strandbeest3", "jansen_with_link_track", "rocker_range"])
+                                  "stephenson_six_bar", "strandbeest3", "strandbeest10", "jansen_with_link_track",
+                                  "rocker_range"])
 def test_forward_model_equals_simulate_at_random_rest_poses(name):
-    spec = {"strandbeest3": lambda: catalog.strandbeest(3),
+    spec = {"strandbeest3": lambda: catalog.strandbeest(3), "strandbeest10": lambda: catalog.strandbeest(10),
             "jansen_with_link_track": lambda: with_link_track(catalog.jansen_leg(), "knee", (-66, -10)),
             "rocker_range": lambda: catalog.crank_rocker().model_copy(update={"motor": catalog.crank_rocker().motor.model_copy(
                 update={"range_deg": (-30.0, 100.0)})}),

@@ -286,3 +286,44 @@ def test_symmetric_edit_keeps_mirrored_legs_mirrored(run_cli, tmp_path):
             assert abs(l - length[image]) <= 1e-6 * 200, (a, b)
             checked += 1
     assert checked >= 20
+
+
+def scaled(spec: LinkageSpec, k: float) -> LinkageSpec:
+    data = spec.model_dump()
+    data["joints"] = {n: [k * c for c in xy] for n, xy in data["joints"].items()}
+    data["tracks"] = {n: (t | {"at": [k * c for c in t["at"]]}) if "at" in t else t for n, t in data["tracks"].items()}
+    return LinkageSpec.model_validate(data)
+
+
+def test_a_uniform_scaling_nothing_opposes_is_reached_exactly(run_cli, tmp_path):
+    jansen = catalog.jansen_leg()
+    p = linkage_file(tmp_path, jansen)
+    e = Edited(run_cli, tmp_path, p, write(tmp_path, "s.yaml", {"samples": 60, "operations": [
+        {"transform": {"joints": "all", "scale": 0.8, "about": [0, 0]}}]}))
+    e.check(run_cli)
+    for name, xy in jansen.joints.items():
+        assert np.hypot(*np.subtract(e.edited.joints[name], np.multiply(0.8, xy))) <= 1e-7 * 100, name
+
+
+def test_the_same_edit_in_metres_gives_the_same_linkage_scaled(run_cli, tmp_path):
+    script = {"samples": 120, "lock": ["O"], "operations": [
+        {"preserve": ["foot"], "displace": {"joint": "C", "to": [-20, 36]}}]}
+    results = {}
+    for k in (1.0, 1e-3):
+        folder = tmp_path / f"k{k:g}"
+        folder.mkdir()
+        p = linkage_file(folder, scaled(catalog.jansen_leg(), k))
+        s = dict(script, operations=[{"preserve": ["foot"], "displace": {"joint": "C", "to": [-20 * k, 36 * k]}}])
+        e = Edited(run_cli, folder, p, write(folder, "s.yaml", s))
+        assert e.result.exit_code == 0, e.output
+        results[k] = np.array(list(e.edited.joints.values())) / k
+    assert np.abs(results[1.0] - results[1e-3]).max() <= 1e-6 * 100
+
+
+def test_frame_pivot_distances_are_regularized():
+    from linkedit.edit.objectives import regularized_pairs
+
+    plan = compile_plan(catalog.jansen_leg())
+    names = plan.joint_names
+    pairs = {tuple(sorted((names[a], names[b]))) for a, b in regularized_pairs(plan)}
+    assert ("B", "O") in pairs
