@@ -16,7 +16,7 @@ from linkedit.errors import MechanismError
 from linkedit.planar.diagnostics import LockUp, lockups, transmission_angle, triangle_orientation
 from linkedit.planar.kinematics import State, evaluate
 from linkedit.planar.plan import Geometry, Plan, compile_plan
-from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.linkage import LinkageSpec, Motor
 
 DEFAULT_SAMPLES = 360
 
@@ -94,29 +94,43 @@ class Motion:
         return out
 
 
+def motor_phases(spec: LinkageSpec, samples: int) -> np.ndarray:
+    """Phases t (T,): a full revolution or an ``oscillate_deg`` swing samples t = n/T (the end
+    is the start); a ``range_deg`` sweep and a linear input's stroke include both ends."""
+    if spec.motor.cyclic:
+        return np.arange(samples) / samples
+    return np.linspace(0.0, 1.0, samples) if samples > 1 else np.zeros(1)
+
+
+def motor_turn(motor: Motor, t: np.ndarray) -> np.ndarray:
+    """Motor rotation from the rest pose at phases ``t`` (T,), radians (signed by direction).
+
+    The one time axis of linkedit: phase 0 of a full revolution is the rest pose. An
+    ``oscillate_deg`` swing [a, b] goes a → b → a as a + (b − a)·(1 − cos 2πt)/2.
+    """
+    sign = 1.0 if motor.direction == "ccw" else -1.0
+    if motor.oscillate_deg is not None:
+        a, b = np.radians(motor.oscillate_deg)
+        return sign * (a + (b - a) * 0.5 * (1.0 - np.cos(2.0 * np.pi * t)))
+    if motor.range_deg is None:
+        return sign * 2.0 * np.pi * t
+    a, b = np.radians(motor.range_deg)
+    return sign * (a + (b - a) * t)
+
+
 def motor_angles(spec: LinkageSpec, samples: int) -> tuple[np.ndarray, np.ndarray]:
     """Phases t (T,) and input values (T,) for ``samples`` samples.
 
-    Rotary: absolute motor angles, radians. A full revolution and an ``oscillate_deg`` swing
-    (a → b → a, a cosine in t) sample t = n/T (the end is the start); a ``range_deg`` sweep
-    includes both of its ends. Linear: the stroke, displacement from rest along the slot in
-    the spec's units, from s0 to s1, both ends included.
+    Rotary: absolute motor angles, radians. Linear: the stroke, the driven joint's
+    displacement from rest along its slot in the spec's units, from s0 to s1.
     """
     m = spec.motor
-    ends = np.linspace(0.0, 1.0, samples) if samples > 1 else np.zeros(1)
+    t = motor_phases(spec, samples)
     if m.linear:
         s0, s1 = m.stroke
-        return ends, s0 + (s1 - s0) * ends
+        return t, s0 + (s1 - s0) * t
     rest = np.arctan2(*(np.subtract(spec.joints[m.joint], spec.joints[m.pivot])[::-1]))
-    sign = 1.0 if m.direction == "ccw" else -1.0
-    if m.range_deg is not None:
-        a, b = np.radians(m.range_deg)
-        return ends, rest + sign * (a + (b - a) * ends)
-    t = np.arange(samples) / samples
-    if m.oscillate_deg is not None:
-        a, b = np.radians(m.oscillate_deg)
-        return t, rest + sign * (a + (b - a) * 0.5 * (1.0 - np.cos(2.0 * np.pi * t)))
-    return t, rest + sign * 2.0 * np.pi * t
+    return t, rest + motor_turn(m, t)
 
 
 def _joint_order(plan: Plan, z: np.ndarray) -> np.ndarray:
