@@ -33,11 +33,13 @@ class LockUp:
         fmt = ".1f" if self.unit == "°" else ".6g"
         head = (f"the linkage cannot be assembled for {lead} {self.start_deg:{fmt}}{u}…"
                 f"{self.end_deg:{fmt}}{u}: ")
-        if self.what:
-            return head + self.what
+        return head + (self.what or self.because())
+
+    def because(self) -> str:
+        """Why a dyad's joint cannot be placed."""
         i, j = self.inputs
         how = "too far apart" if self.stretched else "too close together"
-        return head + f"joint {self.joint} cannot be placed ({i} and {j} are {how} for its links)"
+        return f"joint {self.joint} cannot be placed ({i} and {j} are {how} for its links)"
 
 
 def _runs(mask: np.ndarray, cyclic: bool) -> list[tuple[int, int]]:

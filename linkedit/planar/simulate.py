@@ -8,7 +8,7 @@ unless ``partial=True``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -19,6 +19,10 @@ from linkedit.planar.plan import Geometry, Plan, compile_plan
 from linkedit.spec.linkage import LinkageSpec, Motor
 
 DEFAULT_SAMPLES = 360
+#: d_s at or below this (rounding of sin² at a toggle) counts as a toggle: not assembled
+TOGGLE = 1e-12
+#: fewer samples than this per cycle: the cycle is also checked at this many (lock-ups between samples)
+DENSE_SAMPLES = 1440
 
 
 @dataclass(frozen=True)
@@ -168,7 +172,7 @@ def plan_graph_normalized(plan: Plan):
     return plan.graph.with_rest((plan.graph.rest - o) / plan.scale)
 
 
-def _explain(plan: Plan, d: np.ndarray, lik: np.ndarray, ljk: np.ndarray):
+def _explain(plan: Plan, d: np.ndarray, lik: np.ndarray, ljk: np.ndarray, ds: np.ndarray, sds: np.ndarray):
     """The lock-up explanation of item r (rules first, then steps) at sample t, for :func:`lockups`."""
     names = plan.joint_names
     R = len(plan.rules)
@@ -177,10 +181,18 @@ def _explain(plan: Plan, d: np.ndarray, lik: np.ndarray, ljk: np.ndarray):
         if r < R:
             i, j, k = plan.rules[r]
             far = bool(d[t, r] > lik[r] + ljk[r]) if np.isfinite(d[t, r]) else False
-            return names[k], (names[i], names[j]), far, ""
+            what = ""
+            if abs(ds[t, r]) <= TOGGLE:  # within rounding of a toggle: name it, never "too close"
+                how = "stretched" if abs(d[t, r] - lik[r] - ljk[r]) <= abs(d[t, r] - abs(lik[r] - ljk[r])) else "folded"
+                what = (f"joint {names[k]} reaches a toggle position: its links are fully {how} between "
+                        f"{names[i]} and {names[j]} (d_s = 0, its velocity is undefined there)")
+            return names[k], (names[i], names[j]), far, what
         step = plan.steps[r - R]
         k = names[step.joints[0]]
-        if step.kind == "slider":
+        if abs(sds[t, r - R]) <= TOGGLE and step.kind == "slider":
+            what = (f"slider {step.name} reaches a toggle position: the rod {names[step.i]}–{k} stands "
+                    "perpendicular to the slot line (d_s = 0)")
+        elif step.kind == "slider":
             what = (f"slider {step.name} cannot place joint {k}: the rod {names[step.i]}–{k} does not reach "
                     "the slot line")
         elif step.kind == "group":
@@ -231,11 +243,15 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
     rules = plan.rules
     ds = state.ds.T.copy()
     sds = state.step_ds.T.copy()
-    ok = np.isfinite(pn).all(axis=(1, 2)) & (ds >= 0.0).all(axis=1) & (sds >= 0.0).all(axis=1)
+    ok = np.isfinite(pn).all(axis=(1, 2)) & (ds > TOGGLE).all(axis=1) & (sds > TOGGLE).all(axis=1)
     found: list[LockUp] = []
     if not ok.all():
         found = _find_lockups(plan, pn, ds, sds, shown, unit)
         if not partial or not ok.any():
+            raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
+    elif samples < DENSE_SAMPLES and not plan.has_groups:
+        found = _lockups_between(plan, geom, scale)
+        if found and not partial:
             raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
     _check_constraints(plan, pn, ok, value, unit)
 
@@ -271,6 +287,23 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
                   step_singularity=np.where(ok[:, None], sds, np.nan))
 
 
+def _lockups_between(plan: Plan, geom: Geometry, scale: float) -> list[LockUp]:
+    """Lock-ups the requested samples step over: the cycle is checked again at DENSE_SAMPLES
+    (positions only, batched); what fails there is reported as found between the samples."""
+    spec = plan.spec
+    t, value = motor_angles(spec, DENSE_SAMPLES)
+    state = evaluate(plan, geom, value / scale if plan.linear else value, order=0)
+    pn = _joint_order(plan, state.z)
+    ds, sds = state.ds.T, state.step_ds.T
+    ok = np.isfinite(pn).all(axis=(1, 2)) & (ds > TOGGLE).all(axis=1) & (sds > TOGGLE).all(axis=1)
+    if ok.all():
+        return []
+    shown = value if plan.linear else np.degrees(value)
+    found = _find_lockups(plan, pn, ds, sds, shown, _unit(plan))
+    return [replace(lk, what=(lk.what or lk.because()) + " (found between the requested samples: "
+                    "simulate with more samples to see it)") for lk in found]
+
+
 def _find_lockups(plan: Plan, pn: np.ndarray, ds: np.ndarray, sds: np.ndarray, shown: np.ndarray,
                   unit: str) -> list[LockUp]:
     """Lock-up intervals of rules and steps, in evaluation order (see :func:`lockups`)."""
@@ -281,18 +314,18 @@ def _find_lockups(plan: Plan, pn: np.ndarray, ds: np.ndarray, sds: np.ndarray, s
     lik = np.linalg.norm(rest[rules[:, 2]] - rest[rules[:, 0]], axis=-1)
     ljk = np.linalg.norm(rest[rules[:, 2]] - rest[rules[:, 1]], axis=-1)
     finite = np.isfinite(pn).all(axis=2)  # (T, J)
-    bad_rules = ~(ds >= 0.0)
-    own_rules = (ds < 0.0) | (bad_rules & np.isfinite(d))
-    bad_steps = ~(sds >= 0.0)
+    bad_rules = ~(ds > TOGGLE)
+    own_rules = (ds <= TOGGLE) | (bad_rules & np.isfinite(d))
+    bad_steps = ~(sds > TOGGLE)
     inputs_ok = np.stack([finite[:, st.inputs].all(axis=1) for st in plan.steps], axis=1) if plan.steps \
         else np.zeros((samples, 0), dtype=bool)
-    own_steps = (sds < 0.0) | (bad_steps & inputs_ok)
+    own_steps = (sds <= TOGGLE) | (bad_steps & inputs_ok)
     # evaluation order: by level, rules before steps within a level
     levels = np.concatenate([plan.level, [st.level for st in plan.steps]]).astype(float)
     order = np.argsort(levels + np.r_[np.zeros(len(rules)), np.full(len(plan.steps), 0.5)], kind="stable")
     bad = np.concatenate([bad_rules, bad_steps], axis=1)[:, order]
     own = np.concatenate([own_rules, own_steps], axis=1)[:, order]
-    explain = _explain(plan, d, lik, ljk)
+    explain = _explain(plan, d, lik, ljk, ds, sds)
     return lockups(bad, own, shown, plan.spec.motor.cyclic, lambda r, t: explain(int(order[r]), t), unit)
 
 

@@ -252,7 +252,7 @@ class LinkageSpec(SpecModel):
     def _check_coincident(self) -> None:
         names = list(self.joints)
         pts = [self.joints[n] for n in names]
-        scale = max(max(abs(c) for p in pts for c in p), 1.0)
+        scale = max(abs(c) for p in pts for c in p) or 1.0  # relative: the same at any size
         seen: dict[tuple[int, int], str] = {}
         cell = scale * 1e-9
         for name, (x, y) in zip(names, pts):
