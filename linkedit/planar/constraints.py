@@ -187,3 +187,67 @@ def linkage_rows(graph: LinkageGraph, with_drive: bool = True) -> Rows:
     for n in range(len(graph.sliders)):
         slider_rows(builder, graph, z, n, with_drive)
     return builder.build()
+
+
+def _on_guide_tangent(graph: LinkageGraph, guide: int, z: np.ndarray, dz: np.ndarray, point: complex,
+                      dpoint: complex, direction: complex):
+    """Derivative of :func:`_on_guide`'s coefficients along the rest-pose tangent ``dz``."""
+    a, b, m = _frame(graph, guide, z)
+    if a < 0:
+        return {}, 0j, {}, -dpoint
+    dm = complex(dz[b] - dz[a])
+    c = (point - z[a]) / m
+    dc = ((dpoint - dz[a]) - c * dm) / m
+    dalpha = -direction / m * dm / m
+    return {b: dalpha, a: -dalpha}, 0j, {a: dc, b: -dc}, 0j
+
+
+def linkage_rows_tangent(graph: LinkageGraph, drest: np.ndarray, with_drive: bool = True) -> Rows:
+    """d/dε of every coefficient of :func:`linkage_rows` when the rest pose moves along ``drest``
+    (J,) complex; row for row (``rhs`` holds d rhs/dε). With F = part(conj(D)·E) − rhs, the
+    rows' derivative at fixed joint positions z is part(conj(D′)·E + conj(D)·E′) − rhs′
+    (:func:`rows_rest_derivative`)."""
+    z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
+    dz = np.asarray(drest, dtype=complex)
+    builder = _Builder(graph.n_joints)
+    for li, link in enumerate(graph.links):
+        if graph.fixed(li):
+            continue
+        name = graph.link_names[li]
+        i, j = graph.frame_pair(li)
+        d = complex(z[i] - z[j])
+        builder.add(False, {}, 0j, {}, 0j, f"link {name}", rhs=2.0 * (np.conj(d) * (dz[i] - dz[j])).real)
+        for k in link:
+            if k in (i, j):
+                continue
+            c = (z[k] - z[i]) / (z[j] - z[i])
+            dc = ((dz[k] - dz[i]) - c * (dz[j] - dz[i])) / (z[j] - z[i])
+            e = {i: dc, j: -dc}
+            builder.add(False, {}, 0j, e, 0j, f"link {name}")
+            builder.add(True, {}, 0j, e, 0j, f"link {name}")
+    for n, s in enumerate(graph.sliders):
+        label = f"slider {s.name}"
+        u = np.exp(1j * s.angle)
+        if s.joint >= 0:
+            d, d0, e, e0 = _on_guide_tangent(graph, s.guide, z, dz, complex(z[s.joint]), complex(dz[s.joint]), u)
+            builder.add(True, d, d0, e, e0, label)
+            if with_drive and n == graph.drive:
+                builder.add(False, d, d0, e, e0, f"linear input {s.name}")
+            continue
+        i, j = graph.frame_pair(s.link)
+        a, b, m = _frame(graph, s.guide, z)
+        lij, dlij = complex(z[j] - z[i]), complex(dz[j] - dz[i])
+        rot = {b: -(dz[b] - dz[a]) / m / m, a: (dz[b] - dz[a]) / m / m} if a >= 0 else {}
+        builder.add(True, rot, 0j, {j: -dlij / lij / lij, i: dlij / lij / lij}, 0j, label)
+        d, d0, e, e0 = _on_guide_tangent(graph, s.guide, z, dz, complex(z[i]), complex(dz[i]), u)
+        builder.add(True, d, d0, e, e0, label)
+    return builder.build()
+
+
+def rows_rest_derivative(rows: Rows, tangent: Rows, z: np.ndarray) -> np.ndarray:
+    """∂F/∂(rest pose)·ṙ (m, T) at joint positions ``z`` (J, T): ``tangent`` from
+    :func:`linkage_rows_tangent` (aligned with ``rows``)."""
+    d, e = rows.terms(z)
+    dd, de = tangent.terms(z)
+    w = np.conj(dd) * e + np.conj(d) * de
+    return np.where(rows.imag[:, None], w.imag, w.real) - tangent.rhs[:, None]

@@ -53,7 +53,11 @@ class Step:
     l2: float = 0.0  # slider: squared rod length
     sign: float = 1.0  # slider: side of i's foot on the line taken at rest
     offsets: np.ndarray | None = None  # translate: (n,) rest offsets z̄_n − z̄_i
+    slider: int = -1  # translate: index into graph.sliders
     det_sign: float = 1.0  # group: sign of det J_S at rest
+    #: rows of ``rows`` taken from :func:`~linkedit.planar.constraints.linkage_rows` (their
+    #: indices there), −1 for the step's own rows (a slider's rod, a translating link's offsets)
+    source: np.ndarray | None = None
 
     def describe(self, names: list[str]) -> str:
         out = ", ".join(names[k] for k in self.joints)
@@ -84,7 +88,8 @@ def compile_step(graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set
         jac = rows.jacobian(z[:, None], joints)[0]
         det = np.linalg.det(jac) if jac.shape[0] == jac.shape[1] else 1.0
         return Step("group", rule.level, joints, np.array(inputs, dtype=int),
-                    ", ".join(names[k] for k in rule.joints), rows, det_sign=float(np.sign(det)) or 1.0)
+                    ", ".join(names[k] for k in rule.joints), rows, det_sign=float(np.sign(det)) or 1.0,
+                    source=use)
     s = graph.sliders[rule.slider]
     own = [r for r, lab in enumerate(all_rows.labels) if lab == f"slider {s.name}"]
     b = _Builder(graph.n_joints)
@@ -95,7 +100,8 @@ def compile_step(graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set
             drive = [r for r, lab in enumerate(all_rows.labels) if lab == f"linear input {s.name}"]
             rows = all_rows.take(np.array(own + drive))
             inputs = sorted(set().union(*rows.joints) - {k})
-            return Step("drive", rule.level, joints, np.array(inputs, dtype=int), s.name, rows, line=0)
+            return Step("drive", rule.level, joints, np.array(inputs, dtype=int), s.name, rows, line=0,
+                        source=np.array(own + drive))
         i = rule.i
         l2 = abs(z[k] - z[i]) ** 2
         b.add(False, {k: 1, i: -1}, 0j, {k: 1, i: -1}, 0j, f"slider {s.name} rod", rhs=l2)
@@ -109,7 +115,7 @@ def compile_step(graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set
                 "the slot at the rest pose: which side it takes is undefined; move it off the perpendicular")
         inputs = sorted(set().union(*rows.joints) - {k})
         return Step("slider", rule.level, joints, np.array(inputs, dtype=int), s.name, rows, line=0, i=i,
-                    l2=float(l2), sign=float(np.sign(side[0])))
+                    l2=float(l2), sign=float(np.sign(side[0])), source=np.array(own + [-1]))
     # translate: z_n = z_i + R·(z̄_n − z̄_i), R = (z_b − z_a)/(z̄_b − z̄_a) (1 on the frame)
     i = rule.i
     if graph.fixed(s.guide):
@@ -130,7 +136,7 @@ def compile_step(graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set
     rows = built.take(np.arange(1, built.m))
     inputs = sorted(set().union(*rows.joints) - set(rule.joints))
     return Step("translate", rule.level, joints, np.array(inputs, dtype=int), s.name, built, line=0, i=i,
-                offsets=offsets)
+                offsets=offsets, source=np.full(built.m, -1), slider=rule.slider)
 
 
 def _concat(a: Rows, b: Rows) -> Rows:
@@ -264,6 +270,67 @@ def acceleration(step: Step, z: np.ndarray, dz: np.ndarray, ddz: np.ndarray) -> 
     known = ddz.copy()
     known[step.joints] = 0.0
     rhs = -rows.first(z, known) - rows.second(dz)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        return _to_complex(_solve(rows.jacobian(z, step.joints), rhs))
+
+
+def _own_rows_tangent(graph: LinkageGraph, step: Step, drest: np.ndarray) -> Rows:
+    """d/dε of the coefficients of a step's own rows (source −1) along the rest tangent ``drest``."""
+    z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
+    b = _Builder(graph.n_joints)
+    if step.kind == "slider":
+        k, i = int(step.joints[0]), step.i
+        b.add(False, {}, 0j, {}, 0j, "rod", rhs=2.0 * float((np.conj(z[k] - z[i]) * (drest[k] - drest[i])).real))
+        return b.build()
+    # translate: z_n − z_i − off·R(z) = 0, off = z̄_n − z̄_i, R = (z_b − z_a)/m (1 on the frame)
+    guide = graph.sliders[step.slider].guide
+    i = step.i
+    fixed = graph.fixed(guide)
+    a, bb = graph.frame_pair(guide) if not fixed else (-1, -1)
+    m = complex(z[bb] - z[a]) if not fixed else 1.0
+    dm = complex(drest[bb] - drest[a]) if not fixed else 0.0
+    b.add(True, {}, 0j, {}, 0j, "rotation")
+    for n in step.joints:
+        off, doff = complex(z[n] - z[i]), complex(drest[n] - drest[i])
+        if fixed:
+            e, e0 = {}, -doff
+        else:
+            g = -doff / m + off * dm / (m * m)
+            e, e0 = {bb: g, a: -g}, 0j
+        b.add(False, {}, 0j, e, e0, "offset")
+        b.add(True, {}, 0j, e, e0, "offset")
+    return b.build()
+
+
+def rest_tangent(graph: LinkageGraph, step: Step, z: np.ndarray, dz: np.ndarray, drest: np.ndarray) -> np.ndarray:
+    """Tangent (n, T) of the step's joints when the rest pose moves along ``drest`` (J,) complex.
+
+    ``z`` (J, T): joint positions (the step's own filled in); ``dz`` (J, T): the tangents of the
+    joints known before the step (its own rows ignored). By the implicit function theorem,
+    J_S·ż_S = −dF[ż_K] − ∂F/∂r̄·ṙ: one batched solve; for the closed-form rules this is the
+    exact derivative of their formulas, for a numeric group the derivative of its solution.
+    Everything in the frame ``graph`` is given in (the plan's normalized frame for its steps).
+    """
+    from linkedit.planar.constraints import linkage_rows_tangent, rows_rest_derivative
+
+    every = linkage_rows_tangent(graph, drest)
+    own = _own_rows_tangent(graph, step, drest) if (step.source < 0).any() else None
+    picked, n_own = [], 0
+    for src in step.source:
+        if src >= 0:
+            picked.append(every.take(np.array([src])))
+        else:
+            picked.append(own.take(np.array([n_own])))
+            n_own += 1
+    tangent = picked[0]
+    for more in picked[1:]:
+        tangent = _concat(tangent, more)
+    rows = step.rows
+    keep = np.arange(1, rows.m) if step.kind == "translate" else np.arange(rows.m)
+    rows, tangent = rows.take(keep), tangent.take(keep)
+    known = dz.copy()
+    known[step.joints] = 0.0
+    rhs = -rows.first(z, known) - rows_rest_derivative(rows, tangent, z)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         return _to_complex(_solve(rows.jacobian(z, step.joints), rhs))
 
