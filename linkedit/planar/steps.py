@@ -172,22 +172,56 @@ def positions(step: Step, z: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.
     raise ValueError(step.kind)
 
 
-def _newton(local: Rows, col: np.ndarray, s: np.ndarray, n: int, own: np.ndarray) -> tuple[bool, float, np.ndarray]:
-    """Newton's method on the group's joints (the first n of ``col`` (L, 1), updated in place).
+@dataclass(frozen=True)
+class RealForm:
+    """The group's rows as real quadratics in X = (x_0, y_0, x_1, …) of its local joints:
+    F(X) = Xᵀ·Q·X + g·X + c − drive·s; Q (m, 2L, 2L) symmetric, g (m, 2L), c, drive (m,)."""
+
+    q: np.ndarray
+    g: np.ndarray
+    c: np.ndarray
+    drive: np.ndarray
+
+    @classmethod
+    def of(cls, rows: Rows) -> "RealForm":
+        def real_cols(coef: np.ndarray) -> np.ndarray:  # z_n = x_n + i·y_n
+            out = np.empty((coef.shape[0], 2 * coef.shape[1]), dtype=complex)
+            out[:, 0::2], out[:, 1::2] = coef, 1j * coef
+            return out
+
+        ad, ae = real_cols(rows.dc), real_cols(rows.ec)
+        part = (lambda w: np.where(rows.imag.reshape((-1,) + (1,) * (w.ndim - 1)), w.imag, w.real))
+        quad = part(np.conj(ad)[:, :, None] * ae[:, None, :])
+        lin = part(np.conj(rows.d0)[:, None] * ae + rows.e0[:, None] * np.conj(ad))
+        const = part(np.conj(rows.d0) * rows.e0) - rows.rhs
+        return cls(q=np.ascontiguousarray(0.5 * (quad + np.swapaxes(quad, 1, 2))), g=lin, c=const, drive=rows.drive)
+
+    def residual_jacobian(self, x: np.ndarray, s: float, unknowns: int) -> tuple[np.ndarray, np.ndarray]:
+        """F (m,) and ∂F/∂X of the first ``unknowns`` real variables (m, unknowns) at X (2L,)."""
+        m, width = self.g.shape
+        qx = (self.q.reshape(m * width, width) @ x).reshape(m, width)
+        return qx @ x + self.g @ x + self.c - self.drive * s, 2.0 * qx[:, :unknowns] + self.g[:, :unknowns]
+
+
+def _newton(form: RealForm, x: np.ndarray, s: float, k: int) -> tuple[bool, float, np.ndarray]:
+    """Newton's method on the first ``k`` real variables of X (updated in place).
 
     Returns (converged, size of the first step, last Jacobian)."""
     first = 0.0
-    jac = np.zeros((local.m, 2 * n))
+    square = form.c.size == k
+    jac = np.zeros((form.c.size, k))
     for it in range(GROUP_ITERATIONS):
-        f = local.residual(col, s)[:, 0]
-        jac = local.jacobian(col, own)[0]
+        f, jac = form.residual_jacobian(x, s, k)
         if np.max(np.abs(f)) <= GROUP_TOLERANCE:
             return True, first, jac
-        step = np.linalg.lstsq(jac, -f, rcond=None)[0]
+        try:
+            step = np.linalg.solve(jac, -f) if square else np.linalg.lstsq(jac, -f, rcond=None)[0]
+        except np.linalg.LinAlgError:
+            return False, first, jac
         if it == 0:
             first = float(np.abs(step).max())
-        col[:n, 0] += step[0::2] + 1j * step[1::2]
-        if not np.all(np.isfinite(col[:n, 0])):
+        x[:k] += step
+        if not np.all(np.isfinite(x[:k])):
             return False, first, jac
     return False, first, jac
 
@@ -203,43 +237,55 @@ def solve_group(step: Step, z: np.ndarray, s: np.ndarray, start: np.ndarray) -> 
     row-scaled group Jacobian — and the index of the first failing sample (−1: none).
     """
     cols = np.concatenate([step.joints, step.inputs])
-    local = step.rows.columns(cols)
+    form = RealForm.of(step.rows.columns(cols))
     n = step.joints.size
-    own = np.arange(n)
+    k = 2 * n
     T = z.shape[1]
     out = np.full((n, T), np.nan + 0j)
     ds = np.full(T, np.nan)
     known = z[cols[n:]]
-    x = np.asarray(start, dtype=complex).copy()
-    prev_known, prev_s = None, None
-    square = local.m == 2 * n
+    known_xy = np.empty((2 * known.shape[0], T))
+    known_xy[0::2], known_xy[1::2] = known.real, known.imag
+    x = np.empty(2 * cols.size)
+    start = np.asarray(start, dtype=complex)
+    x[0:k:2], x[1:k:2] = start.real, start.imag
+    prev_known, prev_s = known_xy[:, 0], s[0]
+    square = form.c.size == k
+    jacs = np.zeros((T, form.c.size, k))
     for t in range(T):
-        if prev_known is None:
-            prev_known, prev_s = known[:, t], s[t]
         done, piece = 0.0, 1.0
-        jac = None
         while done < 1.0:
             f = min(done + piece, 1.0)
-            col = np.concatenate([x, prev_known + f * (known[:, t] - prev_known)])[:, None]
-            ok, first, jac = _newton(local, col, np.array([prev_s + f * (s[t] - prev_s)]), n, own)
+            trial = x.copy()
+            trial[k:] = prev_known + f * (known_xy[:, t] - prev_known)
+            ok, first, jac = _newton(form, trial, prev_s + f * (s[t] - prev_s), k)
             if ok:
-                moved = float(np.abs(col[:n, 0] - x).max())
+                moved = float(np.abs(trial[:k] - x[:k]).max())
                 ok = moved <= 1.5 * first + 1e-9 and first <= 0.1
                 if ok and square and np.sign(np.linalg.det(jac)) != step.det_sign:
                     ok = False  # passed a singular position: another assembly branch
             if ok:
-                x, done = col[:n, 0].copy(), f
+                x, done = trial, f
                 piece = min(2.0 * piece, 1.0)
             else:
                 piece *= 0.5
                 if piece < 1.0 / 256:
+                    _conditioning(jacs[:t], ds)
                     return out, ds, t
-        scaled = jac / np.maximum(np.abs(jac).max(axis=1, keepdims=True), 1e-300)
-        sv = np.linalg.svd(scaled, compute_uv=False)
-        ds[t] = (sv[-1] / sv[0]) ** 2
-        out[:, t] = x
-        prev_known, prev_s = known[:, t], s[t]
+        jacs[t] = jac
+        out[:, t] = x[0:k:2] + 1j * x[1:k:2]
+        prev_known, prev_s = known_xy[:, t], s[t]
+    _conditioning(jacs, ds)
     return out, ds, -1
+
+
+def _conditioning(jacs: np.ndarray, ds: np.ndarray) -> None:
+    """ds[:t] = (σ_min/σ_max)² of each row-scaled Jacobian of ``jacs`` (t, m, k), batched."""
+    if not len(jacs):
+        return
+    scaled = jacs / np.maximum(np.abs(jacs).max(axis=2, keepdims=True), 1e-300)
+    sv = np.linalg.svd(scaled, compute_uv=False)
+    ds[: len(jacs)] = (sv[:, -1] / sv[:, 0]) ** 2
 
 
 def _solve(jac: np.ndarray, rhs: np.ndarray) -> np.ndarray:
