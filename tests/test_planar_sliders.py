@@ -60,6 +60,13 @@ def test_offset_slider_crank_matches_the_textbook_formula_over_a_full_turn():
         assert np.abs(np.abs(p - q) - length).max() <= 1e-9
 
 
+def test_slotted_links_are_closed_form_rules():
+    kinds = {b.__name__: [st.kind for st in compile_plan(b()).steps]
+             for b in (catalog.quick_return, catalog.scotch_yoke, catalog.inverted_slider_crank, catalog.slider_crank)}
+    assert kinds == {"quick_return": ["rotate", "slider"], "scotch_yoke": ["yoke"],
+                     "inverted_slider_crank": ["rotate"], "slider_crank": ["slider"]}
+
+
 def test_quick_return_rocker_follows_the_crank_pin_and_drives_the_ram():
     n = catalog.QUICK_RETURN
     m = simulate(catalog.quick_return(), 360)

@@ -24,7 +24,8 @@ def complex_positions(spec: LinkageSpec, samples: int) -> np.ndarray:
 
 
 @pytest.mark.parametrize("build", [catalog.slider_crank, catalog.quick_return, catalog.complex_loop,
-                                   catalog.lifting_arm, catalog.stephenson_slider], ids=lambda b: b.__name__)
+                                   catalog.lifting_arm, catalog.stephenson_slider, catalog.scotch_yoke,
+                                   catalog.inverted_slider_crank], ids=lambda b: b.__name__)
 def test_rest_tangent_of_every_new_rule_matches_central_differences(build):
     spec = build()
     graph = LinkageGraph.from_spec(spec)

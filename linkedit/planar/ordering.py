@@ -46,6 +46,8 @@ class StepRule:
       distance and the known slot line (circle–line intersection, closed form);
     * ``drive``: the linearly driven joint from its known slot line and the input (closed form);
     * ``translate``: the joints of a translating link from its known joint ``i`` (closed form);
+    * ``rotate`` / ``yoke``: a slotted link from the known pin of slider ``slider`` in its slot,
+      turning about its known joint ``i`` / translating along the frame (slider ``i``) (closed form);
     * ``group``: a complex loop, solved numerically as one group.
     """
 
@@ -170,7 +172,32 @@ def _slider_round(graph: LinkageGraph, known: set[int], taken: set[int], neighbo
             if have and todo:
                 out.append(StepRule("translate", todo, level, n, have[0]))
                 taken.update(todo)
+    out.extend(_guide_round(graph, known, taken, level))
     return out
+
+
+def _guide_round(graph: LinkageGraph, known: set[int], taken: set[int], level: int) -> list[StepRule]:
+    """Closed-form rules that place a slotted link from a known pin in its slot: ``rotate`` (the
+    link has a known joint ``i``: it turns about it until the slot meets the pin) and ``yoke``
+    (the link translates along the frame, slider ``i``: it slides until the slot meets the pin)."""
+    out: list[StepRule] = []
+    for m, s in enumerate(graph.sliders):
+        if s.joint < 0 or s.joint not in known or graph.fixed(s.guide) or m == graph.drive:
+            continue
+        members = graph.links[s.guide]
+        todo = tuple(j for j in members if j not in known and j not in taken)
+        have = [j for j in members if j in known]
+        block = _yoke(graph, s.guide)
+        if not todo or (not have and block < 0):
+            continue
+        out.append(StepRule("rotate", todo, level, m, have[0]) if have else StepRule("yoke", todo, level, m, block))
+        taken.update(todo)
+    return out
+
+
+def _yoke(graph: LinkageGraph, link: int) -> int:
+    """The slider that makes ``link`` translate along the frame (−1: none)."""
+    return next((n for n, s in enumerate(graph.sliders) if s.link == link and graph.fixed(s.guide)), -1)
 
 
 #: largest complex-loop group tried subset by subset; beyond it the whole remainder is one group

@@ -63,7 +63,7 @@ class Motion:
         there: motor angle in degrees, or a linear input's stroke)."""
         plan = self.plan
         dyads = ~plan.rigid
-        watched = [n for n, st in enumerate(plan.steps) if st.kind in ("slider", "group")]
+        watched = [n for n, st in enumerate(plan.steps) if st.kind in ("slider", "group", "rotate")]
         if not (dyads.any() or watched) or not self.assembled.any():
             return None
         steps = self.step_singularity if self.step_singularity is not None else np.ones((self.t.size, 0))
@@ -195,6 +195,9 @@ def _explain(plan: Plan, d: np.ndarray, lik: np.ndarray, ljk: np.ndarray, ds: np
         elif step.kind == "slider":
             what = (f"slider {step.name} cannot place joint {k}: the rod {names[step.i]}–{k} does not reach "
                     "the slot line")
+        elif step.kind == "rotate":
+            what = (f"slider {step.name}: the slot of the link carrying {k} cannot reach the pin "
+                    f"{names[step.pin]} as it turns about {names[step.i]}")
         elif step.kind == "group":
             what = (f"the numeric group {step.name} cannot be assembled on its rest-pose branch "
                     "(it reaches a singular position: its links cannot follow)")

@@ -53,7 +53,11 @@ class Step:
     l2: float = 0.0  # slider: squared rod length
     sign: float = 1.0  # slider: side of i's foot on the line taken at rest
     offsets: np.ndarray | None = None  # translate: (n,) rest offsets z̄_n − z̄_i
-    slider: int = -1  # translate: index into graph.sliders
+    slider: int = -1  # translate, rotate, yoke: index into graph.sliders
+    pin: int = -1  # rotate, yoke: the known joint in the link's slot
+    u: complex = 0j  # rotate, yoke: the slot's direction at rest
+    g: complex = 0j  # yoke: the direction the link translates in
+    at: complex = 0j  # yoke: the pin's rest position
     det_sign: float = 1.0  # group: sign of det J_S at rest
     #: rows of ``rows`` taken from :func:`~linkedit.planar.constraints.linkage_rows` (their
     #: indices there), −1 for the step's own rows (a slider's rod, a translating link's offsets)
@@ -63,7 +67,9 @@ class Step:
         out = ", ".join(names[k] for k in self.joints)
         src = ", ".join(names[k] for k in self.inputs)
         what = {"slider": f"slider {self.name}", "drive": f"linear input {self.name}",
-                "translate": f"translating link, slider {self.name}", "group": "numeric group"}[self.kind]
+                "translate": f"translating link, slider {self.name}", "group": "numeric group",
+                "rotate": f"slotted link turning, slider {self.name}",
+                "yoke": f"slotted link translating (yoke), slider {self.name}"}[self.kind]
         return f"{out} ← ({src}) {what}"
 
 
@@ -80,11 +86,13 @@ def compile_step(graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set
     z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
     names = graph.joint_names
     joints = np.array(rule.joints, dtype=int)
-    if rule.kind == "group":
+    if rule.kind in ("group", "rotate", "yoke"):
         inside = known | set(rule.joints)
         use = np.array([r for r, js in enumerate(all_rows.joints) if js <= inside and js & set(rule.joints)])
         rows = all_rows.take(use)
         inputs = sorted(set().union(*rows.joints) - set(rule.joints))
+        if rule.kind != "group":
+            return _slotted(graph, rule, rows, np.array(inputs, dtype=int), use, z)
         jac = rows.jacobian(z[:, None], joints)[0]
         det = np.linalg.det(jac) if jac.shape[0] == jac.shape[1] else 1.0
         return Step("group", rule.level, joints, np.array(inputs, dtype=int),
@@ -139,6 +147,28 @@ def compile_step(graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set
                 offsets=offsets, source=np.full(built.m, -1), slider=rule.slider)
 
 
+def _slotted(graph: LinkageGraph, rule: StepRule, rows: Rows, inputs: np.ndarray, use: np.ndarray,
+             z: np.ndarray) -> Step:
+    """A ``rotate`` or ``yoke`` step (see :class:`~linkedit.planar.ordering.StepRule`)."""
+    slot = graph.sliders[rule.slider]
+    k = slot.joint
+    u = np.exp(1j * slot.angle)
+    joints = np.array(rule.joints, dtype=int)
+    if rule.kind == "rotate":
+        a = rule.i
+        q = np.conj(u) * (z[k] - z[a])
+        return Step("rotate", rule.level, joints, inputs, slot.name, rows, i=a, l2=float(q.imag),
+                    sign=float(np.sign(q.real)) or 1.0, offsets=z[joints] - z[a], slider=rule.slider, source=use,
+                    pin=k, u=complex(u))
+    g = np.exp(1j * graph.sliders[rule.i].angle)
+    cross = float((np.conj(u) * g).imag)
+    if abs(cross) <= 1e-9:
+        raise MechanismError(f"slider {slot.name}: the slot is parallel to the direction its link translates in: "
+                             "the pin cannot move it")
+    return Step("yoke", rule.level, joints, inputs, slot.name, rows, l2=cross, offsets=z[joints],
+                slider=rule.slider, source=use, pin=k, u=complex(u), g=complex(g), at=complex(z[k]))
+
+
 def _concat(a: Rows, b: Rows) -> Rows:
     return Rows(np.concatenate([a.imag, b.imag]), np.vstack([a.dc, b.dc]), np.concatenate([a.d0, b.d0]),
                 np.vstack([a.ec, b.ec]), np.concatenate([a.e0, b.e0]), np.concatenate([a.rhs, b.rhs]),
@@ -169,7 +199,23 @@ def positions(step: Step, z: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.
     if step.kind == "translate":
         rot = step.rows.dc[0] @ z + step.rows.d0[0]
         return z[step.i] + step.offsets[:, None] * rot, np.ones(z.shape[1])
-    raise ValueError(step.kind)
+    return _slotted_positions(step, z)
+
+
+def _slotted_positions(step: Step, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``rotate``: the link turns about joint i by R = ū̄·w / (σ·sqrt(|w|² − h²) + i·h), w = z_pin − z_i,
+    h the pin's rest offset across the slot; d_s = 1 − h²/|w|² (< 0: the slot cannot reach the pin).
+    ``yoke``: it slides by λ·g, λ = Im(ū̄·(z_pin − z̄_pin)) / Im(ū̄·g); d_s = Im(ū̄·g)², constant."""
+    if step.kind == "yoke":
+        along = (np.conj(step.u) * (z[step.pin] - step.at)).imag / step.l2
+        return step.offsets[:, None] + along * step.g, np.full(z.shape[1], step.l2 * step.l2)
+    w = z[step.pin] - z[step.i]
+    if step.kind == "rotate":
+        w2 = w.real * w.real + w.imag * w.imag
+        h = step.l2
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rot = np.conj(step.u) * w / (step.sign * np.sqrt(w2 - h * h) + 1j * h)
+            return z[step.i] + step.offsets[:, None] * rot, 1.0 - h * h / w2
 
 
 @dataclass(frozen=True)
