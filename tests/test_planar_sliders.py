@@ -296,3 +296,32 @@ def test_rod_perpendicular_to_the_slot_at_rest_is_rejected():
     spec = spec.model_copy(update={"sliders": {"piston": spec.sliders["piston"].model_copy(update={"angle_deg": 0.0})}})
     with pytest.raises(MechanismError, match="perpendicular"):
         compile_plan(spec)
+
+
+def piston_driven() -> LinkageSpec:
+    """The slider-crank driven by its piston (a linear input on a frame slot): B moves −25…0 mm."""
+    data = catalog.slider_crank().model_dump()
+    data["motor"] = {"slider": "piston", "stroke": [-25.0, 0.0]}
+    return LinkageSpec.model_validate(data)
+
+
+def test_piston_driven_crank_matches_two_circles():
+    spec = piston_driven()
+    plan = compile_plan(spec)
+    assert [st.kind for st in plan.steps] == ["drive"]
+    m = simulate(spec, 51)
+    b0, a0 = complex(*spec.joints["B"]), complex(*spec.joints["A"])
+    b = b0 + m.motor_angle  # the stroke, along +x
+    assert np.abs(joint(m, "B") - b).max() <= 1e-12
+    r, l = abs(a0), abs(b0 - a0)
+    side = np.sign((b0.conjugate() * a0).imag)
+
+    def crank_pin(b):
+        d = np.abs(b)
+        along = (r * r - l * l + d * d) / (2 * d)
+        return b / d * (along + 1j * side * np.sqrt(r * r - along * along))
+
+    assert np.abs(joint(m, "A") - crank_pin(b)).max() <= 1e-9
+    h = 1e-4
+    v = m.velocity[:, m.plan.joint_names.index("A")]
+    assert np.abs(v[:, 0] + 1j * v[:, 1] - (crank_pin(b + h) - crank_pin(b - h)) / (2 * h)).max() <= 1e-6
