@@ -48,10 +48,9 @@ class Step:
     inputs: np.ndarray  # joints read
     name: str  # the slider's name, or the group's joints
     rows: Rows  # the rows the written joints satisfy (for derivatives and checks)
-    line: int = -1  # slider/drive: the slot row in ``rows``
     i: int = -1  # slider: the joint at a fixed distance; rotate: the joint the link turns about
-    l2: float = 0.0  # slider: squared rod length
-    sign: float = 1.0  # slider: side of i's foot on the line taken at rest
+    l2: float = 0.0  # slider: squared rod length; rotate: the pin's rest offset h across the slot; yoke: Im(ū̄·g)
+    sign: float = 1.0  # slider, rotate: which of the two solutions, taken at rest
     offsets: np.ndarray | None = None  # rotate: (n,) rest offsets z̄_n − z̄_i; yoke: rest positions z̄_n
     slider: int = -1  # rotate, yoke: index into graph.sliders
     pin: int = -1  # rotate, yoke: the known joint in the link's slot
@@ -107,7 +106,7 @@ def compile_step(graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set
         drive = [r for r, lab in enumerate(all_rows.labels) if lab == f"linear input {s.name}"]
         rows = all_rows.take(np.array(own + drive))
         inputs = sorted(set().union(*rows.joints) - {k})
-        return Step("drive", rule.level, joints, np.array(inputs, dtype=int), s.name, rows, line=0,
+        return Step("drive", rule.level, joints, np.array(inputs, dtype=int), s.name, rows,
                     source=np.array(own + drive))
     i = rule.i
     l2 = abs(z[k] - z[i]) ** 2
@@ -121,7 +120,7 @@ def compile_step(graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set
             f"joint {names[k]} of slider {s.name}: the rod {names[i]}–{names[k]} stands perpendicular to "
             "the slot at the rest pose: which side it takes is undefined; move it off the perpendicular")
     inputs = sorted(set().union(*rows.joints) - {k})
-    return Step("slider", rule.level, joints, np.array(inputs, dtype=int), s.name, rows, line=0, i=i,
+    return Step("slider", rule.level, joints, np.array(inputs, dtype=int), s.name, rows, i=i,
                 l2=float(l2), sign=float(np.sign(side[0])), source=np.array(own + [-1]))
 
 
