@@ -10,6 +10,7 @@ import typer
 
 from linkedit.commands.common import guard, print_json
 from linkedit.errors import InputError
+from linkedit.spec.common import MAX_WEIGHT
 
 SAMPLES_HELP = "Points per resampled curve [default: 64, or the weights file's]."
 CLOSED_HELP = "Treat every curve as closed (cyclic) or open [default: detected from the ends, or declared]."
@@ -126,8 +127,8 @@ def _load_weights(path: Path | None, overrides: list[str]) -> tuple[dict[str, fl
             w = float(value)
         except ValueError:
             w = -1.0
-        if not sep or not name.strip() or not (w >= 0 and w < float("inf")):
-            raise InputError(f"expected TERM=WEIGHT with a weight ≥ 0, got {item!r}", field="--weight")
+        if not sep or not name.strip() or not 0 <= w <= MAX_WEIGHT:
+            raise InputError(f"expected TERM=WEIGHT with 0 ≤ WEIGHT ≤ {MAX_WEIGHT:g}, got {item!r}", field="--weight")
         if weights is None:
             weights = {}
         weights[name.strip()] = w

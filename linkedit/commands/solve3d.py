@@ -81,7 +81,7 @@ def register(app: typer.Typer) -> None:
         from linkedit.gcs import check_solved, read_result, solve_spec, write_result
         from linkedit.gcs.solver import SOLVERS
         from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
-        from linkedit.spec.yamlload import load_model
+        from linkedit.spec.yamlload import load_model, read_text
 
         if solver is not None and solver not in SOLVERS:
             raise InputError(f"unknown solver {solver!r} (choose from {', '.join(SOLVERS)})", field="--solver")
@@ -102,10 +102,10 @@ def register(app: typer.Typer) -> None:
         else:
             if spec is None:
                 raise InputError("missing SPEC (or --from RESULT.h5)", field="spec")
-            text = spec.read_text(encoding="utf-8") if spec.is_file() else None
+            text = read_text(spec)
             model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
             res = solve_spec(model, steps=steps, solver=solver or "lm", allow_python=allow_python,
-                             spec_text=text or "")
+                             spec_text=text)
             out = output or Path("out") / f"{spec.stem}.h5"
             if not partial:
                 check_solved(res)

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from linkedit.errors import InputError
+from linkedit.spec.yamlload import read_text, require_regular_file
 
 HDF5_SUFFIXES = (".h5", ".hdf5")
 YAML_SUFFIXES = (".yaml", ".yml")
@@ -99,6 +100,7 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
     """Tracks of a result file; ``names=None`` reads all of them (of an edit result: before and after)."""
     import h5py
 
+    require_regular_file(path)
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
@@ -129,8 +131,9 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
                                  field=base)
             field = base + ("position",)
             data = group[name].get("position")
-            if not isinstance(data, h5py.Dataset) or data.ndim != 2 or data.shape[1] not in (2, 3):
-                raise InputError("expected a (T, 2) or (T, 3) dataset", file=str(path), field=field)
+            if (not isinstance(data, h5py.Dataset) or data.ndim != 2 or data.shape[1] not in (2, 3)
+                    or data.dtype.kind not in "fiu"):
+                raise InputError("expected a (T, 2) or (T, 3) dataset of real numbers", file=str(path), field=field)
             points = np.asarray(data[()], dtype=float)
             bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
             if bad.size:
@@ -144,10 +147,7 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
 def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
     """One curve from a CSV file (columns x, y[, z], optional t)."""
     file = str(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise InputError("not a UTF-8 text file", file=file) from None
+    text = read_text(path)
     rows = [(i + 1, r) for i, r in enumerate(csv.reader(io.StringIO(text)))
             if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     if not rows:

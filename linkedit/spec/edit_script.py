@@ -12,12 +12,13 @@ from typing import Literal
 import pydantic
 
 from linkedit.errors import InputError
-from linkedit.spec.common import Finite, Name, SpecModel, Vec2
+from linkedit.spec.common import MAX_WEIGHT, Count, Finite, Name, SpecModel, Vec2
 from linkedit.spec.linkage import LinkageSpec
 
-Phase = pydantic.confloat(ge=0.0, lt=1.0, allow_inf_nan=False)
-NonNegative = pydantic.confloat(ge=0.0, allow_inf_nan=False)
-Positive = pydantic.confloat(gt=0.0, allow_inf_nan=False)
+Phase = pydantic.confloat(strict=True, ge=0.0, lt=1.0, allow_inf_nan=False)
+#: a weight of an objective term: sums of weighted squares must not overflow
+Weight = pydantic.confloat(strict=True, ge=0.0, le=MAX_WEIGHT, allow_inf_nan=False)
+Positive = pydantic.confloat(strict=True, gt=0.0, allow_inf_nan=False)
 
 
 class Displace(SpecModel):
@@ -80,12 +81,12 @@ class Transform(SpecModel):
 class TermWeights(SpecModel):
     """Relative weights of an operation's objective terms (inside the edit weight)."""
 
-    preserve: NonNegative = 100.0
-    displace: NonNegative = 1.0
-    envelope: NonNegative = 1.0
-    retarget: NonNegative = 1.0
-    drag: NonNegative = 1.0
-    transform: NonNegative = 1.0
+    preserve: Weight = 100.0
+    displace: Weight = 1.0
+    envelope: Weight = 1.0
+    retarget: Weight = 1.0
+    drag: Weight = 1.0
+    transform: Weight = 1.0
 
 
 class Operation(SpecModel):
@@ -99,7 +100,7 @@ class Operation(SpecModel):
     drag: Drag | list[Drag] | None = None
     transform: Transform | None = None
     terms: TermWeights = TermWeights()
-    max_iterations: int = pydantic.Field(default=500, ge=1)
+    max_iterations: Count = pydantic.Field(default=500, ge=1)
 
     @pydantic.model_validator(mode="after")
     def _has_goal(self) -> "Operation":
@@ -115,20 +116,20 @@ class Operation(SpecModel):
 class Weights(SpecModel):
     """μ_e, μ_s, μ_r of E = μ_e·f_edit + μ_s·f_singularity + μ_r·f_regularization."""
 
-    edit: NonNegative = 1.0
-    singularity: NonNegative = 1.0
-    regularization: NonNegative = 0.01
+    edit: Weight = 1.0
+    singularity: Weight = 1.0
+    regularization: Weight = 0.01
 
 
 class EditScript(SpecModel):
     """An edit script: which linkage, how many samples, the operations, locks and weights."""
 
     linkage: str | None = None  #: path of the linkage spec, relative to the script
-    samples: int = pydantic.Field(default=120, ge=8)
+    samples: Count = pydantic.Field(default=120, ge=8)
     operations: list[Operation] = pydantic.Field(min_length=1)
     lock: list[Name] = pydantic.Field(default_factory=list)
     weights: Weights = Weights()
-    singularity_epsilon: pydantic.confloat(gt=0.0, lt=1.0) = 0.05
+    singularity_epsilon: pydantic.confloat(strict=True, gt=0.0, lt=1.0) = 0.05
 
 
 def check_against(script: EditScript, linkage: LinkageSpec) -> None:

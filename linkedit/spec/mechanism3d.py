@@ -18,24 +18,32 @@ from typing import Annotated, Any, Literal, Union
 import pydantic
 
 from linkedit.errors import InputError
-from linkedit.spec.common import Finite, Name, SpecModel, Vec3
+from linkedit.spec.common import Count, Finite, Name, SpecModel, Vec3
+
+
+def _unit(v: tuple[float, ...]) -> tuple[float, ...]:
+    """``v`` scaled to length 1 without overflow (``v`` may hold values near 1e308)."""
+    big = max(abs(c) for c in v)
+    scaled = [c / big for c in v]
+    norm = math.sqrt(sum(c * c for c in scaled))
+    return tuple(c / norm for c in scaled)
 
 
 def _nonzero_quaternion(q: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
-    if math.sqrt(sum(c * c for c in q)) < 1e-9:
+    if math.hypot(*q) < 1e-9:
         raise ValueError("zero quaternion: an orientation needs a unit quaternion [w, x, y, z]")
-    return q
+    return _unit(q)  # type: ignore[return-value]
 
 
 def _nonzero_vector(v: tuple[float, float, float]) -> tuple[float, float, float]:
-    if math.sqrt(sum(c * c for c in v)) < 1e-12:
+    if math.hypot(*v) < 1e-12:
         raise ValueError("zero vector: an axis or normal needs a direction")
-    return v
+    return _unit(v)  # type: ignore[return-value]
 
 
-#: [w, x, y, z], normalized on use
+#: [w, x, y, z], normalized when read
 Quaternion = Annotated[tuple[Finite, Finite, Finite, Finite], pydantic.AfterValidator(_nonzero_quaternion)]
-#: a nonzero direction, normalized on use
+#: a nonzero direction, normalized when read
 Direction = Annotated[Vec3, pydantic.AfterValidator(_nonzero_vector)]
 #: a member point: a name from the member's shape, or coordinates in member space
 PointRef = Union[Name, Vec3]
@@ -166,7 +174,7 @@ class CustomC(SpecModel):
     type: Literal["custom"]
     python: Annotated[str, pydantic.StringConstraints(pattern=r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")]
     members: list[Name] = pydantic.Field(min_length=1)
-    size: int = pydantic.Field(ge=1)
+    size: Count = pydantic.Field(ge=1)
 
 
 class Group(SpecModel):
@@ -242,7 +250,7 @@ MAX_STEPS = 1_000_000
 
 
 class Outputs(SpecModel):
-    steps: int = pydantic.Field(default=100, ge=2, le=MAX_STEPS)
+    steps: Count = pydantic.Field(default=100, ge=2, le=MAX_STEPS)
     tracks: dict[Name, TrackSpec] = pydantic.Field(default_factory=dict)
 
 
