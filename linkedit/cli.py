@@ -12,6 +12,7 @@ import importlib
 import typer
 
 from linkedit import __version__
+from linkedit.commands.common import OneLineErrors
 
 COMMAND_MODULES = [
     "linkedit.commands.simulate",
@@ -24,6 +25,7 @@ COMMAND_MODULES = [
 
 app = typer.Typer(
     name="linkedit",
+    cls=OneLineErrors,
     help="Design mechanisms: simulate and edit planar linkages, solve 3D mechanisms, compare motion curves.",
     no_args_is_help=True,
     add_completion=False,

@@ -8,7 +8,7 @@ from typing import Any
 
 import typer
 
-from linkedit.commands.common import guard, print_json
+from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError
 from linkedit.spec.common import MAX_WEIGHT
 
@@ -135,6 +135,15 @@ def _load_weights(path: Path | None, overrides: list[str]) -> tuple[dict[str, fl
     return weights, samples, harmonics
 
 
+def _input_paths(texts: list[Any]) -> list[Path]:
+    """The files named by curve inputs (``result.h5:foot`` names ``result.h5``), for the output checks."""
+    paths = []
+    for text in map(str, texts):
+        if text:
+            paths += [Path(text), Path(text.rpartition(":")[0] or text)]
+    return paths
+
+
 def register(app: typer.Typer) -> None:
     @app.command()
     @guard
@@ -148,6 +157,7 @@ def register(app: typer.Typer) -> None:
         as_json: bool = typer.Option(False, "--json", help="Print the table as JSON."),
     ) -> None:
         """Per-curve features of normalized motion curves (one row per curve)."""
+        check_outputs([("--output", output)], _input_paths(inputs))
         curves, desc = _load(inputs, closed, samples, harmonics, anchor)
         if output is not None:
             options = {"samples": int(desc.points.shape[1]), "harmonics": int(desc.efd.shape[1]), "inputs": inputs}
@@ -177,6 +187,8 @@ def register(app: typer.Typer) -> None:
         as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
     ) -> None:
         """Distances between motion curves, each one's nearest neighbour, or a library ranked against a query."""
+        check_outputs([("--output", output), ("--svg", svg)],
+                      _input_paths([*(inputs or []), query or "", *(library or []), weights_file or "", learn_pairs or ""]))
         if learn_pairs is not None:
             if inputs or query or library:
                 raise InputError("--learn-weights takes its curves from the pairs file", field="--learn-weights")
@@ -275,7 +287,9 @@ def _learn(pairs_path: Path, output: Path | None, samples, harmonics, closed, as
     spec = validate(LabelledPairs, data, file=file, lines=lines)
     samples = samples or spec.samples or DEFAULT_SAMPLES
     harmonics = harmonics or spec.harmonics or DEFAULT_HARMONICS
-    curves = load_inputs([str(pairs_path.parent / c) for c in spec.curves], closed=closed)
+    sources = [str(pairs_path.parent / c) for c in spec.curves]
+    check_outputs([("--output", output)], _input_paths(sources))
+    curves = load_inputs(sources, closed=closed)
     desc = describe_curves(curves, samples=samples, harmonics=harmonics)
     try:
         fit = learn(desc, [c.name for c in curves], list(spec.similar), list(spec.dissimilar),

@@ -8,7 +8,7 @@ from typing import Any
 
 import typer
 
-from linkedit.commands.common import guard, print_json
+from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError
 
 
@@ -66,16 +66,17 @@ def register(app: typer.Typer) -> None:
 
         spec_path, script_path = (None, spec) if script is None else (spec, script)
         spec_path, linkage, parsed = _load(spec_path, script_path)
+        stem = Path(spec_path).stem
+        edited_yaml = out_dir / f"{stem}-edited.yaml"
+        h5 = out_dir / f"{stem}-edit.h5"
+        svg = out_dir / f"{stem}-edit.svg"
+        check_outputs([("--output", edited_yaml), ("--output", h5), ("--output", svg)], [spec_path, script_path])
         failure = None
         with _Progress() as progress:
             try:
                 result = run_script(linkage, parsed, progress=progress.update)
             except EditFailed as exc:
                 result, failure = exc.result, exc
-        stem = Path(spec_path).stem
-        edited_yaml = out_dir / f"{stem}-edited.yaml"
-        h5 = out_dir / f"{stem}-edit.h5"
-        svg = out_dir / f"{stem}-edit.svg"
         edited_text = dump_linkage(result.edited)
         write_text(edited_yaml, edited_text)
         write_edit(h5, result, script_text=read_text(script_path),

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import guard, print_json
+from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError
 
 
@@ -110,6 +110,9 @@ def register(app: typer.Typer) -> None:
             if not partial:
                 check_solved(res)
         _add_tracks(res, track or [])
+        # with --from and no -o the result is updated in place (atomically): the source is not an input then
+        inputs = [spec] if spec is not None else [source] if output is not None else []
+        check_outputs([("--output", out), ("--svg", svg)], inputs)
         write_result(out, res)
         if svg is not None:
             from linkedit.gcs.svg import draw
