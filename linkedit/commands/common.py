@@ -49,7 +49,11 @@ def guard(fn: F) -> F:
         try:
             with warnings.catch_warnings(), together():
                 warnings.simplefilter("ignore", RuntimeWarning)
-                return fn(*args, **kwargs)
+                try:
+                    return fn(*args, **kwargs)
+                except typer.Exit as exc:  # an exit code the command chose (a batch where some failed)
+                    chosen = exc          # after writing what succeeded: keep that
+            raise chosen
         except BrokenPipeError:
             _quiet_stdout()
             raise typer.Exit(0) from None

@@ -112,9 +112,14 @@ def _print_table(rows: list[dict[str, Any]]) -> None:
         typer.echo("".join(v.ljust(w) for v, w in zip(row, widths)).rstrip())
 
 
-def _load_weights(path: Path | None, overrides: list[str]) -> tuple[dict[str, float] | None, int | None, int | None]:
-    """Weights from a file (+ --weight term=value overrides), and the samples/harmonics it asks for."""
-    weights, samples, harmonics = None, None, None
+#: (the weights file's weights, or None for all 1; the --weight overrides)
+_Weights = tuple[dict[str, float] | None, dict[str, float]]
+
+
+def _load_weights(path: Path | None, overrides: list[str]) -> tuple[_Weights, int | None, int | None]:
+    """Weights from a file (default: all 1) and --weight term=value overrides, and the samples/harmonics
+    the file asks for."""
+    weights, samples, harmonics, changed = None, None, None, {}
     if path is not None:
         from linkedit.spec.curveset import CurveWeights
         from linkedit.spec.yamlload import load_model
@@ -129,10 +134,24 @@ def _load_weights(path: Path | None, overrides: list[str]) -> tuple[dict[str, fl
             w = -1.0
         if not sep or not name.strip() or not 0 <= w <= MAX_WEIGHT:
             raise InputError(f"expected TERM=WEIGHT with 0 ≤ WEIGHT ≤ {MAX_WEIGHT:g}, got {item!r}", field="--weight")
-        if weights is None:
-            weights = {}
-        weights[name.strip()] = w
-    return weights, samples, harmonics
+        changed[name.strip()] = w
+    return (weights, changed), samples, harmonics
+
+
+def _resolve(desc: Any, weights: _Weights) -> dict[str, float]:
+    """Every term's weight: the file's (or 1), then the --weight overrides."""
+    from linkedit.curves.compare import resolve_weights
+
+    base, changed = weights
+    out = resolve_weights(desc, base)
+    for name in changed:
+        if name not in out:
+            raise InputError(f"term {name!r} does not apply to these curves (their terms: {', '.join(out)})",
+                             field="--weight")
+    out |= changed
+    if not any(out.values()):
+        raise InputError("every weight is 0", field="--weight")
+    return out
 
 
 def _input_paths(texts: list[Any]) -> list[Path]:
@@ -209,13 +228,13 @@ def register(app: typer.Typer) -> None:
 
 
 def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json) -> None:
-    from linkedit.curves.compare import distances, resolve_weights
+    from linkedit.curves.compare import distances
     from linkedit.curves.distance import nearest
 
     curves, desc = _load(inputs, closed, samples, harmonics, anchor)
     if len(curves) < 2:
         raise InputError("compare-curves needs at least 2 curves", field="INPUT")
-    w = resolve_weights(desc, weights)
+    w = _resolve(desc, weights)
     dist, _ = distances(desc, w)
     near = nearest(dist)
     names = [c.name for c in curves]
@@ -237,7 +256,7 @@ def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json) -
 def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json) -> None:
     import numpy as np
 
-    from linkedit.curves.compare import distances, resolve_weights
+    from linkedit.curves.compare import distances
 
     from linkedit.curves.sources import load_inputs
 
@@ -245,7 +264,7 @@ def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg,
     if len(queried) != 1:
         raise InputError(f"the query holds {len(queried)} curves; name one (result.h5:track)", field="--query")
     curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed))
-    w = resolve_weights(desc, weights)
+    w = _resolve(desc, weights)
     dist, terms = distances(desc.take([0]), w, desc.take(range(1, len(curves))))
     order = np.argsort(dist[0], kind="stable")[:top]
     ranking = [{"rank": k + 1, "curve": curves[1 + i].name, "origin": curves[1 + i].origin,

@@ -59,7 +59,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Edit a linkage: displace joints, preserve or reshape track curves, fit a box — keeping it working."""
         from linkedit.edit.runner import EditFailed, run_script
-        from linkedit.io.atomic import write_text
+        from linkedit.io.atomic import commit, write_text
         from linkedit.io.edit_hdf5 import write_edit
         from linkedit.spec.linkage_yaml import dump_linkage
         from linkedit.spec.yamlload import read_text
@@ -94,6 +94,7 @@ def register(app: typer.Typer) -> None:
                 typer.echo(line)
             typer.echo(f"→ {edited_yaml}, {h5}, {svg}")
         if failure is not None:
+            commit()  # the last working linkage is a result too: keep it for inspection
             raise failure
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import typer
@@ -10,13 +11,17 @@ from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError
 
 
+#: a track name becomes an HDF5 group: not empty, no "/", no leading ".", no control characters
+_NAME = re.compile(r"^[^/.\x00-\x1f][^/\x00-\x1f]*$")
+
+
 def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
     """``[name=]member:x,y,z`` or ``[name=]member:point`` → (name, member, point)."""
     name, eq, rest = text.partition("=")
     if not eq:
         name, rest = text, text
     member, colon, point = rest.partition(":")
-    if not colon or not member or not point or "/" in name:
+    if not colon or not member or not point or not _NAME.match(name):
         raise InputError(f"{text!r}: expected [name=]member:x,y,z or [name=]member:point", field="--track")
     parts = point.split(",")
     if len(parts) == 1:

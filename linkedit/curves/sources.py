@@ -17,6 +17,7 @@ Every curve is checked: finite numbers, at least 3 distinct points, a positive l
 
 from __future__ import annotations
 
+import contextvars
 import csv
 import io
 from dataclasses import dataclass
@@ -193,6 +194,10 @@ def _is_number(text: str) -> bool:
     return True
 
 
+#: The curve sets being read (a source that leads back to one of them is a loop).
+_READING: contextvars.ContextVar[frozenset[Path]] = contextvars.ContextVar("reading", default=frozenset())
+
+
 def read_curve_set(path: Path, *, closed: bool | None = None) -> list[Curve]:
     """The curves of a YAML curve set; sources are relative to the set's folder."""
     from linkedit.spec.curveset import CurveSet
@@ -209,7 +214,16 @@ def read_curve_set(path: Path, *, closed: bool | None = None) -> list[Curve]:
                                origin=f"{path}:{entry.name}", file=str(path), field=field,
                                line=lines.line_of(field), units=spec.units)
         else:
-            loaded = _load_one(str(path.parent / entry.source), flag)
+            source = path.parent / entry.source
+            if source.resolve() in _READING.get():
+                field = ("curves", i, "source")
+                raise InputError(f"source {entry.source!r} leads back to this curve set (a loop)", file=str(path),
+                                 field=field, line=lines.line_of(field))
+            token = _READING.set(_READING.get() | {path.resolve()})
+            try:
+                loaded = _load_one(str(source), flag)
+            finally:
+                _READING.reset(token)
             if len(loaded) != 1:
                 field = ("curves", i, "source")
                 raise InputError(f"source {entry.source!r} holds {len(loaded)} curves; name one track "

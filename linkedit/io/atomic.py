@@ -73,6 +73,19 @@ def together() -> Iterator[None]:
         _discard(pending)
 
 
+def commit() -> None:
+    """Rename the writes of the enclosing :func:`together` blocks now (for a run that fails after
+    writing results it wants kept, e.g. an edit that stops at its last working linkage)."""
+    pending = _PENDING.get()
+    if pending:
+        try:
+            for tmp, target in pending:
+                _replace(tmp, target)
+        finally:
+            _discard(pending)
+            pending.clear()
+
+
 @contextlib.contextmanager
 def atomic_path(target: str | Path) -> Iterator[Path]:
     """Yield a temporary path in the target's folder; rename it onto ``target`` on success

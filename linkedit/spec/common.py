@@ -17,8 +17,9 @@ Count = Annotated[int, pydantic.Strict()]
 MAX_WEIGHT = 1e12
 Vec2 = tuple[Finite, Finite]
 Vec3 = tuple[Finite, Finite, Finite]
-#: A name of a joint, link, track, member…: becomes an HDF5 group name, so no "/" and no leading ".".
-Name = Annotated[str, pydantic.StringConstraints(min_length=1, strip_whitespace=True, pattern=r"^[^/.][^/]*$")]
+#: A name of a joint, link, track, member…: becomes an HDF5 group name, so no "/", no leading "."
+#: and no control characters (NUL ends a name in HDF5).
+Name = Annotated[str, pydantic.StringConstraints(min_length=1, strip_whitespace=True, pattern=r"^[^/.\x00-\x1f][^/\x00-\x1f]*$")]
 
 
 class SpecModel(pydantic.BaseModel):

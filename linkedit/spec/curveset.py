@@ -97,7 +97,7 @@ class LabelledPairs(SpecModel):
     #: Weight of the regularizer λ Σ w_m (keeps weights small and sparse).
     regularization: NonNegative = 1e-3
     #: Terms to learn (default: all terms of the curves' dimension).
-    terms: list[str] | None = None
+    terms: list[str] | None = pydantic.Field(default=None, min_length=1)
 
     @pydantic.field_validator("terms")
     @classmethod

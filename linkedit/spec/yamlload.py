@@ -33,12 +33,12 @@ M = TypeVar("M", bound=pydantic.BaseModel)
 
 
 class SpecLoader(yaml.SafeLoader):
-    """The safe loader, reading ``1e-3`` and ``2E6`` as numbers (YAML 1.1 wants a dot: ``1.0e-3``)."""
+    """The safe loader, reading ``1e-3``, ``2E6`` and ``7.5e1`` as numbers (YAML 1.1 wants ``7.5e+1``)."""
 
 
 SpecLoader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
-SpecLoader.add_implicit_resolver("tag:yaml.org,2002:float", re.compile(r"^[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+$"),
-                                 list("-+0123456789"))
+SpecLoader.add_implicit_resolver("tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+                                 list("-+.0123456789"))
 
 
 class LineMap(dict[Path_, int]):
