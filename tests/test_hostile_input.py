@@ -333,3 +333,34 @@ def test_one_weight_option_leaves_the_other_weights_at_1(run_cli):
 def test_a_null_character_in_a_joint_name_is_refused(run_cli, tmp_path, spec):
     spec.write_text(spec.read_text().replace("rocker_tip: {joint: B}", '"rock\\0er": {joint: B}'))
     assert "tracks" in _one_line(run_cli("simulate", spec, "-o", tmp_path / "o.h5"), 2)
+
+
+# --- edits ---------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("operation, field", [
+    ("displace: {joint: B, to: [1e300, 60]}", "displace.to"),
+    ("retarget: {track: coupler_point, translate: [1e300, 0]}", "retarget.translate"),
+    ("retarget: {track: coupler_point, scale: [1e300, 1]}", "retarget.scale"),
+    ("drag: {track: coupler_point, at: 0.2, by: [0, 1e299]}", "drag.by"),
+    ("envelope: {xmax: 1e300}", "envelope"),
+    ("transform: {scale: 1e300}", "transform.scale"),
+    ("transform: {translate: [1e300, 0]}", "transform.translate"),
+    ("displace: {joint: B, to: [60, 60]}\n    terms: {displace: 1e308}", "terms.displace"),
+])
+def test_edit_targets_and_weights_out_of_reach_are_one_line(run_cli, tmp_path, spec, operation, field):
+    script = tmp_path / "s.yaml"
+    script.write_text(f"operations:\n  - {operation}\n")
+    line = _one_line(run_cli("edit", spec, script, "-o", tmp_path / "out"), 2)
+    assert f"operations[0].{field}" in line
+    assert not (tmp_path / "out").exists()
+
+
+def test_editing_a_linkage_that_locks_up_is_one_line_exit_1(run_cli, tmp_path, spec):
+    # coupler and rocker of 32 cannot span the 100 between pivot D and the crank pin at 180°
+    spec.write_text(spec.read_text().replace("  B: [63, 58.787753826796276]", "  B: [50, 20]")
+                    .replace("at: [20.48489846928149, 44.59387691339814]", "at: [40, 15]"))
+    script = tmp_path / "s.yaml"
+    script.write_text("operations:\n  - displace: {joint: B, to: [50, 25]}\n")
+    line = _one_line(run_cli("edit", spec, script, "-o", tmp_path / "out"), 1)
+    assert "joint B" in line and "works" in line
+    assert not (tmp_path / "out").exists()

@@ -9,10 +9,11 @@ from typing import Any
 import typer
 
 from linkedit.commands.common import check_outputs, guard, print_json
-from linkedit.errors import InputError
+from linkedit.errors import InputError, MechanismError
 
 
 def _load(spec_path: Path | None, script_path: Path):
+    from linkedit.planar import compile_plan, simulate
     from linkedit.spec.edit_script import EditScript, check_against
     from linkedit.spec.linkage import LinkageSpec
     from linkedit.spec.yamlload import load_model, load_yaml, validate
@@ -33,6 +34,10 @@ def _load(spec_path: Path | None, script_path: Path):
     except InputError as exc:
         exc.file, exc.line = str(script_path), lines.line_of(exc.field)
         raise
+    try:  # an edit starts from a working linkage (the barrier keeps it working)
+        simulate(compile_plan(linkage), script.samples)
+    except MechanismError as exc:
+        raise MechanismError(f"{spec_path}: only a linkage that works can be edited: {exc}") from None
     return spec_path, linkage, script
 
 

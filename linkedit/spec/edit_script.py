@@ -132,8 +132,15 @@ class EditScript(SpecModel):
     singularity_epsilon: pydantic.confloat(strict=True, gt=0.0, lt=1.0) = 0.05
 
 
+#: How far (in linkage sizes) a target may lie, and how much a scale may grow or shrink: beyond,
+#: the objective's squares overflow long before the edit could get there.
+REACH = 1e6
+
+
 def check_against(script: EditScript, linkage: LinkageSpec) -> None:
-    """Check every joint and track name of ``script`` against ``linkage``; InputError names the field."""
+    """Check every joint and track name of ``script`` against ``linkage``, and that every target is
+    within :data:`REACH` linkage sizes; InputError names the field."""
+    _check_reach(script, linkage)
     joints, tracks = set(linkage.joints), set(linkage.tracks)
     locked = set(script.lock)
     for n, name in enumerate(script.lock):
@@ -167,3 +174,44 @@ def check_against(script: EditScript, linkage: LinkageSpec) -> None:
             for n, name in enumerate(op.transform.joints):
                 if name not in joints:
                     raise InputError(f"unknown joint {name!r}", field=base + ("transform", "joints", n))
+
+
+def _check_reach(script: EditScript, linkage: LinkageSpec) -> None:
+    rest = list(linkage.joints.values())
+    lo = [min(p[k] for p in rest) for k in (0, 1)]
+    hi = [max(p[k] for p in rest) for k in (0, 1)]
+    centre = [(a + b) / 2 for a, b in zip(lo, hi)]
+    size = max(max(b - a for a, b in zip(lo, hi)), 1e-300)
+
+    def near(values: tuple, field: tuple, relative_to: list[float] | None) -> None:
+        for k, v in enumerate(values):
+            if v is not None and abs(v - (relative_to[k % 2] if relative_to else 0.0)) > REACH * size:
+                raise InputError(f"{v:g} is more than {REACH:g} times the linkage's size ({size:g} {linkage.units}) "
+                                 "away: out of reach of an edit", field=field)
+
+    def scale(values: tuple, field: tuple) -> None:
+        for v in values:
+            if abs(v) > REACH:
+                raise InputError(f"a scale of {v:g} is beyond {REACH:g}: out of reach of an edit", field=field)
+
+    for o, op in enumerate(script.operations):
+        base: tuple = ("operations", o)
+        for kind in ("displace", "retarget", "drag"):
+            for n, item in enumerate(op.listed(kind)):
+                field = base + ((kind, n) if isinstance(getattr(op, kind), list) else (kind,))
+                if kind == "displace":
+                    near(item.to, field + ("to",), centre)
+                elif kind == "drag":
+                    near(item.by, field + ("by",), None)
+                else:
+                    near(item.translate, field + ("translate",), None)
+                    scale(item.scale, field + ("scale",))
+        if op.envelope is not None:
+            e = op.envelope
+            near((e.xmin, e.ymin, e.xmax, e.ymax), base + ("envelope",), centre)
+        if op.transform is not None:
+            t = op.transform
+            near(t.translate, base + ("transform", "translate"), None)
+            if t.about is not None:
+                near(t.about, base + ("transform", "about"), centre)
+            scale((t.scale,), base + ("transform", "scale"))
