@@ -364,3 +364,13 @@ def test_editing_a_linkage_that_locks_up_is_one_line_exit_1(run_cli, tmp_path, s
     line = _one_line(run_cli("edit", spec, script, "-o", tmp_path / "out"), 1)
     assert "joint B" in line and "works" in line
     assert not (tmp_path / "out").exists()
+
+
+def test_a_3d_shape_point_at_1e308_is_one_line(run_cli, tmp_path):
+    # found by the fuzz test: the SVG of such a spec held NaN
+    spec = tmp_path / "m.yaml"
+    spec.write_text((EXAMPLES / "3d" / "spherical-four-bar.yaml").read_text()
+                    .replace("a: [0, 0, 1]", "a: [1.0e+308, 0, 1]", 1))
+    line = _one_line(run_cli("solve3d", spec, "-o", tmp_path / "o.h5", "--svg", tmp_path / "o.svg"), 2)
+    assert "shapes.crank.points.a[0]" in line
+    assert not (tmp_path / "o.h5").exists()

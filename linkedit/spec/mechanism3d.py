@@ -48,6 +48,11 @@ Direction = Annotated[Vec3, pydantic.AfterValidator(_nonzero_vector)]
 #: a member point: a name from the member's shape, or coordinates in member space
 PointRef = Union[Name, Vec3]
 Window = tuple[Finite, Finite]
+#: Largest coordinate of a shape point, a member position or a keyframe: squares of larger numbers
+#: overflow (drawing extents, distances). Constraint targets may be larger: the solver reports them.
+MAX_COORDINATE = 1e150
+Coordinate = Annotated[Finite, pydantic.Field(ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
+Point3 = tuple[Coordinate, Coordinate, Coordinate]
 
 
 def load_function(ref: str, field: tuple) -> Any:
@@ -78,14 +83,14 @@ Orientation = Union[Quaternion, AxisAngle]
 class Shape(SpecModel):
     """Named points in member space; ``lines`` are polylines of point names for drawing."""
 
-    points: dict[Name, Vec3] = pydantic.Field(min_length=1)
+    points: dict[Name, Point3] = pydantic.Field(min_length=1)
     lines: list[list[Name]] = pydantic.Field(default_factory=list)
 
 
 class Member(SpecModel):
     """A rigid body: position, orientation and shape (a name from ``shapes`` or inline)."""
 
-    position: Vec3 = (0.0, 0.0, 0.0)
+    position: Point3 = (0.0, 0.0, 0.0)
     orientation: Orientation = (1.0, 0.0, 0.0, 0.0)
     shape: Name | Shape | None = None
 
@@ -202,7 +207,7 @@ class LocationInput(_InputBase):
     member: Name
     point: PointRef
     other: Name | None = None
-    keyframes: list[Vec3] = pydantic.Field(min_length=1)
+    keyframes: list[Point3] = pydantic.Field(min_length=1)
 
 
 class Rotation(SpecModel):
