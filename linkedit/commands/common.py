@@ -79,7 +79,7 @@ def _quiet_stdout() -> None:
 def check_outputs(outputs: Iterable[tuple[str, Path | None]], inputs: Iterable[Path | str]) -> None:
     """Before anything is written: InputError (exit 2) if an output is an input, two outputs are
     the same file, or an output cannot be written as a regular file (a device node, a folder, a
-    read-only folder). ``outputs`` are (option, path) pairs, ``None`` paths are skipped."""
+    read-only folder). ``outputs`` are (option, path) pairs; ``None`` and ``-`` (stdout) are skipped."""
     from linkedit.io.atomic import check_target
 
     def key(path: Path | str) -> tuple:
@@ -91,7 +91,7 @@ def check_outputs(outputs: Iterable[tuple[str, Path | None]], inputs: Iterable[P
 
     taken = {key(p): f"the input {p}" for p in inputs}
     for option, path in outputs:
-        if path is None:
+        if path is None or str(path) == "-":  # none, or standard output
             continue
         k = key(path)
         if k in taken:

@@ -28,6 +28,8 @@ def _load(spec_path: Path | None, script_path: Path):
         if not spec_path.is_file():
             raise InputError(f"linkage file not found: {spec_path}", file=str(script_path),
                              line=lines.line_of(("linkage",)), field="linkage")
+    elif script.linkage is not None:
+        typer.echo(f"note: {script_path} names linkage {script.linkage}; editing {spec_path} as given", err=True)
     linkage = load_model(LinkageSpec, spec_path)
     try:
         check_against(script, linkage)
@@ -44,13 +46,26 @@ def _load(spec_path: Path | None, script_path: Path):
 def _report_lines(result: Any) -> list[str]:
     out = []
     for op in result.operations:
-        status = "" if op.converged else " (iteration limit)"
+        status = (" (stalled: slow progress, along the barrier's edge)" if op.stalled
+                  else " (iteration limit)" if not op.converged else "")
+        status += " — DISCARDED: its result does not work (see below)" if op.discarded else ""
         out.append(f"{op.name}: {op.iterations} iterations, {op.seconds * 1e3:.0f} ms{status}")
         for key in op.before:
             if key.startswith("energy"):
                 continue
             out.append(f"  {key}: {op.before[key]:.4g} → {op.after[key]:.4g}")
+        for goal in op.unmet:
+            out.append(f"  goal not met: {goal}")
+    out += [f"warning: {w}" for w in result.warnings]
     return out
+
+
+def _report_json(op: Any) -> dict:
+    return {"name": op.name, "iterations": op.iterations, "evaluations": op.evaluations,
+            "rejected_steps": op.rejected_steps, "seconds": op.seconds, "converged": op.converged,
+            "stalled": op.stalled,
+            "discarded": op.discarded, "goals_met": op.goals_met, "unmet": op.unmet,
+            "before": op.before, "after": op.after}
 
 
 def register(app: typer.Typer) -> None:
@@ -91,9 +106,8 @@ def register(app: typer.Typer) -> None:
         if as_json:
             print_json({"spec": str(spec_path), "script": str(script_path), "edited": str(edited_yaml),
                         "output": str(h5), "svg": str(svg), "ok": failure is None,
-                        "operations": [{"name": o.name, "iterations": o.iterations, "seconds": o.seconds,
-                                        "converged": o.converged, "before": o.before, "after": o.after}
-                                       for o in result.operations]})
+                        "error": None if failure is None else str(failure), "warnings": result.warnings,
+                        "operations": [_report_json(o) for o in result.operations]})
         else:
             for line in _report_lines(result):
                 typer.echo(line)
