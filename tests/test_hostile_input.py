@@ -380,3 +380,33 @@ def test_a_3d_shape_point_at_1e308_is_one_line(run_cli, tmp_path):
     line = _one_line(run_cli("solve3d", spec, "-o", tmp_path / "o.h5", "--svg", tmp_path / "o.svg"), 2)
     assert "shapes.crank.points.a[0]" in line
     assert not (tmp_path / "o.h5").exists()
+
+
+def test_a_rotation_axis_of_1e308_turns_the_crank_like_the_unit_axis(run_cli, tmp_path):
+    text = (EXAMPLES / "3d" / "crank-rocker.yaml").read_text()
+    huge = tmp_path / "huge.yaml"
+    huge.write_text(text.replace("rotation: {axis: [0, 0, 1]", "rotation: {axis: [0, 0, 1.0e+308]"))
+    unit = tmp_path / "unit.yaml"
+    unit.write_text(text)
+    for spec in (huge, unit):
+        r = run_cli("solve3d", spec, "-o", tmp_path / f"{spec.stem}.h5", "--steps", "9")
+        assert r.exit_code == 0, r.output
+    with h5py.File(tmp_path / "huge.h5") as a, h5py.File(tmp_path / "unit.h5") as b:
+        p, q = a["tracks/P/position"][()], b["tracks/P/position"][()]
+    assert np.ptp(p, axis=0).max() > 0.1  # the crank turns
+    assert np.allclose(p, q, rtol=0, atol=1e-9)
+
+
+def test_an_edit_whose_picture_path_is_a_folder_writes_nothing(run_cli, tmp_path, spec):
+    out = tmp_path / "out"
+    (out / "spec-edit.svg").mkdir(parents=True)
+    script = tmp_path / "s.yaml"
+    script.write_text("operations:\n  - displace: {joint: B, to: [62, 60]}\n")
+    line = _one_line(run_cli("edit", spec, script, "-o", out), 2)
+    assert "spec-edit.svg: is a folder" in line and ".part" not in line
+    assert sorted(p.name for p in out.iterdir()) == ["spec-edit.svg"]
+
+
+def test_a_track_point_beyond_1e150_is_one_line(run_cli, tmp_path, gcs_result):
+    assert "--track" in _one_line(run_cli("solve3d", "--from", gcs_result, "-o", tmp_path / "o.h5",
+                                          "--track", "far=coupler:1e308,0,0"), 2)

@@ -231,8 +231,10 @@ def check_memory(samples: int | None, spec: Any, path: Path) -> None:
     have = _available_memory()
     if need > have:
         where = {"field": "--samples"} if samples else {"file": str(path), "field": "samples"}
-        raise InputError(f"{count:,} samples of {len(spec.joints)} joints need about {need / 2**30:,.1f} GiB; "
-                         f"{have / 2**30:,.1f} GiB are available", **where)
+        gib = need / 2**30
+        raise InputError(f"{count:,} samples of {len(spec.joints)} joints need about "
+                         f"{f'{gib:,.1f}' if gib < 1e6 else f'{gib:.1e}'} GiB; {have / 2**30:,.1f} GiB are available",
+                         **where)
 
 
 def _available_memory() -> int:

@@ -10,6 +10,7 @@ import typer
 
 from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError
+from linkedit.spec.mechanism3d import MAX_COORDINATE
 
 
 #: a track name becomes an HDF5 group: not empty, no "/", no leading ".", no control characters
@@ -31,8 +32,9 @@ def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
         xyz = tuple(float(p) for p in parts)
     except ValueError:
         xyz = ()
-    if len(xyz) != 3 or not all(abs(c) < float("inf") for c in xyz):
-        raise InputError(f"{text!r}: the point needs three finite coordinates x,y,z", field="--track")
+    if len(xyz) != 3 or not all(abs(c) <= MAX_COORDINATE for c in xyz):
+        raise InputError(f"{text!r}: the point needs three coordinates x,y,z of at most {MAX_COORDINATE:g}",
+                         field="--track")
     return name, member, xyz  # type: ignore[return-value]
 
 
