@@ -86,10 +86,16 @@ def variant_signs(harmonics: int) -> np.ndarray:
     return np.stack([ones, half, reverse, half * reverse])
 
 
-def efd_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Euclidean distance of normalized descriptors, smallest over the variants: (Ca, H, 4), (Cb, H, 4) → (Ca, Cb)."""
+def efd_distance(a: np.ndarray, b: np.ndarray, *, mirror: bool = False) -> np.ndarray:
+    """Euclidean distance of normalized descriptors, smallest over the variants: (Ca, H, 4), (Cb, H, 4) → (Ca, Cb).
+
+    ``mirror`` also compares the mirror image (y → -y in the normalized frame: c, d negated).
+    """
     fa, fb = a.reshape(len(a), -1), b.reshape(len(b), -1)
-    signs = variant_signs(a.shape[1]).reshape(4, -1)
+    signs = variant_signs(a.shape[1])
+    if mirror:
+        signs = np.concatenate([signs, signs * np.array([1.0, 1.0, -1.0, -1.0])])
+    signs = signs.reshape(len(signs), -1)
     best = np.max(np.stack([fa @ (fb * s).T for s in signs]), axis=0)
     d2 = np.sum(fa**2, axis=1)[:, None] + np.sum(fb**2, axis=1)[None, :] - 2 * best
     return np.sqrt(np.maximum(d2, 0.0))
