@@ -174,3 +174,18 @@ def test_atlas_build_cli(run_cli, tmp_path):
     assert bad.exit_code == 2 and "unknown family" in bad.output
     other_seed = run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", out, "--seed", "5")
     assert other_seed.exit_code == 2 and "--seed 4" in other_seed.output
+
+
+def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path):
+    """The same seed on a LocalCluster of 2 worker processes (through --scheduler) and in-process."""
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster:
+        result = run_cli("atlas", "build", "--family", "four-bar", "-n", str(3 * atlas.CHUNK // 2), "-o",
+                         tmp_path / "dask.h5", "--seed", "8", "--scheduler", cluster.scheduler_address)
+    assert result.exit_code == 0, result.output
+    local = run_cli("atlas", "build", "--family", "four-bar", "-n", str(3 * atlas.CHUNK // 2), "-o",
+                    tmp_path / "local.h5", "--seed", "8")
+    assert local.exit_code == 0, local.output
+    with h5py.File(tmp_path / "dask.h5") as a, h5py.File(tmp_path / "local.h5") as b:
+        for key in ("params", "min_ds", "index", "curves"):
+            np.testing.assert_array_equal(a[f"families/four-bar/{key}"][()], b[f"families/four-bar/{key}"][()])

@@ -100,7 +100,7 @@ def run_chunks(name: str, seed: int, jobs: list[tuple[int, int]], *, scheduler: 
         raise InputError("the Dask path needs dask.distributed: pip install 'linkedit[cluster]'",
                          field="--scheduler" if scheduler else "--workers") from None
     cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                     dashboard_address=None)
+                                                     dashboard_address=":0")
     try:
         with Client(scheduler or cluster) as client:
             futures = [client.submit(build_chunk, name, seed, index, size, pure=True) for index, size in jobs]

@@ -68,14 +68,36 @@ def arc_resample(z: np.ndarray, count: int, closed: bool) -> np.ndarray:
 
 
 def distances_to(points: np.ndarray, curve: np.ndarray, closed: bool) -> np.ndarray:
-    """Distance of each of ``points`` (N,) complex to the polyline ``curve`` (M,) complex."""
-    a = curve if closed else curve[:-1]
-    b = np.roll(curve, -1) if closed else curve[1:]
-    e = b - a
+    """Distance of each of ``points`` (..., N) complex to the polyline ``curve`` (..., M) complex → (..., N)."""
+    a = curve if closed else curve[..., :-1]
+    b = np.roll(curve, -1, axis=-1) if closed else curve[..., 1:]
+    e = (b - a)[..., None, :]
     length2 = np.maximum(e.real ** 2 + e.imag ** 2, 1e-300)
-    rel = points[:, None] - a[None, :]
+    rel = points[..., :, None] - a[..., None, :]
     t = np.clip((rel.real * e.real + rel.imag * e.imag) / length2, 0.0, 1.0)
-    return np.abs(rel - t * e).min(axis=1)
+    return np.abs(rel - t * e).min(axis=-1)
+
+
+def near_distances(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
+    """Distance of ``points`` (..., N) to a densely sampled closed curve (..., M), both complex → (..., N):
+    the nearest vertex, then the two segments that meet there (the refinement's fast version of
+    :func:`distances_to`, exact unless a segment passes nearer than both its ends and the next vertex)."""
+    dx = points.real[..., :, None] - curve.real[..., None, :]
+    dy = points.imag[..., :, None] - curve.imag[..., None, :]
+    dx *= dx
+    dy *= dy
+    dx += dy
+    j = np.argmin(dx, axis=-1)  # (..., N)
+    m = curve.shape[-1]
+    best = None
+    for k in (j - 1, j):
+        a = np.take_along_axis(curve, k % m, axis=-1)
+        e = np.take_along_axis(curve, (k + 1) % m, axis=-1) - a
+        rel = points - a
+        t = np.clip((rel.real * e.real + rel.imag * e.imag) / np.maximum(e.real ** 2 + e.imag ** 2, 1e-300), 0, 1)
+        d = np.abs(rel - t * e)
+        best = d if best is None else np.minimum(best, d)
+    return best
 
 
 def curve_error(target: np.ndarray, closed: bool, curve: np.ndarray, size: float) -> tuple[float, float]:
@@ -91,45 +113,62 @@ def curve_error(target: np.ndarray, closed: bool, curve: np.ndarray, size: float
 
 def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np.ndarray, closed: bool,
            size: float, *, iterations: int = ITERATIONS) -> Refined:
-    """Refine one candidate (``params`` (P,), the branch fixed) against ``target`` (M,) complex."""
+    """Refine one candidate (``params`` (P,), the branch fixed) against ``target`` (M,) complex.
+
+    The finite-difference Jacobian evaluates all perturbed linkages in one batched call.
+    """
     free = np.array([name != "branch" for name in fam.PARAMETERS])
-    fixed = params.copy()
+    n_free = int(free.sum())
     goal = arc_resample(target, POINTS, closed)
+    outline = arc_resample(target, 4 * POINTS, closed)  # the target as the reverse distances see it
     unit = size
 
-    def unpack(x: np.ndarray) -> tuple[np.ndarray, Placement]:
-        p = fixed.copy()
-        p[free] = x[:free.sum()]
-        k, angle, sx, sy = x[free.sum():]
-        return p, Placement(float(np.exp(k)), float(angle), complex(sx, sy) * unit, placement.mirrored)
+    def curves_of(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Parameter rows (K, P), working mask (K,), placed curves (K, SAMPLES) of x (K, n)."""
+        p = np.repeat(params[None], len(x), axis=0)
+        p[:, free] = x[:, :n_free]
+        ok = fam.min_singularity(p) >= fam.margin()
+        k, angle, sx, sy = x[:, n_free:].T
+        z = fam.curves(p, SAMPLES)
+        z = np.conj(z) if placement.mirrored else z
+        return p, ok, (sx + 1j * sy)[:, None] * unit + (np.exp(k + 1j * angle))[:, None] * z
+
+    def residuals(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        p, ok, curve = curves_of(x)
+        with np.errstate(invalid="ignore"):
+            r = near_distances(np.broadcast_to(goal, (len(x), len(goal))), curve)
+            if closed:
+                back = np.stack([arc_resample(c, POINTS, True) if good else goal for c, good in zip(curve, ok)])
+                r = np.concatenate([r, near_distances(back, np.broadcast_to(outline, (len(x), len(outline))))], axis=1)
+        r = np.where(ok[:, None], r / size, WALL)
+        return p, ok, r
 
     x0 = np.concatenate([params[free], [np.log(placement.scale), placement.angle,
                                         placement.shift.real / unit, placement.shift.imag / unit]])
-    n_res = POINTS * (2 if closed else 1)
     best = Refined(params.copy(), placement, np.inf)
 
-    def residuals(x: np.ndarray) -> np.ndarray:
-        p, place = unpack(x)
-        if not (fam.min_singularity(p[None])[0] >= fam.margin()):
-            return np.full(n_res, WALL)
-        curve = place.apply(fam.curves(p[None], SAMPLES)[0])
-        r = distances_to(goal, curve, True)
-        if closed:
-            r = np.concatenate([r, distances_to(arc_resample(curve, POINTS, True), target, True)])
-        r = r / size
-        error = float(np.sqrt(np.mean(r * r)))
-        if error < best.error:
-            best.params, best.placement, best.error = p, place, error
+    def fun(x: np.ndarray) -> np.ndarray:
+        p, ok, r = residuals(x[None])
+        error = float(np.sqrt(np.mean(r[0] ** 2)))
+        if ok[0] and error < best.error:
+            k, angle, sx, sy = x[n_free:]
+            best.params, best.error = p[0], error
+            best.placement = Placement(float(np.exp(k)), float(angle), complex(sx, sy) * unit, placement.mirrored)
         best.history.append(best.error)
         if error < GOOD_ENOUGH:
             raise _Done
-        return r
+        return r[0]
+
+    def jac(x: np.ndarray) -> np.ndarray:
+        step = 1e-7 * np.maximum(1.0, np.abs(x))
+        _, _, r = residuals(np.vstack([x, x + np.diag(step)]))
+        return ((r[1:] - r[0]) / step[:, None]).T
 
     try:
-        residuals(x0)
+        fun(x0)
         if np.isfinite(best.error):
-            least_squares(residuals, x0, method="trf", x_scale="jac", max_nfev=iterations, xtol=1e-9, ftol=1e-9,
-                          gtol=1e-9)
+            least_squares(fun, x0, jac=jac, method="trf", x_scale="jac", max_nfev=iterations, xtol=1e-9,
+                          ftol=1e-9, gtol=1e-9)
     except _Done:
         pass
     return best
