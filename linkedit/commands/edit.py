@@ -39,13 +39,24 @@ def _load(spec_path: Path | None, script_path: Path):
 def _report_lines(result: Any) -> list[str]:
     out = []
     for op in result.operations:
-        status = "" if op.converged else " (iteration limit)"
+        status = " (iteration limit)" if not op.converged else ""
+        status += " — DISCARDED: its result does not work (see below)" if op.discarded else ""
         out.append(f"{op.name}: {op.iterations} iterations, {op.seconds * 1e3:.0f} ms{status}")
         for key in op.before:
             if key.startswith("energy"):
                 continue
             out.append(f"  {key}: {op.before[key]:.4g} → {op.after[key]:.4g}")
+        for goal in op.unmet:
+            out.append(f"  goal not met: {goal}")
+    out += [f"warning: {w}" for w in result.warnings]
     return out
+
+
+def _report_json(op: Any) -> dict:
+    return {"name": op.name, "iterations": op.iterations, "evaluations": op.evaluations,
+            "rejected_steps": op.rejected_steps, "seconds": op.seconds, "converged": op.converged,
+            "discarded": op.discarded, "goals_met": op.goals_met, "unmet": op.unmet,
+            "before": op.before, "after": op.after}
 
 
 def register(app: typer.Typer) -> None:
@@ -85,9 +96,8 @@ def register(app: typer.Typer) -> None:
         if as_json:
             print_json({"spec": str(spec_path), "script": str(script_path), "edited": str(edited_yaml),
                         "output": str(h5), "svg": str(svg), "ok": failure is None,
-                        "operations": [{"name": o.name, "iterations": o.iterations, "seconds": o.seconds,
-                                        "converged": o.converged, "before": o.before, "after": o.after}
-                                       for o in result.operations]})
+                        "error": None if failure is None else str(failure), "warnings": result.warnings,
+                        "operations": [_report_json(o) for o in result.operations]})
         else:
             for line in _report_lines(result):
                 typer.echo(line)
