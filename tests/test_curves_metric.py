@@ -145,3 +145,32 @@ def test_ranking_reports_the_placement_and_mirror_option(run_cli, tmp_path):
     first = json.loads(mirrored.output)["ranking"][0]
     assert first["distance"] < 1e-6 < json.loads(plain.output)["ranking"][0]["distance"]
     assert first["placement"]["mirrored"] and first["placement"]["scale"] == pytest.approx(0.5, rel=1e-9)
+
+
+def test_one_mislabelled_pair_does_not_swing_the_learned_weights():
+    """Hard margins let one wrong label dictate the weights (and separate held-out pairs worse than
+    the point term alone); the cross-validated soft margin does not."""
+    from linkedit.curves.learn import _fit, cross_validate, learn_weights
+
+    curves, labels = family_curves(6, seed=4)
+    terms = term_distances(describe(curves, True))
+    names = list(terms)
+    table = np.stack([terms[n] for n in names], axis=-1)
+    i, j = np.triu_indices(len(labels), 1)
+    same = labels[i] == labels[j]
+    rng = np.random.default_rng(0)
+    si = rng.choice(np.flatnonzero(same), 40, replace=False)
+    di = rng.choice(np.flatnonzero(~same), 40, replace=False)
+    sim, dis = table[i[si], j[si]], table[i[di], j[di]]
+    clean = learn_weights(names, sim, dis)
+    k = int(np.argmin(sim[:, names.index("points")]))  # the most similar pair, labelled dissimilar
+    sim_bad, dis_bad = np.delete(sim, k, axis=0), np.vstack([dis, sim[k:k + 1]])
+    hard = _fit(sim_bad ** 2, dis_bad ** 2, 1e-3, None)
+    hard_auc = cross_validate(sim_bad ** 2, dis_bad ** 2, 1e-3, costs=(None,))[None]
+    soft = learn_weights(names, sim_bad, dis_bad)
+    # the defect, reproduced: the hard fit's weights explode and separate worse than points alone
+    assert hard.max() > 100 * max(clean.weights.values()) and hard_auc < soft.term_auc["points"]
+    # the soft fit: the same weights as without the wrong label, and better than points alone
+    w_clean, w_soft = np.array(list(clean.weights.values())), np.array(list(soft.weights.values()))
+    assert np.linalg.norm(w_soft - w_clean) <= 0.05 * np.linalg.norm(w_clean)
+    assert soft.held_out_auc > soft.term_auc["points"]

@@ -300,13 +300,19 @@ def _learn(pairs_path: Path, output: Path | None, samples, harmonics, closed, as
     summary = (f"similar pairs: distance ≤ {fit.similar.max():.4g} (mean {fit.similar.mean():.4g}); "
                f"dissimilar pairs: distance ≥ {fit.dissimilar.min():.4g}; "
                + ("separated" if fit.separated else "NOT separated"))
+    if fit.held_out_auc is not None:
+        best_term = max(fit.term_auc, key=fit.term_auc.get)
+        summary += (f"; soft margin C = {fit.cost:g}, held-out AUC {fit.held_out_auc:.3f} (cross-validated; "
+                    f"best single term {best_term} {fit.term_auc[best_term]:.3f}, points "
+                    f"{fit.term_auc.get('points', float('nan')):.3f})")
     body = {"description": f"learned by linkedit compare-curves --learn-weights {pairs_path.name}: {summary}",
             "samples": samples, "harmonics": harmonics, "weights": {k: round(v, 12) for k, v in fit.weights.items()}}
     import yaml
 
     write_text(output, yaml.safe_dump(body, sort_keys=False, allow_unicode=True, width=100))
     if as_json:
-        print_json(body | {"similar": fit.similar, "dissimilar": fit.dissimilar, "separated": fit.separated})
+        print_json(body | {"similar": fit.similar, "dissimilar": fit.dissimilar, "separated": fit.separated,
+                           "cost": fit.cost, "held_out_auc": fit.held_out_auc, "term_auc": fit.term_auc})
     else:
         typer.echo(summary)
         typer.echo(f"weights → {output}")
