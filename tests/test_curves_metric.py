@@ -174,3 +174,24 @@ def test_one_mislabelled_pair_does_not_swing_the_learned_weights():
     w_clean, w_soft = np.array(list(clean.weights.values())), np.array(list(soft.weights.values()))
     assert np.linalg.norm(w_soft - w_clean) <= 0.05 * np.linalg.norm(w_clean)
     assert soft.held_out_auc > soft.term_auc["points"]
+
+
+@pytest.mark.parametrize("start", [0, 120, 250])
+def test_half_a_foot_path_matches_its_own_leg(run_cli, tmp_path, start):
+    """Half of Jansen's foot path (open) against the full Jansen, Klann and crank-rocker cycles."""
+    import json
+
+    jansen = simulate(compile_plan(catalog.jansen_leg()), 360).tracks["foot"].position
+    half = np.roll(jansen, -start, axis=0)[:180] * 3.0 + [10.0, -4.0]
+    (tmp_path / "half.csv").write_text("x,y\n" + "\n".join(f"{float(x)!r},{float(y)!r}" for x, y in half))
+    for name, build, track in (("jansen", catalog.jansen_leg, "foot"), ("klann", catalog.klann_leg, "foot"),
+                               ("crank-rocker", catalog.crank_rocker, "coupler_point")):
+        curve = simulate(compile_plan(build()), 360).tracks[track].position
+        (tmp_path / "lib").mkdir(exist_ok=True)
+        (tmp_path / "lib" / f"{name}.csv").write_text(
+            "x,y\n" + "\n".join(f"{float(x)!r},{float(y)!r}" for x, y in curve))
+    r = run_cli("compare-curves", "--query", tmp_path / "half.csv", "--library", tmp_path / "lib", "--partial",
+                "--json")  # the half path's ends are far apart: it is open, the cycles are closed
+    assert r.exit_code == 0, r.output
+    ranking = json.loads(r.output)["ranking"]
+    assert ranking[0]["curve"] == "jansen" and ranking[0]["distance"] < ranking[1]["distance"]

@@ -135,6 +135,18 @@ def test_synthesize_recovers_a_held_out_linkage(run_cli, small_atlas, tmp_path):
     assert "candidate 1" in (out / "history.svg").read_text()
 
 
+def test_synthesize_an_open_part_of_a_held_out_curve(run_cli, small_atlas, tmp_path):
+    """Half a cycle of a held-out four-bar's coupler curve (an open target) is recovered within 1 %."""
+    row = atlas.build_chunk("four-bar", 4321, 0, 2).params[1]
+    part = 7 + 3j + 25 * np.exp(2.0j) * fourbar.curves(row[None], 400, phase=0.2)[0][:200]
+    write_csv(tmp_path / "part.csv", part)
+    result = run_cli("synthesize", tmp_path / "part.csv", "--atlas", small_atlas, "-o", tmp_path / "out",
+                     "--open", "--top", "3")
+    assert result.exit_code == 0, result.output
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert not report["target"]["closed"] and report["error"]["after"]["rms"] <= 0.01
+
+
 @pytest.mark.parametrize("text, message", [
     ("x,y\n1,2\n", "at least 3 distinct points|zero length"),
     ("x,y\n1,2\n3,nan\n4,5\n", "not a finite number"),

@@ -177,6 +177,8 @@ def register(app: typer.Typer) -> None:
         top: int = typer.Option(10, "--top", min=1, help="How many library curves to list with --query."),
         smooth: float = typer.Option(0.0, "--smooth", min=0.0, max=0.5, help=SMOOTH_HELP),
         mirror: bool = typer.Option(False, "--mirror", help=MIRROR_HELP),
+        partial: bool = typer.Option(False, "--partial", help="Compare an open (partial) curve with closed ones by "
+                                                              "where it fits best along them (points term only)."),
         svg: Path = typer.Option(None, "--svg", help="Overlay of the normalized curves (aligned to the first / the query)."),
         as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
     ) -> None:
@@ -193,14 +195,14 @@ def register(app: typer.Typer) -> None:
         if query is not None or library:
             if query is None or not library or inputs:
                 raise InputError("ranking needs --query and --library (and no other curves)", field="--query")
-            _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json, smooth, mirror)
+            _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json, smooth, mirror, partial)
             return
         if not inputs:
             raise InputError("give curves to compare, or --query and --library", field="INPUT")
-        _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, smooth, mirror)
+        _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, smooth, mirror, partial)
 
 
-def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, smooth, mirror) -> None:
+def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, smooth, mirror, partial) -> None:
     from linkedit.curves.compare import distances, resolve_weights
     from linkedit.curves.distance import nearest
 
@@ -208,7 +210,7 @@ def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, s
     if len(curves) < 2:
         raise InputError("compare-curves needs at least 2 curves", field="INPUT")
     w = resolve_weights(desc, weights)
-    dist, _ = distances(desc, w, mirror=mirror)
+    dist, _ = distances(desc, w, mirror=mirror, partial=partial)
     near = nearest(dist)
     names = [c.name for c in curves]
     rows = [{"curve": names[i], "nearest": names[j], "distance": float(dist[i, j])} for i, j in enumerate(near)]
@@ -226,7 +228,8 @@ def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, s
         typer.echo(f"  {r['curve']} → {r['nearest']} ({r['distance']:.4f})")
 
 
-def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json, smooth, mirror) -> None:
+def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json, smooth, mirror,
+          partial) -> None:
     import numpy as np
 
     from linkedit.curves.compare import distances, placements, resolve_weights
@@ -239,7 +242,7 @@ def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg,
     curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed),
                          smooth=smooth)
     w = resolve_weights(desc, weights)
-    dist, terms = distances(desc.take([0]), w, desc.take(range(1, len(curves))), mirror=mirror)
+    dist, terms = distances(desc.take([0]), w, desc.take(range(1, len(curves))), mirror=mirror, partial=partial)
     order = np.argsort(dist[0], kind="stable")[:top]
     placed = placements(desc.take([0]), desc.take(1 + order), mirror=mirror)
     ranking = [{"rank": k + 1, "curve": curves[1 + i].name, "origin": curves[1 + i].origin,

@@ -72,9 +72,9 @@ def resolve_weights(desc: Descriptors, weights: Mapping[str, float] | None, *, f
 
 
 def distances(desc: Descriptors, weights: Mapping[str, float], other: Descriptors | None = None, *,
-              mirror: bool = False) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+              mirror: bool = False, partial: bool = False) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Weighted distance matrix (C, C) of ``desc`` (or (C, C') against ``other``) and the term matrices."""
-    terms = term_distances(desc, other, mirror=mirror)
+    terms = term_distances(desc, other, mirror=mirror, partial=partial)
     return weighted(terms, weights), terms
 
 

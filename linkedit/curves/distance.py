@@ -225,8 +225,14 @@ def align(reference: np.ndarray, closed_ref: bool, points: np.ndarray, closed: n
     return np.take_along_axis(placed, index[:, :, None], axis=1)
 
 
-def term_distances(a: Descriptors, b: Descriptors | None = None, *, mirror: bool = False) -> dict[str, np.ndarray]:
-    """Every term as a (Ca, Cb) matrix (``b=None``: ``a`` against itself); ``mirror``: mirror images count as equal."""
+def term_distances(a: Descriptors, b: Descriptors | None = None, *, mirror: bool = False,
+                   partial: bool = False) -> dict[str, np.ndarray]:
+    """Every term as a (Ca, Cb) matrix (``b=None``: ``a`` against itself); ``mirror``: mirror images count as equal.
+
+    ``partial`` (2D): an open curve against a closed one is compared by where it fits best along
+    the closed one (:func:`partial_rms`, the ``points`` term); the other terms describe whole
+    curves and count 0 for such pairs.
+    """
     symmetric = b is None
     other = a if symmetric else b
     if other.names != a.names or other.points.shape[1:] != a.points.shape[1:]:
@@ -241,6 +247,18 @@ def term_distances(a: Descriptors, b: Descriptors | None = None, *, mirror: bool
                                  a.closed, other.closed, reverse_sign=-1.0 if dim == 2 else 1.0, frame_flips=False,
                                  mirror=mirror and dim == 2)
     out["efd"] = efd_distance(a.efd, other.efd, mirror=mirror or dim == 3)
+    if partial and dim == 2:
+        mixed = a.closed[:, None] != other.closed[None, :]
+        if mixed.any():
+            for name in out:
+                out[name] = np.where(mixed, 0.0, out[name])
+            ao, bc = ~a.closed, other.closed
+            if ao.any() and bc.any():
+                block = partial_rms(a.points[ao], other.points[bc], mirror=mirror)
+                out["points"][np.ix_(ao, bc)] = block
+            if a.closed.any() and (~other.closed).any():
+                block = partial_rms(other.points[~other.closed], a.points[a.closed], mirror=mirror).T
+                out["points"][np.ix_(a.closed, ~other.closed)] = block
     return out
 
 
@@ -258,3 +276,97 @@ def nearest(dist: np.ndarray) -> np.ndarray:
     d = dist.copy()
     np.fill_diagonal(d, np.inf)
     return np.argmin(d, axis=1)
+
+
+#: Partial matching: points of the open curve compared, samples of the closed curve's outline,
+#: offsets along it and fractions of its length the open curve may cover (geometric, 10 % to all);
+#: the coarse grid screens many candidates, the fine one ranks and places the best.
+PARTIAL_POINTS = 32
+PARTIAL_OUTLINE = 256
+FINE = (96, np.geomspace(0.1, 1.0, 24))
+COARSE = (32, np.geomspace(0.1, 1.0, 12))
+
+
+def _partial_setup(open_points: np.ndarray, grid: tuple[int, np.ndarray] = FINE
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Query points (Ca, n) complex centred, their means (Ca,), and the window index (F, S, 2, n)."""
+    offset_count, fractions = grid
+    n = open_points.shape[1]
+    q = open_points[:, np.linspace(0, n - 1, PARTIAL_POINTS).round().astype(int)]
+    q = q[..., 0] + 1j * q[..., 1]
+    mean = q.mean(axis=1)
+    k = np.arange(PARTIAL_POINTS) / (PARTIAL_POINTS - 1)
+    offsets = np.arange(offset_count) * PARTIAL_OUTLINE // offset_count
+    steps = fractions[:, None] * k[None, :] * PARTIAL_OUTLINE  # (F, n)
+    index = np.stack([offsets[None, :, None] + steps[:, None, :],
+                      offsets[None, :, None] - steps[:, None, :]], axis=2)  # (F, S, 2, n)
+    return q - mean[:, None], mean, np.round(index).astype(int) % PARTIAL_OUTLINE
+
+
+def _partial_fits(q: np.ndarray, rings: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For centred queries q (Ca, n) and closed outlines (B, L): residual² per window (B, Ca, W),
+    the best fits α (B, Ca, W) (q ≈ α (w − mean w)) and the window means (B, W)."""
+    w = rings[:, index.reshape(-1, index.shape[-1])]  # (B, W, n)
+    w_mean = w.mean(axis=-1)
+    w -= w_mean[..., None]
+    w_energy = np.maximum(np.einsum("bwn,bwn->bw", w.real, w.real) + np.einsum("bwn,bwn->bw", w.imag, w.imag),
+                          1e-300)
+    inner = np.conj(w) @ q.T  # (B, W, Ca): <w, q>
+    alpha = (inner / w_energy[..., None]).transpose(0, 2, 1)
+    fit = (inner.real ** 2 + inner.imag ** 2) / w_energy[..., None]
+    residual = np.sum(np.abs(q) ** 2, axis=1)[None, :, None] - fit.transpose(0, 2, 1)
+    return residual, alpha, w_mean
+
+
+#: Closed outlines compared together in :func:`partial_rms` (bounds the window arrays).
+PARTIAL_BATCH = 32
+
+
+def partial_rms(open_points: np.ndarray, closed_points: np.ndarray, *, mirror: bool = False,
+                grid: tuple[int, np.ndarray] = FINE) -> np.ndarray:
+    """RMS distance (units of the open curve's major extent) of open curves (Ca, N, 2) from the
+    best-fitting stretch of closed curves (Cb, N, 2) → (Ca, Cb).
+
+    Over every stretch (start offset, fraction of the length, direction; with ``mirror`` also of
+    the mirror image) of the closed curve, sampled at the open curve's relative arc lengths, the
+    best similarity transform (scale, rotation, translation: a complex least-squares fit) places
+    the stretch on the open curve; the smallest residual wins. ``grid``: :data:`FINE` or :data:`COARSE`.
+    """
+    q, _, index = _partial_setup(open_points, grid)
+    outline = _outline(closed_points[..., 0] + 1j * closed_points[..., 1], PARTIAL_OUTLINE)  # (Cb, L)
+    out = np.empty((len(q), len(outline)))
+    for start in range(0, len(outline), PARTIAL_BATCH):
+        rings = outline[start:start + PARTIAL_BATCH]
+        residual = _partial_fits(q, rings, index)[0].min(axis=2)  # (B, Ca)
+        if mirror:
+            residual = np.minimum(residual, _partial_fits(q, np.conj(rings), index)[0].min(axis=2))
+        out[:, start:start + PARTIAL_BATCH] = np.sqrt(np.maximum(residual, 0.0) / PARTIAL_POINTS).T
+    return out
+
+
+def partial_placement(open_points: np.ndarray, closed_points: np.ndarray, *,
+                      mirror: bool = False) -> tuple[float, complex, complex, bool]:
+    """The best stretch of one closed curve (N, 2) for one open curve (N, 2), both normalized:
+    (RMS, α, β, mirrored) with open ≈ α·w + β for w the closed curve's points (conjugated when
+    mirrored)."""
+    q, q_mean, index = _partial_setup(open_points[None])
+    ring = _outline((closed_points[:, 0] + 1j * closed_points[:, 1])[None], PARTIAL_OUTLINE)
+    best = (np.inf, 0j, 0j, False)
+    for mirrored, r in ((False, ring), (True, np.conj(ring)))[: 2 if mirror else 1]:
+        residual, alpha, w_mean = _partial_fits(q, r, index)
+        k = int(np.argmin(residual[0, 0]))
+        rms = float(np.sqrt(max(residual[0, 0, k], 0.0) / PARTIAL_POINTS))
+        if rms < best[0]:
+            best = (rms, complex(alpha[0, 0, k]), complex(q_mean[0] - alpha[0, 0, k] * w_mean[0, k]), mirrored)
+    return best
+
+
+def _outline(z: np.ndarray, count: int) -> np.ndarray:
+    """Closed polylines z (C, N) resampled at ``count`` points equally spaced in arc length."""
+    ring = np.concatenate([z, z[:, :1]], axis=1)
+    s = np.concatenate([np.zeros((len(z), 1)), np.cumsum(np.abs(np.diff(ring, axis=1)), axis=1)], axis=1)
+    out = np.empty((len(z), count), dtype=complex)
+    for c in range(len(z)):
+        at = np.arange(count) / count * s[c, -1]
+        out[c] = np.interp(at, s[c], ring[c].real) + 1j * np.interp(at, s[c], ring[c].imag)
+    return out

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from linkedit.curves.compare import describe_curves, placements
-from linkedit.curves.distance import term_distances, weighted
-from linkedit.curves.descriptors import describe
+from linkedit.curves.descriptors import Descriptors, describe
+from linkedit.curves.distance import COARSE, partial_placement, partial_rms, term_distances, weighted
 from linkedit.curves.smooth import smooth as smooth_curve
 from linkedit.curves.sources import Curve
 from linkedit.errors import MechanismError
@@ -31,8 +31,12 @@ from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.refine import Placement, Refined, curve_error, refine
 
-#: Candidates taken from the index for re-ranking.
+#: Candidates taken from the index for re-ranking (closed targets; open ones, which the
+#: index describes retraced there and back, take more and re-rank them by partial matching).
 POOL = 64
+OPEN_POOL = 512
+#: Open targets: candidates ranked on the fine partial grid after the coarse screening.
+SCREENED = 48
 #: Samples of the final check and of the written result.
 RESULT_SAMPLES = 360
 #: Normalized RMS error above which the result carries a note that no family draws the target well.
@@ -78,7 +82,7 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
     size = target_size(pts, target.closed)
     index = index or Index(atlas)
     closed_target = z_target if target.closed else np.concatenate([z_target, z_target[-2:0:-1]])
-    hits = index.query(target_variants(closed_target), POOL)
+    hits = index.query(target_variants(closed_target), POOL if target.closed else OPEN_POOL)
     clock["query"] = time.perf_counter()
 
     t_desc = describe_curves([Curve(target.name, pts, target.closed, target.origin, None, target.units)])
@@ -89,15 +93,22 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
         params = atlas.families[fam_name]["params"][[h.row for h in mine]]
         z = fam.curves(params, RESULT_SAMPLES)
         desc = describe(np.stack([z.real, z.imag], axis=2), True)
-        terms = term_distances(t_desc, desc, mirror=True)
-        dist = weighted(terms, dict.fromkeys(terms, 1.0))[0]
-        for h, p, d, place in zip(mine, params, dist, placements(t_desc, desc, mirror=True)):
-            angle = np.radians(place["rotation_deg"])
-            shift = complex(*place["translation"])
-            candidates.append(Candidate(fam_name, h.row, p, h.distance, float(d),
-                                        Placement(place["scale"], float(angle), shift, place["mirrored"])))
+        if target.closed:
+            terms = term_distances(t_desc, desc, mirror=True)
+            dist = weighted(terms, dict.fromkeys(terms, 1.0))[0]
+        else:  # screen with the coarse partial grid, rank the best with the fine one
+            dist = partial_rms(t_desc.points, desc.points, mirror=True, grid=COARSE)[0]
+            best = np.argsort(dist)[:SCREENED]
+            dist[best] = partial_rms(t_desc.points, desc.points[best], mirror=True)[0]
+            dist[np.setdiff1d(np.arange(len(dist)), best)] = np.inf
+        for k, (h, p, d) in enumerate(zip(mine, params, dist)):
+            candidates.append(Candidate(fam_name, h.row, p, h.distance, float(d), (desc, k)))  # placed below
     candidates.sort(key=lambda c: c.distance)
     chosen = candidates[:top]
+    for c in chosen:
+        desc, k = c.placement
+        c.placement = (_placement(placements(t_desc, desc.take([k]), mirror=True)[0]) if target.closed
+                       else _partial_placement(t_desc, desc, k))
     clock["rank"] = time.perf_counter()
 
     for c in chosen:
@@ -126,6 +137,24 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
                "refine": clock["refine"] - clock["rank"], "check": clock["check"] - clock["refine"],
                "total": clock["check"] - clock["start"]}
     return Synthesis(target, size, candidates[:top], best, spec, motion, seconds, note)
+
+
+def _placement(place: dict) -> Placement:
+    """A ranking's placement (:func:`linkedit.curves.compare.placements`) as a :class:`Placement`."""
+    return Placement(place["scale"], float(np.radians(place["rotation_deg"])), complex(*place["translation"]),
+                     place["mirrored"])
+
+
+def _partial_placement(target: Descriptors, library: Descriptors, k: int) -> Placement:
+    """Where the open target fits best along library curve ``k``, as a placement of the library curve."""
+    _, alpha, beta, mirrored = partial_placement(target.points[0], library.points[k], mirror=True)
+    t, lib = target.normalized, library.normalized
+    f_t = t.frame[0, 0, 0] + 1j * t.frame[0, 1, 0]
+    f_l = lib.frame[k, 0, 0] + 1j * lib.frame[k, 1, 0]
+    c_t, c_l = complex(*t.centroid[0]), complex(*lib.centroid[k])
+    a = t.scale[0] * f_t * alpha * (f_l if mirrored else np.conj(f_l)) / lib.scale[k]
+    b = c_t + t.scale[0] * f_t * beta - a * (np.conj(c_l) if mirrored else c_l)
+    return Placement(float(abs(a)), float(np.angle(a)), complex(b), mirrored)
 
 
 def result_spec(c: Candidate, start: complex, *, name: str, units: str, description: str) -> LinkageSpec:
