@@ -5,8 +5,10 @@
   ``atlas build`` with HDF5 writing); on a local Dask cluster of 2 workers if
   ``dask.distributed`` is installed (per core, the cluster already running);
 * a query of the index of a 1,000,000-curve atlas (built in memory, chunk by chunk);
-* ``synthesize`` end to end (query, re-ranking, refinement of the best 5, final check) for a
-  target drawn by a held-out four-bar, against that atlas.
+* ``synthesize`` end to end (query, re-ranking, refinement of the best 5, final check) for
+  targets drawn by held-out four-bars, against that atlas;
+* the quality table: classic curves (Hoekens' coupler curve, a straight segment, a
+  figure-eight, an ellipse, a D-shaped walking foot path) synthesized with the four-bar family.
 """
 
 from __future__ import annotations
@@ -52,6 +54,35 @@ def _dask_rate(chunks: int) -> float | None:
         return chunks * atlas.CHUNK / (time.perf_counter() - t0) / 2
 
 
+def classic_curves(points: int = 400) -> dict[str, tuple[np.ndarray, bool]]:
+    """Classic target curves (name → (points (M,) complex, closed))."""
+    from linkedit.planar import catalog, compile_plan, simulate
+
+    t = np.linspace(0.0, 2.0 * np.pi, points, endpoint=False)
+    hoekens = simulate(compile_plan(catalog.hoekens()), points).tracks["tracer"].position
+    bottom = np.linspace(30.0, -30.0, points // 2, endpoint=False)
+    arc = np.linspace(np.pi, 2.0 * np.pi, points - points // 2, endpoint=False)
+    d_shape = np.concatenate([bottom + 0j, 30.0 * np.cos(arc) - 12j * np.sin(arc)])  # flat stance, arched swing
+    return {
+        "Hoekens coupler curve (straight stretch)": (hoekens[:, 0] + 1j * hoekens[:, 1], True),
+        "straight segment (open)": (np.linspace(0.0, 40.0, points // 4) + 5j, False),
+        "figure-eight (Gerono)": (20.0 * np.cos(t) + 10j * np.sin(2.0 * t), True),
+        "ellipse 2:1": (20.0 * np.cos(t) + 10j * np.sin(t), True),
+        "D-shaped foot path": (np.conj(d_shape), True),
+    }
+
+
+def quality(echo: Callable[[str], None], book: atlas.Atlas, index: Index, quick: bool) -> None:
+    """The quality table: normalized RMS (max) error before → after refinement, seconds."""
+    echo("quality, four-bar family, --top 5 (normalized RMS error, max in parentheses, before → after refinement):")
+    for name, (z, closed) in list(classic_curves().items())[: 1 if quick else None]:
+        curve = make_curve(name, np.stack([z.real, z.imag], axis=1), closed=closed, origin="bench")
+        t0 = time.perf_counter()
+        best = synthesize(curve, book, index, top=1 if quick else 5).best
+        echo(f"  {name:<42s} {100 * best.before[0]:6.2f} % ({100 * best.before[1]:5.2f} %) → "
+             f"{100 * best.after[0]:6.3f} % ({100 * best.after[1]:5.2f} %)   {time.perf_counter() - t0:5.2f} s")
+
+
 def run(echo: Callable[[str], None], quick: bool = False) -> None:
     chunks, big, repeats = (1, 2 * atlas.CHUNK, 1) if quick else (10, 1_000_000, 5)
     atlas.build_chunk("four-bar", 1, 0)  # warm up
@@ -91,3 +122,4 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
     echo(f"synthesize end to end, --top 5, held-out four-bar targets against {big:,} curves: "
          f"{statistics.median(t for t, _ in runs):.2f} s median (target ≤ {SYNTHESIZE_TARGET:g} s); "
          f"normalized RMS error after refinement: max {max(e for _, e in runs):.2g}")
+    quality(echo, book, index, quick)
