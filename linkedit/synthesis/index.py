@@ -4,7 +4,8 @@ The index descriptor is the arc-length elliptic Fourier descriptor, normalized f
 rotation and scale (:func:`linkedit.curves.efd.polyline_efd`). Its remaining ambiguities —
 start shifted by half a period, direction of travel, and (a four-bar mirrored is still a
 four-bar) the mirror image — are sign patterns, applied to the target rather than to the
-atlas: one (K, D) × (D, 8) product per family.
+atlas: one (8, D) × (D, K) product per family (the atlas held transposed, so the product runs
+along its long side).
 """
 
 from __future__ import annotations
@@ -37,15 +38,16 @@ class Index:
 
     def __init__(self, atlas: Atlas) -> None:
         self.names = list(atlas.families)
-        self.vectors = [atlas.families[n]["index"] for n in self.names]
-        self.norms = [np.einsum("kd,kd->k", v, v) for v in self.vectors]
+        vectors = [atlas.families[n]["index"] for n in self.names]
+        self.norms = [np.einsum("kd,kd->k", v, v) for v in vectors]
+        self.columns = [np.ascontiguousarray(v.T) for v in vectors]  # (D, K): the product runs along K
 
     def query(self, variants: np.ndarray, count: int) -> list[Hit]:
         """The ``count`` nearest linkages over all families, nearest first."""
         q2 = float(np.sum(variants[0].astype(float) ** 2))
         hits: list[Hit] = []
-        for name, vec, norm in zip(self.names, self.vectors, self.norms):
-            best = (vec @ variants.T).max(axis=1)
+        for name, columns, norm in zip(self.names, self.columns, self.norms):
+            best = (variants @ columns).max(axis=0)
             d2 = norm - 2.0 * best
             k = min(count, len(d2))
             rows = np.argpartition(d2, k - 1)[:k]
