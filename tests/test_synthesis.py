@@ -190,8 +190,8 @@ def test_atlas_build_cli(run_cli, tmp_path):
 
 def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path):
     """The same seed on a LocalCluster of 2 worker processes (through --scheduler) and in-process."""
-    distributed = pytest.importorskip("dask.distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster:
+    pytest.importorskip("dask.distributed")
+    with atlas.local_cluster(2) as cluster:  # what --workers 2 starts
         result = run_cli("atlas", "build", "--family", "four-bar", "-n", str(3 * atlas.CHUNK // 2), "-o",
                          tmp_path / "dask.h5", "--seed", "8", "--scheduler", cluster.scheduler_address)
     assert result.exit_code == 0, result.output

@@ -42,11 +42,10 @@ def _median_time(fn: Callable[[], object], repeats: int) -> float:
 
 def _dask_rate(chunks: int) -> float | None:
     try:
-        from dask.distributed import Client, LocalCluster
+        from dask.distributed import Client
     except ImportError:
         return None
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster, \
-            Client(cluster) as client:
+    with atlas.local_cluster(2) as cluster, Client(cluster) as client:
         client.gather(client.map(atlas.build_chunk, ["four-bar"] * 2, [0, 0], [0, 1], pure=False))  # warm up
         t0 = time.perf_counter()
         futures = client.map(atlas.build_chunk, ["four-bar"] * chunks, [1] * chunks, list(range(chunks)), pure=False)
