@@ -201,3 +201,39 @@ def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path):
     with h5py.File(tmp_path / "dask.h5") as a, h5py.File(tmp_path / "local.h5") as b:
         for key in ("params", "min_ds", "index", "curves"):
             np.testing.assert_array_equal(a[f"families/four-bar/{key}"][()], b[f"families/four-bar/{key}"][()])
+
+
+@pytest.mark.parametrize("name", ["jansen", "klann", "watt", "stephenson"])
+def test_catalog_families_match_simulate(name):
+    from linkedit.synthesis.families import family
+
+    fam = family(name)
+    rows = fam.sample(np.random.default_rng(11), 400)
+    rows = rows[fam.min_singularity(rows) >= fam.margin()][:2]
+    batch = fam.curves(rows, 360, phase=np.array([0.0, 0.55]))
+    for k, row in enumerate(rows):
+        for mirrored in (False, True):
+            spec = fam.to_spec(row, phase=0.55 * k, scale=90.0, turn=np.exp(-2.0j), shift=1 + 1j, mirrored=mirrored,
+                               name="x", units="mm", description="")
+            got = simulate(compile_plan(spec), 360).tracks["target"].position
+            want = 1 + 1j + 90.0 * np.exp(-2.0j) * (np.conj(batch[k]) if mirrored else batch[k])
+            assert np.abs(got[:, 0] + 1j * got[:, 1] - want).max() < 1e-9 * 90.0
+
+
+def test_a_held_out_jansen_leg_is_recovered_from_a_legs_atlas(run_cli, tmp_path):
+    legs = tmp_path / "legs.h5"
+    built = run_cli("atlas", "build", "--family", "jansen,klann", "-n", "3000", "-o", legs)
+    assert built.exit_code == 0, built.output
+    from linkedit.synthesis.families import family
+
+    row = atlas.build_chunk("jansen", 777, 0, 1).params[0]
+    foot = 4 - 1j + 120 * np.exp(-0.3j) * family("jansen").curves(row[None], 300, 0.1)[0]
+    write_csv(tmp_path / "foot.csv", foot)
+    result = run_cli("synthesize", tmp_path / "foot.csv", "--atlas", legs, "-o", tmp_path / "out", "--top", "3")
+    assert result.exit_code == 0, result.output
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert report["family"] == "jansen" and report["error"]["after"]["rms"] <= 0.01
+    sim = run_cli("simulate", tmp_path / "out" / "result.yaml", "-o", tmp_path / "again.h5")
+    assert sim.exit_code == 0, sim.output
+    with h5py.File(tmp_path / "again.h5") as f:
+        np.testing.assert_allclose(f["tracks/target/position"][()], report["result"]["curve"], rtol=0, atol=1e-9)
