@@ -22,6 +22,10 @@ from linkedit import __version__  # noqa: E402
 
 COMMAND_MODULES = [
     "linkedit.commands.simulate",
+    "linkedit.commands.assemble",
+    "linkedit.commands.import_",
+    "linkedit.commands.plot",
+    "linkedit.commands.examples",
     "linkedit.commands.edit",
     "linkedit.commands.solve3d",
     "linkedit.commands.curves",
@@ -34,8 +38,10 @@ app = typer.Typer(
     name="linkedit",
     help="Design mechanisms: simulate and edit planar linkages, solve 3D mechanisms, compare motion curves.",
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,  # --install-completion / --show-completion for bash, zsh, fish, PowerShell
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # help text is plain: "[default: …]" and brackets stay as written
+    context_settings={"help_option_names": ["-h", "--help"]},
 )
 
 
@@ -47,7 +53,7 @@ def _version(value: bool) -> None:
 
 @app.callback()
 def _root(
-    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True, help="Print the version."),
+    version: bool = typer.Option(False, "--version", "-V", callback=_version, is_eager=True, help="Print the version."),
 ) -> None:
     """linkedit: closed-form linkage kinematics, editing, 3D constraint solving, curve features."""
 

@@ -31,15 +31,32 @@ def _anchor(text: str | None) -> Any:
     return values
 
 
+def _skipped(failures: list[InputError]):
+    """A ``skip`` callback: report a bad input on stderr, remember it, go on."""
+
+    def skip(exc: InputError) -> None:
+        typer.echo(f"linkedit: error: {exc} (skipped)", err=True)
+        failures.append(exc)
+
+    return skip
+
+
 def _load(inputs: list[str], closed: bool | None, samples: int | None, harmonics: int | None, anchor: str | None,
+<<<<<<< HEAD
           curves: list | None = None, smooth: float = 0.0):
     """Load (unless ``curves`` are given) and describe curves."""
+=======
+          curves: list | None = None, skip=None):
+    """Load (unless ``curves`` are given) and describe curves; ``skip`` as for ``load_inputs``."""
+>>>>>>> main
     from linkedit.curves.compare import describe_curves
     from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES
     from linkedit.curves.sources import load_inputs
 
     if curves is None:
-        curves = load_inputs(inputs, closed=closed)
+        curves = load_inputs(inputs, closed=closed, skip=skip)
+        if not curves:
+            raise InputError("no curve could be read", field="INPUT")
     desc = describe_curves(curves, samples=samples or DEFAULT_SAMPLES, harmonics=harmonics or DEFAULT_HARMONICS,
                            anchor=_anchor(anchor), smooth=smooth)
     return curves, desc
@@ -149,8 +166,18 @@ def register(app: typer.Typer) -> None:
         smooth: float = typer.Option(0.0, "--smooth", min=0.0, max=0.5, help=SMOOTH_HELP),
         as_json: bool = typer.Option(False, "--json", help="Print the table as JSON."),
     ) -> None:
+<<<<<<< HEAD
         """Per-curve features of normalized motion curves (one row per curve)."""
         curves, desc = _load(inputs, closed, samples, harmonics, anchor, smooth=smooth)
+=======
+        """Per-curve features of normalized motion curves (one row per curve).
+
+        An input that cannot be read is reported (named) and skipped; the exit code is then 2.
+        """
+        failures: list[InputError] = []
+        several = len(inputs) > 1 or any(Path(i).is_dir() for i in inputs)
+        curves, desc = _load(inputs, closed, samples, harmonics, anchor, skip=_skipped(failures) if several else None)
+>>>>>>> main
         if output is not None:
             options = {"samples": int(desc.points.shape[1]), "harmonics": int(desc.efd.shape[1]), "inputs": inputs}
             _write_features(output, curves, desc, options)
@@ -159,6 +186,8 @@ def register(app: typer.Typer) -> None:
             print_json(_feature_rows(curves, desc))
         else:
             _print_table(_feature_rows(curves, desc))
+        if failures:
+            raise typer.Exit(2)
 
     @app.command("compare-curves")
     @guard
@@ -239,8 +268,15 @@ def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg,
     queried = load_inputs([query], closed=closed)
     if len(queried) != 1:
         raise InputError(f"the query holds {len(queried)} curves; name one (result.h5:track)", field="--query")
+<<<<<<< HEAD
     curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed),
                          smooth=smooth)
+=======
+    def warn(exc: InputError) -> None:  # a library with a bad file: warn, skip it, rank the rest
+        typer.echo(f"linkedit: warning: {exc} (skipped)", err=True)
+
+    curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed, skip=warn))
+>>>>>>> main
     w = resolve_weights(desc, weights)
     dist, terms = distances(desc.take([0]), w, desc.take(range(1, len(curves))), mirror=mirror, partial=partial)
     order = np.argsort(dist[0], kind="stable")[:top]

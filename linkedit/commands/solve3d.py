@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from enum import Enum
 from pathlib import Path
 
 import typer
@@ -60,6 +61,22 @@ def _line(res, out: Path, svg: Path | None) -> str:
     return text
 
 
+class View(str, Enum):
+    """SVG projection."""
+
+    xy = "xy"
+    xz = "xz"
+    yz = "yz"
+    iso = "iso"
+
+
+class Solver(str, Enum):
+    """Step solver (see linkedit.gcs.solver.SOLVERS)."""
+
+    lm = "lm"
+    slsqp_fd = "slsqp-fd"
+
+
 def register(app: typer.Typer) -> None:
     @app.command()
     @guard
@@ -67,10 +84,10 @@ def register(app: typer.Typer) -> None:
         spec: Path = typer.Argument(None, help="3D mechanism spec (YAML); not needed with --from."),
         output: Path = typer.Option(None, "--output", "-o", help="Result .h5 [default: out/<spec>.h5; with --from: the same file]."),
         svg: Path = typer.Option(None, "--svg", help="Draw shapes and output curves to this .svg."),
-        view: str = typer.Option("iso", "--view", help="SVG projection: xy, xz, yz or iso."),
+        view: View = typer.Option(View.iso, "--view", help="SVG projection."),
         velocity: bool = typer.Option(False, "--velocity", help="Draw velocity arrows on the curves."),
         steps: int = typer.Option(None, "--steps", help="Time steps over t in [0, 1] [default: the spec's]."),
-        solver: str = typer.Option(None, "--solver", help="lm (Gauss-Newton/Levenberg-Marquardt, analytic Jacobians; the default) or slsqp-fd (the paper's: SLSQP, finite differences)."),
+        solver: Solver = typer.Option(None, "--solver", help="lm (Gauss-Newton/Levenberg-Marquardt, analytic Jacobians) or slsqp-fd (the paper's: SLSQP, finite differences) [default: lm]."),
         source: Path = typer.Option(None, "--from", help="Re-use the member states of a gcs result instead of solving."),
         track: list[str] = typer.Option(None, "--track", help="Extra tracked point [name=]member:x,y,z (or member:point); repeatable."),
         allow_python: bool = typer.Option(False, "--allow-python", help="Allow custom constraints that run Python code (python: module:function)."),
@@ -79,16 +96,11 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Solve a 3D mechanism (members, constraints, inputs) at every time step."""
         from linkedit.gcs import check_solved, read_result, solve_spec, write_result
-        from linkedit.gcs.solver import SOLVERS
         from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
         from linkedit.spec.yamlload import load_model
 
-        if solver is not None and solver not in SOLVERS:
-            raise InputError(f"unknown solver {solver!r} (choose from {', '.join(SOLVERS)})", field="--solver")
         if steps is not None and not 2 <= steps <= MAX_STEPS:
             raise InputError(f"needs between 2 and {MAX_STEPS:,} steps, not {steps:,}", field="--steps")
-        if view not in ("xy", "xz", "yz", "iso"):
-            raise InputError(f"unknown view {view!r} (choose from xy, xz, yz, iso)", field="--view")
         if source is not None:
             if spec is not None:
                 raise InputError("give a spec or --from RESULT.h5, not both", field="--from")
@@ -104,7 +116,7 @@ def register(app: typer.Typer) -> None:
                 raise InputError("missing SPEC (or --from RESULT.h5)", field="spec")
             text = spec.read_text(encoding="utf-8") if spec.is_file() else None
             model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
-            res = solve_spec(model, steps=steps, solver=solver or "lm", allow_python=allow_python,
+            res = solve_spec(model, steps=steps, solver=solver.value if solver else "lm", allow_python=allow_python,
                              spec_text=text or "")
             out = output or Path("out") / f"{spec.stem}.h5"
             if not partial:
@@ -114,7 +126,7 @@ def register(app: typer.Typer) -> None:
         if svg is not None:
             from linkedit.gcs.svg import draw
 
-            draw(svg, res, view=view, velocity=velocity)
+            draw(svg, res, view=view.value, velocity=velocity)
         if as_json:
             print_json(res.summary() | {"output": str(out), "svg": str(svg) if svg else None})
         else:

@@ -17,6 +17,8 @@ Every curve is checked: finite numbers, at least 3 distinct points, a positive l
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import csv
 import io
 from dataclasses import dataclass
@@ -47,21 +49,36 @@ class Curve:
     units: str | None = None
 
 
-def load_inputs(inputs: list[str], *, closed: bool | None = None) -> list[Curve]:
-    """Read every input (see the module docstring); names are made unique."""
+def load_inputs(inputs: list[str], *, closed: bool | None = None,
+                skip: Callable[[InputError], None] | None = None) -> list[Curve]:
+    """Read every input (see the module docstring); names are made unique.
+
+    With ``skip``, an input (or a file in a folder) that cannot be read is handed to ``skip``
+    and left out instead of stopping the run.
+    """
     curves: list[Curve] = []
     for text in inputs:
-        curves += _load_one(str(text), closed)
+        curves += _guarded(lambda: _load_one(str(text), closed, skip), skip)
     return _unique_names(curves)
 
 
-def _load_one(text: str, closed: bool | None) -> list[Curve]:
+def _guarded(load: Callable[[], list[Curve]], skip: Callable[[InputError], None] | None) -> list[Curve]:
+    if skip is None:
+        return load()
+    try:
+        return load()
+    except InputError as exc:
+        skip(exc)
+        return []
+
+
+def _load_one(text: str, closed: bool | None, skip: Callable[[InputError], None] | None = None) -> list[Curve]:
     path, track = _split_track(text)
     if path.is_dir():
         files = sorted(p for p in path.iterdir() if p.suffix.lower() in HDF5_SUFFIXES + YAML_SUFFIXES + (".csv",))
         if not files:
             raise InputError("no .h5, .csv or .yaml curve files in this folder", file=str(path))
-        return [c for f in files for c in _load_one(str(f), closed)]
+        return [c for f in files for c in _guarded(lambda: _load_one(str(f), closed), skip)]
     if not path.is_file():
         raise InputError("no such file", file=str(path))
     suffix = path.suffix.lower()

@@ -363,8 +363,28 @@ def write_examples(directory: str | Path) -> list[Path]:
     return paths
 
 
-if __name__ == "__main__":
-    import sys
+def main(argv: list[str] | None = None) -> None:
+    """``python -m linkedit.planar.catalog [DIR]``: rewrite the example files.
 
-    for written in write_examples(sys.argv[1] if len(sys.argv) > 1 else Path(__file__).resolve().parents[2] / "examples"):
+    Without DIR it writes into the source checkout's ``examples/`` and refuses when linkedit
+    is installed (it never writes into site-packages).
+    """
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m linkedit.planar.catalog",
+                                     description="Write the example linkages (examples/*.yaml) from exact geometry.")
+    parser.add_argument("directory", nargs="?", type=Path,
+                        help="where to write them [default: examples/ of the source checkout]")
+    args = parser.parse_args(argv)
+    directory = args.directory
+    if directory is None:
+        checkout = Path(__file__).resolve().parents[2]
+        if not (checkout / "pyproject.toml").is_file() or not (checkout / "examples").is_dir():
+            parser.error("not a source checkout: give the folder to write into")
+        directory = checkout / "examples"
+    for written in write_examples(directory):
         print(written)
+
+
+if __name__ == "__main__":
+    main()

@@ -95,7 +95,7 @@ class Envelope(SpecModel):
     xmax: Finite | None = None
     ymin: Finite | None = None
     ymax: Finite | None = None
-    joints: list[Name] | None = None  #: default: every joint
+    joints: list[Name] | None = pydantic.Field(default=None, min_length=1)  #: default: every joint
 
     @pydantic.model_validator(mode="after")
     def _sides(self) -> "Envelope":
@@ -115,6 +115,18 @@ class Retarget(SpecModel):
     scale: Vec2 = (1.0, 1.0)
     translate: Vec2 = (0.0, 0.0)
     rotate_deg: Finite = 0.0
+    weight: Positive = 1.0
+
+
+class Follow(SpecModel):
+    """Make a track follow a given curve: its shape (``timing: false``, the default: the
+    distance of every sample to the polyline) or, with ``timing: true``, point by point with
+    the curve's points spread evenly over the cycle from phase 0."""
+
+    track: Name
+    curve: list[Vec2] = pydantic.Field(min_length=3)
+    timing: bool = False
+    closed: bool = True
     weight: Positive = 1.0
 
 
@@ -146,6 +158,7 @@ class TermWeights(SpecModel):
     displace: NonNegative = 1.0
     envelope: NonNegative = 1.0
     retarget: NonNegative = 1.0
+    follow: NonNegative = 1.0
     drag: NonNegative = 1.0
     transform: NonNegative = 1.0
 
@@ -158,6 +171,7 @@ class Operation(SpecModel):
     displace: Displace | list[Displace] | None = None
     envelope: Envelope | None = None
     retarget: Retarget | list[Retarget] | None = None
+    follow: Follow | list[Follow] | None = None
     drag: Drag | list[Drag] | None = None
     transform: Transform | None = None
     terms: TermWeights = TermWeights()
@@ -169,8 +183,8 @@ class Operation(SpecModel):
 
     @pydantic.model_validator(mode="after")
     def _has_goal(self) -> "Operation":
-        if not any((self.displace, self.envelope, self.retarget, self.drag, self.transform)):
-            raise ValueError("an operation needs a goal: displace, envelope, retarget, drag or transform")
+        if not any((self.displace, self.envelope, self.retarget, self.follow, self.drag, self.transform)):
+            raise ValueError("an operation needs a goal: displace, envelope, retarget, follow, drag or transform")
         return self
 
     def listed(self, kind: str) -> list:
@@ -190,7 +204,8 @@ class EditScript(SpecModel):
     """An edit script: which linkage, how many samples, the operations, locks and weights."""
 
     linkage: str | None = None  #: path of the linkage spec, relative to the script
-    samples: int = pydantic.Field(default=120, ge=8)
+    #: at most 20,000: the final check simulates 4× as many, and the Jacobian holds samples × directions
+    samples: int = pydantic.Field(default=120, ge=8, le=20_000)
     operations: list[Operation] = pydantic.Field(min_length=1)
     lock: list[Name | Lock] = pydantic.Field(default_factory=list)
     motor: MotorFreedom = MotorFreedom()
@@ -242,7 +257,7 @@ def check_against(script: EditScript, linkage: LinkageSpec) -> None:
             if name not in tracks:
                 raise InputError(f"unknown track {name!r} (tracks: {', '.join(sorted(tracks)) or 'none'})",
                                  field=base + ("preserve", n))
-        for kind in ("retarget", "drag"):
+        for kind in ("retarget", "follow", "drag"):
             items = op.listed(kind)
             for n, item in enumerate(items):
                 field = base + ((kind, n) if isinstance(getattr(op, kind), list) else (kind,))
