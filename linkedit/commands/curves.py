@@ -42,13 +42,8 @@ def _skipped(failures: list[InputError]):
 
 
 def _load(inputs: list[str], closed: bool | None, samples: int | None, harmonics: int | None, anchor: str | None,
-<<<<<<< HEAD
-          curves: list | None = None, smooth: float = 0.0):
-    """Load (unless ``curves`` are given) and describe curves."""
-=======
-          curves: list | None = None, skip=None):
+          curves: list | None = None, skip=None, smooth: float = 0.0):
     """Load (unless ``curves`` are given) and describe curves; ``skip`` as for ``load_inputs``."""
->>>>>>> main
     from linkedit.curves.compare import describe_curves
     from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES
     from linkedit.curves.sources import load_inputs
@@ -166,18 +161,14 @@ def register(app: typer.Typer) -> None:
         smooth: float = typer.Option(0.0, "--smooth", min=0.0, max=0.5, help=SMOOTH_HELP),
         as_json: bool = typer.Option(False, "--json", help="Print the table as JSON."),
     ) -> None:
-<<<<<<< HEAD
-        """Per-curve features of normalized motion curves (one row per curve)."""
-        curves, desc = _load(inputs, closed, samples, harmonics, anchor, smooth=smooth)
-=======
         """Per-curve features of normalized motion curves (one row per curve).
 
         An input that cannot be read is reported (named) and skipped; the exit code is then 2.
         """
         failures: list[InputError] = []
         several = len(inputs) > 1 or any(Path(i).is_dir() for i in inputs)
-        curves, desc = _load(inputs, closed, samples, harmonics, anchor, skip=_skipped(failures) if several else None)
->>>>>>> main
+        curves, desc = _load(inputs, closed, samples, harmonics, anchor, skip=_skipped(failures) if several else None,
+                             smooth=smooth)
         if output is not None:
             options = {"samples": int(desc.points.shape[1]), "harmonics": int(desc.efd.shape[1]), "inputs": inputs}
             _write_features(output, curves, desc, options)
@@ -268,15 +259,11 @@ def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg,
     queried = load_inputs([query], closed=closed)
     if len(queried) != 1:
         raise InputError(f"the query holds {len(queried)} curves; name one (result.h5:track)", field="--query")
-<<<<<<< HEAD
-    curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed),
-                         smooth=smooth)
-=======
     def warn(exc: InputError) -> None:  # a library with a bad file: warn, skip it, rank the rest
         typer.echo(f"linkedit: warning: {exc} (skipped)", err=True)
 
-    curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed, skip=warn))
->>>>>>> main
+    curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed, skip=warn),
+                         smooth=smooth)
     w = resolve_weights(desc, weights)
     dist, terms = distances(desc.take([0]), w, desc.take(range(1, len(curves))), mirror=mirror, partial=partial)
     order = np.argsort(dist[0], kind="stable")[:top]
