@@ -35,7 +35,7 @@ from linkedit.curves.features import ANGULAR
 
 PAIRWISE = ("points", "turning", "efd")
 #: Bytes of complex spectra processed per block (bounds memory, keeps blocks cache friendly).
-BLOCK_BYTES = 1 << 20
+BLOCK_BYTES = 1 << 22
 
 
 def term_names(desc: Descriptors) -> tuple[str, ...]:
@@ -75,7 +75,10 @@ def _scores(a_spec: np.ndarray, v_spec: np.ndarray, complex_mode: bool, n: int) 
     """Correlation scores (r, c, V, N): Σ_k a_k · v_{k+s} (real mode) or |Σ_k conj(a_k) v_{k+s}| (2D)."""
     if complex_mode:
         prod = a_spec[:, None, None, :] * v_spec[None, :, :, :]
-        return np.abs(scipy.fft.ifft(prod, n=n, axis=-1, overwrite_x=True, workers=-1))
+        corr = scipy.fft.ifft(prod, n=n, axis=-1, overwrite_x=True)
+        power = corr.real * corr.real
+        power += corr.imag * corr.imag
+        return np.sqrt(power, out=power)
     prod = np.einsum("adf,cvdf->acvf", a_spec, v_spec)
     return scipy.fft.irfft(prod, n=n, axis=-1, overwrite_x=True, workers=-1)
 
