@@ -133,6 +133,9 @@ def test_synthesize_recovers_a_held_out_linkage(run_cli, small_atlas, tmp_path):
     assert np.sqrt(np.mean(gap ** 2)) <= 0.01
     assert (out / "overlay.svg").read_text().count('class="target"') == 1
     assert "candidate 1" in (out / "history.svg").read_text()
+    # the same inputs and seed give the same linkage
+    again = run_cli("synthesize", tmp_path / "target.csv", "--atlas", small_atlas, "-o", tmp_path / "syn2", "--top", "3")
+    assert again.exit_code == 0 and (tmp_path / "syn2" / "result.yaml").read_text() == (out / "result.yaml").read_text()
 
 
 def test_synthesize_an_open_part_of_a_held_out_curve(run_cli, small_atlas, tmp_path):
