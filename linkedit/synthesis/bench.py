@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from linkedit.curves.sources import make_curve
+from linkedit.io.atomic import commit
 from linkedit.synthesis import atlas, fourbar
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.synthesize import synthesize
@@ -91,6 +92,7 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
         path = Path(tmp) / "bench.h5"
         t0 = time.perf_counter()
         atlas.build(path, ["four-bar"], chunks * atlas.CHUNK, seed=1)
+        commit()  # the command's outputs are renamed together at its end; this file lives in a folder about to go
         t_file = time.perf_counter() - t0
     echo(f"atlas build, four-bar, in-process: {rate:,.0f} linkages/s in chunks (median of {repeats}; target ≥ "
          f"{BUILD_TARGET:,}), {chunks * atlas.CHUNK / t_file:,.0f} linkages/s writing the HDF5 atlas")
