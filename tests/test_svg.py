@@ -423,3 +423,46 @@ def test_chromium_renders_the_plot(tmp_path):
                         (tmp_path / f"{name}.svg").as_uri()], check=True, capture_output=True, timeout=60)
         sizes[name] = (tmp_path / f"{name}.png").stat().st_size
     assert sizes["plot"] > 3 * sizes["blank"]
+
+
+# -- pictures that tell the truth (issue 11) ----------------------------------------------------
+
+
+def _lines(root, cls):
+    out = []
+    for el in root.iter():
+        if (el.get("class") or "").split()[:1] == [cls] and el.get("points"):
+            out.append(np.array([[float(v) for v in xy.split(",")] for xy in el.get("points").split()]))
+    return out
+
+
+def test_partial_plot_breaks_curves_and_marks_the_lockup(run_cli, tmp_path):
+    from tests.planar_specs import LOCKING
+
+    spec = tmp_path / "lock.yaml"
+    spec.write_text(LOCKING)
+    pic = tmp_path / "lock.svg"
+    assert run_cli("simulate", spec, "--partial", "-o", tmp_path / "l.h5", "--svg", pic).exit_code == 0
+    root = ET.parse(pic).getroot()
+    tip = [el for el in root.iter() if el.get("class") == "track" and el.get("data-name") == "tip"]
+    assert len(tip) == 2 and all(el.tag.endswith("polyline") for el in tip)  # broken, not closed
+    pieces = _lines(root, "track")
+    steps = np.concatenate([np.linalg.norm(np.diff(p, axis=0), axis=1) for p in pieces])
+    assert steps.max() < 10 * np.median(steps)  # no straight line across the locked gap
+    labels = [el.text for el in root.iter() if el.get("class") == "lockup-label"]
+    assert any("locks at" in w for w in labels) and any("free again" in w for w in labels)
+    # the point tracked on the coupler is a corner of the coupler's plate
+    coupler = next(el for el in root.iter() if el.get("class") == "link" and el.get("data-name") == "coupler")
+    assert coupler.tag.endswith("polygon") and len(coupler.get("points").split()) == 3
+
+
+def test_eleventh_track_differs_from_the_first_and_labels_have_a_halo():
+    kw = crank_rocker()
+    pos = kw["positions"]
+    kw["tracks"] = {f"t{n}": pos[:, 3] + n for n in range(11)}
+    root = parse(motion_plot(None, **kw))
+    style = {el.get("data-name"): (el.get("stroke"), el.get("stroke-dasharray"))
+             for el in root.iter() if el.get("class") == "track"}
+    assert style["t10"] != style["t0"]
+    label = next(el for el in root.iter() if el.get("class") == "joint-label")
+    assert label.get("stroke") == "#ffffff" and label.get("paint-order") == "stroke"

@@ -31,6 +31,8 @@ ENVELOPE_GREEN = "#276749"
 FAINT_OPACITY = 0.3
 DASH = "6 4"
 FONT = "font-family=\"Helvetica, Arial, sans-serif\""
+#: a white outline under label text, so labels stay readable over links and symbols
+HALO = " stroke=\"#ffffff\" stroke-width=\"3\" stroke-opacity=\"0.85\" paint-order=\"stroke\" stroke-linejoin=\"round\""
 
 _NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
 _PAD_PX = 18.0          # room inside the plot area for symbols drawn around points
@@ -328,7 +330,7 @@ class Figure:
         def draw(v: View) -> str:
             x, y = v.px(p) + np.asarray(offset_px)
             return (f"<text{attrs(cls=cls)} x=\"{x:.2f}\" y=\"{y:.2f}\" font-size=\"{size:g}\" fill={attr(color)}"
-                    f" {FONT}>{text(words)}</text>")
+                    f"{HALO} {FONT}>{text(words)}</text>")
 
         self._add(p[None], draw)
 
