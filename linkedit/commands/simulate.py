@@ -35,7 +35,8 @@ def _outputs(specs: list[Path], out: Path | None, svg: Path | None, animate: boo
         pic = None
         if svg is not None:
             pic = svg if _is_file(svg) else svg / f"{spec.stem}.svg"
-            output_format(pic, ("svg",), option="--svg", stdout="svg")
+            if output_format(pic, ("svg", "gif"), option="--svg", stdout="svg") == "gif" and not animate:
+                raise InputError(f"{pic}: a GIF is an animation: add --animate (or write .svg)", field="--svg")
         elif animate:
             pic = h5.with_suffix(".svg") if not is_stdout(h5) else None
         pairs.append((h5, pic))
@@ -73,9 +74,12 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
     write_result(h5, motion, spec_text=text, options=options)
     result = {"spec": str(spec_path), "output": str(h5)} | motion.summary()
     if svg is not None:
-        from linkedit.io.planar_svg import draw_motion
+        from linkedit.io.planar_svg import draw_gif, draw_motion
 
-        write_out(svg, draw_motion(None, motion, animate=animate))
+        if svg.suffix.lower() == ".gif":
+            draw_gif(svg, motion)
+        else:
+            write_out(svg, draw_motion(None, motion, animate=animate))
         result["svg"] = str(svg)
     return result
 
@@ -100,8 +104,8 @@ def register(app: typer.Typer) -> None:
     def simulate(
         specs: list[Path] = typer.Argument(..., help="Linkage spec YAML files."),
         output: Path = typer.Option(None, "--output", "-o", help="Result file (one spec): .h5/.hdf5, .csv or .dxf by its suffix, - for CSV on stdout; or a folder of .h5 files [default: out/]."),
-        svg: Path = typer.Option(None, "--svg", help="Motion plot .svg (one spec; - for stdout) or folder."),
-        animate: bool = typer.Option(False, "--animate", help="Make the SVG an animation (SMIL) of the cycle."),
+        svg: Path = typer.Option(None, "--svg", help="Motion plot .svg (one spec; - for stdout), .gif with --animate, or a folder."),
+        animate: bool = typer.Option(False, "--animate", help="Make the picture an animation of the cycle (SVG with SMIL, or GIF)."),
         samples: int = typer.Option(None, "--samples", "-n", min=1, help="Time samples per cycle [default: spec's, else 360]."),
         engine: Engine = typer.Option(Engine.symbolic, "--engine", help="symbolic (closed form) or numeric (3D constraint solver)."),
         partial: bool = typer.Option(False, "--partial", help="Write a cycle that locks up somewhere (positions NaN there, flagged in /diagnostics/assembled) instead of failing."),

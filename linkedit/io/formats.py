@@ -1,7 +1,7 @@
 """Which writer an output path asks for: the file suffix decides; ``-`` is standard output.
 
 ``.h5``/``.hdf5`` → HDF5, ``.csv`` → CSV, ``.dxf`` → DXF, ``.svg`` → SVG, ``.json`` → JSON,
-``.yaml``/``.yml`` → YAML. A command lists the formats it can write; any other suffix is an
+``.yaml``/``.yml`` → YAML, ``.gif`` → GIF. A command lists the formats it can write; any other suffix is an
 input error (exit 2) naming the option and the formats it accepts.
 """
 
@@ -14,7 +14,7 @@ from linkedit.errors import InputError
 from linkedit.io.atomic import write_text
 
 SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".csv": "csv", ".dxf": "dxf", ".svg": "svg", ".json": "json",
-            ".yaml": "yaml", ".yml": "yaml"}
+            ".yaml": "yaml", ".yml": "yaml", ".gif": "gif"}
 #: formats that can go to standard output (``-o -``)
 TEXT = ("csv", "svg", "json", "yaml")
 STDOUT = Path("-")

@@ -53,6 +53,15 @@ def drawing(motion: Motion) -> dict[str, Any]:
     )
 
 
+def draw_gif(path: str | Path, motion: Motion) -> None:
+    """Write the animation of ``motion`` as a GIF (Pillow)."""
+    from linkedit.io.gif import write_gif
+
+    kw = drawing(motion)
+    kw.pop("notes")
+    write_gif(path, cyclic=motion.cyclic and bool(motion.assembled.all()), **kw)
+
+
 def draw_motion(path: str | Path | None, motion: Motion, *, animate: bool = False) -> str:
     """The motion plot (or, with ``animate``, the SMIL animation) of ``motion``; written to ``path`` if given.
 

@@ -142,6 +142,12 @@ def animated_motion(path: str | Path | None, *, joint_names: Sequence[str], posi
     for name, curve in d.tracks.items():
         fig.joints(curve[frames][:, None], names=[name], fill=colors[name], stroke=Stroke(colors[name], 1.0),
                    cls="track-point")
+    if len(d.joint_names) <= MAX_NAMED_JOINTS:
+        fig.labels(d.positions[frames], d.joint_names)
+    if d.motor is not None:
+        r = d.positions[frames, d.motor[0]] - d.positions[frames, d.motor[1]]
+        turn = np.degrees(np.unwrap(np.arctan2(r[:, 1], r[:, 0])))
+        fig.frame_caption([f"crank {abs(a - turn[0]):.0f}°" for a in turn])
     return _finish(path, fig)
 
 

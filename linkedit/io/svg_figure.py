@@ -174,6 +174,7 @@ class Figure:
     cyclic: bool = True
     _items: list[_Item] = field(default_factory=list, repr=False)
     _legend: list[_Entry] = field(default_factory=list, repr=False)
+    _captions: tuple[list[str], str] | None = field(default=None, repr=False)
 
     # -- primitives ------------------------------------------------------------------------
 
@@ -334,6 +335,32 @@ class Figure:
 
         self._add(p[None], draw)
 
+    def labels(self, points: np.ndarray, words: Sequence[str], *, size: float = 10.0, color: str = "#4a5568",
+               offset_px: tuple[float, float] = (5.0, -5.0), cls: str = "joint-label") -> None:
+        """Text ``words[n]`` beside world ``points`` ``(n, 2)``, or following frames ``(F, n, 2)``."""
+        p = self._pose("label positions", points)
+        if len(words) != p.shape[1]:
+            raise ValueError(f"{len(words)} labels for {p.shape[1]} points")
+
+        def draw(v: View) -> str:
+            q = v.px(p) + np.asarray(offset_px)
+            out = []
+            for n, w in enumerate(words):
+                rest = self._animated(q[:, n], ("x", "y"), "text")  # attributes, then "/>" or ">…</text>"
+                rest = rest[:-2] + ">" if rest.endswith("/>") else rest[: -len("</text>")]
+                out.append(f"<text{attrs(cls=cls, data_name=w)} font-size=\"{size:g}\" fill={attr(color)}{HALO}"
+                           f" {FONT}{rest}{text(w)}</text>")
+            return "\n".join(out)
+
+        self._add(p, draw)
+
+    def frame_caption(self, captions: Sequence[str], *, cls: str = "frame-caption") -> None:
+        """One caption per animation frame (e.g. the crank angle), shown above the plot as the frames play."""
+        n = len(captions)
+        if n == 0 or self.duration_s is None:
+            raise ValueError("frame captions need frames and an animated figure (duration_s)")
+        self._captions = (list(captions), cls)
+
     def legend(self, label: str, stroke: Stroke = Stroke(), kind: str = "line") -> None:
         """A legend entry: a ``line`` sample, a ``box`` or a ``dot`` in ``stroke``, then ``label``."""
         if kind not in ("line", "box", "dot"):
@@ -348,6 +375,8 @@ class Figure:
         body = [self._axes(view)] + [it.draw(view) for it in self._items]
         if self._legend:
             body.append(self._legend_svg(view.left + view.width + 20.0, view.top))
+        if self._captions:
+            body.append(self._captions_svg(view.left + 6.0, view.top + 16.0))
         if self.title:
             body.append(f"<text class=\"title\" x=\"{view.left + view.width / 2:.2f}\" y=\"22\" text-anchor=\"middle\""
                         f" font-size=\"15\" font-weight=\"bold\" fill={attr(INK)} {FONT}>{text(self.title)}</text>")
@@ -423,6 +452,22 @@ class Figure:
                 mark = f"<circle cx=\"{x + 13:.2f}\" cy=\"{cy:.2f}\" r=\"3.5\" fill=\"#ffffff\"{e.stroke.svg()}/>"
             rows.append(f"{mark}<text x=\"{x + 34:.2f}\" y=\"{cy + 4:.2f}\" fill={attr(INK)}>{text(e.label)}</text>")
         return f"<g class=\"legend\" font-size=\"12\" {FONT}>{''.join(rows)}</g>"
+
+    def _captions_svg(self, x: float, y: float) -> str:
+        """One ``<text>`` per frame, each shown only during its frame (discrete ``display`` animation)."""
+        words, cls = self._captions or ([], "")
+        n = len(words)
+        out = []
+        for k, w in enumerate(words):
+            a, b = k / n, (k + 1) / n
+            if k == 0:
+                values, times = "inline;none", f"0;{b:.6g}"
+            else:
+                values, times = "none;inline;none", f"0;{a:.6g};{b:.6g}"
+            out.append(f"<text x=\"{x:.2f}\" y=\"{y:.2f}\" display=\"{'inline' if k == 0 else 'none'}\">{text(w)}"
+                       f"<animate attributeName=\"display\" values=\"{values}\" keyTimes=\"{times}\" calcMode=\"discrete\""
+                       f" dur=\"{self.duration_s:g}s\" repeatCount=\"indefinite\"/></text>")
+        return (f"<g{attrs(cls=cls)} font-size=\"12\" fill={attr(INK)}{HALO} {FONT}>" + "".join(out) + "</g>")
 
     # -- helpers -------------------------------------------------------------------------------
 
