@@ -31,7 +31,12 @@ OPS = {
     "retarget+drag": {"retarget": {"track": "{track}", "scale": [1.2, 0.9], "rotate_deg": 10},
                       "drag": {"track": "{track}", "at": 0.6, "by": [0.5, 1], "radius": 0.1}},
     "transform": {"transform": {"joints": "all", "scale": 0.9, "rotate_deg": 5, "translate": [0.3, 0]}},
+    "follow": {"follow": [{"track": "{track}", "curve": "{curve}"}, {"track": "{track}", "curve": "{curve}", "timing": True}]},
 }
+
+
+def circle(cx: float, cy: float, r: float) -> list:
+    return [[cx + r * np.cos(a), cy + r * np.sin(a)] for a in np.linspace(0, 2 * np.pi, 17)[:-1]]
 
 
 def with_link_track(spec: LinkageSpec, link: str, at) -> LinkageSpec:
@@ -40,11 +45,12 @@ def with_link_track(spec: LinkageSpec, link: str, at) -> LinkageSpec:
 
 
 LINKAGES = {
-    "four-bar": (catalog.crank_rocker(), {"track": "coupler_point", "joint": "B", "link": "coupler", "point": [40, 20]}),
+    "four-bar": (catalog.crank_rocker(), {"track": "coupler_point", "joint": "B", "link": "coupler", "point": [40, 20],
+                                       "curve": circle(30, 50, 12)}),
     "jansen": (with_link_track(catalog.jansen_leg(), "knee", (-66, -10)),
-               {"track": "foot", "joint": "C", "link": "lower", "point": [-40, -60]}),
+               {"track": "foot", "joint": "C", "link": "lower", "point": [-40, -60], "curve": circle(-40, -85, 20)}),
     "strandbeest, symmetric": (catalog.strandbeest(1), {"track": "foot_0_L", "joint": "C_0_L", "link": "lower_0_L",
-                                                        "point": [-40, -60]}),
+                                                        "point": [-40, -60], "curve": circle(-40, -85, 20)}),
 }
 
 

@@ -327,3 +327,29 @@ def test_frame_pivot_distances_are_regularized():
     names = plan.joint_names
     pairs = {tuple(sorted((names[a], names[b]))) for a, b in regularized_pairs(plan)}
     assert ("B", "O") in pairs
+
+
+@pytest.mark.parametrize("timing", [False, True])
+def test_follow_a_given_curve_reaches_it_when_it_is_reachable(run_cli, tmp_path, timing):
+    cr = catalog.crank_rocker()
+    from linkedit.planar.simulate import simulate
+
+    curve = simulate(cr, 90).tracks["coupler_point"].position
+    c = curve.mean(axis=0)
+    turn = np.array([[np.cos(0.5), -np.sin(0.5)], [np.sin(0.5), np.cos(0.5)]])
+    target = c + (curve - c) @ turn.T
+    p = linkage_file(tmp_path, cr)
+    e = Edited(run_cli, tmp_path, p, write(tmp_path, "s.yaml", {
+        "samples": 90, "motor": {"free_angle": True},
+        "operations": [{"follow": {"track": "coupler_point", "curve": target.tolist(), "timing": timing}}]}))
+    after = e.check(run_cli, free_angle=True)["tracks"]["coupler_point"]
+    size = np.ptp(curve, axis=0).max()
+    if timing:  # after/ has the spec's 360 samples; every 4th is a target point
+        assert np.abs(after[::4] - target).max() <= 1e-6 * size
+    else:  # every sample lies on the target curve (distance to the nearest target segment)
+        a, b = target, np.roll(target, -1, axis=0)
+        rel = after[:, None, :] - a[None]
+        seg = b - a
+        s = np.clip(np.sum(rel * seg, axis=-1) / np.sum(seg * seg, axis=-1), 0, 1)
+        dist = np.linalg.norm(rel - s[..., None] * seg, axis=-1).min(axis=1)
+        assert dist.max() <= 2e-3 * size  # 360 samples against a 90-point polyline: chord error only

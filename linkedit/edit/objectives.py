@@ -63,8 +63,14 @@ class Track:
         rel = p[:, None] - a[None, :]
         s = np.clip((rel * seg.conj()).real / np.maximum(np.abs(seg) ** 2, 1e-300), 0.0, 1.0)
         k = np.argmin(np.abs(rel - s * seg), axis=1)
+        rows = np.arange(p.size)
+        d = rel[rows, k] - s[rows, k] * seg[k]  # from the nearest point of the curve to p
         normal = 1j * seg[k] / np.maximum(np.abs(seg[k]), 1e-300)
-        return (rel[np.arange(p.size), k] * normal.conj()).real, normal
+        side = np.where((d * normal.conj()).real < 0.0, -1.0, 1.0)
+        dist = np.abs(d)
+        # the distance to the curve, signed by the side: continuous; its direction, the normal on the curve
+        direction = np.where(dist > 0.0, side * d / np.where(dist > 0.0, dist, 1.0), normal)
+        return side * dist, direction
 
     def rms(self, ev: Evaluation) -> float:
         d, _ = self.deviation(ev.z)
@@ -371,6 +377,16 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
         target = mid + complex(*r.translate) + np.exp(1j * np.radians(r.rotate_deg)) * q
         problem.tracking.append(Track(f"retarget {r.track}", track_row[r.track], target,
                                       me * w.retarget * r.weight, everywhere))
+    for f in op.listed("follow"):
+        pts = np.array([complex(*p) for p in f.curve])
+        if f.timing:  # the curve's points evenly over the cycle, interpolated at the samples
+            u = np.arange(pts.size + f.closed) / (pts.size - (not f.closed))
+            ring = np.append(pts, pts[0]) if f.closed else pts
+            target = np.interp(t, u, ring.real) + 1j * np.interp(t, u, ring.imag)
+        else:
+            target = pts
+        problem.tracking.append(Track(f"follow {f.track}", track_row[f.track], target, me * w.follow * f.weight,
+                                      everywhere, f.timing, f.closed))
     for d in op.listed("drag"):
         falloff = np.exp(-0.5 * (_phase_distance(t, d.at) / d.radius) ** 2)
         problem.tracking.append(Track(f"drag {d.track}", track_row[d.track], curve(d.track) + complex(*d.by) * falloff,

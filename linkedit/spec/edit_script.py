@@ -118,6 +118,18 @@ class Retarget(SpecModel):
     weight: Positive = 1.0
 
 
+class Follow(SpecModel):
+    """Make a track follow a given curve: its shape (``timing: false``, the default: the
+    distance of every sample to the polyline) or, with ``timing: true``, point by point with
+    the curve's points spread evenly over the cycle from phase 0."""
+
+    track: Name
+    curve: list[Vec2] = pydantic.Field(min_length=3)
+    timing: bool = False
+    closed: bool = True
+    weight: Positive = 1.0
+
+
 class Drag(SpecModel):
     """Drag a track's curve at phase ``at`` by ``by``, with a Gaussian falloff of ``radius`` in phase."""
 
@@ -146,6 +158,7 @@ class TermWeights(SpecModel):
     displace: NonNegative = 1.0
     envelope: NonNegative = 1.0
     retarget: NonNegative = 1.0
+    follow: NonNegative = 1.0
     drag: NonNegative = 1.0
     transform: NonNegative = 1.0
 
@@ -158,6 +171,7 @@ class Operation(SpecModel):
     displace: Displace | list[Displace] | None = None
     envelope: Envelope | None = None
     retarget: Retarget | list[Retarget] | None = None
+    follow: Follow | list[Follow] | None = None
     drag: Drag | list[Drag] | None = None
     transform: Transform | None = None
     terms: TermWeights = TermWeights()
@@ -169,8 +183,8 @@ class Operation(SpecModel):
 
     @pydantic.model_validator(mode="after")
     def _has_goal(self) -> "Operation":
-        if not any((self.displace, self.envelope, self.retarget, self.drag, self.transform)):
-            raise ValueError("an operation needs a goal: displace, envelope, retarget, drag or transform")
+        if not any((self.displace, self.envelope, self.retarget, self.follow, self.drag, self.transform)):
+            raise ValueError("an operation needs a goal: displace, envelope, retarget, follow, drag or transform")
         return self
 
     def listed(self, kind: str) -> list:
@@ -242,7 +256,7 @@ def check_against(script: EditScript, linkage: LinkageSpec) -> None:
             if name not in tracks:
                 raise InputError(f"unknown track {name!r} (tracks: {', '.join(sorted(tracks)) or 'none'})",
                                  field=base + ("preserve", n))
-        for kind in ("retarget", "drag"):
+        for kind in ("retarget", "follow", "drag"):
             items = op.listed(kind)
             for n, item in enumerate(items):
                 field = base + ((kind, n) if isinstance(getattr(op, kind), list) else (kind,))
