@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from tests.conftest import EXAMPLES
 
@@ -50,3 +51,26 @@ def test_a_library_folder_with_a_bad_file_warns_and_ranks_the_rest(run_cli, tmp_
     assert "junk.csv" in r.stderr and "warning" in r.stderr
     ranking = json.loads(r.stdout)["ranking"]
     assert [x["curve"] for x in ranking][0] == "e0" and len(ranking) == 3
+
+
+def test_csv_curves_as_spreadsheets_export_them(run_cli, tmp_path):
+    t = np.linspace(0, 2 * np.pi, 60, endpoint=False)
+    x, y = 3 * np.cos(t), np.sin(t)
+    plain = tmp_path / "plain.csv"
+    plain.write_text("x,y\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(x, y)))
+    sheet = tmp_path / "sheet.csv"  # European spreadsheet: ';' separators, decimal commas, an index, units
+    sheet.write_text("// exported from a spreadsheet\nPoint;X (mm);Y [mm]\n" + "".join(
+        f"{n};{float(a)!r};{float(b)!r}\n".replace(".", ",") for n, (a, b) in enumerate(zip(x, y))))
+    tabbed = tmp_path / "tabbed.csv"
+    tabbed.write_text("# PMKS+ path\nindex\tTime\tX (mm)\tY (mm)\n" + "".join(
+        f"{n}\t{n}\t{float(a)!r}\t{float(b)!r}\n" for n, (a, b) in enumerate(zip(x, y))))
+    r = run_cli("features", plain, sheet, tabbed, "--json")
+    assert r.exit_code == 0, r.output
+    rows = json.loads(r.output)
+    for other in rows[1:]:
+        for key in ("length", "area"):
+            assert other[key] == pytest.approx(rows[0][key], rel=1e-12)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("Point;X (mm);Speed\n1;2;3\n")
+    r = run_cli("features", bad)
+    assert r.exit_code == 2 and "unknown column 'speed'" in r.output
