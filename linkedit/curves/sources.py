@@ -284,7 +284,7 @@ def make_curve(name: str, points: np.ndarray, *, closed: bool | None, origin: st
     keep = np.ones(len(points), dtype=bool)
     keep[1:] = np.any(points[1:] != points[:-1], axis=1)
     points = points[keep]
-    distinct = len(np.unique(points, axis=0))
+    distinct = _distinct_up_to_3(points)
     if distinct == 1:
         raise InputError("degenerate curve: all points coincide (zero length)", **where)
     if distinct < 3:
@@ -295,6 +295,16 @@ def make_curve(name: str, points: np.ndarray, *, closed: bool | None, origin: st
     if looped and closed:
         points = points[:-1]
     return Curve(name, points, bool(closed), origin, None, units)
+
+
+def _distinct_up_to_3(points: np.ndarray) -> int:
+    """How many distinct points (M, D) there are, counted up to 3 (two O(M) passes, no sort)."""
+    other = np.any(points != points[0], axis=1)
+    if not other.any():
+        return 1
+    second = points[int(np.argmax(other))]
+    third = other & np.any(points != second, axis=1)
+    return 3 if third.any() else 2
 
 
 def is_closed(points: np.ndarray) -> bool:
