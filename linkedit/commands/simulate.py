@@ -152,7 +152,8 @@ def register(app: typer.Typer) -> None:
         from linkedit.spec.linkage import LinkageSpec
         from linkedit.spec.yamlload import load_model
 
-        reports, worst = [], 0
+        reports: list[dict[str, Any]] = []
+        worst = 0
         for path in specs:
             try:
                 plan = compile_plan(load_model(LinkageSpec, path))

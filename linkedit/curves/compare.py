@@ -7,6 +7,7 @@ distance, nearest neighbours, rankings and learned weights.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import cast
 
 import numpy as np
 
@@ -36,7 +37,7 @@ def describe_curves(curves: list[Curve], *, samples: int = DEFAULT_SAMPLES, harm
                          file=missing.origin)
     with np.errstate(all="ignore"):  # a non-finite result is reported below, naming the curve
         desc = describe_ragged([c.points for c in curves], [c.closed for c in curves], samples=samples,
-                               harmonics=harmonics, anchors=None if anchors[0] is None else anchors)
+                               harmonics=harmonics, anchors=None if anchors[0] is None else cast(list[np.ndarray], anchors))
     check_finite(curves, desc)
     return desc
 

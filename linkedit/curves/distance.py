@@ -82,7 +82,8 @@ def aligned_rms(a: np.ndarray, b: np.ndarray | None, closed_a: np.ndarray, close
     with itself (only half the pairs are computed).
     """
     symmetric = b is None
-    b, closed_b = (a, closed_a) if symmetric else (b, closed_b)
+    if b is None:
+        b, closed_b = a, closed_a
     n, dim = a.shape[1], a.shape[2]
     sigma = np.broadcast_to(np.asarray(reverse_sign, dtype=float), (dim,))
     signs, use_abs = _frame_signs(dim, frame_flips)
@@ -135,7 +136,7 @@ def align(reference: np.ndarray, closed_ref: bool, points: np.ndarray, closed: n
 def term_distances(a: Descriptors, b: Descriptors | None = None) -> dict[str, np.ndarray]:
     """Every term as a (Ca, Cb) matrix (``b=None``: ``a`` against itself)."""
     symmetric = b is None
-    other = a if symmetric else b
+    other = a if b is None else b
     if other.names != a.names or other.points.shape[1:] != a.points.shape[1:]:
         raise ValueError("descriptors of different kinds (dimension, samples or anchors) cannot be compared")
     out: dict[str, np.ndarray] = {}

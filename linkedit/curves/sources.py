@@ -27,6 +27,7 @@ import io
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -257,7 +258,7 @@ def read_curve_set(path: Path, *, closed: bool | None = None) -> list[Curve]:
                                origin=f"{path}:{entry.name}", file=str(path), field=field,
                                line=lines.line_of(field), units=spec.units)
         else:
-            loaded = _load_one(str(path.parent / entry.source), flag)
+            loaded = _load_one(str(path.parent / str(entry.source)), flag)
             if len(loaded) != 1:
                 field = ("curves", i, "source")
                 raise InputError(f"source {entry.source!r} holds {len(loaded)} curves; name one track "
@@ -275,7 +276,7 @@ def read_curve_set(path: Path, *, closed: bool | None = None) -> list[Curve]:
 def make_curve(name: str, points: np.ndarray, *, closed: bool | None, origin: str, file: str | None = None,
                field: tuple[str | int, ...] | None = None, line: int | None = None, units: str | None = None) -> Curve:
     """Check and clean points (M, D): finite, ≥ 3 distinct points, positive length; decide closedness."""
-    where = dict(file=file or origin, field=field, line=line)
+    where: dict[str, Any] = dict(file=file or origin, field=field, line=line)
     points = np.asarray(points, dtype=float)
     if points.ndim != 2 or points.shape[1] not in (2, 3):
         raise InputError(f"expected points with 2 or 3 coordinates, got shape {points.shape}", **where)

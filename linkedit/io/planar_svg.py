@@ -24,7 +24,7 @@ def drawing(motion: Motion) -> dict[str, Any]:
     names = list(plan.joint_names)
     positions = motion.positions[ok]
     links = {n: list(m) for n, m in zip(plan.graph.link_names, plan.graph.links)}
-    extra = []
+    extra: list[np.ndarray] = []
     for name, track in plan.spec.tracks.items():
         if isinstance(track, LinkTrack):
             links[track.link].append(len(names) + len(extra))

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Sequence
+from typing import Any
 from dataclasses import dataclass, field
 from xml.sax.saxutils import escape, quoteattr
 
@@ -60,8 +61,8 @@ def attrs(**kw: object) -> str:
     return "".join(out)
 
 
-def points_text(p: np.ndarray, decimals: int = 2) -> str:
-    """``(k, 2)`` pixel points as an SVG ``points`` list ``"x,y x,y ..."``."""
+def points_text(p: Any, decimals: int = 2) -> str:
+    """``(k, 2)`` pixel points (an array or pairs) as an SVG ``points`` list ``"x,y x,y ..."``."""
     f = f"%.{decimals}f,%.{decimals}f"
     return " ".join(f % (x, y) for x, y in np.asarray(p, dtype=float).tolist())
 
@@ -195,14 +196,14 @@ class Figure:
                fill: str = "#ffffff", stroke: Stroke = Stroke(width=1.3), cls: str = "joint") -> None:
         """Circle markers of ``radius`` px at world ``points`` ``(n, 2)`` or frames ``(F, n, 2)``."""
         p = self._pose("joint positions", points)
-        names = list(names) if names is not None else [None] * p.shape[1]
-        if len(names) != p.shape[1]:
-            raise ValueError(f"{len(names)} joint names for {p.shape[1]} points")
+        labels: list[str | None] = list(names) if names is not None else [None] * p.shape[1]
+        if len(labels) != p.shape[1]:
+            raise ValueError(f"{len(labels)} joint names for {p.shape[1]} points")
 
         def draw(v: View) -> str:
             q = v.px(p)
             out = []
-            for n, name in enumerate(names):
+            for n, name in enumerate(labels):
                 head = f"<circle{attrs(cls=cls, data_name=name)} r=\"{radius:g}\" fill={attr(fill)}{stroke.svg()}"
                 out.append(head + self._animated(q[:, n], ("cx", "cy"), "circle"))
             return "\n".join(out)
@@ -297,8 +298,9 @@ class Figure:
             if s is not None and not math.isfinite(s):
                 raise ValueError(f"box {k}: not finite ({s})")
         for lo, hi in (("xmin", "xmax"), ("ymin", "ymax")):
-            if sides[lo] is not None and sides[hi] is not None and sides[lo] > sides[hi]:
-                raise ValueError(f"box: {lo} {sides[lo]} > {hi} {sides[hi]}")
+            a, b = sides[lo], sides[hi]
+            if a is not None and b is not None and a > b:
+                raise ValueError(f"box: {lo} {a} > {hi} {b}")
         xs = np.array([s for s in (xmin, xmax) if s is not None], dtype=float)
         ys = np.array([s for s in (ymin, ymax) if s is not None], dtype=float)
 
