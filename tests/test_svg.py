@@ -497,3 +497,26 @@ def test_animation_as_gif(run_cli, tmp_path):
     assert im.format == "GIF" and im.n_frames == 60 and im.info["loop"] == 0
     r = run_cli("simulate", ROOT / "examples" / "jansen.yaml", "--svg", tmp_path / "b.gif", "-o", tmp_path / "b.h5")
     assert r.exit_code == 2 and "add --animate" in r.output
+
+
+def test_edit_overlay_draws_displace_targets_at_the_edited_rest_pose(run_cli, tmp_path):
+    import yaml
+
+    r = run_cli("edit", ROOT / "examples" / "edits" / "jansen-move-knee.yaml", "-o", tmp_path)
+    assert r.exit_code == 0, r.output
+    root = ET.parse(next(tmp_path.glob("*.svg"))).getroot()
+    edited = yaml.safe_load(next(tmp_path.glob("*-edited.yaml")).read_text())["joints"]
+    names = list(edited)
+    px = joint_pixels(root, "after")
+    world = np.array([edited[n] for n in names], dtype=float)
+    ax, sx, ay, sy = fit_map(world, np.array([px[n] for n in names]))
+    # the "after" linkage is drawn at the edited YAML's rest pose, joint for joint
+    residual = np.abs(np.array([px[n] for n in names]) - np.column_stack([ax + sx * world[:, 0], ay + sy * world[:, 1]]))
+    assert residual.max() < 0.02
+    (target,) = [el for el in root.iter() if el.get("class") == "displace-target"]
+    assert (float(target.get("cx")), float(target.get("cy"))) == pytest.approx((ax + sx * -20, ay + sy * 36), abs=0.02)
+    (arrow,) = [el for el in root.iter() if el.get("class") == "displace"]
+    line = arrow.find(NS + "line")
+    original = yaml.safe_load((ROOT / "examples" / "jansen.yaml").read_text())["joints"]["C"]
+    assert (float(line.get("x1")), float(line.get("y1"))) == pytest.approx(
+        (ax + sx * original[0], ay + sy * original[1]), abs=0.02)

@@ -154,7 +154,8 @@ def animated_motion(path: str | Path | None, *, joint_names: Sequence[str], posi
 def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after: Mapping[str, object],
                  targets: Mapping[str, np.ndarray],
                  envelope: tuple[float | None, float | None, float | None, float | None] | None,
-                 units: str = "", title: str = "") -> str:
+                 units: str = "", title: str = "",
+                 displacements: Sequence[tuple[str, Sequence[float] | None, Sequence[float]]] = ()) -> str:
     """The edit picture: before faint, after solid, targets dashed, envelope box; returns the SVG text.
 
     ``before`` / ``after``: the keyword arguments of :func:`motion_plot` for the linkage before
@@ -163,7 +164,9 @@ def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after
     function's own are used). ``targets``: label → (T', 2) target curve in ``units``, coloured
     like the track whose name is a word of the label (``"retarget foot"`` → ``foot``).
     ``envelope``: (xmin, xmax, ymin, ymax) with None for an open side (drawn to the plot edge),
-    or None for no box. Writes ``path`` atomically if given.
+    or None for no box. ``displacements``: (label, old position or None, target) of each
+    displaced point: a marker at the target and an arrow from the old position. Writes ``path``
+    atomically if given.
     """
     old, new = _drawing("before", before), _drawing("after", after)
     fig = Figure(title=title, units=units)
@@ -185,12 +188,20 @@ def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after
                      cls="target", name=str(label))
     _tracks(fig, new, colors, closed=True, cls="track after")
     _mechanism(fig, new, new.positions[0], cls="after")
+    for label, old_at, target in displacements:
+        if old_at is not None:
+            fig.arrow(old_at, target, Stroke(PALETTE[1], 1.6, "dashed"), cls="displace", name=label)
+        fig.joints(np.asarray(target, dtype=float)[None], radius=5.0, fill="#ffffff", stroke=Stroke(PALETTE[1], 2.0),
+                   cls="displace-target")
+        fig.annotate(target, label, color=PALETTE[1], cls="displace-label")
     fig.legend("before", Stroke(PATH_GREY, 2.0, "faint"))
     fig.legend("after", Stroke(INK, 2.0))
     if targets:
         fig.legend("target", Stroke(INK, 1.6, "dashed"))
     if envelope is not None:
         fig.legend("envelope", Stroke(ENVELOPE_GREEN, 1.8, "dashed"), "box")
+    if displacements:
+        fig.legend("displace target", Stroke(PALETTE[1], 2.0), "dot")
     return _finish(path, fig)
 
 

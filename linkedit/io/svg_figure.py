@@ -247,6 +247,27 @@ class Figure:
 
         self._add(p, draw)
 
+    def arrow(self, start: Sequence[float], end: Sequence[float], stroke: Stroke = Stroke(), *, cls: str = "arrow",
+              name: str | None = None) -> None:
+        """A straight arrow from world ``start`` to ``end`` (2,), its head (px-sized) at ``end``."""
+        p = finite(name or cls, np.array([start, end], dtype=float), (2, 2))
+
+        def draw(v: View) -> str:
+            a, b = v.px(p)
+            d = b - a
+            length = float(np.hypot(*d))
+            if length < 1e-9:
+                return ""
+            u = d / length
+            n = np.array([-u[1], u[0]])
+            head = points_text([b, b - 9 * u + 4 * n, b - 9 * u - 4 * n])
+            tip = b - 8 * u
+            return (f"<g{attrs(cls=cls, data_name=name)}><line x1=\"{a[0]:.2f}\" y1=\"{a[1]:.2f}\" x2=\"{tip[0]:.2f}\""
+                    f" y2=\"{tip[1]:.2f}\" fill=\"none\"{stroke.svg()}/>"
+                    f"<polygon points={attr(head)} fill={attr(stroke.color)} stroke=\"none\"/></g>")
+
+        self._add(p, draw)
+
     def ground(self, point: Sequence[float], *, name: str | None = None) -> None:
         """The ground (frame) symbol under world ``point`` ``(2,)``: hatched base with a support triangle."""
         p = finite(f"ground {name}" if name else "ground", point, (2,))
