@@ -74,3 +74,42 @@ def test_csv_curves_as_spreadsheets_export_them(run_cli, tmp_path):
     bad.write_text("Point;X (mm);Speed\n1;2;3\n")
     r = run_cli("features", bad)
     assert r.exit_code == 2 and "unknown column 'speed'" in r.output
+
+
+def test_compare_curves_writes_matrices_and_rankings_to_files(run_cli, tmp_path):
+    import csv
+
+    import h5py
+
+    sets = EXAMPLES / "curves" / "foot-paths.yaml"
+    ref = json.loads(run_cli("compare-curves", sets, "--json").stdout)
+    out = tmp_path / "m.csv"
+    r = run_cli("compare-curves", sets, "-o", out)
+    assert r.exit_code == 0, r.output
+    rows = list(csv.reader(out.read_text().splitlines()))
+    assert rows[0] == ["curve", *ref["curves"]] and [x[0] for x in rows[1:]] == ref["curves"]
+    assert np.array([[float(v) for v in x[1:]] for x in rows[1:]]).tolist() == ref["distance"]  # full precision
+    h5 = tmp_path / "m.h5"
+    assert run_cli("compare-curves", sets, "-o", h5).exit_code == 0
+    with h5py.File(h5) as f:
+        assert f["values"].shape == (9, 9) and list(f["curve"].asstr()[()]) == ref["curves"]
+    r = run_cli("compare-curves", sets, "-o", "-")
+    assert r.exit_code == 0 and r.stdout.splitlines()[0].startswith("curve,")
+    r = run_cli("compare-curves", sets, "-o", tmp_path / "m.txt")
+    assert r.exit_code == 2 and "unknown output format" in r.output
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    for n, (a, b) in enumerate([(3, 1), (2, 1), (1, 1)]):
+        _ellipse_csv(lib / f"e{n}.csv", a, b)
+    q1, q2 = tmp_path / "q1.csv", tmp_path / "q2.csv"
+    _ellipse_csv(q1, 3, 1.05)
+    _ellipse_csv(q2, 1.02, 1)
+    rank = tmp_path / "rank.csv"
+    r = run_cli("compare-curves", "--query", q1, "--query", q2, "--library", lib, "-o", rank)
+    assert r.exit_code == 0, r.output
+    table = list(csv.reader(rank.read_text().splitlines()))
+    assert table[0] == ["curve", "q1", "q2"] and len(table) == 4
+    d = {row[0]: (float(row[1]), float(row[2])) for row in table[1:]}
+    assert min(d, key=lambda k: d[k][0]) == "e0" and min(d, key=lambda k: d[k][1]) == "e2"
+    both = json.loads(run_cli("compare-curves", "--query", q1, "--query", q2, "--library", lib, "--json").stdout)
+    assert [x["ranking"][0]["curve"] for x in both["queries"]] == ["e0", "e2"]
