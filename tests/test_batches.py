@@ -113,3 +113,14 @@ def test_compare_curves_writes_matrices_and_rankings_to_files(run_cli, tmp_path)
     assert min(d, key=lambda k: d[k][0]) == "e0" and min(d, key=lambda k: d[k][1]) == "e2"
     both = json.loads(run_cli("compare-curves", "--query", q1, "--query", q2, "--library", lib, "--json").stdout)
     assert [x["ranking"][0]["curve"] for x in both["queries"]] == ["e0", "e2"]
+
+
+def test_outputs_follow_the_suffix_for_features_and_solve3d(run_cli, tmp_path):
+    good = tmp_path / "good.csv"
+    _ellipse_csv(good, 3, 1)
+    r = run_cli("features", good, "-o", "-")
+    assert r.exit_code == 0 and r.stdout.startswith("name,") and len(r.stdout.splitlines()) == 2
+    r = run_cli("features", good, "-o", tmp_path / "f.xlsx")
+    assert r.exit_code == 2 and "unknown output format '.xlsx'" in r.output
+    r = run_cli("solve3d", EXAMPLES / "3d" / "crank-rocker.yaml", "-o", tmp_path / "s.csv")
+    assert r.exit_code == 2 and "unknown output format '.csv'" in r.output and not (tmp_path / "s.csv").exists()

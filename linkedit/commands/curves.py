@@ -11,6 +11,8 @@ import typer
 from linkedit.commands.common import guard, print_json
 from linkedit.errors import InputError
 
+#: what tables (features, distance matrices, rankings) can be written as, by suffix
+TABLE_FORMATS = ("csv", "hdf5", "json")
 SAMPLES_HELP = "Points per resampled curve [default: 64, or the weights file's]."
 CLOSED_HELP = "Treat every curve as closed (cyclic) or open [default: detected from the ends, or declared]."
 
@@ -65,13 +67,13 @@ def _feature_rows(curves: list, desc: Any) -> list[dict[str, Any]]:
 
 
 def _write_features(out: Path, curves: list, desc: Any, options: dict[str, Any]) -> None:
-    from linkedit.io.atomic import write_text
+    from linkedit.io.formats import output_format, write_out
 
     rows = _feature_rows(curves, desc)
-    suffix = out.suffix.lower()
-    if suffix == ".json":
-        write_text(out, json.dumps(rows, indent=2, allow_nan=False) + "\n")
-    elif suffix == ".csv":
+    fmt = output_format(out, TABLE_FORMATS, stdout="csv")
+    if fmt == "json":
+        write_out(out, json.dumps(rows, indent=2, allow_nan=False) + "\n")
+    elif fmt == "csv":
         import csv
         import io
 
@@ -79,11 +81,9 @@ def _write_features(out: Path, curves: list, desc: Any, options: dict[str, Any])
         writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
         writer.writeheader()
         writer.writerows(rows)
-        write_text(out, buf.getvalue())
-    elif suffix in (".h5", ".hdf5"):
-        _write_features_h5(out, curves, desc, options)
+        write_out(out, buf.getvalue())
     else:
-        raise InputError(f"{out}: unknown output type (use .h5, .csv or .json)", field="--output")
+        _write_features_h5(out, curves, desc, options)
 
 
 def _write_features_h5(out: Path, curves: list, desc: Any, options: dict[str, Any]) -> None:
@@ -151,7 +151,7 @@ def register(app: typer.Typer) -> None:
     @guard
     def features(
         inputs: list[str] = typer.Argument(..., help="Curves: result.h5:track, result.h5, .csv, curve-set .yaml, folders."),
-        output: Path = typer.Option(None, "--output", "-o", help="Write the table: .h5, .csv or .json [default: print it]."),
+        output: Path = typer.Option(None, "--output", "-o", help="Write the table: .h5, .csv or .json (- for CSV on stdout) [default: print it]."),
         samples: int = typer.Option(None, "--samples", "-n", min=8, max=4096, help=SAMPLES_HELP),
         harmonics: int = typer.Option(None, "--harmonics", min=1, max=64, help="Elliptic Fourier harmonics [default: 10]."),
         closed: bool = typer.Option(None, "--closed/--open", help=CLOSED_HELP),
@@ -168,7 +168,8 @@ def register(app: typer.Typer) -> None:
         if output is not None:
             options = {"samples": int(desc.points.shape[1]), "harmonics": int(desc.efd.shape[1]), "inputs": inputs}
             _write_features(output, curves, desc, options)
-            typer.echo(f"{len(curves)} curves → {output}")
+            if str(output) != "-":
+                typer.echo(f"{len(curves)} curves → {output}")
         elif as_json:
             print_json(_feature_rows(curves, desc))
         else:
@@ -211,9 +212,6 @@ def register(app: typer.Typer) -> None:
         if not inputs:
             raise InputError("give curves to compare, or --query and --library", field="INPUT")
         _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, output)
-
-
-TABLE_FORMATS = ("csv", "hdf5", "json")
 
 
 def _write_table(output: Path, kind: str, names: list[str], columns: list[str], values: Any, extra: dict[str, Any]) -> None:

@@ -101,6 +101,12 @@ def register(app: typer.Typer) -> None:
 
         if steps is not None and not 2 <= steps <= MAX_STEPS:
             raise InputError(f"needs between 2 and {MAX_STEPS:,} steps, not {steps:,}", field="--steps")
+        from linkedit.io.formats import output_format
+
+        if output is not None:
+            output_format(output, ("hdf5",))
+        if svg is not None:
+            output_format(svg, ("svg",), option="--svg")
         if source is not None:
             if spec is not None:
                 raise InputError("give a spec or --from RESULT.h5, not both", field="--from")
