@@ -124,3 +124,13 @@ def test_outputs_follow_the_suffix_for_features_and_solve3d(run_cli, tmp_path):
     assert r.exit_code == 2 and "unknown output format '.xlsx'" in r.output
     r = run_cli("solve3d", EXAMPLES / "3d" / "crank-rocker.yaml", "-o", tmp_path / "s.csv")
     assert r.exit_code == 2 and "unknown output format '.csv'" in r.output and not (tmp_path / "s.csv").exists()
+
+
+def test_quiet_prints_only_errors(run_cli, tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: broken\n")
+    r = run_cli("validate", "-q", EXAMPLES / "jansen.yaml")
+    assert r.exit_code == 0 and r.output == ""
+    r = run_cli("simulate", "--quiet", EXAMPLES / "jansen.yaml", bad, "-o", tmp_path)
+    assert r.exit_code == 2 and r.stdout == "" and "bad.yaml" in r.stderr
+    assert (tmp_path / "jansen.h5").exists()

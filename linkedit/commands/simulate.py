@@ -110,6 +110,7 @@ def register(app: typer.Typer) -> None:
         engine: Engine = typer.Option(Engine.symbolic, "--engine", help="symbolic (closed form) or numeric (3D constraint solver)."),
         partial: bool = typer.Option(False, "--partial", help="Write a cycle that locks up somewhere (positions NaN there, flagged in /diagnostics/assembled) instead of failing."),
         as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+        quiet: bool = typer.Option(False, "--quiet", "-q", help="Print nothing but errors (the exit code tells the rest)."),
     ) -> None:
         """Simulate planar linkages; write HDF5 trajectories (and SVG motion plots)."""
         if engine == Engine.numeric and partial:
@@ -129,12 +130,12 @@ def register(app: typer.Typer) -> None:
                 r = {"spec": str(spec_path), "error": str(exc), "exit_code": exc.exit_code}
                 worst = max(worst, exc.exit_code)
             results.append(r)
-            if not as_json and "error" not in r:
+            if not as_json and not quiet and "error" not in r:
                 typer.echo(_line(r), err=to_stderr)
             progress()
-        if as_json:
+        if as_json and not quiet:
             print_json(results)
-        elif len(specs) > 1:
+        elif len(specs) > 1 and not quiet:
             failed = sum("error" in r for r in results)
             typer.echo(f"{len(specs) - failed} of {len(specs)} specs simulated" + (f", {failed} failed" if failed else ""))
         if worst:
@@ -146,6 +147,7 @@ def register(app: typer.Typer) -> None:
         specs: list[Path] = typer.Argument(..., help="Linkage spec YAML files."),
         samples: int = typer.Option(None, "--samples", "-n", min=1, help="Samples for the diagnostics [default: 360]."),
         as_json: bool = typer.Option(False, "--json", help="Print as JSON."),
+        quiet: bool = typer.Option(False, "--quiet", "-q", help="Print nothing but errors (the exit code tells the rest)."),
     ) -> None:
         """Check specs: print the joint ordering (rules per level), mobility and diagnostics. Writes nothing."""
         from linkedit.planar import compile_plan, simulate as run
@@ -171,7 +173,9 @@ def register(app: typer.Typer) -> None:
             reports.append({"spec": str(path)} | motion.summary() | {"grubler": plan.mobility.grubler,
                             "redundant": plan.mobility.redundant, "levels": levels,
                             "warnings": transmission_warnings(motion)})
-        if as_json:
+        if quiet:
+            pass
+        elif as_json:
             print_json(reports)
         else:
             for r in reports:
