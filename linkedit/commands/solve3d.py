@@ -134,6 +134,8 @@ def register(app: typer.Typer) -> None:
 
             draw(svg, res, view=view.value, velocity=velocity)
         if as_json:
-            print_json(res.summary() | {"output": str(out), "svg": str(svg) if svg else None})
+            summary = res.summary()
+            summary["status"] = {k.replace(" ", "_"): v for k, v in summary["status"].items()}  # JSON keys: no spaces
+            print_json(summary | {"output": str(out), "svg": str(svg) if svg else None})
         else:
             typer.echo(_line(res, out, svg))
