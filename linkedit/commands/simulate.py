@@ -11,7 +11,7 @@ import typer
 
 from linkedit.commands.common import guard, print_json
 from linkedit.errors import InputError, LinkeditError, MechanismError
-from linkedit.io.formats import is_stdout, output_format, write_out
+from linkedit.io.formats import is_stdout, output_format, require, write_out
 from linkedit.io.planar_out import result_format
 
 
@@ -31,12 +31,14 @@ def _outputs(specs: list[Path], out: Path | None, svg: Path | None, animate: boo
     pairs = []
     for spec in specs:
         h5 = out if out is not None and _is_file(out) else (out or Path("out")) / f"{spec.stem}.h5"
-        result_format(h5)
+        require(result_format(h5), h5)  # a missing optional writer is found before any work
         pic = None
         if svg is not None:
             pic = svg if _is_file(svg) else svg / f"{spec.stem}.svg"
-            if output_format(pic, ("svg", "gif"), option="--svg", stdout="svg") == "gif" and not animate:
+            kind = output_format(pic, ("svg", "gif"), option="--svg", stdout="svg")
+            if kind == "gif" and not animate:
                 raise InputError(f"{pic}: a GIF is an animation: add --animate (or write .svg)", field="--svg")
+            require(kind, pic)
         elif animate:
             pic = h5.with_suffix(".svg") if not is_stdout(h5) else None
         pairs.append((h5, pic))

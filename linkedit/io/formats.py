@@ -43,6 +43,22 @@ def output_format(path: str | Path, accepted: tuple[str, ...], *, option: str = 
     return kind
 
 
+#: formats written by an optional package: format → (module, package name, extra)
+OPTIONAL = {"dxf": ("ezdxf", "ezdxf", "dxf"), "gif": ("PIL", "Pillow", "gif")}
+
+
+def require(kind: str, path: str | Path) -> None:
+    """InputError (exit 2) if the optional package that writes ``kind`` is not installed."""
+    if kind not in OPTIONAL:
+        return
+    module, package, extra = OPTIONAL[kind]
+    try:
+        __import__(module)
+    except ImportError:
+        raise InputError(f"writing {kind.upper()} needs the optional package {package}: "
+                         f"pip install 'linkedit[{extra}]'", file=str(path)) from None
+
+
 def write_out(path: str | Path, text: str) -> None:
     """Write text to ``path`` atomically, or to standard output for ``-``."""
     if is_stdout(path):

@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from linkedit.errors import InputError
 from linkedit.io.atomic import atomic_path
+from linkedit.io.formats import require
 from linkedit.io.svg import MAX_FRAMES, Drawing
 from linkedit.io.svg_figure import INK, PALETTE, PATH_GREY
 
@@ -25,11 +25,9 @@ def _rgb(color: str) -> tuple[int, int, int]:
 
 def write_gif(path: str | Path, *, duration_s: float = 4.0, cyclic: bool = True, **drawing: Any) -> None:
     """Write the animation of ``drawing`` (the keyword arguments of ``motion_plot``) as a looping GIF."""
-    try:
-        from PIL import Image, ImageDraw
-    except ModuleNotFoundError:
-        raise InputError("writing a GIF needs the optional package Pillow: pip install 'linkedit[gif]'",
-                         file=str(path)) from None
+    require("gif", path)
+    from PIL import Image, ImageDraw
+
     d = Drawing.check(drawing["joint_names"], drawing["positions"], drawing["links"], drawing["ground"],
                       drawing["motor"], drawing["tracks"], drawing.get("breaks", ()))
     T = d.positions.shape[0]
