@@ -27,6 +27,8 @@ def _load(spec_path: Path | None, script_path: Path):
         if not spec_path.is_file():
             raise InputError(f"linkage file not found: {spec_path}", file=str(script_path),
                              line=lines.line_of(("linkage",)), field="linkage")
+    elif script.linkage is not None:
+        typer.echo(f"note: {script_path} names linkage {script.linkage}; editing {spec_path} as given", err=True)
     linkage = load_model(LinkageSpec, spec_path)
     try:
         check_against(script, linkage)
@@ -39,7 +41,8 @@ def _load(spec_path: Path | None, script_path: Path):
 def _report_lines(result: Any) -> list[str]:
     out = []
     for op in result.operations:
-        status = " (iteration limit)" if not op.converged else ""
+        status = (" (stalled: slow progress, along the barrier's edge)" if op.stalled
+                  else " (iteration limit)" if not op.converged else "")
         status += " — DISCARDED: its result does not work (see below)" if op.discarded else ""
         out.append(f"{op.name}: {op.iterations} iterations, {op.seconds * 1e3:.0f} ms{status}")
         for key in op.before:
@@ -55,6 +58,7 @@ def _report_lines(result: Any) -> list[str]:
 def _report_json(op: Any) -> dict:
     return {"name": op.name, "iterations": op.iterations, "evaluations": op.evaluations,
             "rejected_steps": op.rejected_steps, "seconds": op.seconds, "converged": op.converged,
+            "stalled": op.stalled,
             "discarded": op.discarded, "goals_met": op.goals_met, "unmet": op.unmet,
             "before": op.before, "after": op.after}
 

@@ -28,13 +28,20 @@ def flipped(plan: Plan, rest: np.ndarray) -> np.ndarray:
     return dyad[~(cross * plan.orientation[dyad] > 0)]
 
 
-def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray) -> str | None:
+def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray,
+            arm: complex | None = None) -> str | None:
     """Why the linkage does not work, naming the joint and motor angle; None if it works.
 
     ``rest`` (J,) complex; ``ds`` (R, T) singularity distance per rule (rigid rows ignored),
-    NaN where not computed; ``turn_deg`` (T,) motor rotation of each sample from the rest pose.
+    NaN where not computed; ``turn_deg`` (T,) motor rotation of each sample from the rest pose;
+    ``arm`` the direction the crank must keep at rest (its rest angle is fixed), or None.
     """
     names = plan.joint_names
+    g = plan.graph
+    crank = rest[g.motor] - rest[g.pivot]
+    if (crank.conjugate() * (arm if arm is not None else crank)).real <= 0.0:
+        return (f"the crank {names[g.pivot]}-{names[g.motor]} vanishes or turns away from its rest angle "
+                "(free it with motor: {free_angle: true})")
     bad = flipped(plan, rest)
     if bad.size:
         i, j, k = plan.rules[bad[0]]

@@ -24,10 +24,11 @@ def minimize(problem: Problem, v0: np.ndarray, *, max_iterations: int = 200, rto
              xtol: float = 1e-12, stall: float = 1e-3, callback: Callable[[int, float], None] | None = None) -> SolverResult:
     """Minimize the operation's energy from a working ``v0``.
 
-    Stops (converged) when E reaches rounding level, when an accepted step is shorter than
-    ``xtol``·L or decreases E by less than ``rtol`` (relative) twice in a row, when the last 10
-    accepted steps together decreased E by less than ``stall`` (relative: a minimum on the
-    barrier's edge, approached along a valley), or when no working decrease is left (λ > 1e16).
+    Converged when E reaches rounding level, when an accepted step is shorter than ``xtol``·L or
+    decreases E by less than ``rtol`` (relative) twice in a row, or when no working decrease is
+    left (λ > 1e16). *Stalled* (reported as such, not as converged) when the last 10 accepted
+    steps together decreased E by less than ``stall`` (relative): typically creeping along the
+    edge of the barrier, where each step uncovers another near-toggle sample.
     """
     v = np.asarray(v0, dtype=float).copy()
     ev, r, J = problem.residuals(v, jacobian=True)
@@ -37,7 +38,7 @@ def minimize(problem: Problem, v0: np.ndarray, *, max_iterations: int = 200, rto
     history = [e]
     lam, nu = 1e-4, 2.0
     evaluations, rejected, small = 1, 0, 0
-    converged = False
+    converged = stalled = False
     it = 0
     for it in range(1, max_iterations + 1):
         if e <= 1e-30 or v.size == 0:
@@ -73,9 +74,11 @@ def minimize(problem: Problem, v0: np.ndarray, *, max_iterations: int = 200, rto
             if callback is not None:
                 callback(it, e)
             small = small + 1 if decrease < rtol else 0
-            stalled = len(history) > 10 and history[-11] - e < stall * history[-11]
-            if small >= 2 or stalled or np.abs(step).max(initial=0.0) <= xtol * problem.size:
+            if small >= 2 or np.abs(step).max(initial=0.0) <= xtol * problem.size:
                 converged = True
+                break
+            if len(history) > 10 and history[-11] - e < stall * history[-11]:
+                stalled = True
                 break
         else:
             lam, nu = lam * nu, 2 * nu
@@ -83,4 +86,4 @@ def minimize(problem: Problem, v0: np.ndarray, *, max_iterations: int = 200, rto
                 converged = True
                 break
     return SolverResult(x=v, energy=e, iterations=it, evaluations=evaluations, converged=converged,
-                        history=history, rejected=rejected)
+                        history=history, rejected=rejected, stalled=stalled)

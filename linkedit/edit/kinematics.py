@@ -51,14 +51,15 @@ class RestPoseKinematics:
     """Points of ``plan`` at motor rotations ``spin`` (T,) = exp(i·(angle − rest angle)).
 
     ``drest`` (J, C) complex: the rest-pose tangent in each direction (constant: the
-    parametrization is affine).
+    parametrization is affine); ``arm``: the crank's rest direction when its angle is fixed.
     """
 
-    def __init__(self, plan: Plan, spin: np.ndarray, drest: np.ndarray) -> None:
+    def __init__(self, plan: Plan, spin: np.ndarray, drest: np.ndarray, arm: complex | None = None) -> None:
         self.plan = plan
         self.spin = np.asarray(spin, dtype=complex)
         self.drest = drest
         self.turn_deg = np.degrees(np.angle(self.spin))  # (T,) for messages
+        self.arm = arm  # the crank's rest direction when its angle is fixed
         self.J = plan.n_joints
         g = plan.graph
         self.ground = np.array(g.ground)
@@ -128,5 +129,5 @@ class RestPoseKinematics:
                     dz[out] = dzi + (da + 1j * db) * e + t.w[:, None, :] * de
                     dlnds[b.rule] = (dbsq / t.bsq[:, None, :] - 2.0 * du / u
                                      - (dL / lik2[:, None])[:, :, None] - (dM / ljk2[:, None])[:, :, None])
-        why = failure(plan, rest, ds, self.turn_deg)
+        why = failure(plan, rest, ds, self.turn_deg, self.arm)
         return Evaluation(rest=rest, z=z, ds=ds, dz=dz, dlnds=dlnds, why=why)

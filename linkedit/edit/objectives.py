@@ -10,8 +10,10 @@ not depend on the units (the same edit in mm or m gives the same linkage, scaled
   set of joints);
 * envelope: √(w/T)·(distance outside the box)/L per joint and sample;
 * regularization: √μ_r·(l_ij − l̃_ij)/L over joint pairs on a link and the frame's pivots;
-* symmetry: √(10⁶·μ_e)·(l_ij − l_i'j')/L for every length whose mirror image (i', j') is another
-  length (``symmetric``), so mirrored legs stay mirrored;
+* symmetry (``symmetric``): √(10⁶·μ_e)·(l_ij − l_i'j')/L for every length whose mirror image
+  (i', j') is another length, and √(10⁶·μ_e)·(M(x_g) − x_g')/L for mirrored ground joints, M the
+  reflection about the mirror axis (its direction from the rest pose; through the motor pivot
+  when the pivot lies on it), so mirrored legs stay mirrored in the world frame too;
 * singularity barrier: √μ_s·ln(d_s/ε_r) where d_s < ε_r, per dyad triangle and sample (so E
   holds LinkEdit's ½·ln²(d_s/ε)). ε_r = min(ε, half the triangle's own smallest d_s at the start
   of the operation): the barrier is inactive on the design as it is (a null edit changes
@@ -51,6 +53,7 @@ class Track:
     select: np.ndarray
     timing: bool = True
     cyclic: bool = True
+    size: float = 0.0  # size of the track's curve at the start of the operation (for reports)
 
     def deviation(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(signed deviation (S,) complex or real, unit direction) of the selected samples."""
@@ -151,6 +154,10 @@ class Problem:
     pair_cols: np.ndarray  # (Q, C)
     mirrored: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))  # (M, 2) pairs of pairs
     mirror_cols: np.ndarray | None = None  # (M, C)
+    mirror_ground: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))  # (K, 2) joints
+    mirror_ground_cols: np.ndarray | None = None  # (K, C)
+    mirror_axis: complex = 1.0  # û² of the axis direction û: M(z) = c + û²·conj(z − c)
+    mirror_centre: tuple[int | None, complex] = (None, 0j)  # joint on the axis (moving), or a fixed point
     tracking: list[Track] = field(default_factory=list)
     displacements: list[Displacement] = field(default_factory=list)
     envelope: Envelope | None = None
@@ -172,6 +179,8 @@ class Problem:
             edit.append(self.envelope.block(ev, cols, scale, self.samples))
         if self.mirrored.size:
             edit.append(self._symmetry(ev))
+        if self.mirror_ground.size:
+            edit.append(self._mirror_ground(ev))
         return {"edit": edit, "singularity": [self._barrier(ev)], "regularization": [self._regularization(ev)]}
 
     def _symmetry(self, ev: Evaluation) -> Block:
@@ -185,6 +194,20 @@ class Problem:
                 drest = self.kin.drest
                 D.append(sign * ((d / np.abs(d)).conj()[:, None] * (drest[b] - drest[a])).real)
         return s * (r[0] + r[1]), (None if ev.dz is None else s * (D[0] + D[1])), self.mirror_cols
+
+    def _mirror_ground(self, ev: Evaluation) -> Block:
+        s = np.sqrt(1e6 * self.weights[0]) / self.size
+        g, h = self.mirror_ground.T
+        joint, fixed = self.mirror_centre
+        c = ev.rest[joint] if joint is not None else fixed
+        u2 = self.mirror_axis
+        r = s * _split(c + u2 * np.conj(ev.rest[g] - c) - ev.rest[h])
+        D = None
+        if ev.dz is not None:
+            drest = self.kin.drest
+            dc = drest[joint][None, :] if joint is not None else 0.0
+            D = s * _split(dc + u2 * np.conj(drest[g] - dc) - drest[h])
+        return r, D, np.concatenate([self.mirror_ground_cols, self.mirror_ground_cols])
 
     def _barrier(self, ev: Evaluation) -> Block:
         T = self.samples
@@ -270,9 +293,10 @@ class Problem:
         return out
 
 
-def _phase_distance(t: np.ndarray, at: float) -> np.ndarray:
+def _phase_distance(t: np.ndarray, at: float, cyclic: bool) -> np.ndarray:
+    """Distance in phase; around the cycle for a full turn, along the sweep otherwise."""
     d = np.abs(t - at) % 1.0
-    return np.minimum(d, 1.0 - d)
+    return np.minimum(d, 1.0 - d) if cyclic else np.abs(t - at)
 
 
 def _select(t: np.ndarray, phases: tuple[float, float] | None) -> np.ndarray:
@@ -302,6 +326,25 @@ def mirrored_pairs(pairs: np.ndarray, mirror: dict[str, str], index: dict[str, i
         if other is not None and other > q:
             out.append((q, other))
     return np.array(out, dtype=int).reshape(-1, 2)
+
+
+def mirror_frame(plan: Plan, x: np.ndarray, mirror: dict[str, str], index: dict[str, int],
+                 size: float) -> tuple[np.ndarray, complex, tuple[int | None, complex]]:
+    """Mirrored ground joints (K, 2), û² of the mirror axis, and the axis' point: the motor pivot
+    (a joint index) when it lies on the axis at ``x`` (J, 2), else the fixed midpoint."""
+    names = plan.joint_names
+    ground = [g for g in plan.graph.ground if names[g] in mirror and index[mirror[names[g]]] > g
+              and index[mirror[names[g]]] in plan.graph.ground]
+    pairs = np.array([(g, index[mirror[names[g]]]) for g in ground], dtype=int).reshape(-1, 2)
+    if not pairs.size:
+        return pairs, 1.0 + 0j, (None, 0j)
+    z = x[:, 0] + 1j * x[:, 1]
+    a, b = z[pairs[0, 0]], z[pairs[0, 1]]
+    u = 1j * (b - a) / abs(b - a)
+    mid = 0.5 * (a + b)
+    pivot = plan.graph.pivot
+    on_axis = abs(((z[pivot] - mid) * np.conj(1j * u)).real) <= 1e-9 * size
+    return pairs, complex(u * u), ((pivot, 0j) if on_axis else (None, complex(mid)))
 
 
 def dependencies(plan: Plan, uses: np.ndarray) -> np.ndarray:
@@ -337,11 +380,17 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
     dep = dependencies(plan, uses)
     pairs = regularized_pairs(plan)
     pair_dep = uses[pairs[:, 0]] | uses[pairs[:, 1]]
-    mirrored = mirrored_pairs(pairs, script.mirror(names), index)
+    mirror = script.mirror(names)
+    mirrored = mirrored_pairs(pairs, mirror, index)
     mirror_dep = pair_dep[mirrored[:, 0]] | pair_dep[mirrored[:, 1]]
-    colours = colour(np.vstack([dep, pair_dep, mirror_dep])) if var.n else np.zeros(0, dtype=int)
+    ground_pairs, axis, centre = mirror_frame(plan, var.x0, mirror, index, size)
+    centre_uses = uses[centre[0]] if centre[0] is not None else np.zeros(var.n, dtype=bool)
+    ground_dep = (uses[ground_pairs[:, 0]] | uses[ground_pairs[:, 1]] | centre_uses).reshape(-1, var.n)
+    colours = colour(np.vstack([dep, pair_dep, mirror_dep, ground_dep])) if var.n else np.zeros(0, dtype=int)
     C = int(colours.max(initial=-1)) + 1
-    kin = RestPoseKinematics(plan, spin, seeds(var, colours, C))
+    g = plan.graph
+    arm = None if script.motor.free_angle else complex(*(var.x0[g.motor] - var.x0[g.pivot]))
+    kin = RestPoseKinematics(plan, spin, seeds(var, colours, C), arm)
     start = kin.evaluate(var.x0)
     me, ms, mr = script.weights.edit, script.weights.singularity, script.weights.regularization
     w = op.terms
@@ -360,7 +409,8 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
     problem = Problem(plan=plan, kin=kin, var=var, samples=T, size=size, weights=(me, ms, mr), eps=eps,
                       pairs=pairs, ref_lengths=ref, point_cols=column_map(dep, colours, C),
                       pair_cols=column_map(pair_dep, colours, C), mirrored=mirrored,
-                      mirror_cols=column_map(mirror_dep, colours, C))
+                      mirror_cols=column_map(mirror_dep, colours, C), mirror_ground=ground_pairs,
+                      mirror_ground_cols=column_map(ground_dep, colours, C), mirror_axis=axis, mirror_centre=centre)
     track_row = {n: int(plan.row_of[p]) for n, p in zip(plan.track_names, plan.track_points)}
     everywhere = np.arange(T)
 
@@ -388,7 +438,7 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
         problem.tracking.append(Track(f"follow {f.track}", track_row[f.track], target, me * w.follow * f.weight,
                                       everywhere, f.timing, f.closed))
     for d in op.listed("drag"):
-        falloff = np.exp(-0.5 * (_phase_distance(t, d.at) / d.radius) ** 2)
+        falloff = np.exp(-0.5 * (_phase_distance(t, d.at, cyclic) / d.radius) ** 2)
         problem.tracking.append(Track(f"drag {d.track}", track_row[d.track], curve(d.track) + complex(*d.by) * falloff,
                                       me * w.drag * d.weight, everywhere))
     column = T + 1
@@ -417,6 +467,9 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
             lo=complex(-inf if env.xmin is None else env.xmin, -inf if env.ymin is None else env.ymin),
             hi=complex(inf if env.xmax is None else env.xmax, inf if env.ymax is None else env.ymax),
             weight=me * w.envelope)
+    for tr in problem.tracking:
+        c = start.z[tr.row, :T]
+        tr.size = float(max(np.ptp(c.real), np.ptp(c.imag)))
     return problem
 
 

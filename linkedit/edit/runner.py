@@ -42,6 +42,7 @@ class OperationReport:
     unmet: list[str] = field(default_factory=list)  # goals the result does not meet, readable
     targets: dict[str, np.ndarray] = field(default_factory=dict)  # label → (T, 2) target curve
     discarded: bool = False  # its result did not pass the final check
+    stalled: bool = False  # the solver stopped for slow progress, not converged
 
     @property
     def goals_met(self) -> bool:
@@ -101,7 +102,9 @@ def _unmet(op: Operation, problem: Problem, before: dict[str, float], after: dic
     tiny = 1e-9 * problem.size
     for d in problem.displacements:
         key = f"{d.label} error"
-        if not d.label.startswith("transform") and after[key] > 0.5 * before[key] and after[key] > tiny:
+        if d.label.startswith("transform") or before[key] <= tiny:
+            continue
+        if after[key] > 0.5 * before[key] and after[key] > tiny:
             out.append(f"{d.label}: moved less than half-way (still {after[key]:.4g} of {before[key]:.4g} away)")
     moved = [d for d in problem.displacements if d.label.startswith("transform")]
     if moved:
@@ -109,30 +112,34 @@ def _unmet(op: Operation, problem: Problem, before: dict[str, float], after: dic
         if rms[1] > 0.5 * rms[0] and rms[1] > tiny:
             out.append(f"transform: its joints moved less than half-way (RMS {rms[1]:.4g} of {rms[0]:.4g} away)")
     for tr in problem.tracking:
-        if tr.label.startswith("preserve"):
-            continue
-        size = float(np.ptp(np.column_stack([tr.target.real, tr.target.imag]), axis=0).max())
         key = f"{tr.label} RMS"
-        if after[key] > 0.1 * size:
-            out.append(f"{tr.label}: {after[key]:.4g} RMS from its target, more than 10 % of the curve's size {size:.4g}")
+        if tr.label.startswith("preserve") or before[key] <= tiny:
+            continue
+        if after[key] > 0.1 * tr.size:
+            out.append(f"{tr.label}: {after[key]:.4g} RMS from its target, more than 10 % of the curve's size {tr.size:.4g}")
+        elif after[key] > 0.5 * before[key] and after[key] > tiny:
+            out.append(f"{tr.label}: less than half-way to its target (RMS {after[key]:.4g} from {before[key]:.4g})")
     key = "envelope max excess"
     if key in after and after[key] > 0.5 * before[key] and after[key] > tiny:
         out.append(f"envelope: still {after[key]:.4g} outside (from {before[key]:.4g})")
     return out
 
 
-def _check(plan: Plan, spec: LinkageSpec, samples: int) -> tuple[Motion | None, str | None]:
-    """Simulate ``spec`` (``plan`` re-based on it) at ``samples``; (motion, None) if it works."""
+def _check(plan: Plan, spec: LinkageSpec, samples: int, arm: complex | None) -> tuple[Motion | None, str | None]:
+    """Simulate ``spec`` (``plan`` re-based on it) at ``samples``; (motion, None) if it works.
+    ``arm``: the crank direction the rest pose must keep, or None (its angle was free)."""
     rest = np.array([spec.joints[n] for n in plan.joint_names], dtype=float)
     z = rest[:, 0] + 1j * rest[:, 1]
     t = motor_phases(spec, samples)
     turn = np.degrees(motor_turn(spec.motor, t))
     ones = np.ones((len(plan.rules), samples))
-    why = failure(plan, z, ones, turn)  # rest orientations first: re-basing needs them
+    why = failure(plan, z, ones, turn, arm)  # rest orientations first: re-basing needs them
     if why is not None:
         return None, why
     motion = simulate(plan.rebased(spec), samples, partial=True)
-    return motion, failure(plan, z, np.nan_to_num(motion.singularity.T, nan=-1.0), turn)
+    if not motion.assembled.all():
+        return None, "; ".join(lk.describe() for lk in motion.lockups)
+    return motion, failure(plan, z, motion.singularity.T, turn, arm)
 
 
 def _warnings(motion: Motion, eps: float) -> list[str]:
@@ -145,9 +152,16 @@ def _warnings(motion: Motion, eps: float) -> list[str]:
 
 def _solve(script: EditScript, problem: Problem, op: Operation, tick: Callable[[int, float], None]):
     v0 = np.zeros(problem.var.n)
-    if script.solver == "bfgs":
-        return bfgs.minimize(problem.energy, v0, max_iterations=op.max_iterations, max_step=0.1 * problem.size,
-                             callback=tick)
+    if script.solver == "bfgs":  # in units of the mechanism's size, so that it is unit-free too
+        L = problem.size
+
+        def energy(u: np.ndarray) -> tuple:
+            e, g, ev = problem.energy(L * u)
+            return e, (None if g is None else L * g), ev
+
+        result = bfgs.minimize(energy, v0, max_iterations=op.max_iterations, max_step=0.1, callback=tick)
+        result.x = L * result.x
+        return result
     return gauss_newton.minimize(problem, v0, max_iterations=op.max_iterations, callback=tick)
 
 
@@ -194,15 +208,18 @@ def run_script(linkage: LinkageSpec, script: EditScript,
                    if not tr.label.startswith("preserve")}
         reports.append(OperationReport(name=name, iterations=result.iterations, evaluations=result.evaluations,
                                        rejected_steps=result.rejected, seconds=seconds, converged=result.converged,
+                                       stalled=result.stalled,
                                        energy=result.history, before=before, after=after,
                                        unmet=_unmet(op, problem, before, after), targets=targets))
 
     fine = 4 * T
+    g = out_plan.graph
+    arm = None if script.motor.free_angle else complex(*(g.rest[g.motor] - g.rest[g.pivot]))
     note = f"edited by linkedit ({len(script.operations)} operations)"
     failure_why = None
     for k in range(len(accepted) - 1, -1, -1):
         edited = with_rest_pose(linkage, out_plan, accepted[k], note)
-        motion, why = _check(out_plan, edited, fine)
+        motion, why = _check(out_plan, edited, fine, arm)
         if why is None:
             after_motion = simulate(out_plan.rebased(edited), linkage.samples or DEFAULT_SAMPLES)
             result = EditResult(original=linkage, edited=edited if k else linkage, operations=reports,

@@ -95,7 +95,7 @@ class Envelope(SpecModel):
     xmax: Finite | None = None
     ymin: Finite | None = None
     ymax: Finite | None = None
-    joints: list[Name] | None = None  #: default: every joint
+    joints: list[Name] | None = pydantic.Field(default=None, min_length=1)  #: default: every joint
 
     @pydantic.model_validator(mode="after")
     def _sides(self) -> "Envelope":
@@ -204,7 +204,8 @@ class EditScript(SpecModel):
     """An edit script: which linkage, how many samples, the operations, locks and weights."""
 
     linkage: str | None = None  #: path of the linkage spec, relative to the script
-    samples: int = pydantic.Field(default=120, ge=8)
+    #: at most 20,000: the final check simulates 4× as many, and the Jacobian holds samples × directions
+    samples: int = pydantic.Field(default=120, ge=8, le=20_000)
     operations: list[Operation] = pydantic.Field(min_length=1)
     lock: list[Name | Lock] = pydantic.Field(default_factory=list)
     motor: MotorFreedom = MotorFreedom()
