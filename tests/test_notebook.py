@@ -57,6 +57,8 @@ def test_features_edit_and_solve3d(tmp_path, run_cli):
 def test_edit_from_a_notebook(run_cli, tmp_path):
     import yaml
 
+    import linkedit.edit.runner  # noqa: F401  (the subpackage linkedit.edit, loaded: le.edit still edits)
+
     script = EXAMPLES / "edits" / "jansen-move-knee.yaml"
     result = le.edit(EXAMPLES / "jansen.yaml", script)
     assert run_cli("edit", EXAMPLES / "jansen.yaml", script, "-o", tmp_path).exit_code == 0
