@@ -87,7 +87,8 @@ def nice_ticks(lo: float, hi: float, target: float = 6.0) -> tuple[float, np.nda
     magnitude = 10.0 ** math.floor(math.log10(raw))
     step = next(m * magnitude for m in (1.0, 2.0, 2.5, 5.0, 10.0) if m * magnitude >= raw * (1 - 1e-12))
     first, last = math.ceil(lo / step - 1e-9), math.floor(hi / step + 1e-9)
-    return step, np.arange(first, last + 1) * step
+    # a tick within rounding of an end is that end (k·step may land a few ulps outside [lo, hi])
+    return step, np.clip(np.arange(first, last + 1) * step, lo, hi)
 
 
 def axis_ticks(lo: float, hi: float, extent_px: float) -> tuple[float, np.ndarray]:
