@@ -345,9 +345,9 @@ The rest pose below is the crank at 0 degrees, computed exactly from these lengt
     Example("stephenson-six-bar.yaml", stephenson_six_bar,
             header="Stephenson III six-bar of linkedit's own design; written by linkedit.planar.catalog.",
             notes={"links.coupler": "ternary: touches the frame only through crank and rocker"}),
-    Example("complex-loop.yaml", complex_loop, simulates=False,
+    Example("invalid/complex-loop.yaml", complex_loop, simulates=False,
             header="A complex kinematic loop (class-III Assur group). linkedit rejects it:\n"
-                   "  linkedit validate examples/complex-loop.yaml  ->  exit 1, T1, T2, T3 undetermined.\n"
+                   "  linkedit validate examples/invalid/complex-loop.yaml  ->  exit 1, T1, T2, T3 undetermined.\n"
                    "Written by linkedit.planar.catalog.",
             notes={"links.body": "ternary body hung from P1, P2 and the crank pin A"}),
 )
