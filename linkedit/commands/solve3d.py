@@ -108,12 +108,6 @@ def register(app: typer.Typer) -> None:
 
         if steps is not None and not 2 <= steps <= MAX_STEPS:
             raise InputError(f"needs between 2 and {MAX_STEPS:,} steps, not {steps:,}", field="--steps")
-        from linkedit.io.formats import output_format
-
-        if output is not None:
-            output_format(output, ("hdf5",))
-        if svg is not None:
-            output_format(svg, ("svg",), option="--svg")
         if source is not None:
             if spec is not None:
                 raise InputError("give a spec or --from RESULT.h5, not both", field="--from")
@@ -138,6 +132,11 @@ def register(app: typer.Typer) -> None:
         # with --from and no -o the result is updated in place (atomically): the source is not an input then
         inputs = [spec] if spec is not None else [source] if output is not None else []
         check_outputs([("--output", out), ("--svg", svg)], inputs)
+        from linkedit.io.formats import output_format
+
+        output_format(out, ("hdf5",))
+        if svg is not None:
+            output_format(svg, ("svg",), option="--svg")
         write_result(out, res)
         if svg is not None:
             from linkedit.gcs.svg import draw
