@@ -16,12 +16,28 @@ In a notebook::
 (:mod:`linkedit.notebook`). Imports are lazy: ``import linkedit`` stays fast.
 """
 
+import types
 from typing import Any
 
 __version__ = "0.1.0"
 
-_NOTEBOOK = ("Motion", "simulate", "load", "load_spec", "edit", "solve3d", "features")
-__all__ = ["__version__", *_NOTEBOOK]
+_NOTEBOOK = ("Motion", "simulate", "load", "load_spec", "solve3d", "features")
+__all__ = ["__version__", "edit", *_NOTEBOOK]
+
+
+class _EditPackage(types.ModuleType):
+    """``linkedit.edit`` is a subpackage (so it is the attribute ``linkedit.edit``) and, for
+    notebooks, also callable: ``le.edit(spec, script)`` is :func:`linkedit.notebook.edit`."""
+
+    def __call__(self, spec: Any, script: Any) -> Any:
+        from linkedit.notebook import edit as run
+
+        return run(spec, script)
+
+
+from linkedit import edit  # noqa: E402  (its __init__ imports nothing: stays light)
+
+edit.__class__ = _EditPackage
 
 
 def __getattr__(name: str) -> Any:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from tests.conftest import EXAMPLES
 
@@ -50,3 +51,86 @@ def test_a_library_folder_with_a_bad_file_warns_and_ranks_the_rest(run_cli, tmp_
     assert "junk.csv" in r.stderr and "warning" in r.stderr
     ranking = json.loads(r.stdout)["ranking"]
     assert [x["curve"] for x in ranking][0] == "e0" and len(ranking) == 3
+
+
+def test_csv_curves_as_spreadsheets_export_them(run_cli, tmp_path):
+    t = np.linspace(0, 2 * np.pi, 60, endpoint=False)
+    x, y = 3 * np.cos(t), np.sin(t)
+    plain = tmp_path / "plain.csv"
+    plain.write_text("x,y\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(x, y)))
+    sheet = tmp_path / "sheet.csv"  # European spreadsheet: ';' separators, decimal commas, an index, units
+    sheet.write_text("// exported from a spreadsheet\nPoint;X (mm);Y [mm]\n" + "".join(
+        f"{n};{float(a)!r};{float(b)!r}\n".replace(".", ",") for n, (a, b) in enumerate(zip(x, y))))
+    tabbed = tmp_path / "tabbed.csv"
+    tabbed.write_text("# PMKS+ path\nindex\tTime\tX (mm)\tY (mm)\n" + "".join(
+        f"{n}\t{n}\t{float(a)!r}\t{float(b)!r}\n" for n, (a, b) in enumerate(zip(x, y))))
+    r = run_cli("features", plain, sheet, tabbed, "--json")
+    assert r.exit_code == 0, r.output
+    rows = json.loads(r.output)
+    for other in rows[1:]:
+        for key in ("length", "area"):
+            assert other[key] == pytest.approx(rows[0][key], rel=1e-12)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("Point;X (mm);Speed\n1;2;3\n")
+    r = run_cli("features", bad)
+    assert r.exit_code == 2 and "unknown column 'speed'" in r.output
+
+
+def test_compare_curves_writes_matrices_and_rankings_to_files(run_cli, tmp_path):
+    import csv
+
+    import h5py
+
+    sets = EXAMPLES / "curves" / "foot-paths.yaml"
+    ref = json.loads(run_cli("compare-curves", sets, "--json").stdout)
+    out = tmp_path / "m.csv"
+    r = run_cli("compare-curves", sets, "-o", out)
+    assert r.exit_code == 0, r.output
+    rows = list(csv.reader(out.read_text().splitlines()))
+    assert rows[0] == ["curve", *ref["curves"]] and [x[0] for x in rows[1:]] == ref["curves"]
+    assert np.array([[float(v) for v in x[1:]] for x in rows[1:]]).tolist() == ref["distance"]  # full precision
+    h5 = tmp_path / "m.h5"
+    assert run_cli("compare-curves", sets, "-o", h5).exit_code == 0
+    with h5py.File(h5) as f:
+        assert f["values"].shape == (9, 9) and list(f["curve"].asstr()[()]) == ref["curves"]
+    r = run_cli("compare-curves", sets, "-o", "-")
+    assert r.exit_code == 0 and r.stdout.splitlines()[0].startswith("curve,")
+    r = run_cli("compare-curves", sets, "-o", tmp_path / "m.txt")
+    assert r.exit_code == 2 and "unknown output format" in r.output
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    for n, (a, b) in enumerate([(3, 1), (2, 1), (1, 1)]):
+        _ellipse_csv(lib / f"e{n}.csv", a, b)
+    q1, q2 = tmp_path / "q1.csv", tmp_path / "q2.csv"
+    _ellipse_csv(q1, 3, 1.05)
+    _ellipse_csv(q2, 1.02, 1)
+    rank = tmp_path / "rank.csv"
+    r = run_cli("compare-curves", "--query", q1, "--query", q2, "--library", lib, "-o", rank)
+    assert r.exit_code == 0, r.output
+    table = list(csv.reader(rank.read_text().splitlines()))
+    assert table[0] == ["curve", "q1", "q2"] and len(table) == 4
+    d = {row[0]: (float(row[1]), float(row[2])) for row in table[1:]}
+    assert min(d, key=lambda k: d[k][0]) == "e0" and min(d, key=lambda k: d[k][1]) == "e2"
+    both = json.loads(run_cli("compare-curves", "--query", q1, "--query", q2, "--library", lib, "--json").stdout)
+    assert [x["ranking"][0]["curve"] for x in both["queries"]] == ["e0", "e2"]
+
+
+def test_outputs_follow_the_suffix_for_features_and_solve3d(run_cli, tmp_path):
+    good = tmp_path / "good.csv"
+    _ellipse_csv(good, 3, 1)
+    r = run_cli("features", good, "-o", "-")
+    assert r.exit_code == 0 and r.stdout.startswith("name,") and len(r.stdout.splitlines()) == 2
+    r = run_cli("features", good, "-o", tmp_path / "f.xlsx")
+    assert r.exit_code == 2 and "unknown output format '.xlsx'" in r.output
+    r = run_cli("solve3d", EXAMPLES / "3d" / "crank-rocker.yaml", "-o", tmp_path / "s.csv")
+    assert r.exit_code == 2 and "unknown output format '.csv'" in r.output and not (tmp_path / "s.csv").exists()
+
+
+def test_quiet_prints_only_errors(run_cli, tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: broken\n")
+    r = run_cli("validate", "-q", EXAMPLES / "jansen.yaml")
+    assert r.exit_code == 0 and r.output == ""
+    r = run_cli("simulate", "--quiet", EXAMPLES / "jansen.yaml", bad, "-o", tmp_path)
+    assert r.exit_code == 2 and r.stdout == "" and "bad.yaml" in r.stderr
+    assert (tmp_path / "jansen.h5").exists()

@@ -50,3 +50,28 @@ def test_help_keeps_defaults_shows_flags_and_choices(command):
         kind = getattr(p, "bare_type", None)
         if isinstance(kind, type) and issubclass(kind, Enum):
             assert "<" + "|".join(c.value for c in kind) + ">" in text, p.name
+
+
+def _keys(o, path=""):
+    if isinstance(o, dict):
+        for k, v in o.items():
+            yield f"{path}/{k}"
+            yield from _keys(v, f"{path}/{k}")
+    elif isinstance(o, list):
+        for v in o[:3]:
+            yield from _keys(v, path + "[]")
+
+
+def test_json_keys_have_no_spaces(run_cli, tmp_path):
+    import json
+
+    from tests.conftest import EXAMPLES
+
+    runs = [("simulate", EXAMPLES / "crank-rocker.yaml", "-o", tmp_path / "c.h5", "-n", "12"),
+            ("validate", EXAMPLES / "crank-rocker.yaml", "-n", "12"),
+            ("solve3d", EXAMPLES / "3d" / "crank-rocker.yaml", "-o", tmp_path / "s.h5", "--steps", "8"),
+            ("compare-curves", EXAMPLES / "curves" / "foot-paths.yaml")]
+    for args in runs:
+        r = run_cli(*args, "--json")
+        assert r.exit_code == 0, r.output
+        assert [k for k in _keys(json.loads(r.stdout)) if " " in k.rsplit("/", 1)[1]] == [], args[0]

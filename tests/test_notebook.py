@@ -51,7 +51,19 @@ def test_features_edit_and_solve3d(tmp_path, run_cli):
     table = le.features(f"{out}:foot", EXAMPLES / "curves" / "foot-paths.yaml")
     assert len(table) >= 2
     result = le.solve3d(EXAMPLES / "3d" / "compound-crank-rocker.yaml", steps=8)
-    assert result is not None
+    assert result.position.shape[0] == 8
+
+
+def test_edit_from_a_notebook(run_cli, tmp_path):
+    import yaml
+
+    import linkedit.edit.runner  # noqa: F401  (the subpackage linkedit.edit, loaded: le.edit still edits)
+
+    script = EXAMPLES / "edits" / "jansen-move-knee.yaml"
+    result = le.edit(EXAMPLES / "jansen.yaml", script)
+    assert run_cli("edit", EXAMPLES / "jansen.yaml", script, "-o", tmp_path).exit_code == 0
+    cli = yaml.safe_load(next(tmp_path.glob("*-edited.yaml")).read_text())["joints"]
+    assert {n: list(p) for n, p in result.edited.joints.items()} == {n: list(p) for n, p in cli.items()}
 
 
 def test_import_linkedit_is_light():

@@ -137,3 +137,18 @@ def test_hdf5_named_dimensions_descriptions_and_units(run_cli, tmp_path):
     assert foot.shape == (36, 2) and list(foot.columns) == ["x", "y"] and foot.index.name == "t"
     g = tree["joints"]["position"].sel(joint="G", xy="x").values
     assert (g == foot["x"].values).all()
+
+
+@pytest.mark.parametrize("module, args, pattern", [
+    ("ezdxf", ["-o", "x.dxf"], r"writing DXF needs the optional package ezdxf: pip install 'linkedit\[dxf\]'"),
+    ("PIL", ["-o", "x.h5", "--svg", "x.gif", "--animate"], r"writing GIF needs the optional package Pillow: pip install 'linkedit\[gif\]'"),
+])
+def test_missing_optional_package_is_one_clear_line(run_cli, tmp_path, monkeypatch, module, args, pattern):
+    import re
+    import sys
+
+    monkeypatch.setitem(sys.modules, module, None)  # as if not installed
+    r = run_cli("simulate", JANSEN, "-n", "8", *[str(tmp_path / a) if "." in a else a for a in args])
+    assert r.exit_code == 2 and re.search(pattern, r.output), r.output
+    assert len(r.output.strip().splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []  # found before anything was written

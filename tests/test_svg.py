@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 
 from linkedit.io.svg import MAX_FRAMES, animated_motion, edit_overlay, motion_plot
 from linkedit.io.svg_figure import Figure, Stroke, nice_ticks, tick_label
+from tests.conftest import ROOT
 
 NS = "{http://www.w3.org/2000/svg}"
 
@@ -73,9 +74,9 @@ def drawn_points(root: ET.Element) -> np.ndarray:
             values = el.get("values").split(";")
             if name == "points":
                 pts += [tuple(map(float, p.split(","))) for v in values for p in v.split()]
-            elif name in ("cx", "x1", "x2"):
+            elif name in ("cx", "x1", "x2", "x"):
                 pts += [(float(v), 1.0) for v in values]
-            else:
+            elif name != "display":  # per-frame captions switch display on and off
                 pts += [(1.0, float(v)) for v in values]
     return np.array(pts)
 
@@ -232,6 +233,12 @@ def test_collinear_ternary_link_is_a_bar_between_its_outer_joints():
 # -- the animation -----------------------------------------------------------------------------
 
 
+def motion_animates(root):
+    """The <animate> elements that move the drawing (the per-frame captions switch display instead)."""
+    captions = {id(a) for g in root.iter() if g.get("class") == "frame-caption" for a in g.iter(NS + "animate")}
+    return [a for a in root.iter(NS + "animate") if id(a) not in captions]
+
+
 @pytest.mark.parametrize("samples, frames", [(360, MAX_FRAMES), (50, 50), (MAX_FRAMES + 1, MAX_FRAMES)])
 def test_animation_values_follow_the_subsampled_motion(samples, frames):
     kw = crank_rocker(samples)
@@ -240,7 +247,7 @@ def test_animation_values_follow_the_subsampled_motion(samples, frames):
     x0, y0, w, h = viewbox(root)
     pts = drawn_points(root)
     assert np.all(pts >= [x0, y0]) and np.all(pts <= [x0 + w, y0 + h])
-    animates = list(root.iter(NS + "animate"))
+    animates = motion_animates(root)
     assert animates
     for a in animates:
         assert (a.get("dur"), a.get("repeatCount"), a.get("calcMode")) == ("3s", "indefinite", "linear")
@@ -272,14 +279,14 @@ def test_animation_values_follow_the_subsampled_motion(samples, frames):
 
 def test_animation_not_cyclic_has_one_value_per_frame():
     root = parse(animated_motion(None, **crank_rocker(30), cyclic=False))
-    assert {len(a.get("values").split(";")) for a in root.iter(NS + "animate")} == {30}
+    assert {len(a.get("values").split(";")) for a in motion_animates(root)} == {30}
     assert all(e.tag == NS + "polyline" for e in find(root, "track"))
 
 
 def test_animation_size_does_not_grow_with_samples():
     def animation_chars(samples: int) -> int:
         root = parse(animated_motion(None, **crank_rocker(samples)))
-        return sum(len(a.get("values")) for a in root.iter(NS + "animate"))
+        return sum(len(a.get("values")) for a in motion_animates(root))
 
     assert animation_chars(3600) == pytest.approx(animation_chars(240), rel=0.05)
 
@@ -423,3 +430,93 @@ def test_chromium_renders_the_plot(tmp_path):
                         (tmp_path / f"{name}.svg").as_uri()], check=True, capture_output=True, timeout=60)
         sizes[name] = (tmp_path / f"{name}.png").stat().st_size
     assert sizes["plot"] > 3 * sizes["blank"]
+
+
+# -- pictures that tell the truth (issue 11) ----------------------------------------------------
+
+
+def _lines(root, cls):
+    out = []
+    for el in root.iter():
+        if (el.get("class") or "").split()[:1] == [cls] and el.get("points"):
+            out.append(np.array([[float(v) for v in xy.split(",")] for xy in el.get("points").split()]))
+    return out
+
+
+def test_partial_plot_breaks_curves_and_marks_the_lockup(run_cli, tmp_path):
+    from tests.planar_specs import LOCKING
+
+    spec = tmp_path / "lock.yaml"
+    spec.write_text(LOCKING)
+    pic = tmp_path / "lock.svg"
+    assert run_cli("simulate", spec, "--partial", "-o", tmp_path / "l.h5", "--svg", pic).exit_code == 0
+    root = ET.parse(pic).getroot()
+    tip = [el for el in root.iter() if el.get("class") == "track" and el.get("data-name") == "tip"]
+    assert len(tip) == 2 and all(el.tag.endswith("polyline") for el in tip)  # broken, not closed
+    pieces = _lines(root, "track")
+    steps = np.concatenate([np.linalg.norm(np.diff(p, axis=0), axis=1) for p in pieces])
+    assert steps.max() < 10 * np.median(steps)  # no straight line across the locked gap
+    labels = [el.text for el in root.iter() if el.get("class") == "lockup-label"]
+    assert any("locks at" in w for w in labels) and any("free again" in w for w in labels)
+    # the point tracked on the coupler is a corner of the coupler's plate
+    coupler = next(el for el in root.iter() if el.get("class") == "link" and el.get("data-name") == "coupler")
+    assert coupler.tag.endswith("polygon") and len(coupler.get("points").split()) == 3
+
+
+def test_eleventh_track_differs_from_the_first_and_labels_have_a_halo():
+    kw = crank_rocker()
+    pos = kw["positions"]
+    kw["tracks"] = {f"t{n}": pos[:, 3] + n for n in range(11)}
+    root = parse(motion_plot(None, **kw))
+    style = {el.get("data-name"): (el.get("stroke"), el.get("stroke-dasharray"))
+             for el in root.iter() if el.get("class") == "track"}
+    assert style["t10"] != style["t0"]
+    label = next(el for el in root.iter() if el.get("class") == "joint-label")
+    assert label.get("stroke") == "#ffffff" and label.get("paint-order") == "stroke"
+
+
+def test_animation_shows_crank_angle_and_moving_joint_labels(run_cli, tmp_path):
+    pic = tmp_path / "a.svg"
+    assert run_cli("simulate", ROOT / "examples" / "jansen.yaml", "--svg", pic, "--animate", "-n", "72",
+                   "-o", tmp_path / "a.h5").exit_code == 0
+    root = ET.parse(pic).getroot()
+    captions = [el for el in root.iter() if el.get("class") == "frame-caption"][0]
+    words = [t.text for t in captions if t.tag.endswith("text")]
+    assert words[0] == "crank 0°" and words[18] == "crank 90°" and len(words) == 72
+    label = next(el for el in root.iter() if el.get("class") == "joint-label" and el.get("data-name") == "G")
+    assert "".join(label.itertext()) == "G" and {a.get("attributeName") for a in label} == {"x", "y"}
+
+
+def test_animation_as_gif(run_cli, tmp_path):
+    Image = pytest.importorskip("PIL.Image")
+    gif = tmp_path / "a.gif"
+    r = run_cli("simulate", ROOT / "examples" / "jansen.yaml", "--svg", gif, "--animate", "-n", "60",
+                "-o", tmp_path / "a.h5")
+    assert r.exit_code == 0, r.output
+    im = Image.open(gif)
+    assert im.format == "GIF" and im.n_frames == 60 and im.info["loop"] == 0
+    r = run_cli("simulate", ROOT / "examples" / "jansen.yaml", "--svg", tmp_path / "b.gif", "-o", tmp_path / "b.h5")
+    assert r.exit_code == 2 and "add --animate" in r.output
+
+
+def test_edit_overlay_draws_displace_targets_at_the_edited_rest_pose(run_cli, tmp_path):
+    import yaml
+
+    r = run_cli("edit", ROOT / "examples" / "edits" / "jansen-move-knee.yaml", "-o", tmp_path)
+    assert r.exit_code == 0, r.output
+    root = ET.parse(next(tmp_path.glob("*.svg"))).getroot()
+    edited = yaml.safe_load(next(tmp_path.glob("*-edited.yaml")).read_text())["joints"]
+    names = list(edited)
+    px = joint_pixels(root, "after")
+    world = np.array([edited[n] for n in names], dtype=float)
+    ax, sx, ay, sy = fit_map(world, np.array([px[n] for n in names]))
+    # the "after" linkage is drawn at the edited YAML's rest pose, joint for joint
+    residual = np.abs(np.array([px[n] for n in names]) - np.column_stack([ax + sx * world[:, 0], ay + sy * world[:, 1]]))
+    assert residual.max() < 0.02
+    (target,) = [el for el in root.iter() if el.get("class") == "displace-target"]
+    assert (float(target.get("cx")), float(target.get("cy"))) == pytest.approx((ax + sx * -20, ay + sy * 36), abs=0.02)
+    (arrow,) = [el for el in root.iter() if el.get("class") == "displace"]
+    line = arrow.find(NS + "line")
+    original = yaml.safe_load((ROOT / "examples" / "jansen.yaml").read_text())["joints"]["C"]
+    assert (float(line.get("x1")), float(line.get("y1"))) == pytest.approx(
+        (ax + sx * original[0], ay + sy * original[1]), abs=0.02)

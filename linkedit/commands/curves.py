@@ -12,6 +12,8 @@ from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError
 from linkedit.spec.common import MAX_WEIGHT
 
+#: what tables (features, distance matrices, rankings) can be written as, by suffix
+TABLE_FORMATS = ("csv", "hdf5", "json")
 SAMPLES_HELP = "Points per resampled curve [default: 64, or the weights file's]."
 SMOOTH_HELP = "Smooth sketched or noisy curves first: Gaussian σ as a fraction of the points (e.g. 0.01) [default: 0]."
 MIRROR_HELP = "Count a curve and its mirror image as the same."
@@ -68,13 +70,13 @@ def _feature_rows(curves: list, desc: Any) -> list[dict[str, Any]]:
 
 
 def _write_features(out: Path, curves: list, desc: Any, options: dict[str, Any]) -> None:
-    from linkedit.io.atomic import write_text
+    from linkedit.io.formats import output_format, write_out
 
     rows = _feature_rows(curves, desc)
-    suffix = out.suffix.lower()
-    if suffix == ".json":
-        write_text(out, json.dumps(rows, indent=2, allow_nan=False) + "\n")
-    elif suffix == ".csv":
+    fmt = output_format(out, TABLE_FORMATS, stdout="csv")
+    if fmt == "json":
+        write_out(out, json.dumps(rows, indent=2, allow_nan=False) + "\n")
+    elif fmt == "csv":
         import csv
         import io
 
@@ -82,11 +84,9 @@ def _write_features(out: Path, curves: list, desc: Any, options: dict[str, Any])
         writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
         writer.writeheader()
         writer.writerows(rows)
-        write_text(out, buf.getvalue())
-    elif suffix in (".h5", ".hdf5"):
-        _write_features_h5(out, curves, desc, options)
+        write_out(out, buf.getvalue())
     else:
-        raise InputError(f"{out}: unknown output type (use .h5, .csv or .json)", field="--output")
+        _write_features_h5(out, curves, desc, options)
 
 
 def _write_features_h5(out: Path, curves: list, desc: Any, options: dict[str, Any]) -> None:
@@ -182,7 +182,7 @@ def register(app: typer.Typer) -> None:
     @guard
     def features(
         inputs: list[str] = typer.Argument(..., help="Curves: result.h5:track, result.h5, .csv, curve-set .yaml, folders."),
-        output: Path = typer.Option(None, "--output", "-o", help="Write the table: .h5, .csv or .json [default: print it]."),
+        output: Path = typer.Option(None, "--output", "-o", help="Write the table: .h5, .csv or .json (- for CSV on stdout) [default: print it]."),
         samples: int = typer.Option(None, "--samples", "-n", min=8, max=4096, help=SAMPLES_HELP),
         harmonics: int = typer.Option(None, "--harmonics", min=1, max=64, help="Elliptic Fourier harmonics [default: 10]."),
         closed: bool = typer.Option(None, "--closed/--open", help=CLOSED_HELP),
@@ -202,7 +202,8 @@ def register(app: typer.Typer) -> None:
         if output is not None:
             options = {"samples": int(desc.points.shape[1]), "harmonics": int(desc.efd.shape[1]), "inputs": inputs}
             _write_features(output, curves, desc, options)
-            typer.echo(f"{len(curves)} curves → {output}")
+            if str(output) != "-":
+                typer.echo(f"{len(curves)} curves → {output}")
         elif as_json:
             print_json(_feature_rows(curves, desc))
         else:
@@ -214,12 +215,13 @@ def register(app: typer.Typer) -> None:
     @guard
     def compare_curves(
         inputs: list[str] = typer.Argument(None, help="Curves to compare with one another (as for `features`)."),
-        query: str = typer.Option(None, "--query", help="Rank the --library curves by distance to this curve."),
+        query: list[str] = typer.Option(None, "--query", help="Rank the --library curves by distance to this curve (repeatable: several queries in one run)."),
         library: list[str] = typer.Option(None, "--library", help="Library curves (files or folders; repeatable)."),
         weights_file: Path = typer.Option(None, "--weights", help="Weights YAML (specs/curve-set.md) [default: all 1]."),
         weight: list[str] = typer.Option(None, "--weight", help="TERM=WEIGHT, overrides the file (repeatable)."),
         learn_pairs: Path = typer.Option(None, "--learn-weights", help="Labelled pairs YAML: fit the weights, write them to -o."),
-        output: Path = typer.Option(None, "--output", "-o", help="Weights YAML written by --learn-weights."),
+        output: Path = typer.Option(None, "--output", "-o", help="Write the result: the distance matrix or the ranking "
+                                    "as .csv, .h5 or .json (- for CSV on stdout); with --learn-weights the weights .yaml."),
         samples: int = typer.Option(None, "--samples", "-n", min=8, max=4096, help=SAMPLES_HELP),
         harmonics: int = typer.Option(None, "--harmonics", min=1, max=64, help="Elliptic Fourier harmonics [default: 10]."),
         closed: bool = typer.Option(None, "--closed/--open", help=CLOSED_HELP),
@@ -240,24 +242,58 @@ def register(app: typer.Typer) -> None:
                 raise InputError("--learn-weights takes its curves from the pairs file", field="--learn-weights")
             _learn(learn_pairs, output, samples, harmonics, closed, as_json)
             return
-        if output is not None:
-            raise InputError("-o is for the weights written by --learn-weights", field="--output")
         weights, w_samples, w_harmonics = _load_weights(weights_file, weight or [])
         samples, harmonics = samples or w_samples, harmonics or w_harmonics
-        if query is not None or library:
-            if query is None or not library or inputs:
+        if query or library:
+            if not query or not library or inputs:
                 raise InputError("ranking needs --query and --library (and no other curves)", field="--query")
-            _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json, smooth, mirror, partial)
+            _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json, smooth, mirror, partial,
+                  output)
             return
         if not inputs:
             raise InputError("give curves to compare, or --query and --library", field="INPUT")
-        _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, smooth, mirror, partial)
+        _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, smooth, mirror, partial, output)
 
 
-def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, smooth, mirror, partial) -> None:
+def _write_table(output: Path, kind: str, names: list[str], columns: list[str], values: Any, extra: dict[str, Any]) -> None:
+    """A named table (rows ``names``, columns ``columns``) as CSV (17 digits), HDF5 or JSON, by suffix."""
+    import numpy as np
+
+    from linkedit.io.formats import output_format, write_out
+
+    fmt = output_format(output, TABLE_FORMATS, stdout="csv")
+    values = np.asarray(values, dtype=float)
+    if fmt == "csv":
+        import csv
+        import io
+
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(["curve", *columns])
+        for name, row in zip(names, values):
+            w.writerow([name, *(repr(float(v)) for v in row)])
+        write_out(output, buf.getvalue())
+    elif fmt == "json":
+        write_out(output, json.dumps({"curves": names, "columns": columns, "values": values.tolist()} | extra,
+                                     indent=2, allow_nan=False) + "\n")
+    else:
+        from linkedit.io.hdf5 import put, result_file, scale
+
+        with result_file(output, kind=kind, units="", spec_text="", options=extra) as f:
+            scale(f, "curve", names, "curve names (rows)")
+            scale(f, "column", columns, "column names")
+            put(f, "values", values, dims=("curve", "column"), units="1", description=f"{kind}: rows curves")
+
+
+def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, smooth, mirror, partial,
+            output=None) -> None:
     from linkedit.curves.compare import distances
     from linkedit.curves.distance import nearest
 
+    if output is not None:
+        from linkedit.io.formats import output_format
+
+        output_format(output, TABLE_FORMATS, stdout="csv")
     curves, desc = _load(inputs, closed, samples, harmonics, anchor, smooth=smooth)
     if len(curves) < 2:
         raise InputError("compare-curves needs at least 2 curves", field="INPUT")
@@ -268,6 +304,11 @@ def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, s
     rows = [{"curve": names[i], "nearest": names[j], "distance": float(dist[i, j])} for i, j in enumerate(near)]
     if svg is not None:
         _overlay(svg, names, desc, 0, "curves aligned to " + names[0], mirror=mirror)
+    if output is not None:
+        _write_table(output, "curve-distances", names, names, dist, {"weights": w})
+        if str(output) != "-":
+            typer.echo(f"{len(names)} × {len(names)} distances → {output}")
+        return
     if as_json:
         print_json({"curves": names, "weights": w, "distance": dist, "nearest": rows})
         return
@@ -280,45 +321,65 @@ def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, s
         typer.echo(f"  {r['curve']} → {r['nearest']} ({r['distance']:.4f})")
 
 
-def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json, smooth, mirror,
-          partial) -> None:
+def _rank(queries, library, weights, samples, harmonics, closed, anchor, top, svg, as_json, smooth, mirror, partial,
+          output=None) -> None:
+    """Rank the library against each query; ``output`` gets every distance (rows library, columns queries)."""
     import numpy as np
 
     from linkedit.curves.compare import distances, placements
-
     from linkedit.curves.sources import load_inputs
 
-    queried = load_inputs([query], closed=closed)
-    if len(queried) != 1:
-        raise InputError(f"the query holds {len(queried)} curves; name one (result.h5:track)", field="--query")
+    if output is not None:
+        from linkedit.io.formats import output_format
+
+        output_format(output, TABLE_FORMATS, stdout="csv")
+    queried = []
+    for query in queries:
+        one = load_inputs([query], closed=closed)
+        if len(one) != 1:
+            raise InputError(f"the query {query} holds {len(one)} curves; name one (result.h5:track)", field="--query")
+        queried += one
+
     def warn(exc: InputError) -> None:  # a library with a bad file: warn, skip it, rank the rest
         typer.echo(f"linkedit: warning: {exc} (skipped)", err=True)
 
+    q = len(queried)
     curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed, skip=warn),
                          smooth=smooth)
     w = _resolve(desc, weights)
-    dist, terms = distances(desc.take([0]), w, desc.take(range(1, len(curves))), mirror=mirror, partial=partial)
-    order = np.argsort(dist[0], kind="stable")[:top]
-    placed = placements(desc.take([0]), desc.take(1 + order), mirror=mirror)
-    ranking = [{"rank": k + 1, "curve": curves[1 + i].name, "origin": curves[1 + i].origin,
-                "distance": float(dist[0, i]), "terms": {t: float(m[0, i]) for t, m in terms.items()},
-                "placement": placed[k]}
-               for k, i in enumerate(order)]
-    if svg is not None:
-        chosen = [0] + [1 + int(i) for i in order]
-        _overlay(svg, [curves[i].name for i in chosen], desc.take(chosen), 0, f"library ranked against {curves[0].name}",
-                 mirror=mirror,
-                 labels=[f"query: {curves[0].name}"] + [f"{r['rank']}. {r['curve']} ({r['distance']:.4f})" for r in ranking])
-    if as_json:
-        print_json({"query": curves[0].name, "weights": w, "ranking": ranking})
+    dist, terms = distances(desc.take(range(q)), w, desc.take(range(q, len(curves))), mirror=mirror, partial=partial)
+    results = []
+    for n in range(q):
+        order = np.argsort(dist[n], kind="stable")[:top]
+        placed = placements(desc.take([n]), desc.take(q + order), mirror=mirror)
+        ranking = [{"rank": k + 1, "curve": curves[q + i].name, "origin": curves[q + i].origin,
+                    "distance": float(dist[n, i]), "terms": {t: float(m[n, i]) for t, m in terms.items()},
+                    "placement": placed[k]}
+                   for k, i in enumerate(order)]
+        results.append({"query": curves[n].name, "weights": w, "ranking": ranking})
+        if svg is not None and n == 0:
+            chosen = [0] + [q + int(i) for i in order]
+            _overlay(svg, [curves[i].name for i in chosen], desc.take(chosen), 0,
+                     f"library ranked against {curves[0].name}", mirror=mirror,
+                     labels=[f"query: {curves[0].name}"] + [f"{r['rank']}. {r['curve']} ({r['distance']:.4f})"
+                                                            for r in ranking])
+    if output is not None:
+        _write_table(output, "curve-ranking", [c.name for c in curves[q:]], [c.name for c in curves[:q]], dist.T,
+                     {"weights": w})
+        if str(output) != "-":
+            typer.echo(f"{len(curves) - q} library curves × {q} queries → {output}")
         return
-    typer.echo(f"query {curves[0].name}: {len(curves) - 1} library curves, nearest first")
-    for r in ranking:
-        p = r["placement"]
-        turn = f"turn {p['rotation_deg']:.1f}°, " if "rotation_deg" in p else ""
-        typer.echo(f"{r['rank']:>4d}. {r['curve']}  {r['distance']:.4f}  (scale {p['scale']:.4g}, {turn}"
-                   f"move {', '.join(f'{v:.4g}' for v in p['translation'])}, phase {p['phase']:.3f}"
-                   + (", reversed" if p["reversed"] else "") + (", mirrored" if p["mirrored"] else "") + ")")
+    if as_json:
+        print_json(results[0] if q == 1 else {"queries": results})
+        return
+    for r in results:
+        typer.echo(f"query {r['query']}: {len(curves) - q} library curves, nearest first")
+        for x in r["ranking"]:
+            p = x["placement"]
+            turn = f"turn {p['rotation_deg']:.1f}°, " if "rotation_deg" in p else ""
+            typer.echo(f"{x['rank']:>4d}. {x['curve']}  {x['distance']:.4f}  (scale {p['scale']:.4g}, {turn}"
+                       f"move {', '.join(f'{v:.4g}' for v in p['translation'])}, phase {p['phase']:.3f}"
+                       + (", reversed" if p["reversed"] else "") + (", mirrored" if p["mirrored"] else "") + ")")
 
 
 def _overlay(path: Path, names: list[str], desc: Any, reference: int, title: str, labels: list[str] | None = None,

@@ -144,7 +144,26 @@ def _overlay(path: Path, result: Any, script: Any) -> None:
     boxes = [op.envelope for op in script.operations if op.envelope is not None]
     envelope = (boxes[-1].xmin, boxes[-1].xmax, boxes[-1].ymin, boxes[-1].ymax) if boxes else None
     edit_overlay(path, before=drawing(result.before), after=drawing(result.after), targets=targets,
-                 envelope=envelope, units=result.original.units, title=f"{result.original.name}: edit")
+                 envelope=envelope, units=result.original.units, title=f"{result.original.name}: edit",
+                 displacements=_displacements(result, script))
+
+
+def _displacements(result: Any, script: Any) -> list[tuple[str, Any, Any]]:
+    """(label, where the point was, its target) of every displace goal of the script."""
+    before = result.before
+    names = before.plan.joint_names
+    out = []
+    for op in script.operations:
+        for d in op.listed("displace"):
+            when = d.when
+            if d.joint is not None:
+                j = names.index(d.joint)
+                old = (result.original.joints[d.joint] if when is None
+                       else before.positions[int(round(when * before.t.size)) % before.t.size, j])
+            else:
+                old = d.at if when is None else None
+            out.append((d.label, old, d.to))
+    return out
 
 
 class _Progress:

@@ -13,7 +13,7 @@ import typer
 from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError, LinkeditError, MechanismError
 from linkedit.io.atomic import together
-from linkedit.io.formats import is_stdout, output_format, write_out
+from linkedit.io.formats import is_stdout, output_format, require, write_out
 from linkedit.io.planar_out import result_format
 
 
@@ -33,11 +33,14 @@ def _outputs(specs: list[Path], out: Path | None, svg: Path | None, animate: boo
     pairs = []
     for spec in specs:
         h5 = out if out is not None and _is_file(out) else (out or Path("out")) / f"{spec.stem}.h5"
-        result_format(h5)
+        require(result_format(h5), h5)  # a missing optional writer is found before any work
         pic = None
         if svg is not None:
             pic = svg if _is_file(svg) else svg / f"{spec.stem}.svg"
-            output_format(pic, ("svg",), option="--svg", stdout="svg")
+            kind = output_format(pic, ("svg", "gif"), option="--svg", stdout="svg")
+            if kind == "gif" and not animate:
+                raise InputError(f"{pic}: a GIF is an animation: add --animate (or write .svg)", field="--svg")
+            require(kind, pic)
         elif animate:
             pic = h5.with_suffix(".svg") if not is_stdout(h5) else None
         pairs.append((h5, pic))
@@ -79,9 +82,12 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
     write_result(h5, motion, spec_text=text, options=options)
     result = {"spec": str(spec_path), "output": str(h5)} | motion.summary()
     if svg is not None:
-        from linkedit.io.planar_svg import draw_motion
+        from linkedit.io.planar_svg import draw_gif, draw_motion
 
-        write_out(svg, draw_motion(None, motion, animate=animate))
+        if svg.suffix.lower() == ".gif":
+            draw_gif(svg, motion)
+        else:
+            write_out(svg, draw_motion(None, motion, animate=animate))
         result["svg"] = str(svg)
     return result
 
@@ -111,12 +117,13 @@ def register(app: typer.Typer) -> None:
     def simulate(
         specs: list[Path] = typer.Argument(..., help="Linkage spec YAML files."),
         output: Path = typer.Option(None, "--output", "-o", help="Result file (one spec): .h5/.hdf5, .csv or .dxf by its suffix, - for CSV on stdout; or a folder of .h5 files [default: out/]."),
-        svg: Path = typer.Option(None, "--svg", help="Motion plot .svg (one spec; - for stdout) or folder."),
-        animate: bool = typer.Option(False, "--animate", help="Make the SVG an animation (SMIL) of the cycle."),
+        svg: Path = typer.Option(None, "--svg", help="Motion plot .svg (one spec; - for stdout), .gif with --animate, or a folder."),
+        animate: bool = typer.Option(False, "--animate", help="Make the picture an animation of the cycle (SVG with SMIL, or GIF)."),
         samples: int = typer.Option(None, "--samples", "-n", min=1, help="Time samples per cycle [default: spec's, else 360]."),
         engine: Engine = typer.Option(Engine.symbolic, "--engine", help="symbolic (closed form) or numeric (3D constraint solver)."),
         partial: bool = typer.Option(False, "--partial", help="Write a cycle that locks up somewhere (positions NaN there, flagged in /diagnostics/assembled) instead of failing."),
         as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+        quiet: bool = typer.Option(False, "--quiet", "-q", help="Print nothing but errors (the exit code tells the rest)."),
     ) -> None:
         """Simulate planar linkages; write HDF5 trajectories (and SVG motion plots)."""
         if engine == Engine.numeric and partial:
@@ -138,12 +145,12 @@ def register(app: typer.Typer) -> None:
                 r = {"spec": str(spec_path), "error": str(exc), "exit_code": exc.exit_code}
                 worst = max(worst, exc.exit_code)
             results.append(r)
-            if not as_json and "error" not in r:
+            if not as_json and not quiet and "error" not in r:
                 typer.echo(_line(r), err=to_stderr)
             progress()
-        if as_json:
+        if as_json and not quiet:
             print_json(results)
-        elif len(specs) > 1:
+        elif len(specs) > 1 and not quiet:
             failed = sum("error" in r for r in results)
             typer.echo(f"{len(specs) - failed} of {len(specs)} specs simulated" + (f", {failed} failed" if failed else ""))
         if worst:
@@ -155,13 +162,15 @@ def register(app: typer.Typer) -> None:
         specs: list[Path] = typer.Argument(..., help="Linkage spec YAML files."),
         samples: int = typer.Option(None, "--samples", "-n", min=1, help="Samples for the diagnostics [default: 360]."),
         as_json: bool = typer.Option(False, "--json", help="Print as JSON."),
+        quiet: bool = typer.Option(False, "--quiet", "-q", help="Print nothing but errors (the exit code tells the rest)."),
     ) -> None:
         """Check specs: print the joint ordering (rules per level), mobility and diagnostics. Writes nothing."""
         from linkedit.planar import compile_plan, simulate as run
         from linkedit.spec.linkage import LinkageSpec
         from linkedit.spec.yamlload import load_model
 
-        reports, worst = [], 0
+        reports: list[dict[str, Any]] = []
+        worst = 0
         for path in specs:
             try:
                 spec = load_model(LinkageSpec, path)
@@ -184,7 +193,9 @@ def register(app: typer.Typer) -> None:
             reports.append({"spec": str(path)} | motion.summary() | {"grubler": plan.mobility.grubler,
                             "redundant": plan.mobility.redundant, "levels": levels,
                             "warnings": transmission_warnings(motion)})
-        if as_json:
+        if quiet:
+            pass
+        elif as_json:
             print_json(reports)
         else:
             for r in reports:

@@ -132,12 +132,19 @@ def register(app: typer.Typer) -> None:
         # with --from and no -o the result is updated in place (atomically): the source is not an input then
         inputs = [spec] if spec is not None else [source] if output is not None else []
         check_outputs([("--output", out), ("--svg", svg)], inputs)
+        from linkedit.io.formats import output_format
+
+        output_format(out, ("hdf5",))
+        if svg is not None:
+            output_format(svg, ("svg",), option="--svg")
         write_result(out, res)
         if svg is not None:
             from linkedit.gcs.svg import draw
 
             draw(svg, res, view=view.value, velocity=velocity)
         if as_json:
-            print_json(res.summary() | {"output": str(out), "svg": str(svg) if svg else None})
+            summary = res.summary()
+            summary["status"] = {k.replace(" ", "_"): v for k, v in summary["status"].items()}  # JSON keys: no spaces
+            print_json(summary | {"output": str(out), "svg": str(svg) if svg else None})
         else:
             typer.echo(_line(res, out, svg))

@@ -7,6 +7,7 @@ distance, nearest neighbours, rankings and learned weights.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import cast
 
 import numpy as np
 
@@ -37,8 +38,9 @@ def describe_curves(curves: list[Curve], *, samples: int = DEFAULT_SAMPLES, harm
         raise InputError("some curves have an anchor and this one has none (give --anchor for the rest)",
                          file=missing.origin)
     with np.errstate(all="ignore"):  # a non-finite result is reported below, naming the curve
-        desc = describe_ragged([smooth_curve(c.points, c.closed, smooth) for c in curves], [c.closed for c in curves], samples=samples,
-                               harmonics=harmonics, anchors=None if anchors[0] is None else anchors)
+        desc = describe_ragged([smooth_curve(c.points, c.closed, smooth) for c in curves], [c.closed for c in curves],
+                               samples=samples, harmonics=harmonics,
+                               anchors=None if anchors[0] is None else cast(list[np.ndarray], anchors))
     check_finite(curves, desc)
     return desc
 

@@ -154,7 +154,8 @@ def aligned_rms(a: np.ndarray, b: np.ndarray | None, closed_a: np.ndarray, close
     ``b=None`` compares ``a`` with itself (only half the pairs are computed).
     """
     symmetric = b is None
-    b, closed_b = (a, closed_a) if symmetric else (b, closed_b)
+    if b is None:
+        b, closed_b = a, closed_a
     n, dim = a.shape[1], a.shape[2]
     sigma = np.broadcast_to(np.asarray(reverse_sign, dtype=float), (dim,))
     versions = 2 * len(_frame_signs(dim, frame_flips, mirror))
@@ -237,7 +238,7 @@ def term_distances(a: Descriptors, b: Descriptors | None = None, *, mirror: bool
     curves and count 0 for such pairs.
     """
     symmetric = b is None
-    other = a if symmetric else b
+    other = a if b is None else b
     if other.names != a.names or other.points.shape[1:] != a.points.shape[1:]:
         raise ValueError("descriptors of different kinds (dimension, samples or anchors) cannot be compared")
     out: dict[str, np.ndarray] = {}

@@ -8,7 +8,10 @@ An input is written as on the command line:
   ``edit.h5:foot`` is the edited curve, ``edit.h5:before/foot`` and ``edit.h5:after/foot``
   choose, ``edit.h5`` alone gives every track before and after;
 * ``path.csv`` — columns x, y[, z] and optionally t (a header names them; without a header,
-  2 or 3 numeric columns are x, y[, z]); rows are ordered by t when it is given;
+  2 or 3 numeric columns are x, y[, z]); rows are ordered by t when it is given. Spreadsheet and
+  PMKS+/SolveSpace exports read too: units in the header (``X (mm)``, ``y [mm]``), ``time`` for
+  t, an index column (``index``, ``#``, ``point``…, ignored), ``;`` or tab separators (with
+  ``;``, decimal commas), ``#`` and ``//`` comment lines;
 * ``set.yaml`` — a curve set (``specs/curve-set.md``); ``set.yaml:circle`` — one curve of it;
 * a folder — every .h5/.hdf5, .csv and .yaml/.yml file in it.
 
@@ -20,9 +23,11 @@ from __future__ import annotations
 import contextvars
 import csv
 import io
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -165,25 +170,36 @@ def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
     """One curve from a CSV file (columns x, y[, z], optional t)."""
     file = str(path)
     text = read_text(path)
-    rows = [(i + 1, r) for i, r in enumerate(csv.reader(io.StringIO(text)))
-            if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
+    lines = text.splitlines()
+    data_lines = [ln for ln in lines if ln.strip() and not ln.lstrip().startswith(("#", "//"))]
+    delimiter = _delimiter(data_lines[0]) if data_lines else ","
+    decimal_comma = delimiter == ";" and any("," in ln and "." not in ln for ln in data_lines[1:3])
+    if decimal_comma:
+        text = text.replace(",", ".")
+    rows = [(i + 1, r) for i, r in enumerate(csv.reader(io.StringIO(text), delimiter=delimiter))
+            if r and any(c.strip() for c in r) and not r[0].lstrip().startswith(("#", "//"))]
     if not rows:
         raise InputError("the file has no data", file=file)
     line, first = rows[0]
-    header = [c.strip().lower() for c in first]
+    header = [_column(c) for c in first]
+    keep = list(range(len(header)))
     if all(_is_number(c) for c in header):
         if len(header) not in (2, 3):
             raise InputError(f"{len(header)} columns without a header; give x, y[, z] or a header line", file=file,
                              line=line)
         columns = ["x", "y", "z"][: len(header)]
     else:
-        columns = header
+        keep = [i for i, name in enumerate(header) if name not in INDEX_COLUMNS]
+        columns = [header[i] for i in keep]
         rows = rows[1:]
         for name in columns:
             if name not in ("x", "y", "z", "t"):
-                raise InputError(f"unknown column {name!r} (use x, y, z, t)", file=file, line=line, field=name)
+                raise InputError(f"unknown column {name!r} (use x, y, z, t; an index column is ignored)", file=file,
+                                 line=line, field=name)
         if len(set(columns)) != len(columns) or "x" not in columns or "y" not in columns:
             raise InputError("the header must name x and y once each (and optionally z, t)", file=file, line=line)
+    width = len(header)
+    rows = [(ln, [row[i] for i in keep] if len(row) == width else row) for ln, row in rows]
     values = np.empty((len(rows), len(columns)))
     for r, (line, row) in enumerate(rows):
         if len(row) != len(columns):
@@ -200,6 +216,22 @@ def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
         values = values[np.argsort(values[:, columns.index("t")], kind="stable")]
     points = values[:, [columns.index(a) for a in ("x", "y", "z") if a in columns]]
     return make_curve(path.stem, points, closed=closed, origin=file, file=file)
+
+
+#: header names of columns that only number the rows (ignored)
+INDEX_COLUMNS = ("", "index", "idx", "#", "no", "n", "i", "point", "frame", "step", "sample", "unnamed: 0")
+_UNITS = re.compile(r"\s*[\(\[][^\)\]]*[\)\]]\s*")
+
+
+def _column(cell: str) -> str:
+    """A header cell as a column name: ``X (mm)``, ``x [mm]``, `` X `` → ``x``; ``time`` → ``t``."""
+    name = _UNITS.sub("", cell).strip().lower()
+    return {"time": "t"}.get(name, name)
+
+
+def _delimiter(line: str) -> str:
+    """The separator of a CSV line: the most frequent of , ; and tab."""
+    return max((",", ";", "\t"), key=line.count)
 
 
 def _is_number(text: str) -> bool:
@@ -257,7 +289,7 @@ def read_curve_set(path: Path, *, closed: bool | None = None) -> list[Curve]:
 def make_curve(name: str, points: np.ndarray, *, closed: bool | None, origin: str, file: str | None = None,
                field: tuple[str | int, ...] | None = None, line: int | None = None, units: str | None = None) -> Curve:
     """Check and clean points (M, D): finite, ≥ 3 distinct points, positive length; decide closedness."""
-    where = dict(file=file or origin, field=field, line=line)
+    where: dict[str, Any] = dict(file=file or origin, field=field, line=line)
     points = np.asarray(points, dtype=float)
     if points.ndim != 2 or points.shape[1] not in (2, 3):
         raise InputError(f"expected points with 2 or 3 coordinates, got shape {points.shape}", **where)
@@ -266,7 +298,7 @@ def make_curve(name: str, points: np.ndarray, *, closed: bool | None, origin: st
     keep = np.ones(len(points), dtype=bool)
     keep[1:] = np.any(points[1:] != points[:-1], axis=1)
     points = points[keep]
-    distinct = len(np.unique(points, axis=0))
+    distinct = _distinct_up_to_3(points)
     if distinct == 1:
         raise InputError("degenerate curve: all points coincide (zero length)", **where)
     if distinct < 3:
@@ -277,6 +309,16 @@ def make_curve(name: str, points: np.ndarray, *, closed: bool | None, origin: st
     if looped and closed:
         points = points[:-1]
     return Curve(name, points, bool(closed), origin, None, units)
+
+
+def _distinct_up_to_3(points: np.ndarray) -> int:
+    """How many distinct points (M, D) there are, counted up to 3 (two O(M) passes, no sort)."""
+    other = np.any(points != points[0], axis=1)
+    if not other.any():
+        return 1
+    second = points[int(np.argmax(other))]
+    third = other & np.any(points != second, axis=1)
+    return 3 if third.any() else 2
 
 
 def is_closed(points: np.ndarray) -> bool:

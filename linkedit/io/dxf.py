@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from linkedit.errors import InputError
 from linkedit.io.atomic import atomic_path
+from linkedit.io.formats import require
 from linkedit.planar.simulate import Motion
 
 #: spec units → DXF $INSUNITS code (0 = unitless)
@@ -32,11 +32,9 @@ def layer_name(kind: str, name: str) -> str:
 
 def write_motion_dxf(path: str | Path, motion: Motion) -> None:
     """Write the rest pose and the track curves of ``motion`` as DXF (R2010), atomically."""
-    try:
-        import ezdxf
-    except ModuleNotFoundError:
-        raise InputError("writing DXF needs the optional package ezdxf: pip install 'linkedit[dxf]'",
-                         file=str(path)) from None
+    require("dxf", path)
+    import ezdxf
+
     plan = motion.plan
     graph = plan.graph
     origin = graph.rest[graph.ground[0]]

@@ -1,7 +1,7 @@
 """Which writer an output path asks for: the file suffix decides; ``-`` is standard output.
 
 ``.h5``/``.hdf5`` → HDF5, ``.csv`` → CSV, ``.dxf`` → DXF, ``.svg`` → SVG, ``.json`` → JSON,
-``.yaml``/``.yml`` → YAML. A command lists the formats it can write; any other suffix is an
+``.yaml``/``.yml`` → YAML, ``.gif`` → GIF. A command lists the formats it can write; any other suffix is an
 input error (exit 2) naming the option and the formats it accepts.
 """
 
@@ -14,7 +14,7 @@ from linkedit.errors import InputError
 from linkedit.io.atomic import write_text
 
 SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".csv": "csv", ".dxf": "dxf", ".svg": "svg", ".json": "json",
-            ".yaml": "yaml", ".yml": "yaml"}
+            ".yaml": "yaml", ".yml": "yaml", ".gif": "gif"}
 #: formats that can go to standard output (``-o -``)
 TEXT = ("csv", "svg", "json", "yaml")
 STDOUT = Path("-")
@@ -41,6 +41,22 @@ def output_format(path: str | Path, accepted: tuple[str, ...], *, option: str = 
         raise InputError(f"{path}: unknown output format {Path(path).suffix or '(no suffix)'!r}; "
                          f"give a file ending in {wanted}", field=option)
     return kind
+
+
+#: formats written by an optional package: format → (module, package name, extra)
+OPTIONAL = {"dxf": ("ezdxf", "ezdxf", "dxf"), "gif": ("PIL", "Pillow", "gif")}
+
+
+def require(kind: str, path: str | Path) -> None:
+    """InputError (exit 2) if the optional package that writes ``kind`` is not installed."""
+    if kind not in OPTIONAL:
+        return
+    module, package, extra = OPTIONAL[kind]
+    try:
+        __import__(module)
+    except ImportError:
+        raise InputError(f"writing {kind.upper()} needs the optional package {package}: "
+                         f"pip install 'linkedit[{extra}]'", file=str(path)) from None
 
 
 def write_out(path: str | Path, text: str) -> None:

@@ -9,19 +9,57 @@ import numpy as np
 
 from linkedit.io.svg import animated_motion, motion_plot
 from linkedit.planar.simulate import Motion
+from linkedit.spec.linkage import LinkTrack
 
 
 def drawing(motion: Motion) -> dict[str, Any]:
-    """The keyword arguments of :func:`linkedit.io.svg.motion_plot` for the assembled samples."""
+    """The keyword arguments of :func:`linkedit.io.svg.motion_plot` for the assembled samples.
+
+    A point tracked on a link is drawn as part of its link (an extra corner of the link's
+    plate); where the linkage is locked (``--partial``) the curves break and the lock-up
+    angles are marked.
+    """
     plan = motion.plan
     ok = motion.assembled
+    names = list(plan.joint_names)
+    positions = motion.positions[ok]
+    links = {n: list(m) for n, m in zip(plan.graph.link_names, plan.graph.links)}
+    extra: list[np.ndarray] = []
+    for name, track in plan.spec.tracks.items():
+        if isinstance(track, LinkTrack):
+            links[track.link].append(len(names) + len(extra))
+            extra.append(motion.tracks[name].position[ok])
+    if extra:
+        positions = np.concatenate([positions, np.stack(extra, axis=1)], axis=1)
+        names += [n for n, t in plan.spec.tracks.items() if isinstance(t, LinkTrack)]
+    kept = np.flatnonzero(ok)
+    breaks = [int(i) for i in np.flatnonzero(np.diff(kept) > 1) + 1]
+    notes = []
+    degrees = np.degrees(motion.motor_angle)
+    for lk in motion.lockups:  # mark the assembled samples either side of each locked run
+
+        def at(deg: float) -> int:
+            return int(np.argmin(np.abs((degrees - deg + 180.0) % 360.0 - 180.0)))
+
+        first, last = at(lk.start_deg), at(lk.end_deg)
+        notes.append((int(np.searchsorted(kept, first)) - 1 if first > kept[0] else len(kept) - 1,
+                      f"locks at {lk.start_deg:.1f}° ({lk.joint})"))
+        notes.append((int(np.searchsorted(kept, last)) % len(kept), f"free again after {lk.end_deg:.1f}°"))
     return dict(
-        joint_names=plan.joint_names, positions=motion.positions[ok],
-        links={n: list(m) for n, m in zip(plan.graph.link_names, plan.graph.links)},
+        joint_names=names, positions=positions, links=links,
         ground=list(plan.graph.ground), motor=None if plan.linear else (plan.graph.motor, plan.graph.pivot),
         tracks={n: tr.position[ok] for n, tr in motion.tracks.items()},
-        units=plan.spec.units, title=f"{plan.spec.name} ({int(np.sum(ok))} samples)",
+        units=plan.spec.units, title=f"{plan.spec.name} ({int(np.sum(ok))} samples)", breaks=breaks, notes=notes,
     )
+
+
+def draw_gif(path: str | Path, motion: Motion) -> None:
+    """Write the animation of ``motion`` as a GIF (Pillow)."""
+    from linkedit.io.gif import write_gif
+
+    kw = drawing(motion)
+    kw.pop("notes")
+    write_gif(path, cyclic=motion.cyclic and bool(motion.assembled.all()), **kw)
 
 
 def draw_motion(path: str | Path | None, motion: Motion, *, animate: bool = False) -> str:

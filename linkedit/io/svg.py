@@ -35,11 +35,12 @@ class Drawing:
     ground: list[int]
     motor: tuple[int, int] | None
     tracks: dict[str, np.ndarray]
+    breaks: tuple[int, ...] = ()  #: sample indices that start a new piece of every curve
 
     @classmethod
     def check(cls, joint_names: Sequence[str], positions: np.ndarray, links: Mapping[str, Sequence[int]],
               ground: Sequence[int], motor: tuple[int, int] | None,
-              tracks: Mapping[str, np.ndarray]) -> Drawing:
+              tracks: Mapping[str, np.ndarray], breaks: Sequence[int] = ()) -> Drawing:
         """Validate shapes, indices and finiteness (ValueError naming the offending input)."""
         names = [str(n) for n in joint_names]
         pos = finite("positions", positions, (None, len(names), 2))
@@ -59,7 +60,14 @@ class Drawing:
                 raise ValueError(f"link {name}: needs at least 2 joints")
         paths = {str(n): finite(f"track {n}", c, (pos.shape[0], 2)) for n, c in tracks.items()}
         pair = None if motor is None else (index("motor joint", motor[0]), index("motor pivot", motor[1]))
-        return cls(names, pos, body, [index("ground", i) for i in ground], pair, paths)
+        cuts = tuple(sorted({int(b) for b in breaks}))
+        if any(not 0 < b < pos.shape[0] for b in cuts):
+            raise ValueError(f"breaks: sample indices must be in 1..{pos.shape[0] - 1}, got {list(cuts)}")
+        return cls(names, pos, body, [index("ground", i) for i in ground], pair, paths, cuts)
+
+    def pieces(self, curve: np.ndarray) -> list[np.ndarray]:
+        """``curve`` (T, ...) cut at the breaks."""
+        return np.split(curve, self.breaks) if self.breaks else [curve]
 
     def motor_turns_ccw(self) -> bool:
         """Whether the motor joint turns counter-clockwise about its pivot over the samples."""
@@ -72,7 +80,8 @@ class Drawing:
 
 def motion_plot(path: str | Path | None, *, joint_names: Sequence[str], positions: np.ndarray,
                 links: Mapping[str, Sequence[int]], ground: Sequence[int], motor: tuple[int, int] | None,
-                tracks: Mapping[str, np.ndarray], units: str = "", title: str = "", cyclic: bool = True) -> str:
+                tracks: Mapping[str, np.ndarray], units: str = "", title: str = "", cyclic: bool = True,
+                breaks: Sequence[int] = (), notes: Sequence[tuple[int, str]] = ()) -> str:
     """A static motion plot; returns the SVG text and writes it to ``path`` (atomically) if given.
 
     ``positions`` (T, J, 2): joint positions over the cycle in ``units``, sample 0 = rest pose;
@@ -81,13 +90,23 @@ def motion_plot(path: str | Path | None, *, joint_names: Sequence[str], position
     ``tracks``: track name → (T, 2) positions. Draws the links at the rest pose, ground and
     motor symbols, every track's curve (one colour each, in the legend), the other joints'
     paths faint, axes in ``units``. ``cyclic``: the samples are one full cycle (curves closed).
+    ``breaks``: sample indices where a curve is broken (samples before and after are not
+    neighbours: the linkage was locked in between); ``notes``: (sample, text) marked on the
+    first track's curve (or the motor joint's path), e.g. the lock-up angles.
     """
-    d = Drawing.check(joint_names, positions, links, ground, motor, tracks)
+    d = Drawing.check(joint_names, positions, links, ground, motor, tracks, breaks)
     fig = Figure(title=title, units=units, cyclic=cyclic)
     colors = _colors(d.tracks)
     _joint_paths(fig, d)
     _tracks(fig, d, colors, closed=cyclic)
     _mechanism(fig, d, d.positions[0])
+    marked = next(iter(d.tracks.values()), None)
+    if marked is None and d.motor is not None:
+        marked = d.positions[:, d.motor[0]]
+    for sample, words in notes:
+        if marked is not None:
+            fig.joints(marked[sample][None], radius=4.0, fill="#ffffff", stroke=Stroke(PALETTE[1], 1.6), cls="lockup")
+            fig.annotate(marked[sample], words, color=PALETTE[1], cls="lockup-label")
     for name, curve in d.tracks.items():
         fig.joints(curve[0][None], names=[name], fill=colors[name], stroke=Stroke(colors[name], 1.0),
                    cls="track-point")
@@ -100,10 +119,10 @@ def motion_plot(path: str | Path | None, *, joint_names: Sequence[str], position
 def animated_motion(path: str | Path | None, *, joint_names: Sequence[str], positions: np.ndarray,
                     links: Mapping[str, Sequence[int]], ground: Sequence[int], motor: tuple[int, int] | None,
                     tracks: Mapping[str, np.ndarray], units: str = "", title: str = "", duration_s: float = 4.0,
-                    cyclic: bool = True) -> str:
+                    cyclic: bool = True, breaks: Sequence[int] = (), notes: Sequence[tuple[int, str]] = ()) -> str:
     """An animated motion plot (SMIL, plays in a browser); returns the SVG text, writes ``path`` if given.
 
-    Same inputs as :func:`motion_plot`. The cycle plays in ``duration_s`` seconds, forever; the
+    Same inputs as :func:`motion_plot` (``notes`` are not drawn). The cycle plays in ``duration_s`` seconds, forever; the
     T samples are thinned evenly to at most ``MAX_FRAMES`` frames (every element's
     ``<animate values=...>`` has one value per frame, plus frame 0 again at the end when
     ``cyclic``). Links, joints and track points move; track curves, joint paths, ground and
@@ -111,7 +130,7 @@ def animated_motion(path: str | Path | None, *, joint_names: Sequence[str], posi
     """
     if not (np.isfinite(duration_s) and duration_s > 0):
         raise ValueError(f"duration_s must be a positive number of seconds, got {duration_s}")
-    d = Drawing.check(joint_names, positions, links, ground, motor, tracks)
+    d = Drawing.check(joint_names, positions, links, ground, motor, tracks, breaks)
     samples = d.positions.shape[0]
     frames = np.arange(samples) if samples <= MAX_FRAMES else (
         np.round(np.linspace(0, samples, MAX_FRAMES, endpoint=False)).astype(int))
@@ -123,13 +142,20 @@ def animated_motion(path: str | Path | None, *, joint_names: Sequence[str], posi
     for name, curve in d.tracks.items():
         fig.joints(curve[frames][:, None], names=[name], fill=colors[name], stroke=Stroke(colors[name], 1.0),
                    cls="track-point")
+    if len(d.joint_names) <= MAX_NAMED_JOINTS:
+        fig.labels(d.positions[frames], d.joint_names)
+    if d.motor is not None:
+        r = d.positions[frames, d.motor[0]] - d.positions[frames, d.motor[1]]
+        turn = np.degrees(np.unwrap(np.arctan2(r[:, 1], r[:, 0])))
+        fig.frame_caption([f"crank {abs(a - turn[0]):.0f}°" for a in turn])
     return _finish(path, fig)
 
 
 def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after: Mapping[str, object],
                  targets: Mapping[str, np.ndarray],
                  envelope: tuple[float | None, float | None, float | None, float | None] | None,
-                 units: str = "", title: str = "") -> str:
+                 units: str = "", title: str = "",
+                 displacements: Sequence[tuple[str, Sequence[float] | None, Sequence[float]]] = ()) -> str:
     """The edit picture: before faint, after solid, targets dashed, envelope box; returns the SVG text.
 
     ``before`` / ``after``: the keyword arguments of :func:`motion_plot` for the linkage before
@@ -138,7 +164,9 @@ def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after
     function's own are used). ``targets``: label → (T', 2) target curve in ``units``, coloured
     like the track whose name is a word of the label (``"retarget foot"`` → ``foot``).
     ``envelope``: (xmin, xmax, ymin, ymax) with None for an open side (drawn to the plot edge),
-    or None for no box. Writes ``path`` atomically if given.
+    or None for no box. ``displacements``: (label, old position or None, target) of each
+    displaced point: a marker at the target and an arrow from the old position. Writes ``path``
+    atomically if given.
     """
     old, new = _drawing("before", before), _drawing("after", after)
     fig = Figure(title=title, units=units)
@@ -160,23 +188,31 @@ def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after
                      cls="target", name=str(label))
     _tracks(fig, new, colors, closed=True, cls="track after")
     _mechanism(fig, new, new.positions[0], cls="after")
+    for label, old_at, target in displacements:
+        if old_at is not None:
+            fig.arrow(old_at, target, Stroke(PALETTE[1], 1.6, "dashed"), cls="displace", name=label)
+        fig.joints(np.asarray(target, dtype=float)[None], radius=5.0, fill="#ffffff", stroke=Stroke(PALETTE[1], 2.0),
+                   cls="displace-target")
+        fig.annotate(target, label, color=PALETTE[1], cls="displace-label")
     fig.legend("before", Stroke(PATH_GREY, 2.0, "faint"))
     fig.legend("after", Stroke(INK, 2.0))
     if targets:
         fig.legend("target", Stroke(INK, 1.6, "dashed"))
     if envelope is not None:
         fig.legend("envelope", Stroke(ENVELOPE_GREEN, 1.8, "dashed"), "box")
+    if displacements:
+        fig.legend("displace target", Stroke(PALETTE[1], 2.0), "dot")
     return _finish(path, fig)
 
 
 def _drawing(which: str, kw: Mapping[str, object]) -> Drawing:
     fields = ("joint_names", "positions", "links", "ground", "motor", "tracks")
-    unknown = set(kw) - set(fields) - {"units", "title"}
+    unknown = set(kw) - set(fields) - {"units", "title", "breaks", "notes"}
     missing = set(fields) - set(kw)
     if unknown or missing:
         raise ValueError(f"{which}: unknown keys {sorted(unknown)}, missing keys {sorted(missing)}")
     try:
-        return Drawing.check(**{k: kw[k] for k in fields})  # type: ignore[arg-type]
+        return Drawing.check(**{k: kw[k] for k in fields}, breaks=kw.get("breaks", ()))  # type: ignore[arg-type]
     except ValueError as exc:
         raise ValueError(f"{which}: {exc}") from None
 
@@ -194,14 +230,19 @@ def _joint_paths(fig: Figure, d: Drawing, cls: str = "joint-path") -> None:
     for j in np.flatnonzero(moves):
         if any(np.allclose(p[:, j], c, rtol=0, atol=1e-9 * max(1.0, float(np.abs(c).max()))) for c in curves):
             continue
-        fig.polyline(p[:, j], Stroke(PATH_GREY, 0.9, "faint"), closed=fig.cyclic, cls=cls, name=d.joint_names[j],
-                     label=None if drawn else "joint paths")
-        drawn = True
+        for piece in d.pieces(p[:, j]):
+            fig.polyline(piece, Stroke(PATH_GREY, 0.9, "faint"), closed=fig.cyclic and not d.breaks, cls=cls,
+                         name=d.joint_names[j], label=None if drawn else "joint paths")
+            drawn = True
 
 
 def _tracks(fig: Figure, d: Drawing, colors: Mapping[str, str], *, closed: bool, cls: str = "track") -> None:
-    for name, curve in d.tracks.items():
-        fig.polyline(curve, Stroke(colors[name], 2.2), closed=closed, cls=cls, name=name, label=name)
+    """Each track's curve in its colour; past the palette's colours, dashed (so the 11th differs from the 1st)."""
+    for n, (name, curve) in enumerate(d.tracks.items()):
+        style = "dashed" if n >= len(PALETTE) else "solid"
+        for k, piece in enumerate(d.pieces(curve)):
+            fig.polyline(piece, Stroke(colors[name], 2.2, style), closed=closed and not d.breaks, cls=cls, name=name,
+                         label=name if k == 0 else None)
 
 
 def _mechanism(fig: Figure, d: Drawing, pose: np.ndarray, cls: str = "") -> None:

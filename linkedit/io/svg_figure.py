@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Sequence
+from typing import Any
 from dataclasses import dataclass, field
 from xml.sax.saxutils import escape, quoteattr
 
@@ -31,6 +32,8 @@ ENVELOPE_GREEN = "#276749"
 FAINT_OPACITY = 0.3
 DASH = "6 4"
 FONT = "font-family=\"Helvetica, Arial, sans-serif\""
+#: a white outline under label text, so labels stay readable over links and symbols
+HALO = " stroke=\"#ffffff\" stroke-width=\"3\" stroke-opacity=\"0.85\" paint-order=\"stroke\" stroke-linejoin=\"round\""
 
 _NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
 _PAD_PX = 18.0          # room inside the plot area for symbols drawn around points
@@ -58,8 +61,8 @@ def attrs(**kw: object) -> str:
     return "".join(out)
 
 
-def points_text(p: np.ndarray, decimals: int = 2) -> str:
-    """``(k, 2)`` pixel points as an SVG ``points`` list ``"x,y x,y ..."``."""
+def points_text(p: Any, decimals: int = 2) -> str:
+    """``(k, 2)`` pixel points (an array or pairs) as an SVG ``points`` list ``"x,y x,y ..."``."""
     f = f"%.{decimals}f,%.{decimals}f"
     return " ".join(f % (x, y) for x, y in np.asarray(p, dtype=float).tolist())
 
@@ -84,7 +87,8 @@ def nice_ticks(lo: float, hi: float, target: float = 6.0) -> tuple[float, np.nda
     magnitude = 10.0 ** math.floor(math.log10(raw))
     step = next(m * magnitude for m in (1.0, 2.0, 2.5, 5.0, 10.0) if m * magnitude >= raw * (1 - 1e-12))
     first, last = math.ceil(lo / step - 1e-9), math.floor(hi / step + 1e-9)
-    return step, np.arange(first, last + 1) * step
+    # a tick within rounding of an end is that end (k·step may land a few ulps outside [lo, hi])
+    return step, np.clip(np.arange(first, last + 1) * step, lo, hi)
 
 
 def axis_ticks(lo: float, hi: float, extent_px: float) -> tuple[float, np.ndarray]:
@@ -172,6 +176,7 @@ class Figure:
     cyclic: bool = True
     _items: list[_Item] = field(default_factory=list, repr=False)
     _legend: list[_Entry] = field(default_factory=list, repr=False)
+    _captions: tuple[list[str], str] | None = field(default=None, repr=False)
 
     # -- primitives ------------------------------------------------------------------------
 
@@ -192,14 +197,14 @@ class Figure:
                fill: str = "#ffffff", stroke: Stroke = Stroke(width=1.3), cls: str = "joint") -> None:
         """Circle markers of ``radius`` px at world ``points`` ``(n, 2)`` or frames ``(F, n, 2)``."""
         p = self._pose("joint positions", points)
-        names = list(names) if names is not None else [None] * p.shape[1]
-        if len(names) != p.shape[1]:
-            raise ValueError(f"{len(names)} joint names for {p.shape[1]} points")
+        labels: list[str | None] = list(names) if names is not None else [None] * p.shape[1]
+        if len(labels) != p.shape[1]:
+            raise ValueError(f"{len(labels)} joint names for {p.shape[1]} points")
 
         def draw(v: View) -> str:
             q = v.px(p)
             out = []
-            for n, name in enumerate(names):
+            for n, name in enumerate(labels):
                 head = f"<circle{attrs(cls=cls, data_name=name)} r=\"{radius:g}\" fill={attr(fill)}{stroke.svg()}"
                 out.append(head + self._animated(q[:, n], ("cx", "cy"), "circle"))
             return "\n".join(out)
@@ -240,6 +245,27 @@ class Figure:
                         f"{attrs(fill_opacity=0.15 if opacity else 0.55)} stroke={attr(color)}"
                         f" stroke-width=\"2.5\" stroke-linejoin=\"round\"{attrs(stroke_opacity=opacity)}")
                 return head + self._animated(v.px(ring), ("points",), "polygon")
+
+        self._add(p, draw)
+
+    def arrow(self, start: Sequence[float], end: Sequence[float], stroke: Stroke = Stroke(), *, cls: str = "arrow",
+              name: str | None = None) -> None:
+        """A straight arrow from world ``start`` to ``end`` (2,), its head (px-sized) at ``end``."""
+        p = finite(name or cls, np.array([start, end], dtype=float), (2, 2))
+
+        def draw(v: View) -> str:
+            a, b = v.px(p)
+            d = b - a
+            length = float(np.hypot(*d))
+            if length < 1e-9:
+                return ""
+            u = d / length
+            n = np.array([-u[1], u[0]])
+            head = points_text([b, b - 9 * u + 4 * n, b - 9 * u - 4 * n])
+            tip = b - 8 * u
+            return (f"<g{attrs(cls=cls, data_name=name)}><line x1=\"{a[0]:.2f}\" y1=\"{a[1]:.2f}\" x2=\"{tip[0]:.2f}\""
+                    f" y2=\"{tip[1]:.2f}\" fill=\"none\"{stroke.svg()}/>"
+                    f"<polygon points={attr(head)} fill={attr(stroke.color)} stroke=\"none\"/></g>")
 
         self._add(p, draw)
 
@@ -294,8 +320,9 @@ class Figure:
             if s is not None and not math.isfinite(s):
                 raise ValueError(f"box {k}: not finite ({s})")
         for lo, hi in (("xmin", "xmax"), ("ymin", "ymax")):
-            if sides[lo] is not None and sides[hi] is not None and sides[lo] > sides[hi]:
-                raise ValueError(f"box: {lo} {sides[lo]} > {hi} {sides[hi]}")
+            a, b = sides[lo], sides[hi]
+            if a is not None and b is not None and a > b:
+                raise ValueError(f"box: {lo} {a} > {hi} {b}")
         xs = np.array([s for s in (xmin, xmax) if s is not None], dtype=float)
         ys = np.array([s for s in (ymin, ymax) if s is not None], dtype=float)
 
@@ -328,9 +355,35 @@ class Figure:
         def draw(v: View) -> str:
             x, y = v.px(p) + np.asarray(offset_px)
             return (f"<text{attrs(cls=cls)} x=\"{x:.2f}\" y=\"{y:.2f}\" font-size=\"{size:g}\" fill={attr(color)}"
-                    f" {FONT}>{text(words)}</text>")
+                    f"{HALO} {FONT}>{text(words)}</text>")
 
         self._add(p[None], draw)
+
+    def labels(self, points: np.ndarray, words: Sequence[str], *, size: float = 10.0, color: str = "#4a5568",
+               offset_px: tuple[float, float] = (5.0, -5.0), cls: str = "joint-label") -> None:
+        """Text ``words[n]`` beside world ``points`` ``(n, 2)``, or following frames ``(F, n, 2)``."""
+        p = self._pose("label positions", points)
+        if len(words) != p.shape[1]:
+            raise ValueError(f"{len(words)} labels for {p.shape[1]} points")
+
+        def draw(v: View) -> str:
+            q = v.px(p) + np.asarray(offset_px)
+            out = []
+            for n, w in enumerate(words):
+                rest = self._animated(q[:, n], ("x", "y"), "text")  # attributes, then "/>" or ">…</text>"
+                rest = rest[:-2] + ">" if rest.endswith("/>") else rest[: -len("</text>")]
+                out.append(f"<text{attrs(cls=cls, data_name=w)} font-size=\"{size:g}\" fill={attr(color)}{HALO}"
+                           f" {FONT}{rest}{text(w)}</text>")
+            return "\n".join(out)
+
+        self._add(p, draw)
+
+    def frame_caption(self, captions: Sequence[str], *, cls: str = "frame-caption") -> None:
+        """One caption per animation frame (e.g. the crank angle), shown above the plot as the frames play."""
+        n = len(captions)
+        if n == 0 or self.duration_s is None:
+            raise ValueError("frame captions need frames and an animated figure (duration_s)")
+        self._captions = (list(captions), cls)
 
     def legend(self, label: str, stroke: Stroke = Stroke(), kind: str = "line") -> None:
         """A legend entry: a ``line`` sample, a ``box`` or a ``dot`` in ``stroke``, then ``label``."""
@@ -346,6 +399,8 @@ class Figure:
         body = [self._axes(view)] + [it.draw(view) for it in self._items]
         if self._legend:
             body.append(self._legend_svg(view.left + view.width + 20.0, view.top))
+        if self._captions:
+            body.append(self._captions_svg(view.left + 6.0, view.top + 16.0))
         if self.title:
             body.append(f"<text class=\"title\" x=\"{view.left + view.width / 2:.2f}\" y=\"22\" text-anchor=\"middle\""
                         f" font-size=\"15\" font-weight=\"bold\" fill={attr(INK)} {FONT}>{text(self.title)}</text>")
@@ -421,6 +476,22 @@ class Figure:
                 mark = f"<circle cx=\"{x + 13:.2f}\" cy=\"{cy:.2f}\" r=\"3.5\" fill=\"#ffffff\"{e.stroke.svg()}/>"
             rows.append(f"{mark}<text x=\"{x + 34:.2f}\" y=\"{cy + 4:.2f}\" fill={attr(INK)}>{text(e.label)}</text>")
         return f"<g class=\"legend\" font-size=\"12\" {FONT}>{''.join(rows)}</g>"
+
+    def _captions_svg(self, x: float, y: float) -> str:
+        """One ``<text>`` per frame, each shown only during its frame (discrete ``display`` animation)."""
+        words, cls = self._captions or ([], "")
+        n = len(words)
+        out = []
+        for k, w in enumerate(words):
+            a, b = k / n, (k + 1) / n
+            if k == 0:
+                values, times = "inline;none", f"0;{b:.6g}"
+            else:
+                values, times = "none;inline;none", f"0;{a:.6g};{b:.6g}"
+            out.append(f"<text x=\"{x:.2f}\" y=\"{y:.2f}\" display=\"{'inline' if k == 0 else 'none'}\">{text(w)}"
+                       f"<animate attributeName=\"display\" values=\"{values}\" keyTimes=\"{times}\" calcMode=\"discrete\""
+                       f" dur=\"{self.duration_s:g}s\" repeatCount=\"indefinite\"/></text>")
+        return (f"<g{attrs(cls=cls)} font-size=\"12\" fill={attr(INK)}{HALO} {FONT}>" + "".join(out) + "</g>")
 
     # -- helpers -------------------------------------------------------------------------------
 

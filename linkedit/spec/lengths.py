@@ -157,16 +157,18 @@ def _place(known: dict[str, complex], pending: dict[str, Placement],
                 continue
             if how.from_ and len(anchors) == 1:
                 (p,) = anchors
-                if r(p, name) is None:
+                rp = r(p, name)
+                if rp is None:
                     raise InputError(f"no link gives the length {p}-{name}", field=("joints", name, "from"))
-                known[name] = known[p] + r(p, name) * complex(math.cos(math.radians(how.angle_deg or 0.0)),
-                                                                 math.sin(math.radians(how.angle_deg or 0.0)))
+                known[name] = known[p] + rp * complex(math.cos(math.radians(how.angle_deg or 0.0)),
+                                                      math.sin(math.radians(how.angle_deg or 0.0)))
             elif len(anchors) >= 2:
                 p, q = _widest(anchors, known) if not how.from_ else anchors
-                for a in (p, q):
-                    if r(a, name) is None:
-                        raise InputError(f"no link gives the length {a}-{name}", field=("joints", name, "from"))
-                known[name] = _intersect(name, p, known[p], r(p, name), q, known[q], r(q, name), how)
+                rp, rq = r(p, name), r(q, name)
+                if rp is None or rq is None:
+                    raise InputError(f"no link gives the length {p if rp is None else q}-{name}",
+                                     field=("joints", name, "from"))
+                known[name] = _intersect(name, p, known[p], rp, q, known[q], rq, how)
             else:
                 continue
             del todo[name]

@@ -6,6 +6,8 @@ import importlib
 import json
 from pathlib import Path
 
+import pydantic
+
 from linkedit.io.atomic import write_text
 
 #: format name → "module:Model". Each format's reference page is ``specs/<page>.md`` (PAGES).
@@ -36,7 +38,7 @@ def available_formats() -> dict[str, type]:
     return out
 
 
-def schema_text(model: type) -> str:
+def schema_text(model: type[pydantic.BaseModel]) -> str:
     """The JSON Schema of a model, as stable pretty-printed text."""
     return json.dumps(model.model_json_schema(), indent=2, sort_keys=True) + "\n"
 

@@ -14,7 +14,7 @@ import os
 import re
 import stat
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 import pydantic
 import yaml
@@ -62,11 +62,12 @@ def _walk(loader: SpecLoader, node: yaml.Node, path: Path_, lines: LineMap, file
             line = key_node.start_mark.line + 1
             if not isinstance(key, (str, int, float, bool)) or key is None:
                 raise InputError("mapping keys must be plain names", file=file, line=line, field=path)
+            sub = cast(Path_, (*path, key))  # YAML keys may also be numbers or booleans
             if key in seen:
-                raise InputError(f"duplicate key {key!r}", file=file, line=line, field=path + (key,))
+                raise InputError(f"duplicate key {key!r}", file=file, line=line, field=sub)
             seen.add(key)
-            lines[path + (key,)] = line
-            _walk(loader, value_node, path + (key,), lines, file)
+            lines[sub] = line
+            _walk(loader, value_node, sub, lines, file)
     elif isinstance(node, yaml.SequenceNode):
         for index, item in enumerate(node.value):
             _walk(loader, item, path + (index,), lines, file)
