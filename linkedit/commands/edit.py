@@ -40,13 +40,12 @@ def _load(spec_path: Path | None, script_path: Path):
 
 
 def _refuse_unsupported(spec_path: Path, linkage: Any) -> None:
-    """edit works on crank-driven linkages, with sliders and numeric groups (one line, exit 2 otherwise)."""
+    """edit works on rotary inputs (crank, sweep, rocker), with sliders and numeric groups; not yet
+    on a linear input (one line, exit 2)."""
     m = linkage.motor
     why = None
     if m.linear:
         why = "a linear input"
-    elif m.oscillate_deg is not None:
-        why = "an oscillating (rocker) input"
     if why is not None:
         raise InputError(f"edit does not support this input yet: this linkage has {why}",
                          file=str(spec_path), field="linkage")
