@@ -19,6 +19,7 @@ import importlib  # noqa: E402
 import typer  # noqa: E402
 
 from linkedit import __version__  # noqa: E402
+from linkedit.commands.common import OneLineErrors  # noqa: E402
 
 COMMAND_MODULES = [
     "linkedit.commands.simulate",
@@ -35,6 +36,7 @@ COMMAND_MODULES = [
 
 app = typer.Typer(
     name="linkedit",
+    cls=OneLineErrors,
     help="Design mechanisms: simulate and edit planar linkages, solve 3D mechanisms, compare motion curves.",
     no_args_is_help=True,
     add_completion=True,  # --install-completion / --show-completion for bash, zsh, fish, PowerShell

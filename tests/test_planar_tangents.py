@@ -10,6 +10,7 @@ from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import order_joints
 from linkedit.planar.steps import compile_steps, rest_tangent
 from linkedit.spec.linkage import LinkageSpec
+from tests.test_planar_sliders import piston_driven
 
 
 def moved(spec: LinkageSpec, drest: np.ndarray, h: float) -> LinkageSpec:
@@ -25,7 +26,7 @@ def complex_positions(spec: LinkageSpec, samples: int) -> np.ndarray:
 
 @pytest.mark.parametrize("build", [catalog.slider_crank, catalog.quick_return, catalog.complex_loop,
                                    catalog.lifting_arm, catalog.stephenson_slider, catalog.scotch_yoke,
-                                   catalog.inverted_slider_crank], ids=lambda b: b.__name__)
+                                   catalog.inverted_slider_crank, piston_driven], ids=lambda b: b.__name__)
 def test_rest_tangent_of_every_new_rule_matches_central_differences(build):
     spec = build()
     graph = LinkageGraph.from_spec(spec)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import guard
+from linkedit.commands.common import check_outputs, guard
 
 
 def register(app: typer.Typer) -> None:
@@ -25,6 +25,7 @@ def register(app: typer.Typer) -> None:
         from linkedit.spec.yamlload import load_yaml, validate
 
         output_format(output, ("yaml",), stdout="yaml")
+        check_outputs([("--output", output)], [spec])
         data, lines = load_yaml(spec)
         model = validate(LinkageSpec, data, file=str(spec), lines=lines)
         notes = {}

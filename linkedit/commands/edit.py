@@ -8,11 +8,12 @@ from typing import Any
 
 import typer
 
-from linkedit.commands.common import guard, print_json
-from linkedit.errors import InputError
+from linkedit.commands.common import check_outputs, guard, print_json
+from linkedit.errors import InputError, MechanismError
 
 
 def _load(spec_path: Path | None, script_path: Path):
+    from linkedit.planar import compile_plan, simulate
     from linkedit.spec.edit_script import EditScript, check_against
     from linkedit.spec.linkage import LinkageSpec
     from linkedit.spec.yamlload import load_model, load_yaml, validate
@@ -36,6 +37,10 @@ def _load(spec_path: Path | None, script_path: Path):
     except InputError as exc:
         exc.file, exc.line = str(script_path), lines.line_of(exc.field)
         raise
+    try:  # an edit starts from a working linkage (the barrier keeps it working)
+        simulate(compile_plan(linkage), script.samples)
+    except MechanismError as exc:
+        raise MechanismError(f"{spec_path}: only a linkage that works can be edited: {exc}") from None
     return spec_path, linkage, script
 
 
@@ -87,23 +92,24 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Edit a linkage: displace joints, preserve or reshape track curves, fit a box — keeping it working."""
         from linkedit.edit.runner import EditFailed, run_script
-        from linkedit.io.atomic import write_text
+        from linkedit.io.atomic import commit, write_text
         from linkedit.io.edit_hdf5 import write_edit
         from linkedit.spec.linkage_yaml import dump_linkage
         from linkedit.spec.yamlload import read_text
 
         spec_path, script_path = (None, spec) if script is None else (spec, script)
         spec_path, linkage, parsed = _load(spec_path, script_path)
+        stem = Path(spec_path).stem
+        edited_yaml = out_dir / f"{stem}-edited.yaml"
+        h5 = out_dir / f"{stem}-edit.h5"
+        svg = out_dir / f"{stem}-edit.svg"
+        check_outputs([("--output", edited_yaml), ("--output", h5), ("--output", svg)], [spec_path, script_path])
         failure = None
         with _Progress() as progress:
             try:
                 result = run_script(linkage, parsed, progress=progress.update)
             except EditFailed as exc:
                 result, failure = exc.result, exc
-        stem = Path(spec_path).stem
-        edited_yaml = out_dir / f"{stem}-edited.yaml"
-        h5 = out_dir / f"{stem}-edit.h5"
-        svg = out_dir / f"{stem}-edit.svg"
         edited_text = dump_linkage(result.edited)
         write_text(edited_yaml, edited_text)
         write_edit(h5, result, script_text=read_text(script_path),
@@ -120,6 +126,7 @@ def register(app: typer.Typer) -> None:
                 typer.echo(line)
             typer.echo(f"→ {edited_yaml}, {h5}, {svg}")
         if failure is not None:
+            commit()  # the last working linkage is a result too: keep it for inspection
             raise failure
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import guard
+from linkedit.commands.common import check_outputs, guard
 from linkedit.errors import InputError
 
 
@@ -48,6 +48,7 @@ def register(app: typer.Typer) -> None:
         from linkedit.io.formats import output_format, write_out
 
         output_format(output, ("yaml",), stdout="yaml")
+        check_outputs([("--output", output)], [source])
         which = tool.value if tool else guess_tool(source)
         spec = import_spec(source, which, units=units, name=name, motor=_pair(motor))  # type: ignore[arg-type]
         write_out(output, import_yaml(spec, source, which))

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import guard
+from linkedit.commands.common import check_outputs, guard
 from linkedit.errors import InputError
 
 
@@ -32,6 +32,7 @@ def register(app: typer.Typer) -> None:
             raise InputError("--per-second and --rpm go together (derivatives per second at that speed)", field="--rpm")
         out = output if output is not None else result.with_name(f"{result.stem}-plot.svg")
         output_format(out, ("svg",), stdout="svg")
+        check_outputs([("--output", out)], [result])
         k = read_kinematics(result, track=track, joint=joint)
         write_out(out, kinematics_svg(k, rpm=rpm))
         if str(out) != "-":

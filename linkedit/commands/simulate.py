@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from enum import Enum
 from pathlib import Path
@@ -9,8 +10,9 @@ from typing import Any
 
 import typer
 
-from linkedit.commands.common import guard, print_json
+from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError, LinkeditError, MechanismError
+from linkedit.io.atomic import together
 from linkedit.io.formats import is_stdout, output_format, write_out
 from linkedit.io.planar_out import result_format
 
@@ -59,6 +61,7 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
 
     text = read_text(spec_path)
     spec = load_model(LinkageSpec, spec_path, text)
+    check_memory(samples, spec, spec_path)
     try:
         plan = compile_plan(spec)
         if engine == "numeric":
@@ -119,14 +122,16 @@ def register(app: typer.Typer) -> None:
         if engine == Engine.numeric and partial:
             raise InputError("--partial works with the symbolic engine only", field="--partial")
         targets = _outputs(specs, output, svg, animate)
+        check_outputs([(option, path) for pair in targets for option, path in zip(("--output", "--svg"), pair)], specs)
         to_stderr = any(is_stdout(p) for pair in targets for p in pair)  # stdout carries the data
         results, worst = [], 0
         progress = _progress(len(specs))
         for spec_path, (h5, pic) in zip(specs, targets):
             try:
-                r = _simulate_one(spec_path, h5, pic, samples=samples, animate=animate, partial=partial,
-                                  engine=engine.value)
-            except LinkeditError as exc:
+                with together():
+                    r = _simulate_one(spec_path, h5, pic, samples=samples, animate=animate, partial=partial,
+                                      engine=engine.value)
+            except LinkeditError as exc:  # (the failed spec's outputs are discarded by together())
                 if len(specs) == 1:
                     raise
                 typer.echo(f"linkedit: error: {exc}", err=True)
@@ -159,7 +164,9 @@ def register(app: typer.Typer) -> None:
         reports, worst = [], 0
         for path in specs:
             try:
-                plan = compile_plan(load_model(LinkageSpec, path))
+                spec = load_model(LinkageSpec, path)
+                check_memory(samples, spec, path)
+                plan = compile_plan(spec)
                 motion = run(plan, samples, partial=True)
             except LinkeditError as exc:  # name the bad file, go on with the others
                 typer.echo(f"linkedit: error: {exc}", err=True)
@@ -220,6 +227,38 @@ def transmission_warnings(motion: Any) -> list[str]:
             out.append(f"transmission angle at joint {plan.joint_names[plan.rules[r, 2]]} leaves {lo:g}°–{hi:g}°: "
                        f"{a[t]:.1f}° at motor angle {np.degrees(motion.motor_angle[t]):.1f}°")
     return out
+
+
+#: Bytes held per sample and joint while simulating (positions, velocities, accelerations and
+#: their working copies, float64), for the memory check of :func:`check_memory`.
+BYTES_PER_SAMPLE_JOINT = 2 * 3 * 8 * 8
+
+
+def check_memory(samples: int | None, spec: Any, path: Path) -> None:
+    """InputError (exit 2) if ``samples`` samples of ``spec`` would not fit in the memory available."""
+    from linkedit.planar.simulate import DEFAULT_SAMPLES
+
+    count = samples or spec.samples or DEFAULT_SAMPLES
+    need = count * len(spec.joints) * BYTES_PER_SAMPLE_JOINT
+    have = _available_memory()
+    if need > have:
+        where = {"field": "--samples"} if samples else {"file": str(path), "field": "samples"}
+        gib = need / 2**30
+        raise InputError(f"{count:,} samples of {len(spec.joints)} joints need about "
+                         f"{f'{gib:,.1f}' if gib < 1e6 else f'{gib:.1e}'} GiB; {have / 2**30:,.1f} GiB are available",
+                         **where)
+
+
+def _available_memory() -> int:
+    """Bytes of memory available to this process (MemAvailable on Linux, else the physical memory)."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
 def _progress(total: int):

@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
+import re
 from enum import Enum
 from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import guard, print_json
+from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError
+from linkedit.spec.mechanism3d import MAX_COORDINATE
+
+
+#: a track name becomes an HDF5 group: not empty, no "/", no leading ".", no control characters
+_NAME = re.compile(r"^[^/.\x00-\x1f][^/\x00-\x1f]*$")
 
 
 def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
@@ -17,7 +23,7 @@ def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
     if not eq:
         name, rest = text, text
     member, colon, point = rest.partition(":")
-    if not colon or not member or not point or "/" in name:
+    if not colon or not member or not point or not _NAME.match(name):
         raise InputError(f"{text!r}: expected [name=]member:x,y,z or [name=]member:point", field="--track")
     parts = point.split(",")
     if len(parts) == 1:
@@ -26,8 +32,9 @@ def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
         xyz = tuple(float(p) for p in parts)
     except ValueError:
         xyz = ()
-    if len(xyz) != 3 or not all(abs(c) < float("inf") for c in xyz):
-        raise InputError(f"{text!r}: the point needs three finite coordinates x,y,z", field="--track")
+    if len(xyz) != 3 or not all(abs(c) <= MAX_COORDINATE for c in xyz):
+        raise InputError(f"{text!r}: the point needs three coordinates x,y,z of at most {MAX_COORDINATE:g}",
+                         field="--track")
     return name, member, xyz  # type: ignore[return-value]
 
 
@@ -97,7 +104,7 @@ def register(app: typer.Typer) -> None:
         """Solve a 3D mechanism (members, constraints, inputs) at every time step."""
         from linkedit.gcs import check_solved, read_result, solve_spec, write_result
         from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
-        from linkedit.spec.yamlload import load_model
+        from linkedit.spec.yamlload import load_model, read_text
 
         if steps is not None and not 2 <= steps <= MAX_STEPS:
             raise InputError(f"needs between 2 and {MAX_STEPS:,} steps, not {steps:,}", field="--steps")
@@ -114,14 +121,17 @@ def register(app: typer.Typer) -> None:
         else:
             if spec is None:
                 raise InputError("missing SPEC (or --from RESULT.h5)", field="spec")
-            text = spec.read_text(encoding="utf-8") if spec.is_file() else None
+            text = read_text(spec)
             model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
             res = solve_spec(model, steps=steps, solver=solver.value if solver else "lm", allow_python=allow_python,
-                             spec_text=text or "")
+                             spec_text=text)
             out = output or Path("out") / f"{spec.stem}.h5"
             if not partial:
                 check_solved(res)
         _add_tracks(res, track or [])
+        # with --from and no -o the result is updated in place (atomically): the source is not an input then
+        inputs = [spec] if spec is not None else [source] if output is not None else []
+        check_outputs([("--output", out), ("--svg", svg)], inputs)
         write_result(out, res)
         if svg is not None:
             from linkedit.gcs.svg import draw

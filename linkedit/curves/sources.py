@@ -17,16 +17,17 @@ Every curve is checked: finite numbers, at least 3 distinct points, a positive l
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
+import contextvars
 import csv
 import io
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from linkedit.errors import InputError
+from linkedit.spec.yamlload import read_text, require_regular_file
 
 HDF5_SUFFIXES = (".h5", ".hdf5")
 YAML_SUFFIXES = (".yaml", ".yml")
@@ -116,6 +117,7 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
     """Tracks of a result file; ``names=None`` reads all of them (of an edit result: before and after)."""
     import h5py
 
+    require_regular_file(path)
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
@@ -146,8 +148,9 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
                                  field=base)
             field = base + ("position",)
             data = group[name].get("position")
-            if not isinstance(data, h5py.Dataset) or data.ndim != 2 or data.shape[1] not in (2, 3):
-                raise InputError("expected a (T, 2) or (T, 3) dataset", file=str(path), field=field)
+            if (not isinstance(data, h5py.Dataset) or data.ndim != 2 or data.shape[1] not in (2, 3)
+                    or data.dtype.kind not in "fiu"):
+                raise InputError("expected a (T, 2) or (T, 3) dataset of real numbers", file=str(path), field=field)
             points = np.asarray(data[()], dtype=float)
             bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
             if bad.size:
@@ -161,10 +164,7 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
 def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
     """One curve from a CSV file (columns x, y[, z], optional t)."""
     file = str(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise InputError("not a UTF-8 text file", file=file) from None
+    text = read_text(path)
     rows = [(i + 1, r) for i, r in enumerate(csv.reader(io.StringIO(text)))
             if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     if not rows:
@@ -210,6 +210,10 @@ def _is_number(text: str) -> bool:
     return True
 
 
+#: The curve sets being read (a source that leads back to one of them is a loop).
+_READING: contextvars.ContextVar[frozenset[Path]] = contextvars.ContextVar("reading", default=frozenset())
+
+
 def read_curve_set(path: Path, *, closed: bool | None = None) -> list[Curve]:
     """The curves of a YAML curve set; sources are relative to the set's folder."""
     from linkedit.spec.curveset import CurveSet
@@ -226,7 +230,16 @@ def read_curve_set(path: Path, *, closed: bool | None = None) -> list[Curve]:
                                origin=f"{path}:{entry.name}", file=str(path), field=field,
                                line=lines.line_of(field), units=spec.units)
         else:
-            loaded = _load_one(str(path.parent / entry.source), flag)
+            source = path.parent / entry.source
+            if source.resolve() in _READING.get():
+                field = ("curves", i, "source")
+                raise InputError(f"source {entry.source!r} leads back to this curve set (a loop)", file=str(path),
+                                 field=field, line=lines.line_of(field))
+            token = _READING.set(_READING.get() | {path.resolve()})
+            try:
+                loaded = _load_one(str(source), flag)
+            finally:
+                _READING.reset(token)
             if len(loaded) != 1:
                 field = ("curves", i, "source")
                 raise InputError(f"source {entry.source!r} holds {len(loaded)} curves; name one track "

@@ -14,6 +14,7 @@ import numpy as np
 from linkedit import __version__
 from linkedit.errors import InputError
 from linkedit.io.atomic import atomic_path
+from linkedit.spec.yamlload import require_regular_file
 
 FORMAT_VERSION = "1"
 
@@ -66,6 +67,7 @@ def scale(f: h5py.File, name: str, data: Any, description: str, **attrs: Any) ->
 
 def open_result(path: str | Path, kind: str | None = None) -> h5py.File:
     """Open a linkedit result for reading; InputError if it is not one (or not of ``kind``)."""
+    require_regular_file(path)
     try:
         f = h5py.File(path, "r")
     except OSError as exc:

@@ -302,6 +302,21 @@ def slider_crank() -> LinkageSpec:
     )
 
 
+def locking_slider_crank() -> LinkageSpec:
+    """The offset slider-crank with a rod of 25 (mm): it cannot reach its line for crank angles
+    of about 220°…320° (|r·sin θ − e| > l): a deliberate failure, exit 1 naming the slider."""
+    n = dict(SLIDER_CRANK, l=25.0)
+    a = complex(n["r"], 0)
+    b = complex(n["r"] + math.sqrt(n["l"] ** 2 - n["e"] ** 2), n["e"])
+    return _spec(
+        name="locking-slider-crank", units="mm",
+        description="An offset slider-crank whose rod (25) is too short to follow the crank all the way round.",
+        joints={"O": 0j, "A": a, "B": b}, ground=["O"], links={"crank": ["O", "A"], "rod": ["A", "B"]},
+        sliders={"piston": {"joint": "B", "guide": "ground", "angle_deg": 0.0}},
+        motor={"joint": "A", "pivot": "O"}, tracks={"piston": {"joint": "B"}},
+    )
+
+
 #: The crank-shaper quick return (mm): rocker pivot O2 at the origin, crank axle O above it.
 QUICK_RETURN = dict(axle=30.0, crank=15.0, rocker=60.0, rod=40.0, ram=75.0)
 
@@ -472,6 +487,10 @@ The rest pose below is the crank at 0 degrees, computed exactly from these lengt
     Example("stephenson-slider.yaml", stephenson_slider,
             header="Stephenson III six-bar with a slider output. Written by linkedit.planar.catalog.",
             notes={"sliders.output": "E slides along y = 20"}),
+    Example("invalid/locking-slider-crank.yaml", locking_slider_crank, simulates=False,
+            header="A deliberate failure: the rod is too short, so the slider locks up for part of the turn:\n"
+                   "  linkedit simulate examples/invalid/locking-slider-crank.yaml  ->  exit 1, slider piston.\n"
+                   "Written by linkedit.planar.catalog."),
     Example("lifting-arm.yaml", lifting_arm,
             header="A cylinder-driven boom (linear input): the rod end R extends 0..25 mm out of the barrel.\n"
                    "Written by linkedit.planar.catalog.",

@@ -15,6 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 
+#: d_s at or below this (rounding of sin² at a toggle) counts as a toggle: not assembled
+TOGGLE = 1e-12
+
+
 @dataclass(frozen=True)
 class LockUp:
     """A run of samples where the linkage cannot be assembled, and the joint responsible."""

@@ -14,6 +14,7 @@ import numpy as np
 
 from linkedit.planar import law_of_cosines as loc
 from linkedit.planar import steps as st
+from linkedit.planar.diagnostics import TOGGLE
 from linkedit.planar.plan import Geometry, Plan
 
 #: largest input change between two samples a numeric group is continued across: motor
@@ -31,6 +32,8 @@ class State:
     ddz: np.ndarray | None
     ds: np.ndarray | None  # singularity distance per rule (1 for rigid rules); < 0: cannot close
     step_ds: np.ndarray | None = None  # (X, T) per step of plan.steps: < 0 or NaN: cannot place
+    #: with numeric groups: whether every intermediate continuation sample assembled too
+    between_ok: bool = True
 
 
 class Workspace:
@@ -107,7 +110,9 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> S
     def pick(a: np.ndarray | None) -> np.ndarray | None:
         return None if a is None else a[:, keep]
 
-    return State(z=pick(full.z), dz=pick(full.dz), ddz=pick(full.ddz), ds=pick(full.ds), step_ds=pick(full.step_ds))
+    between_ok = bool(np.isfinite(full.z).all() and (full.ds > TOGGLE).all() and (full.step_ds > TOGGLE).all())
+    return State(z=pick(full.z), dz=pick(full.dz), ddz=pick(full.ddz), ds=pick(full.ds), step_ds=pick(full.step_ds),
+                 between_ok=between_ok)
 
 
 def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int) -> State:

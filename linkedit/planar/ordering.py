@@ -45,7 +45,6 @@ class StepRule:
     * ``slider``: joint k of a pin-in-slot slider from the known joint ``i`` at a fixed
       distance and the known slot line (circle–line intersection, closed form);
     * ``drive``: the linearly driven joint from its known slot line and the input (closed form);
-    * ``translate``: the joints of a translating link from its known joint ``i`` (closed form);
     * ``rotate`` / ``yoke``: a slotted link from the known pin of slider ``slider`` in its slot,
       turning about its known joint ``i`` / translating along the frame (slider ``i``) (closed form);
     * ``group``: a complex loop, solved numerically as one group.
@@ -144,34 +143,24 @@ def _slider_round(graph: LinkageGraph, known: set[int], taken: set[int], neighbo
     x = graph.rest[:, 0] + 1j * graph.rest[:, 1]
     out: list[StepRule] = []
     for n, s in enumerate(graph.sliders):
-        if not _frame_known(graph, s.guide, known):
+        k = s.joint
+        if k < 0 or k in known or k in taken or not _frame_known(graph, s.guide, known):
             continue
-        if s.joint >= 0:
-            k = s.joint
-            if k in known or k in taken:
-                continue
-            if n == graph.drive:
-                out.append(StepRule("drive", (k,), level, n))
-                taken.add(k)
-                continue
-            have = [i for i in sorted(neighbours[k]) if i in known]
-            if not have:
-                continue
-            # the best conditioned rod: the one closest to the slot direction at rest
-            u = np.exp(1j * s.angle)
-            if not graph.fixed(s.guide):
-                a, b = graph.frame_pair(s.guide)
-                u = u * (x[b] - x[a]) / abs(x[b] - x[a])
-            i = max(have, key=lambda i: abs((np.conj(u) * (x[k] - x[i])).real) / abs(x[k] - x[i]))
-            out.append(StepRule("slider", (k,), level, n, i))
+        if n == graph.drive:
+            out.append(StepRule("drive", (k,), level, n))
             taken.add(k)
-        else:
-            members = graph.links[s.link]
-            have = [j for j in members if j in known]
-            todo = tuple(j for j in members if j not in known and j not in taken)
-            if have and todo:
-                out.append(StepRule("translate", todo, level, n, have[0]))
-                taken.update(todo)
+            continue
+        have = [i for i in sorted(neighbours[k]) if i in known]
+        if not have:
+            continue
+        # the best conditioned rod: the one closest to the slot direction at rest
+        u = np.exp(1j * s.angle)
+        if not graph.fixed(s.guide):
+            a, b = graph.frame_pair(s.guide)
+            u = u * (x[b] - x[a]) / abs(x[b] - x[a])
+        i = max(have, key=lambda i: abs((np.conj(u) * (x[k] - x[i])).real) / abs(x[k] - x[i]))
+        out.append(StepRule("slider", (k,), level, n, i))
+        taken.add(k)
     out.extend(_guide_round(graph, known, taken, level))
     return out
 

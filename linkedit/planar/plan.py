@@ -191,8 +191,8 @@ def _fail_ordering(graph: LinkageGraph, mob: Mobility, undetermined: tuple[int, 
     if mob.rank > 1:
         why = f"the linkage is under-constrained ({mob.describe()}; one motor drives 1)"
     else:
-        why = ("no joint among them has two known neighbours: they close a complex kinematic loop "
-               f"that closed-form kinematics cannot order ({mob.describe()})")
+        why = ("neither a closed-form rule nor a numeric group places them: their link and slider "
+               f"constraints do not fix them at the rest pose ({mob.describe()})")
     return MechanismError(f"joints {names} cannot be determined from the ground and the motor: {why}")
 
 

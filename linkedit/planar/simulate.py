@@ -13,14 +13,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from linkedit.errors import MechanismError
-from linkedit.planar.diagnostics import LockUp, lockups, transmission_angle, triangle_orientation
+from linkedit.planar.diagnostics import TOGGLE, LockUp, lockups, transmission_angle, triangle_orientation
 from linkedit.planar.kinematics import State, evaluate
 from linkedit.planar.plan import Geometry, Plan, compile_plan
 from linkedit.spec.linkage import LinkageSpec, Motor
 
 DEFAULT_SAMPLES = 360
-#: d_s at or below this (rounding of sin² at a toggle) counts as a toggle: not assembled
-TOGGLE = 1e-12
 #: fewer samples than this per cycle: the cycle is also checked at this many (lock-ups between samples)
 DENSE_SAMPLES = 1440
 
@@ -238,7 +236,7 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
     if close:
         _check_closure(plan, state)
         state = State(z=state.z[:, :-1], dz=state.dz[:, :-1], ddz=state.ddz[:, :-1], ds=state.ds[:, :-1],
-                      step_ds=state.step_ds[:, :-1])
+                      step_ds=state.step_ds[:, :-1], between_ok=state.between_ok)
     unit = _unit(plan)
     shown = value if plan.linear else np.degrees(value)
 
@@ -252,7 +250,7 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
         found = _find_lockups(plan, pn, ds, sds, shown, unit)
         if not partial or not ok.any():
             raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
-    elif samples < DENSE_SAMPLES and not plan.has_groups:
+    elif samples < DENSE_SAMPLES and (not plan.has_groups or not state.between_ok):
         found = _lockups_between(plan, geom, scale)
         if found and not partial:
             raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))

@@ -8,8 +8,8 @@ Each :class:`Step` writes some joints from joints known before it, over T sample
   l² < p² is a lock-up (the rod cannot reach the line); d_s = (l² − p²)/l² is 0 where the rod
   stands perpendicular to the line.
 * ``drive``: the linearly driven joint, z_k = P + D·s.
-* ``translate``: the joints of a translating link from its known joint m,
-  z_n = z_m + R·(z̄_n − z̄_m), R the guide's rotation since rest.
+* ``rotate`` / ``yoke``: a slotted link turning about its known joint / translating along the
+  frame until its slot meets a known pin (see :func:`_slotted_positions`).
 * ``group``: a complex loop: Newton's method on the group's constraint rows at every sample,
   continued from the previous sample (the samples are dense: see
   :func:`linkedit.planar.kinematics.evaluate`), keeping the rest pose's branch (the sign of the
@@ -48,26 +48,25 @@ class Step:
     inputs: np.ndarray  # joints read
     name: str  # the slider's name, or the group's joints
     rows: Rows  # the rows the written joints satisfy (for derivatives and checks)
-    line: int = -1  # slider/drive: the slot row in ``rows``; translate: the rotation row
-    i: int = -1  # slider: the joint at a fixed distance; translate: the known joint
-    l2: float = 0.0  # slider: squared rod length
-    sign: float = 1.0  # slider: side of i's foot on the line taken at rest
-    offsets: np.ndarray | None = None  # translate: (n,) rest offsets z̄_n − z̄_i
-    slider: int = -1  # translate, rotate, yoke: index into graph.sliders
+    i: int = -1  # slider: the joint at a fixed distance; rotate: the joint the link turns about
+    l2: float = 0.0  # slider: squared rod length; rotate: the pin's rest offset h across the slot; yoke: Im(ū̄·g)
+    sign: float = 1.0  # slider, rotate: which of the two solutions, taken at rest
+    offsets: np.ndarray | None = None  # rotate: (n,) rest offsets z̄_n − z̄_i; yoke: rest positions z̄_n
+    slider: int = -1  # rotate, yoke: index into graph.sliders
     pin: int = -1  # rotate, yoke: the known joint in the link's slot
     u: complex = 0j  # rotate, yoke: the slot's direction at rest
     g: complex = 0j  # yoke: the direction the link translates in
     at: complex = 0j  # yoke: the pin's rest position
     det_sign: float = 1.0  # group: sign of det J_S at rest
     #: rows of ``rows`` taken from :func:`~linkedit.planar.constraints.linkage_rows` (their
-    #: indices there), −1 for the step's own rows (a slider's rod, a translating link's offsets)
+    #: indices there), −1 for the step's own row (a slider's rod)
     source: np.ndarray | None = None
 
     def describe(self, names: list[str]) -> str:
         out = ", ".join(names[k] for k in self.joints)
         src = ", ".join(names[k] for k in self.inputs)
         what = {"slider": f"slider {self.name}", "drive": f"linear input {self.name}",
-                "translate": f"translating link, slider {self.name}", "group": "numeric group",
+                "group": "numeric group",
                 "rotate": f"slotted link turning, slider {self.name}",
                 "yoke": f"slotted link translating (yoke), slider {self.name}"}[self.kind]
         return f"{out} ← ({src}) {what}"
@@ -101,50 +100,28 @@ def compile_step(graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set
     s = graph.sliders[rule.slider]
     own = [r for r, lab in enumerate(all_rows.labels) if lab == f"slider {s.name}"]
     b = _Builder(graph.n_joints)
-    if rule.kind in ("slider", "drive"):
-        k = rule.joints[0]
-        base = all_rows.take(np.array(own))
-        if rule.kind == "drive":
-            drive = [r for r, lab in enumerate(all_rows.labels) if lab == f"linear input {s.name}"]
-            rows = all_rows.take(np.array(own + drive))
-            inputs = sorted(set().union(*rows.joints) - {k})
-            return Step("drive", rule.level, joints, np.array(inputs, dtype=int), s.name, rows, line=0,
-                        source=np.array(own + drive))
-        i = rule.i
-        l2 = abs(z[k] - z[i]) ** 2
-        b.add(False, {k: 1, i: -1}, 0j, {k: 1, i: -1}, 0j, f"slider {s.name} rod", rhs=l2)
-        rows = _concat(base, b.build())
-        p, d = _line(rows, 0, k, z[:, None])
-        foot = (np.conj(d) * (z[i] - p)).real
-        side = (np.conj(d) * (z[k] - p)).real - foot
-        if abs(side[0]) <= 1e-9 * np.sqrt(l2):
-            raise MechanismError(
-                f"joint {names[k]} of slider {s.name}: the rod {names[i]}–{names[k]} stands perpendicular to "
-                "the slot at the rest pose: which side it takes is undefined; move it off the perpendicular")
+    k = rule.joints[0]
+    base = all_rows.take(np.array(own))
+    if rule.kind == "drive":
+        drive = [r for r, lab in enumerate(all_rows.labels) if lab == f"linear input {s.name}"]
+        rows = all_rows.take(np.array(own + drive))
         inputs = sorted(set().union(*rows.joints) - {k})
-        return Step("slider", rule.level, joints, np.array(inputs, dtype=int), s.name, rows, line=0, i=i,
-                    l2=float(l2), sign=float(np.sign(side[0])), source=np.array(own + [-1]))
-    # translate: z_n = z_i + R·(z̄_n − z̄_i), R = (z_b − z_a)/(z̄_b − z̄_a) (1 on the frame)
+        return Step("drive", rule.level, joints, np.array(inputs, dtype=int), s.name, rows,
+                    source=np.array(own + drive))
     i = rule.i
-    if graph.fixed(s.guide):
-        rot_d, rot_0 = {}, 1.0 + 0j
-    else:
-        a, bb = graph.frame_pair(s.guide)
-        m = complex(z[bb] - z[a])
-        rot_d, rot_0 = {bb: 1 / m, a: -1 / m}, 0j
-    offsets = np.array([z[n] - z[i] for n in rule.joints])
-    b.add(True, rot_d, rot_0, {}, 1.0 + 0j, f"slider {s.name}")  # placeholder row 0: R (read as D)
-    for n, off in zip(rule.joints, offsets):
-        e = {n: 1.0 + 0j, i: -1.0 + 0j}
-        for j, c in rot_d.items():
-            e[j] = e.get(j, 0) - c * off
-        b.add(False, {}, 1.0 + 0j, e, -rot_0 * off, f"slider {s.name}")
-        b.add(True, {}, 1.0 + 0j, e, -rot_0 * off, f"slider {s.name}")
-    built = b.build()
-    rows = built.take(np.arange(1, built.m))
-    inputs = sorted(set().union(*rows.joints) - set(rule.joints))
-    return Step("translate", rule.level, joints, np.array(inputs, dtype=int), s.name, built, line=0, i=i,
-                offsets=offsets, source=np.full(built.m, -1), slider=rule.slider)
+    l2 = abs(z[k] - z[i]) ** 2
+    b.add(False, {k: 1, i: -1}, 0j, {k: 1, i: -1}, 0j, f"slider {s.name} rod", rhs=l2)
+    rows = _concat(base, b.build())
+    p, d = _line(rows, 0, k, z[:, None])
+    foot = (np.conj(d) * (z[i] - p)).real
+    side = (np.conj(d) * (z[k] - p)).real - foot
+    if abs(side[0]) <= 1e-9 * np.sqrt(l2):
+        raise MechanismError(
+            f"joint {names[k]} of slider {s.name}: the rod {names[i]}–{names[k]} stands perpendicular to "
+            "the slot at the rest pose: which side it takes is undefined; move it off the perpendicular")
+    inputs = sorted(set().union(*rows.joints) - {k})
+    return Step("slider", rule.level, joints, np.array(inputs, dtype=int), s.name, rows, i=i,
+                l2=float(l2), sign=float(np.sign(side[0])), source=np.array(own + [-1]))
 
 
 def _slotted(graph: LinkageGraph, rule: StepRule, rows: Rows, inputs: np.ndarray, use: np.ndarray,
@@ -175,11 +152,6 @@ def _concat(a: Rows, b: Rows) -> Rows:
                 np.concatenate([a.drive, b.drive]), a.joints + b.joints, a.labels + b.labels)
 
 
-def derivative_rows(step: Step) -> Rows:
-    """The rows the step's joints satisfy (translate: without its rotation helper row)."""
-    return step.rows.take(np.arange(1, step.rows.m)) if step.kind == "translate" else step.rows
-
-
 def positions(step: Step, z: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Positions (n, T) of the step's joints and its singularity distance (T,) (< 0 or NaN: cannot place).
 
@@ -196,9 +168,6 @@ def positions(step: Step, z: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.
         with np.errstate(invalid="ignore"):
             x = q.real + step.sign * np.sqrt(h2)
         return (p + d * x)[None], h2 / step.l2
-    if step.kind == "translate":
-        rot = step.rows.dc[0] @ z + step.rows.d0[0]
-        return z[step.i] + step.offsets[:, None] * rot, np.ones(z.shape[1])
     return _slotted_positions(step, z)
 
 
@@ -348,7 +317,7 @@ def _to_complex(xy: np.ndarray) -> np.ndarray:
 
 def velocity(step: Step, z: np.ndarray, dz: np.ndarray, ds: float) -> np.ndarray:
     """ż of the step's joints (n, T) from the known joints' ż in ``dz`` (J, T) (own rows ignored)."""
-    rows = derivative_rows(step)
+    rows = step.rows
     known = dz.copy()
     known[step.joints] = 0.0
     rhs = -rows.first(z, known) + rows.drive[:, None] * ds
@@ -358,7 +327,7 @@ def velocity(step: Step, z: np.ndarray, dz: np.ndarray, ds: float) -> np.ndarray
 
 def acceleration(step: Step, z: np.ndarray, dz: np.ndarray, ddz: np.ndarray) -> np.ndarray:
     """z̈ of the step's joints (n, T), given ż of all joints and z̈ of the known ones."""
-    rows = derivative_rows(step)
+    rows = step.rows
     known = ddz.copy()
     known[step.joints] = 0.0
     rhs = -rows.first(z, known) - rows.second(dz)
@@ -366,31 +335,12 @@ def acceleration(step: Step, z: np.ndarray, dz: np.ndarray, ddz: np.ndarray) -> 
         return _to_complex(_solve(rows.jacobian(z, step.joints), rhs))
 
 
-def _own_rows_tangent(graph: LinkageGraph, step: Step, drest: np.ndarray) -> Rows:
-    """d/dε of the coefficients of a step's own rows (source −1) along the rest tangent ``drest``."""
+def _rod_tangent(graph: LinkageGraph, step: Step, drest: np.ndarray) -> Rows:
+    """d/dε of a slider step's rod row (its squared length) along the rest tangent ``drest``."""
     z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
+    k, i = int(step.joints[0]), step.i
     b = _Builder(graph.n_joints)
-    if step.kind == "slider":
-        k, i = int(step.joints[0]), step.i
-        b.add(False, {}, 0j, {}, 0j, "rod", rhs=2.0 * float((np.conj(z[k] - z[i]) * (drest[k] - drest[i])).real))
-        return b.build()
-    # translate: z_n − z_i − off·R(z) = 0, off = z̄_n − z̄_i, R = (z_b − z_a)/m (1 on the frame)
-    guide = graph.sliders[step.slider].guide
-    i = step.i
-    fixed = graph.fixed(guide)
-    a, bb = graph.frame_pair(guide) if not fixed else (-1, -1)
-    m = complex(z[bb] - z[a]) if not fixed else 1.0
-    dm = complex(drest[bb] - drest[a]) if not fixed else 0.0
-    b.add(True, {}, 0j, {}, 0j, "rotation")
-    for n in step.joints:
-        off, doff = complex(z[n] - z[i]), complex(drest[n] - drest[i])
-        if fixed:
-            e, e0 = {}, -doff
-        else:
-            g = -doff / m + off * dm / (m * m)
-            e, e0 = {bb: g, a: -g}, 0j
-        b.add(False, {}, 0j, e, e0, "offset")
-        b.add(True, {}, 0j, e, e0, "offset")
+    b.add(False, {}, 0j, {}, 0j, "rod", rhs=2.0 * float((np.conj(z[k] - z[i]) * (drest[k] - drest[i])).real))
     return b.build()
 
 
@@ -405,21 +355,10 @@ def rest_tangent(graph: LinkageGraph, step: Step, z: np.ndarray, dz: np.ndarray,
     """
     from linkedit.planar.constraints import linkage_rows_tangent, rows_rest_derivative
 
-    every = linkage_rows_tangent(graph, drest)
-    own = _own_rows_tangent(graph, step, drest) if (step.source < 0).any() else None
-    picked, n_own = [], 0
-    for src in step.source:
-        if src >= 0:
-            picked.append(every.take(np.array([src])))
-        else:
-            picked.append(own.take(np.array([n_own])))
-            n_own += 1
-    tangent = picked[0]
-    for more in picked[1:]:
-        tangent = _concat(tangent, more)
+    tangent = linkage_rows_tangent(graph, drest).take(step.source[step.source >= 0])
+    if step.kind == "slider":  # its slot row, then its own rod row
+        tangent = _concat(tangent, _rod_tangent(graph, step, drest))
     rows = step.rows
-    keep = np.arange(1, rows.m) if step.kind == "translate" else np.arange(rows.m)
-    rows, tangent = rows.take(keep), tangent.take(keep)
     known = dz.copy()
     known[step.joints] = 0.0
     rhs = -rows.first(z, known) - rows_rest_derivative(rows, tangent, z)

@@ -12,12 +12,15 @@ from typing import Literal
 import pydantic
 
 from linkedit.errors import InputError
-from linkedit.spec.common import Finite, Name, SpecModel, Vec2
+from linkedit.spec.common import MAX_WEIGHT, Count, Finite, Name, SpecModel, Vec2
 from linkedit.spec.linkage import LinkageSpec
 
-Phase = pydantic.confloat(ge=0.0, lt=1.0, allow_inf_nan=False)
-NonNegative = pydantic.confloat(ge=0.0, allow_inf_nan=False)
-Positive = pydantic.confloat(gt=0.0, allow_inf_nan=False)
+Phase = pydantic.confloat(strict=True, ge=0.0, lt=1.0, allow_inf_nan=False)
+#: a weight of an objective term: sums of weighted squares must not overflow
+Weight = pydantic.confloat(strict=True, ge=0.0, le=MAX_WEIGHT, allow_inf_nan=False)
+Positive = pydantic.confloat(strict=True, gt=0.0, allow_inf_nan=False)
+#: the weight of one target among an operation's targets
+ItemWeight = pydantic.confloat(strict=True, gt=0.0, le=MAX_WEIGHT, allow_inf_nan=False)
 
 
 class Displace(SpecModel):
@@ -33,7 +36,7 @@ class Displace(SpecModel):
     to: Vec2
     at: Finite | Vec2 | None = None
     phase: Phase | None = None
-    weight: Positive = 1.0
+    weight: ItemWeight = 1.0
 
     @pydantic.field_validator("at")
     @classmethod
@@ -70,7 +73,7 @@ class Preserve(SpecModel):
     sample by sample, or with ``timing: false`` only its shape (distance to the curve)."""
 
     track: Name
-    weight: Positive = 1.0
+    weight: ItemWeight = 1.0
     phases: tuple[Phase, Phase] | None = None
     timing: bool = True
 
@@ -115,7 +118,7 @@ class Retarget(SpecModel):
     scale: Vec2 = (1.0, 1.0)
     translate: Vec2 = (0.0, 0.0)
     rotate_deg: Finite = 0.0
-    weight: Positive = 1.0
+    weight: ItemWeight = 1.0
 
 
 class Follow(SpecModel):
@@ -127,7 +130,7 @@ class Follow(SpecModel):
     curve: list[Vec2] = pydantic.Field(min_length=3)
     timing: bool = False
     closed: bool = True
-    weight: Positive = 1.0
+    weight: ItemWeight = 1.0
 
 
 class Drag(SpecModel):
@@ -137,7 +140,7 @@ class Drag(SpecModel):
     at: Phase
     by: Vec2
     radius: Positive = 0.1
-    weight: Positive = 1.0
+    weight: ItemWeight = 1.0
 
 
 class Transform(SpecModel):
@@ -154,13 +157,13 @@ class Transform(SpecModel):
 class TermWeights(SpecModel):
     """Relative weights of an operation's objective terms (inside the edit weight)."""
 
-    preserve: NonNegative = 100.0
-    displace: NonNegative = 1.0
-    envelope: NonNegative = 1.0
-    retarget: NonNegative = 1.0
-    follow: NonNegative = 1.0
-    drag: NonNegative = 1.0
-    transform: NonNegative = 1.0
+    preserve: Weight = 100.0
+    displace: Weight = 1.0
+    envelope: Weight = 1.0
+    retarget: Weight = 1.0
+    follow: Weight = 1.0
+    drag: Weight = 1.0
+    transform: Weight = 1.0
 
 
 class Operation(SpecModel):
@@ -175,7 +178,7 @@ class Operation(SpecModel):
     drag: Drag | list[Drag] | None = None
     transform: Transform | None = None
     terms: TermWeights = TermWeights()
-    max_iterations: int = pydantic.Field(default=200, ge=1)
+    max_iterations: Count = pydantic.Field(default=200, ge=1)
 
     @property
     def preserved(self) -> list[Preserve]:
@@ -195,9 +198,9 @@ class Operation(SpecModel):
 class Weights(SpecModel):
     """μ_e, μ_s, μ_r of E = μ_e·f_edit + μ_s·f_singularity + μ_r·f_regularization."""
 
-    edit: NonNegative = 1.0
-    singularity: NonNegative = 1.0
-    regularization: NonNegative = 0.01
+    edit: Weight = 1.0
+    singularity: Weight = 1.0
+    regularization: Weight = 0.01
 
 
 class EditScript(SpecModel):
@@ -205,12 +208,12 @@ class EditScript(SpecModel):
 
     linkage: str | None = None  #: path of the linkage spec, relative to the script
     #: at most 20,000: the final check simulates 4× as many, and the Jacobian holds samples × directions
-    samples: int = pydantic.Field(default=120, ge=8, le=20_000)
+    samples: Count = pydantic.Field(default=120, ge=8, le=20_000)
     operations: list[Operation] = pydantic.Field(min_length=1)
     lock: list[Name | Lock] = pydantic.Field(default_factory=list)
     motor: MotorFreedom = MotorFreedom()
     weights: Weights = Weights()
-    singularity_epsilon: pydantic.confloat(gt=0.0, lt=1.0) = 0.05
+    singularity_epsilon: pydantic.confloat(strict=True, gt=0.0, lt=1.0) = 0.05
     solver: Literal["gauss-newton", "bfgs"] = "gauss-newton"
     #: Mirrored parts: pairs of joint-name suffixes, e.g. [[_L, _R]]: joints whose names differ only
     #: by them are mirror images, and corresponding lengths stay equal through the edit.
@@ -236,8 +239,15 @@ class EditScript(SpecModel):
         return out
 
 
+#: How far (in linkage sizes) a target may lie, and how much a scale may grow: beyond, the
+#: objective's squares overflow long before the edit could get there.
+REACH = 1e6
+
+
 def check_against(script: EditScript, linkage: LinkageSpec) -> None:
-    """Check every joint and track name of ``script`` against ``linkage``; InputError names the field."""
+    """Check every joint, link and track name of ``script`` against ``linkage``, and that every
+    target is within :data:`REACH` linkage sizes; InputError names the field."""
+    _check_reach(script, linkage)
     joints, tracks, links = set(linkage.joints), set(linkage.tracks), set(linkage.links)
     locked = {name for name, axes in script.locked().items() if axes == "xy"}
     for n, item in enumerate(script.lock):
@@ -283,3 +293,47 @@ def check_against(script: EditScript, linkage: LinkageSpec) -> None:
             for n, name in enumerate(op.transform.joints):
                 if name not in joints:
                     raise InputError(f"unknown joint {name!r}", field=base + ("transform", "joints", n))
+
+
+def _check_reach(script: EditScript, linkage: LinkageSpec) -> None:
+    rest = list(linkage.joints.values())
+    lo = [min(p[k] for p in rest) for k in (0, 1)]
+    hi = [max(p[k] for p in rest) for k in (0, 1)]
+    centre = [(a + b) / 2 for a, b in zip(lo, hi)]
+    size = max(max(b - a for a, b in zip(lo, hi)), 1e-300)
+
+    def near(values: tuple, field: tuple, relative_to: list[float] | None) -> None:
+        for k, v in enumerate(values):
+            if v is not None and abs(v - (relative_to[k % 2] if relative_to else 0.0)) > REACH * size:
+                raise InputError(f"{v:g} is more than {REACH:g} times the linkage's size ({size:g} {linkage.units}) "
+                                 "away: out of reach of an edit", field=field)
+
+    def scale(values: tuple, field: tuple) -> None:
+        for v in values:
+            if abs(v) > REACH:
+                raise InputError(f"a scale of {v:g} is beyond {REACH:g}: out of reach of an edit", field=field)
+
+    for o, op in enumerate(script.operations):
+        base: tuple = ("operations", o)
+        for kind in ("displace", "retarget", "follow", "drag"):
+            for n, item in enumerate(op.listed(kind)):
+                field = base + ((kind, n) if isinstance(getattr(op, kind), list) else (kind,))
+                if kind == "displace":
+                    near(item.to, field + ("to",), centre)
+                elif kind == "follow":
+                    for k, point in enumerate(item.curve):
+                        near(point, field + ("curve", k), centre)
+                elif kind == "drag":
+                    near(item.by, field + ("by",), None)
+                else:
+                    near(item.translate, field + ("translate",), None)
+                    scale(item.scale, field + ("scale",))
+        if op.envelope is not None:
+            e = op.envelope
+            near((e.xmin, e.ymin, e.xmax, e.ymax), base + ("envelope",), centre)
+        if op.transform is not None:
+            t = op.transform
+            near(t.translate, base + ("transform", "translate"), None)
+            if t.about is not None:
+                near(t.about, base + ("transform", "about"), centre)
+            scale((t.scale,), base + ("transform", "scale"))

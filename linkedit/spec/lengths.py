@@ -21,13 +21,15 @@ from __future__ import annotations
 
 import math
 from itertools import combinations
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import pydantic
 
 from linkedit.errors import InputError
 from linkedit.spec.common import Finite, Name, SpecModel, Vec2
 
+#: A positive finite length; ``true`` is not 1 (strict).
+Length = Annotated[Finite, pydantic.Field(gt=0)]
 
 
 class Placement(SpecModel):
@@ -58,8 +60,8 @@ class LinkLengths(SpecModel):
     """A link given by its joints and length(s): ``length`` for 2 joints, ``lengths`` for a plate."""
 
     joints: list[Name] = pydantic.Field(min_length=2)
-    length: float | None = pydantic.Field(default=None, gt=0, allow_inf_nan=False)
-    lengths: list[pydantic.PositiveFloat] | None = None
+    length: Length | None = None
+    lengths: list[Length] | None = None
 
     @pydantic.model_validator(mode="after")
     def _count(self) -> "LinkLengths":

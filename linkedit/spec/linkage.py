@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal
 import pydantic
 
 from linkedit.errors import InputError
-from linkedit.spec.common import Finite, Name, SpecModel, Vec2
+from linkedit.spec.common import Count, Finite, Name, SpecModel, Vec2
 from linkedit.spec.lengths import LinkLengths, Placement, assemble
 
 
@@ -151,7 +151,7 @@ class LinkageSpec(SpecModel):
     #: Prismatic pairs (sliders), by name.
     sliders: dict[Name, Slider] = pydantic.Field(default_factory=dict)
     #: Default number of time samples per cycle (the CLI's --samples overrides it).
-    samples: int | None = pydantic.Field(default=None, ge=1)
+    samples: Count | None = pydantic.Field(default=None, ge=1)
 
     @pydantic.model_validator(mode="before")
     @classmethod
