@@ -96,9 +96,10 @@ class RestPoseKinematics:
         rest = world if self.steps is None else self.steps.normalized(world)
         T, C = self.spin.size, self.directions
         R = len(plan.rules)
-        z = np.zeros((plan.n_points, T), dtype=complex)  # steps' rows multiply unknown joints by 0
+        alloc = np.zeros if plan.steps else np.empty  # steps' rows multiply unknown joints by 0
+        z = alloc((plan.n_points, T), dtype=complex)
         ds = np.ones((R + len(plan.steps), T))
-        dz = np.zeros((plan.n_points, C, T), dtype=complex) if tangents else None
+        dz = alloc((plan.n_points, C, T), dtype=complex) if tangents else None
         dlnds = np.zeros((R + len(plan.steps), C, T)) if tangents else None
         D = self.drest if self.steps is None else self.drest / self.steps.scale
         graph, steps, why = None, (), None
