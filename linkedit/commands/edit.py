@@ -45,19 +45,14 @@ def _load(spec_path: Path | None, script_path: Path):
 
 
 def _refuse_unsupported(spec_path: Path, linkage: Any) -> None:
-    """edit works on revolute linkages that closed-form rules order completely (one line, exit 2 otherwise)."""
-    from linkedit.planar import compile_plan
-
+    """edit works on rotary inputs (crank, sweep, rocker), with sliders and numeric groups; not yet
+    on a linear input (one line, exit 2)."""
     m = linkage.motor
     why = None
-    if linkage.sliders or m.linear:
-        why = "sliders and linear inputs"
-    elif m.oscillate_deg is not None:
-        why = "oscillating (rocker) inputs"
-    elif compile_plan(linkage).steps:
-        why = "complex loops (numeric groups)"
+    if m.linear:
+        why = "a linear input"
     if why is not None:
-        raise InputError(f"edit does not support sliders/numeric groups yet: this linkage has {why}",
+        raise InputError(f"edit does not support this input yet: this linkage has {why}",
                          file=str(spec_path), field="linkage")
 
 

@@ -2,7 +2,8 @@
 
 A linkage works when every dyad triangle (i) has, at the rest pose, the orientation the plan
 was compiled with (so phase 0 rebuilds exactly the rest pose: no branch change), and (ii) can
-be closed at every sample (d_s > 0). Rigid placements are exact by construction and are never
+be closed at every sample (d_s > 0); every slider rule and numeric group can be placed at every
+sample on the side (determinant sign) it had at rest (:mod:`linkedit.edit.steps`). Rigid placements are exact by construction and are never
 checked: a joint collinear with its link's two reference joints (Hoekens' tracer) or a mirrored
 plate is a working linkage.
 
@@ -33,7 +34,8 @@ def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray,
     """Why the linkage does not work, naming the joint and motor angle; None if it works.
 
     ``rest`` (J,) complex; ``ds`` (R, T) singularity distance per rule (rigid rows ignored),
-    NaN where not computed; ``turn_deg`` (T,) motor rotation of each sample from the rest pose;
+    NaN where not computed, optionally followed by one row per step of ``plan.steps`` (a slider
+    rule or a numeric group that cannot be placed: ≤ 0 or NaN); ``turn_deg`` (T,) motor rotation of each sample from the rest pose;
     ``arm`` the direction the crank must keep at rest (its rest angle is fixed), or None.
     """
     names = plan.joint_names
@@ -47,12 +49,16 @@ def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray,
         i, j, k = plan.rules[bad[0]]
         return (f"joint {names[k]} changes branch: triangle {names[i]}-{names[j]}-{names[k]} "
                 "of the rest pose flipped")
-    dyad = ~plan.rigid
+    dyad = np.concatenate([~plan.rigid, np.ones(ds.shape[0] - len(plan.rules), dtype=bool)])
     closed = ds[dyad] > 0.0
     if closed.all():
         return None
     r, t = np.argwhere(~closed)[0]
     rule = np.flatnonzero(dyad)[r]
     rest_deg = np.degrees(np.angle(rest[plan.graph.motor] - rest[plan.graph.pivot]))
-    return (f"joint {names[plan.rules[rule, 2]]} cannot be assembled at motor angle "
-            f"{(rest_deg + turn_deg[t] + 180.0) % 360.0 - 180.0:.1f}°")
+    angle = f"motor angle {(rest_deg + turn_deg[t] + 180.0) % 360.0 - 180.0:.1f}°"
+    if rule >= len(plan.rules):
+        step = plan.steps[rule - len(plan.rules)]
+        what = f"slider {step.name}" if step.kind != "group" else f"numeric group {step.name}"
+        return f"{what} cannot be assembled at {angle}"
+    return f"joint {names[plan.rules[rule, 2]]} cannot be assembled at {angle}"

@@ -20,8 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from linkedit.edit import steps as es
 from linkedit.edit.feasibility import failure
+from linkedit.errors import MechanismError
 from linkedit.planar import law_of_cosines as loc
+from linkedit.planar.kinematics import GROUP_STEP_DEG, continuation_grid
 from linkedit.planar.plan import Plan
 
 
@@ -29,10 +32,11 @@ from linkedit.planar.plan import Plan
 class Evaluation:
     """One evaluation at a rest pose.
 
-    ``rest`` (J,) complex joints; ``z`` (P, T) complex points in internal rows; ``ds`` (R, T)
-    singularity distance per rule (1 for rigid rules); with tangents, ``dz`` (P, C, T) and
-    ``dlnds`` (R, C, T) = ∂ln d_s (dyad rules; 0 for rigid ones); ``why`` is None when the
-    linkage works (:func:`linkedit.edit.feasibility.failure`).
+    ``rest`` (J,) complex joints; ``z`` (P, T) complex points in internal rows; ``ds`` (R + X, T)
+    singularity distance per rule (1 for rigid rules), then per step of ``plan.steps``; with
+    tangents, ``dz`` (P, C, T) and ``dlnds`` (R + X, C, T) = ∂ln d_s (rows the barrier guards,
+    :attr:`RestPoseKinematics.guarded`; 0 elsewhere); ``why`` is None when the linkage works
+    (:func:`linkedit.edit.feasibility.failure`).
     """
 
     rest: np.ndarray
@@ -68,6 +72,18 @@ class RestPoseKinematics:
         coef = plan.geometry().coef
         self.fixed = [None if not b.rigid else np.where(b.k_point >= self.J, coef[n][:, 0], np.nan)
                       for n, b in enumerate(plan.batches)]
+        self.steps = es.RestPoseSteps(plan) if plan.steps else None
+        #: (R + X,) rows of ``ds`` the barrier guards (dyad rules, slider rules) and the point row
+        #: each depends through (its written joint)
+        self.guarded = np.concatenate([~plan.rigid, self.steps.guarded if self.steps else np.zeros(0, bool)])
+        self.guard_rows = np.concatenate([plan.row_of[plan.rules[:, 2]],
+                                          [plan.row_of[s.joints[0]] for s in plan.steps]]).astype(int)
+        # a numeric group is continued from the rest pose at most GROUP_STEP_DEG apart (as in simulate)
+        self.keep = None
+        if plan.has_groups:
+            turn = np.unwrap(np.concatenate([[0.0], np.angle(self.spin)]))[1:]
+            fine, self.keep = continuation_grid(0.0, turn, np.radians(GROUP_STEP_DEG))
+            self.spin = np.exp(1j * fine)
 
     @property
     def directions(self) -> int:
@@ -76,13 +92,25 @@ class RestPoseKinematics:
     def evaluate(self, x: np.ndarray, tangents: bool = False) -> Evaluation:
         """Evaluate at rest pose ``x`` (J, 2); with ``tangents``, also ∂z and ∂ln d_s."""
         plan = self.plan
-        rest = x[:, 0] + 1j * x[:, 1]
+        world = x[:, 0] + 1j * x[:, 1]
+        rest = world if self.steps is None else self.steps.normalized(world)
         T, C = self.spin.size, self.directions
-        z = np.empty((plan.n_points, T), dtype=complex)
-        ds = np.ones((len(plan.rules), T))
-        dz = np.empty((plan.n_points, C, T), dtype=complex) if tangents else None
-        dlnds = np.zeros((len(plan.rules), C, T)) if tangents else None
-        D = self.drest
+        R = len(plan.rules)
+        alloc = np.zeros if plan.steps else np.empty  # steps' rows multiply unknown joints by 0
+        z = alloc((plan.n_points, T), dtype=complex)
+        ds = np.ones((R + len(plan.steps), T))
+        dz = alloc((plan.n_points, C, T), dtype=complex) if tangents else None
+        dlnds = np.zeros((R + len(plan.steps), C, T)) if tangents else None
+        D = self.drest if self.steps is None else self.drest / self.steps.scale
+        graph, steps, why = None, (), None
+        if self.steps is not None:
+            try:
+                graph, steps = self.steps.compile(rest)
+            except MechanismError as exc:
+                why = str(exc)
+            why = why or self.steps.changed(steps)
+            if why is not None:
+                return Evaluation(rest=world, z=z, ds=ds, dz=dz, dlnds=dlnds, why=why)
         z[plan.ground_rows] = rest[self.ground, None]
         arm = rest[self.motor] - rest[self.pivot]
         z[plan.motor_row] = rest[self.pivot] + arm * self.spin
@@ -91,7 +119,11 @@ class RestPoseKinematics:
             darm = D[self.motor] - D[self.pivot]
             dz[plan.motor_row] = D[self.pivot][:, None] + darm[:, None] * self.spin
         with np.errstate(invalid="ignore", divide="ignore"):
-            for n, b in enumerate(plan.batches):
+            for kind, n in plan.schedule or tuple(("batch", n) for n in range(len(plan.batches))):
+                if kind == "step":
+                    self._step(graph, steps[n], R + n, rest, z, ds, dz, dlnds, D)
+                    continue
+                b = plan.batches[n]
                 out = slice(b.start, b.stop)
                 zi, zj = z[b.i], z[b.j]
                 ri, rj = rest[b.i_point], rest[b.j_point]
@@ -129,5 +161,27 @@ class RestPoseKinematics:
                     dz[out] = dzi + (da + 1j * db) * e + t.w[:, None, :] * de
                     dlnds[b.rule] = (dbsq / t.bsq[:, None, :] - 2.0 * du / u
                                      - (dL / lik2[:, None])[:, :, None] - (dM / ljk2[:, None])[:, :, None])
-        why = failure(plan, rest, ds, self.turn_deg, self.arm)
-        return Evaluation(rest=rest, z=z, ds=ds, dz=dz, dlnds=dlnds, why=why)
+        if self.keep is not None:
+            z, ds = z[:, self.keep], ds[:, self.keep]
+            dz, dlnds = (None, None) if not tangents else (dz[..., self.keep], dlnds[..., self.keep])
+        if self.steps is not None:
+            z = self.steps.origin + self.steps.scale * z
+            if tangents:
+                dz *= self.steps.scale
+        why = failure(plan, world, ds, self.turn_deg, self.arm)
+        return Evaluation(rest=world, z=z, ds=ds, dz=dz, dlnds=dlnds, why=why)
+
+    def _step(self, graph, step, r: int, rest: np.ndarray, z: np.ndarray, ds: np.ndarray,
+              dz: np.ndarray | None, dlnds: np.ndarray | None, D: np.ndarray) -> None:
+        """Evaluate one step in place (normalized frame): its joints' rows of ``z`` (and ``dz``),
+        its d_s in row ``r`` of ``ds`` (and ∂ln d_s when guarded)."""
+        rows = self.plan.row_of[: self.J]
+        zj = z[rows]
+        out, ds[r] = es.place(step, zj, rest)
+        z[rows[step.joints]] = zj[step.joints] = out
+        if dz is None:
+            return
+        dzj = dz[rows]
+        dz[rows[step.joints]] = dzj[step.joints] = es.tangents(graph, step, zj, dzj, D)
+        if step.kind in es.GUARDED:
+            dlnds[r] = es.dlnds(graph, step, zj, dzj, D)

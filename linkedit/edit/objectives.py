@@ -30,6 +30,7 @@ import numpy as np
 from scipy import sparse
 
 from linkedit.edit.kinematics import Evaluation, RestPoseKinematics
+from linkedit.edit.steps import dependencies as step_dependencies
 from linkedit.edit.variables import Variables, colour, column_map, seeds
 from linkedit.planar.plan import Plan
 from linkedit.spec.edit_script import EditScript, Operation
@@ -147,7 +148,7 @@ class Problem:
     samples: int  # main samples: columns 0..T−1; then the rest column, then displacement phases
     size: float  # L: lengths are measured in units of L
     weights: tuple[float, float, float]  # μ_e, μ_s, μ_r
-    eps: np.ndarray  # (R,) barrier ε per rule; 0 for rigid rules (never active)
+    eps: np.ndarray  # (R + X,) barrier ε per rule, then per step; 0 where not guarded (never active)
     pairs: np.ndarray  # (Q, 2) joint pairs regularized
     ref_lengths: np.ndarray  # (Q,)
     point_cols: np.ndarray  # (P, C) column map of each point row
@@ -216,8 +217,7 @@ class Problem:
         s = np.sqrt(self.weights[1])
         r = s * np.log(ds[r_idx, t_idx] / self.eps[r_idx])
         D = None if ev.dlnds is None else s * ev.dlnds[r_idx, :, t_idx]
-        rows = self.plan.row_of[self.plan.rules[r_idx, 2]]
-        return r, D, self.point_cols[rows]
+        return r, D, self.point_cols[self.kin.guard_rows[r_idx]]
 
     def _regularization(self, ev: Evaluation) -> Block:
         a, b = self.pairs.T
@@ -255,8 +255,8 @@ class Problem:
         ln d_s (predicted from the forward-mode tangents) keeps a step from jumping over them.
         """
         T = self.samples
-        dyads = np.flatnonzero(~self.plan.rigid)
-        cols = self.point_cols[self.plan.row_of[self.plan.rules[dyads, 2]]]  # (R, C)
+        dyads = np.flatnonzero(self.kin.guarded)
+        cols = self.point_cols[self.kin.guard_rows[dyads]]  # (R, C)
         dv = np.where(cols >= 0, step[np.maximum(cols, 0)], 0.0)
         change = np.einsum("rct,rc->rt", ev.dlnds[dyads, :, :T], dv)
         lnds = np.log(ev.ds[dyads, :T])
@@ -287,7 +287,7 @@ class Problem:
             out[f"{d.label} error"] = d.error(ev)
         if self.envelope is not None:
             out["envelope max excess"] = float(np.abs(self.envelope.outside(ev.z, self.samples)).max(initial=0.0))
-        dyads = ~self.plan.rigid
+        dyads = self.kin.guarded
         out["min d_s"] = float(ev.ds[dyads, : self.samples].min()) if dyads.any() else 1.0
         out |= {f"energy {k}": v_ for k, v_ in self.terms(ev).items()}
         return out
@@ -354,7 +354,13 @@ def dependencies(plan: Plan, uses: np.ndarray) -> np.ndarray:
     dep[plan.ground_rows] = uses[list(g.ground)]
     dep[plan.motor_row] = uses[g.motor] | uses[g.pivot]
     J = plan.n_joints
-    for b in plan.batches:
+    for kind, n in plan.schedule or tuple(("batch", n) for n in range(len(plan.batches))):
+        if kind == "step":
+            st = plan.steps[n]
+            needs = step_dependencies(plan, st)
+            dep[plan.row_of[st.joints]] = (dep[plan.row_of[needs]].any(axis=0) | uses[needs].any(axis=0))[None]
+            continue
+        b = plan.batches[n]
         own = uses[b.i_point] | uses[b.j_point] | np.where((b.k_point < J)[:, None], uses[np.minimum(b.k_point, J - 1)], False)
         dep[b.start:b.stop] = dep[b.i] | dep[b.j] | own
     return dep
@@ -396,8 +402,8 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
     w = op.terms
 
     # the barrier guards each triangle from coming closer to its toggle than it is now
-    eps = np.zeros(len(plan.rules))
-    dyads = ~plan.rigid
+    eps = np.zeros(kin.guarded.size)
+    dyads = kin.guarded
     eps[dyads] = np.minimum(script.singularity_epsilon, 0.5 * start.ds[dyads, :T].min(axis=1))
 
     ref = np.abs(start.rest[pairs[:, 1]] - start.rest[pairs[:, 0]])

@@ -17,6 +17,7 @@ import numpy as np
 
 from linkedit.edit import bfgs, gauss_newton
 from linkedit.edit.feasibility import failure
+from linkedit.edit.steps import check as check_steps
 from linkedit.edit.objectives import Problem, build_problem
 from linkedit.edit.variables import parametrize
 from linkedit.errors import InputError, MechanismError
@@ -133,13 +134,20 @@ def _check(plan: Plan, spec: LinkageSpec, samples: int, arm: complex | None) -> 
     t = motor_phases(spec, samples)
     turn = np.degrees(motor_turn(spec.motor, t))
     ones = np.ones((len(plan.rules), samples))
-    why = failure(plan, z, ones, turn, arm)  # rest orientations first: re-basing needs them
+    why = failure(plan, z, ones, turn, arm) or check_steps(plan, z)  # rest branches first: re-basing needs them
     if why is not None:
         return None, why
-    motion = simulate(plan.rebased(spec), samples, partial=True)
+    motion = simulate(replan(plan, spec), samples, partial=True)
     if not motion.assembled.all():
         return None, "; ".join(lk.describe() for lk in motion.lockups)
-    return motion, failure(plan, z, motion.singularity.T, turn, arm)
+    steps_ds = motion.step_singularity.T if motion.step_singularity is not None else np.ones((0, samples))
+    return motion, failure(plan, z, np.vstack([motion.singularity.T, steps_ds]), turn, arm)
+
+
+def replan(plan: Plan, spec: LinkageSpec) -> Plan:
+    """``plan`` at the rest pose of ``spec``: re-based, or compiled again when it has steps (their
+    constants come from the rest pose; :func:`check_steps` has kept their branches)."""
+    return compile_plan(spec) if plan.steps else plan.rebased(spec)
 
 
 def _warnings(motion: Motion, eps: float) -> list[str]:
@@ -221,7 +229,7 @@ def run_script(linkage: LinkageSpec, script: EditScript,
         edited = with_rest_pose(linkage, out_plan, accepted[k], note)
         motion, why = _check(out_plan, edited, fine, arm)
         if why is None:
-            after_motion = simulate(out_plan.rebased(edited), linkage.samples or DEFAULT_SAMPLES)
+            after_motion = simulate(replan(out_plan, edited), linkage.samples or DEFAULT_SAMPLES)
             result = EditResult(original=linkage, edited=edited if k else linkage, operations=reports,
                                 before=before_motion, after=after_motion,
                                 warnings=_warnings(after_motion, script.singularity_epsilon))
