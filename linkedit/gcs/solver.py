@@ -12,14 +12,18 @@ iteration moves to the least-norm displacement y of J (y − d) = −r, i.e. the
 ε = −d + J⁺(J d − r). Its fixed points satisfy r = 0 and d ⊥ null(J): free members (a coupler's
 idle spin, a crank whose input window has closed) do not move, like SolveSpace's dragged
 solve. J⁺ comes from the Cholesky (or sparse LU) factorization of JᵀJ + μI, μ = 1e-13 of its
-largest diagonal; its small pivots say whether J has a null space (then the last iterations use
-a fresh Jacobian until d ⊥ null(J) to :attr:`Options.still_tol`).
+largest diagonal. Whether J has a null space is decided once per set of active inputs (a rank
+at the first pose that has it) and, at each pose, by small pivots; only then is the null space
+taken (an SVD of J: the normal equations' solution is rounding there, amplified by 1/μ), its
+component removed from every correction and velocity, and the last iterations use fresh
+Jacobians until d ⊥ null(J) to :attr:`Options.still_tol`.
 
 **Continuation.** From a solved pose x at time s, with its factorization and exact velocity v
-(J v = −∂r/∂t, least norm), a step of length h predicts the tangent x ⊕ h·v and corrects it by
-simplified Newton with the factorization of x (one back-substitution per iteration), falling back
+(J v = −∂r/∂t, least norm), a step of length h starts from the polynomial through the last ten
+accepted poses (or, where that strays from it, from x ⊕ (h·v + ½h²·a), a the change of velocity
+since the pose before), and corrects it by simplified Newton with the factorization of x (one back-substitution per iteration), falling back
 to Levenberg–Marquardt with fresh Jacobians. A (sub-)step is accepted when it converges to a
-pose within :attr:`Options.predictor_tol` of its tangent prediction and moves at most
+pose within :attr:`Options.predictor_tol` of its tangent prediction x ⊕ h·v and moves at most
 :attr:`Options.max_motion`; otherwise it is halved. So a coarse run solves the same poses as a
 fine one (the same branch), or fails at the time where the step fell below
 :attr:`Options.min_fraction` of a time step (a lock-up, a singular pose). A failed step is not
@@ -48,6 +52,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from linkedit.gcs import quaternions as quat
 from linkedit.gcs.linalg import Factor, Linearization, NormalEquations
 from linkedit.gcs.system import Evaluation, State, StepTable, System
 
@@ -58,9 +63,14 @@ SOLVERS = ("lm", "slsqp-fd")
 SLSQP_TOL = 1e-6
 #: a pivot of the factorized JᵀJ + μI below this fraction of its largest diagonal entry is a
 #: direction J does not see (a free degree of freedom)
-FREE_PIVOT = 1e-8
+FREE_PIVOT = 1e-4
+#: singular values of the scaled J below this fraction of the largest span its null space
+NULL_SINGULAR = 1e-8
 #: Levenberg–Marquardt iterations a continuation (sub-)step may take before it is halved
 SUBSTEP_ITERATIONS = 20
+#: degree of the polynomial through the last accepted poses that starts a step when it agrees
+#: with the second-order tangent prediction
+PREDICT_ORDER = 9
 
 
 @dataclass
@@ -96,31 +106,58 @@ class StepResult:
 
 @dataclass
 class Linear:
-    """A pose's Jacobian (scaled), its factorization and whether J has a null space."""
+    """A pose's Jacobian (scaled), its factorization and, where J has a null space, an
+    orthonormal basis of it (N, f) (None when J has full column rank)."""
 
     ev: Evaluation
     lin: Linearization
     factor: Factor
-    free: bool
-
-    def J(self, d: np.ndarray) -> np.ndarray:
-        """J d (R,) for scaled local coordinates d (N,)."""
-        return self.lin.JT.T @ d
+    null: np.ndarray | None
 
     def least_norm(self, b: np.ndarray) -> np.ndarray:
-        """The least-norm y (N,) of J y = b (R,) (regularized by μ)."""
-        return self.factor.solve(self.lin.gradient(b))
+        """The least-norm y (N,) of J y = b (R,): the normal equations' solution (regularized
+        by μ) without its component along the null space (there it is rounding amplified by 1/μ)."""
+        return self.still(self.factor.solve(self.lin.gradient(b)))
+
+    def still(self, d: np.ndarray) -> np.ndarray:
+        """d (N,) without its component along the null space of J."""
+        return d if self.null is None else d - self.null @ (self.null.T @ d)
 
 
 @dataclass
 class Pose:
-    """A solved pose at time ``t``: state, residual, linearization and scaled velocity (N,)."""
+    """A solved pose at time ``t``: state, residual, linearization, scaled velocity (N,) and
+    the change of velocity per unit time since the pose before (N,) (None for the first)."""
 
     t: float
     state: State
     r: np.ndarray
     linear: Linear
     velocity: np.ndarray
+    trend: np.ndarray | None = None
+    #: the accepted poses of this continuation up to this one, newest last: times (k,),
+    #: positions (k, M, 3), quaternions (k, M, 4), k ≤ PREDICT_ORDER + 1
+    history: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def followed_by(self, t: float, state: State, r: np.ndarray, linear: "Linear", velocity: np.ndarray) -> "Pose":
+        """The next accepted pose of the continuation."""
+        ts, P, Q = self.history or (np.array([self.t]), self.state.position[None], self.state.orientation[None])
+        keep = slice(-PREDICT_ORDER, None)
+        history = (np.append(ts[keep], t), np.concatenate([P[keep], state.position[None]]),
+                   np.concatenate([Q[keep], state.orientation[None]]))
+        return Pose(t, state, r, linear, velocity, (velocity - self.velocity) / (t - self.t), history)
+
+    def extrapolated(self, t: float) -> State | None:
+        """The Lagrange polynomial through the history's poses at t (quaternions component-wise,
+        then normalized: consecutive solved quaternions never flip sign); None with fewer than
+        three poses."""
+        if self.history is None or len(self.history[0]) < 3:
+            return None
+        ts, P, Q = self.history
+        w = lagrange_weights(ts, np.asarray(t))
+        k = len(w)
+        return State((w @ P.reshape(k, -1)).reshape(P.shape[1:]),
+                     quat.normalize((w @ Q.reshape(k, -1)).reshape(Q.shape[1:])))
 
 
 @dataclass
@@ -139,6 +176,7 @@ class Solver:
         six = np.r_[np.full(3, L), np.ones(3)]
         self.group_scale = [self.row[g.rows][:, :, None, None] * six for g in s.groups]
         self.iterations = self.factorizations = 0
+        self.structure: dict[bytes, bool] = {}  #: active-input pattern → J has a null space
 
     # ---- building blocks --------------------------------------------------------------------
 
@@ -154,7 +192,25 @@ class Solver:
         top = max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
         factor = self.normal.factor(lin.data, damping, 1e-13 * top)
         self.factorizations += 1
-        return Linear(ev, lin, factor, bool((factor.pivots() < FREE_PIVOT * top).any()))
+        null = None
+        if self._free(table, step, lin) and (factor.pivots() < FREE_PIVOT * top).any():
+            J = lin.JT.T
+            _, sv, Vt = np.linalg.svd(J.toarray() if hasattr(J, "toarray") else J)
+            rank = int(np.sum(sv > NULL_SINGULAR * sv[0])) if sv.size else 0
+            null = Vt[rank:].T if rank < Vt.shape[0] else None
+        return Linear(ev, lin, factor, null)
+
+    def _free(self, table: StepTable, step: int, lin: Linearization) -> bool:
+        """Whether J has a null space for the inputs active at this step: its rank is taken
+        (block by block) the first time each set of active inputs is met, and kept."""
+        key = table.at(step).inactive_rows.tobytes()
+        if key not in self.structure:
+            from linkedit.gcs.diagnostics import jacobian_rank
+
+            J = lin.JT.T
+            self.structure[key] = jacobian_rank(J.toarray() if hasattr(J, "toarray") else np.asarray(J)) \
+                < self.system.n_unknowns
+        return self.structure[key]
 
     def moved(self, x: State, e: np.ndarray) -> State:
         return x.moved(e * self.col)
@@ -180,8 +236,11 @@ class Solver:
         tol = self.options.tol
         norm = float(np.linalg.norm(r * self.row))
         while self.error(r) > tol:
-            d = self.displacement(x, anchor)
-            x1 = self.moved(x, linear.least_norm(linear.J(d) - r * self.row) - d)
+            e = -linear.least_norm(r * self.row)
+            if linear.null is not None:
+                d = self.displacement(x, anchor)
+                e -= linear.null @ (linear.null.T @ d)
+            x1 = self.moved(x, e)
             r1 = self._residual(x1, table, step)
             self.iterations += 1
             norm1 = float(np.linalg.norm(r1 * self.row))
@@ -230,13 +289,13 @@ class Solver:
         opt = self.options
         linear = self.linearize(x, table, step)
         for _ in range(8):
-            if not linear.free:
+            if linear.null is None:
                 break
             d = self.displacement(x, anchor)
-            still = d - linear.least_norm(linear.J(d))
-            if np.abs(still).max(initial=0.0) <= opt.still_tol:
+            free = d - linear.still(d)
+            if np.abs(free).max(initial=0.0) <= opt.still_tol:
                 break
-            x1 = self.moved(x, -still - linear.least_norm(r * self.row))
+            x1 = self.moved(x, -free - linear.least_norm(r * self.row))
             r1 = self._residual(x1, table, step)
             self.iterations += 1
             x1, r1, ok = self.chord(x1, r1, anchor, linear, table, step)
@@ -299,14 +358,19 @@ class Solver:
             s = t1 if h >= t1 - here.t else here.t + h
             tab, k = (table, step) if s == t1 else (self.system.step_table(np.array([s])), 0)
             tangent = self.moved(here.state, h * here.velocity)
-            x, r, status = self.pose(tangent, anchor, tab, k, here.linear, budget=SUBSTEP_ITERATIONS)
+            guess = tangent if here.trend is None else \
+                self.moved(here.state, h * here.velocity + 0.5 * h * h * here.trend)
+            smooth = here.extrapolated(s)
+            if smooth is not None and np.abs(self.displacement(smooth, guess)).max() < opt.predictor_tol:
+                guess = smooth
+            x, r, status = self.pose(guess, anchor, tab, k, here.linear, budget=SUBSTEP_ITERATIONS)
             near = status == CONVERGED and np.abs(self.displacement(x, tangent)).max() <= opt.predictor_tol
             if not near:
                 best = (x, r, status if status != CONVERGED else NOT_CONVERGED)
                 h *= 0.5
                 continue
             x, r, linear = self.settle(x, r, anchor, tab, k)
-            here = Pose(s, x, r, linear, self.velocity(x, tab, k, linear))
+            here = here.followed_by(s, x, r, linear, self.velocity(x, tab, k, linear))
             if s == t1:
                 return x, r, CONVERGED, here, s
             h *= 2.0
@@ -381,6 +445,15 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
             progress(k, T)
     return Run(t=t, position=pos, orientation=ori, velocity=vel, residual=res, status=status,
                iterations=iters, factorizations=facts, reached=reached)
+
+
+def lagrange_weights(nodes: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Weights (..., k) of the Lagrange polynomial through ``nodes`` (..., k) at ``t`` (...):
+    w_j = ∏_{i≠j} (t − t_i) / (t_j − t_i)."""
+    k = nodes.shape[-1]
+    ratio = (t[..., None] - nodes)[..., None, :] / (nodes[..., :, None] - nodes[..., None, :] + np.eye(k))
+    ratio[..., np.arange(k), np.arange(k)] = 1.0
+    return ratio.prod(axis=-1)
 
 
 def solve_slsqp(solver: Solver, start: State, table: StepTable, step: int) -> tuple[State, np.ndarray, StepResult]:
