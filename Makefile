@@ -19,6 +19,7 @@ $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 
 demo: $(VENV)/.installed
 	$(BIN)/linkedit simulate examples/jansen.yaml -o out/jansen.h5 --svg out/jansen.svg
+	@echo "linkedit is installed in $(VENV)/: run 'source $(VENV)/bin/activate' (or call $(BIN)/linkedit), then e.g. 'linkedit validate examples/klann.yaml'"
 
 test: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -q

@@ -1,29 +1,56 @@
-"""The edit energy's analytic gradient (reverse mode through the levels) against central differences."""
+"""The edit's derivatives and forward model, checked independently.
+
+* the forward model (positions at motor phases as a function of the rest pose) equals
+  ``simulate`` of the spec with that rest pose, at random rest poses of every example and of a
+  linkage with points tracked on links;
+* the Jacobian (forward mode through the levels, coloured directions) and the gradient Jᵀr
+  against central differences, for every objective kind, with the barrier active.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from linkedit.edit.feasibility import failure
 from linkedit.edit.objectives import build_problem
-from linkedit.edit.runner import pair_lengths
-from linkedit.planar import compile_plan
+from linkedit.edit.runner import with_rest_pose
+from linkedit.edit.variables import parametrize
+from linkedit.planar import catalog, compile_plan
+from linkedit.planar.simulate import motor_phases, motor_turn, simulate
 from linkedit.spec.edit_script import EditScript
 from linkedit.spec.linkage import LinkageSpec
-from linkedit.spec.yamlload import load_model
-from tests.planar_specs import FOURBAR, JANSEN
 
 OPS = {
-    "preserve+displace": {"preserve": ["{track}"], "displace": {"joint": "{joint}", "to": [1, 2]}},
+    "preserve+displace": {"preserve": ["{track}"], "displace": {"joint": "{joint}", "to": [1, 2], "weight": 3}},
     "displace at phase": {"displace": {"joint": "{joint}", "to": [1, 2], "at": 0.3}},
+    "link point": {"displace": {"link": "{link}", "at": "{point}", "to": [1, 2], "phase": 0.4}},
+    "preserve part, no timing": {"preserve": [{"track": "{track}", "phases": [0.8, 0.3], "timing": False, "weight": 2}],
+                                 "displace": {"joint": "{joint}", "to": [1, 2]}},
     "envelope": {"envelope": {"xmin": "{xmin}", "ymax": "{ymax}"}},
     "retarget+drag": {"retarget": {"track": "{track}", "scale": [1.2, 0.9], "rotate_deg": 10},
                       "drag": {"track": "{track}", "at": 0.6, "by": [0.5, 1], "radius": 0.1}},
     "transform": {"transform": {"joints": "all", "scale": 0.9, "rotate_deg": 5, "translate": [0.3, 0]}},
+    "follow": {"follow": [{"track": "{track}", "curve": "{curve}"}, {"track": "{track}", "curve": "{curve}", "timing": True}]},
 }
+
+
+def circle(cx: float, cy: float, r: float) -> list:
+    return [[cx + r * np.cos(a), cy + r * np.sin(a)] for a in np.linspace(0, 2 * np.pi, 17)[:-1]]
+
+
+def with_link_track(spec: LinkageSpec, link: str, at) -> LinkageSpec:
+    tracks = dict(spec.tracks) | {"marker": {"link": link, "at": list(at)}}
+    return LinkageSpec.model_validate(spec.model_dump() | {"tracks": tracks})
+
+
 LINKAGES = {
-    "four-bar": (FOURBAR, {"track": "coupler_point", "joint": "B"}),
-    "jansen": (JANSEN, {"track": "foot", "joint": "C"}),
+    "four-bar": (catalog.crank_rocker(), {"track": "coupler_point", "joint": "B", "link": "coupler", "point": [40, 20],
+                                       "curve": circle(30, 50, 12)}),
+    "jansen": (with_link_track(catalog.jansen_leg(), "knee", (-66, -10)),
+               {"track": "foot", "joint": "C", "link": "lower", "point": [-40, -60], "curve": circle(-40, -85, 20)}),
+    "strandbeest, symmetric": (catalog.strandbeest(1), {"track": "foot_0_L", "joint": "C_0_L", "link": "lower_0_L",
+                                                        "point": [-40, -60], "curve": circle(-40, -85, 20)}),
 }
 
 
@@ -37,41 +64,84 @@ def fill(value, names):
     return value
 
 
+def problem_for(spec: LinkageSpec, script: EditScript):
+    from linkedit.edit.runner import _probes
+
+    augmented, probes = _probes(spec, script)
+    plan = compile_plan(augmented)
+    x = plan.graph.rest.copy()
+    index = {n: i for i, n in enumerate(plan.joint_names)}
+    var = parametrize(plan, x, {index[n]: a for n, a in script.locked().items()}, script.motor.free_angle)
+    t = motor_phases(spec, script.samples)
+    probe_points = {k: int(plan.track_points[plan.track_names.index(v)]) for k, v in probes[0].items()}
+    return build_problem(plan, script, script.operations[0], var, motor_turn(spec.motor, t), t,
+                         float(np.ptp(x, axis=0).max()), probe_points)
+
+
+@pytest.mark.parametrize("free_angle", [False, True])
 @pytest.mark.parametrize("op", OPS)
 @pytest.mark.parametrize("linkage", LINKAGES)
-def test_gradient_matches_central_differences(linkage, op):
-    text, names = LINKAGES[linkage]
-    spec = load_model(LinkageSpec, "x.yaml", text)
-    plan = compile_plan(spec)
-    x = plan.graph.rest.copy()
-    lo, hi = x.min(axis=0), x.max(axis=0)
-    names = names | {"xmin": float(lo[0] + 0.3 * (hi[0] - lo[0])), "ymax": float(hi[1] - 0.2 * (hi[1] - lo[1]))}
-    # ε large enough that the barrier is active on every dyad; lengths off their reference
-    script = EditScript.model_validate({"samples": 40, "singularity_epsilon": 0.9, "lock": [plan.joint_names[0]],
-                                        "weights": {"regularization": 0.5}, "operations": [fill(OPS[op], names)]})
-    problem = build_problem(plan, script, script.operations[0], x, plan.geometry().rest_angle,
-                            pair_lengths(plan, x) * 1.02)
-    v = x[problem.free]
-    e, g, f = problem.energy(v)
-    assert problem.terms(f)["singularity"] > 0  # the barrier takes part
-    h = 1e-6 * np.abs(x).max()
-    fd = np.empty_like(v)
-    for a in range(v.size):
-        step = np.zeros_like(v)
-        step[a] = h
-        fd[a] = (problem.energy(v + step, False)[0] - problem.energy(v - step, False)[0]) / (2 * h)
-    assert np.abs(g - fd).max() < 1e-6 * np.abs(fd).max()
+def test_jacobian_matches_central_differences(linkage, op, free_angle):
+    spec, names = LINKAGES[linkage]
+    x = np.array(list(spec.joints.values()))
+    names = names | {"xmin": float(x[:, 0].min() + 0.2 * np.ptp(x[:, 0])),
+                     "ymax": float(x[:, 1].max() - 0.2 * np.ptp(x[:, 1]))}
+    script = EditScript.model_validate({"samples": 40, "singularity_epsilon": 0.5, "lock": [spec.ground[0]],
+                                        "motor": {"free_angle": free_angle},
+                                        "symmetric": [["_L", "_R"]] if "symmetric" in linkage else [],
+                                        "operations": [fill(OPS[op], names)]})
+    problem = problem_for(spec, script)
+    problem.eps[~problem.plan.rigid] = 0.6  # the barrier active on many samples
+    rng = np.random.default_rng(7)
+    v = rng.normal(scale=0.3, size=problem.var.n)
+    ev, r, J = problem.residuals(v, jacobian=True)
+    assert ev.works and J is not None
+    J = J.toarray()
+    assert np.count_nonzero(problem.eps[~problem.plan.rigid][:, None] > ev.ds[~problem.plan.rigid, :40]) > 0
+    h = 1e-6 * problem.size
+    numeric = np.empty_like(J)
+    for k in range(v.size):
+        e = np.zeros(v.size)
+        e[k] = h
+        rp, rm = problem.residuals(v + e)[1], problem.residuals(v - e)[1]
+        assert rp.size == rm.size == r.size, "an active set changed inside the difference step"
+        numeric[:, k] = (rp - rm) / (2 * h)
+    assert np.abs(J - numeric).max() <= 1e-6 * np.abs(numeric).max()
+    g = problem.energy(v)[1]
+    assert np.abs(g - numeric.T @ r).max() <= 1e-6 * np.abs(numeric.T @ r).max()
 
 
-def test_infeasible_rest_pose_has_infinite_energy():
-    spec = load_model(LinkageSpec, "x.yaml", FOURBAR)
-    plan = compile_plan(spec)
-    script = EditScript.model_validate({"operations": [{"displace": {"joint": "B", "to": [0, 0]}}]})
-    x = plan.graph.rest.copy()
-    problem = build_problem(plan, script, script.operations[0], x, plan.geometry().rest_angle, pair_lengths(plan, x))
-    flipped = x.copy()
-    flipped[2] = [2.2, -2.1]  # B mirrored below the line A–D: the triangle's orientation flips
-    assert problem.energy(flipped[problem.free])[0] == np.inf
-    far = x.copy()
-    far[3] = [30, 0]  # rocker pivot so far that the coupler cannot reach it
-    assert problem.energy(far[problem.free])[0] == np.inf
+@pytest.mark.parametrize("name", ["jansen_leg", "klann_leg", "hoekens", "crank_rocker", "watt_six_bar",
+                                  "stephenson_six_bar", "strandbeest3", "strandbeest10", "jansen_with_link_track",
+                                  "rocker_range"])
+def test_forward_model_equals_simulate_at_random_rest_poses(name):
+    spec = {"strandbeest3": lambda: catalog.strandbeest(3), "strandbeest10": lambda: catalog.strandbeest(10),
+            "jansen_with_link_track": lambda: with_link_track(catalog.jansen_leg(), "knee", (-66, -10)),
+            "rocker_range": lambda: catalog.crank_rocker().model_copy(update={"motor": catalog.crank_rocker().motor.model_copy(
+                update={"range_deg": (-30.0, 100.0)})}),
+            }.get(name, getattr(catalog, name, None))()
+    script = EditScript.model_validate({"samples": 48, "operations": [{"displace": {"joint": list(spec.joints)[-1], "to": [0, 0]}}],
+                                        "motor": {"free_angle": True}})
+    problem = problem_for(spec, script)
+    plan = problem.plan
+    size = problem.size
+    rng = np.random.default_rng(3)
+    tried = 0
+    for n in range(40):
+        v = rng.normal(scale=0.01 * size / (1 + n // 4), size=problem.var.n)
+        ev = problem.evaluate(v)
+        if not ev.works:
+            continue
+        tried += 1
+        x = problem.var.rest(v)
+        edited = with_rest_pose(spec, plan, x, "random")
+        motion = simulate(edited, 48)
+        z = ev.z[plan.row_of[: plan.n_joints], :48].T
+        assert np.abs(motion.positions[..., 0] + 1j * motion.positions[..., 1] - z).max() <= 1e-9 * size
+        for track, point in zip(plan.track_names, plan.track_points):
+            p = motion.tracks[track].position
+            assert np.abs(p[:, 0] + 1j * p[:, 1] - ev.z[plan.row_of[point], :48]).max() <= 1e-9 * size
+        assert failure(plan, ev.rest, ev.ds[:, :48], np.zeros(48)) is None
+        if tried == 3:
+            break
+    assert tried == 3

@@ -149,7 +149,7 @@ def test_six_bar_outputs_swing():
 
 
 def test_complex_loop_is_rejected_naming_the_undetermined_joints():
-    spec = load("complex-loop.yaml")
+    spec = load("invalid/complex-loop.yaml")
     with pytest.raises(MechanismError) as info:
         compile_plan(spec)
     message = str(info.value)
@@ -159,7 +159,7 @@ def test_complex_loop_is_rejected_naming_the_undetermined_joints():
 
 
 def test_complex_loop_cli_exits_1_with_one_line(run_cli, tmp_path):
-    r = run_cli("simulate", EXAMPLES / "complex-loop.yaml", "-o", tmp_path / "loop.h5")
+    r = run_cli("simulate", EXAMPLES / "invalid" / "complex-loop.yaml", "-o", tmp_path / "loop.h5")
     assert r.exit_code == 1
     assert "T1, T2, T3" in r.output and "Traceback" not in r.output
     assert len(r.output.strip().splitlines()) == 1

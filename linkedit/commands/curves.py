@@ -8,8 +8,9 @@ from typing import Any
 
 import typer
 
-from linkedit.commands.common import guard, print_json
+from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError
+from linkedit.spec.common import MAX_WEIGHT
 
 SAMPLES_HELP = "Points per resampled curve [default: 64, or the weights file's]."
 CLOSED_HELP = "Treat every curve as closed (cyclic) or open [default: detected from the ends, or declared]."
@@ -29,15 +30,27 @@ def _anchor(text: str | None) -> Any:
     return values
 
 
+def _skipped(failures: list[InputError]):
+    """A ``skip`` callback: report a bad input on stderr, remember it, go on."""
+
+    def skip(exc: InputError) -> None:
+        typer.echo(f"linkedit: error: {exc} (skipped)", err=True)
+        failures.append(exc)
+
+    return skip
+
+
 def _load(inputs: list[str], closed: bool | None, samples: int | None, harmonics: int | None, anchor: str | None,
-          curves: list | None = None):
-    """Load (unless ``curves`` are given) and describe curves."""
+          curves: list | None = None, skip=None):
+    """Load (unless ``curves`` are given) and describe curves; ``skip`` as for ``load_inputs``."""
     from linkedit.curves.compare import describe_curves
     from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES
     from linkedit.curves.sources import load_inputs
 
     if curves is None:
-        curves = load_inputs(inputs, closed=closed)
+        curves = load_inputs(inputs, closed=closed, skip=skip)
+        if not curves:
+            raise InputError("no curve could be read", field="INPUT")
     desc = describe_curves(curves, samples=samples or DEFAULT_SAMPLES, harmonics=harmonics or DEFAULT_HARMONICS,
                            anchor=_anchor(anchor))
     return curves, desc
@@ -111,9 +124,14 @@ def _print_table(rows: list[dict[str, Any]]) -> None:
         typer.echo("".join(v.ljust(w) for v, w in zip(row, widths)).rstrip())
 
 
-def _load_weights(path: Path | None, overrides: list[str]) -> tuple[dict[str, float] | None, int | None, int | None]:
-    """Weights from a file (+ --weight term=value overrides), and the samples/harmonics it asks for."""
-    weights, samples, harmonics = None, None, None
+#: (the weights file's weights, or None for all 1; the --weight overrides)
+_Weights = tuple[dict[str, float] | None, dict[str, float]]
+
+
+def _load_weights(path: Path | None, overrides: list[str]) -> tuple[_Weights, int | None, int | None]:
+    """Weights from a file (default: all 1) and --weight term=value overrides, and the samples/harmonics
+    the file asks for."""
+    weights, samples, harmonics, changed = None, None, None, {}
     if path is not None:
         from linkedit.spec.curveset import CurveWeights
         from linkedit.spec.yamlload import load_model
@@ -126,12 +144,35 @@ def _load_weights(path: Path | None, overrides: list[str]) -> tuple[dict[str, fl
             w = float(value)
         except ValueError:
             w = -1.0
-        if not sep or not name.strip() or not (w >= 0 and w < float("inf")):
-            raise InputError(f"expected TERM=WEIGHT with a weight ≥ 0, got {item!r}", field="--weight")
-        if weights is None:
-            weights = {}
-        weights[name.strip()] = w
-    return weights, samples, harmonics
+        if not sep or not name.strip() or not 0 <= w <= MAX_WEIGHT:
+            raise InputError(f"expected TERM=WEIGHT with 0 ≤ WEIGHT ≤ {MAX_WEIGHT:g}, got {item!r}", field="--weight")
+        changed[name.strip()] = w
+    return (weights, changed), samples, harmonics
+
+
+def _resolve(desc: Any, weights: _Weights) -> dict[str, float]:
+    """Every term's weight: the file's (or 1), then the --weight overrides."""
+    from linkedit.curves.compare import resolve_weights
+
+    base, changed = weights
+    out = resolve_weights(desc, base)
+    for name in changed:
+        if name not in out:
+            raise InputError(f"term {name!r} does not apply to these curves (their terms: {', '.join(out)})",
+                             field="--weight")
+    out |= changed
+    if not any(out.values()):
+        raise InputError("every weight is 0", field="--weight")
+    return out
+
+
+def _input_paths(texts: list[Any]) -> list[Path]:
+    """The files named by curve inputs (``result.h5:foot`` names ``result.h5``), for the output checks."""
+    paths = []
+    for text in map(str, texts):
+        if text:
+            paths += [Path(text), Path(text.rpartition(":")[0] or text)]
+    return paths
 
 
 def register(app: typer.Typer) -> None:
@@ -146,8 +187,14 @@ def register(app: typer.Typer) -> None:
         anchor: str = typer.Option(None, "--anchor", help="X,Y[,Z]: anchor point (e.g. the crank axle) for curves without one."),
         as_json: bool = typer.Option(False, "--json", help="Print the table as JSON."),
     ) -> None:
-        """Per-curve features of normalized motion curves (one row per curve)."""
-        curves, desc = _load(inputs, closed, samples, harmonics, anchor)
+        """Per-curve features of normalized motion curves (one row per curve).
+
+        An input that cannot be read is reported (named) and skipped; the exit code is then 2.
+        """
+        check_outputs([("--output", output)], _input_paths(inputs))
+        failures: list[InputError] = []
+        several = len(inputs) > 1 or any(Path(i).is_dir() for i in inputs)
+        curves, desc = _load(inputs, closed, samples, harmonics, anchor, skip=_skipped(failures) if several else None)
         if output is not None:
             options = {"samples": int(desc.points.shape[1]), "harmonics": int(desc.efd.shape[1]), "inputs": inputs}
             _write_features(output, curves, desc, options)
@@ -156,6 +203,8 @@ def register(app: typer.Typer) -> None:
             print_json(_feature_rows(curves, desc))
         else:
             _print_table(_feature_rows(curves, desc))
+        if failures:
+            raise typer.Exit(2)
 
     @app.command("compare-curves")
     @guard
@@ -176,6 +225,8 @@ def register(app: typer.Typer) -> None:
         as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
     ) -> None:
         """Distances between motion curves, each one's nearest neighbour, or a library ranked against a query."""
+        check_outputs([("--output", output), ("--svg", svg)],
+                      _input_paths([*(inputs or []), query or "", *(library or []), weights_file or "", learn_pairs or ""]))
         if learn_pairs is not None:
             if inputs or query or library:
                 raise InputError("--learn-weights takes its curves from the pairs file", field="--learn-weights")
@@ -196,13 +247,13 @@ def register(app: typer.Typer) -> None:
 
 
 def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json) -> None:
-    from linkedit.curves.compare import distances, resolve_weights
+    from linkedit.curves.compare import distances
     from linkedit.curves.distance import nearest
 
     curves, desc = _load(inputs, closed, samples, harmonics, anchor)
     if len(curves) < 2:
         raise InputError("compare-curves needs at least 2 curves", field="INPUT")
-    w = resolve_weights(desc, weights)
+    w = _resolve(desc, weights)
     dist, _ = distances(desc, w)
     near = nearest(dist)
     names = [c.name for c in curves]
@@ -224,15 +275,18 @@ def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json) -
 def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json) -> None:
     import numpy as np
 
-    from linkedit.curves.compare import distances, resolve_weights
+    from linkedit.curves.compare import distances
 
     from linkedit.curves.sources import load_inputs
 
     queried = load_inputs([query], closed=closed)
     if len(queried) != 1:
         raise InputError(f"the query holds {len(queried)} curves; name one (result.h5:track)", field="--query")
-    curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed))
-    w = resolve_weights(desc, weights)
+    def warn(exc: InputError) -> None:  # a library with a bad file: warn, skip it, rank the rest
+        typer.echo(f"linkedit: warning: {exc} (skipped)", err=True)
+
+    curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed, skip=warn))
+    w = _resolve(desc, weights)
     dist, terms = distances(desc.take([0]), w, desc.take(range(1, len(curves))))
     order = np.argsort(dist[0], kind="stable")[:top]
     ranking = [{"rank": k + 1, "curve": curves[1 + i].name, "origin": curves[1 + i].origin,
@@ -274,7 +328,9 @@ def _learn(pairs_path: Path, output: Path | None, samples, harmonics, closed, as
     spec = validate(LabelledPairs, data, file=file, lines=lines)
     samples = samples or spec.samples or DEFAULT_SAMPLES
     harmonics = harmonics or spec.harmonics or DEFAULT_HARMONICS
-    curves = load_inputs([str(pairs_path.parent / c) for c in spec.curves], closed=closed)
+    sources = [str(pairs_path.parent / c) for c in spec.curves]
+    check_outputs([("--output", output)], _input_paths(sources))
+    curves = load_inputs(sources, closed=closed)
     desc = describe_curves(curves, samples=samples, harmonics=harmonics)
     try:
         fit = learn(desc, [c.name for c in curves], list(spec.similar), list(spec.dissimilar),

@@ -8,11 +8,12 @@ from typing import Any
 
 import typer
 
-from linkedit.commands.common import guard, print_json
-from linkedit.errors import InputError
+from linkedit.commands.common import check_outputs, guard, print_json
+from linkedit.errors import InputError, MechanismError
 
 
 def _load(spec_path: Path | None, script_path: Path):
+    from linkedit.planar import compile_plan, simulate
     from linkedit.spec.edit_script import EditScript, check_against
     from linkedit.spec.linkage import LinkageSpec
     from linkedit.spec.yamlload import load_model, load_yaml, validate
@@ -27,25 +28,44 @@ def _load(spec_path: Path | None, script_path: Path):
         if not spec_path.is_file():
             raise InputError(f"linkage file not found: {spec_path}", file=str(script_path),
                              line=lines.line_of(("linkage",)), field="linkage")
+    elif script.linkage is not None:
+        typer.echo(f"note: {script_path} names linkage {script.linkage}; editing {spec_path} as given", err=True)
     linkage = load_model(LinkageSpec, spec_path)
     try:
         check_against(script, linkage)
     except InputError as exc:
         exc.file, exc.line = str(script_path), lines.line_of(exc.field)
         raise
+    try:  # an edit starts from a working linkage (the barrier keeps it working)
+        simulate(compile_plan(linkage), script.samples)
+    except MechanismError as exc:
+        raise MechanismError(f"{spec_path}: only a linkage that works can be edited: {exc}") from None
     return spec_path, linkage, script
 
 
 def _report_lines(result: Any) -> list[str]:
     out = []
     for op in result.operations:
-        status = "" if op.converged else " (iteration limit)"
+        status = (" (stalled: slow progress, along the barrier's edge)" if op.stalled
+                  else " (iteration limit)" if not op.converged else "")
+        status += " — DISCARDED: its result does not work (see below)" if op.discarded else ""
         out.append(f"{op.name}: {op.iterations} iterations, {op.seconds * 1e3:.0f} ms{status}")
         for key in op.before:
             if key.startswith("energy"):
                 continue
             out.append(f"  {key}: {op.before[key]:.4g} → {op.after[key]:.4g}")
+        for goal in op.unmet:
+            out.append(f"  goal not met: {goal}")
+    out += [f"warning: {w}" for w in result.warnings]
     return out
+
+
+def _report_json(op: Any) -> dict:
+    return {"name": op.name, "iterations": op.iterations, "evaluations": op.evaluations,
+            "rejected_steps": op.rejected_steps, "seconds": op.seconds, "converged": op.converged,
+            "stalled": op.stalled,
+            "discarded": op.discarded, "goals_met": op.goals_met, "unmet": op.unmet,
+            "before": op.before, "after": op.after}
 
 
 def register(app: typer.Typer) -> None:
@@ -59,23 +79,24 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Edit a linkage: displace joints, preserve or reshape track curves, fit a box — keeping it working."""
         from linkedit.edit.runner import EditFailed, run_script
-        from linkedit.io.atomic import write_text
+        from linkedit.io.atomic import commit, write_text
         from linkedit.io.edit_hdf5 import write_edit
         from linkedit.spec.linkage_yaml import dump_linkage
         from linkedit.spec.yamlload import read_text
 
         spec_path, script_path = (None, spec) if script is None else (spec, script)
         spec_path, linkage, parsed = _load(spec_path, script_path)
+        stem = Path(spec_path).stem
+        edited_yaml = out_dir / f"{stem}-edited.yaml"
+        h5 = out_dir / f"{stem}-edit.h5"
+        svg = out_dir / f"{stem}-edit.svg"
+        check_outputs([("--output", edited_yaml), ("--output", h5), ("--output", svg)], [spec_path, script_path])
         failure = None
         with _Progress() as progress:
             try:
                 result = run_script(linkage, parsed, progress=progress.update)
             except EditFailed as exc:
                 result, failure = exc.result, exc
-        stem = Path(spec_path).stem
-        edited_yaml = out_dir / f"{stem}-edited.yaml"
-        h5 = out_dir / f"{stem}-edit.h5"
-        svg = out_dir / f"{stem}-edit.svg"
         edited_text = dump_linkage(result.edited)
         write_text(edited_yaml, edited_text)
         write_edit(h5, result, script_text=read_text(script_path),
@@ -85,14 +106,14 @@ def register(app: typer.Typer) -> None:
         if as_json:
             print_json({"spec": str(spec_path), "script": str(script_path), "edited": str(edited_yaml),
                         "output": str(h5), "svg": str(svg), "ok": failure is None,
-                        "operations": [{"name": o.name, "iterations": o.iterations, "seconds": o.seconds,
-                                        "converged": o.converged, "before": o.before, "after": o.after}
-                                       for o in result.operations]})
+                        "error": None if failure is None else str(failure), "warnings": result.warnings,
+                        "operations": [_report_json(o) for o in result.operations]})
         else:
             for line in _report_lines(result):
                 typer.echo(line)
             typer.echo(f"→ {edited_yaml}, {h5}, {svg}")
         if failure is not None:
+            commit()  # the last working linkage is a result too: keep it for inspection
             raise failure
 
 

@@ -2,37 +2,58 @@
 
 from __future__ import annotations
 
+import os
 import sys
+from enum import Enum
 from pathlib import Path
 from typing import Any
 
 import typer
 
-from linkedit.commands.common import guard, print_json
+from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError, LinkeditError, MechanismError
+from linkedit.io.atomic import together
+from linkedit.io.formats import is_stdout, output_format, write_out
+from linkedit.io.planar_out import result_format
+
+
+class Engine(str, Enum):
+    """How positions are computed."""
+
+    symbolic = "symbolic"
+    numeric = "numeric"
 
 
 def _outputs(specs: list[Path], out: Path | None, svg: Path | None, animate: bool) -> list[tuple[Path, Path | None]]:
     """Result and picture path per spec: a path with a suffix is a file (one spec only), else a folder."""
     batch = len(specs) > 1
     for option, value, suffix in (("--output", out, ".h5"), ("--svg", svg, ".svg")):
-        if value is not None and batch and value.suffix:
+        if value is not None and batch and _is_file(value):
             raise InputError(f"{value}: with several specs, give a folder (one file per spec is written)", field=option)
     pairs = []
     for spec in specs:
-        h5 = out if out is not None and out.suffix else (out or Path("out")) / f"{spec.stem}.h5"
+        h5 = out if out is not None and _is_file(out) else (out or Path("out")) / f"{spec.stem}.h5"
+        result_format(h5)
         pic = None
         if svg is not None:
-            pic = svg if svg.suffix else svg / f"{spec.stem}.svg"
+            pic = svg if _is_file(svg) else svg / f"{spec.stem}.svg"
+            output_format(pic, ("svg",), option="--svg", stdout="svg")
         elif animate:
-            pic = h5.with_suffix(".svg")
+            pic = h5.with_suffix(".svg") if not is_stdout(h5) else None
         pairs.append((h5, pic))
+    if sum(is_stdout(p) for pair in pairs for p in pair) > 1:
+        raise InputError("only one output can go to standard output ('-')", field="--svg")
     return pairs
+
+
+def _is_file(path: Path) -> bool:
+    """A path with a suffix, or ``-``, names one file; anything else is a folder."""
+    return bool(path.suffix) or is_stdout(path)
 
 
 def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int | None, animate: bool,
                   partial: bool, engine: str) -> dict[str, Any]:
-    from linkedit.io.planar_hdf5 import write_motion
+    from linkedit.io.planar_out import write_result
     from linkedit.planar import simulate
     from linkedit.planar.plan import compile_plan
     from linkedit.spec.linkage import LinkageSpec
@@ -40,6 +61,7 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
 
     text = read_text(spec_path)
     spec = load_model(LinkageSpec, spec_path, text)
+    check_memory(samples, spec, spec_path)
     try:
         plan = compile_plan(spec)
         if engine == "numeric":
@@ -51,12 +73,12 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
     except MechanismError as exc:
         raise MechanismError(f"{spec_path}: {exc}") from None
     options = {"samples": int(motion.t.size), "engine": engine, "partial": partial}
-    write_motion(h5, motion, spec_text=text, options=options)
+    write_result(h5, motion, spec_text=text, options=options)
     result = {"spec": str(spec_path), "output": str(h5)} | motion.summary()
     if svg is not None:
         from linkedit.io.planar_svg import draw_motion
 
-        draw_motion(svg, motion, animate=animate)
+        write_out(svg, draw_motion(None, motion, animate=animate))
         result["svg"] = str(svg)
     return result
 
@@ -80,26 +102,28 @@ def register(app: typer.Typer) -> None:
     @guard
     def simulate(
         specs: list[Path] = typer.Argument(..., help="Linkage spec YAML files."),
-        output: Path = typer.Option(None, "--output", "-o", help="Result .h5 (one spec) or folder [default: out/]."),
-        svg: Path = typer.Option(None, "--svg", help="Motion plot .svg (one spec) or folder."),
+        output: Path = typer.Option(None, "--output", "-o", help="Result file (one spec): .h5/.hdf5, .csv or .dxf by its suffix, - for CSV on stdout; or a folder of .h5 files [default: out/]."),
+        svg: Path = typer.Option(None, "--svg", help="Motion plot .svg (one spec; - for stdout) or folder."),
         animate: bool = typer.Option(False, "--animate", help="Make the SVG an animation (SMIL) of the cycle."),
         samples: int = typer.Option(None, "--samples", "-n", min=1, help="Time samples per cycle [default: spec's, else 360]."),
-        engine: str = typer.Option("symbolic", "--engine", help="symbolic (closed form) or numeric (3D constraint solver)."),
+        engine: Engine = typer.Option(Engine.symbolic, "--engine", help="symbolic (closed form) or numeric (3D constraint solver)."),
         partial: bool = typer.Option(False, "--partial", help="Write a cycle that locks up somewhere (positions NaN there, flagged in /diagnostics/assembled) instead of failing."),
         as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
     ) -> None:
         """Simulate planar linkages; write HDF5 trajectories (and SVG motion plots)."""
-        if engine not in ("symbolic", "numeric"):
-            raise InputError(f"unknown engine {engine!r} (symbolic or numeric)", field="--engine")
-        if engine == "numeric" and partial:
+        if engine == Engine.numeric and partial:
             raise InputError("--partial works with the symbolic engine only", field="--partial")
         targets = _outputs(specs, output, svg, animate)
+        check_outputs([(option, path) for pair in targets for option, path in zip(("--output", "--svg"), pair)], specs)
+        to_stderr = any(is_stdout(p) for pair in targets for p in pair)  # stdout carries the data
         results, worst = [], 0
         progress = _progress(len(specs))
         for spec_path, (h5, pic) in zip(specs, targets):
             try:
-                r = _simulate_one(spec_path, h5, pic, samples=samples, animate=animate, partial=partial, engine=engine)
-            except LinkeditError as exc:
+                with together():
+                    r = _simulate_one(spec_path, h5, pic, samples=samples, animate=animate, partial=partial,
+                                      engine=engine.value)
+            except LinkeditError as exc:  # (the failed spec's outputs are discarded by together())
                 if len(specs) == 1:
                     raise
                 typer.echo(f"linkedit: error: {exc}", err=True)
@@ -107,7 +131,7 @@ def register(app: typer.Typer) -> None:
                 worst = max(worst, exc.exit_code)
             results.append(r)
             if not as_json and "error" not in r:
-                typer.echo(_line(r))
+                typer.echo(_line(r), err=to_stderr)
             progress()
         if as_json:
             print_json(results)
@@ -129,21 +153,32 @@ def register(app: typer.Typer) -> None:
         from linkedit.spec.linkage import LinkageSpec
         from linkedit.spec.yamlload import load_model
 
-        reports = []
+        reports, worst = [], 0
         for path in specs:
-            plan = compile_plan(load_model(LinkageSpec, path))
-            motion = run(plan, samples, partial=True)
+            try:
+                spec = load_model(LinkageSpec, path)
+                check_memory(samples, spec, path)
+                plan = compile_plan(spec)
+                motion = run(plan, samples, partial=True)
+            except LinkeditError as exc:  # name the bad file, go on with the others
+                typer.echo(f"linkedit: error: {exc}", err=True)
+                reports.append({"spec": str(path), "error": str(exc), "exit_code": exc.exit_code})
+                worst = max(worst, exc.exit_code)
+                continue
             names = plan.joint_names
             levels: dict[int, list[str]] = {}
             for (i, j, k), lv, rigid in zip(plan.rules, plan.level, plan.rigid):
                 kind = "rigid" if rigid else "dyad"
                 levels.setdefault(int(lv), []).append(f"{names[k]} ← ({names[i]}, {names[j]}) {kind}")
             reports.append({"spec": str(path)} | motion.summary() | {"grubler": plan.mobility.grubler,
-                            "redundant": plan.mobility.redundant, "levels": levels})
+                            "redundant": plan.mobility.redundant, "levels": levels,
+                            "warnings": transmission_warnings(motion)})
         if as_json:
             print_json(reports)
         else:
             for r in reports:
+                if "error" in r:
+                    continue
                 typer.echo(f"{r['spec']}: {r['name']}, {r['joints']} joints, mobility {r['mobility']} "
                            f"(Grübler count {r['grubler']}, {r['redundant']} redundant)")
                 typer.echo("  level 0: ground and motor")
@@ -155,8 +190,63 @@ def register(app: typer.Typer) -> None:
                                f"worst transmission angle {r['worst_transmission_angle_deg']:.1f}°")
                 for lk in r.get("lockups", []):
                     typer.echo(f"  LOCK-UP: {lk}")
+                for w in r["warnings"]:
+                    typer.echo(f"  warning: {w}")
         if any(r.get("lockups") for r in reports):
-            raise typer.Exit(1)
+            worst = max(worst, 1)
+        if worst:
+            raise typer.Exit(worst)
+
+
+def transmission_warnings(motion: Any) -> list[str]:
+    """One line per dyad whose transmission angle leaves 40°–140° (its worst angle and where)."""
+    import numpy as np
+
+    from linkedit.io.kinematics_plot import GOOD_TRANSMISSION
+
+    lo, hi = GOOD_TRANSMISSION
+    plan = motion.plan
+    out = []
+    for r in np.flatnonzero(~plan.rigid):
+        a = np.degrees(motion.transmission[:, r])
+        a = np.where(motion.assembled, a, 90.0)
+        t = int(np.argmax(np.abs(a - 90.0)))
+        if a[t] < lo or a[t] > hi:
+            out.append(f"transmission angle at joint {plan.joint_names[plan.rules[r, 2]]} leaves {lo:g}°–{hi:g}°: "
+                       f"{a[t]:.1f}° at motor angle {np.degrees(motion.motor_angle[t]):.1f}°")
+    return out
+
+
+#: Bytes held per sample and joint while simulating (positions, velocities, accelerations and
+#: their working copies, float64), for the memory check of :func:`check_memory`.
+BYTES_PER_SAMPLE_JOINT = 2 * 3 * 8 * 8
+
+
+def check_memory(samples: int | None, spec: Any, path: Path) -> None:
+    """InputError (exit 2) if ``samples`` samples of ``spec`` would not fit in the memory available."""
+    from linkedit.planar.simulate import DEFAULT_SAMPLES
+
+    count = samples or spec.samples or DEFAULT_SAMPLES
+    need = count * len(spec.joints) * BYTES_PER_SAMPLE_JOINT
+    have = _available_memory()
+    if need > have:
+        where = {"field": "--samples"} if samples else {"file": str(path), "field": "samples"}
+        gib = need / 2**30
+        raise InputError(f"{count:,} samples of {len(spec.joints)} joints need about "
+                         f"{f'{gib:,.1f}' if gib < 1e6 else f'{gib:.1e}'} GiB; {have / 2**30:,.1f} GiB are available",
+                         **where)
+
+
+def _available_memory() -> int:
+    """Bytes of memory available to this process (MemAvailable on Linux, else the physical memory)."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
 def _progress(total: int):

@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+import re
+from enum import Enum
 from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import guard, print_json
+from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError
+from linkedit.spec.mechanism3d import MAX_COORDINATE
+
+
+#: a track name becomes an HDF5 group: not empty, no "/", no leading ".", no control characters
+_NAME = re.compile(r"^[^/.\x00-\x1f][^/\x00-\x1f]*$")
 
 
 def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
@@ -16,7 +23,7 @@ def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
     if not eq:
         name, rest = text, text
     member, colon, point = rest.partition(":")
-    if not colon or not member or not point or "/" in name:
+    if not colon or not member or not point or not _NAME.match(name):
         raise InputError(f"{text!r}: expected [name=]member:x,y,z or [name=]member:point", field="--track")
     parts = point.split(",")
     if len(parts) == 1:
@@ -25,8 +32,9 @@ def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
         xyz = tuple(float(p) for p in parts)
     except ValueError:
         xyz = ()
-    if len(xyz) != 3 or not all(abs(c) < float("inf") for c in xyz):
-        raise InputError(f"{text!r}: the point needs three finite coordinates x,y,z", field="--track")
+    if len(xyz) != 3 or not all(abs(c) <= MAX_COORDINATE for c in xyz):
+        raise InputError(f"{text!r}: the point needs three coordinates x,y,z of at most {MAX_COORDINATE:g}",
+                         field="--track")
     return name, member, xyz  # type: ignore[return-value]
 
 
@@ -84,6 +92,29 @@ class Progress:
                    err=True)
 
 
+class View(str, Enum):
+    """SVG projection."""
+
+    xy = "xy"
+    xz = "xz"
+    yz = "yz"
+    iso = "iso"
+
+
+class VelocityRule(str, Enum):
+    """How track velocities are taken."""
+
+    exact = "exact"
+    parabola = "parabola"
+
+
+class Solver(str, Enum):
+    """Step solver (see linkedit.gcs.solver.SOLVERS)."""
+
+    lm = "lm"
+    slsqp_fd = "slsqp-fd"
+
+
 def register(app: typer.Typer) -> None:
     @app.command()
     @guard
@@ -91,11 +122,11 @@ def register(app: typer.Typer) -> None:
         spec: Path = typer.Argument(None, help="3D mechanism spec (YAML); not needed with --from."),
         output: Path = typer.Option(None, "--output", "-o", help="Result .h5 [default: out/<spec>.h5; with --from: the same file]."),
         svg: Path = typer.Option(None, "--svg", help="Draw shapes and output curves to this .svg."),
-        view: str = typer.Option("iso", "--view", help="SVG projection: xy, xz, yz or iso."),
+        view: View = typer.Option(View.iso, "--view", help="SVG projection."),
         arrows: bool = typer.Option(False, "--arrows", help="Draw velocity arrows on the curves."),
-        velocity: str = typer.Option("exact", "--velocity", help="Track velocities: exact (from the constraint Jacobian at each pose) or parabola (the paper's three-point rule on positions)."),
+        velocity: VelocityRule = typer.Option(VelocityRule.exact, "--velocity", help="Track velocities: exact (from the constraint Jacobian at each pose) or parabola (the paper's three-point rule on positions)."),
         steps: int = typer.Option(None, "--steps", help="Time steps over t in [0, 1] [default: the spec's]."),
-        solver: str = typer.Option(None, "--solver", help="lm (Gauss-Newton/Levenberg-Marquardt, analytic Jacobians; the default) or slsqp-fd (the paper's: SLSQP, finite differences)."),
+        solver: Solver = typer.Option(None, "--solver", help="lm (Gauss-Newton/Levenberg-Marquardt, analytic Jacobians) or slsqp-fd (the paper's: SLSQP, finite differences) [default: lm]."),
         source: Path = typer.Option(None, "--from", help="Re-use the member states of a gcs result instead of solving."),
         track: list[str] = typer.Option(None, "--track", help="Extra tracked point [name=]member:x,y,z (or member:point); repeatable."),
         allow_python: bool = typer.Option(False, "--allow-python", help="Allow custom constraints that run Python code (python: module:function)."),
@@ -104,23 +135,17 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Solve a 3D mechanism (members, constraints, inputs) at every time step."""
         from linkedit.gcs import check_solved, read_result, solve_spec, write_result
-        from linkedit.gcs.solver import SOLVERS
         from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
-        from linkedit.spec.yamlload import load_model
+        from linkedit.spec.yamlload import load_model, read_text
 
-        if solver is not None and solver not in SOLVERS:
-            raise InputError(f"unknown solver {solver!r} (choose from {', '.join(SOLVERS)})", field="--solver")
         if steps is not None and not 2 <= steps <= MAX_STEPS:
             raise InputError(f"needs between 2 and {MAX_STEPS:,} steps, not {steps:,}", field="--steps")
-        if velocity not in ("exact", "parabola"):
-            raise InputError(f"unknown velocity rule {velocity!r} (choose from exact, parabola)", field="--velocity")
-        if view not in ("xy", "xz", "yz", "iso"):
-            raise InputError(f"unknown view {view!r} (choose from xy, xz, yz, iso)", field="--view")
         if source is not None:
             if spec is not None:
                 raise InputError("give a spec or --from RESULT.h5, not both", field="--from")
             given = {"--steps": steps is not None, "--solver": solver is not None,
-                     "--allow-python": allow_python, "--partial": partial, "--velocity": velocity != "exact"}
+                     "--allow-python": allow_python, "--partial": partial,
+                     "--velocity": velocity != VelocityRule.exact}
             ignored = [option for option, on in given.items() if on]
             if ignored:
                 raise InputError(f"nothing is solved with --from: drop {', '.join(ignored)}", field="--from")
@@ -129,19 +154,22 @@ def register(app: typer.Typer) -> None:
         else:
             if spec is None:
                 raise InputError("missing SPEC (or --from RESULT.h5)", field="spec")
-            text = spec.read_text(encoding="utf-8") if spec.is_file() else None
+            text = read_text(spec)
             model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
-            res = solve_spec(model, steps=steps, solver=solver or "lm", allow_python=allow_python,
-                             spec_text=text or "", velocity=velocity, progress=Progress(model.name))
+            res = solve_spec(model, steps=steps, solver=solver.value if solver else "lm", allow_python=allow_python,
+                             spec_text=text, velocity=velocity.value, progress=Progress(model.name))
             out = output or Path("out") / f"{spec.stem}.h5"
             if not partial:
                 check_solved(res)
         _add_tracks(res, track or [])
+        # with --from and no -o the result is updated in place (atomically): the source is not an input then
+        inputs = [spec] if spec is not None else [source] if output is not None else []
+        check_outputs([("--output", out), ("--svg", svg)], inputs)
         write_result(out, res)
         if svg is not None:
             from linkedit.gcs.svg import draw
 
-            draw(svg, res, view=view, velocity=arrows)
+            draw(svg, res, view=view.value, velocity=arrows)
         if as_json:
             print_json(res.summary() | {"output": str(out), "svg": str(svg) if svg else None})
         else:

@@ -17,14 +17,17 @@ Every curve is checked: finite numbers, at least 3 distinct points, a positive l
 
 from __future__ import annotations
 
+import contextvars
 import csv
 import io
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from linkedit.errors import InputError
+from linkedit.spec.yamlload import read_text, require_regular_file
 
 HDF5_SUFFIXES = (".h5", ".hdf5")
 YAML_SUFFIXES = (".yaml", ".yml")
@@ -47,21 +50,36 @@ class Curve:
     units: str | None = None
 
 
-def load_inputs(inputs: list[str], *, closed: bool | None = None) -> list[Curve]:
-    """Read every input (see the module docstring); names are made unique."""
+def load_inputs(inputs: list[str], *, closed: bool | None = None,
+                skip: Callable[[InputError], None] | None = None) -> list[Curve]:
+    """Read every input (see the module docstring); names are made unique.
+
+    With ``skip``, an input (or a file in a folder) that cannot be read is handed to ``skip``
+    and left out instead of stopping the run.
+    """
     curves: list[Curve] = []
     for text in inputs:
-        curves += _load_one(str(text), closed)
+        curves += _guarded(lambda: _load_one(str(text), closed, skip), skip)
     return _unique_names(curves)
 
 
-def _load_one(text: str, closed: bool | None) -> list[Curve]:
+def _guarded(load: Callable[[], list[Curve]], skip: Callable[[InputError], None] | None) -> list[Curve]:
+    if skip is None:
+        return load()
+    try:
+        return load()
+    except InputError as exc:
+        skip(exc)
+        return []
+
+
+def _load_one(text: str, closed: bool | None, skip: Callable[[InputError], None] | None = None) -> list[Curve]:
     path, track = _split_track(text)
     if path.is_dir():
         files = sorted(p for p in path.iterdir() if p.suffix.lower() in HDF5_SUFFIXES + YAML_SUFFIXES + (".csv",))
         if not files:
             raise InputError("no .h5, .csv or .yaml curve files in this folder", file=str(path))
-        return [c for f in files for c in _load_one(str(f), closed)]
+        return [c for f in files for c in _guarded(lambda: _load_one(str(f), closed), skip)]
     if not path.is_file():
         raise InputError("no such file", file=str(path))
     suffix = path.suffix.lower()
@@ -99,6 +117,7 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
     """Tracks of a result file; ``names=None`` reads all of them (of an edit result: before and after)."""
     import h5py
 
+    require_regular_file(path)
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
@@ -129,8 +148,9 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
                                  field=base)
             field = base + ("position",)
             data = group[name].get("position")
-            if not isinstance(data, h5py.Dataset) or data.ndim != 2 or data.shape[1] not in (2, 3):
-                raise InputError("expected a (T, 2) or (T, 3) dataset", file=str(path), field=field)
+            if (not isinstance(data, h5py.Dataset) or data.ndim != 2 or data.shape[1] not in (2, 3)
+                    or data.dtype.kind not in "fiu"):
+                raise InputError("expected a (T, 2) or (T, 3) dataset of real numbers", file=str(path), field=field)
             points = np.asarray(data[()], dtype=float)
             bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
             if bad.size:
@@ -144,10 +164,7 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
 def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
     """One curve from a CSV file (columns x, y[, z], optional t)."""
     file = str(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise InputError("not a UTF-8 text file", file=file) from None
+    text = read_text(path)
     rows = [(i + 1, r) for i, r in enumerate(csv.reader(io.StringIO(text)))
             if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     if not rows:
@@ -193,6 +210,10 @@ def _is_number(text: str) -> bool:
     return True
 
 
+#: The curve sets being read (a source that leads back to one of them is a loop).
+_READING: contextvars.ContextVar[frozenset[Path]] = contextvars.ContextVar("reading", default=frozenset())
+
+
 def read_curve_set(path: Path, *, closed: bool | None = None) -> list[Curve]:
     """The curves of a YAML curve set; sources are relative to the set's folder."""
     from linkedit.spec.curveset import CurveSet
@@ -209,7 +230,16 @@ def read_curve_set(path: Path, *, closed: bool | None = None) -> list[Curve]:
                                origin=f"{path}:{entry.name}", file=str(path), field=field,
                                line=lines.line_of(field), units=spec.units)
         else:
-            loaded = _load_one(str(path.parent / entry.source), flag)
+            source = path.parent / entry.source
+            if source.resolve() in _READING.get():
+                field = ("curves", i, "source")
+                raise InputError(f"source {entry.source!r} leads back to this curve set (a loop)", file=str(path),
+                                 field=field, line=lines.line_of(field))
+            token = _READING.set(_READING.get() | {path.resolve()})
+            try:
+                loaded = _load_one(str(source), flag)
+            finally:
+                _READING.reset(token)
             if len(loaded) != 1:
                 field = ("curves", i, "source")
                 raise InputError(f"source {entry.source!r} holds {len(loaded)} curves; name one track "

@@ -24,6 +24,7 @@ class BfgsResult:
     converged: bool
     history: list[float] = field(default_factory=list)  # energy after each iteration
     rejected: int = 0  # trial steps rejected because the linkage could not be assembled
+    stalled: bool = False  # stopped for slow progress (see linkedit.edit.gauss_newton), not converged
 
 
 def minimize(energy: Energy, x0: np.ndarray, *, max_iterations: int = 500, max_step: float = np.inf,

@@ -1,19 +1,25 @@
-"""The objectives of one edit operation (LinkEdit Eqs. 3–5, 9) and its energy.
+"""The objectives of one edit operation as residuals (LinkEdit Eqs. 3–5, 7, 9) and their Jacobian.
 
-E(x̄) = μ_e·f_edit + μ_s·f_singularity + μ_r·f_regularization, with
+E(v) = ½‖r(v)‖². Lengths are divided by the mechanism's size L, so weights and tolerances do
+not depend on the units (the same edit in mm or m gives the same linkage, scaled):
 
-* tracking ½·mean_t |p(t) − p̂(t)|² per track (preserve: p̂ = the curve at the start of the
-  operation; retarget: that curve transformed about its centroid; drag: displaced with a
-  Gaussian falloff in phase);
-* displacement ½|x̄_i − x̂_i|² (rest pose) or ½|x_i(t) − x̂_i|² (at a phase); transforms are
-  displacement targets for a set of joints;
-* envelope ½·mean_t of the squared distance outside the box, per joint;
-* regularization ½Σ(l_ij(x̄) − l̃_ij)² over joint pairs on one link, l̃ from the operation's start;
-* the singularity barrier (:mod:`linkedit.edit.barrier`), summed over samples and triangles.
+* tracking: √(w/S)·(p(t) − p̂(t))/L over the S selected samples (preserve: p̂ = the curve at the
+  start of the operation; retarget: that curve transformed about its centroid; drag: displaced
+  with a Gaussian falloff in phase); without timing, the distance to the curve p̂ instead;
+* displacement: √w·(x_i(t) − x̂_i)/L at the rest pose or at a phase (transforms give targets to a
+  set of joints);
+* envelope: √(w/T)·(distance outside the box)/L per joint and sample;
+* regularization: √μ_r·(l_ij − l̃_ij)/L over joint pairs on a link and the frame's pivots;
+* symmetry (``symmetric``): √(10⁶·μ_e)·(l_ij − l_i'j')/L for every length whose mirror image
+  (i', j') is another length, and √(10⁶·μ_e)·(M(x_g) − x_g')/L for mirrored ground joints, M the
+  reflection about the mirror axis (its direction from the rest pose; through the motor pivot
+  when the pivot lies on it), so mirrored legs stay mirrored in the world frame too;
+* singularity barrier: √μ_s·ln(d_s/ε_r) where d_s < ε_r, per dyad triangle and sample (so E
+  holds LinkEdit's ½·ln²(d_s/ε)). ε_r = min(ε, half the triangle's own smallest d_s at the start
+  of the operation): the barrier is inactive on the design as it is (a null edit changes
+  nothing) and only guards a triangle that an edit brings much closer to its toggle.
 
-Tracking and envelope terms are means over samples, so their weights do not depend on the
-sample count; the barrier is a sum (as in LinkEdit), so a single near-toggle sample counts. The energy is +inf where
-the linkage cannot be assembled at some sample or a triangle of x̄ has flipped.
+Edit terms carry μ_e, the operation's ``terms`` weight and the item's own ``weight``.
 """
 
 from __future__ import annotations
@@ -21,220 +27,454 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import sparse
 
-from linkedit.edit.adjoint import Forward, RestPoseKinematics
-from linkedit.edit.barrier import barrier
+from linkedit.edit.kinematics import Evaluation, RestPoseKinematics
+from linkedit.edit.variables import Variables, colour, column_map, seeds
 from linkedit.planar.plan import Plan
 from linkedit.spec.edit_script import EditScript, Operation
 
+Block = tuple[np.ndarray, np.ndarray | None, np.ndarray]  # r (m,), ∂r (m, C) per colour, columns (m, C)
+
+
+def _split(values: np.ndarray) -> np.ndarray:
+    """Complex (…) → real (2·…): real parts, then imaginary parts, along the first axis."""
+    return np.concatenate([values.real, values.imag])
+
 
 @dataclass
-class Tracking:
-    """Follow a target curve (T,) complex with point row ``row``."""
+class Track:
+    """Follow a target curve (T,) complex with point row ``row`` over samples ``select``."""
 
     label: str
     row: int
     target: np.ndarray
     weight: float
+    select: np.ndarray
+    timing: bool = True
+    cyclic: bool = True
+    size: float = 0.0  # size of the track's curve at the start of the operation (for reports)
+
+    def deviation(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(signed deviation (S,) complex or real, unit direction) of the selected samples."""
+        p = z[self.row, self.select]
+        if self.timing:
+            return p - self.target[self.select], np.ones(p.size, dtype=complex)
+        a = self.target if self.cyclic else self.target[:-1]
+        b = np.roll(self.target, -1) if self.cyclic else self.target[1:]
+        seg = b - a
+        rel = p[:, None] - a[None, :]
+        s = np.clip((rel * seg.conj()).real / np.maximum(np.abs(seg) ** 2, 1e-300), 0.0, 1.0)
+        k = np.argmin(np.abs(rel - s * seg), axis=1)
+        rows = np.arange(p.size)
+        d = rel[rows, k] - s[rows, k] * seg[k]  # from the nearest point of the curve to p
+        normal = 1j * seg[k] / np.maximum(np.abs(seg[k]), 1e-300)
+        side = np.where((d * normal.conj()).real < 0.0, -1.0, 1.0)
+        dist = np.abs(d)
+        # the distance to the curve, signed by the side: continuous; its direction, the normal on the curve
+        direction = np.where(dist > 0.0, side * d / np.where(dist > 0.0, dist, 1.0), normal)
+        return side * dist, direction
+
+    def rms(self, ev: Evaluation) -> float:
+        d, _ = self.deviation(ev.z)
+        return float(np.sqrt(np.mean(np.abs(d) ** 2)))
+
+    def block(self, ev: Evaluation, cols: np.ndarray, scale: float) -> Block:
+        d, normal = self.deviation(ev.z)
+        s = np.sqrt(self.weight / self.select.size) * scale
+        dz = None if ev.dz is None else ev.dz[self.row][:, self.select].T  # (S, C)
+        if self.timing:
+            r, D = s * _split(d), None if dz is None else s * _split(dz)
+        else:
+            r, D = s * d, None if dz is None else s * (normal.conj()[:, None] * dz).real
+        return r, D, np.broadcast_to(cols[self.row], (r.size, cols.shape[1]))
 
 
 @dataclass
 class Displacement:
-    """Joint ``joint`` (rest pose, or at sample column ``column``) to ``target``."""
+    """Point row ``row`` at sample column ``column`` (the rest column for the rest pose) to ``target``."""
 
     label: str
-    joint: int
+    row: int
+    column: int
     target: complex
     weight: float
-    column: int | None = None  # None: the rest pose
+
+    def error(self, ev: Evaluation) -> float:
+        return float(abs(ev.z[self.row, self.column] - self.target))
+
+    def block(self, ev: Evaluation, cols: np.ndarray, scale: float) -> Block:
+        s = np.sqrt(self.weight) * scale
+        r = s * _split(np.atleast_1d(ev.z[self.row, self.column] - self.target))
+        D = None if ev.dz is None else s * _split(ev.dz[self.row][None, :, self.column])
+        return r, D, np.broadcast_to(cols[self.row], (2, cols.shape[1]))
 
 
 @dataclass
-class EnvelopeTerm:
-    rows: np.ndarray  # (N,) internal rows of the joints kept inside
-    lo: complex  # xmin + i·ymin (−inf where open)
+class Envelope:
+    """Keep point rows ``rows`` inside the box lo–hi (complex corners, ±inf where open)."""
+
+    rows: np.ndarray
+    lo: complex
     hi: complex
     weight: float
+
+    def outside(self, z: np.ndarray, T: int) -> np.ndarray:
+        p = z[self.rows, :T]
+        return (np.minimum(p.real - self.lo.real, 0.0) + np.maximum(p.real - self.hi.real, 0.0)
+                + 1j * (np.minimum(p.imag - self.lo.imag, 0.0) + np.maximum(p.imag - self.hi.imag, 0.0)))
+
+    def block(self, ev: Evaluation, cols: np.ndarray, scale: float, T: int) -> Block:
+        over = self.outside(ev.z, T)
+        s = np.sqrt(self.weight / T) * scale
+        rs, Ds, cs = [], [], []
+        for part in ("real", "imag"):
+            n, t = np.nonzero(getattr(over, part))
+            rs.append(s * getattr(over, part)[n, t])
+            cs.append(cols[self.rows[n]])
+            if ev.dz is not None:
+                Ds.append(s * getattr(ev.dz[self.rows[n], :, t], part))
+        return np.concatenate(rs), (np.concatenate(Ds) if ev.dz is not None else None), np.concatenate(cs)
 
 
 @dataclass
 class Problem:
-    """Everything one operation's energy needs; ``x`` vectors are the free joint coordinates."""
+    """One operation's energy over its variables ``var``; ``E(v) = ½‖r(v)‖²``."""
 
     plan: Plan
     kin: RestPoseKinematics
-    samples: int  # main samples (columns 0..T−1); extra columns are phases of displacements
+    var: Variables
+    samples: int  # main samples: columns 0..T−1; then the rest column, then displacement phases
+    size: float  # L: lengths are measured in units of L
     weights: tuple[float, float, float]  # μ_e, μ_s, μ_r
-    eps: float
-    free: np.ndarray  # (J, 2) bool: coordinates the optimizer may change
-    x_fixed: np.ndarray  # (J, 2) the rest pose the free coordinates are inserted into
-    pairs: np.ndarray  # (P, 2)
-    ref_lengths: np.ndarray  # (P,)
-    tracking: list[Tracking] = field(default_factory=list)
+    eps: np.ndarray  # (R,) barrier ε per rule; 0 for rigid rules (never active)
+    pairs: np.ndarray  # (Q, 2) joint pairs regularized
+    ref_lengths: np.ndarray  # (Q,)
+    point_cols: np.ndarray  # (P, C) column map of each point row
+    pair_cols: np.ndarray  # (Q, C)
+    mirrored: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))  # (M, 2) pairs of pairs
+    mirror_cols: np.ndarray | None = None  # (M, C)
+    mirror_ground: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))  # (K, 2) joints
+    mirror_ground_cols: np.ndarray | None = None  # (K, C)
+    mirror_axis: complex = 1.0  # û² of the axis direction û: M(z) = c + û²·conj(z − c)
+    mirror_centre: tuple[int | None, complex] = (None, 0j)  # joint on the axis (moving), or a fixed point
+    tracking: list[Track] = field(default_factory=list)
     displacements: list[Displacement] = field(default_factory=list)
-    envelope: EnvelopeTerm | None = None
+    envelope: Envelope | None = None
 
-    def full(self, v: np.ndarray) -> np.ndarray:
-        """Free coordinates (n,) → rest pose (J, 2)."""
-        x = self.x_fixed.copy()
-        x[self.free] = v
-        return x
+    @property
+    def rest_column(self) -> int:
+        return self.samples
 
-    def forward(self, v: np.ndarray) -> Forward | None:
-        """The forward pass at ``v``, or None where the linkage is infeasible."""
-        f = self.kin.forward(self.full(v))
-        return f if f.assembled and f.orientation_ok else None
+    def evaluate(self, v: np.ndarray, tangents: bool = False) -> Evaluation:
+        return self.kin.evaluate(self.var.rest(v), tangents)
 
-    def terms(self, f: Forward) -> dict[str, float]:
-        """Unweighted objective values at a forward pass (for reports)."""
-        out = {"edit": self._edit(f, None), "singularity": self._barrier(f, None)[0],
-               "regularization": self._regularization(f.rest, None)}
+    def blocks(self, ev: Evaluation) -> dict[str, list[Block]]:
+        """Residual blocks by energy term: ``edit``, ``singularity``, ``regularization``."""
+        scale = 1.0 / self.size
+        cols = self.point_cols
+        edit = [t.block(ev, cols, scale) for t in self.tracking]
+        edit += [d.block(ev, cols, scale) for d in self.displacements]
+        if self.envelope is not None:
+            edit.append(self.envelope.block(ev, cols, scale, self.samples))
+        if self.mirrored.size:
+            edit.append(self._symmetry(ev))
+        if self.mirror_ground.size:
+            edit.append(self._mirror_ground(ev))
+        return {"edit": edit, "singularity": [self._barrier(ev)], "regularization": [self._regularization(ev)]}
+
+    def _symmetry(self, ev: Evaluation) -> Block:
+        s = np.sqrt(1e6 * self.weights[0]) / self.size
+        r, D = [], []
+        for sign, q in ((1.0, self.mirrored[:, 0]), (-1.0, self.mirrored[:, 1])):
+            a, b = self.pairs[q].T
+            d = ev.rest[b] - ev.rest[a]
+            r.append(sign * np.abs(d))
+            if ev.dz is not None:
+                drest = self.kin.drest
+                D.append(sign * ((d / np.abs(d)).conj()[:, None] * (drest[b] - drest[a])).real)
+        return s * (r[0] + r[1]), (None if ev.dz is None else s * (D[0] + D[1])), self.mirror_cols
+
+    def _mirror_ground(self, ev: Evaluation) -> Block:
+        s = np.sqrt(1e6 * self.weights[0]) / self.size
+        g, h = self.mirror_ground.T
+        joint, fixed = self.mirror_centre
+        c = ev.rest[joint] if joint is not None else fixed
+        u2 = self.mirror_axis
+        r = s * _split(c + u2 * np.conj(ev.rest[g] - c) - ev.rest[h])
+        D = None
+        if ev.dz is not None:
+            drest = self.kin.drest
+            dc = drest[joint][None, :] if joint is not None else 0.0
+            D = s * _split(dc + u2 * np.conj(drest[g] - dc) - drest[h])
+        return r, D, np.concatenate([self.mirror_ground_cols, self.mirror_ground_cols])
+
+    def _barrier(self, ev: Evaluation) -> Block:
+        T = self.samples
+        ds = ev.ds[:, :T]
+        r_idx, t_idx = np.nonzero(ds < self.eps[:, None])
+        s = np.sqrt(self.weights[1])
+        r = s * np.log(ds[r_idx, t_idx] / self.eps[r_idx])
+        D = None if ev.dlnds is None else s * ev.dlnds[r_idx, :, t_idx]
+        rows = self.plan.row_of[self.plan.rules[r_idx, 2]]
+        return r, D, self.point_cols[rows]
+
+    def _regularization(self, ev: Evaluation) -> Block:
+        a, b = self.pairs.T
+        d = ev.rest[b] - ev.rest[a]
+        length = np.abs(d)
+        s = np.sqrt(self.weights[2]) / self.size
+        r = s * (length - self.ref_lengths)
+        D = None
+        if ev.dz is not None:
+            drest = self.kin.drest
+            D = s * ((d / length).conj()[:, None] * (drest[b] - drest[a])).real
+        return r, D, self.pair_cols
+
+    def residuals(self, v: np.ndarray, jacobian: bool = False) -> tuple[Evaluation, np.ndarray, sparse.csr_matrix | None]:
+        """(evaluation, r (m,), ∂r/∂v (m, n) sparse or None)."""
+        ev = self.evaluate(v, tangents=jacobian)
+        if not ev.works:
+            return ev, np.array([np.inf]), None
+        blocks = [b for bs in self.blocks(ev).values() for b in bs]
+        r = np.concatenate([b[0] for b in blocks])
+        if not jacobian:
+            return ev, r, None
+        D = np.concatenate([b[1] for b in blocks])
+        cols = np.concatenate([b[2] for b in blocks])
+        keep = cols >= 0
+        rows = np.broadcast_to(np.arange(r.size)[:, None], cols.shape)[keep]
+        J = sparse.csr_matrix((D[keep], (rows, cols[keep])), shape=(r.size, self.var.n))
+        return ev, r, J
+
+    def barrier_step(self, ev: Evaluation, step: np.ndarray, factor: float = 1.1) -> float:
+        """Largest fraction (≤ 1) of ``step`` (n,) that, to first order, brings no triangle into
+        its barrier band deeper than ``factor`` times closer to its toggle (d_s/factor).
+
+        Samples outside the band are invisible to the Gauss–Newton model; this trust region in
+        ln d_s (predicted from the forward-mode tangents) keeps a step from jumping over them.
+        """
+        T = self.samples
+        dyads = np.flatnonzero(~self.plan.rigid)
+        cols = self.point_cols[self.plan.row_of[self.plan.rules[dyads, 2]]]  # (R, C)
+        dv = np.where(cols >= 0, step[np.maximum(cols, 0)], 0.0)
+        change = np.einsum("rct,rc->rt", ev.dlnds[dyads, :, :T], dv)
+        lnds = np.log(ev.ds[dyads, :T])
+        entering = (lnds + change < np.log(self.eps[dyads])[:, None]) & (change < -np.log(factor))
+        if not entering.any():
+            return 1.0
+        return float(np.log(factor) / -change[entering].min())
+
+    def energy(self, v: np.ndarray, with_gradient: bool = True) -> tuple[float, np.ndarray | None, Evaluation]:
+        """(E, ∂E/∂v, evaluation); E = inf where the linkage does not work."""
+        ev, r, J = self.residuals(v, jacobian=with_gradient)
+        if not ev.works:
+            return np.inf, None, ev
+        return 0.5 * float(r @ r), (None if J is None else J.T @ r), ev
+
+    def terms(self, ev: Evaluation) -> dict[str, float]:
+        """Energy of each term (weighted), for reports."""
+        return {k: 0.5 * float(sum(b[0] @ b[0] for b in bs)) for k, bs in self.blocks(ev).items()}
+
+    def errors(self, v: np.ndarray) -> dict[str, float]:
+        """Readable objective errors in the spec's units: tracking RMS per curve, displacement
+        distance, envelope excess, min d_s, and the weighted energy terms."""
+        ev = self.evaluate(v)
+        out: dict[str, float] = {}
+        for tr in self.tracking:
+            out[f"{tr.label} RMS"] = tr.rms(ev)
+        for d in self.displacements:
+            out[f"{d.label} error"] = d.error(ev)
+        if self.envelope is not None:
+            out["envelope max excess"] = float(np.abs(self.envelope.outside(ev.z, self.samples)).max(initial=0.0))
+        dyads = ~self.plan.rigid
+        out["min d_s"] = float(ev.ds[dyads, : self.samples].min()) if dyads.any() else 1.0
+        out |= {f"energy {k}": v_ for k, v_ in self.terms(ev).items()}
         return out
 
-    def energy(self, v: np.ndarray, with_gradient: bool = True) -> tuple[float, np.ndarray | None, Forward | None]:
-        """(E, ∂E/∂v, forward); E = inf and no gradient where infeasible."""
-        f = self.forward(v)
-        if f is None:
-            return np.inf, None, None
-        me, ms, mr = self.weights
-        if not with_gradient:
-            e = me * self._edit(f, None) + ms * self._barrier(f, None)[0] + mr * self._regularization(f.rest, None)
-            return e, None, f
-        gz = np.zeros_like(f.z)
-        grest = np.zeros(self.plan.n_joints, dtype=complex)
-        e = me * self._edit(f, (gz, grest, me))
-        fs, gds = self._barrier(f, ms)
-        e += ms * fs
-        e += mr * self._regularization(f.rest, (grest, mr))
-        g = self.kin.gradient(f, gz, gds)
-        g[:, 0] += grest.real
-        g[:, 1] += grest.imag
-        return e, g[self.free], f
 
-    # -- the terms; each adds its gradient (times ``scale``) into ``grad`` when given ---------
-
-    def _edit(self, f: Forward, grad: tuple | None) -> float:
-        T = self.samples
-        total = 0.0
-        for tr in self.tracking:
-            diff = f.z[tr.row, :T] - tr.target
-            total += tr.weight * 0.5 * float(np.mean(diff.real ** 2 + diff.imag ** 2))
-            if grad is not None:
-                grad[0][tr.row, :T] += (grad[2] * tr.weight / T) * diff
-        for d in self.displacements:
-            if d.column is None:
-                diff = f.rest[d.joint] - d.target
-            else:
-                diff = f.z[self.plan.row_of[d.joint], d.column] - d.target
-            total += d.weight * 0.5 * abs(diff) ** 2
-            if grad is not None:
-                if d.column is None:
-                    grad[1][d.joint] += grad[2] * d.weight * diff
-                else:
-                    grad[0][self.plan.row_of[d.joint], d.column] += grad[2] * d.weight * diff
-        env = self.envelope
-        if env is not None:
-            z = f.z[env.rows, :T]
-            over = (np.minimum(z.real - env.lo.real, 0.0) + np.maximum(z.real - env.hi.real, 0.0)
-                    + 1j * (np.minimum(z.imag - env.lo.imag, 0.0) + np.maximum(z.imag - env.hi.imag, 0.0)))
-            total += env.weight * 0.5 * float(np.sum(over.real ** 2 + over.imag ** 2)) / T
-            if grad is not None:
-                grad[0][env.rows, :T] += (grad[2] * env.weight / T) * over
-        return total
-
-    def _barrier(self, f: Forward, scale: float | None) -> tuple[float, list | None]:
-        total, grads = 0.0, []
-        T = f.z.shape[1]
-        for ds in f.ds:
-            if ds is None:
-                grads.append(None)
-                continue
-            value, g = barrier(ds, self.eps, 1.0)
-            total += value
-            grads.append(None if scale is None else scale * g)
-        return total, (grads if scale is not None else None)
-
-    def _regularization(self, rest: np.ndarray, grad: tuple | None) -> float:
-        d = rest[self.pairs[:, 1]] - rest[self.pairs[:, 0]]
-        length = np.abs(d)
-        diff = length - self.ref_lengths
-        if grad is not None:
-            g = grad[1] * diff * d / length
-            np.add.at(grad[0], self.pairs[:, 1], g)
-            np.add.at(grad[0], self.pairs[:, 0], -g)
-        return 0.5 * float(diff @ diff)
-
-
-def _phase_distance(t: np.ndarray, at: float) -> np.ndarray:
+def _phase_distance(t: np.ndarray, at: float, cyclic: bool) -> np.ndarray:
+    """Distance in phase; around the cycle for a full turn, along the sweep otherwise."""
     d = np.abs(t - at) % 1.0
-    return np.minimum(d, 1.0 - d)
+    return np.minimum(d, 1.0 - d) if cyclic else np.abs(t - at)
 
 
-def build_problem(plan: Plan, script: EditScript, op: Operation, x: np.ndarray, base_angle: float,
-                  ref_lengths: np.ndarray) -> Problem:
-    """The energy of operation ``op`` starting from rest pose ``x`` (J, 2).
+def _select(t: np.ndarray, phases: tuple[float, float] | None) -> np.ndarray:
+    if phases is None:
+        return np.arange(t.size)
+    a, b = phases
+    inside = (t >= a) & (t <= b) if a <= b else (t >= a) | (t <= b)
+    return np.flatnonzero(inside)
 
-    Samples are absolute motor angles ``base_angle + dir·2π·n/T``, fixed through the edit.
+
+def regularized_pairs(plan: Plan) -> np.ndarray:
+    """Joint pairs on links and every pair of ground joints (the frame is a link too), (Q, 2)."""
+    ground = list(plan.graph.ground)
+    frame = [(a, b) for n, a in enumerate(ground) for b in ground[n + 1:]]
+    pairs = {tuple(sorted(p)) for p in plan.pairs.tolist()} | {tuple(sorted(p)) for p in frame}
+    return np.array(sorted(pairs), dtype=int).reshape(-1, 2)
+
+
+def mirrored_pairs(pairs: np.ndarray, mirror: dict[str, str], index: dict[str, int]) -> np.ndarray:
+    """(M, 2) indices into ``pairs`` of each pair and its distinct mirror image (once each)."""
+    names = {i: n for n, i in index.items()}
+    where = {tuple(p): q for q, p in enumerate(pairs.tolist())}
+    out = []
+    for q, (a, b) in enumerate(pairs.tolist()):
+        image = tuple(sorted((index[mirror.get(names[a], names[a])], index[mirror.get(names[b], names[b])])))
+        other = where.get(image)
+        if other is not None and other > q:
+            out.append((q, other))
+    return np.array(out, dtype=int).reshape(-1, 2)
+
+
+def mirror_frame(plan: Plan, x: np.ndarray, mirror: dict[str, str], index: dict[str, int],
+                 size: float) -> tuple[np.ndarray, complex, tuple[int | None, complex]]:
+    """Mirrored ground joints (K, 2), û² of the mirror axis, and the axis' point: the motor pivot
+    (a joint index) when it lies on the axis at ``x`` (J, 2), else the fixed midpoint."""
+    names = plan.joint_names
+    ground = [g for g in plan.graph.ground if names[g] in mirror and index[mirror[names[g]]] > g
+              and index[mirror[names[g]]] in plan.graph.ground]
+    pairs = np.array([(g, index[mirror[names[g]]]) for g in ground], dtype=int).reshape(-1, 2)
+    if not pairs.size:
+        return pairs, 1.0 + 0j, (None, 0j)
+    z = x[:, 0] + 1j * x[:, 1]
+    a, b = z[pairs[0, 0]], z[pairs[0, 1]]
+    u = 1j * (b - a) / abs(b - a)
+    mid = 0.5 * (a + b)
+    pivot = plan.graph.pivot
+    on_axis = abs(((z[pivot] - mid) * np.conj(1j * u)).real) <= 1e-9 * size
+    return pairs, complex(u * u), ((pivot, 0j) if on_axis else (None, complex(mid)))
+
+
+def dependencies(plan: Plan, uses: np.ndarray) -> np.ndarray:
+    """(P, n) bool: the variables each point row depends on (``uses`` (J, n): per joint)."""
+    dep = np.zeros((plan.n_points, uses.shape[1]), dtype=bool)
+    g = plan.graph
+    dep[plan.ground_rows] = uses[list(g.ground)]
+    dep[plan.motor_row] = uses[g.motor] | uses[g.pivot]
+    J = plan.n_joints
+    for b in plan.batches:
+        own = uses[b.i_point] | uses[b.j_point] | np.where((b.k_point < J)[:, None], uses[np.minimum(b.k_point, J - 1)], False)
+        dep[b.start:b.stop] = dep[b.i] | dep[b.j] | own
+    return dep
+
+
+def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables, turn: np.ndarray,
+                  t: np.ndarray, size: float, probes: dict[int, int]) -> Problem:
+    """The energy of operation ``op`` from the rest pose ``var.x0``.
+
+    ``turn`` (T,) motor rotations from the rest pose (radians, signed) at the phases ``t`` (T,)
+    of one cycle, as ``simulate`` samples them; ``probes`` maps displacement index → point id of
+    the link point it moves.
     """
-    T = script.samples
+    T = t.size
     names = plan.joint_names
     index = {n: i for i, n in enumerate(names)}
-    t = np.arange(T) / T
     displaces = op.listed("displace")
-    extra = [d.at for d in displaces if d.at is not None]
-    phases = np.concatenate([t, np.array(extra, dtype=float)])
-    angle = base_angle + plan.direction * 2.0 * np.pi * phases
-    kin = RestPoseKinematics(plan, angle)
-    start = kin.forward(x)
+    cyclic = plan.spec.motor.range_deg is None
+    extra = [_turn_at(plan, d.when) for d in displaces if d.when is not None]
+    spin = np.exp(1j * np.concatenate([turn, [0.0], extra]))
+
+    uses = var.uses()
+    dep = dependencies(plan, uses)
+    pairs = regularized_pairs(plan)
+    pair_dep = uses[pairs[:, 0]] | uses[pairs[:, 1]]
+    mirror = script.mirror(names)
+    mirrored = mirrored_pairs(pairs, mirror, index)
+    mirror_dep = pair_dep[mirrored[:, 0]] | pair_dep[mirrored[:, 1]]
+    ground_pairs, axis, centre = mirror_frame(plan, var.x0, mirror, index, size)
+    centre_uses = uses[centre[0]] if centre[0] is not None else np.zeros(var.n, dtype=bool)
+    ground_dep = (uses[ground_pairs[:, 0]] | uses[ground_pairs[:, 1]] | centre_uses).reshape(-1, var.n)
+    colours = colour(np.vstack([dep, pair_dep, mirror_dep, ground_dep])) if var.n else np.zeros(0, dtype=int)
+    C = int(colours.max(initial=-1)) + 1
+    g = plan.graph
+    arm = None if script.motor.free_angle else complex(*(var.x0[g.motor] - var.x0[g.pivot]))
+    kin = RestPoseKinematics(plan, spin, seeds(var, colours, C), arm)
+    start = kin.evaluate(var.x0)
+    me, ms, mr = script.weights.edit, script.weights.singularity, script.weights.regularization
     w = op.terms
-    free = np.ones_like(x, dtype=bool)
-    for name in script.lock:
-        free[index[name]] = False
-    problem = Problem(plan=plan, kin=kin, samples=T,
-                      weights=(script.weights.edit, script.weights.singularity, script.weights.regularization),
-                      eps=script.singularity_epsilon, free=free, x_fixed=x.copy(), pairs=plan.pairs,
-                      ref_lengths=ref_lengths)
+
+    # the barrier guards each triangle from coming closer to its toggle than it is now
+    eps = np.zeros(len(plan.rules))
+    dyads = ~plan.rigid
+    eps[dyads] = np.minimum(script.singularity_epsilon, 0.5 * start.ds[dyads, :T].min(axis=1))
+
+    ref = np.abs(start.rest[pairs[:, 1]] - start.rest[pairs[:, 0]])
+    if op.transform is not None and op.transform.scale != 1.0:
+        members = set(range(len(names))) if op.transform.joints == "all" else {index[n] for n in op.transform.joints}
+        scaled = np.array([a in members and b in members for a, b in pairs])
+        ref = np.where(scaled, ref * op.transform.scale, ref)
+
+    problem = Problem(plan=plan, kin=kin, var=var, samples=T, size=size, weights=(me, ms, mr), eps=eps,
+                      pairs=pairs, ref_lengths=ref, point_cols=column_map(dep, colours, C),
+                      pair_cols=column_map(pair_dep, colours, C), mirrored=mirrored,
+                      mirror_cols=column_map(mirror_dep, colours, C), mirror_ground=ground_pairs,
+                      mirror_ground_cols=column_map(ground_dep, colours, C), mirror_axis=axis, mirror_centre=centre)
     track_row = {n: int(plan.row_of[p]) for n, p in zip(plan.track_names, plan.track_points)}
+    everywhere = np.arange(T)
 
     def curve(name: str) -> np.ndarray:
         return start.z[track_row[name], :T].copy()
 
-    for name in op.preserve:
-        problem.tracking.append(Tracking(f"preserve {name}", track_row[name], curve(name), w.preserve))
+    for p in op.preserved:
+        problem.tracking.append(Track(f"preserve {p.track}", track_row[p.track], curve(p.track),
+                                      me * w.preserve * p.weight, _select(t, p.phases), p.timing, cyclic))
     for r in op.listed("retarget"):
-        p = curve(r.track)
-        c = p.mean()
-        q = (p - c).real * r.scale[0] + 1j * (p - c).imag * r.scale[1]
-        target = c + complex(*r.translate) + np.exp(1j * np.radians(r.rotate_deg)) * q
-        problem.tracking.append(Tracking(f"retarget {r.track}", track_row[r.track], target, w.retarget))
-    for d in op.listed("drag"):
-        falloff = np.exp(-0.5 * (_phase_distance(t, d.at) / d.radius) ** 2)
-        target = curve(d.track) + complex(*d.by) * falloff
-        problem.tracking.append(Tracking(f"drag {d.track}", track_row[d.track], target, w.drag))
-    column = T
-    for d in displaces:
-        if d.at is None:
-            problem.displacements.append(Displacement(f"displace {d.joint}", index[d.joint], complex(*d.to), w.displace))
+        c = curve(r.track)
+        mid = c.mean()
+        q = (c - mid).real * r.scale[0] + 1j * (c - mid).imag * r.scale[1]
+        target = mid + complex(*r.translate) + np.exp(1j * np.radians(r.rotate_deg)) * q
+        problem.tracking.append(Track(f"retarget {r.track}", track_row[r.track], target,
+                                      me * w.retarget * r.weight, everywhere))
+    for f in op.listed("follow"):
+        pts = np.array([complex(*p) for p in f.curve])
+        if f.timing:  # the curve's points evenly over the cycle, interpolated at the samples
+            u = np.arange(pts.size + f.closed) / (pts.size - (not f.closed))
+            ring = np.append(pts, pts[0]) if f.closed else pts
+            target = np.interp(t, u, ring.real) + 1j * np.interp(t, u, ring.imag)
         else:
-            problem.displacements.append(Displacement(f"displace {d.joint} at {d.at:g}", index[d.joint],
-                                                      complex(*d.to), w.displace, column))
-            column += 1
+            target = pts
+        problem.tracking.append(Track(f"follow {f.track}", track_row[f.track], target, me * w.follow * f.weight,
+                                      everywhere, f.timing, f.closed))
+    for d in op.listed("drag"):
+        falloff = np.exp(-0.5 * (_phase_distance(t, d.at, cyclic) / d.radius) ** 2)
+        problem.tracking.append(Track(f"drag {d.track}", track_row[d.track], curve(d.track) + complex(*d.by) * falloff,
+                                      me * w.drag * d.weight, everywhere))
+    column = T + 1
+    for n, d in enumerate(displaces):
+        point = index[d.joint] if d.joint is not None else probes[n]
+        col = problem.rest_column if d.when is None else column
+        column += d.when is not None
+        problem.displacements.append(Displacement(d.label, int(plan.row_of[point]), col, complex(*d.to),
+                                                  me * w.displace * d.weight))
     if op.transform is not None:
         tf = op.transform
         members = list(range(len(names))) if tf.joints == "all" else [index[n] for n in tf.joints]
-        rest = x[:, 0] + 1j * x[:, 1]
+        rest = start.rest
         about = complex(*tf.about) if tf.about is not None else rest[members].mean()
-        turn = tf.scale * np.exp(1j * np.radians(tf.rotate_deg))
+        turn_by = tf.scale * np.exp(1j * np.radians(tf.rotate_deg))
         for m in members:
-            target = about + complex(*tf.translate) + turn * (rest[m] - about)
-            problem.displacements.append(Displacement(f"transform {names[m]}", m, target, w.transform))
+            target = about + complex(*tf.translate) + turn_by * (rest[m] - about)
+            problem.displacements.append(Displacement(f"transform {names[m]}", int(plan.row_of[m]),
+                                                      problem.rest_column, target, me * w.transform))
     if op.envelope is not None:
         env = op.envelope
         members = range(len(names)) if not env.joints else [index[n] for n in env.joints]
         inf = np.inf
-        problem.envelope = EnvelopeTerm(
+        problem.envelope = Envelope(
             rows=plan.row_of[np.array(list(members))],
             lo=complex(-inf if env.xmin is None else env.xmin, -inf if env.ymin is None else env.ymin),
             hi=complex(inf if env.xmax is None else env.xmax, inf if env.ymax is None else env.ymax),
-            weight=w.envelope)
+            weight=me * w.envelope)
+    for tr in problem.tracking:
+        c = start.z[tr.row, :T]
+        tr.size = float(max(np.ptp(c.real), np.ptp(c.imag)))
     return problem
+
+
+def _turn_at(plan: Plan, phase: float) -> float:
+    """Motor rotation from the rest pose at ``phase``, radians (as ``simulate`` samples it)."""
+    from linkedit.planar.simulate import motor_turn
+
+    return float(motor_turn(plan.spec.motor, np.array([phase]))[0])

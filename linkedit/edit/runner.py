@@ -1,8 +1,10 @@
 """Run an edit script: operations in order, each solved to convergence, then a final check.
 
-The final linkage is re-simulated at 4× the samples; it must assemble everywhere with every
-triangle's orientation unchanged. Otherwise the last accepted iterate that passes the check is
-kept and :class:`EditFailed` is raised with it, so the caller can write it and exit 1.
+One time axis: phase 0 is the rest pose of the linkage being edited, exactly as in ``simulate``.
+The plan is compiled once; every result is re-simulated through ``simulate`` on the edited rest
+pose, and the final linkage is checked at 4× the samples with the same predicate the solver uses
+(:mod:`linkedit.edit.feasibility`). If it fails there, the last operation whose result works is
+kept and :class:`EditFailed` says which one.
 """
 
 from __future__ import annotations
@@ -13,12 +15,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from linkedit.edit.bfgs import minimize
+from linkedit.edit import bfgs, gauss_newton
+from linkedit.edit.feasibility import failure
 from linkedit.edit.objectives import Problem, build_problem
-from linkedit.errors import MechanismError
+from linkedit.edit.variables import parametrize
+from linkedit.errors import InputError, MechanismError
 from linkedit.planar.plan import Plan, compile_plan
-from linkedit.planar.simulate import Motion, simulate
-from linkedit.spec.edit_script import EditScript
+from linkedit.planar.simulate import DEFAULT_SAMPLES, Motion, motor_phases, motor_turn, simulate
+from linkedit.spec.edit_script import EditScript, Operation
 from linkedit.spec.linkage import LinkageSpec, LinkTrack
 
 
@@ -35,7 +39,14 @@ class OperationReport:
     energy: list[float]
     before: dict[str, float]
     after: dict[str, float]
-    targets: dict[str, np.ndarray] = field(default_factory=dict)  # track label → (T, 2) target curve
+    unmet: list[str] = field(default_factory=list)  # goals the result does not meet, readable
+    targets: dict[str, np.ndarray] = field(default_factory=dict)  # label → (T, 2) target curve
+    discarded: bool = False  # its result did not pass the final check
+    stalled: bool = False  # the solver stopped for slow progress, not converged
+
+    @property
+    def goals_met(self) -> bool:
+        return not self.unmet
 
 
 @dataclass
@@ -43,136 +54,184 @@ class EditResult:
     original: LinkageSpec
     edited: LinkageSpec
     operations: list[OperationReport]
-    before: Motion  # at 4× samples, absolute motor angles of the original
-    after: Motion
+    before: Motion  # the original, as ``simulate`` gives it
+    after: Motion  # the edited spec, as ``simulate`` gives it
+    warnings: list[str] = field(default_factory=list)
 
 
 class EditFailed(MechanismError):
-    """The edit could not finish with a working linkage; ``result`` holds the last valid one."""
+    """The edit could not finish with a working linkage; ``result`` holds the last one that works."""
 
     def __init__(self, message: str, result: EditResult) -> None:
         super().__init__(message)
         self.result = result
 
 
-def pair_lengths(plan: Plan, x: np.ndarray) -> np.ndarray:
-    """(P,) distances of the joint pairs held on links, for rest pose ``x`` (J, 2)."""
-    return np.linalg.norm(x[plan.pairs[:, 1]] - x[plan.pairs[:, 0]], axis=1)
-
-
-def errors(problem: Problem, v: np.ndarray) -> dict[str, float]:
-    """Readable objective errors: tracking RMS per curve, displacement distance, envelope excess,
-    min d_s, and the weighted energy terms."""
-    f = problem.forward(v)
-    assert f is not None
-    T = problem.samples
-    out: dict[str, float] = {}
-    for tr in problem.tracking:
-        out[f"{tr.label} RMS"] = float(np.sqrt(np.mean(np.abs(f.z[tr.row, :T] - tr.target) ** 2)))
-    for d in problem.displacements:
-        z = f.rest[d.joint] if d.column is None else f.z[problem.plan.row_of[d.joint], d.column]
-        out[f"{d.label} error"] = float(abs(z - d.target))
-    if problem.envelope is not None:
-        env = problem.envelope
-        z = f.z[env.rows, :T]
-        outside = np.maximum.reduce([env.lo.real - z.real, z.real - env.hi.real, env.lo.imag - z.imag,
-                                     z.imag - env.hi.imag, np.zeros(z.shape)])
-        out["envelope max excess"] = float(outside.max())
-    ds = [d[:, :T] for d in f.ds if d is not None]
-    out["min d_s"] = float(min(d.min() for d in ds)) if ds else 1.0
-    out |= {f"energy {k}": float(v_) for k, v_ in problem.terms(f).items()}
-    return out
-
-
 def with_rest_pose(spec: LinkageSpec, plan: Plan, x: np.ndarray, note: str) -> LinkageSpec:
-    """A copy of ``spec`` with joints at ``x`` (J, 2); link tracks move with their link."""
+    """A copy of ``spec`` with joints at ``x`` (J, 2); its link tracks move with their link."""
     points = plan.points_for(x)
     joints = {n: (float(p[0]), float(p[1])) for n, p in zip(plan.joint_names, x)}
     tracks = {}
-    for name, point in zip(plan.track_names, plan.track_points):
-        track = spec.tracks[name]
+    for name, track in spec.tracks.items():
         if isinstance(track, LinkTrack):
-            track = LinkTrack(link=track.link, at=(float(points[point, 0]), float(points[point, 1])))
+            p = points[plan.track_points[plan.track_names.index(name)]]
+            track = LinkTrack(link=track.link, at=(float(p[0]), float(p[1])))
         tracks[name] = track
     description = f"{spec.description.strip()}\n{note}" if spec.description else note
     return spec.model_copy(update={"joints": joints, "tracks": tracks, "description": description})
 
 
-def _check(plan: Plan, spec: LinkageSpec, samples: int, base_angle: float) -> tuple[Motion | None, str]:
-    """Re-simulate at ``samples`` absolute angles; (motion, "") if it works, else (None, why)."""
-    try:
-        edited = compile_plan(spec)
-    except MechanismError as exc:
-        return None, str(exc)
-    if not np.array_equal(edited.orientation, plan.orientation) or not np.array_equal(edited.rules, plan.rules):
-        return None, "a triangle of the rest pose changed orientation"
-    motion = sample_motion(edited, samples, base_angle, partial=True)
+def _probes(linkage: LinkageSpec, script: EditScript) -> tuple[LinkageSpec, list[dict[int, str]]]:
+    """The linkage with a hidden link track for every displaced link point, and their names."""
+    tracks = dict(linkage.tracks)
+    names: list[dict[int, str]] = []
+    for o, op in enumerate(script.operations):
+        mine = {}
+        for n, d in enumerate(op.listed("displace")):
+            if d.link is not None:
+                mine[n] = f"__displace_{o}_{n}"
+                tracks[mine[n]] = LinkTrack(link=d.link, at=d.at)
+        names.append(mine)
+    return (linkage.model_copy(update={"tracks": tracks}) if len(tracks) > len(linkage.tracks) else linkage), names
+
+
+def _unmet(op: Operation, problem: Problem, before: dict[str, float], after: dict[str, float]) -> list[str]:
+    """Goals the result misses: a displacement not even half-way there, a target curve left
+    further than 10 % of its size, an envelope excess not halved."""
+    out = []
+    tiny = 1e-9 * problem.size
+    for d in problem.displacements:
+        key = f"{d.label} error"
+        if d.label.startswith("transform") or before[key] <= tiny:
+            continue
+        if after[key] > 0.5 * before[key] and after[key] > tiny:
+            out.append(f"{d.label}: moved less than half-way (still {after[key]:.4g} of {before[key]:.4g} away)")
+    moved = [d for d in problem.displacements if d.label.startswith("transform")]
+    if moved:
+        rms = [float(np.sqrt(np.mean([e[f"{d.label} error"] ** 2 for d in moved]))) for e in (before, after)]
+        if rms[1] > 0.5 * rms[0] and rms[1] > tiny:
+            out.append(f"transform: its joints moved less than half-way (RMS {rms[1]:.4g} of {rms[0]:.4g} away)")
+    for tr in problem.tracking:
+        key = f"{tr.label} RMS"
+        if tr.label.startswith("preserve") or before[key] <= tiny:
+            continue
+        if after[key] > 0.1 * tr.size:
+            out.append(f"{tr.label}: {after[key]:.4g} RMS from its target, more than 10 % of the curve's size {tr.size:.4g}")
+        elif after[key] > 0.5 * before[key] and after[key] > tiny:
+            out.append(f"{tr.label}: less than half-way to its target (RMS {after[key]:.4g} from {before[key]:.4g})")
+    key = "envelope max excess"
+    if key in after and after[key] > 0.5 * before[key] and after[key] > tiny:
+        out.append(f"envelope: still {after[key]:.4g} outside (from {before[key]:.4g})")
+    return out
+
+
+def _check(plan: Plan, spec: LinkageSpec, samples: int, arm: complex | None) -> tuple[Motion | None, str | None]:
+    """Simulate ``spec`` (``plan`` re-based on it) at ``samples``; (motion, None) if it works.
+    ``arm``: the crank direction the rest pose must keep, or None (its angle was free)."""
+    rest = np.array([spec.joints[n] for n in plan.joint_names], dtype=float)
+    z = rest[:, 0] + 1j * rest[:, 1]
+    t = motor_phases(spec, samples)
+    turn = np.degrees(motor_turn(spec.motor, t))
+    ones = np.ones((len(plan.rules), samples))
+    why = failure(plan, z, ones, turn, arm)  # rest orientations first: re-basing needs them
+    if why is not None:
+        return None, why
+    motion = simulate(plan.rebased(spec), samples, partial=True)
     if not motion.assembled.all():
         return None, "; ".join(lk.describe() for lk in motion.lockups)
-    flips = motion.orientation != plan.orientation[None, :]
-    if flips.any():
-        t, r = np.argwhere(flips)[0]
-        return None, (f"joint {plan.joint_names[plan.rules[r, 2]]} changes branch at motor angle "
-                      f"{np.degrees(motion.motor_angle[t]):.1f}°")
-    return motion, ""
+    return motion, failure(plan, z, motion.singularity.T, turn, arm)
 
 
-def sample_motion(plan: Plan, samples: int, base_angle: float, partial: bool = False) -> Motion:
-    """Simulate at absolute motor angles base_angle + dir·2π·n/T (so before/after compare)."""
-    rest_angle = plan.geometry().rest_angle
-    offset = np.degrees(plan.direction * (base_angle - rest_angle))
-    motor = plan.spec.motor.model_copy(update={"range_deg": (offset, offset + 360.0 * (1 - 1 / samples))})
-    shifted = compile_plan(plan.spec.model_copy(update={"motor": motor}))
-    return simulate(shifted, samples, partial=partial)
+def _warnings(motion: Motion, eps: float) -> list[str]:
+    worst = motion.min_singularity()
+    if worst is not None and worst[0] < eps / 10:
+        return [f"joint {worst[1]} comes within d_s = {worst[0]:.3g} of its toggle position at motor angle "
+                f"{worst[2]:.1f}° (below singularity_epsilon/10 = {eps / 10:.3g}): it works, but only just"]
+    return []
+
+
+def _solve(script: EditScript, problem: Problem, op: Operation, tick: Callable[[int, float], None]):
+    v0 = np.zeros(problem.var.n)
+    if script.solver == "bfgs":  # in units of the mechanism's size, so that it is unit-free too
+        L = problem.size
+
+        def energy(u: np.ndarray) -> tuple:
+            e, g, ev = problem.energy(L * u)
+            return e, (None if g is None else L * g), ev
+
+        result = bfgs.minimize(energy, v0, max_iterations=op.max_iterations, max_step=0.1, callback=tick)
+        result.x = L * result.x
+        return result
+    return gauss_newton.minimize(problem, v0, max_iterations=op.max_iterations, callback=tick)
 
 
 def run_script(linkage: LinkageSpec, script: EditScript,
                progress: Callable[[str, int, float], None] | None = None) -> EditResult:
     """Apply ``script`` to ``linkage``; raises :class:`EditFailed` if the result does not work."""
-    plan = compile_plan(linkage)
-    base_angle = plan.geometry().rest_angle
+    augmented, probe_names = _probes(linkage, script)
+    plan = compile_plan(augmented)
+    out_plan = plan if augmented is linkage else compile_plan(linkage)
+    before_motion = simulate(out_plan, linkage.samples or DEFAULT_SAMPLES, partial=True)
+    if not before_motion.assembled.all():
+        raise MechanismError(f"{linkage.name} does not work before any edit: "
+                             + "; ".join(lk.describe() for lk in before_motion.lockups))
+    T = script.samples
+    t = motor_phases(linkage, T)
+    turn = motor_turn(linkage.motor, t)
+    index = {n: i for i, n in enumerate(plan.joint_names)}
+    locked = {index[n]: axes for n, axes in script.locked().items()}
     x = plan.graph.rest.copy()
     size = float(np.ptp(x, axis=0).max())
-    ref = pair_lengths(plan, x)
     reports: list[OperationReport] = []
     accepted = [x.copy()]
     for n, op in enumerate(script.operations):
         name = op.name or f"operation {n + 1}"
-        problem = build_problem(plan, script, op, x, base_angle, ref)
-        v0 = x[problem.free]
-        before = errors(problem, v0)
+        var = parametrize(plan, x, locked, script.motor.free_angle)
+        if var.n == 0:
+            raise InputError("nothing is left for the edit to change: every coordinate is locked "
+                             "(the motor joint is locked whole unless motor: {free_angle: true})", field=("lock",))
+        probes = {k: int(plan.track_points[plan.track_names.index(v)]) for k, v in probe_names[n].items()}
+        problem = build_problem(plan, script, op, var, turn, t, size, probes)
+        before = problem.errors(np.zeros(var.n))
         start = time.perf_counter()
-
-        def energy(v: np.ndarray, p: Problem = problem) -> tuple:
-            return p.energy(v)
 
         def tick(it: int, e: float, label: str = name) -> None:
             if progress is not None:
                 progress(label, it, e)
 
-        result = minimize(energy, v0, max_iterations=op.max_iterations, max_step=0.1 * size, callback=tick)
+        result = _solve(script, problem, op, tick)
         seconds = time.perf_counter() - start
-        x = problem.full(result.x)
+        x = var.rest(result.x)
         accepted.append(x.copy())
-        after = errors(problem, result.x)
+        after = problem.errors(result.x)
         targets = {tr.label: np.column_stack([tr.target.real, tr.target.imag]) for tr in problem.tracking
                    if not tr.label.startswith("preserve")}
         reports.append(OperationReport(name=name, iterations=result.iterations, evaluations=result.evaluations,
                                        rejected_steps=result.rejected, seconds=seconds, converged=result.converged,
-                                       energy=result.history, before=before, after=after, targets=targets))
-        ref = pair_lengths(plan, x)
+                                       stalled=result.stalled,
+                                       energy=result.history, before=before, after=after,
+                                       unmet=_unmet(op, problem, before, after), targets=targets))
 
-    fine = 4 * script.samples
-    before_motion = sample_motion(plan, fine, base_angle)
+    fine = 4 * T
+    g = out_plan.graph
+    arm = None if script.motor.free_angle else complex(*(g.rest[g.motor] - g.rest[g.pivot]))
+    note = f"edited by linkedit ({len(script.operations)} operations)"
+    failure_why = None
     for k in range(len(accepted) - 1, -1, -1):
-        edited = with_rest_pose(linkage, plan, accepted[k], f"edited by linkedit ({len(script.operations)} operations)")
-        motion, why = _check(plan, edited, fine, base_angle)
-        if motion is not None:
-            result = EditResult(original=linkage, edited=edited, operations=reports, before=before_motion, after=motion)
+        edited = with_rest_pose(linkage, out_plan, accepted[k], note)
+        motion, why = _check(out_plan, edited, fine, arm)
+        if why is None:
+            after_motion = simulate(out_plan.rebased(edited), linkage.samples or DEFAULT_SAMPLES)
+            result = EditResult(original=linkage, edited=edited if k else linkage, operations=reports,
+                                before=before_motion, after=after_motion,
+                                warnings=_warnings(after_motion, script.singularity_epsilon))
             if k == len(accepted) - 1:
                 return result
-            raise EditFailed(f"the edited linkage does not work at {fine} samples ({failure}); "
-                             f"kept the result of operation {k} instead", result)
-        if k == len(accepted) - 1:
-            failure = why
+            for op in reports[k:]:
+                op.discarded = True
+            kept = f"kept the linkage as it was after operation {reports[k - 1].name!r}" if k else \
+                "kept the original linkage unchanged"
+            raise EditFailed(f"the result of operation {reports[-1].name!r} does not work at {fine} samples "
+                             f"({failure_why}); {kept}", result)
+        failure_why = failure_why or why
     raise AssertionError("the original linkage always passes its own check")  # pragma: no cover

@@ -194,7 +194,7 @@ def read_result(path: str | Path) -> GcsResult:
                 tracks[name] = Track3D(member=str(g.attrs["member"]), point=np.asarray(g.attrs["point"]),
                                        position=g["position"][()], velocity=g["velocity"][()],
                                        cyclic=bool(g.attrs["cyclic"]))
-            return GcsResult(
+            res = GcsResult(
                 name=str(f.attrs["name"]), units=str(f.attrs["units"]), t=f["t"][()], member_names=names,
                 position=f["members/position"][()], orientation=f["members/orientation"][()],
                 velocity=np.concatenate([f["members/velocity"][()], f["members/angular_velocity"][()]], axis=-1),
@@ -205,3 +205,25 @@ def read_result(path: str | Path) -> GcsResult:
                 spec_text=str(f.attrs["spec"]), options=json.loads(f.attrs["options"]))
         except KeyError as exc:
             raise InputError(f"not a complete gcs result: missing {exc}", file=str(path)) from None
+        except (ValueError, TypeError, AttributeError) as exc:  # e.g. options or lines that are not JSON
+            raise InputError(f"not a readable gcs result: {exc}", file=str(path)) from None
+    _check_read(res, str(path))
+    return res
+
+
+def _check_read(res: GcsResult, file: str) -> None:
+    """InputError unless the arrays of a result read back agree in shape and the drawing lines name points."""
+    steps, members = len(res.t), len(res.member_names)
+    shapes = {"members/position": (res.position, (steps, members, 3)),
+              "members/orientation": (res.orientation, (steps, members, 4))}
+    shapes |= {f"tracks/{n}/position": (tr.position, (steps, 3)) for n, tr in res.tracks.items()}
+    shapes |= {f"tracks/{n}/velocity": (tr.velocity, (steps, 3)) for n, tr in res.tracks.items()}
+    for where, (array, shape) in shapes.items():
+        if np.shape(array) != shape or np.asarray(array).dtype.kind != "f":
+            raise InputError(f"{where}: expected a {shape} array of numbers, found {np.shape(array)}", file=file)
+    for name, lines in res.lines.items():
+        if not isinstance(lines, list) or not all(isinstance(ln, list) and all(p in res.points[name] for p in ln)
+                                                  for ln in lines):
+            raise InputError(f"members/shapes/{name}: 'lines' must be lists of the member's point names", file=file)
+    if not isinstance(res.options, dict):
+        raise InputError("the 'options' attribute is not a JSON object", file=file)

@@ -1,36 +1,169 @@
 """Atomic file writes: write to a temporary file beside the target, then rename.
 
-An interrupted or failed run never leaves a half-written result in place.
+An interrupted or failed run never leaves a half-written result in place, and never a stray
+temporary file after an error, Ctrl-C or SIGTERM (see :func:`terminate_as_interrupt`). Inside
+:func:`together`, the renames wait until the whole block succeeds, so the outputs of one run
+appear together or not at all. Only regular files (or new paths) are ever replaced: a device
+node, a FIFO or a folder at the target is an error, not something to rename over.
+
+Temporary files are named ``.<name>.<pid>.<random>.part``; one whose process is gone (SIGKILL,
+power loss) is removed by the next write to the same target.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import os
+import signal
+import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
+#: (temporary, target) renames waiting for the innermost :func:`together` block to succeed.
+_PENDING: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar("pending", default=None)
+
+
+def check_target(target: str | Path) -> None:
+    """OSError naming ``target`` unless it can be written as a regular file: the path is new or a
+    regular file, and its nearest existing folder is a folder we may write into."""
+    target = Path(target)
+    try:
+        info = target.stat()
+    except FileNotFoundError:
+        info = None
+    except NotADirectoryError:
+        info = None
+    if info is not None and not stat.S_ISREG(info.st_mode):
+        what = "is a folder" if stat.S_ISDIR(info.st_mode) else "is not a regular file (only regular files are replaced)"
+        raise OSError(f"{target}: {what}")
+    parent = target.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise OSError(f"{target}: {parent} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OSError(f"{target}: cannot write into {parent} (permission denied)")
+
+
+@contextlib.contextmanager
+def together() -> Iterator[None]:
+    """Commit every atomic write made inside the block when it succeeds, and none when it fails.
+
+    Blocks nest: an inner block's writes join the outer block's on success.
+    """
+    pending: list[tuple[Path, Path]] = []
+    outer = _PENDING.get()
+    token = _PENDING.set(pending)
+    try:
+        yield
+    except BaseException:
+        _discard(pending)
+        raise
+    finally:
+        _PENDING.reset(token)
+    if outer is not None:
+        outer.extend(pending)
+        return
+    try:
+        for tmp, target in pending:
+            _replace(tmp, target)
+    finally:
+        _discard(pending)
+
+
+def commit() -> None:
+    """Rename the writes of the enclosing :func:`together` blocks now (for a run that fails after
+    writing results it wants kept, e.g. an edit that stops at its last working linkage)."""
+    pending = _PENDING.get()
+    if pending:
+        try:
+            for tmp, target in pending:
+                _replace(tmp, target)
+        finally:
+            _discard(pending)
+            pending.clear()
+
 
 @contextlib.contextmanager
 def atomic_path(target: str | Path) -> Iterator[Path]:
-    """Yield a temporary path in the target's folder; rename it onto ``target`` on success."""
+    """Yield a temporary path in the target's folder; rename it onto ``target`` on success
+    (at the end of the enclosing :func:`together` block, if any). Errors name ``target``."""
     target = Path(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent)
+    check_target(target)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        _remove_stale(target)
+        fd, name = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".part", dir=target.parent)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(target)) from None
+    tmp = Path(name)
     os.close(fd)
     umask = os.umask(0)
     os.umask(umask)
     os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are ordinary files
+    pending = _PENDING.get()
     try:
-        yield Path(tmp)
-        os.replace(tmp, target)
+        yield tmp
+        if pending is not None:
+            pending.append((tmp, target))
+            return
+        _replace(tmp, target)
     finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
+        if pending is None or (tmp, target) not in pending:
+            _discard([(tmp, target)])
 
 
 def write_text(target: str | Path, text: str) -> None:
     """Write a text file atomically."""
     with atomic_path(target) as tmp:
         tmp.write_text(text, encoding="utf-8")
+
+
+def terminate_as_interrupt() -> None:
+    """Make SIGTERM raise KeyboardInterrupt (as Ctrl-C does), so temporary files are cleaned up."""
+
+    def handler(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    with contextlib.suppress(ValueError):  # not the main thread: leave signals alone
+        signal.signal(signal.SIGTERM, handler)
+
+
+def _replace(tmp: Path, target: Path) -> None:
+    check_target(target)
+    try:
+        os.replace(tmp, target)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(target)) from None
+
+
+def _discard(pending: list[tuple[Path, Path]]) -> None:
+    for tmp, _ in pending:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+
+
+def _remove_stale(target: Path) -> None:
+    """Remove temporary files of ``target`` left by linkedit processes that no longer exist."""
+    for part in target.parent.glob(f".{_glob_escape(target.name)}.*.part"):
+        pid = part.name[len(target.name) + 2:].split(".", 1)[0]
+        if pid.isdigit() and not _alive(int(pid)):
+            with contextlib.suppress(OSError):
+                part.unlink()
+
+
+def _glob_escape(name: str) -> str:
+    """``name`` with glob metacharacters made literal."""
+    return "".join(f"[{c}]" if c in "*?[" else c for c in name)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True

@@ -15,6 +15,7 @@ from linkedit.planar.simulate import Motion
 
 def _motion(group: Any, motion: Motion, units: str) -> None:
     put(group, "rest", motion.plan.graph.rest, units=units, description="rest pose of the joints")
+    put(group, "motor_angle", motion.motor_angle, units="rad", description="absolute motor angle at each phase")
     put(group, "joints/position", motion.positions, units=units)
     put(group, "joints/velocity", motion.velocity, units=f"{units}/rad")
     for name, track in motion.tracks.items():
@@ -30,8 +31,7 @@ def write_edit(path: str | Path, result: EditResult, *, script_text: str, linkag
     with result_file(path, kind="edit", units=units, spec_text=script_text, options=options) as f:
         f.attrs["linkage"] = linkage_text
         f.attrs["edited_linkage"] = edited_text
-        put(f, "t", result.before.t, description="phase of the original motor cycle")
-        put(f, "motor_angle", result.before.motor_angle, units="rad")
+        put(f, "t", result.before.t, description="motor phase; 0 is the rest pose of each linkage")
         put(f, "joints/names", result.before.plan.joint_names)
         _motion(f.create_group("before"), result.before, units)
         _motion(f.create_group("after"), result.after, units)
@@ -44,8 +44,10 @@ def write_edit(path: str | Path, result: EditResult, *, script_text: str, linkag
             g.attrs["rejected_steps"] = op.rejected_steps
             g.attrs["seconds"] = op.seconds
             g.attrs["converged"] = op.converged
+            g.attrs["discarded"] = op.discarded
+            g.attrs["unmet"] = json.dumps(op.unmet)
             g.attrs["before"] = json.dumps(op.before)
             g.attrs["after"] = json.dumps(op.after)
-            put(g, "energy", np.array(op.energy), description="total energy after each BFGS iteration")
+            put(g, "energy", np.array(op.energy), description="total energy after each accepted iteration")
             for label, curve in op.targets.items():
                 put(g, f"targets/{label}", curve, units=units)

@@ -14,13 +14,14 @@ import numpy as np
 from linkedit import __version__
 from linkedit.errors import InputError
 from linkedit.io.atomic import atomic_path
+from linkedit.spec.yamlload import require_regular_file
 
 FORMAT_VERSION = "1"
 
 
 @contextlib.contextmanager
 def result_file(path: str | Path, *, kind: str, units: str, spec_text: str,
-                options: dict[str, Any]) -> Iterator[h5py.File]:
+                options: dict[str, Any], format_version: str = FORMAT_VERSION) -> Iterator[h5py.File]:
     """Open a new result file for writing; it appears at ``path`` only if the block succeeds.
 
     Root attributes: ``format_version``, ``generator``, ``kind``, ``units``, ``spec`` (the
@@ -28,7 +29,7 @@ def result_file(path: str | Path, *, kind: str, units: str, spec_text: str,
     """
     with atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as f:
-            f.attrs["format_version"] = FORMAT_VERSION
+            f.attrs["format_version"] = format_version
             f.attrs["generator"] = f"linkedit {__version__}"
             f.attrs["kind"] = kind
             f.attrs["units"] = units
@@ -37,8 +38,13 @@ def result_file(path: str | Path, *, kind: str, units: str, spec_text: str,
             yield f
 
 
-def put(group: h5py.Group, name: str, data: Any, **attrs: Any) -> h5py.Dataset:
-    """Create a dataset (strings as UTF-8 variable-length) with attributes (e.g. units)."""
+def put(group: h5py.Group, name: str, data: Any, *, dims: tuple[str | None, ...] = (), **attrs: Any) -> h5py.Dataset:
+    """Create a dataset (strings as UTF-8 variable-length) with attributes (e.g. units).
+
+    ``dims`` names the dimension scale of each axis (a dataset of that name at the file's
+    root, made by :func:`scale`; None leaves an axis without one), so xarray and netCDF
+    readers see named dimensions.
+    """
     arr = np.asarray(data)
     if arr.dtype.kind in "UO":
         ds = group.create_dataset(name, data=np.asarray(arr, dtype=object), dtype=h5py.string_dtype())
@@ -46,11 +52,22 @@ def put(group: h5py.Group, name: str, data: Any, **attrs: Any) -> h5py.Dataset:
         ds = group.create_dataset(name, data=arr)
     for key, value in attrs.items():
         ds.attrs[key] = value
+    for axis, dim in enumerate(dims):
+        if dim is not None:
+            ds.dims[axis].attach_scale(group.file[dim])
+    return ds
+
+
+def scale(f: h5py.File, name: str, data: Any, description: str, **attrs: Any) -> h5py.Dataset:
+    """A dimension scale ``/name`` (a coordinate axis: sample times, joint names, x/y)."""
+    ds = put(f, name, data, description=description, **attrs)
+    ds.make_scale(name)
     return ds
 
 
 def open_result(path: str | Path, kind: str | None = None) -> h5py.File:
     """Open a linkedit result for reading; InputError if it is not one (or not of ``kind``)."""
+    require_regular_file(path)
     try:
         f = h5py.File(path, "r")
     except OSError as exc:

@@ -1,4 +1,10 @@
-"""The planar result file (kind="planar"), layout documented in ``specs/planar-hdf5.md``."""
+"""The planar result file (kind="planar"), layout documented in ``specs/planar-hdf5.md``.
+
+Every axis is a named dimension (HDF5 dimension scales ``/t``, ``/joint``, ``/xy``, ``/rule``,
+``/link``, ``/ground_joint``, ``/pair``, ``/end``, ``/ijk`` at the root), so ``xarray.open_dataset(path,
+group="joints", engine="h5netcdf")`` shows ``t``, ``joint``, ``xy``; units are strings pint
+parses (``mm``, ``mm/rad``, ``mm/rad**2``).
+"""
 
 from __future__ import annotations
 
@@ -7,49 +13,68 @@ from typing import Any
 
 import numpy as np
 
-from linkedit.io.hdf5 import put, result_file
+from linkedit.io.hdf5 import put, result_file, scale
 from linkedit.planar.simulate import Motion
+
+FORMAT_VERSION = "2"
+TXY = ("t", "xy")
 
 
 def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: dict[str, Any]) -> None:
     """Write a simulated cycle atomically (see ``specs/planar-hdf5.md``)."""
     plan = motion.plan
     spec = plan.spec
-    units = spec.units
-    with result_file(path, kind="planar", units=units, spec_text=spec_text, options=options) as f:
+    u = spec.units
+    names = plan.joint_names
+    with result_file(path, kind="planar", units=u, spec_text=spec_text, options=options,
+                     format_version=FORMAT_VERSION) as f:
         f.attrs["name"] = spec.name
         f.attrs["engine"] = options.get("engine", "symbolic")
-        put(f, "t", motion.t, description="motor phase: fraction of a revolution (or of the range_deg sweep)")
-        put(f, "motor_angle", motion.motor_angle, units="rad", description="absolute motor (crank) angle")
+        scale(f, "t", motion.t, "motor phase: fraction of a revolution (or of the range_deg sweep)", units="1")
+        scale(f, "joint", names, "joint names, spec order")
+        scale(f, "xy", ["x", "y"], "plane coordinate")
+        scale(f, "link", list(plan.graph.link_names), "link names, spec order")
+        scale(f, "rule", [names[k] for k in plan.rules[:, 2]], "the joint each rule rebuilds, evaluation order")
+        scale(f, "ground_joint", [names[g] for g in plan.graph.ground], "ground joint names")
+        scale(f, "pair", np.arange(len(plan.pairs)), "index of a joint pair held at constant distance")
+        scale(f, "end", [0, 1], "first or second joint of a pair")
+        scale(f, "ijk", ["i", "j", "k"], "joints of a rule: k rebuilt from i and j")
+        put(f, "motor_angle", motion.motor_angle, dims=("t",), units="rad", description="absolute motor (crank) angle")
         j = f.create_group("joints")
-        put(j, "names", plan.joint_names)
-        put(j, "position", motion.positions, units=units)
-        put(j, "velocity", motion.velocity, units=f"{units}/rad", description="d position / d motor angle")
-        put(j, "acceleration", motion.acceleration, units=f"{units}/rad^2")
-        put(j, "ground", np.array(plan.graph.ground, dtype=int))
+        txy = ("t", "joint", "xy")
+        put(j, "position", motion.positions, dims=txy, units=u, description="joint positions")
+        put(j, "velocity", motion.velocity, dims=txy, units=f"{u}/rad", description="d position / d motor angle")
+        put(j, "acceleration", motion.acceleration, dims=txy, units=f"{u}/rad**2",
+            description="d² position / d motor angle²")
+        put(j, "ground", np.array(plan.graph.ground, dtype=int), dims=("ground_joint",), description="indices of the ground joints")
         j.attrs["motor"] = plan.graph.motor
         j.attrs["pivot"] = plan.graph.pivot
         links = f.create_group("links")
-        put(links, "names", list(plan.graph.link_names))
-        put(links, "pairs", plan.pairs, description="joint index pairs held at constant distance")
+        put(links, "pairs", plan.pairs, dims=("pair", "end"), description="joint index pairs held at constant distance")
         for name, members in zip(plan.graph.link_names, plan.graph.links):
-            put(links, f"joints/{name}", np.array(members, dtype=int))
+            put(links, f"joints/{name}", np.array(members, dtype=int), description=f"joint indices on link {name}")
         tracks = f.create_group("tracks")
         for name, track in motion.tracks.items():
             g = tracks.create_group(name)
-            put(g, "position", track.position, units=units)
-            put(g, "velocity", track.velocity, units=f"{units}/rad")
-            put(g, "acceleration", track.acceleration, units=f"{units}/rad^2")
+            put(g, "position", track.position, dims=TXY, units=u, description=f"position of track {name}")
+            put(g, "velocity", track.velocity, dims=TXY, units=f"{u}/rad", description="d position / d motor angle")
+            put(g, "acceleration", track.acceleration, dims=TXY, units=f"{u}/rad**2",
+                description="d² position / d motor angle²")
         rules = f.create_group("rules")
-        put(rules, "joints", plan.rules, description="(i, j, k): joint k rebuilt from i and j, evaluation order")
-        put(rules, "level", plan.level)
-        put(rules, "rigid", plan.rigid)
-        put(rules, "orientation", plan.orientation.astype(np.int8))
+        put(rules, "joints", plan.rules, dims=("rule", "ijk"),
+            description="(i, j, k): joint k rebuilt from i and j, evaluation order")
+        put(rules, "level", plan.level, dims=("rule",), description="level of each rule (evaluated together)")
+        put(rules, "rigid", plan.rigid, dims=("rule",), description="i, j, k on one link (else a dyad)")
+        put(rules, "orientation", plan.orientation.astype(np.int8), dims=("rule",),
+            description="orientation of triangle (i, j, k) at rest: +1 ccw, -1 cw, 0 collinear")
         d = f.create_group("diagnostics")
-        put(d, "assembled", motion.assembled)
-        put(d, "singularity", motion.singularity, description="d_s = sin^2(angle at the rebuilt joint); 1 for rigid rules")
-        put(d, "transmission_angle", motion.transmission, units="rad")
-        put(d, "orientation", motion.orientation)
+        put(d, "assembled", motion.assembled, dims=("t",), description="the linkage closes at this sample")
+        put(d, "singularity", motion.singularity, dims=("t", "rule"), units="1",
+            description="d_s = sin^2(angle at the rebuilt joint); 1 for rigid rules")
+        put(d, "transmission_angle", motion.transmission, dims=("t", "rule"), units="rad",
+            description="angle at the rebuilt joint (a four-bar's coupler-rocker dyad: the transmission angle)")
+        put(d, "orientation", motion.orientation, dims=("t", "rule"),
+            description="orientation sign of each rule's triangle at each sample")
         worst = motion.min_singularity()
         if worst is not None:
             d.attrs["min_singularity"] = worst[0]

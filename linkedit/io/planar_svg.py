@@ -24,8 +24,8 @@ def drawing(motion: Motion) -> dict[str, Any]:
     )
 
 
-def draw_motion(path: str | Path, motion: Motion, *, animate: bool = False) -> str:
-    """Write the motion plot (or, with ``animate``, the SMIL animation) of ``motion``.
+def draw_motion(path: str | Path | None, motion: Motion, *, animate: bool = False) -> str:
+    """The motion plot (or, with ``animate``, the SMIL animation) of ``motion``; written to ``path`` if given.
 
     Curves are closed only for a full revolution that assembles at every sample.
     """

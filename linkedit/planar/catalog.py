@@ -345,9 +345,9 @@ The rest pose below is the crank at 0 degrees, computed exactly from these lengt
     Example("stephenson-six-bar.yaml", stephenson_six_bar,
             header="Stephenson III six-bar of linkedit's own design; written by linkedit.planar.catalog.",
             notes={"links.coupler": "ternary: touches the frame only through crank and rocker"}),
-    Example("complex-loop.yaml", complex_loop, simulates=False,
+    Example("invalid/complex-loop.yaml", complex_loop, simulates=False,
             header="A complex kinematic loop (class-III Assur group). linkedit rejects it:\n"
-                   "  linkedit validate examples/complex-loop.yaml  ->  exit 1, T1, T2, T3 undetermined.\n"
+                   "  linkedit validate examples/invalid/complex-loop.yaml  ->  exit 1, T1, T2, T3 undetermined.\n"
                    "Written by linkedit.planar.catalog.",
             notes={"links.body": "ternary body hung from P1, P2 and the crank pin A"}),
 )
@@ -363,8 +363,28 @@ def write_examples(directory: str | Path) -> list[Path]:
     return paths
 
 
-if __name__ == "__main__":
-    import sys
+def main(argv: list[str] | None = None) -> None:
+    """``python -m linkedit.planar.catalog [DIR]``: rewrite the example files.
 
-    for written in write_examples(sys.argv[1] if len(sys.argv) > 1 else Path(__file__).resolve().parents[2] / "examples"):
+    Without DIR it writes into the source checkout's ``examples/`` and refuses when linkedit
+    is installed (it never writes into site-packages).
+    """
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m linkedit.planar.catalog",
+                                     description="Write the example linkages (examples/*.yaml) from exact geometry.")
+    parser.add_argument("directory", nargs="?", type=Path,
+                        help="where to write them [default: examples/ of the source checkout]")
+    args = parser.parse_args(argv)
+    directory = args.directory
+    if directory is None:
+        checkout = Path(__file__).resolve().parents[2]
+        if not (checkout / "pyproject.toml").is_file() or not (checkout / "examples").is_dir():
+            parser.error("not a source checkout: give the folder to write into")
+        directory = checkout / "examples"
+    for written in write_examples(directory):
         print(written)
+
+
+if __name__ == "__main__":
+    main()

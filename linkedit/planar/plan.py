@@ -13,6 +13,7 @@ are a separate :class:`Geometry`, so an optimizer can change the rest pose witho
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -85,6 +86,17 @@ class Plan:
     def geometry(self, rest: np.ndarray | None = None) -> "Geometry":
         """Numeric constants for a rest pose of the joints, (J, 2); default: the spec's."""
         return Geometry.of(self, self.rest_points if rest is None else self.points_for(rest))
+
+    def rebased(self, spec: LinkageSpec) -> "Plan":
+        """This plan for ``spec``: the same topology and tracks at another rest pose, without
+        compiling again. Every dyad triangle must keep its orientation (ValueError otherwise)."""
+        graph = dataclasses.replace(self.graph, rest=np.array([spec.joints[n] for n in self.joint_names], dtype=float))
+        extra = [spec.tracks[n].at for n, p in zip(self.track_names, self.track_points) if p >= self.n_joints]
+        points = np.vstack([graph.rest, np.array(extra, dtype=float).reshape(-1, 2)])
+        orientation = np.array([_orientation(graph.rest, i, j, k) for i, j, k in self.rules], dtype=int)
+        if not np.array_equal(orientation[~self.rigid], self.orientation[~self.rigid]):
+            raise ValueError("a dyad triangle changed orientation: compile the spec instead")
+        return dataclasses.replace(self, spec=spec, graph=graph, orientation=orientation, rest_points=points)
 
     def points_for(self, rest: np.ndarray) -> np.ndarray:
         """Rest positions of all points (P, 2) for new joint positions (J, 2).

@@ -16,7 +16,7 @@ from linkedit.errors import MechanismError
 from linkedit.planar.diagnostics import LockUp, lockups, transmission_angle, triangle_orientation
 from linkedit.planar.kinematics import evaluate
 from linkedit.planar.plan import Geometry, Plan, compile_plan
-from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.linkage import LinkageSpec, Motor
 
 DEFAULT_SAMPLES = 360
 
@@ -79,20 +79,31 @@ class Motion:
         return out
 
 
-def motor_angles(spec: LinkageSpec, samples: int) -> tuple[np.ndarray, np.ndarray]:
-    """Phases t (T,) and absolute motor angles (T,) in radians for ``samples`` samples.
-
-    A full revolution samples t = n/T (the end is the start); a ``range_deg`` sweep includes
-    both of its ends.
-    """
-    rest = np.arctan2(*(np.subtract(spec.joints[spec.motor.joint], spec.joints[spec.motor.pivot])[::-1]))
-    sign = 1.0 if spec.motor.direction == "ccw" else -1.0
+def motor_phases(spec: LinkageSpec, samples: int) -> np.ndarray:
+    """Phases t (T,): a full revolution samples t = n/T (the end is the start); a
+    ``range_deg`` sweep includes both of its ends."""
     if spec.motor.range_deg is None:
-        t = np.arange(samples) / samples
-        return t, rest + sign * 2.0 * np.pi * t
-    a, b = np.radians(spec.motor.range_deg)
-    t = np.linspace(0.0, 1.0, samples) if samples > 1 else np.zeros(1)
-    return t, rest + sign * (a + (b - a) * t)
+        return np.arange(samples) / samples
+    return np.linspace(0.0, 1.0, samples) if samples > 1 else np.zeros(1)
+
+
+def motor_turn(motor: Motor, t: np.ndarray) -> np.ndarray:
+    """Motor rotation from the rest pose at phases ``t`` (T,), radians (signed by direction).
+
+    The one time axis of linkedit: phase 0 of a full revolution is the rest pose.
+    """
+    sign = 1.0 if motor.direction == "ccw" else -1.0
+    if motor.range_deg is None:
+        return sign * 2.0 * np.pi * t
+    a, b = np.radians(motor.range_deg)
+    return sign * (a + (b - a) * t)
+
+
+def motor_angles(spec: LinkageSpec, samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """Phases t (T,) and absolute motor angles (T,) in radians for ``samples`` samples."""
+    rest = np.arctan2(*(np.subtract(spec.joints[spec.motor.joint], spec.joints[spec.motor.pivot])[::-1]))
+    t = motor_phases(spec, samples)
+    return t, rest + motor_turn(spec.motor, t)
 
 
 def _joint_order(plan: Plan, z: np.ndarray) -> np.ndarray:

@@ -12,11 +12,12 @@ from typing import Annotated
 import pydantic
 
 from linkedit.errors import InputError
-from linkedit.spec.common import Finite, Name, SpecModel
+from linkedit.spec.common import MAX_WEIGHT, Count, Finite, Name, SpecModel
 
-NonNegative = Annotated[float, pydantic.Field(ge=0.0, allow_inf_nan=False)]
-Samples = Annotated[int, pydantic.Field(ge=8, le=4096)]
-Harmonics = Annotated[int, pydantic.Field(ge=1, le=64)]
+NonNegative = Annotated[float, pydantic.Strict(), pydantic.Field(ge=0.0, allow_inf_nan=False)]
+Weight = Annotated[float, pydantic.Strict(), pydantic.Field(ge=0.0, le=MAX_WEIGHT, allow_inf_nan=False)]
+Samples = Annotated[Count, pydantic.Field(ge=8, le=4096)]
+Harmonics = Annotated[Count, pydantic.Field(ge=1, le=64)]
 
 #: Term names of the curve distance (per-curve features and pairwise terms, 2D and 3D).
 TERMS = ("length", "area", "ellipticity", "area_xy", "area_yz", "area_xz", "ellipticity_xy", "ellipticity_yz",
@@ -70,7 +71,7 @@ class CurveWeights(SpecModel):
     #: Resampling and harmonics the weights were fitted with (used unless the command line says otherwise).
     samples: Samples | None = None
     harmonics: Harmonics | None = None
-    weights: dict[str, NonNegative] = pydantic.Field(min_length=1)
+    weights: dict[str, Weight] = pydantic.Field(min_length=1)
 
     @pydantic.field_validator("weights")
     @classmethod
@@ -96,7 +97,7 @@ class LabelledPairs(SpecModel):
     #: Weight of the regularizer λ Σ w_m (keeps weights small and sparse).
     regularization: NonNegative = 1e-3
     #: Terms to learn (default: all terms of the curves' dimension).
-    terms: list[str] | None = None
+    terms: list[str] | None = pydantic.Field(default=None, min_length=1)
 
     @pydantic.field_validator("terms")
     @classmethod

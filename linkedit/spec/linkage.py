@@ -8,12 +8,24 @@ the offending field so the loader can point at its line.
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import Annotated, Any, Literal
 
 import pydantic
 
 from linkedit.errors import InputError
-from linkedit.spec.common import Finite, Name, SpecModel, Vec2
+from linkedit.spec.common import Count, Finite, Name, SpecModel, Vec2
+from linkedit.spec.lengths import LinkLengths, Placement, assemble
+
+
+def _given(v: Any) -> Any:
+    return v
+
+
+#: In a YAML file a joint may be placed from link lengths and a link given by length
+#: (:mod:`linkedit.spec.lengths`); the validated model always holds positions and joint lists.
+RestPose = Annotated[dict[Name, Vec2], pydantic.BeforeValidator(_given, json_schema_input_type=dict[Name, Vec2 | Placement])]
+Links = Annotated[dict[Name, list[Name]],
+                  pydantic.BeforeValidator(_given, json_schema_input_type=dict[Name, list[Name] | LinkLengths])]
 
 
 class Motor(SpecModel):
@@ -53,13 +65,18 @@ class LinkageSpec(SpecModel):
     name: Name
     units: Name
     description: str | None = None
-    joints: dict[Name, Vec2] = pydantic.Field(min_length=3)
+    joints: RestPose = pydantic.Field(min_length=3)
     ground: list[Name] = pydantic.Field(min_length=1)
-    links: dict[Name, list[Name]] = pydantic.Field(min_length=1)
+    links: Links = pydantic.Field(min_length=1)
     motor: Motor
     tracks: dict[Name, JointTrack | LinkTrack] = pydantic.Field(default_factory=dict)
     #: Default number of time samples per cycle (the CLI's --samples overrides it).
-    samples: int | None = pydantic.Field(default=None, ge=1)
+    samples: Count | None = pydantic.Field(default=None, ge=1)
+
+    @pydantic.model_validator(mode="before")
+    @classmethod
+    def _assemble_from_lengths(cls, data: Any) -> Any:
+        return assemble(data)
 
     @pydantic.field_validator("links")
     @classmethod

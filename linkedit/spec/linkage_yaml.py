@@ -8,6 +8,7 @@ from collections.abc import Mapping
 import yaml
 
 from linkedit.spec.linkage import JointTrack, LinkageSpec
+from linkedit.spec.yamlload import SpecLoader
 
 
 def _num(v: float) -> str:
@@ -21,7 +22,7 @@ def _text(v: str) -> str:
     plain = v and v == v.strip() and not any(ch in v for ch in ",[]{}#:&*!|>'\"%@`") and "  " not in v
     if plain:
         try:
-            plain = yaml.safe_load(v) == v
+            plain = yaml.load(v, Loader=SpecLoader) == v
         except yaml.YAMLError:
             plain = False
     return v if plain else json.dumps(v, ensure_ascii=False)

@@ -18,28 +18,41 @@ from typing import Annotated, Any, Literal, Union
 import pydantic
 
 from linkedit.errors import InputError
-from linkedit.spec.common import Finite, Name, SpecModel, Vec3
+from linkedit.spec.common import Count, Finite, Name, SpecModel, Vec3
+
+
+def _unit(v: tuple[float, ...]) -> tuple[float, ...]:
+    """``v`` scaled to length 1 without overflow (``v`` may hold values near 1e308)."""
+    big = max(abs(c) for c in v)
+    scaled = [c / big for c in v]
+    norm = math.sqrt(sum(c * c for c in scaled))
+    return tuple(c / norm for c in scaled)
 
 
 def _nonzero_quaternion(q: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
-    if math.sqrt(sum(c * c for c in q)) < 1e-9:
+    if math.hypot(*q) < 1e-9:
         raise ValueError("zero quaternion: an orientation needs a unit quaternion [w, x, y, z]")
-    return q
+    return _unit(q)  # type: ignore[return-value]
 
 
 def _nonzero_vector(v: tuple[float, float, float]) -> tuple[float, float, float]:
-    if math.sqrt(sum(c * c for c in v)) < 1e-12:
+    if math.hypot(*v) < 1e-12:
         raise ValueError("zero vector: an axis or normal needs a direction")
-    return v
+    return _unit(v)  # type: ignore[return-value]
 
 
-#: [w, x, y, z], normalized on use
+#: [w, x, y, z], normalized when read
 Quaternion = Annotated[tuple[Finite, Finite, Finite, Finite], pydantic.AfterValidator(_nonzero_quaternion)]
-#: a nonzero direction, normalized on use
+#: a nonzero direction, normalized when read
 Direction = Annotated[Vec3, pydantic.AfterValidator(_nonzero_vector)]
 #: a member point: a name from the member's shape, or coordinates in member space
 PointRef = Union[Name, Vec3]
 Window = tuple[Finite, Finite]
+#: Largest coordinate of a shape point, a member position or a keyframe: squares of larger numbers
+#: overflow (drawing extents, distances). Constraint targets may be larger: the solver reports them.
+MAX_COORDINATE = 1e150
+Coordinate = Annotated[Finite, pydantic.Field(ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
+Point3 = tuple[Coordinate, Coordinate, Coordinate]
 
 
 def load_function(ref: str, field: tuple) -> Any:
@@ -70,14 +83,14 @@ Orientation = Union[Quaternion, AxisAngle]
 class Shape(SpecModel):
     """Named points in member space; ``lines`` are polylines of point names for drawing."""
 
-    points: dict[Name, Vec3] = pydantic.Field(min_length=1)
+    points: dict[Name, Point3] = pydantic.Field(min_length=1)
     lines: list[list[Name]] = pydantic.Field(default_factory=list)
 
 
 class Member(SpecModel):
     """A rigid body: position, orientation and shape (a name from ``shapes`` or inline)."""
 
-    position: Vec3 = (0.0, 0.0, 0.0)
+    position: Point3 = (0.0, 0.0, 0.0)
     orientation: Orientation = (1.0, 0.0, 0.0, 0.0)
     shape: Name | Shape | None = None
 
@@ -166,7 +179,7 @@ class CustomC(SpecModel):
     type: Literal["custom"]
     python: Annotated[str, pydantic.StringConstraints(pattern=r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")]
     members: list[Name] = pydantic.Field(min_length=1)
-    size: int = pydantic.Field(ge=1)
+    size: Count = pydantic.Field(ge=1)
 
 
 class Group(SpecModel):
@@ -194,7 +207,7 @@ class LocationInput(_InputBase):
     member: Name
     point: PointRef
     other: Name | None = None
-    keyframes: list[Vec3] = pydantic.Field(min_length=1)
+    keyframes: list[Point3] = pydantic.Field(min_length=1)
 
 
 class Rotation(SpecModel):
@@ -242,7 +255,7 @@ MAX_STEPS = 1_000_000
 
 
 class Outputs(SpecModel):
-    steps: int = pydantic.Field(default=100, ge=2, le=MAX_STEPS)
+    steps: Count = pydantic.Field(default=100, ge=2, le=MAX_STEPS)
     tracks: dict[Name, TrackSpec] = pydantic.Field(default_factory=dict)
 
 

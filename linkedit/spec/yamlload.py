@@ -1,13 +1,18 @@
 """YAML loading that remembers where every value came from.
 
 ``load_yaml`` returns the plain data and a map from field paths to 1-based line numbers, and
-rejects duplicate keys (PyYAML silently keeps the last one). ``load_model`` validates the data
+rejects duplicate keys (PyYAML silently keeps the last one). Hostile files get one line too:
+only regular files up to :data:`MAX_BYTES` are read, and aliases may not expand the document
+past :data:`MAX_NODES` nodes or :data:`MAX_DEPTH` levels (``specs/limits.md``). ``load_model`` validates the data
 with a pydantic model and turns the first problem into one :class:`InputError` line:
 ``file:line: field.path: what is wrong``.
 """
 
 from __future__ import annotations
 
+import os
+import re
+import stat
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -17,7 +22,23 @@ import yaml
 from linkedit.errors import InputError
 
 Path_ = tuple[str | int, ...]
+
+#: Largest spec file read (bytes): far above any real mechanism, far below the memory of a laptop.
+MAX_BYTES = 16 * 2**20
+#: Largest document, in nodes after alias expansion (a "billion laughs" file is refused here).
+MAX_NODES = 1_000_000
+#: Deepest nesting of lists and mappings (the formats need fewer than 10 levels).
+MAX_DEPTH = 64
 M = TypeVar("M", bound=pydantic.BaseModel)
+
+
+class SpecLoader(yaml.SafeLoader):
+    """The safe loader, reading ``1e-3``, ``2E6`` and ``7.5e1`` as numbers (YAML 1.1 wants ``7.5e+1``)."""
+
+
+SpecLoader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+SpecLoader.add_implicit_resolver("tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+                                 list("-+.0123456789"))
 
 
 class LineMap(dict[Path_, int]):
@@ -32,7 +53,7 @@ class LineMap(dict[Path_, int]):
         return self.get((), None)
 
 
-def _walk(loader: yaml.SafeLoader, node: yaml.Node, path: Path_, lines: LineMap, file: str) -> None:
+def _walk(loader: SpecLoader, node: yaml.Node, path: Path_, lines: LineMap, file: str) -> None:
     lines.setdefault(path, node.start_mark.line + 1)
     if isinstance(node, yaml.MappingNode):
         seen: set[Any] = set()
@@ -51,14 +72,73 @@ def _walk(loader: yaml.SafeLoader, node: yaml.Node, path: Path_, lines: LineMap,
             _walk(loader, item, path + (index,), lines, file)
 
 
-def read_text(source: str | Path) -> str:
-    """The text of a spec file; InputError (exit 2) if it cannot be read or is not UTF-8 text."""
+def require_regular_file(source: str | Path) -> os.stat_result:
+    """Stat an input file; InputError unless it is a regular file (a FIFO or device would hang or never end)."""
     try:
-        return Path(source).read_text(encoding="utf-8")
+        info = os.stat(source)
     except OSError as exc:
         raise InputError(f"cannot read file: {exc.strerror or exc}", file=str(source)) from None
+    if not stat.S_ISREG(info.st_mode):
+        what = "it is a folder" if stat.S_ISDIR(info.st_mode) else "not a regular file"
+        raise InputError(f"cannot read file: {what}", file=str(source))
+    return info
+
+
+def read_text(source: str | Path) -> str:
+    """The text of a spec file; InputError (exit 2) if it cannot be read, is not a regular file,
+    is larger than :data:`MAX_BYTES` or is not UTF-8 text (a leading byte-order mark is dropped)."""
+    file = str(source)
+    info = require_regular_file(source)
+    if info.st_size > MAX_BYTES:
+        raise InputError(f"file too large ({info.st_size:,} bytes; the limit is {MAX_BYTES:,})", file=file)
+    try:
+        with open(source, "rb") as fh:
+            raw = fh.read(MAX_BYTES + 1)
+    except OSError as exc:
+        raise InputError(f"cannot read file: {exc.strerror or exc}", file=file) from None
+    if len(raw) > MAX_BYTES:
+        raise InputError(f"file too large (more than {MAX_BYTES:,} bytes)", file=file)
+    try:
+        text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
-        raise InputError("not a UTF-8 text file (is it a result file rather than a spec?)", file=str(source)) from None
+        text = None
+    if text is None or "\0" in text:
+        raise InputError("not a UTF-8 text file (is it a result file rather than a spec?)", file=file)
+    return text
+
+
+def _check_size(root: yaml.Node, file: str) -> None:
+    """Refuse documents whose aliases expand past MAX_NODES nodes or MAX_DEPTH levels, or refer to themselves."""
+    sizes: dict[int, int] = {}
+    open_: set[int] = set()
+
+    def size(node: yaml.Node, depth: int) -> int:
+        key = id(node)
+        if key in sizes:
+            return sizes[key]
+        line = node.start_mark.line + 1
+        if key in open_:
+            raise InputError("an alias refers to itself (recursive data)", file=file, line=line)
+        if depth > MAX_DEPTH:
+            raise InputError(f"nested more than {MAX_DEPTH} levels deep", file=file, line=line)
+        open_.add(key)
+        total = 1
+        if isinstance(node, yaml.MappingNode):
+            children = [n for pair in node.value for n in pair]
+        elif isinstance(node, yaml.SequenceNode):
+            children = node.value
+        else:
+            children = []
+        for child in children:
+            total += size(child, depth + 1)
+            if total > MAX_NODES:
+                raise InputError(f"the document expands to more than {MAX_NODES:,} values (through aliases?)",
+                                 file=file, line=line)
+        open_.discard(key)
+        sizes[key] = total
+        return total
+
+    size(root, 0)
 
 
 def load_yaml(source: str | Path, text: str | None = None) -> tuple[Any, LineMap]:
@@ -70,11 +150,12 @@ def load_yaml(source: str | Path, text: str | None = None) -> tuple[Any, LineMap
     file = str(source)
     if text is None:
         text = read_text(source)
-    loader = yaml.SafeLoader(text)
+    loader = SpecLoader(text)
     try:
         node = loader.get_single_node()
         if node is None:
             raise InputError("the file is empty", file=file, line=1)
+        _check_size(node, file)
         data = loader.construct_document(node)
         lines = LineMap()
         _walk(loader, node, (), lines, file)
@@ -84,6 +165,10 @@ def load_yaml(source: str | Path, text: str | None = None) -> tuple[Any, LineMap
         raise InputError(f"malformed YAML: {exc.problem or exc.context}", file=file, line=line) from None
     except yaml.YAMLError as exc:
         raise InputError(f"malformed YAML: {exc}", file=file) from None
+    except RecursionError:  # the composer recurses once per nesting level, before _check_size
+        raise InputError(f"nested more than {MAX_DEPTH} levels deep", file=file) from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise InputError(f"unreadable value: {str(exc).split(':')[0]}", file=file) from None
     finally:
         loader.dispose()
     return data, lines

@@ -1,0 +1,5 @@
+"""``python -m linkedit``: the command line."""
+
+from linkedit.cli import main
+
+main()

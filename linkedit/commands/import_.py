@@ -1,0 +1,54 @@
+"""``linkedit import``: bring a mechanism in from pyslvs / PMKS or pylinkage."""
+
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+
+import typer
+
+from linkedit.commands.common import check_outputs, guard
+from linkedit.errors import InputError
+
+
+class Tool(str, Enum):
+    pyslvs = "pyslvs"
+    pylinkage = "pylinkage"
+
+
+def _pair(text: str | None) -> tuple[int, int] | None:
+    if text is None:
+        return None
+    try:
+        a, b = (int(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"{text!r}: give two point indices PIVOT,JOINT such as 0,1", field="--input") from None
+    return a, b
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("import")
+    @guard
+    def import_(
+        source: str = typer.Argument(..., help="A pyslvs/PMKS expression 'M[J[R, P[x, y], L[ground, L1]], …]', "
+                                               "a pyslvs YAML project, or a pylinkage JSON file."),
+        tool: Tool = typer.Option(None, "--from", help="The tool it comes from [default: pylinkage for .json, else pyslvs]."),
+        output: Path = typer.Option(Path("-"), "--output", "-o", help="The linkage spec .yaml, or - for stdout.",
+                                    show_default="- (stdout)"),
+        motor: str = typer.Option(None, "--input", help="pyslvs: the motor as point indices PIVOT,JOINT "
+                                                        "[default: the project's first input, else the first revolute pair on a ground link]."),
+        units: str = typer.Option("mm", "--units", help="Length unit of the source's numbers."),
+        name: str = typer.Option(None, "--name", help="The linkage's name [default: the file's stem]."),
+    ) -> None:
+        """Import a mechanism from pyslvs/PMKS (expression or project) or pylinkage (JSON) as a linkage spec.
+
+        Joints from a pyslvs expression are named P0, P1, … in its order.
+        """
+        from linkedit.interop.convert import guess_tool, import_spec, import_yaml
+        from linkedit.io.formats import output_format, write_out
+
+        output_format(output, ("yaml",), stdout="yaml")
+        check_outputs([("--output", output)], [source])
+        which = tool.value if tool else guess_tool(source)
+        spec = import_spec(source, which, units=units, name=name, motor=_pair(motor))  # type: ignore[arg-type]
+        write_out(output, import_yaml(spec, source, which))

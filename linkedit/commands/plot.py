@@ -1,0 +1,39 @@
+"""``linkedit plot``: kinematics and transmission-angle plots of a planar result."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from linkedit.commands.common import check_outputs, guard
+from linkedit.errors import InputError
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    @guard
+    def plot(
+        result: Path = typer.Argument(..., help="A planar result .h5 (from linkedit simulate)."),
+        output: Path = typer.Option(None, "--output", "-o", help="The plot .svg, or - for stdout [default: RESULT-plot.svg]."),
+        track: str = typer.Option(None, "--track", help="The track to plot [default: the first track]."),
+        joint: str = typer.Option(None, "--joint", help="Plot this joint instead of a track."),
+        per_second: bool = typer.Option(False, "--per-second", help="Derivatives per second (needs --rpm) instead of per radian of crank angle."),
+        rpm: float = typer.Option(None, "--rpm", min=0.0, help="Motor speed, revolutions per minute (with --per-second)."),
+    ) -> None:
+        """Plot a point's position, velocity, acceleration and jerk, the transmission angles (40°–140° band,
+        worst samples marked) and d_s against crank angle."""
+        from linkedit.io.formats import output_format, write_out
+        from linkedit.io.kinematics_plot import kinematics_svg, read_kinematics
+
+        if track is not None and joint is not None:
+            raise InputError("give --track or --joint, not both", field="--joint")
+        if per_second != (rpm is not None):
+            raise InputError("--per-second and --rpm go together (derivatives per second at that speed)", field="--rpm")
+        out = output if output is not None else result.with_name(f"{result.stem}-plot.svg")
+        output_format(out, ("svg",), stdout="svg")
+        check_outputs([("--output", out)], [result])
+        k = read_kinematics(result, track=track, joint=joint)
+        write_out(out, kinematics_svg(k, rpm=rpm))
+        if str(out) != "-":
+            typer.echo(f"{result}: {k.point} → {out}")

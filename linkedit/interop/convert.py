@@ -1,0 +1,55 @@
+"""Read another tool's mechanism (file or expression) and turn it into a validated linkage spec."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from linkedit.errors import InputError
+from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.linkage_yaml import dump_linkage
+from linkedit.spec.yamlload import read_text, validate
+
+Tool = Literal["pyslvs", "pylinkage"]
+
+
+def guess_tool(source: str) -> Tool:
+    """pylinkage for ``.json`` files, pyslvs for expressions and other files."""
+    return "pylinkage" if source.lower().endswith(".json") else "pyslvs"
+
+
+def import_spec(source: str, tool: Tool | None = None, *, units: str = "mm", name: str | None = None,
+                motor: tuple[int, int] | None = None) -> LinkageSpec:
+    """The linkage in ``source`` (a file path, or a pyslvs expression ``M[…]``) as a spec.
+
+    ``motor`` (pyslvs only): (pivot, driven joint) point indices; default the project's first
+    input pair, else the first revolute pair on a ground link.
+    """
+    from linkedit.interop import pylinkage, pyslvs
+
+    tool = tool or guess_tool(source)
+    is_expression = source.lstrip().startswith("M[")
+    text = source if is_expression else read_text(source)
+    where = "<expression>" if is_expression else source
+    stem = name or ("pyslvs" if is_expression else Path(source).stem)
+    if tool == "pylinkage":
+        if is_expression:
+            raise InputError("pylinkage input is a JSON file, not an expression", field="--from")
+        doc = pylinkage.to_document(text, source=where, units=units, name=name)
+    else:
+        pairs: list[tuple[int, int]] = []
+        if not text.lstrip().startswith("M["):
+            text, pairs = pyslvs.read_project(text, where)
+        joints = pyslvs.parse_expression(text, where)
+        doc = pyslvs.to_document(joints, name=_name(stem), units=units, motor=motor or (pairs[0] if pairs else None),
+                                 source=where)
+    return validate(LinkageSpec, doc, file=where)
+
+
+def _name(stem: str) -> str:
+    return stem.replace("/", "-").lstrip(".") or "imported"
+
+
+def import_yaml(spec: LinkageSpec, source: str, tool: str) -> str:
+    """YAML text of an imported spec, with a header naming where it came from."""
+    return dump_linkage(spec, header=f"imported from {tool} by linkedit import\nsource: {source[:200]}")

@@ -1,0 +1,77 @@
+"""A planar linkage as DXF for CAD and laser cutting (needs the optional ``ezdxf``: ``pip install linkedit[dxf]``).
+
+Layers: ``FRAME`` (the ground joints and the links between them), ``LINK-<name>`` (one per
+moving link: its centre lines, a closed outline for a plate of 3 or more joints, and a pin
+hole circle per joint), ``TRACK-<name>`` (each track's curve as a polyline, closed for a full
+cycle, broken where the linkage does not assemble). Coordinates are the rest pose in the
+spec's units, moved so the first ground joint is the origin; ``$INSUNITS`` says the unit.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from linkedit.errors import InputError
+from linkedit.io.atomic import atomic_path
+from linkedit.planar.simulate import Motion
+
+#: spec units → DXF $INSUNITS code (0 = unitless)
+INSUNITS = {"in": 1, "inch": 1, "ft": 2, "mi": 3, "mm": 4, "cm": 5, "m": 6, "km": 7, "um": 13, "µm": 13,
+            "dm": 14, "yd": 10, "nm": 12}
+#: pin hole radius as a fraction of the rest pose's largest extent
+PIN_RADIUS = 0.015
+
+
+def layer_name(kind: str, name: str) -> str:
+    """A DXF-safe layer name: characters DXF forbids become ``_``."""
+    return f"{kind}-" + re.sub(r'[<>/\\":;?*|=`,]', "_", name) if kind else name
+
+
+def write_motion_dxf(path: str | Path, motion: Motion) -> None:
+    """Write the rest pose and the track curves of ``motion`` as DXF (R2010), atomically."""
+    try:
+        import ezdxf
+    except ModuleNotFoundError:
+        raise InputError("writing DXF needs the optional package ezdxf: pip install 'linkedit[dxf]'",
+                         file=str(path)) from None
+    plan = motion.plan
+    graph = plan.graph
+    origin = graph.rest[graph.ground[0]]
+    rest = graph.rest - origin
+    size = float(np.ptp(rest, axis=0).max()) or 1.0
+    hole = PIN_RADIUS * size
+
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = INSUNITS.get(plan.spec.units.lower(), 0)
+    doc.header["$MEASUREMENT"] = 0 if plan.spec.units.lower() in ("in", "inch", "ft", "mi", "yd") else 1
+    msp = doc.modelspace()
+    ground = set(graph.ground)
+    doc.layers.add("FRAME", color=8)
+    for color, (name, members) in enumerate(zip(graph.link_names, graph.links), start=1):
+        layer = "FRAME" if set(members) <= ground else layer_name("LINK", name)
+        if layer != "FRAME":
+            doc.layers.add(layer, color=color % 255 or 1)
+        pts = [tuple(rest[m]) for m in members]
+        msp.add_lwpolyline(pts, close=len(pts) > 2, dxfattribs={"layer": layer})
+        for p in pts:
+            msp.add_circle(p, hole, dxfattribs={"layer": layer})
+    for g in graph.ground:
+        msp.add_circle(tuple(rest[g]), hole, dxfattribs={"layer": "FRAME"})
+    closed = motion.cyclic and bool(motion.assembled.all())
+    for color, (name, track) in enumerate(motion.tracks.items(), start=1):
+        layer = layer_name("TRACK", name)
+        doc.layers.add(layer, color=color % 255 or 1)
+        for piece in _assembled_runs(track.position - origin, motion.assembled):
+            if len(piece) > 1:
+                msp.add_lwpolyline([tuple(p) for p in piece], close=closed, dxfattribs={"layer": layer})
+    with atomic_path(path) as tmp:
+        doc.saveas(tmp)
+
+
+def _assembled_runs(points: np.ndarray, ok: np.ndarray) -> list[np.ndarray]:
+    """The runs of consecutive assembled samples of ``points`` (T, 2)."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(int), [0]])))
+    return [points[a:b] for a, b in zip(edges[::2], edges[1::2])]

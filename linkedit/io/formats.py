@@ -1,0 +1,52 @@
+"""Which writer an output path asks for: the file suffix decides; ``-`` is standard output.
+
+``.h5``/``.hdf5`` → HDF5, ``.csv`` → CSV, ``.dxf`` → DXF, ``.svg`` → SVG, ``.json`` → JSON,
+``.yaml``/``.yml`` → YAML. A command lists the formats it can write; any other suffix is an
+input error (exit 2) naming the option and the formats it accepts.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from linkedit.errors import InputError
+from linkedit.io.atomic import write_text
+
+SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".csv": "csv", ".dxf": "dxf", ".svg": "svg", ".json": "json",
+            ".yaml": "yaml", ".yml": "yaml"}
+#: formats that can go to standard output (``-o -``)
+TEXT = ("csv", "svg", "json", "yaml")
+STDOUT = Path("-")
+
+
+def is_stdout(path: str | Path | None) -> bool:
+    """Whether ``path`` is ``-`` (standard output)."""
+    return path is not None and str(path) == "-"
+
+
+def output_format(path: str | Path, accepted: tuple[str, ...], *, option: str = "--output",
+                  stdout: str | None = None) -> str:
+    """The format ``path`` asks for, one of ``accepted``; ``-`` gives ``stdout`` (a text format).
+
+    InputError (exit 2) for a suffix that is not accepted, or ``-`` where no text format is.
+    """
+    if is_stdout(path):
+        if stdout is None:
+            raise InputError("cannot write this output to standard output: give a file name", field=option)
+        return stdout
+    kind = SUFFIXES.get(Path(path).suffix.lower())
+    if kind not in accepted:
+        wanted = ", ".join(s for s, k in SUFFIXES.items() if k in accepted)
+        raise InputError(f"{path}: unknown output format {Path(path).suffix or '(no suffix)'!r}; "
+                         f"give a file ending in {wanted}", field=option)
+    return kind
+
+
+def write_out(path: str | Path, text: str) -> None:
+    """Write text to ``path`` atomically, or to standard output for ``-``."""
+    if is_stdout(path):
+        sys.stdout.write(text)
+        sys.stdout.flush()
+    else:
+        write_text(path, text)

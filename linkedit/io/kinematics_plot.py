@@ -1,0 +1,125 @@
+"""``linkedit plot``: a point's kinematics and the linkage's transmission quality against crank angle.
+
+Panels: position (x, y), velocity, acceleration and jerk (x, y and magnitude) of one track or
+joint; the transmission angle of every dyad with the 40°–140° band and its worst (near-toggle)
+sample marked where it leaves the band; d_s = sin²(transmission angle). Derivatives are per
+radian of motor angle, or per second for a motor at constant ``rpm``. Velocity and
+acceleration are the result's (analytic for the symbolic engine); jerk is the central
+difference of the acceleration (periodic for a full turn).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from linkedit.errors import InputError
+from linkedit.io.hdf5 import open_result, strings
+from linkedit.io.svg_chart import Panel, chart
+
+#: the transmission angle a designer wants to stay in, degrees
+GOOD_TRANSMISSION = (40.0, 140.0)
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """What the plot shows, read from a planar result: (T,) crank angle, (T, 2) arrays, (T, D) dyads."""
+
+    name: str
+    units: str
+    point: str
+    crank_deg: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    jerk: np.ndarray
+    dyad_joints: list[str]
+    transmission_deg: np.ndarray
+    singularity: np.ndarray
+
+
+def read_kinematics(path: str | Path, *, track: str | None = None, joint: str | None = None) -> Kinematics:
+    """Read a planar result (``specs/planar-hdf5.md``); the point is ``track`` or ``joint``
+    (default: the first track, else the motor joint)."""
+    with open_result(path, kind="planar") as f:
+        names = strings(f["joint"] if "joint" in f else f["joints/names"])
+        tracks = list(f["tracks"])
+        if track is not None and track not in tracks:
+            raise InputError(f"no track {track!r} (tracks: {', '.join(tracks) or 'none'})", file=str(path), field="--track")
+        if joint is not None and joint not in names:
+            raise InputError(f"no joint {joint!r} (joints: {', '.join(names)})", file=str(path), field="--joint")
+        if joint is None and track is None:
+            track = tracks[0] if tracks else None
+            joint = None if track else names[int(f["joints"].attrs["motor"])]
+        if track is not None:
+            g = f[f"tracks/{track}"]
+            pos, vel, acc = g["position"][()], g["velocity"][()], g["acceleration"][()]
+        else:
+            k = names.index(str(joint))
+            pos, vel, acc = (f[f"joints/{q}"][:, k] for q in ("position", "velocity", "acceleration"))
+        angle = f["motor_angle"][()]
+        dyads = ~f["rules/rigid"][()]
+        rebuilt = [names[k] for k in f["rules/joints"][:, 2]]
+        alpha = f["diagnostics/transmission_angle"][()][:, dyads]
+        ds = f["diagnostics/singularity"][()][:, dyads]
+        ok = f["diagnostics/assembled"][()]
+        cyclic = bool(f["t"][-1] < 1.0) and angle.size > 2  # a full turn samples t = n/T; a sweep ends at 1
+        units, name = str(f.attrs["units"]), str(f.attrs.get("name", Path(path).stem))
+    crank = np.degrees(np.abs(np.unwrap(angle) - angle[0]))
+    step = float(np.abs(np.diff(np.unwrap(angle))).mean()) if angle.size > 1 else 1.0
+    if cyclic and ok.all():
+        jerk = (np.roll(acc, -1, axis=0) - np.roll(acc, 1, axis=0)) / (2.0 * step)
+    else:
+        jerk = np.gradient(acc, step, axis=0) if acc.shape[0] > 1 else np.zeros_like(acc)
+    alpha = np.where(ok[:, None], np.degrees(alpha), np.nan)
+    return Kinematics(name=name, units=units, point=str(track or joint), crank_deg=crank, position=pos,
+                      velocity=vel, acceleration=acc, jerk=jerk,
+                      dyad_joints=[n for n, d in zip(rebuilt, dyads) if d], transmission_deg=alpha,
+                      singularity=np.where(ok[:, None], ds, np.nan))
+
+
+def worst_transmission(k: Kinematics) -> list[tuple[str, float, float]]:
+    """Per dyad that leaves the 40°–140° band: (joint, worst angle in degrees, crank angle in degrees)."""
+    out = []
+    lo, hi = GOOD_TRANSMISSION
+    for d, joint in enumerate(k.dyad_joints):
+        a = k.transmission_deg[:, d]
+        if not np.isfinite(a).any():
+            continue
+        dev = np.abs(np.nan_to_num(a, nan=90.0) - 90.0)
+        t = int(np.argmax(dev))
+        if a[t] < lo or a[t] > hi:
+            out.append((joint, float(a[t]), float(k.crank_deg[t])))
+    return out
+
+
+def kinematics_svg(k: Kinematics, *, rpm: float | None = None) -> str:
+    """The plot (see module docstring); with ``rpm`` the derivatives are per second."""
+    u = k.units
+    if rpm is not None:
+        w = rpm * 2.0 * math.pi / 60.0
+        scales, per = (w, w ** 2, w ** 3), ("/s", "/s²", "/s³")
+    else:
+        scales, per = (1.0, 1.0, 1.0), ("/rad", "/rad²", "/rad³")
+    panels = [Panel(f"position ({u})", name="position")]
+    panels[0].line(f"{k.point} x", k.position[:, 0])
+    panels[0].line(f"{k.point} y", k.position[:, 1])
+    for what, arr, s, p in zip(("velocity", "acceleration", "jerk"), (k.velocity, k.acceleration, k.jerk), scales, per):
+        panel = Panel(f"{what} ({u}{p})", name=what)
+        panel.line("x", arr[:, 0] * s)
+        panel.line("y", arr[:, 1] * s)
+        panel.line("magnitude", np.hypot(arr[:, 0], arr[:, 1]) * s, dashed=True)
+        panels.append(panel)
+    if k.dyad_joints:
+        tp = Panel("transmission angle (°)", band=GOOD_TRANSMISSION, name="transmission-angle")
+        ds = Panel("d_s = sin² (transmission)", name="singularity")
+        for d, joint in enumerate(k.dyad_joints):
+            tp.line(f"at {joint}", k.transmission_deg[:, d])
+            ds.line(f"at {joint}", k.singularity[:, d])
+        tp.marks = [(x, a, f"{j} {a:.1f}°") for j, a, x in worst_transmission(k)]
+        panels += [tp, ds]
+    speed = f", {rpm:g} rpm" if rpm is not None else ""
+    return chart(k.crank_deg, panels, xlabel="crank angle from rest (°)", title=f"{k.name}: {k.point}{speed}")

@@ -1,0 +1,158 @@
+"""The notebook API: ``import linkedit as le; m = le.simulate("examples/jansen.yaml")``.
+
+Functions take paths or already-loaded specs and return objects that show themselves in
+Jupyter: a :class:`Motion` draws its motion plot (``_repr_svg_``) and converts to pandas
+(``to_dataframe``) or xarray (``to_xarray``; both optional: ``pip install linkedit[notebook]``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from linkedit.planar.simulate import Motion as _Motion
+from linkedit.spec.linkage import LinkageSpec
+
+SpecLike = str | Path | LinkageSpec
+
+
+class Motion(_Motion):
+    """A simulated planar cycle (:class:`linkedit.planar.Motion`) that shows itself in a notebook.
+
+    Arrays: ``t`` (T,), ``motor_angle`` (T,) rad, ``positions``/``velocity``/``acceleration``
+    (T, J, 2) in the spec's units (derivatives per radian of motor angle), ``tracks[name]``
+    with (T, 2) arrays, diagnostics (T, R).
+    """
+
+    def _repr_svg_(self) -> str:
+        from linkedit.io.planar_svg import draw_motion
+
+        return draw_motion(None, self)
+
+    def to_dataframe(self) -> Any:
+        """A pandas DataFrame, one row per sample: the columns of the CSV result (``specs/planar-hdf5.md``)."""
+        import pandas as pd
+
+        from linkedit.io.planar_csv import columns
+
+        names, table = columns(self)
+        return pd.DataFrame(table, columns=names).set_index("t")
+
+    def to_xarray(self) -> Any:
+        """An xarray Dataset with dimensions ``t``, ``joint``, ``xy`` (and ``rule`` for diagnostics)."""
+        import xarray as xr
+
+        plan = self.plan
+        txy = ("t", "joint", "xy")
+        data = {
+            "motor_angle": (("t",), self.motor_angle, {"units": "rad"}),
+            "position": (txy, self.positions, {"units": plan.spec.units}),
+            "velocity": (txy, self.velocity, {"units": f"{plan.spec.units}/rad"}),
+            "acceleration": (txy, self.acceleration, {"units": f"{plan.spec.units}/rad**2"}),
+            "singularity": (("t", "rule"), self.singularity, {"units": "1"}),
+            "transmission_angle": (("t", "rule"), self.transmission, {"units": "rad"}),
+            "assembled": (("t",), self.assembled, {}),
+        }
+        for name, tr in self.tracks.items():
+            data[f"track_{name}"] = (("t", "xy"), tr.position, {"units": plan.spec.units})
+        coords = {"t": self.t, "joint": plan.joint_names, "xy": ["x", "y"],
+                  "rule": [plan.joint_names[k] for k in plan.rules[:, 2]]}
+        return xr.Dataset({k: xr.Variable(*v) for k, v in data.items()}, coords=coords,
+                          attrs={"name": plan.spec.name, "units": plan.spec.units})
+
+
+def _notebook(m: _Motion) -> Motion:
+    return Motion(**{f.name: getattr(m, f.name) for f in dataclasses.fields(m)})
+
+
+def load_spec(spec: SpecLike) -> LinkageSpec:
+    """A linkage spec from a YAML path (links may be given by length), or the spec itself."""
+    if isinstance(spec, LinkageSpec):
+        return spec
+    from linkedit.spec.yamlload import load_model
+
+    return load_model(LinkageSpec, spec)
+
+
+def simulate(spec: SpecLike, samples: int | None = None, *, partial: bool = False) -> Motion:
+    """Simulate one motor cycle of a planar linkage (a YAML path or a :class:`LinkageSpec`).
+
+    ``samples``: time samples per cycle (default: the spec's, else 360). Raises
+    :class:`~linkedit.errors.MechanismError` where it locks up, unless ``partial``.
+    """
+    from linkedit.planar import simulate as run
+
+    return _notebook(run(load_spec(spec), samples, partial=partial))
+
+
+def load(path: str | Path) -> Motion:
+    """Read a planar result (.h5 from ``linkedit simulate``) back into a :class:`Motion`.
+
+    The spec stored in the file is compiled again; the arrays are the file's, sample for sample.
+    """
+    from linkedit.io.hdf5 import open_result
+    from linkedit.planar.plan import compile_plan
+    from linkedit.planar.simulate import Track
+    from linkedit.spec.yamlload import validate
+
+    with open_result(path, kind="planar") as f:
+        import yaml
+
+        spec = validate(LinkageSpec, yaml.safe_load(f.attrs["spec"]), file=f"{path}:/spec")
+        plan = compile_plan(spec)
+        tracks = {n: Track(position=g["position"][()], velocity=g["velocity"][()], acceleration=g["acceleration"][()])
+                  for n, g in f["tracks"].items()}
+        d = f["diagnostics"]
+        return Motion(plan=plan, t=f["t"][()], motor_angle=f["motor_angle"][()], positions=f["joints/position"][()],
+                      velocity=f["joints/velocity"][()], acceleration=f["joints/acceleration"][()], tracks=tracks,
+                      singularity=d["singularity"][()], orientation=d["orientation"][()],
+                      transmission=d["transmission_angle"][()], assembled=np.asarray(d["assembled"][()], dtype=bool))
+
+
+def edit(spec: SpecLike, script: str | Path | Any) -> Any:
+    """Apply an edit script (YAML path or :class:`~linkedit.spec.edit_script.EditScript`) to a linkage.
+
+    Returns the :class:`~linkedit.edit.runner.EditResult` (``edited`` spec, ``before``/``after`` motions).
+    """
+    from linkedit.edit.runner import run_script
+    from linkedit.spec.edit_script import EditScript
+    from linkedit.spec.yamlload import load_model
+
+    parsed = script if isinstance(script, EditScript) else load_model(EditScript, script)
+    return run_script(load_spec(spec), parsed)
+
+
+def solve3d(spec: str | Path | Any, *, steps: int | None = None, solver: str = "lm") -> Any:
+    """Solve a 3D mechanism (YAML path or :class:`~linkedit.spec.mechanism3d.MechanismSpec`) at every step.
+
+    Returns the :class:`~linkedit.gcs.result.GcsResult`.
+    """
+    from linkedit.gcs import solve_spec
+    from linkedit.spec.mechanism3d import MechanismSpec
+    from linkedit.spec.yamlload import load_model
+
+    model = spec if isinstance(spec, MechanismSpec) else load_model(MechanismSpec, spec)
+    return solve_spec(model, steps=steps, solver=solver)
+
+
+def features(*curves: str, samples: int | None = None, harmonics: int | None = None) -> Any:
+    """Features of motion curves (inputs as for ``linkedit features``: ``result.h5:track``, .csv, curve sets).
+
+    Returns a pandas DataFrame (one row per curve) if pandas is installed, else a list of dicts.
+    """
+    from linkedit.curves.compare import describe_curves
+    from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES
+    from linkedit.curves.sources import load_inputs
+
+    loaded = load_inputs([str(c) for c in curves])
+    desc = describe_curves(loaded, samples=samples or DEFAULT_SAMPLES, harmonics=harmonics or DEFAULT_HARMONICS)
+    rows = [{"name": c.name, "closed": bool(c.closed)} | {n: float(v) for n, v in zip(desc.names, desc.features[i])}
+            for i, c in enumerate(loaded)]
+    try:
+        import pandas as pd
+    except ModuleNotFoundError:
+        return rows
+    return pd.DataFrame(rows).set_index("name")

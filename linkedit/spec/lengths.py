@@ -1,0 +1,211 @@
+"""Linkages given by link lengths: assemble the rest pose in closed form.
+
+A spec may give a link by its length instead of leaving it to the joints' coordinates::
+
+    joints:
+      O: [0, 0]                                  # a position, as usual
+      A: {from: [O], angle_deg: 0}               # at its link length from O, at this angle
+      C: {from: [A, B], branch: cw}              # from its lengths to A and B; triangle A, B, C clockwise
+      D: {near: [-27, -45]}                      # from its lengths to two placed joints; the solution nearer this point
+    links:
+      crank: {joints: [O, A], length: 15}
+      upper: {joints: [B, C, E], lengths: [41.5, 40.1, 55.8]}   # BC, BE, CE: pairs in list order
+
+:func:`assemble` turns such a document into the plain form (every joint a position, every link a
+list of joints) before the spec is validated, so every command takes either. Conflicting
+lengths, triangles that cannot close and joints nothing places are one :class:`InputError`
+naming the link or joint (exit 2).
+"""
+
+from __future__ import annotations
+
+import math
+from itertools import combinations
+from typing import Annotated, Any, Literal
+
+import pydantic
+
+from linkedit.errors import InputError
+from linkedit.spec.common import Finite, Name, SpecModel, Vec2
+
+#: A positive finite length; ``true`` is not 1 (strict).
+Length = Annotated[Finite, pydantic.Field(gt=0)]
+
+
+class Placement(SpecModel):
+    """How to place a joint whose position is not given (see module docstring)."""
+
+    model_config = pydantic.ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True, populate_by_name=True)
+
+    near: Vec2 | None = None
+    from_: list[Name] | None = pydantic.Field(default=None, alias="from", min_length=1, max_length=2)
+    branch: Literal["ccw", "cw"] | None = None
+    angle_deg: Finite | None = None
+
+    @pydantic.model_validator(mode="after")
+    def _one_way(self) -> "Placement":
+        if self.near is not None:
+            if self.from_ or self.branch or self.angle_deg is not None:
+                raise ValueError("give either near, or from with branch / angle_deg")
+        elif not self.from_:
+            raise ValueError("give near: [x, y], from: [P, Q] with branch: ccw|cw, or from: [P] with angle_deg")
+        elif len(self.from_) == 2 and (self.branch is None or self.angle_deg is not None):
+            raise ValueError("from two joints needs branch: ccw or cw (the turn of the triangle from, from, joint)")
+        elif len(self.from_) == 1 and (self.angle_deg is None or self.branch is not None):
+            raise ValueError("from one joint needs angle_deg (the direction from it, degrees ccw from +x)")
+        return self
+
+
+class LinkLengths(SpecModel):
+    """A link given by its joints and length(s): ``length`` for 2 joints, ``lengths`` for a plate."""
+
+    joints: list[Name] = pydantic.Field(min_length=2)
+    length: Length | None = None
+    lengths: list[Length] | None = None
+
+    @pydantic.model_validator(mode="after")
+    def _count(self) -> "LinkLengths":
+        n = len(self.joints)
+        if n == 2 and (self.length is None) == (self.lengths is None):
+            raise ValueError("a link of 2 joints needs length (or lengths: [one value])")
+        if n > 2 and (self.lengths is None or self.length is not None):
+            raise ValueError(f"a plate of {n} joints needs lengths: one per joint pair, {n * (n - 1) // 2} values")
+        if self.lengths is not None and len(self.lengths) != n * (n - 1) // 2:
+            raise ValueError(f"lengths needs {n * (n - 1) // 2} values for {n} joints "
+                             f"(pairs {', '.join(f'{a}-{b}' for a, b in combinations(self.joints, 2))})")
+        if any(not math.isfinite(v) for v in self.lengths or ()):
+            raise ValueError("lengths must be finite")
+        return self
+
+    def pair_lengths(self) -> list[tuple[str, str, float]]:
+        values = [self.length] if self.length is not None else list(self.lengths or ())
+        return [(a, b, float(v)) for (a, b), v in zip(combinations(self.joints, 2), values)]
+
+
+def uses_lengths(data: Any) -> bool:
+    """Whether a raw spec document gives any joint by placement or any link by length."""
+    if not isinstance(data, dict):
+        return False
+    joints, links = data.get("joints"), data.get("links")
+    return (isinstance(joints, dict) and any(isinstance(v, dict) for v in joints.values())) or (
+        isinstance(links, dict) and any(isinstance(v, dict) for v in links.values()))
+
+
+def _model(cls: type[SpecModel], value: Any, field: tuple[str | int, ...]) -> Any:
+    try:
+        return cls.model_validate(value)
+    except pydantic.ValidationError as exc:
+        err = exc.errors(include_url=False)[0]
+        msg = err["msg"].removeprefix("Value error, ")
+        if err["type"] == "extra_forbidden":
+            msg = "unknown field (not part of this format)"
+        loc = tuple(p for p in err["loc"] if isinstance(p, (str, int)))
+        raise InputError(msg, field=field + loc) from None
+
+
+def link_lengths(data: dict[str, Any]) -> dict[str, LinkLengths]:
+    """The links given by length in a raw document, validated."""
+    return {name: _model(LinkLengths, v, ("links", name)) for name, v in data["links"].items() if isinstance(v, dict)}
+
+
+def assemble(data: dict[str, Any]) -> dict[str, Any]:
+    """The raw document with every joint placed (see module docstring); unchanged if it uses no lengths."""
+    if not uses_lengths(data) or not isinstance(data.get("joints"), dict) or not isinstance(data.get("links"), dict):
+        return data
+    given = link_lengths(data)
+    known: dict[str, complex] = {}
+    pending: dict[str, Placement] = {}
+    for name, v in data["joints"].items():
+        if isinstance(v, dict):
+            pending[name] = _model(Placement, v, ("joints", name))
+        elif isinstance(v, (list, tuple)) and len(v) == 2 and all(isinstance(c, (int, float)) for c in v):
+            known[name] = complex(float(v[0]), float(v[1]))
+        else:
+            return data  # let the spec model report the malformed position
+    length: dict[frozenset[str], tuple[float, str]] = {}
+    for link, ll in given.items():
+        for a, b, value in ll.pair_lengths():
+            for j in (a, b):
+                if j not in known and j not in pending:
+                    raise InputError(f"unknown joint {j!r}", field=("links", link, "joints"))
+            key = frozenset((a, b))
+            if key in length and not math.isclose(length[key][0], value, rel_tol=1e-12):
+                raise InputError(f"conflicting lengths: {a}-{b} is {value:g} here but {length[key][0]:g} on link "
+                                 f"{length[key][1]}", field=("links", link))
+            length.setdefault(key, (value, link))
+    placed = _place(known, pending, length)
+    _check_lengths(placed, length)
+    joints = {n: [placed[n].real, placed[n].imag] for n in data["joints"]}
+    links = {n: (list(v["joints"]) if isinstance(v, dict) else v) for n, v in data["links"].items()}
+    return {**data, "joints": joints, "links": links}
+
+
+def _place(known: dict[str, complex], pending: dict[str, Placement],
+           length: dict[frozenset[str], tuple[float, str]]) -> dict[str, complex]:
+    known = dict(known)
+    todo = dict(pending)
+
+    def r(a: str, b: str) -> float | None:
+        hit = length.get(frozenset((a, b)))
+        return None if hit is None else hit[0]
+
+    while todo:
+        progress = False
+        for name, how in list(todo.items()):
+            anchors = how.from_ or [a for a in known if r(a, name) is not None]
+            if how.from_ and not all(a in known for a in anchors):
+                continue
+            if how.from_ and len(anchors) == 1:
+                (p,) = anchors
+                if r(p, name) is None:
+                    raise InputError(f"no link gives the length {p}-{name}", field=("joints", name, "from"))
+                known[name] = known[p] + r(p, name) * complex(math.cos(math.radians(how.angle_deg or 0.0)),
+                                                                 math.sin(math.radians(how.angle_deg or 0.0)))
+            elif len(anchors) >= 2:
+                p, q = _widest(anchors, known) if not how.from_ else anchors
+                for a in (p, q):
+                    if r(a, name) is None:
+                        raise InputError(f"no link gives the length {a}-{name}", field=("joints", name, "from"))
+                known[name] = _intersect(name, p, known[p], r(p, name), q, known[q], r(q, name), how)
+            else:
+                continue
+            del todo[name]
+            progress = True
+        if not progress:
+            name = next(iter(todo))
+            raise InputError(f"joint {name!r} cannot be placed: it needs links with lengths to two placed joints "
+                             f"(not placed: {', '.join(todo)})", field=("joints", name))
+    return known
+
+
+def _widest(anchors: list[str], known: dict[str, complex]) -> tuple[str, str]:
+    """The two anchors farthest apart (the best-conditioned triangle)."""
+    return max(combinations(anchors, 2), key=lambda pq: abs(known[pq[0]] - known[pq[1]]))
+
+
+def _intersect(name: str, p: str, zp: complex, rp: float, q: str, zq: complex, rq: float, how: Placement) -> complex:
+    """The point at ``rp`` from p and ``rq`` from q, on the branch ``how`` asks for."""
+    d = zq - zp
+    dist = abs(d)
+    along = (rp * rp - rq * rq + dist * dist) / (2.0 * dist) if dist > 0 else math.inf
+    h2 = rp * rp - along * along
+    if not math.isfinite(h2) or h2 < 0:
+        raise InputError(f"cannot be assembled: {name}-{p} = {rp:g} and {name}-{q} = {rq:g} cannot close a triangle "
+                         f"with {p}-{q} = {dist:g}", field=("joints", name))
+    across = math.sqrt(h2)
+    left = zp + d / dist * complex(along, across)
+    right = zp + d / dist * complex(along, -across)
+    if how.near is not None:
+        target = complex(*how.near)
+        return left if abs(left - target) <= abs(right - target) else right
+    return left if how.branch == "ccw" else right
+
+
+def _check_lengths(placed: dict[str, complex], length: dict[frozenset[str], tuple[float, str]]) -> None:
+    size = max((abs(z) for z in placed.values()), default=1.0) or 1.0
+    for key, (value, link) in length.items():
+        a, b = sorted(key)
+        got = abs(placed[a] - placed[b])
+        if abs(got - value) > 1e-9 * max(size, value):
+            raise InputError(f"conflicting lengths: {a}-{b} is {value:g} but the other lengths and positions "
+                             f"make it {got:.12g}", field=("links", link))

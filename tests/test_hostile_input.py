@@ -1,0 +1,412 @@
+"""Hostile and careless input: every case is one line on stderr and exit 2 (or a clean exit),
+never a hang, a traceback, a clobbered input or a replaced device node."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import stat
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+from tests.conftest import EXAMPLES
+
+CRANK_ROCKER = EXAMPLES / "crank-rocker.yaml"
+
+
+def _one_line(r, code: int) -> str:
+    assert r.exit_code == code, r.output
+    lines = [ln for ln in r.output.strip().splitlines() if ln]
+    assert len(lines) == 1 and "Traceback" not in r.output, r.output
+    return lines[0]
+
+
+@pytest.fixture
+def spec(tmp_path):
+    path = tmp_path / "spec.yaml"
+    shutil.copy(CRANK_ROCKER, path)
+    return path
+
+
+def _bomb(levels: int = 9) -> str:
+    lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x]"]
+    lines += [f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 9) + "]" for i in range(1, levels + 1)]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("text, words", [
+    (_bomb(), "more than 1,000,000 values"),
+    ("name: &a [*a]\n", "refers to itself"),
+    ("name: " + "[" * 5000 + "]" * 5000 + "\n", "nested more than"),
+    ("name: x\nsamples: " + "9" * 5000 + "\n", "4300 digits"),
+    ("name: cr\u0000\n", "not a UTF-8 text file"),
+])
+def test_hostile_yaml_is_one_line_exit_2(run_cli, tmp_path, text, words):
+    path = tmp_path / "bad.yaml"
+    path.write_text(text, encoding="utf-8")
+    line = _one_line(run_cli("simulate", path, "-o", tmp_path / "o.h5"), 2)
+    assert words in line and str(path) in line
+    assert not (tmp_path / "o.h5").exists()
+
+
+def test_a_fifo_and_a_device_as_spec_are_refused_not_read(run_cli, tmp_path):
+    fifo = tmp_path / "pipe.yaml"
+    os.mkfifo(fifo)
+    assert "not a regular file" in _one_line(run_cli("simulate", fifo, "-o", tmp_path / "o.h5"), 2)
+    assert "not a regular file" in _one_line(run_cli("simulate", "/dev/zero", "-o", tmp_path / "o.h5"), 2)
+    assert "not a regular file" in _one_line(run_cli("solve3d", "/dev/zero", "-o", tmp_path / "o.h5"), 2)
+
+
+def test_a_binary_3d_spec_is_one_line(run_cli, tmp_path):
+    path = tmp_path / "m.yaml"
+    path.write_bytes(bytes(range(256)))
+    assert "not a UTF-8 text file" in _one_line(run_cli("solve3d", path, "-o", tmp_path / "o.h5"), 2)
+
+
+def test_a_spec_larger_than_the_limit_is_refused(run_cli, tmp_path):
+    from linkedit.spec.yamlload import MAX_BYTES
+
+    path = tmp_path / "big.yaml"
+    with open(path, "wb") as fh:
+        fh.truncate(MAX_BYTES + 1)
+    assert "file too large" in _one_line(run_cli("simulate", path, "-o", tmp_path / "o.h5"), 2)
+
+
+def test_a_byte_order_mark_is_accepted_in_specs_and_csv(run_cli, tmp_path, spec):
+    bom = tmp_path / "bom.yaml"
+    bom.write_bytes(b"\xef\xbb\xbf" + spec.read_bytes())
+    assert run_cli("simulate", bom, "-o", tmp_path / "o.h5").exit_code == 0
+    csv = tmp_path / "excel.csv"
+    csv.write_bytes(b"\xef\xbb\xbfx,y\r\n0,0\r\n1,0\r\n1,1\r\n0,1\r\n")
+    r = run_cli("features", csv, "--json")
+    assert r.exit_code == 0, r.output
+
+
+@pytest.mark.parametrize("old, new, field", [
+    ("  O: [0, 0]", "  O: [true, 0]", "joints.O[0]"),
+    ("name: crank-rocker", "name: crank-rocker\nsamples: true", "samples"),
+    ("name: crank-rocker", "name: crank-rocker\nsamples: 100000000000000000000000000000", "samples"),
+])
+def test_booleans_are_not_numbers_and_huge_sample_counts_are_refused(run_cli, tmp_path, spec, old, new, field):
+    spec.write_text(spec.read_text().replace(old, new))
+    line = _one_line(run_cli("simulate", spec, "-o", tmp_path / "o.h5"), 2)
+    assert field in line
+
+
+def test_exponent_without_a_dot_reads_as_a_number(run_cli, tmp_path, spec):
+    spec.write_text(spec.read_text().replace("  D: [75, 0]", "  D: [7.5e1, 0e0]"))
+    r = run_cli("simulate", spec, "-o", tmp_path / "o.h5")
+    assert r.exit_code == 0, r.output
+
+
+def test_a_huge_sample_option_names_the_memory_it_needs(run_cli, spec):
+    for command in ("simulate", "validate"):
+        line = _one_line(run_cli(command, spec, "--samples", 10**9), 2)
+        assert "--samples" in line and "GiB" in line
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["simulate", "{spec}", "--samples", "0"], "--samples: must be ≥ 1"),
+    (["simulate", "{spec}", "--samples", "abc"], "--samples: "),
+    (["features", "{spec}", "--samples", "7"], "--samples: must be ≥ 8"),
+    (["features", "{spec}", "--harmonics", "0"], "--harmonics: must be ≥ 1"),
+    (["compare-curves", "a", "b", "--top", "0"], "--top: must be ≥ 1"),
+    (["frobnicate"], "No such command"),
+    (["simulate", "--bogus", "{spec}"], "No such option: --bogus"),
+])
+def test_usage_errors_are_one_line_exit_2(run_cli, spec, args, expected):
+    line = _one_line(run_cli(*[a.format(spec=spec) for a in args]), 2)
+    assert line.startswith("linkedit: error: ") and expected in line
+
+
+# --- outputs ---------------------------------------------------------------------------------
+
+def _untouched(path, before: bytes) -> None:
+    assert path.read_bytes() == before
+
+
+def test_simulate_never_writes_its_picture_over_its_input(run_cli, tmp_path, spec):
+    odd = tmp_path / "spec.svg"  # a spec under a name the SVG writer would accept
+    shutil.copy(spec, odd)
+    before = odd.read_bytes()
+    assert "would overwrite" in _one_line(run_cli("simulate", odd, "-o", tmp_path / "o.h5", "--svg", odd), 2)
+    _untouched(odd, before)
+    assert not (tmp_path / "o.h5").exists()
+
+
+def test_an_output_that_is_the_spec_itself_is_refused(run_cli, tmp_path, spec):
+    odd = tmp_path / "spec.csv"  # a spec under a name the CSV writer would accept
+    shutil.copy(spec, odd)
+    before = odd.read_bytes()
+    assert "would overwrite" in _one_line(run_cli("simulate", odd, "-o", odd), 2)
+    _untouched(odd, before)
+
+
+def test_a_batch_with_two_specs_of_the_same_name_writes_nothing(run_cli, tmp_path, spec):
+    (tmp_path / "b").mkdir()
+    other = tmp_path / "b" / "spec.yaml"
+    shutil.copy(spec, other)
+    line = _one_line(run_cli("simulate", spec, other, "-o", tmp_path / "out"), 2)
+    assert "spec.h5" in line
+    assert not (tmp_path / "out").exists()
+
+
+def test_features_and_compare_curves_never_write_over_an_input(run_cli, tmp_path):
+    csv = tmp_path / "c.csv"
+    csv.write_text("x,y\n0,0\n1,0\n1,1\n0,1\n")
+    before = csv.read_bytes()
+    assert "would overwrite" in _one_line(run_cli("features", csv, "-o", csv), 2)
+    other = tmp_path / "d.csv"
+    other.write_text("x,y\n0,0\n2,0\n2,1\n0,1\n")
+    assert "would overwrite" in _one_line(run_cli("compare-curves", csv, other, "--svg", other), 2)
+    _untouched(csv, before)
+    shutil.copytree(EXAMPLES / "curves", tmp_path / "curves")
+    copy = tmp_path / "curves" / "pairs.yaml"
+    before = copy.read_bytes()
+    assert "would overwrite" in _one_line(run_cli("compare-curves", "--learn-weights", copy, "-o", copy), 2)
+    _untouched(copy, before)
+
+
+def test_solve3d_never_writes_over_its_spec(run_cli, tmp_path):
+    spec = tmp_path / "m.yaml"
+    shutil.copy(EXAMPLES / "3d" / "compound-crank-rocker.yaml", spec)
+    before = spec.read_bytes()
+    assert "would overwrite" in _one_line(run_cli("solve3d", spec, "-o", spec, "--steps", "3"), 2)
+    assert "would overwrite" in _one_line(run_cli("solve3d", spec, "-o", tmp_path / "o.h5", "--svg", spec,
+                                                  "--steps", "3"), 2)
+    _untouched(spec, before)
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="making a device node needs root")
+def test_a_device_node_is_never_replaced(run_cli, tmp_path, spec):
+    node = tmp_path / "null.h5"
+    os.mknod(node, stat.S_IFCHR | 0o666, os.makedev(1, 3))
+    assert "not a regular file" in _one_line(run_cli("simulate", spec, "-o", node), 2)
+    assert stat.S_ISCHR(node.stat().st_mode)
+
+
+def test_outputs_are_written_together_or_not_at_all(run_cli, tmp_path, spec):
+    afile = tmp_path / "afile"
+    afile.write_text("keep")
+    line = _one_line(run_cli("simulate", spec, "-o", tmp_path / "o.h5", "--svg", afile / "x.svg"), 2)
+    assert "afile is not a folder" in line and "part" not in line
+    assert not (tmp_path / "o.h5").exists() and afile.read_text() == "keep"
+    assert _one_line(run_cli("simulate", spec, "-o", afile / "o.h5"), 2).endswith("afile is not a folder")
+
+
+def test_atomic_writes_commit_together_and_leave_no_part_file(tmp_path):
+    from linkedit.io.atomic import together, write_text
+
+    (tmp_path / "a.txt").write_text("old")
+    with pytest.raises(RuntimeError), together():
+        write_text(tmp_path / "a.txt", "new")
+        write_text(tmp_path / "b.txt", "new")
+        raise RuntimeError
+    assert (tmp_path / "a.txt").read_text() == "old" and sorted(os.listdir(tmp_path)) == ["a.txt"]
+    with together():
+        write_text(tmp_path / "a.txt", "new")
+        write_text(tmp_path / "b.txt", "new")
+    assert sorted(os.listdir(tmp_path)) == ["a.txt", "b.txt"] and (tmp_path / "a.txt").read_text() == "new"
+
+
+def test_a_stale_part_file_of_a_dead_process_is_removed(tmp_path):
+    from linkedit.io.atomic import write_text
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
+                          text=True).stdout.strip()
+    stale = tmp_path / f".r.h5.{dead}.abc123.part"
+    stale.write_text("half")
+    write_text(tmp_path / "r.h5", "x")
+    assert sorted(os.listdir(tmp_path)) == ["r.h5"]
+
+
+def test_a_closed_pipe_is_a_quiet_exit(tmp_path):
+    curves = EXAMPLES / "curves" / "foot-paths.yaml"
+    p = subprocess.run(f"{sys.executable} -c 'from linkedit.cli import main; main()' compare-curves {curves} | head -1",
+                       shell=True, capture_output=True, text=True, timeout=120)
+    assert p.stderr == "" and len(p.stdout.splitlines()) == 1
+
+
+# --- features on odd HDF5 -----------------------------------------------------------------------
+
+@pytest.mark.parametrize("data", [np.array([(1.0, 2.0)] * 5, dtype=[("a", "f8"), ("b", "f8")]).reshape(5, 1),
+                                  np.full((5, 2), 1 + 1j), np.array([["a", "b"]] * 5, dtype="S1")])
+def test_features_on_a_position_that_is_not_real_numbers(run_cli, tmp_path, data):
+    path = tmp_path / "odd.h5"
+    with h5py.File(path, "w") as f:
+        f.create_dataset("tracks/foot/position", data=data)
+    _one_line(run_cli("features", f"{path}:foot"), 2)
+
+
+# --- 3D specs ------------------------------------------------------------------------------------
+
+def test_3d_huge_quaternion_and_axis_are_normalized_without_overflow():
+    from linkedit.spec.mechanism3d import _nonzero_quaternion, _nonzero_vector
+
+    q = _nonzero_quaternion((1e300, 1e300, 0.0, 0.0))
+    assert np.allclose(q, (2**-0.5, 2**-0.5, 0, 0))
+    assert _nonzero_vector((0.0, 0.0, 1e308)) == (0.0, 0.0, 1.0)
+
+
+def test_a_weight_of_1e308_is_refused(run_cli, tmp_path):
+    curves = EXAMPLES / "curves" / "foot-paths.yaml"
+    assert "--weight" in _one_line(run_cli("compare-curves", curves, "--weight", "points=1e308"), 2)
+
+
+@pytest.fixture(scope="module")
+def gcs_result(tmp_path_factory):
+    from typer.testing import CliRunner
+
+    from linkedit.cli import app
+
+    path = tmp_path_factory.mktemp("gcs") / "g.h5"
+    r = CliRunner().invoke(app, ["solve3d", str(EXAMPLES / "3d" / "crank-rocker.yaml"), "-o", str(path),
+                                 "--steps", "5"])
+    assert r.exit_code == 0, r.output
+    return path
+
+
+@pytest.mark.parametrize("name", ["=coupler:1,0,0", ".=coupler:1,0,0", "..=coupler:1,0,0", "a\0b=coupler:1,0,0"])
+def test_track_names_that_cannot_be_hdf5_groups_are_refused(run_cli, tmp_path, gcs_result, name):
+    assert "--track" in _one_line(run_cli("solve3d", "--from", gcs_result, "-o", tmp_path / "o.h5",
+                                          "--track", name), 2)
+    assert not (tmp_path / "o.h5").exists()
+
+
+def _damaged(src, dst, change):
+    shutil.copy(src, dst)
+    with h5py.File(dst, "a") as f:
+        change(f)
+    return dst
+
+
+def _truncate_rows(f):
+    rows = f["members/position"][()]
+    del f["members/position"]
+    f["members/position"] = rows[:2]
+
+
+def _first_shape(f):
+    return f["members/shapes"][next(iter(f["members/shapes"]))]
+
+
+@pytest.mark.parametrize("change, words", [
+    (lambda f: f.attrs.__setitem__("options", "{not json"), "not a readable gcs result"),
+    (lambda f: f.attrs.__setitem__("options", "[1, 2]"), "options"),
+    (_truncate_rows, "members/position"),
+    (lambda f: _first_shape(f).attrs.__setitem__("lines", '[["no-such-point"]]'), "lines"),
+    (lambda f: _first_shape(f).attrs.__setitem__("lines", '{"a": 1}'), "lines"),
+])
+def test_from_a_damaged_result_is_one_line(run_cli, tmp_path, gcs_result, change, words):
+    bad = _damaged(gcs_result, tmp_path / "bad.h5", change)
+    assert words in _one_line(run_cli("solve3d", "--from", bad, "-o", tmp_path / "o.h5"), 2)
+
+
+def test_a_planar_result_labelled_edit_is_one_line(run_cli, tmp_path, spec):
+    out = tmp_path / "p.h5"
+    assert run_cli("simulate", spec, "-o", out).exit_code == 0
+    with h5py.File(out, "a") as f:
+        f.attrs["kind"] = "edit"
+    _one_line(run_cli("features", out), 2)
+
+
+def test_a_curve_set_whose_source_is_itself_is_one_line(run_cli, tmp_path):
+    path = tmp_path / "loop.yaml"
+    path.write_text("curves:\n  - name: me\n    source: loop.yaml:me\n")
+    assert "loop" in _one_line(run_cli("features", path), 2)
+
+
+def test_learning_no_terms_is_one_line(run_cli, tmp_path):
+    shutil.copytree(EXAMPLES / "curves", tmp_path / "curves")
+    pairs = tmp_path / "curves" / "pairs.yaml"
+    pairs.write_text(pairs.read_text() + "terms: []\n")
+    assert "terms" in _one_line(run_cli("compare-curves", "--learn-weights", pairs, "-o", tmp_path / "w.json"), 2)
+
+
+def test_one_weight_option_leaves_the_other_weights_at_1(run_cli):
+    import json
+
+    curves = EXAMPLES / "curves" / "foot-paths.yaml"
+    r = run_cli("compare-curves", curves, "--weight", "points=2", "--json")
+    weights = json.loads(r.output)["weights"]
+    assert weights.pop("points") == 2 and set(weights.values()) == {1.0}
+
+
+def test_a_null_character_in_a_joint_name_is_refused(run_cli, tmp_path, spec):
+    spec.write_text(spec.read_text().replace("rocker_tip: {joint: B}", '"rock\\0er": {joint: B}'))
+    assert "tracks" in _one_line(run_cli("simulate", spec, "-o", tmp_path / "o.h5"), 2)
+
+
+# --- edits ---------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("operation, field", [
+    ("displace: {joint: B, to: [1e300, 60]}", "displace.to"),
+    ("retarget: {track: coupler_point, translate: [1e300, 0]}", "retarget.translate"),
+    ("retarget: {track: coupler_point, scale: [1e300, 1]}", "retarget.scale"),
+    ("drag: {track: coupler_point, at: 0.2, by: [0, 1e299]}", "drag.by"),
+    ("envelope: {xmax: 1e300}", "envelope"),
+    ("transform: {scale: 1e300}", "transform.scale"),
+    ("transform: {translate: [1e300, 0]}", "transform.translate"),
+    ("displace: {joint: B, to: [60, 60]}\n    terms: {displace: 1e308}", "terms.displace"),
+])
+def test_edit_targets_and_weights_out_of_reach_are_one_line(run_cli, tmp_path, spec, operation, field):
+    script = tmp_path / "s.yaml"
+    script.write_text(f"operations:\n  - {operation}\n")
+    line = _one_line(run_cli("edit", spec, script, "-o", tmp_path / "out"), 2)
+    assert f"operations[0].{field}" in line
+    assert not (tmp_path / "out").exists()
+
+
+def test_editing_a_linkage_that_locks_up_is_one_line_exit_1(run_cli, tmp_path, spec):
+    # coupler and rocker of 32 cannot span the 100 between pivot D and the crank pin at 180°
+    spec.write_text(spec.read_text().replace("  B: [63, 58.787753826796276]", "  B: [50, 20]")
+                    .replace("at: [20.48489846928149, 44.59387691339814]", "at: [40, 15]"))
+    script = tmp_path / "s.yaml"
+    script.write_text("operations:\n  - displace: {joint: B, to: [50, 25]}\n")
+    line = _one_line(run_cli("edit", spec, script, "-o", tmp_path / "out"), 1)
+    assert "joint B" in line and "works" in line
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_3d_shape_point_at_1e308_is_one_line(run_cli, tmp_path):
+    # found by the fuzz test: the SVG of such a spec held NaN
+    spec = tmp_path / "m.yaml"
+    spec.write_text((EXAMPLES / "3d" / "spherical-four-bar.yaml").read_text()
+                    .replace("a: [0, 0, 1]", "a: [1.0e+308, 0, 1]", 1))
+    line = _one_line(run_cli("solve3d", spec, "-o", tmp_path / "o.h5", "--svg", tmp_path / "o.svg"), 2)
+    assert "shapes.crank.points.a[0]" in line
+    assert not (tmp_path / "o.h5").exists()
+
+
+def test_a_rotation_axis_of_1e308_turns_the_crank_like_the_unit_axis(run_cli, tmp_path):
+    text = (EXAMPLES / "3d" / "crank-rocker.yaml").read_text()
+    huge = tmp_path / "huge.yaml"
+    huge.write_text(text.replace("rotation: {axis: [0, 0, 1]", "rotation: {axis: [0, 0, 1.0e+308]"))
+    unit = tmp_path / "unit.yaml"
+    unit.write_text(text)
+    for spec in (huge, unit):
+        r = run_cli("solve3d", spec, "-o", tmp_path / f"{spec.stem}.h5", "--steps", "9")
+        assert r.exit_code == 0, r.output
+    with h5py.File(tmp_path / "huge.h5") as a, h5py.File(tmp_path / "unit.h5") as b:
+        p, q = a["tracks/P/position"][()], b["tracks/P/position"][()]
+    assert np.ptp(p, axis=0).max() > 0.1  # the crank turns
+    assert np.allclose(p, q, rtol=0, atol=1e-9)
+
+
+def test_an_edit_whose_picture_path_is_a_folder_writes_nothing(run_cli, tmp_path, spec):
+    out = tmp_path / "out"
+    (out / "spec-edit.svg").mkdir(parents=True)
+    script = tmp_path / "s.yaml"
+    script.write_text("operations:\n  - displace: {joint: B, to: [62, 60]}\n")
+    line = _one_line(run_cli("edit", spec, script, "-o", out), 2)
+    assert "spec-edit.svg: is a folder" in line and ".part" not in line
+    assert sorted(p.name for p in out.iterdir()) == ["spec-edit.svg"]
+
+
+def test_a_track_point_beyond_1e150_is_one_line(run_cli, tmp_path, gcs_result):
+    assert "--track" in _one_line(run_cli("solve3d", "--from", gcs_result, "-o", tmp_path / "o.h5",
+                                          "--track", "far=coupler:1e308,0,0"), 2)

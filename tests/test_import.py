@@ -1,0 +1,141 @@
+"""`linkedit import`: pyslvs/PMKS expressions and projects, pylinkage JSON → specs that simulate to
+the trajectory computed here independently (circle intersections continued sample by sample)."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+
+import h5py
+import numpy as np
+import pytest
+import yaml
+
+from tests.conftest import EXAMPLES
+
+
+def _circles(p, rp, q, rq, previous):
+    """The intersection of two circles nearest ``previous`` (how pyslvs and pylinkage follow a branch)."""
+    d = q - p
+    dist = abs(d)
+    along = (rp * rp - rq * rq + dist * dist) / (2 * dist)
+    across = math.sqrt(rp * rp - along * along)
+    a, b = p + d / dist * complex(along, across), p + d / dist * complex(along, -across)
+    return a if abs(a - previous) <= abs(b - previous) else b
+
+
+def _reference(rest: dict[str, complex], pivot: str, crank: str, chain: list[tuple[str, str, str]],
+               samples: int) -> dict[str, np.ndarray]:
+    """Positions (T,) complex of every joint for a ccw crank turn; ``chain``: (joint, from, from)."""
+    r = abs(rest[crank] - rest[pivot])
+    theta0 = math.atan2((rest[crank] - rest[pivot]).imag, (rest[crank] - rest[pivot]).real)
+    lengths = {(k, a): abs(rest[k] - rest[a]) for k, i, j in chain for a in (i, j)}
+    now = dict(rest)
+    out = {n: np.empty(samples, complex) for n in rest}
+    for s in range(samples):
+        now[crank] = rest[pivot] + r * complex(math.cos(theta0 + 2 * math.pi * s / samples),
+                                               math.sin(theta0 + 2 * math.pi * s / samples))
+        for k, i, j in chain:
+            now[k] = _circles(now[i], lengths[(k, i)], now[j], lengths[(k, j)], now[k])
+        for n in rest:
+            out[n][s] = now[n]
+    return out
+
+
+def _simulated(run_cli, spec, tmp_path, samples):
+    out = tmp_path / "sim.h5"
+    r = run_cli("simulate", spec, "-o", out, "-n", str(samples))
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        names = f["joint"].asstr()[()]
+        pos = f["joints/position"][()]
+    return {n: pos[:, i, 0] + 1j * pos[:, i, 1] for i, n in enumerate(names)}
+
+
+FOURBAR = ("M[J[R, color[Green], P[0.0, 0.0], L[ground, L1]], J[R, color[Green], P[12.92, 32.53], L[L1, L2]],"
+           " J[R, color[Blue], P[73.28, 67.97], L[L2, L3]], J[R, color[Green], P[33.3, 66.95], L[L2]],"
+           " J[R, color[Green], P[73.28, 0.0], L[ground, L3]]]")
+
+
+def test_pyslvs_four_bar_expression(run_cli, tmp_path):
+    spec = tmp_path / "fourbar.yaml"
+    r = run_cli("import", FOURBAR, "--from", "pyslvs", "-o", spec)
+    assert r.exit_code == 0, r.output
+    doc = yaml.safe_load(spec.read_text())
+    assert doc["ground"] == ["P0", "P4"] and doc["motor"] == {"joint": "P1", "pivot": "P0"}
+    assert doc["links"]["L2"] == ["P1", "P2", "P3"] and "P3" in doc["tracks"]
+    got = _simulated(run_cli, spec, tmp_path, 180)
+    rest = {"P0": 0j, "P1": 12.92 + 32.53j, "P2": 73.28 + 67.97j, "P3": 33.3 + 66.95j, "P4": 73.28 + 0j}
+    ref = _reference(rest, "P0", "P1", [("P2", "P1", "P4"), ("P3", "P1", "P2")], 180)
+    for n in rest:
+        assert np.abs(got[n] - ref[n]).max() < 1e-9, n
+
+
+def _jansen_expression() -> str:
+    doc = yaml.safe_load((EXAMPLES / "jansen.yaml").read_text())
+    on = {n: [lk for lk, members in doc["links"].items() if n in members] for n in doc["joints"]}
+    parts = []
+    for n, (x, y) in doc["joints"].items():
+        links = (["ground"] if n in doc["ground"] else []) + on[n]
+        parts.append(f"J[R, color[Green], P[{x!r}, {y!r}], L[{', '.join(links)}]]")
+    return "M[\n  " + ",\n  ".join(parts) + "\n]"
+
+
+def test_pyslvs_jansen_project_yaml(run_cli, tmp_path):
+    project = tmp_path / "jansen.pyslvs"
+    project.write_text(yaml.safe_dump({"pyslvs_ver": "21.12.0", "mechanism": _jansen_expression(),
+                                       "links": {"ground": "White"}, "input": [[0, 1]]}))
+    spec = tmp_path / "jansen.yaml"
+    r = run_cli("import", project, "-o", spec, "--name", "jansen")
+    assert r.exit_code == 0, r.output
+    got = _simulated(run_cli, spec, tmp_path, 360)
+    names = "OABCDEFG"
+    exact = yaml.safe_load((EXAMPLES / "jansen.yaml").read_text())["joints"]
+    rest = {f"P{i}": complex(*exact[n]) for i, n in enumerate(names)}
+    # C, D from A and B; E from B, C; F from E, D; G from D, F
+    chain = [("P3", "P1", "P2"), ("P4", "P1", "P2"), ("P5", "P2", "P3"), ("P6", "P5", "P4"), ("P7", "P4", "P6")]
+    ref = _reference(rest, "P0", "P1", chain, 360)
+    for n in rest:
+        assert np.abs(got[n] - ref[n]).max() < 1e-9, n
+
+
+def test_pyslvs_input_option_picks_the_motor(run_cli, tmp_path):
+    spec = tmp_path / "s.yaml"
+    r = run_cli("import", FOURBAR, "--input", "4,2", "-o", spec)
+    assert r.exit_code == 0, r.output
+    assert yaml.safe_load(spec.read_text())["motor"] == {"joint": "P2", "pivot": "P4"}
+
+
+def test_pylinkage_json_four_bar(run_cli, tmp_path):
+    # a Grashof crank-rocker in pylinkage's terms: crank B about A, pin C at 2.5 from B and 2 from D
+    data = {"name": "four-bar", "joints": [
+        {"type": "Static", "name": "A", "x": 0.0, "y": 0.0},
+        {"type": "Crank", "name": "B", "x": 0.0, "y": 1.0, "joint0": {"ref": "A"}, "distance": 1.0, "angle": 0.31},
+        {"type": "Static", "name": "D", "x": 3.0, "y": 0.0},
+        {"type": "Revolute", "name": "C", "x": 3.0, "y": 2.0, "joint0": {"ref": "B"}, "joint1": {"ref": "D"},
+         "distance0": 2.5, "distance1": 2.0}], "solve_order": ["A", "B", "D", "C"]}
+    src = tmp_path / "fourbar.json"
+    src.write_text(json.dumps(data))
+    spec = tmp_path / "fourbar.yaml"
+    r = run_cli("import", src, "-o", spec)
+    assert r.exit_code == 0, r.output
+    got = _simulated(run_cli, spec, tmp_path, 120)
+    # rest pose: C at exactly 2.5 from B and 2 from D, on the side of the saved (3, 2)
+    c = _circles(1j, 2.5, 3 + 0j, 2.0, 3 + 2j)
+    assert abs(got["C"][0] - c) < 1e-12
+    ref = _reference({"A": 0j, "B": 1j, "D": 3 + 0j, "C": c}, "A", "B", [("C", "B", "D")], 120)
+    for n in "ABCD":
+        assert np.abs(got[n] - ref[n]).max() < 1e-9, n
+
+
+@pytest.mark.parametrize("source, pattern", [
+    ("M[J[R, P[0, 0], L[ground, L1]], J[P, A[30], P[1, 0], L[L1]]]", r"joint P1 is a P joint \(slider\)"),
+    ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0 L[L1]]]", r"expected ',' or '\]'"),
+    ("M[J[R, P[0, 0], L[ground]], J[R, P[1, 0], L[L1]]]", r"no revolute pair on a ground link"),
+])
+def test_bad_sources_one_line_exit_2(run_cli, tmp_path, source, pattern):
+    r = run_cli("import", source, "-o", tmp_path / "x.yaml")
+    assert r.exit_code == 2, r.output
+    assert len(r.output.strip().splitlines()) == 1 and re.search(pattern, r.output), r.output
+    assert not (tmp_path / "x.yaml").exists()

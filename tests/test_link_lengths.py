@@ -1,0 +1,107 @@
+"""Links given by length: closed-form assembly of the rest pose, `linkedit assemble`, errors."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import h5py
+import numpy as np
+import pytest
+import yaml
+
+from tests.conftest import EXAMPLES
+
+LENGTHS = EXAMPLES / "lengths" / "jansen.yaml"
+#: Jansen's holy numbers (mm), the link lengths the assembled pose must reproduce
+HOLY = {("O", "A"): 15, ("A", "C"): 50, ("A", "D"): 61.9, ("B", "C"): 41.5, ("B", "E"): 40.1, ("C", "E"): 55.8,
+        ("B", "D"): 39.3, ("E", "F"): 39.4, ("D", "F"): 36.7, ("D", "G"): 49, ("F", "G"): 65.7}
+
+
+def _cross(p, q, r):
+    return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+
+
+def test_length_given_jansen_assembles_to_the_holy_number_rest_pose(run_cli, tmp_path):
+    out = tmp_path / "posed.yaml"
+    r = run_cli("assemble", LENGTHS, "-o", out)
+    assert r.exit_code == 0, r.output
+    posed = yaml.safe_load(out.read_text())
+    j = {n: tuple(v) for n, v in posed["joints"].items()}
+    for (a, b), length in HOLY.items():
+        assert abs(math.dist(j[a], j[b]) - length) < 1e-9, (a, b)
+    assert j["O"] == (0, 0) and j["B"] == (-38, -7.8) and j["A"] == (15, 0)
+    # the branches the file asks for: C right of A→B, D left of it, E left of B→C, G left of D→F
+    assert _cross(j["A"], j["B"], j["C"]) < 0 < _cross(j["A"], j["B"], j["D"])
+    assert _cross(j["B"], j["C"], j["E"]) > 0 and _cross(j["D"], j["F"], j["G"]) > 0
+    exact = yaml.safe_load((EXAMPLES / "jansen.yaml").read_text())["joints"]
+    for n, p in exact.items():
+        assert math.dist(p, j[n]) < 1e-9, n
+    assert posed["links"]["upper"] == ["B", "C", "E"]
+
+
+def test_length_given_spec_simulates_like_the_coordinate_spec(run_cli, tmp_path):
+    a, b = tmp_path / "a.h5", tmp_path / "b.h5"
+    assert run_cli("simulate", LENGTHS, "-o", a, "-n", "120").exit_code == 0
+    assert run_cli("simulate", EXAMPLES / "jansen.yaml", "-o", b, "-n", "120").exit_code == 0
+    with h5py.File(a) as fa, h5py.File(b) as fb:
+        assert np.abs(fa["joints/position"][()] - fb["joints/position"][()]).max() < 1e-9
+        assert fa.attrs["spec"] == LENGTHS.read_text()
+
+
+def test_posed_yaml_reloads_to_the_same_doubles(run_cli, tmp_path):
+    out = tmp_path / "posed.yaml"
+    assert run_cli("assemble", LENGTHS, "-o", out).exit_code == 0
+    again = tmp_path / "again.yaml"
+    assert run_cli("assemble", out, "-o", again).exit_code == 0  # a posed spec passes through unchanged
+    from linkedit.spec import load_model
+    from linkedit.spec.linkage import LinkageSpec
+
+    assert load_model(LinkageSpec, out).joints == load_model(LinkageSpec, LENGTHS).joints
+    assert load_model(LinkageSpec, again).joints == load_model(LinkageSpec, out).joints
+
+
+def test_near_picks_the_nearer_branch_and_branch_mirrors(tmp_path):
+    from linkedit.spec import load_model
+    from linkedit.spec.linkage import LinkageSpec
+
+    text = LENGTHS.read_text()
+    near = text.replace("C: {from: [A, B], branch: cw}", "C: {near: [-20, 30]}")
+    mirror = text.replace("C: {from: [A, B], branch: cw}", "C: {from: [A, B], branch: ccw}") \
+                 .replace("E: {from: [B, C], branch: ccw}", "E: {near: [-60, -80]}")
+    base = load_model(LinkageSpec, LENGTHS).joints
+    (tmp_path / "n.yaml").write_text(near)
+    (tmp_path / "m.yaml").write_text(mirror)
+    assert math.dist(load_model(LinkageSpec, tmp_path / "n.yaml").joints["C"], base["C"]) < 1e-12
+    c = load_model(LinkageSpec, tmp_path / "m.yaml").joints["C"]
+    assert c[1] < 0 and _cross((15, 0), (-38, -7.8), c) > 0
+
+
+def test_brace_length_is_the_rest_pose_distance():
+    j = yaml.safe_load((EXAMPLES / "jansen.yaml").read_text())["joints"]
+    assert abs(math.dist(j['E'], j['G']) - 104.78910576) < 1e-8
+
+
+@pytest.mark.parametrize("old, new, pattern", [
+    ("rocker: {joints: [B, D], length: 39.3}", "rocker: {joints: [B, D], length: 39.3}\n  extra: {joints: [D, B], length: 40}",
+     r":\d+: links\.extra: conflicting lengths: D-B is 40 here but 39\.3 on link rocker"),
+    ("knee: {joints: [E, F], length: 39.4}", "knee: {joints: [E, F], length: 39.4}\n  brace: {joints: [E, G], length: 80}",
+     r":\d+: links\.brace: conflicting lengths: E-G is 80 but .* make it 104\.7891057"),  # |EG| in jansen.yaml
+    ("knee: {joints: [E, F], length: 39.4}", "knee: {joints: [E, F], length: 3}",
+     r":\d+: joints\.F: cannot be assembled: F-\w = [\d.]+ and F-\w = [\d.]+ cannot close a triangle"),
+    ("G: {from: [D, F], branch: ccw}", "G: {from: [D, F]}", r":\d+: joints\.G: from two joints needs branch"),
+    ("lengths: [36.7, 49, 65.7]", "lengths: [36.7, 49]", r":\d+: links\.lower: lengths needs 3 values"),
+    ("crank: {joints: [O, A], length: 15}", "crank: {joints: [O, A], length: -15}", r":\d+: links\.crank(\.length)?: "),
+    ("F: {near: [-59, -28]}", "F: {near: [-59, -28]}\n  H: {near: [0, 9]}",
+     r":\d+: joints\.H: joint 'H' cannot be placed"),
+])
+def test_bad_lengths_one_line_exit_2(run_cli, tmp_path, old, new, pattern):
+    text = LENGTHS.read_text()
+    assert old in text
+    spec = tmp_path / "bad.yaml"
+    spec.write_text(text.replace(old, new))
+    for command in ("assemble", "simulate"):
+        r = run_cli(command, spec, "-o", tmp_path / ("x.yaml" if command == "assemble" else "x.h5"))
+        assert r.exit_code == 2, r.output
+        assert re.search(pattern, r.output), r.output
+        assert len(r.output.strip().splitlines()) == 1

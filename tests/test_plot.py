@@ -1,0 +1,115 @@
+"""`linkedit plot`: kinematics against crank angle, the transmission-angle band and its worst samples;
+`validate` warns when a transmission angle leaves 40°–140°."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import h5py
+import numpy as np
+import pytest
+
+from tests.conftest import EXAMPLES
+
+NS = {"s": "http://www.w3.org/2000/svg"}
+
+
+@pytest.fixture(scope="module")
+def jansen_h5(tmp_path_factory):
+    from typer.testing import CliRunner
+
+    from linkedit.cli import app
+
+    out = tmp_path_factory.mktemp("plot") / "jansen.h5"
+    r = CliRunner().invoke(app, ["simulate", str(EXAMPLES / "jansen.yaml"), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def _panel(root, name):
+    return root.find(f".//s:g[@class='panel'][@data-name='{name}']", NS)
+
+
+def _y_map(panel):
+    """value → pixel y of a panel, from its tick labels (a linear map)."""
+    ticks = [(float(t.text), float(t.get("y")) - 4) for t in panel.iterfind(".//s:text[@class='tick']", NS)
+             if t.get("text-anchor") == "end"]
+    (v0, y0), (v1, y1) = ticks[0], ticks[-1]
+    return lambda v: y0 + (np.asarray(v) - v0) * (y1 - y0) / (v1 - v0)
+
+
+def _series(panel, name):
+    pts = [p for p in panel.iterfind(".//s:polyline", NS) if p.get("data-name") == name]
+    return np.concatenate([np.array([[float(c) for c in xy.split(",")] for xy in p.get("points").split()]) for p in pts])
+
+
+def _angle_at(p, k, i, j):
+    """Angle (degrees) at joint k between k→i and k→j, (T,)."""
+    u, v = p[:, i] - p[:, k], p[:, j] - p[:, k]
+    cos = (u * v).sum(-1) / np.linalg.norm(u, axis=-1) / np.linalg.norm(v, axis=-1)
+    return np.degrees(np.arccos(np.clip(cos, -1, 1)))
+
+
+def test_transmission_band_and_worst_samples(run_cli, jansen_h5, tmp_path):
+    out = tmp_path / "plot.svg"
+    r = run_cli("plot", jansen_h5, "-o", out)
+    assert r.exit_code == 0, r.output
+    root = ET.parse(out).getroot()
+    panel = _panel(root, "transmission-angle")
+    y_of = _y_map(panel)
+    band = panel.find(".//s:rect[@class='band']", NS)
+    assert (band.get("data-lo"), band.get("data-hi")) == ("40", "140")
+    assert abs(float(band.get("y")) - y_of(140)) < 0.02
+    assert abs(float(band.get("y")) + float(band.get("height")) - y_of(40)) < 0.02
+    with h5py.File(jansen_h5) as f:
+        names = list(f["joint"].asstr()[()])
+        p = f["joints/position"][()]
+    O, A, B, C, D, E, F, G = range(8)
+    alpha_d = _angle_at(p, D, A, B)  # D ← (A, B), computed here from the joint positions
+    crank = np.arange(360.0)
+    marks = {g.find("s:text", NS).text.split()[0]: (float(g.get("data-x")), float(g.get("data-y")))
+             for g in panel.iterfind(".//s:g[@class='toggle']", NS)}
+    t = int(np.argmax(np.abs(alpha_d - 90)))
+    assert marks["D"] == pytest.approx((crank[t], alpha_d[t]), abs=1e-4)
+    assert round(alpha_d[t], 1) == 8.6 and set(marks) == {"C", "D", "F"}
+    line = _series(panel, "at D")
+    assert np.abs(line[:, 1] - y_of(alpha_d)).max() < 0.02  # the drawn curve is the angle
+    assert names == list("OABCDEFG")
+
+
+def test_per_second_scales_derivatives_by_omega(run_cli, jansen_h5, tmp_path):
+    a, b = tmp_path / "rad.svg", tmp_path / "sec.svg"
+    assert run_cli("plot", jansen_h5, "-o", a).exit_code == 0
+    assert run_cli("plot", jansen_h5, "-o", b, "--per-second", "--rpm", "60").exit_code == 0
+    pa, pb = _panel(ET.parse(a).getroot(), "velocity"), _panel(ET.parse(b).getroot(), "velocity")
+    assert "mm/rad" in ET.tostring(pa, encoding="unicode") and "mm/s" in ET.tostring(pb, encoding="unicode")
+    ya, yb = _y_map(pa), _y_map(pb)
+
+    def values(panel, y_of):
+        px = _series(panel, "magnitude")[:, 1]
+        lo, hi = y_of(0.0), y_of(1.0)
+        return (px - lo) / (hi - lo)
+
+    with h5py.File(jansen_h5) as f:
+        speed = np.linalg.norm(f["tracks/foot/velocity"][()], axis=1)
+    assert np.abs(values(pa, ya) - speed).max() < 0.05 * speed.max()
+    assert np.abs(values(pb, yb) - 2 * np.pi * speed).max() < 0.05 * 2 * np.pi * speed.max()
+
+
+def test_plot_options(run_cli, jansen_h5, tmp_path):
+    r = run_cli("plot", jansen_h5, "--rpm", "60")
+    assert r.exit_code == 2 and "--per-second and --rpm" in r.output
+    r = run_cli("plot", jansen_h5, "--track", "hand")
+    assert r.exit_code == 2 and "no track 'hand'" in r.output
+    r = run_cli("plot", jansen_h5, "-o", tmp_path / "x.png")
+    assert r.exit_code == 2 and "unknown output format" in r.output
+    r = run_cli("plot", jansen_h5, "--joint", "C", "-o", "-")
+    assert r.exit_code == 0 and r.output.startswith("<?xml") and "C x" in r.output
+
+
+def test_validate_warns_outside_40_140(run_cli):
+    r = run_cli("validate", EXAMPLES / "jansen.yaml", EXAMPLES / "crank-rocker.yaml")
+    assert r.exit_code == 0, r.output
+    warnings = [ln for ln in r.output.splitlines() if "warning:" in ln]
+    assert len(warnings) == 3  # C, D, F of Jansen; the crank-rocker stays within (worst 44.4°)
+    assert "joint D leaves 40°–140°: 8.6° at motor angle 192.0°" in r.output
