@@ -194,15 +194,17 @@ def read_result(path: str | Path) -> GcsResult:
                 tracks[name] = Track3D(member=str(g.attrs["member"]), point=np.asarray(g.attrs["point"]),
                                        position=g["position"][()], velocity=g["velocity"][()],
                                        cyclic=bool(g.attrs["cyclic"]))
+            options = json.loads(f.attrs["options"])
+            rule = options.get("velocity", "exact") if isinstance(options, dict) else "exact"
             res = GcsResult(
                 name=str(f.attrs["name"]), units=str(f.attrs["units"]), t=f["t"][()], member_names=names,
                 position=f["members/position"][()], orientation=f["members/orientation"][()],
                 velocity=np.concatenate([f["members/velocity"][()], f["members/angular_velocity"][()]], axis=-1),
-                velocity_rule=str(json.loads(f.attrs["options"]).get("velocity", "exact")),
+                velocity_rule=str(rule),
                 periodic=bool(f["members"].attrs["periodic"]),
                 constraint_names=strings(f["constraints/names"]), constraint_inputs=f["constraints/is_input"][()],
                 diagnostics=diag, iterations=d["iterations"][()], points=points, lines=lines, tracks=tracks,
-                spec_text=str(f.attrs["spec"]), options=json.loads(f.attrs["options"]))
+                spec_text=str(f.attrs["spec"]), options=options)
         except KeyError as exc:
             raise InputError(f"not a complete gcs result: missing {exc}", file=str(path)) from None
         except (ValueError, TypeError, AttributeError) as exc:  # e.g. options or lines that are not JSON
@@ -215,7 +217,8 @@ def _check_read(res: GcsResult, file: str) -> None:
     """InputError unless the arrays of a result read back agree in shape and the drawing lines name points."""
     steps, members = len(res.t), len(res.member_names)
     shapes = {"members/position": (res.position, (steps, members, 3)),
-              "members/orientation": (res.orientation, (steps, members, 4))}
+              "members/orientation": (res.orientation, (steps, members, 4)),
+              "members/velocity, members/angular_velocity": (res.velocity, (steps, members, 6))}
     shapes |= {f"tracks/{n}/position": (tr.position, (steps, 3)) for n, tr in res.tracks.items()}
     shapes |= {f"tracks/{n}/velocity": (tr.velocity, (steps, 3)) for n, tr in res.tracks.items()}
     for where, (array, shape) in shapes.items():
