@@ -96,8 +96,10 @@ def check_solved(res: GcsResult) -> None:
     if not bad.size:
         return
     k = int(bad[0])
-    names = d.unsatisfied[k] or [res.constraint_names[int(np.argmax(d.costs[k]))]]
     more = f" (and {bad.size - 1} more steps)" if bad.size > 1 else ""
-    raise MechanismError(
-        f"{res.name}: {STATUS_NAMES[d.status[k]]} at step {k} (t = {res.t[k]:.4f}){more}: "
-        f"constraints not satisfied: {', '.join(names)}; residual {d.residual[k]:.3g}")
+    head = f"{res.name}: {STATUS_NAMES[d.status[k]]} at step {k} (t = {res.t[k]:.4f}){more}: "
+    if not d.unsatisfied[k]:  # a pose was found, but not on the branch of the step before
+        raise MechanismError(head + "no pose on the previous step's assembly branch (the step could not be cut "
+                             "small enough: a lock-up or a singular pose before this time)")
+    raise MechanismError(head + f"constraints not satisfied: {', '.join(d.unsatisfied[k])}; "
+                         f"residual {d.residual[k]:.3g}")
