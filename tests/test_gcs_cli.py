@@ -103,7 +103,7 @@ def test_from_result_adds_tracks_without_solving(run_cli, tmp_path):
     out = tmp_path / "cr.h5"
     assert run_cli("solve3d", src, "-o", out, "--steps", "73").exit_code == 0
     r = run_cli("solve3d", "--from", out, "--track", "coupler:2.5,2.5,0", "--track", "tip=rocker:tip",
-                "-o", tmp_path / "more.h5", "--svg", tmp_path / "more.svg", "--view", "xy", "--velocity", "--json")
+                "-o", tmp_path / "more.h5", "--svg", tmp_path / "more.svg", "--view", "xy", "--arrows", "--json")
     assert r.exit_code == 0, r.output
     with h5py.File(tmp_path / "more.h5") as f:
         assert np.allclose(f["tracks/coupler:2.5,2.5,0/position"][()], f["tracks/P/position"][()], atol=1e-12)

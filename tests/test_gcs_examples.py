@@ -44,7 +44,8 @@ def test_every_step_satisfies_every_constraint(solved, name):
     res, h5 = solved[name]
     assert (res.diagnostics.status == 0).all()
     assert np.sqrt(res.diagnostics.costs).max() < 1e-9
-    assert (res.diagnostics.dof == 0).all()
+    # the ball-jointed coupler / rod of these two spins freely about its own axis
+    assert (res.diagnostics.dof == (1 if name in ("rssr", "spatial-slider-crank") else 0)).all()
     with h5py.File(h5) as f:  # the file holds what the result says
         assert f.attrs["kind"] == "gcs" and f.attrs["format_version"] == "1"
         T = f["t"].shape[0]

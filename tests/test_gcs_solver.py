@@ -125,15 +125,3 @@ def test_slsqp_fd_reports_an_inconsistent_spec_as_inconsistent():
     _, r, info = Solver(system, Options(solver="slsqp-fd")).solve(system.rest, table, 0)
     assert info.status == INCONSISTENT
     assert np.max(np.abs(r) * system.row_scale) > SLSQP_TOL
-
-
-def test_lagrange_weights_extrapolate_polynomials_exactly():
-    from linkedit.gcs.solver import lagrange_weights
-
-    rng = np.random.default_rng(2)
-    nodes = np.sort(rng.uniform(0, 1, size=(5, 7)), axis=1)
-    t = nodes[:, -1] + 0.05
-    w = lagrange_weights(nodes, t)
-    coeffs = rng.normal(size=7)  # degree 6 through 7 nodes
-    assert np.allclose(np.sum(w * np.polyval(coeffs, nodes), axis=1), np.polyval(coeffs, t), rtol=1e-9)
-    assert np.allclose(lagrange_weights(nodes[0], t[0]), w[0])

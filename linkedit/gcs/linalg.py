@@ -30,10 +30,13 @@ _potrf, _potrs = scipy.linalg.get_lapack_funcs(("potrf", "potrs"), dtype=np.floa
 
 
 class Factor:
-    """A factorized damped normal matrix H (N, N); ``solve(g)`` returns H⁻¹ g (N,)."""
+    """A factorized damped normal matrix H (N, N); ``solve(g)`` returns H⁻¹ g (N,);
+    ``pivots()`` the pivots (N,) of its elimination (Cholesky diagonal squared, LU's U diagonal),
+    in elimination order: a direction H hardly sees shows as a pivot near the damping floor."""
 
-    def __init__(self, solve: Callable[[np.ndarray], np.ndarray]) -> None:
+    def __init__(self, solve: Callable[[np.ndarray], np.ndarray], pivots: Callable[[], np.ndarray]) -> None:
         self.solve = solve
+        self.pivots = pivots
 
     @classmethod
     def dense(cls, H: np.ndarray) -> "Factor":
@@ -41,21 +44,21 @@ class Factor:
         c, info = _potrf(H, lower=False, clean=False, overwrite_a=True)
         if info != 0:
             raise np.linalg.LinAlgError(f"the normal matrix is not positive definite (potrf info {info})")
-        return cls(lambda g: _potrs(c, g, lower=False)[0])
+        return cls(lambda g: _potrs(c, g, lower=False)[0], lambda: np.diagonal(c) ** 2)
 
     @classmethod
     def sparse(cls, H: scipy.sparse.csc_matrix, order: str) -> tuple["Factor", np.ndarray]:
         """LU factorization of a sparse symmetric H without pivoting, with SuperLU's column
         ordering ``order``; also returns that ordering (N,) (H[p][:, p] needs no reordering)."""
         lu = scipy.sparse.linalg.splu(H, permc_spec=order, diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-        return cls(lu.solve), np.argsort(lu.perm_c)
+        return cls(lu.solve, lu.U.diagonal), np.argsort(lu.perm_c)
 
     @classmethod
     def permuted(cls, B: scipy.sparse.csc_matrix, p: np.ndarray, inverse: np.ndarray) -> "Factor":
         """LU factorization of H from B = H[p][:, p], already in a fill-reducing order:
         H x = g is B y = g[p] with x = y[inverse]."""
         lu = scipy.sparse.linalg.splu(B, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-        return cls(lambda g: lu.solve(g.take(p)).take(inverse))
+        return cls(lambda g: lu.solve(g.take(p)).take(inverse), lu.U.diagonal)
 
 
 @dataclass

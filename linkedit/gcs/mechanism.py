@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -16,8 +17,11 @@ from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
 
 
 def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "lm",
-               allow_python: bool = False, spec_text: str = "", rank: bool = True) -> GcsResult:
+               allow_python: bool = False, spec_text: str = "", rank: bool = True,
+               velocity: str = "exact", progress: Callable[[int, int], None] | None = None) -> GcsResult:
     """Solve every step t = linspace(0, 1, steps) (default: the spec's ``outputs.steps``).
+    ``velocity``: "exact" (from J v = −∂r/∂t at each pose) or "parabola" (the paper's
+    three-point rule on the positions); ``progress(k, T)`` is called after each step.
 
     Raises :class:`MechanismError` when a step's state or residual is not finite (overflow):
     a result never holds NaN or inf."""
@@ -30,21 +34,42 @@ def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "
     options = Options(solver=solver)
     with np.errstate(all="ignore"):  # overflow is checked (check_run_finite), not warned about
         start = time.perf_counter()
-        run = solve_run(system, t, options, table=table)
+        run = solve_run(system, t, options, table=table, progress=progress)
         seconds = time.perf_counter() - start
         check_run_finite(spec.name, system, run)
         diag = run_diagnostics(system, run, table, rank=rank,
                                unsatisfied_tol=max(UNSATISFIED_TOL, options.satisfied_tol))
     res = GcsResult(
         name=spec.name, units=spec.units, t=t, member_names=system.member_names, position=run.position,
-        orientation=run.orientation, constraint_names=system.constraint_names,
+        orientation=run.orientation, velocity=run.velocity, velocity_rule=velocity,
+        periodic=periodic_inputs(system), constraint_names=system.constraint_names,
         constraint_inputs=system.constraint_inputs, diagnostics=diag, iterations=run.iterations,
         points=system.points, lines=system.lines, spec_text=spec_text,
-        options={"steps": steps, "solver": solver, "tolerance": options.satisfied_tol,
+        options={"steps": steps, "solver": solver, "tolerance": options.satisfied_tol, "velocity": velocity,
                  "seconds": round(seconds, 6)})
     for tr in tracks:
         res.add_track(tr.name, system.member_names[tr.member], tr.point)
     return res
+
+
+def periodic_inputs(system: System) -> bool:
+    """True when the run is one period of its inputs: there is an input, and every input acts
+    over the whole of [0, 1] and ends where and how fast it started (a full turn, a closed
+    keyframe loop); a rocking input (0° → 90° → 0°) ends where it started but not at the
+    same rate, so it is not periodic."""
+    schedules = [s for blk in system.blocks for s in blk.schedules]
+    if not schedules:
+        return False
+    ends = np.array([0.0, 1.0])
+    for s in schedules:
+        if tuple(s.window) != (0.0, 1.0):
+            return False
+        v, rate = s.evaluate(ends), s.rate(ends)
+        same = abs(abs(float(v[0] @ v[1])) - 1.0) < 1e-12 if v.shape[1] == 4 else \
+            np.allclose(v[0], v[1], rtol=0.0, atol=1e-12 * max(1.0, float(np.abs(v).max())))
+        if not same or not np.allclose(rate[0], rate[1], rtol=1e-12, atol=1e-300):
+            return False
+    return True
 
 
 def check_run_finite(name: str, system: System, run: Run) -> None:
@@ -71,8 +96,10 @@ def check_solved(res: GcsResult) -> None:
     if not bad.size:
         return
     k = int(bad[0])
-    names = d.unsatisfied[k] or [res.constraint_names[int(np.argmax(d.costs[k]))]]
     more = f" (and {bad.size - 1} more steps)" if bad.size > 1 else ""
-    raise MechanismError(
-        f"{res.name}: {STATUS_NAMES[d.status[k]]} at step {k} (t = {res.t[k]:.4f}){more}: "
-        f"constraints not satisfied: {', '.join(names)}; residual {d.residual[k]:.3g}")
+    head = f"{res.name}: {STATUS_NAMES[d.status[k]]} at step {k} (t = {res.t[k]:.4f}){more}: "
+    if not d.unsatisfied[k]:  # a pose was found, but not on the branch of the step before
+        raise MechanismError(head + "no pose on the previous step's assembly branch (the step could not be cut "
+                             "small enough: a lock-up or a singular pose before this time)")
+    raise MechanismError(head + f"constraints not satisfied: {', '.join(d.unsatisfied[k])}; "
+                         f"residual {d.residual[k]:.3g}")

@@ -16,7 +16,7 @@ import numpy as np
 
 from linkedit.errors import InputError
 from linkedit.gcs import quaternions as quat
-from linkedit.gcs.inputs import Schedule
+from linkedit.gcs.inputs import Schedule, half_turn_keyframe
 from linkedit.gcs.system import WORLD, Custom, Elementary, State, System
 from linkedit.spec import mechanism3d as ms
 
@@ -123,6 +123,7 @@ class _Builder:
                      sb=tuple(float(x) for x in c.plane.point), nb=_unit(c.plane.normal))
 
     def input(self, inp: Any, owner: int) -> None:
+        name = self.names[owner]
         t0, t1 = inp.window
         other = inp.other
         if isinstance(inp, ms.OrientationInput) and inp.rotation is not None:
@@ -148,6 +149,10 @@ class _Builder:
             values = np.asarray(inp.keyframes, dtype=float)
             sched = dict(mode="vector", values=values)
             count = len(values)
+        k = half_turn_keyframe(sched["mode"], values)
+        if k is not None:
+            raise InputError(f"keyframes {k} and {k + 1} are half a turn apart: the direction of turning is "
+                             "undefined; add a keyframe between them", field=("inputs", name, "keyframes", k + 1))
         times = np.asarray(inp.times, dtype=float) if inp.times is not None else (
             np.linspace(t0, t1, count) if count > 1 else np.array([t0]))
         schedule = Schedule(window=(t0, t1), times=times, **sched)

@@ -1,9 +1,11 @@
 """Output curves: tracked points evaluated from stored member states, and their velocities.
 
-Velocity at a sample is the derivative of the parabola through the sample and its two
-neighbours (non-uniform steps allowed). A curve whose ends meet — last point within 1e-6 of
-the curve's size of the first — is cyclic: it wraps around (the duplicated end sample is
-skipped). Otherwise the end samples use the parabola through the first (last) three samples.
+Exact velocities come from the members' (:func:`track_velocities`: v + ω × R s). The paper's
+rule (``--velocity parabola``) takes the derivative of the parabola through a sample and its
+two neighbours (non-uniform steps allowed); a cyclic curve — the run is one period of its
+inputs and the ends meet, last point within 1e-6 of the curve's size of the first — wraps
+around (the duplicated end sample is skipped); otherwise the end samples use the parabola
+through the first (last) three samples.
 """
 
 from __future__ import annotations
@@ -20,6 +22,13 @@ def track_positions(position: np.ndarray, orientation: np.ndarray, member: int, 
     """World positions (T, 3) of a member-space point (3,) from member states (T, M, 3), (T, M, 4)."""
     R = quat.to_matrix(orientation[:, member])
     return position[:, member] + R @ np.asarray(point, dtype=float)
+
+
+def track_velocities(orientation: np.ndarray, velocity: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """Velocities (T, 3) of a member-space point (3,) from the member's orientations (T, 4) and
+    velocities (T, 6) [d position / dt, world angular velocity]: v + ω × (R point)."""
+    arm = quat.to_matrix(orientation) @ np.asarray(point, dtype=float)
+    return velocity[:, :3] + np.cross(velocity[:, 3:], arm)
 
 
 def ends_meet(p: np.ndarray) -> bool:

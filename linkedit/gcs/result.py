@@ -15,7 +15,7 @@ import numpy as np
 
 from linkedit.errors import InputError, MechanismError
 from linkedit.gcs.diagnostics import Diagnostics
-from linkedit.gcs.outputs import ends_meet, track_positions, velocity
+from linkedit.gcs.outputs import ends_meet, track_positions, track_velocities, velocity
 from linkedit.gcs.solver import STATUS_NAMES
 
 KIND = "gcs"
@@ -23,7 +23,8 @@ KIND = "gcs"
 
 @dataclass
 class Track3D:
-    """A tracked member point: position and velocity (T, 3), d/dt with t ∈ [0, 1]."""
+    """A tracked member point: position and velocity (T, 3), d/dt with t ∈ [0, 1]; ``cyclic``:
+    the run is one period of its inputs and the curve's ends meet."""
 
     member: str
     point: np.ndarray
@@ -42,6 +43,10 @@ class GcsResult:
     member_names: list[str]
     position: np.ndarray  #: (T, M, 3)
     orientation: np.ndarray  #: (T, M, 4) unit quaternions [w, x, y, z], member → world
+    #: (T, M, 6) exact member velocities: d position / dt and world angular velocity (rad / t)
+    velocity: np.ndarray
+    velocity_rule: str  #: "exact" or "parabola": how track velocities are taken
+    periodic: bool  #: the run is one period of its inputs (outputs.periodic_inputs)
     constraint_names: list[str]
     constraint_inputs: np.ndarray  #: (C,) bool
     diagnostics: Diagnostics
@@ -61,9 +66,12 @@ class GcsResult:
         """Evaluate a member point (3,) at every stored step; no solving."""
         m = self.member_index(member)
         p = track_positions(self.position, self.orientation, m, point)
-        closed = ends_meet(p)
-        track = Track3D(member=member, point=np.asarray(point, dtype=float), position=p,
-                        velocity=velocity(self.t, p, cyclic=closed), cyclic=closed)
+        closed = self.periodic and ends_meet(p)
+        if self.velocity_rule == "parabola":
+            v = velocity(self.t, p, cyclic=closed)
+        else:
+            v = track_velocities(self.orientation[:, m], self.velocity[:, m], point)
+        track = Track3D(member=member, point=np.asarray(point, dtype=float), position=p, velocity=v, cyclic=closed)
         self.tracks[name] = track
         return track
 
@@ -126,6 +134,9 @@ def write_result(path: str | Path, res: GcsResult) -> None:
         put(m, "names", res.member_names)
         put(m, "position", res.position, units=u, description="member origin in the world")
         put(m, "orientation", res.orientation, convention="unit quaternion [w, x, y, z], member to world")
+        put(m, "velocity", res.velocity[..., :3], units=f"{u}/t", description="d position / d t, t in [0, 1]")
+        put(m, "angular_velocity", res.velocity[..., 3:], units="rad/t", description="world frame, t in [0, 1]")
+        m.attrs["periodic"] = res.periodic
         shapes = m.create_group("shapes")
         for name in res.member_names:
             pts = res.points.get(name, {})
@@ -145,6 +156,7 @@ def write_result(path: str | Path, res: GcsResult) -> None:
             g.attrs["member"] = track.member
             g.attrs["point"] = track.point
             g.attrs["cyclic"] = track.cyclic
+            g.attrs["velocity_rule"] = res.velocity_rule
         d = f.create_group("diagnostics")
         dg = res.diagnostics
         put(d, "status", dg.status.astype(np.int8), codes=json.dumps(dict(enumerate(STATUS_NAMES))))
@@ -182,12 +194,17 @@ def read_result(path: str | Path) -> GcsResult:
                 tracks[name] = Track3D(member=str(g.attrs["member"]), point=np.asarray(g.attrs["point"]),
                                        position=g["position"][()], velocity=g["velocity"][()],
                                        cyclic=bool(g.attrs["cyclic"]))
+            options = json.loads(f.attrs["options"])
+            rule = options.get("velocity", "exact") if isinstance(options, dict) else "exact"
             res = GcsResult(
                 name=str(f.attrs["name"]), units=str(f.attrs["units"]), t=f["t"][()], member_names=names,
                 position=f["members/position"][()], orientation=f["members/orientation"][()],
+                velocity=np.concatenate([f["members/velocity"][()], f["members/angular_velocity"][()]], axis=-1),
+                velocity_rule=str(rule),
+                periodic=bool(f["members"].attrs["periodic"]),
                 constraint_names=strings(f["constraints/names"]), constraint_inputs=f["constraints/is_input"][()],
                 diagnostics=diag, iterations=d["iterations"][()], points=points, lines=lines, tracks=tracks,
-                spec_text=str(f.attrs["spec"]), options=json.loads(f.attrs["options"]))
+                spec_text=str(f.attrs["spec"]), options=options)
         except KeyError as exc:
             raise InputError(f"not a complete gcs result: missing {exc}", file=str(path)) from None
         except (ValueError, TypeError, AttributeError) as exc:  # e.g. options or lines that are not JSON
@@ -200,7 +217,8 @@ def _check_read(res: GcsResult, file: str) -> None:
     """InputError unless the arrays of a result read back agree in shape and the drawing lines name points."""
     steps, members = len(res.t), len(res.member_names)
     shapes = {"members/position": (res.position, (steps, members, 3)),
-              "members/orientation": (res.orientation, (steps, members, 4))}
+              "members/orientation": (res.orientation, (steps, members, 4)),
+              "members/velocity, members/angular_velocity": (res.velocity, (steps, members, 6))}
     shapes |= {f"tracks/{n}/position": (tr.position, (steps, 3)) for n, tr in res.tracks.items()}
     shapes |= {f"tracks/{n}/velocity": (tr.velocity, (steps, 3)) for n, tr in res.tracks.items()}
     for where, (array, shape) in shapes.items():

@@ -1,37 +1,53 @@
-"""Solve a compiled system at every time step: damped Gauss–Newton (Levenberg–Marquardt) on the
-residual vector with analytic Jacobians, warm-started from the previous steps.
+"""Solve a compiled system at every time step: minimum-change Gauss–Newton with analytic
+Jacobians, branch-safe continuation, exact velocities.
 
-Per step:
+**Dimensionless.** Residual rows are divided by the mechanism's size L (lengths; angles are
+radians already) and position unknowns are measured in L, so the normal matrix, the steps and
+every tolerance are the same for a mechanism in mm, m or km.
 
-1. *Prediction*: the state is extrapolated from the last solved steps (Lagrange polynomial in
-   time through up to ``predict_order`` + 1 of them; quaternions component-wise, then
-   normalized). The weights of the usual stencil (the steps just before) are computed for the
-   whole run at once.
-2. *Simplified Newton*: while the last factorized JᵀJ still contracts the residual quickly
-   (by ``reuse_ratio`` per iteration), it is reused (a back-substitution per iteration, no new
-   Jacobian) — across iterations and across time steps. Once an iteration contracts by less
-   than ``refresh_ratio`` the factorization is stale: the next step evaluates the Jacobian with
-   the residual at its predicted state and takes a full Newton step from there (which usually
-   converges at once), and that factorization is kept for the following steps.
-3. *Levenberg–Marquardt*: otherwise (and for a stale or missing factorization) fresh Jacobians,
-   damping λ·diag(JᵀJ) raised on failure and lowered on success, until the residual is below
-   tolerance (**converged**), the cost stops decreasing above tolerance (**inconsistent**: the
-   constraints contradict each other), or the iteration budget runs out (**did not converge**).
+**Minimum change.** Each pose is the one closest to an *anchor* pose (the previous time step's,
+or the spec's rest pose at t = 0) that satisfies the constraints: with d the scaled
+displacement from the anchor (positions, world rotation vectors) and J the Jacobian, an
+iteration moves to the least-norm displacement y of J (y − d) = −r, i.e. the correction
+ε = −d + J⁺(J d − r). Its fixed points satisfy r = 0 and d ⊥ null(J): free members (a coupler's
+idle spin, a crank whose input window has closed) do not move, like SolveSpace's dragged
+solve. J⁺ comes from the Cholesky (or sparse LU) factorization of JᵀJ + μI, μ = 1e-13 of its
+largest diagonal. Whether J has a null space is decided once per set of active inputs (a rank
+at the first pose that has it) and, at each pose, by small pivots; only then is the null space
+taken (an SVD of J: the normal equations' solution is rounding there, amplified by 1/μ), its
+component removed from every correction and velocity, and the last iterations use fresh
+Jacobians until d ⊥ null(J) to :attr:`Options.still_tol`.
 
-Under-constrained directions get no step (the gradient has no component there and the damping
-floor keeps the matrix definite), so free members stay where they were.
+**Continuation.** From a solved pose x at time s, with its factorization and exact velocity v
+(J v = −∂r/∂t, least norm), a step of length h starts from the polynomial through the last ten
+accepted poses (or, where that strays from it, from x ⊕ (h·v + ½h²·a), a the change of velocity
+since the pose before), and corrects it by simplified Newton with the factorization of x (one back-substitution per iteration), falling back
+to Levenberg–Marquardt with fresh Jacobians. A (sub-)step is accepted when it converges to a
+pose within :attr:`Options.predictor_tol` of its tangent prediction x ⊕ h·v and moves at most
+:attr:`Options.max_motion`; otherwise it is halved. So a coarse run solves the same poses as a
+fine one (the same branch), or fails at the time where the step fell below
+:attr:`Options.min_fraction` of a time step (a lock-up, a singular pose). A failed step is not
+continued from: the next one starts again from the last good pose (continuation, then a direct
+solve from it).
 
-The alternative ``slsqp-fd`` is the paper's method: SciPy SLSQP on the summed scalar cost with
-2-point finite-difference gradients. Finite differences and a summed (squared) cost cannot
-reach the 1e-12 of the analytic path (the squared residual reaches the rounding level of the
-cost first; SLSQP typically stops near 1e-7), so it is judged by its own tolerance
-:data:`SLSQP_TOL`: a step is **converged** when SLSQP reports success and the largest scaled
-residual row is ≤ ``SLSQP_TOL`` (1e-6), **inconsistent** when SLSQP reports success (a
-minimum of the cost) above it, and **did not converge** when SLSQP reports failure.
+Each accepted pose is factorized once: that factorization gives its velocity, its rank test and
+the corrections of the next step.
+
+Status per step: **converged** (largest scaled residual row ≤ tol), **inconsistent** (the
+least-squares cost stopped decreasing above tol: the constraints contradict each other) or
+**did not converge** (iteration budget, or the step shrank below the smallest sub-step).
+
+The alternative ``slsqp-fd`` is the paper's method: SciPy SLSQP on the summed scaled cost with
+2-point finite-difference gradients, each step started from the previous one. It cannot reach
+the 1e-12 of the analytic path (SLSQP typically stops near 1e-7), so it is judged by
+:data:`SLSQP_TOL`: **converged** when SLSQP reports success and the largest scaled residual
+row is ≤ 1e-6, **inconsistent** when it reports success above it, **did not converge** when
+it reports failure.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -45,22 +61,34 @@ STATUS_NAMES = ("converged", "inconsistent", "did not converge")
 SOLVERS = ("lm", "slsqp-fd")
 #: largest scaled residual row of a converged ``slsqp-fd`` step (``Options.tol`` is the LM one)
 SLSQP_TOL = 1e-6
+#: a pivot of the factorized JᵀJ + μI below this fraction of its largest diagonal entry is a
+#: direction J does not see (a free degree of freedom)
+FREE_PIVOT = 1e-4
+#: singular values of the scaled J below this fraction of the largest span its null space
+NULL_SINGULAR = 1e-8
+#: Levenberg–Marquardt iterations a continuation (sub-)step may take before it is halved
+SUBSTEP_ITERATIONS = 20
+#: degree of the polynomial through the last accepted poses that starts a step when it agrees
+#: with the second-order tangent prediction
+PREDICT_ORDER = 9
 
 
 @dataclass
 class Options:
-    """Solver settings. ``tol``: largest residual row (lengths divided by the system's length
-    scale, angles in radians) counted as satisfied; ``predict_order``: degree of the
-    extrapolation from previous steps; ``reuse_ratio``: keep reusing a factorization within a
-    step while each iteration shrinks the residual by at least this factor (0: a fresh Jacobian
-    always); ``refresh_ratio``: refactorize at the next step once an iteration shrinks it by
-    less than this."""
+    """Solver settings (scaled quantities: lengths divided by the mechanism's size, radians).
+
+    ``tol``: largest residual row counted as satisfied; ``max_iterations``: linear solves per
+    (sub-)step; ``predictor_tol``: largest distance between a sub-step's tangent prediction and
+    its solution; ``max_motion``: largest motion of a sub-step; ``min_fraction``: smallest
+    sub-step, as a fraction of a time step; ``still_tol``: largest component of a pose's change
+    along free directions."""
 
     tol: float = 1e-12
     max_iterations: int = 100
-    predict_order: int = 9
-    reuse_ratio: float = 0.3
-    refresh_ratio: float = 0.05
+    predictor_tol: float = 2e-3
+    max_motion: float = 0.05
+    min_fraction: float = 1e-9
+    still_tol: float = 1e-10
     solver: str = "lm"
 
     @property
@@ -77,17 +105,64 @@ class StepResult:
 
 
 @dataclass
-class _Reuse:
-    """The last factorization and the linearization it came from."""
+class Linear:
+    """A pose's Jacobian (scaled), its factorization and, where J has a null space, an
+    orthonormal basis of it (N, f) (None when J has full column rank)."""
 
-    factor: Factor | None = None
-    lin: Linearization | None = None
-    stale: bool = False  #: refactorize at the start of the next step
+    ev: Evaluation
+    lin: Linearization
+    factor: Factor
+    null: np.ndarray | None
+
+    def least_norm(self, b: np.ndarray) -> np.ndarray:
+        """The least-norm y (N,) of J y = b (R,): the normal equations' solution (regularized
+        by μ) without its component along the null space (there it is rounding amplified by 1/μ)."""
+        return self.still(self.factor.solve(self.lin.gradient(b)))
+
+    def still(self, d: np.ndarray) -> np.ndarray:
+        """d (N,) without its component along the null space of J."""
+        return d if self.null is None else d - self.null @ (self.null.T @ d)
+
+
+@dataclass
+class Pose:
+    """A solved pose at time ``t``: state, residual, linearization, scaled velocity (N,) and
+    the change of velocity per unit time since the pose before (N,) (None for the first)."""
+
+    t: float
+    state: State
+    r: np.ndarray
+    linear: Linear
+    velocity: np.ndarray
+    trend: np.ndarray | None = None
+    #: the accepted poses of this continuation up to this one, newest last: times (k,),
+    #: positions (k, M, 3), quaternions (k, M, 4), k ≤ PREDICT_ORDER + 1
+    history: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def followed_by(self, t: float, state: State, r: np.ndarray, linear: "Linear", velocity: np.ndarray) -> "Pose":
+        """The next accepted pose of the continuation."""
+        ts, P, Q = self.history or (np.array([self.t]), self.state.position[None], self.state.orientation[None])
+        keep = slice(-PREDICT_ORDER, None)
+        history = (np.append(ts[keep], t), np.concatenate([P[keep], state.position[None]]),
+                   np.concatenate([Q[keep], state.orientation[None]]))
+        return Pose(t, state, r, linear, velocity, (velocity - self.velocity) / (t - self.t), history)
+
+    def extrapolated(self, t: float) -> State | None:
+        """The Lagrange polynomial through the history's poses at t (quaternions component-wise,
+        then normalized: consecutive solved quaternions never flip sign); None with fewer than
+        three poses."""
+        if self.history is None or len(self.history[0]) < 3:
+            return None
+        ts, P, Q = self.history
+        w = lagrange_weights(ts, np.asarray(t))
+        k = len(w)
+        return State((w @ P.reshape(k, -1)).reshape(P.shape[1:]),
+                     quat.normalize((w @ Q.reshape(k, -1)).reshape(Q.shape[1:])))
 
 
 @dataclass
 class Solver:
-    """Solves one system step by step, keeping the factorization to reuse (see module docstring)."""
+    """Solves one system pose by pose (see module docstring)."""
 
     system: System
     options: Options = field(default_factory=Options)
@@ -95,105 +170,281 @@ class Solver:
     def __post_init__(self) -> None:
         s = self.system
         self.normal = NormalEquations(s.groups, s.n_members, s.n_rows)
-        self.reuse = _Reuse()
+        L = s.length_scale
+        self.col = np.tile(np.r_[np.full(3, L), np.ones(3)], s.n_members)  #: scaled → real unknowns
+        self.row = s.row_scale
+        six = np.r_[np.full(3, L), np.ones(3)]
+        self.group_scale = [self.row[g.rows][:, :, None, None] * six for g in s.groups]
+        self.iterations = self.factorizations = 0
+        self.structure: dict[bytes, bool] = {}  #: active-input pattern → J has a null space
 
-    def _error(self, r: np.ndarray) -> float:
+    # ---- building blocks --------------------------------------------------------------------
+
+    def error(self, r: np.ndarray) -> float:
         """The largest scaled residual row."""
-        return float((np.abs(r) * self.system.row_scale).max()) if r.size else 0.0
+        return float((np.abs(r) * self.row).max()) if r.size else 0.0
+
+    def linearize(self, x: State, table: StepTable, step: int, damping: float = 0.0) -> Linear:
+        """Evaluate the Jacobian at x and factorize the scaled JᵀJ (+ damping·diag + μI)."""
+        ev = self.system.evaluate(x, table, step, jacobian=True)
+        lin = self.normal.linearize([J * s for J, s in zip(ev.jac, self.group_scale)])
+        diagonal = self.normal.diagonal(lin.data)
+        top = max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
+        factor = self.normal.factor(lin.data, damping, 1e-13 * top)
+        self.factorizations += 1
+        null = None
+        if self._free(table, step, lin) and (factor.pivots() < FREE_PIVOT * top).any():
+            J = lin.JT.T
+            _, sv, Vt = np.linalg.svd(J.toarray() if hasattr(J, "toarray") else J)
+            rank = int(np.sum(sv > NULL_SINGULAR * sv[0])) if sv.size else 0
+            null = Vt[rank:].T if rank < Vt.shape[0] else None
+        return Linear(ev, lin, factor, null)
+
+    def _free(self, table: StepTable, step: int, lin: Linearization) -> bool:
+        """Whether J has a null space for the inputs active at this step: its rank is taken
+        (block by block) the first time each set of active inputs is met, and kept."""
+        key = table.at(step).inactive_rows.tobytes()
+        if key not in self.structure:
+            from linkedit.gcs.diagnostics import jacobian_rank
+
+            J = lin.JT.T
+            self.structure[key] = jacobian_rank(J.toarray() if hasattr(J, "toarray") else np.asarray(J)) \
+                < self.system.n_unknowns
+        return self.structure[key]
+
+    def moved(self, x: State, e: np.ndarray) -> State:
+        return x.moved(e * self.col)
+
+    def displacement(self, x: State, anchor: State) -> np.ndarray:
+        """Scaled local coordinates (N,) from the anchor to x."""
+        return x.minus(anchor) / self.col
+
+    def velocity(self, x: State, table: StepTable, step: int, linear: Linear) -> np.ndarray:
+        """The least-norm scaled velocity v (N,) of J v = −∂r/∂t."""
+        rt = self.system.time_derivative(x, table, step, linear.ev)
+        return linear.least_norm(-rt * self.row)
+
+    def _residual(self, x: State, table: StepTable, step: int) -> np.ndarray:
+        return self.system.evaluate(x, table, step).r
+
+    # ---- one pose ---------------------------------------------------------------------------
+
+    def chord(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable,
+              step: int) -> tuple[State, np.ndarray, bool]:
+        """Minimum-change simplified Newton with a kept factorization while it contracts the
+        residual at least twofold: the best (state, residual) and whether it converged."""
+        tol = self.options.tol
+        norm = float(np.linalg.norm(r * self.row))
+        while self.error(r) > tol:
+            e = -linear.least_norm(r * self.row)
+            if linear.null is not None:
+                d = self.displacement(x, anchor)
+                e -= linear.null @ (linear.null.T @ d)
+            x1 = self.moved(x, e)
+            r1 = self._residual(x1, table, step)
+            self.iterations += 1
+            norm1 = float(np.linalg.norm(r1 * self.row))
+            if not norm1 < 0.5 * norm or not np.isfinite(norm1):
+                return (x1, r1, False) if norm1 < norm else (x, r, False)
+            x, r, norm = x1, r1, norm1
+        return x, r, True
+
+    def levenberg_marquardt(self, x: State, r: np.ndarray, table: StepTable, step: int,
+                            budget: int | None = None) -> tuple[State, np.ndarray, int]:
+        """Levenberg–Marquardt with fresh Jacobians from x: (state, residual, status). Damping
+        λ·diag(JᵀJ) is raised on failure and lowered on success; the cost stalling above tol
+        is INCONSISTENT, the iteration ``budget`` (default ``max_iterations``) running out NOT_CONVERGED."""
+        opt = self.options
+        lam, stalls, f = 1e-10, 0, float(np.sum((r * self.row) ** 2))
+        ev = self.system.evaluate(x, table, step, jacobian=True)
+        budget = self.iterations + (budget or opt.max_iterations)
+        while self.iterations < budget:
+            lin = self.normal.linearize([J * s for J, s in zip(ev.jac, self.group_scale)])
+            diagonal = self.normal.diagonal(lin.data)
+            floor = 1e-13 * max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
+            while True:
+                factor = self.normal.factor(lin.data, lam, floor)
+                self.factorizations += 1
+                x1 = self.moved(x, -factor.solve(lin.gradient(r * self.row)))
+                ev1 = self.system.evaluate(x1, table, step, jacobian=True)
+                self.iterations += 1
+                f1 = float(np.sum((ev1.r * self.row) ** 2))
+                if f1 < f:
+                    break
+                lam *= 10.0
+                if lam > 1e10 or self.iterations >= budget:
+                    return x, r, INCONSISTENT if lam > 1e10 else NOT_CONVERGED
+            stalls = stalls + 1 if f - f1 <= 1e-9 * f else 0
+            x, r, f, ev = x1, ev1.r, f1, ev1
+            lam = max(lam / 10.0, 1e-12)
+            if self.error(r) <= opt.tol:
+                return x, r, CONVERGED
+            if stalls >= 3:
+                return x, r, INCONSISTENT
+        return x, r, NOT_CONVERGED
+
+    def settle(self, x: State, r: np.ndarray, anchor: State, table: StepTable, step: int) -> tuple[State, np.ndarray, Linear]:
+        """Linearize a converged pose; where J has a null space, remove the pose's change along
+        it (minimum change from the anchor) with fresh Jacobians until below ``still_tol``."""
+        opt = self.options
+        linear = self.linearize(x, table, step)
+        for _ in range(8):
+            if linear.null is None:
+                break
+            d = self.displacement(x, anchor)
+            free = d - linear.still(d)
+            if np.abs(free).max(initial=0.0) <= opt.still_tol:
+                break
+            x1 = self.moved(x, -free - linear.least_norm(r * self.row))
+            r1 = self._residual(x1, table, step)
+            self.iterations += 1
+            x1, r1, ok = self.chord(x1, r1, anchor, linear, table, step)
+            if not ok:
+                break  # best effort: the converged pose stands
+            x, r = x1, r1
+            linear = self.linearize(x, table, step)
+        return x, r, linear
+
+    def pose(self, start: State, anchor: State, table: StepTable, step: int,
+             linear: Linear | None = None, budget: int | None = None) -> tuple[State, np.ndarray, int]:
+        """Solve one time from ``start``, closest to ``anchor``: chord with ``linear`` if given,
+        then Levenberg–Marquardt (``budget`` iterations)."""
+        r = self._residual(start, table, step)
+        x, ok = start, False
+        if linear is not None:
+            x, r, ok = self.chord(start, r, anchor, linear, table, step)
+        if ok:
+            return x, r, CONVERGED
+        if self.error(r) <= self.options.tol:
+            return x, r, CONVERGED
+        return self.levenberg_marquardt(x, r, table, step, budget)
 
     def solve(self, start: State, table: StepTable, step: int) -> tuple[State, np.ndarray, StepResult]:
-        """Solve one step from ``start``: (state, residual (R,), StepResult)."""
+        """Solve one step of ``table`` from ``start`` (closest to it): (state, residual, StepResult)."""
         if self.options.solver == "slsqp-fd":
-            return solve_slsqp(self.system, start, table, step, self.options)
-        fresh = self.reuse.factor is None or self.reuse.stale or self.options.reuse_ratio <= 0
-        ev = self.system.evaluate(start, table, step, jacobian=fresh)
-        error = self._error(ev.r)
-        if error <= self.options.tol:
-            return start, ev.r, StepResult(CONVERGED, 0, 0)
-        x, iterations = start, 0
-        if not fresh:
-            x, r, iterations, converged = self._chord(start, ev.r, table, step)
-            if converged:
-                return x, r, StepResult(CONVERGED, iterations, 0)
-            ev = self.system.evaluate(x, table, step, jacobian=True)
-            error = self._error(r)
-        return self._levenberg_marquardt(x, ev, error, table, step, iterations)
+            return solve_slsqp(self, start, table, step)
+        it0, f0 = self.iterations, self.factorizations
+        x, r, status = self.pose(start, start, table, step)
+        if status == CONVERGED:
+            x, r, _ = self.settle(x, r, start, table, step)
+        return x, r, StepResult(status, self.iterations - it0, self.factorizations - f0)
 
-    def _chord(self, x: State, r: np.ndarray, table: StepTable, step: int) -> tuple[State, np.ndarray, int, bool]:
-        """Simplified Newton with the kept factorization while it contracts the residual by
-        ``reuse_ratio`` per iteration: the best (state, residual), the iterations taken and
-        whether that state is converged. Marks the factorization stale when an iteration
-        contracts by less than ``refresh_ratio``."""
-        opt, kept = self.options, self.reuse
-        norm = r @ r
-        iterations = 0
-        while iterations < opt.max_iterations:
-            x1 = x.moved(-kept.factor.solve(kept.lin.gradient(r)))
-            r1 = self.system.evaluate(x1, table, step).r
-            iterations += 1
-            norm1 = r1 @ r1
-            if norm1 > opt.refresh_ratio**2 * norm:
-                kept.stale = True
-            if self._error(r1) <= opt.tol:
-                return x1, r1, iterations, True
-            if norm1 < norm:
-                x, r = x1, r1
-            if not norm1 < opt.reuse_ratio**2 * norm:
-                break
-            norm = norm1
-        return x, r, iterations, False
+    # ---- continuation -----------------------------------------------------------------------
 
-    def _levenberg_marquardt(self, x: State, ev: Evaluation, error: float, table: StepTable, step: int,
-                             iterations: int) -> tuple[State, np.ndarray, StepResult]:
-        """Levenberg–Marquardt from ``x`` (evaluated with its Jacobian; scaled ``error``).
+    def first(self, anchor: State, table: StepTable, step: int) -> tuple[State, np.ndarray, int, Pose | None]:
+        """Assemble at one step from ``anchor``: (state, residual, status, pose if converged)."""
+        x, r, status = self.pose(anchor, anchor, table, step)
+        if status != CONVERGED:
+            return x, r, status, None
+        x, r, linear = self.settle(x, r, anchor, table, step)
+        return x, r, status, Pose(float(table.t[step]), x, r, linear, self.velocity(x, table, step, linear))
 
-        Far from the solution (error above tol^¼) a trial point is evaluated with its Jacobian
-        at once (it is needed if the step is accepted). Close to it, a step that shrank the error
-        by a factor c leaves error·c to the next step with the same factorization (the
-        contraction of a reused factorization is about that of the step that moved away from
-        it), so when that is below tolerance the factorization is reused; a reused one that
-        fails is replaced by a fresh linearization, a fresh one that fails gets more damping."""
-        sys, opt = self.system, self.options
-        lam, lam_min = 1e-10, 1e-12
-        r = ev.r
-        f = float(r @ r)
-        lin, factor, fresh = self.normal.linearize(ev.jac), None, True
-        factorizations = stalls = 0
-        while iterations < opt.max_iterations:
-            if factor is None:
-                diagonal = self.normal.diagonal(lin.data)
-                floor = 1e-13 * max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
-                factor = self.normal.factor(lin.data, lam, floor)
-                factorizations += 1
-            x1 = x.moved(-factor.solve(lin.gradient(r)))
-            iterations += 1
-            ev1 = sys.evaluate(x1, table, step, jacobian=error > opt.tol**0.25)
-            f1 = float(ev1.r @ ev1.r)
-            if f1 < f:
-                if fresh and lam <= 1e-8:
-                    self.reuse = _Reuse(factor, lin)
-                stalls = stalls + 1 if f - f1 <= 1e-9 * f else 0
-                error1 = self._error(ev1.r)
-                x, r, f, error, contraction = x1, ev1.r, f1, error1, error1 / error
-                lam = max(lam / 10.0, lam_min)
-                if error <= opt.tol:
-                    return x, r, StepResult(CONVERGED, iterations, factorizations)
-                if stalls >= 3:
-                    return x, r, StepResult(INCONSISTENT, iterations, factorizations)
-                if ev1.jac is None and error * contraction <= 0.1 * opt.tol:
-                    fresh = False
-                    continue
-                ev = ev1 if ev1.jac is not None else sys.evaluate(x, table, step, jacobian=True)
-            elif fresh:
-                lam *= 10.0
-                factor = None
-                if lam > 1e10:
-                    return x, r, StepResult(INCONSISTENT, iterations, factorizations)
+    def advance(self, good: Pose, table: StepTable, step: int) -> tuple[State, np.ndarray, int, Pose | None, float]:
+        """Continue from a solved pose to step ``step`` of ``table`` by accepted sub-steps
+        (module docstring): (state, residual, status, pose if converged, time reached)."""
+        opt = self.options
+        t1 = float(table.t[step])
+        span = t1 - good.t
+        here, anchor = good, good.state
+        h = span
+        best = (good.state, good.r, NOT_CONVERGED)
+        while True:
+            h = min(h, t1 - here.t)
+            speed = float(np.abs(here.velocity).max(initial=0.0))
+            if speed * h > opt.max_motion:
+                h = opt.max_motion / speed
+            if h < opt.min_fraction * abs(span):
+                return (*best, None, here.t)
+            s = t1 if h >= t1 - here.t else here.t + h
+            tab, k = (table, step) if s == t1 else (self.system.step_table(np.array([s])), 0)
+            tangent = self.moved(here.state, h * here.velocity)
+            guess = tangent if here.trend is None else \
+                self.moved(here.state, h * here.velocity + 0.5 * h * h * here.trend)
+            smooth = here.extrapolated(s)
+            if smooth is not None and np.abs(self.displacement(smooth, guess)).max() < opt.predictor_tol:
+                guess = smooth
+            x, r, status = self.pose(guess, anchor, tab, k, here.linear, budget=SUBSTEP_ITERATIONS)
+            near = status == CONVERGED and np.abs(self.displacement(x, tangent)).max() <= opt.predictor_tol
+            if not near:
+                best = (x, r, status if status != CONVERGED else NOT_CONVERGED)
+                h *= 0.5
                 continue
+            x, r, linear = self.settle(x, r, anchor, tab, k)
+            here = here.followed_by(s, x, r, linear, self.velocity(x, tab, k, linear))
+            if s == t1:
+                return x, r, CONVERGED, here, s
+            h *= 2.0
+
+
+@dataclass
+class Run:
+    """Member states, velocities and per-step diagnostics over T steps."""
+
+    t: np.ndarray  #: (T,)
+    position: np.ndarray  #: (T, M, 3)
+    orientation: np.ndarray  #: (T, M, 4)
+    velocity: np.ndarray  #: (T, M, 6): d position / dt and world angular velocity
+    residual: np.ndarray  #: (T, R) residual vector at each solved step
+    status: np.ndarray  #: (T,) int8: 0 converged, 1 inconsistent, 2 did not converge
+    iterations: np.ndarray  #: (T,) linear solves
+    factorizations: np.ndarray  #: (T,)
+    #: (T,) time up to which a failed step's continuation got (t of the step when converged)
+    reached: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def state(self, step: int) -> State:
+        return State(self.position[step], self.orientation[step])
+
+
+def solve_run(system: System, t: np.ndarray, options: Options | None = None, start: State | None = None,
+              table: StepTable | None = None, progress: Callable[[int, int], None] | None = None) -> Run:
+    """Solve every time step of ``t`` (T,) by continuation from the first (module docstring);
+    ``progress(k, T)`` is called after each step."""
+    options = options or Options()
+    t = np.asarray(t, dtype=float)
+    table = table or system.step_table(t)
+    solver = Solver(system, options)
+    T, M = t.size, system.n_members
+    pos, ori = np.empty((T, M, 3)), np.empty((T, M, 4))
+    vel = np.zeros((T, M, 6))
+    res = np.empty((T, system.n_rows))
+    status = np.empty(T, dtype=np.int8)
+    iters, facts = np.zeros(T, dtype=np.int32), np.zeros(T, dtype=np.int32)
+    reached = t.copy()
+    good: Pose | None = None
+    stuck = False  # the continuation from ``good`` failed once: it would fail again at the same place
+    rest = (start or system.rest).copy()
+    for k in range(T):
+        it0, f0 = solver.iterations, solver.factorizations
+        if options.solver == "slsqp-fd":
+            x, r, info = solver.solve(good.state if good else rest, table, k)
+            st, pose = info.status, None
+            if st == CONVERGED:
+                linear = solver.linearize(x, table, k)
+                pose = Pose(t[k], x, r, linear, solver.velocity(x, table, k, linear))
+        elif good is None:
+            x, r, st, pose = solver.first(rest, table, k)
+        else:
+            pose, tried = None, not stuck
+            if tried:
+                x, r, st, pose, reached[k] = solver.advance(good, table, k)
+                stuck = pose is None
             else:
-                ev = sys.evaluate(x, table, step, jacobian=True)
-            lin, factor, fresh = self.normal.linearize(ev.jac), None, True
-        return x, r, StepResult(NOT_CONVERGED, iterations, factorizations)
+                reached[k] = reached[k - 1]
+            if pose is None:  # continuation failed: solve directly from the last good pose
+                x2, r2, st2, pose = solver.first(good.state, table, k)
+                if pose is not None or not tried or r2 @ r2 < r @ r:
+                    x, r, st = x2, r2, st2
+                if pose is not None:
+                    reached[k] = t[k]
+        if pose is not None:
+            good, stuck = pose, False
+            vel[k] = (pose.velocity * solver.col).reshape(M, 6)
+        pos[k], ori[k], res[k], status[k] = x.position, x.orientation, r, st
+        iters[k], facts[k] = solver.iterations - it0, solver.factorizations - f0
+        if progress is not None:
+            progress(k, T)
+    return Run(t=t, position=pos, orientation=ori, velocity=vel, residual=res, status=status,
+               iterations=iters, factorizations=facts, reached=reached)
 
 
 def lagrange_weights(nodes: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -205,89 +456,21 @@ def lagrange_weights(nodes: np.ndarray, t: np.ndarray) -> np.ndarray:
     return ratio.prod(axis=-1)
 
 
-def predict(weights: np.ndarray, positions: np.ndarray, orientations: np.ndarray) -> State:
-    """Extrapolate member states with Lagrange ``weights`` (k,) from the k last solved steps:
-    positions (k, M, 3) and quaternions (k, M, 4), the latter component-wise then normalized
-    (consecutive solved quaternions never flip sign)."""
-    k = len(weights)
-    P = (weights @ positions.reshape(k, -1)).reshape(positions.shape[1:])
-    Q = (weights @ orientations.reshape(k, -1)).reshape(orientations.shape[1:])
-    return State(P, quat.normalize(Q))
-
-
-@dataclass
-class Run:
-    """Member states and per-step diagnostics over T steps."""
-
-    t: np.ndarray  #: (T,)
-    position: np.ndarray  #: (T, M, 3)
-    orientation: np.ndarray  #: (T, M, 4)
-    residual: np.ndarray  #: (T, R) residual vector at each solved step
-    status: np.ndarray  #: (T,) int8: 0 converged, 1 inconsistent, 2 did not converge
-    iterations: np.ndarray  #: (T,) linear solves
-    factorizations: np.ndarray  #: (T,)
-
-    def state(self, step: int) -> State:
-        return State(self.position[step], self.orientation[step])
-
-
-def solve_run(system: System, t: np.ndarray, options: Options | None = None,
-              start: State | None = None, table: StepTable | None = None) -> Run:
-    """Solve every time step of ``t`` (T,), each warm-started from the previous ones."""
-    options = options or Options()
-    t = np.asarray(t, dtype=float)
-    table = table or system.step_table(t)
-    solver = Solver(system, options)
-    T, M = t.size, system.n_members
-    pos = np.empty((T, M, 3))
-    ori = np.empty((T, M, 4))
-    res = np.empty((T, system.n_rows))
-    status = np.empty(T, dtype=np.int8)
-    iters = np.empty(T, dtype=np.int32)
-    facts = np.empty(T, dtype=np.int32)
-    n = options.predict_order + 1  # steps in a full stencil
-    usual = lagrange_weights(np.lib.stride_tricks.sliding_window_view(t, n)[:-1], t[n:]) if T > n else None
-    first = 0  # steps first..k−1 converged: the prediction goes through the last n of them
-    current = (start or system.rest).copy()
-    for k in range(T):
-        first = max(first, k - n)
-        if k - first < 2:
-            guess = current
-        else:
-            w = usual[k - n] if k - first == n else lagrange_weights(t[first:k], t[k])
-            guess = predict(w, pos[first:k], ori[first:k])
-        state, r, info = solver.solve(guess, table, k)
-        if info.status != CONVERGED and k > first:
-            # the prediction may have overshot: retry from the last solved state
-            state2, r2, info2 = solver.solve(current, table, k)
-            if info2.status == CONVERGED or r2 @ r2 < r @ r:
-                state, r, info = state2, r2, StepResult(info2.status, info.iterations + info2.iterations,
-                                                        info.factorizations + info2.factorizations)
-        pos[k], ori[k], res[k] = state.position, state.orientation, r
-        status[k], iters[k], facts[k] = info.status, info.iterations, info.factorizations
-        if info.status != CONVERGED:
-            first = k + 1  # restart the prediction after a failed step
-        current = state
-    return Run(t=t, position=pos, orientation=ori, residual=res, status=status, iterations=iters, factorizations=facts)
-
-
-def solve_slsqp(system: System, start: State, table: StepTable, step: int,
-                options: Options) -> tuple[State, np.ndarray, StepResult]:
-    """The paper's method: SLSQP on the summed cost Σ|r|², 2-point finite-difference gradients."""
+def solve_slsqp(solver: Solver, start: State, table: StepTable, step: int) -> tuple[State, np.ndarray, StepResult]:
+    """The paper's method: SLSQP on the summed scaled cost Σ|r|², 2-point finite-difference gradients."""
     from scipy.optimize import minimize
 
-    def moved(z: np.ndarray) -> State:
-        return start.moved(z)
+    system = solver.system
 
     def cost(z: np.ndarray) -> float:
-        r = system.evaluate(moved(z), table, step).r
+        r = system.evaluate(solver.moved(start, z), table, step).r * solver.row
         return float(r @ r)
 
     out = minimize(cost, np.zeros(system.n_unknowns), method="SLSQP",
                    options={"maxiter": 1000, "ftol": 1e-16})
-    x = moved(out.x)
+    x = solver.moved(start, out.x)
     r = system.evaluate(x, table, step).r
-    err = float(np.max(np.abs(r) * system.row_scale, initial=0.0))
+    err = solver.error(r)
     if not out.success:
         status = NOT_CONVERGED
     else:

@@ -113,7 +113,8 @@ class StepTable:
     """Parameters driven by inputs, evaluated once for the whole run: per step, the driven
     member-space vectors (T, S, 9) (as :attr:`System.vectors`) and inverse relative
     orientations (T, S', 4); per block, the activity (T, n) of its constraints (None for a
-    block without inputs), and (T,) whether any input is outside its window."""
+    block without inputs) and the rates of its driven ones, and (T,) whether any input is
+    outside its window."""
 
     t: np.ndarray
     vectors: np.ndarray
@@ -121,6 +122,8 @@ class StepTable:
     active: list[np.ndarray | None]
     partial: np.ndarray
     system: "System" = field(repr=False)
+    #: per block, the virtual velocities (T, S, 6) of its driven constraints (Schedule.rate), or None
+    rates: list[np.ndarray | None] = field(default_factory=list, repr=False)
     _last: tuple[int, StepParameters] | None = field(default=None, repr=False)
 
     def at(self, step: int) -> StepParameters:
@@ -159,6 +162,12 @@ class State:
         """The state after a step of local coordinates ``delta`` (6M,)."""
         d = delta.reshape(-1, 6)
         return State(self.position + d[:, :3], quat.turned(self.orientation, d[:, 3:]))
+
+    def minus(self, other: "State") -> np.ndarray:
+        """Local coordinates (6M,) from ``other`` to this state: position differences and the
+        world-frame rotation vectors log(q ⊗ q_other⁻¹)."""
+        phi = quat.log(quat.multiply(self.orientation, quat.conjugate(other.orientation)))
+        return np.concatenate([self.position - other.position, phi], axis=1).ravel()
 
 
 @dataclass
@@ -221,9 +230,7 @@ class System:
         """Compile elementary constraints (member indices, WORLD = −1) into batched blocks."""
         M = len(member_names)
         if length_scale is None:
-            coords = [np.abs(rest.position).max(initial=0.0)]
-            coords += [np.abs(np.array([e.sa, e.sb])).max() for e in elementary if e.kind in ("location", "plane")]
-            length_scale = max(1.0, float(max(coords)))
+            length_scale = characteristic_length(rest, elementary, points or {}, member_names)
         blocks, row_owner, row_scale, groups = [], [], [], []
         vec_member, vectors, driven = [], [], []
         rel, driven_rel = np.zeros((0, 4)), np.zeros(0, dtype=int)
@@ -283,11 +290,12 @@ class System:
     def step_table(self, t: np.ndarray) -> StepTable:
         """Evaluate every input's schedule at the times ``t`` (T,) once, for the whole run."""
         t = np.asarray(t, dtype=float)
-        vectors, rel_inverse, active = [], [], []
+        vectors, rel_inverse, active, rates = [], [], [], []
         partial = np.zeros(t.size, dtype=bool)
         for blk in self.blocks:
-            act = None
+            act = rate = None
             if len(blk.scheduled):
+                rate = np.stack([s.rate(t) for s in blk.schedules], axis=1)
                 values = np.stack([s.evaluate(t) for s in blk.schedules], axis=1)
                 if blk.kind == "orientation":
                     rel_inverse.append(quat.conjugate(values))
@@ -297,9 +305,10 @@ class System:
                 act[:, blk.scheduled] = np.stack([s.active(t) for s in blk.schedules], axis=1)
                 partial |= ~act.all(axis=1)
             active.append(act)
+            rates.append(rate)
         stack = lambda xs, k: np.concatenate(xs, axis=1) if xs else np.zeros((t.size, 0, k))  # noqa: E731
         return StepTable(t=t, vectors=stack(vectors, 9), rel_inverse=stack(rel_inverse, 4), active=active,
-                         partial=partial, system=self)
+                         partial=partial, system=self, rates=rates)
 
     # ---- evaluation -------------------------------------------------------------------------
 
@@ -345,6 +354,34 @@ class System:
                 jacs.append(jac.reshape(1, c.size, len(m), 6))
         return Evaluation(r, jacs if jacobian else None)
 
+    def time_derivative(self, state: State, table: StepTable, step: int, ev: Evaluation) -> np.ndarray:
+        """∂r/∂t (R,) at fixed member states: each driven constraint's rows times its input's
+        virtual velocity of member b (:meth:`~linkedit.gcs.inputs.Schedule.rate`, turned into
+        the world frame), through the b columns of the Jacobian ``ev.jac``. Custom constraints
+        that depend on t: central differences in t."""
+        out = np.zeros(self.n_rows)
+        Q = np.concatenate((state.orientation, _IDENTITY))
+        for blk, jac, rate in zip(self.blocks, ev.jac, table.rates):
+            if rate is None:
+                continue
+            s = blk.scheduled
+            Rb = quat.to_matrix(Q.take(blk.b[s], axis=0))  # (S, 3, 3)
+            w = rate[step].reshape(-1, 2, 3) @ np.swapaxes(Rb, 1, 2)  # (S, 2, 3): R_b u, R_b ω
+            out[blk.rows[s]] = np.einsum("skj,sj->sk", jac[s, :, 1, :], w.reshape(-1, 6))
+        if self.customs:
+            t = float(table.t[step])
+            h = 1e-6
+            row = self.blocks[-1].stop if self.blocks else 0
+            P, Qe = self._extended(state)
+            for c in self.customs:
+                m = list(c.members)
+                name = self.constraint_names[c.owner]
+                hi = _custom(c, name, P[m], Qe[m], t + h, False)[0]
+                lo = _custom(c, name, P[m], Qe[m], t - h, False)[0]
+                out[row:row + c.size] = (hi - lo) / (2 * h)
+                row += c.size
+        return out
+
     def costs(self, r: np.ndarray) -> np.ndarray:
         """Per named constraint cost (sum of its squared residuals), (C,) — or (T, C) for r (T, R)."""
         r = np.asarray(r)
@@ -366,6 +403,27 @@ class System:
             np.add.at(J, (rows, np.broadcast_to(cols, (n, k, m, 6))), jac)
         return J[:, : 6 * M]
 
+
+
+def characteristic_length(rest: State, elementary: list[Elementary], points: dict[str, dict[str, np.ndarray]],
+                          member_names: list[str]) -> float:
+    """The size of a mechanism: the diagonal of the bounding box of everything it places at
+    rest — member origins, shape points and constrained points turned into the world, world
+    targets — so that it scales with the units and not with where the mechanism sits. 1 when
+    everything is at one point."""
+    R = quat.to_matrix(rest.orientation)
+    world = [rest.position]
+    for m, name in enumerate(member_names):
+        pts = np.array(list(points.get(name, {}).values()), dtype=float).reshape(-1, 3)
+        world.append(rest.position[m] + pts @ R[m].T)
+    for e in elementary:
+        if e.kind in ("location", "plane"):
+            world.append((rest.position[e.a] + R[e.a] @ np.asarray(e.sa))[None])
+            if e.b == WORLD:
+                world.append(np.asarray(e.sb, dtype=float)[None])
+    X = np.concatenate(world)
+    size = float(np.linalg.norm(X.max(axis=0) - X.min(axis=0))) if X.size else 0.0
+    return size if size > 0.0 and np.isfinite(size) else 1.0
 
 
 def _custom(c: Custom, name: str, P: np.ndarray, Q: np.ndarray, t: float,
