@@ -55,14 +55,16 @@ class Track:
     timing: bool = True
     cyclic: bool = True
     size: float = 0.0  # size of the track's curve at the start of the operation (for reports)
+    shape: np.ndarray | None = None  # the polyline for ``timing: false`` when not ``target`` itself
 
     def deviation(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(signed deviation (S,) complex or real, unit direction) of the selected samples."""
         p = z[self.row, self.select]
         if self.timing:
             return p - self.target[self.select], np.ones(p.size, dtype=complex)
-        a = self.target if self.cyclic else self.target[:-1]
-        b = np.roll(self.target, -1) if self.cyclic else self.target[1:]
+        line = self.target if self.shape is None else self.shape
+        a = line if self.cyclic else line[:-1]
+        b = np.roll(line, -1) if self.cyclic else line[1:]
         seg = b - a
         rel = p[:, None] - a[None, :]
         s = np.clip((rel * seg.conj()).real / np.maximum(np.abs(seg) ** 2, 1e-300), 0.0, 1.0)
@@ -423,9 +425,13 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
     def curve(name: str) -> np.ndarray:
         return start.z[track_row[name], :T].copy()
 
+    rocking = plan.spec.motor.oscillate_deg is not None
     for p in op.preserved:
-        problem.tracking.append(Track(f"preserve {p.track}", track_row[p.track], curve(p.track),
-                                      me * w.preserve * p.weight, _select(t, p.phases), p.timing, cyclic))
+        c = curve(p.track)
+        # a rocking input traces its curve out and back: its shape is the outward half, open
+        shape = c[: (T + 1) // 2 + 1] if rocking else None
+        problem.tracking.append(Track(f"preserve {p.track}", track_row[p.track], c, me * w.preserve * p.weight,
+                                      _select(t, p.phases), p.timing, cyclic and not rocking, shape=shape))
     for r in op.listed("retarget"):
         c = curve(r.track)
         mid = c.mean()
