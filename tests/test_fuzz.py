@@ -5,7 +5,7 @@ value (an alias in the YAML text), rename a key to odd unicode. For every run: e
 {0, 1, 2}; no traceback; on exit ≠ 0 no output written; on exit 0 every number of the outputs
 finite, and a planar result keeps its link lengths to 1e-9 relative.
 
-The default profile runs ``FUZZ_EXAMPLES`` (60) inputs; ``LINKEDIT_FUZZ_EXAMPLES=2000 pytest
+The default profile runs ``FUZZ_EXAMPLES`` (40) inputs; ``LINKEDIT_FUZZ_EXAMPLES=2000 pytest
 tests/test_fuzz.py -m slow`` runs the long one. ``LINKEDIT_FUZZ_REPORT=path.json`` writes the
 counts of exit codes per kind of input.
 """
@@ -32,7 +32,7 @@ from typer.testing import CliRunner
 
 from tests.conftest import EXAMPLES
 
-FUZZ_EXAMPLES = int(os.environ.get("LINKEDIT_FUZZ_EXAMPLES", "60"))
+FUZZ_EXAMPLES = int(os.environ.get("LINKEDIT_FUZZ_EXAMPLES", "40"))
 LONG_EXAMPLES = int(os.environ.get("LINKEDIT_FUZZ_EXAMPLES", "1500"))
 COUNTS: collections.Counter = collections.Counter()
 
