@@ -107,7 +107,8 @@ def _bounded_edit(data: dict) -> None:
     """Keep a fuzzed edit quick: few samples, few iterations (the fuzz is about inputs, not convergence)."""
     if "samples" not in data or isinstance(data["samples"], int) and not isinstance(data["samples"], bool):
         data["samples"] = 16
-    for op in data.get("operations") or []:
+    operations = data.get("operations")
+    for op in operations if isinstance(operations, list) else []:
         if isinstance(op, dict):
             op["max_iterations"] = 15
 
