@@ -145,11 +145,13 @@ def test_six_bar_chains():
     assert not a & b  # Stephenson's chain: they do not
 
 
-def test_complex_loop_has_mobility_one_but_cannot_be_ordered():
+def test_complex_loop_has_mobility_one_and_is_ordered_as_one_numeric_group():
     graph = LinkageGraph.from_spec(catalog.complex_loop())
     assert mobility(graph).rank == 1
-    undetermined = order_joints(graph).undetermined
-    assert [graph.joint_names[k] for k in undetermined] == ["T1", "T2", "T3"]
+    ordering = order_joints(graph)
+    assert not ordering.undetermined and not ordering.rules  # no joint has two known neighbours
+    assert [(st.kind, [graph.joint_names[k] for k in st.joints]) for st in ordering.steps] == \
+        [("group", ["T1", "T2", "T3"])]
 
 
 # ---------------------------------------------------------------- YAML

@@ -87,9 +87,9 @@ def test_jansen_ordering_levels():
     assert rigid == {"E", "G"}
 
 
-def test_complex_loop_is_rejected_naming_the_joints():
-    with pytest.raises(MechanismError, match=r"joints T1, T2, T3 cannot be determined.*complex kinematic loop.*mobility 1"):
-        compile_plan(spec_of(TRIAD))
+def test_complex_loop_becomes_one_numeric_group():
+    plan = compile_plan(spec_of(TRIAD))
+    assert [(st.kind, st.name) for st in plan.steps] == [("group", "T1, T2, T3")]
 
 
 def test_under_constrained_linkage_reports_mobility():

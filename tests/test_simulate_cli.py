@@ -66,11 +66,14 @@ def test_lockup_exit_1_names_joint_and_angle_and_writes_nothing(run_cli, tmp_pat
         assert "joint B" in f["diagnostics"].attrs["lockups"]
 
 
-def test_complex_loop_exit_1(run_cli, tmp_path):
+def test_complex_loop_that_locks_up_exits_1_naming_the_group_and_angles(run_cli, tmp_path):
     path = tmp_path / "triad.yaml"
     path.write_text(TRIAD)
-    r = run_cli("simulate", path, "-o", tmp_path / "t.h5")
-    assert r.exit_code == 1 and "complex kinematic loop" in r.output and "Traceback" not in r.output
+    out = tmp_path / "t.h5"
+    r = run_cli("simulate", path, "-o", out)
+    assert r.exit_code == 1 and "Traceback" not in r.output, r.output
+    assert re.search(r"motor angles [\d.]+°…[\d.]+°: the numeric group T1, T2, T3 cannot be assembled", r.output)
+    assert not out.exists()
 
 
 def test_validate_prints_levels_and_mobility(run_cli, four_bar):

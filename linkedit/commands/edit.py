@@ -31,6 +31,7 @@ def _load(spec_path: Path | None, script_path: Path):
     elif script.linkage is not None:
         typer.echo(f"note: {script_path} names linkage {script.linkage}; editing {spec_path} as given", err=True)
     linkage = load_model(LinkageSpec, spec_path)
+    _refuse_unsupported(spec_path, linkage)
     try:
         check_against(script, linkage)
     except InputError as exc:
@@ -41,6 +42,23 @@ def _load(spec_path: Path | None, script_path: Path):
     except MechanismError as exc:
         raise MechanismError(f"{spec_path}: only a linkage that works can be edited: {exc}") from None
     return spec_path, linkage, script
+
+
+def _refuse_unsupported(spec_path: Path, linkage: Any) -> None:
+    """edit works on revolute linkages that closed-form rules order completely (one line, exit 2 otherwise)."""
+    from linkedit.planar import compile_plan
+
+    m = linkage.motor
+    why = None
+    if linkage.sliders or m.linear:
+        why = "sliders and linear inputs"
+    elif m.oscillate_deg is not None:
+        why = "oscillating (rocker) inputs"
+    elif compile_plan(linkage).steps:
+        why = "complex loops (numeric groups)"
+    if why is not None:
+        raise InputError(f"edit does not support sliders/numeric groups yet: this linkage has {why}",
+                         file=str(spec_path), field="linkage")
 
 
 def _report_lines(result: Any) -> list[str]:

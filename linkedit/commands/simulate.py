@@ -67,6 +67,9 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
         if engine == "numeric":
             from linkedit.gcs.planar_bridge import numeric_motion
 
+            if spec.sliders or spec.motor.linear or spec.motor.oscillate_deg is not None:
+                raise InputError("--engine numeric does not support sliders, linear or oscillating inputs yet "
+                                 "(use the default symbolic engine)", file=str(spec_path), field="--engine")
             motion = numeric_motion(plan, samples)
         else:
             motion = simulate(plan, samples, partial=partial)
@@ -83,12 +86,17 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
     return result
 
 
+def _at(m: dict[str, Any]) -> str:
+    """Where a minimum occurs: the motor angle, or a linear input's stroke."""
+    return f"{m['motor_angle_deg']:.1f}°" if "motor_angle_deg" in m else f"stroke {m['stroke']:.6g}"
+
+
 def _line(r: dict[str, Any]) -> str:
     samples = f"{r['samples']} sample" + ("s" if r["samples"] != 1 else "")
     parts = [f"{r['spec']}: {samples}, {r['rules']} rules in {r['levels']} levels"]
     if "min_singularity" in r:
         m = r["min_singularity"]
-        parts.append(f"min d_s {m['value']:.4f} (joint {m['joint']} at {m['motor_angle_deg']:.1f}°)")
+        parts.append(f"min d_s {m['value']:.4f} (joint {m['joint']} at {_at(m)})")
     if r.get("lockups"):
         parts.append("PARTIAL: " + "; ".join(r["lockups"]))
     out = ", ".join(parts) + f"\n  → {r['output']}"
@@ -170,6 +178,9 @@ def register(app: typer.Typer) -> None:
             for (i, j, k), lv, rigid in zip(plan.rules, plan.level, plan.rigid):
                 kind = "rigid" if rigid else "dyad"
                 levels.setdefault(int(lv), []).append(f"{names[k]} ← ({names[i]}, {names[j]}) {kind}")
+            for step in plan.steps:
+                levels.setdefault(int(step.level), []).append(step.describe(names))
+            levels = dict(sorted(levels.items()))
             reports.append({"spec": str(path)} | motion.summary() | {"grubler": plan.mobility.grubler,
                             "redundant": plan.mobility.redundant, "levels": levels,
                             "warnings": transmission_warnings(motion)})
@@ -186,8 +197,9 @@ def register(app: typer.Typer) -> None:
                     typer.echo(f"  level {lv}: " + "; ".join(items))
                 if "min_singularity" in r:
                     m = r["min_singularity"]
-                    typer.echo(f"  min d_s {m['value']:.4f} (joint {m['joint']} at {m['motor_angle_deg']:.1f}°), "
-                               f"worst transmission angle {r['worst_transmission_angle_deg']:.1f}°")
+                    alpha = r.get("worst_transmission_angle_deg")
+                    typer.echo(f"  min d_s {m['value']:.4f} (joint {m['joint']} at {_at(m)})"
+                               + (f", worst transmission angle {alpha:.1f}°" if alpha is not None else ""))
                 for lk in r.get("lockups", []):
                     typer.echo(f"  LOCK-UP: {lk}")
                 for w in r["warnings"]:

@@ -30,7 +30,10 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
                      format_version=FORMAT_VERSION) as f:
         f.attrs["name"] = spec.name
         f.attrs["engine"] = options.get("engine", "symbolic")
-        scale(f, "t", motion.t, "motor phase: fraction of a revolution (or of the range_deg sweep)", units="1")
+        f.attrs["input"] = "linear" if plan.linear else "rotary"
+        per = u if plan.linear else "rad"
+        what = "stroke" if plan.linear else "motor angle"
+        scale(f, "t", motion.t, "motor phase: fraction of a revolution (or of the range_deg sweep or stroke)", units="1")
         scale(f, "joint", names, "joint names, spec order")
         scale(f, "xy", ["x", "y"], "plane coordinate")
         scale(f, "link", list(plan.graph.link_names), "link names, spec order")
@@ -39,13 +42,17 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
         scale(f, "pair", np.arange(len(plan.pairs)), "index of a joint pair held at constant distance")
         scale(f, "end", [0, 1], "first or second joint of a pair")
         scale(f, "ijk", ["i", "j", "k"], "joints of a rule: k rebuilt from i and j")
-        put(f, "motor_angle", motion.motor_angle, dims=("t",), units="rad", description="absolute motor (crank) angle")
+        if plan.linear:
+            put(f, "stroke", motion.motor_angle, dims=("t",), units=u,
+                description="linear input: the driven joint's displacement along its slot from rest")
+        else:
+            put(f, "motor_angle", motion.motor_angle, dims=("t",), units="rad", description="absolute motor (crank) angle")
         j = f.create_group("joints")
         txy = ("t", "joint", "xy")
         put(j, "position", motion.positions, dims=txy, units=u, description="joint positions")
-        put(j, "velocity", motion.velocity, dims=txy, units=f"{u}/rad", description="d position / d motor angle")
-        put(j, "acceleration", motion.acceleration, dims=txy, units=f"{u}/rad**2",
-            description="d² position / d motor angle²")
+        put(j, "velocity", motion.velocity, dims=txy, units=f"{u}/{per}", description=f"d position / d {what}")
+        put(j, "acceleration", motion.acceleration, dims=txy, units=f"{u}/{per}**2",
+            description=f"d² position / d {what}²")
         put(j, "ground", np.array(plan.graph.ground, dtype=int), dims=("ground_joint",), description="indices of the ground joints")
         j.attrs["motor"] = plan.graph.motor
         j.attrs["pivot"] = plan.graph.pivot
@@ -57,9 +64,9 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
         for name, track in motion.tracks.items():
             g = tracks.create_group(name)
             put(g, "position", track.position, dims=TXY, units=u, description=f"position of track {name}")
-            put(g, "velocity", track.velocity, dims=TXY, units=f"{u}/rad", description="d position / d motor angle")
-            put(g, "acceleration", track.acceleration, dims=TXY, units=f"{u}/rad**2",
-                description="d² position / d motor angle²")
+            put(g, "velocity", track.velocity, dims=TXY, units=f"{u}/{per}", description=f"d position / d {what}")
+            put(g, "acceleration", track.acceleration, dims=TXY, units=f"{u}/{per}**2",
+                description=f"d² position / d {what}²")
         rules = f.create_group("rules")
         put(rules, "joints", plan.rules, dims=("rule", "ijk"),
             description="(i, j, k): joint k rebuilt from i and j, evaluation order")
@@ -67,6 +74,21 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
         put(rules, "rigid", plan.rigid, dims=("rule",), description="i, j, k on one link (else a dyad)")
         put(rules, "orientation", plan.orientation.astype(np.int8), dims=("rule",),
             description="orientation of triangle (i, j, k) at rest: +1 ccw, -1 cw, 0 collinear")
+        if plan.steps:
+            steps = f.create_group("steps")
+            put(steps, "kind", [st.kind for st in plan.steps], description="slider, drive, translate or group")
+            put(steps, "name", [st.name for st in plan.steps], description="the slider, or the group's joints")
+            put(steps, "level", np.array([st.level for st in plan.steps], dtype=int), description="level of each step")
+            for n, st in enumerate(plan.steps):
+                put(steps, f"joints/{n}", np.asarray(st.joints, dtype=int), description="joints the step writes")
+                put(steps, f"inputs/{n}", np.asarray(st.inputs, dtype=int), description="joints the step reads")
+        if plan.spec.sliders:
+            sl = f.create_group("sliders")
+            put(sl, "names", list(plan.spec.sliders), description="slider names, spec order")
+            put(sl, "joint", np.array([s.joint for s in plan.graph.sliders], dtype=int), description="joint in the slot, -1: a translating link")
+            put(sl, "link", np.array([s.link for s in plan.graph.sliders], dtype=int), description="translating link, -1: a joint slider")
+            put(sl, "guide", np.array([s.guide for s in plan.graph.sliders], dtype=int), description="guide link, -1: the frame")
+            put(sl, "angle", np.array([s.angle for s in plan.graph.sliders]), units="rad", description="slot direction at rest")
         d = f.create_group("diagnostics")
         put(d, "assembled", motion.assembled, dims=("t",), description="the linkage closes at this sample")
         put(d, "singularity", motion.singularity, dims=("t", "rule"), units="1",
@@ -75,9 +97,12 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
             description="angle at the rebuilt joint (a four-bar's coupler-rocker dyad: the transmission angle)")
         put(d, "orientation", motion.orientation, dims=("t", "rule"),
             description="orientation sign of each rule's triangle at each sample")
+        if plan.steps and motion.step_singularity is not None:
+            put(d, "step_singularity", motion.step_singularity, dims=("t", None), units="1",
+                description="per step: slider sin^2 of the rod's angle to the slot normal; group (smin/smax)^2; else 1")
         worst = motion.min_singularity()
         if worst is not None:
             d.attrs["min_singularity"] = worst[0]
             d.attrs["min_singularity_joint"] = worst[1]
-            d.attrs["min_singularity_motor_angle_deg"] = worst[2]
+            d.attrs["min_singularity_motor_angle_deg" if not plan.linear else "min_singularity_stroke"] = worst[2]
         d.attrs["lockups"] = "; ".join(lk.describe() for lk in motion.lockups)

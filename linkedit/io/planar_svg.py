@@ -18,7 +18,7 @@ def drawing(motion: Motion) -> dict[str, Any]:
     return dict(
         joint_names=plan.joint_names, positions=motion.positions[ok],
         links={n: list(m) for n, m in zip(plan.graph.link_names, plan.graph.links)},
-        ground=list(plan.graph.ground), motor=(plan.graph.motor, plan.graph.pivot),
+        ground=list(plan.graph.ground), motor=None if plan.linear else (plan.graph.motor, plan.graph.pivot),
         tracks={n: tr.position[ok] for n, tr in motion.tracks.items()},
         units=plan.spec.units, title=f"{plan.spec.name} ({int(np.sum(ok))} samples)",
     )

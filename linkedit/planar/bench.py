@@ -2,7 +2,10 @@
 
 "positions" is the reconstruction alone (:func:`linkedit.planar.kinematics.positions`);
 "+derivatives" adds analytic velocities and accelerations and the singularity distances
-(:func:`linkedit.planar.kinematics.evaluate`).
+(:func:`linkedit.planar.kinematics.evaluate`). The second table times the new rule kinds at
+360 samples against a dyadic four-bar of the same size: a closed-form slider (slider-crank)
+and a numeric group (the complex-loop six-bar, continued sample by sample), with the ratio
+to the four-bar.
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ import numpy as np
 
 from linkedit.planar import catalog
 from linkedit.planar.kinematics import Workspace, evaluate, positions
-from linkedit.planar.plan import compile_plan
+from linkedit.planar.plan import Geometry, compile_plan
 from linkedit.planar.simulate import motor_angles
 from linkedit.timing import best_time
 
@@ -35,3 +38,22 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
             full = best_time(lambda: evaluate(plan, geom, angle, order=2), budget_s=budget) / samples * 1e6
             target = f"≤ {TARGETS_360[name]}" if samples == 360 else ""
             echo(f"{name:<22}{plan.n_joints:>7}{int(plan.level.max()):>7}  {samples:>7}  {pos:>18.3f}  {full:>21.3f}  {target}")
+    rule_kinds(echo, budget)
+
+
+def rule_kinds(echo: Callable[[str], None], budget: float) -> None:
+    """µs per step at 360 samples: four-bar (dyads only), slider-crank, complex-loop six-bar."""
+    mechanisms = {"four-bar (dyad)": catalog.crank_rocker(), "slider-crank": catalog.slider_crank(),
+                  "complex-loop six-bar": catalog.complex_loop()}
+    echo("")
+    echo(f"{'rule kinds, 360 samples':<24}{'rules':>24}  {'positions µs/step':>18}  {'+derivatives µs/step':>21}  {'× four-bar':>10}")
+    base = None
+    for name, spec in mechanisms.items():
+        plan = compile_plan(spec)
+        geom = Geometry.of(plan, plan.normalized_points())
+        angle = motor_angles(spec, 360)[1]
+        pos = best_time(lambda: positions(plan, geom, angle), budget_s=budget) / 360 * 1e6
+        full = best_time(lambda: evaluate(plan, geom, angle, order=2), budget_s=budget) / 360 * 1e6
+        base = base or full
+        kinds = ", ".join(sorted({"rigid" if r else "dyad" for r in plan.rigid} | {st.kind for st in plan.steps}))
+        echo(f"{name:<24}{kinds:>24}  {pos:>18.3f}  {full:>21.3f}  {full / base:>10.1f}")

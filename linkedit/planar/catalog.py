@@ -261,22 +261,141 @@ def stephenson_six_bar() -> LinkageSpec:
 
 
 def complex_loop() -> LinkageSpec:
-    """A mobility-1 linkage that closed-form kinematics cannot order (mm): a class-III Assur group.
+    """A six-bar with a complex loop (mm): a class-III Assur group driven by a crank.
 
     The ternary body T1–T2–T3 hangs from the ground pivots P1, P2 and the crank pin A by three
     binary links. Once O, A, P1, P2 are known, no moving joint has two known neighbours, so
-    Algorithm 1 stops: T1, T2, T3 stay undetermined (the loop needs a numerical solver).
+    Algorithm 1 stops; T1, T2, T3 are solved as one numeric group (the crank turns fully).
     """
     return _spec(
         name="complex-loop", units="mm",
-        description="A class-III Assur group driven by a crank: mobility 1, but no joint can be "
-                    "placed from two known joints. linkedit rejects it (exit 1).",
-        joints={"O": 0j, "A": 10 + 0j, "P1": -30 + 0j, "P2": 40 + 0j,
-                "T1": -20 + 30j, "T2": 25 + 32j, "T3": 5 + 20j},
+        description="A six-bar with a complex loop: a class-III Assur group driven by a crank. No joint "
+                    "can be placed from two known joints; T1, T2, T3 are solved as one numeric group.",
+        joints={"O": 0j, "A": 8 + 0j, "P1": -30 + 0j, "P2": 45 + 5j,
+                "T1": -34 + 20j, "T2": 27 + 26j, "T3": 14 + 24j},
         ground=["O", "P1", "P2"],
         links={"crank": ["O", "A"], "left": ["P1", "T1"], "right": ["P2", "T2"], "middle": ["A", "T3"],
                "body": ["T1", "T2", "T3"]},
         motor={"joint": "A", "pivot": "O"}, tracks={"body_tip": {"joint": "T3"}},
+    )
+
+
+# ---------------------------------------------------------------- sliders and inputs
+
+#: The offset slider-crank (mm): crank r, rod l, offset e of the slider line above the crank axle.
+SLIDER_CRANK = dict(r=20.0, l=70.0, e=12.0)
+
+
+def slider_crank() -> LinkageSpec:
+    """An offset slider-crank (mm) with a coupler point C on the rod; x_B = r·cos θ + sqrt(l² − (r·sin θ − e)²)."""
+    n = SLIDER_CRANK
+    a = complex(n["r"], 0)
+    b = complex(n["r"] + math.sqrt(n["l"] ** 2 - n["e"] ** 2), n["e"])
+    return _spec(
+        name="slider-crank", units="mm",
+        description="An offset slider-crank (crank 20, rod 70, offset 12) with a coupler point on the rod.",
+        joints={"O": 0j, "A": a, "B": b, "C": a + (b - a) * complex(0.5, 0.3)}, ground=["O"],
+        links={"crank": ["O", "A"], "rod": ["A", "B", "C"]},
+        sliders={"piston": {"joint": "B", "guide": "ground", "angle_deg": 0.0}},
+        motor={"joint": "A", "pivot": "O"},
+        tracks={"piston": {"joint": "B"}, "coupler_point": {"joint": "C"}},
+    )
+
+
+def locking_slider_crank() -> LinkageSpec:
+    """The offset slider-crank with a rod of 25 (mm): it cannot reach its line for crank angles
+    of about 220°…320° (|r·sin θ − e| > l): a deliberate failure, exit 1 naming the slider."""
+    n = dict(SLIDER_CRANK, l=25.0)
+    a = complex(n["r"], 0)
+    b = complex(n["r"] + math.sqrt(n["l"] ** 2 - n["e"] ** 2), n["e"])
+    return _spec(
+        name="locking-slider-crank", units="mm",
+        description="An offset slider-crank whose rod (25) is too short to follow the crank all the way round.",
+        joints={"O": 0j, "A": a, "B": b}, ground=["O"], links={"crank": ["O", "A"], "rod": ["A", "B"]},
+        sliders={"piston": {"joint": "B", "guide": "ground", "angle_deg": 0.0}},
+        motor={"joint": "A", "pivot": "O"}, tracks={"piston": {"joint": "B"}},
+    )
+
+
+#: The crank-shaper quick return (mm): rocker pivot O2 at the origin, crank axle O above it.
+QUICK_RETURN = dict(axle=30.0, crank=15.0, rocker=60.0, rod=40.0, ram=75.0)
+
+
+def quick_return() -> LinkageSpec:
+    """A crank-shaper quick-return (mm): the crank pin A slides in a slot of the rocker O2–C (the
+    slot passes through O2), and the rod C–R drives the ram R along a horizontal line."""
+    n = QUICK_RETURN
+    o, a = complex(0, n["axle"]), complex(n["crank"], n["axle"])
+    c = n["rocker"] * a / abs(a)
+    r = complex(c.real + math.sqrt(n["rod"] ** 2 - (n["ram"] - c.imag) ** 2), n["ram"])
+    return _spec(
+        name="quick-return", units="mm",
+        description="A crank-shaper quick-return: crank pin sliding in a slotted rocker, rod to a ram.",
+        joints={"O2": 0j, "O": o, "A": a, "C": c, "R": r}, ground=["O2", "O"],
+        links={"crank": ["O", "A"], "rocker": ["O2", "C"], "rod": ["C", "R"]},
+        sliders={"slot": {"joint": "A", "guide": "rocker", "angle_deg": math.degrees(cmath.phase(a))},
+                 "ram": {"joint": "R", "guide": "ground", "angle_deg": 0.0}},
+        motor={"joint": "A", "pivot": "O"},
+        tracks={"ram": {"joint": "R"}, "rocker_tip": {"joint": "C"}},
+    )
+
+
+def scotch_yoke() -> LinkageSpec:
+    """A Scotch yoke (mm): the crank pin A slides in the yoke's vertical slot; the yoke Y1–Y2
+    translates horizontally, so it moves by r·cos θ."""
+    return _spec(
+        name="scotch-yoke", units="mm",
+        description="A Scotch yoke: crank 20, the yoke translates along x by 20·cos θ.",
+        joints={"O": 0j, "A": 20 + 0j, "Y1": 50 + 0j, "Y2": 90 + 0j}, ground=["O"],
+        links={"crank": ["O", "A"], "yoke": ["Y1", "Y2"]},
+        sliders={"slot": {"joint": "A", "guide": "yoke", "angle_deg": 90.0},
+                 "guide": {"link": "yoke", "guide": "ground", "angle_deg": 0.0}},
+        motor={"joint": "A", "pivot": "O"}, tracks={"yoke": {"joint": "Y2"}},
+    )
+
+
+def inverted_slider_crank() -> LinkageSpec:
+    """An inverted slider-crank (mm): the ground pivot Q slides in the slotted arm A–X, so the arm
+    always points from the crank pin A through Q."""
+    return _spec(
+        name="inverted-slider-crank", units="mm",
+        description="An inverted slider-crank: crank 20, the arm A-X turns about and slides through the pivot Q.",
+        joints={"O": 0j, "A": 20 + 0j, "Q": 60 + 0j, "X": 100 + 10j}, ground=["O", "Q"],
+        links={"crank": ["O", "A"], "arm": ["A", "X"]},
+        sliders={"sleeve": {"joint": "Q", "guide": "arm", "angle_deg": 0.0}},
+        motor={"joint": "A", "pivot": "O"}, tracks={"arm_tip": {"joint": "X"}},
+    )
+
+
+def stephenson_slider() -> LinkageSpec:
+    """A Stephenson III six-bar with a slider output (mm): the shared crank-rocker, a coupler
+    point C and a rod C–E driving the slider E along a horizontal line."""
+    o, d, a, b = _crank_rocker_pose()
+    c = a + (b - a) * complex(0.5, 0.4)
+    e = complex(c.real + math.sqrt(60.0 ** 2 - (c.imag - 20.0) ** 2), 20.0)
+    return _spec(
+        name="stephenson-slider", units="mm",
+        description="A Stephenson III six-bar: crank-rocker (25, 70, 60, 75), coupler point C, rod 60 "
+                    "to a slider on y = 20.",
+        joints={"O": o, "D": d, "A": a, "B": b, "C": c, "E": e}, ground=["O", "D"],
+        links={"crank": ["O", "A"], "coupler": ["A", "B", "C"], "rocker": ["D", "B"], "rod": ["C", "E"]},
+        sliders={"output": {"joint": "E", "guide": "ground", "angle_deg": 0.0}},
+        motor={"joint": "A", "pivot": "O"}, tracks={"output": {"joint": "E"}, "coupler_point": {"joint": "C"}},
+    )
+
+
+def lifting_arm() -> LinkageSpec:
+    """A boom lifted by a hydraulic cylinder (mm): the barrel P–Q turns about the ground pivot P,
+    its rod end R slides in it (the linear input) and carries the boom O–R–T about O."""
+    p, r = complex(40, -30), complex(60, 10)
+    q = p + 30 * (r - p) / abs(r - p)
+    return _spec(
+        name="lifting-arm", units="mm",
+        description="A boom on pivot O lifted by a cylinder from P; the rod end R extends by 0…25 mm.",
+        joints={"O": 0j, "P": p, "Q": q, "R": r, "T": 150 + 20j}, ground=["O", "P"],
+        links={"barrel": ["P", "Q"], "boom": ["O", "R", "T"]},
+        sliders={"cylinder": {"joint": "R", "guide": "barrel", "angle_deg": math.degrees(cmath.phase(r - p))}},
+        motor={"slider": "cylinder", "stroke": [0.0, 25.0]}, tracks={"tip": {"joint": "T"}},
     )
 
 
@@ -345,11 +464,38 @@ The rest pose below is the crank at 0 degrees, computed exactly from these lengt
     Example("stephenson-six-bar.yaml", stephenson_six_bar,
             header="Stephenson III six-bar of linkedit's own design; written by linkedit.planar.catalog.",
             notes={"links.coupler": "ternary: touches the frame only through crank and rocker"}),
-    Example("invalid/complex-loop.yaml", complex_loop, simulates=False,
-            header="A complex kinematic loop (class-III Assur group). linkedit rejects it:\n"
-                   "  linkedit validate examples/invalid/complex-loop.yaml  ->  exit 1, T1, T2, T3 undetermined.\n"
+    Example("complex-loop.yaml", complex_loop,
+            header="A six-bar with a complex kinematic loop (class-III Assur group): no joint can be placed\n"
+                   "from two known ones, so T1, T2, T3 are solved as one numeric group at every sample.\n"
                    "Written by linkedit.planar.catalog.",
             notes={"links.body": "ternary body hung from P1, P2 and the crank pin A"}),
+    Example("slider-crank.yaml", slider_crank,
+            header="Offset slider-crank: crank r = 20, rod l = 70, slider line y = e = 12;\n"
+                   "x_B = r cos(theta) + sqrt(l^2 - (r sin(theta) - e)^2). Written by linkedit.planar.catalog.",
+            notes={"sliders.piston": "B stays on the horizontal line through its rest position"}),
+    Example("quick-return.yaml", quick_return,
+            header="Crank-shaper quick-return: the crank pin A slides in the rocker's slot (through O2);\n"
+                   "the rod C-R drives the ram R along y = 75. Written by linkedit.planar.catalog.",
+            notes={"sliders.slot": "the slot turns with the rocker", "sliders.ram": "the ram's guide"}),
+    Example("scotch-yoke.yaml", scotch_yoke,
+            header="Scotch yoke: the yoke moves by r cos(theta). Written by linkedit.planar.catalog.",
+            notes={"sliders.slot": "A in the yoke's vertical slot", "sliders.guide": "the yoke translates along x"}),
+    Example("inverted-slider-crank.yaml", inverted_slider_crank,
+            header="Inverted slider-crank: the arm A-X slides through the ground pivot Q.\n"
+                   "Written by linkedit.planar.catalog.",
+            notes={"sliders.sleeve": "Q slides in the arm's slot (the slot line passes through A)"}),
+    Example("stephenson-slider.yaml", stephenson_slider,
+            header="Stephenson III six-bar with a slider output. Written by linkedit.planar.catalog.",
+            notes={"sliders.output": "E slides along y = 20"}),
+    Example("invalid/locking-slider-crank.yaml", locking_slider_crank, simulates=False,
+            header="A deliberate failure: the rod is too short, so the slider locks up for part of the turn:\n"
+                   "  linkedit simulate examples/invalid/locking-slider-crank.yaml  ->  exit 1, slider piston.\n"
+                   "Written by linkedit.planar.catalog."),
+    Example("lifting-arm.yaml", lifting_arm,
+            header="A cylinder-driven boom (linear input): the rod end R extends 0..25 mm out of the barrel.\n"
+                   "Written by linkedit.planar.catalog.",
+            notes={"sliders.cylinder": "R slides along the barrel P-Q",
+                   "motor": "linear input: R's displacement along the barrel from rest"}),
 )
 
 

@@ -9,9 +9,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+
+
+#: d_s at or below this (rounding of sin² at a toggle) counts as a toggle: not assembled
+TOGGLE = 1e-12
 
 
 @dataclass(frozen=True)
@@ -23,12 +28,22 @@ class LockUp:
     joint: str  #: the joint whose triangle cannot close first (in evaluation order)
     inputs: tuple[str, str]  #: the two known joints it is rebuilt from
     stretched: bool  #: True: the known joints are too far apart; False: too close
+    what: str = ""  #: for slider and group rules: why the joint(s) cannot be placed
+    unit: str = "°"  #: unit of start/end: "°" (motor angle) or the spec's units (linear input)
 
     def describe(self) -> str:
+        u = self.unit if self.unit == "°" else f" {self.unit}"
+        lead = "motor angles" if self.unit == "°" else "input positions"
+        fmt = ".1f" if self.unit == "°" else ".6g"
+        head = (f"the linkage cannot be assembled for {lead} {self.start_deg:{fmt}}{u}…"
+                f"{self.end_deg:{fmt}}{u}: ")
+        return head + (self.what or self.because())
+
+    def because(self) -> str:
+        """Why a dyad's joint cannot be placed."""
         i, j = self.inputs
         how = "too far apart" if self.stretched else "too close together"
-        return (f"the linkage cannot be assembled for motor angles {self.start_deg:.1f}°…{self.end_deg:.1f}°: "
-                f"joint {self.joint} cannot be placed ({i} and {j} are {how} for its links)")
+        return f"joint {self.joint} cannot be placed ({i} and {j} are {how} for its links)"
 
 
 def _runs(mask: np.ndarray, cyclic: bool) -> list[tuple[int, int]]:
@@ -45,24 +60,24 @@ def _runs(mask: np.ndarray, cyclic: bool) -> list[tuple[int, int]]:
     return runs
 
 
-def lockups(ds: np.ndarray, d: np.ndarray, lik: np.ndarray, ljk: np.ndarray, rules: np.ndarray,
-            angle_deg: np.ndarray, names: list[str], cyclic: bool) -> list[LockUp]:
-    """Lock-up intervals from d_s (T, R) (< 0 or NaN: cannot close) in evaluation order.
+def lockups(bad: np.ndarray, own: np.ndarray, angle: np.ndarray, cyclic: bool,
+            explain: Callable[[int, int], tuple[str, tuple[str, str], bool, str]], unit: str = "°") -> list[LockUp]:
+    """Lock-up intervals from the rules' failures, (T, N) each, N rules in evaluation order.
 
-    ``d`` (T, R): distance between each rule's known joints; ``lik``, ``ljk`` (R,): link lengths.
+    ``bad``: the rule cannot place its joint(s) (< 0 or NaN d_s); ``own``: it fails on its own,
+    not from a failed input. Each run of failing samples is blamed on the rule that fails
+    first most often; ``explain(rule, sample)`` gives its (joint, inputs, stretched, what).
+    ``angle`` (T,): the input at each sample (degrees, or spec units for a linear input).
     """
-    bad = ~(ds >= 0.0)  # NaN counts as bad
     failing = bad.any(axis=1)
-    own = (ds < 0.0) | (bad & np.isfinite(d))  # fails on its own, not from a failed input
     first = np.where(own.any(axis=1), own.argmax(axis=1), bad.argmax(axis=1))
     out = []
     for s, e in _runs(failing, cyclic):
         span = np.arange(s, e + 1) if s <= e else np.r_[s:failing.size, 0:e + 1]
         r = int(np.bincount(first[span]).argmax())
-        where = span[first[span] == r][0]
-        i, j, k = rules[r]
-        out.append(LockUp(start_deg=float(angle_deg[s]), end_deg=float(angle_deg[e]), joint=names[k],
-                          inputs=(names[i], names[j]), stretched=bool(d[where, r] > lik[r] + ljk[r]) if np.isfinite(d[where, r]) else False))
+        joint, inputs, stretched, what = explain(r, int(span[first[span] == r][0]))
+        out.append(LockUp(start_deg=float(angle[s]), end_deg=float(angle[e]), joint=joint, inputs=inputs,
+                          stretched=stretched, what=what, unit=unit))
     return out
 
 

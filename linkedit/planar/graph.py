@@ -6,12 +6,23 @@ constant distance; ``pairs`` lists them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import combinations
 
 import numpy as np
 
-from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.linkage import FRAME, LinkageSpec
+
+
+@dataclass(frozen=True)
+class SliderPair:
+    """A prismatic pair (indices are spec order; −1: none / the frame)."""
+
+    name: str
+    joint: int  #: the joint in the slot, or −1 for a translating link
+    link: int  #: the translating link, or −1 for a joint slider
+    guide: int  #: the guide link, −1 for the frame
+    angle: float  #: direction of the line at rest, radians
 
 
 @dataclass(frozen=True)
@@ -22,23 +33,50 @@ class LinkageGraph:
     link_names: tuple[str, ...]
     links: tuple[tuple[int, ...], ...]
     ground: tuple[int, ...]
-    motor: int
-    pivot: int
+    motor: int  #: the driven joint (for a linear input: the joint of the driven slider)
+    pivot: int  #: the motor's pivot joint, −1 for a linear input
     rest: np.ndarray  # (J, 2) rest-pose positions
+    sliders: tuple[SliderPair, ...] = ()
+    drive: int = -1  #: index into ``sliders`` of the linearly driven slider, −1 for a rotary motor
 
     @classmethod
     def from_spec(cls, spec: LinkageSpec) -> "LinkageGraph":
         names = tuple(spec.joints)
         index = {n: i for i, n in enumerate(names)}
+        link_names = tuple(spec.links)
+        sliders = tuple(SliderPair(
+            name=n, joint=index[s.joint] if s.joint is not None else -1,
+            link=link_names.index(s.link) if s.link is not None else -1,
+            guide=-1 if s.guide == FRAME else link_names.index(s.guide), angle=float(np.radians(s.angle_deg)))
+            for n, s in spec.sliders.items())
+        m = spec.motor
+        drive = list(spec.sliders).index(m.slider) if m.linear else -1
         return cls(
             joint_names=names,
-            link_names=tuple(spec.links),
+            link_names=link_names,
             links=tuple(tuple(index[j] for j in members) for members in spec.links.values()),
             ground=tuple(index[g] for g in spec.ground),
-            motor=index[spec.motor.joint],
-            pivot=index[spec.motor.pivot],
+            motor=sliders[drive].joint if m.linear else index[m.joint],
+            pivot=-1 if m.linear else index[m.pivot],
             rest=np.array([spec.joints[n] for n in names], dtype=float),
+            sliders=sliders, drive=drive,
         )
+
+    def with_rest(self, rest: np.ndarray) -> "LinkageGraph":
+        """The same topology with another rest pose (J, 2)."""
+        return replace(self, rest=np.asarray(rest, dtype=float))
+
+    def frame_pair(self, link: int) -> tuple[int, int]:
+        """The two joints that define ``link``'s frame: its farthest pair at rest (−1, −1: the frame)."""
+        if link < 0:
+            return -1, -1
+        members = self.links[link]
+        return max(((a, b) for a in members for b in members if a < b),
+                   key=lambda p: float(np.hypot(*(self.rest[p[0]] - self.rest[p[1]]))))
+
+    def fixed(self, link: int) -> bool:
+        """Whether ``link`` is the frame (−1) or a link of ground joints only."""
+        return link < 0 or set(self.links[link]) <= set(self.ground)
 
     @property
     def n_joints(self) -> int:
@@ -72,7 +110,14 @@ class Mobility:
 
 
 def mobility(graph: LinkageGraph) -> Mobility:
-    """Mobility of ``graph`` from Grübler's formula and from the constraint Jacobian rank."""
+    """Mobility of ``graph`` from Grübler's formula and from the constraint Jacobian rank.
+
+    A pin in a slot removes one degree of freedom, a translating link (prismatic pair) two.
+    The rank is taken at the rest pose over every rigid-link and slider constraint (not the
+    input: a motor drives the one degree of freedom), relative to the linkage's size.
+    """
+    from linkedit.planar.constraints import linkage_rows
+
     ground = set(graph.ground)
     bodies = [set(link) for link in graph.links if not set(link) <= ground]
     count = np.zeros(graph.n_joints, dtype=int)
@@ -81,38 +126,14 @@ def mobility(graph: LinkageGraph) -> Mobility:
             count[j] += 1
     for g in ground:
         count[g] += 1  # the frame
-    grubler = 3 * len(bodies) - 2 * int(np.sum(np.maximum(count - 1, 0)))
+    slots = sum(1 for s in graph.sliders if s.joint >= 0)
+    blocks = sum(1 for s in graph.sliders if s.link >= 0)
+    grubler = 3 * len(bodies) - 2 * int(np.sum(np.maximum(count - 1, 0))) - slots - 2 * blocks
 
     free = [j for j in range(graph.n_joints) if j not in ground]
-    column = {j: c for c, j in enumerate(free)}
-    x = graph.rest[:, 0] + 1j * graph.rest[:, 1]
-    # Each link as a rigid body (velocity constraints at the rest pose): one distance row for
-    # its farthest pair (i, j), and two rows per other joint k: δz_k = δz_i + c·(δz_j − δz_i),
-    # c = (z_k − z_i)/(z_j − z_i). Unlike pairwise distances this keeps full rank when joints
-    # of one link are collinear (Hoekens' coupler).
-    rows: list[dict[int, np.ndarray]] = []
-    for link in graph.links:
-        if set(link) <= ground:
-            continue
-        i, j = max(((a, b) for a in link for b in link if a < b), key=lambda p: abs(x[p[0]] - x[p[1]]))
-        d = x[i] - x[j]
-        rows.append({i: np.array([[d.real, d.imag]]), j: -np.array([[d.real, d.imag]])})
-        for k in link:
-            if k in (i, j):
-                continue
-            c = (x[k] - x[i]) / (x[j] - x[i])
-            rot = np.array([[c.real, -c.imag], [c.imag, c.real]])
-            rows.append({k: np.eye(2), i: rot - np.eye(2), j: -rot})
-    n_rows = sum(next(iter(r.values())).shape[0] for r in rows)
-    jac = np.zeros((n_rows, 2 * len(free)))
-    at = 0
-    for r in rows:
-        height = next(iter(r.values())).shape[0]
-        for joint, block in r.items():
-            if joint in column:
-                jac[at:at + height, 2 * column[joint]: 2 * column[joint] + 2] += block
-        at += height
-    needed = n_rows
-    scale = np.abs(jac).max(initial=1.0)
-    rank = int(np.linalg.matrix_rank(jac, tol=1e-9 * scale * max(jac.shape, default=1))) if jac.size else 0
-    return Mobility(grubler=grubler, rank=2 * len(free) - rank, redundant=max(needed - rank, 0))
+    rows = linkage_rows(graph, with_drive=False)
+    z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
+    jac = rows.jacobian(z[:, None], np.array(free, dtype=int))[0] if free else np.zeros((rows.m, 0))
+    jac = jac / np.maximum(np.abs(jac).max(axis=1, keepdims=True), 1e-300)  # each row to unit scale
+    rank = int(np.linalg.matrix_rank(jac, tol=1e-9 * max(jac.shape, default=1))) if jac.size else 0
+    return Mobility(grubler=grubler, rank=2 * len(free) - rank, redundant=max(rows.m - rank, 0))

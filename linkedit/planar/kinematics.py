@@ -13,7 +13,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from linkedit.planar import law_of_cosines as loc
+from linkedit.planar import steps as st
+from linkedit.planar.diagnostics import TOGGLE
 from linkedit.planar.plan import Geometry, Plan
+
+#: largest input change between two samples a numeric group is continued across: motor
+#: degrees, or a fraction of the characteristic length for a linear input
+GROUP_STEP_DEG = 1.0
+GROUP_STEP_LENGTH = 0.005
 
 
 @dataclass
@@ -24,6 +31,9 @@ class State:
     dz: np.ndarray | None
     ddz: np.ndarray | None
     ds: np.ndarray | None  # singularity distance per rule (1 for rigid rules); < 0: cannot close
+    step_ds: np.ndarray | None = None  # (X, T) per step of plan.steps: < 0 or NaN: cannot place
+    #: with numeric groups: whether every intermediate continuation sample assembled too
+    between_ok: bool = True
 
 
 class Workspace:
@@ -48,6 +58,8 @@ def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | N
     :class:`Workspace` to evaluate repeatedly without allocating; the result is then
     ``work.z`` (overwritten by the next call).
     """
+    if plan.steps:
+        return evaluate(plan, geom, angle, order=0).z
     w = work if work is not None and work.samples == angle.shape[0] else Workspace(plan, angle.shape[0])
     z = w.z
     z[plan.ground_rows] = geom.ground
@@ -69,23 +81,63 @@ def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | N
     return z
 
 
+def continuation_grid(start: float, values: np.ndarray, max_step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Input values from ``start`` through ``values`` (T,) at most ``max_step`` apart, and where
+    each of ``values`` is in them (T,)."""
+    path = np.concatenate([[start], values])
+    parts = np.maximum(np.ceil(np.abs(np.diff(path)) / max_step - 1e-9), 1).astype(int)
+    first = np.concatenate([[0], np.cumsum(parts)])
+    fine = np.concatenate([path[n] + (path[n + 1] - path[n]) * np.arange(parts[n]) / parts[n]
+                           for n in range(values.size)] + [path[-1:]])
+    return fine, first[1:]
+
+
 def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> State:
-    """Positions and up to ``order`` (0, 1, 2) derivatives, plus singularity distances."""
+    """Positions and up to ``order`` (0, 1, 2) derivatives, plus singularity distances.
+
+    ``angle`` (T,): absolute motor angles, radians (for a linear input: displacements along the
+    slot in the normalized frame). A plan with slider steps needs a geometry in the normalized
+    frame (``Geometry.of(plan, plan.normalized_points())``). A numeric group is continued from
+    the rest pose through every sample in order, at most GROUP_STEP_DEG (GROUP_STEP_LENGTH)
+    apart: intermediate inputs are evaluated and dropped.
+    """
+    if not plan.has_groups:
+        return _evaluate(plan, geom, angle, order)
+    start, step = (0.0, GROUP_STEP_LENGTH) if plan.linear else (geom.rest_angle, np.radians(GROUP_STEP_DEG))
+    fine, keep = continuation_grid(start, np.asarray(angle, dtype=float), step)
+    full = _evaluate(plan, geom, fine, order)
+
+    def pick(a: np.ndarray | None) -> np.ndarray | None:
+        return None if a is None else a[:, keep]
+
+    between_ok = bool(np.isfinite(full.z).all() and (full.ds > TOGGLE).all() and (full.step_ds > TOGGLE).all())
+    return State(z=pick(full.z), dz=pick(full.dz), ddz=pick(full.ddz), ds=pick(full.ds), step_ds=pick(full.step_ds),
+                 between_ok=between_ok)
+
+
+def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int) -> State:
     T = angle.shape[0]
     P = plan.n_points
-    z = np.empty((P, T), dtype=complex)
+    z = np.zeros((P, T), dtype=complex)  # zeros: step rows multiply not-yet-known joints by 0
     dz = np.zeros((P, T), dtype=complex) if order >= 1 else None
     ddz = np.zeros((P, T), dtype=complex) if order >= 2 else None
     ds = np.ones((len(plan.rules), T))
+    step_ds = np.ones((len(plan.steps), T))
     z[plan.ground_rows] = geom.ground
-    arm = geom.arm * np.exp(1j * (angle - geom.rest_angle))
-    z[plan.motor_row] = geom.pivot + arm
-    if dz is not None:
-        dz[plan.motor_row] = 1j * arm
-    if ddz is not None:
-        ddz[plan.motor_row] = -arm
+    if not plan.linear:
+        arm = geom.arm * np.exp(1j * (angle - geom.rest_angle))
+        z[plan.motor_row] = geom.pivot + arm
+        if dz is not None:
+            dz[plan.motor_row] = 1j * arm
+        if ddz is not None:
+            ddz[plan.motor_row] = -arm
+    schedule = plan.schedule or tuple(("batch", n) for n in range(len(plan.batches)))
     with np.errstate(invalid="ignore", divide="ignore"):
-        for n, b in enumerate(plan.batches):
+        for kind, n in schedule:
+            if kind == "step":
+                step_ds[n] = _step(plan, geom, plan.steps[n], angle, z, dz, ddz)
+                continue
+            b = plan.batches[n]
             out = slice(b.start, b.stop)
             if b.rigid:
                 c = geom.coef[n]
@@ -103,4 +155,25 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> S
                 dz[out], de, du, dw = loc.dyad_velocity(terms, dz[b.i], dz[b.j], half, lik2)
                 if ddz is not None:
                     ddz[out] = loc.dyad_acceleration(terms, de, du, dw, ddz[b.i], ddz[b.j], half, lik2)
-    return State(z=z, dz=dz, ddz=ddz, ds=ds)
+    return State(z=z, dz=dz, ddz=ddz, ds=ds, step_ds=step_ds)
+
+
+def _step(plan: Plan, geom: Geometry, step: st.Step, value: np.ndarray, z: np.ndarray,
+          dz: np.ndarray | None, ddz: np.ndarray | None) -> np.ndarray:
+    """Evaluate one step in place (rows of ``z``, ``dz``, ``ddz``); returns its d_s (T,)."""
+    joints = plan.row_of[: plan.n_joints]
+    rows = joints[step.joints]
+    s = value if plan.linear else np.zeros_like(value)
+    zj = z[joints]
+    if step.kind == "group":
+        out, ds, _ = st.solve_group(step, zj, s, geom.rest[step.joints])
+    else:
+        out, ds = st.positions(step, zj, s)
+    z[rows] = out
+    zj[step.joints] = out
+    if dz is not None:
+        dzj = dz[joints]
+        dz[rows] = dzj[step.joints] = st.velocity(step, zj, dzj, 1.0 if plan.linear else 0.0)
+        if ddz is not None:
+            ddz[rows] = st.acceleration(step, zj, dzj, ddz[joints])
+    return ds

@@ -21,6 +21,7 @@ import numpy as np
 from linkedit.errors import MechanismError
 from linkedit.planar.graph import LinkageGraph, Mobility, mobility
 from linkedit.planar.ordering import order_joints
+from linkedit.planar.steps import Step, compile_steps
 from linkedit.spec.linkage import JointTrack, LinkageSpec
 
 
@@ -60,6 +61,27 @@ class Plan:
     track_names: tuple[str, ...]
     track_points: np.ndarray  # (K,) point id of each track
     rest_points: np.ndarray  # (P, 2) rest positions of all points (joints, then track points)
+    #: rules of the new kinds (sliders, linear input, numeric groups), with joint-space rows in
+    #: the normalized frame (see ``origin``, ``scale``); empty for revolute dyadic linkages
+    steps: tuple[Step, ...] = ()
+    #: evaluation order: ("batch", n) and ("step", n), level by level
+    schedule: tuple[tuple[str, int], ...] = ()
+    origin: complex = 0j  #: the first ground joint at rest: the normalized frame's origin
+    scale: float = 1.0  #: the linkage's characteristic length: the normalized frame's unit
+
+    @property
+    def linear(self) -> bool:
+        """True when the input is a driven slider (derivatives are per unit of stroke)."""
+        return self.graph.pivot < 0
+
+    @property
+    def has_groups(self) -> bool:
+        return any(st.kind == "group" for st in self.steps)
+
+    def normalized_points(self, points: np.ndarray | None = None) -> np.ndarray:
+        """Rest points (P, 2) moved to the normalized frame: (p − origin)/scale."""
+        p = self.rest_points if points is None else points
+        return (p - np.array([self.origin.real, self.origin.imag])) / self.scale
 
     @property
     def joint_names(self) -> list[str]:
@@ -148,9 +170,10 @@ class Geometry:
             else:
                 a, c = np.abs(zk - zi) ** 2, np.abs(zk - zj) ** 2
                 coef.append(None), lik2.append(a), ljk2.append(c), half.append(0.5 * (a - c))
-        arm = complex(z[g.motor] - z[g.pivot])
+        pivot = complex(z[g.pivot]) if g.pivot >= 0 else 0j
+        arm = complex(z[g.motor] - z[g.pivot]) if g.pivot >= 0 else 1.0 + 0j
         return cls(
-            rest=z, pivot=complex(z[g.pivot]), arm=arm, rest_angle=float(np.angle(arm)),
+            rest=z, pivot=pivot, arm=arm, rest_angle=float(np.angle(arm)),
             ground=z[list(g.ground), None], coef=tuple(coef), lik2=tuple(lik2),
             ljk2=tuple(ljk2), half_diff=tuple(half),
         )
@@ -168,18 +191,36 @@ def _fail_ordering(graph: LinkageGraph, mob: Mobility, undetermined: tuple[int, 
     if mob.rank > 1:
         why = f"the linkage is under-constrained ({mob.describe()}; one motor drives 1)"
     else:
-        why = ("no joint among them has two known neighbours: they close a complex kinematic loop "
-               f"that closed-form kinematics cannot order ({mob.describe()})")
+        why = ("neither a closed-form rule nor a numeric group places them: their link and slider "
+               f"constraints do not fix them at the rest pose ({mob.describe()})")
     return MechanismError(f"joints {names} cannot be determined from the ground and the motor: {why}")
+
+
+def characteristic_frame(rest: np.ndarray, ground: tuple[int, ...]) -> tuple[complex, float]:
+    """(origin, scale): the first ground joint and the largest distance of a joint from it.
+
+    Computed without overflow for any finite coordinates (each term is scaled first)."""
+    o = rest[ground[0]]
+    big = float(np.abs(rest).max())
+    if big == 0.0:
+        return complex(*o), 1.0
+    d = (rest / big) - (o / big)
+    scale = float(np.hypot(d[:, 0], d[:, 1]).max()) * big
+    return complex(*o), (scale if np.isfinite(scale) and scale > 0.0 else 1.0)
 
 
 def compile_plan(spec: LinkageSpec) -> Plan:
     """Order the joints (Algorithm 1) and build the batched plan.
 
-    Raises :class:`MechanismError` for over- or under-constrained linkages, complex loops and
-    dyads that are collinear at the rest pose (whose branch is undefined).
+    Raises :class:`MechanismError` for over- or under-constrained linkages, linkages that no
+    rule (not even a numeric group) can order, and dyads that are collinear at the rest pose
+    (whose branch is undefined). Every decision is taken in the normalized frame (origin at the
+    first ground joint, unit = the characteristic length), so it does not depend on units.
     """
-    graph = LinkageGraph.from_spec(spec)
+    original = LinkageGraph.from_spec(spec)
+    origin, scale = characteristic_frame(original.rest, original.ground)
+    o = np.array([origin.real, origin.imag])
+    graph = original.with_rest((original.rest - o) / scale)
     mob = mobility(graph)
     ordering = order_joints(graph)
     if ordering.undetermined:
@@ -188,21 +229,23 @@ def compile_plan(spec: LinkageSpec) -> Plan:
     J = graph.n_joints
     rules = ordering.rules
     orientation = np.array([_orientation(rest, r.i, r.j, r.k) for r in rules], dtype=int)
-    for r, o in zip(rules, orientation):
-        if not r.rigid and o == 0:
+    for r, sense in zip(rules, orientation):
+        if not r.rigid and sense == 0:
             n = graph.joint_names
             raise MechanismError(
                 f"joint {n[r.k]} is collinear with {n[r.i]} and {n[r.j]} at the rest pose (motor angle "
-                f"{np.degrees(np.angle(complex(*(rest[graph.motor] - rest[graph.pivot])))):.1f}°): "
-                "the branch of its triangle is undefined; move it off the line")
+                f"{_rest_input(graph):.1f}°): the branch of its triangle is undefined; move it off the line")
     if mob.rank < 1:
         raise MechanismError(f"the linkage cannot move: it is over-constrained ({mob.describe()})")
     if mob.rank > 1:
         raise MechanismError(f"the linkage is under-constrained ({mob.describe()}; one motor drives 1)")
+    initial = set(graph.ground) | ({graph.motor} if graph.pivot >= 0 else set())
+    steps = compile_steps(graph, ordering.steps, initial, {r.k: r.level for r in rules})
 
     # tracked points attached to links: rigid rules from the two farthest joints of the link
-    level_of = {g: 0 for g in graph.ground} | {graph.motor: 0}
+    level_of = {g: 0 for g in initial}
     level_of.update({r.k: r.level for r in rules})
+    level_of.update({k: st.level for st in steps for k in st.joints})
     track_names, track_points, extra_rest, extra_rules = [], [], [], []
     for name, track in spec.tracks.items():
         track_names.append(name)
@@ -219,10 +262,10 @@ def compile_plan(spec: LinkageSpec) -> Plan:
         extra_rules.append((i, j, point, min((r.level for r in rules if r.rigid and r.level >= earliest),
                                              default=earliest)))
         track_points.append(point)
-    points = np.vstack([rest, np.array(extra_rest, dtype=float).reshape(-1, 2)])
+    points = np.vstack([original.rest, np.array(extra_rest, dtype=float).reshape(-1, 2)])
 
-    # rows: ground, motor, then per level: rigid batch, dyad batch
-    order = list(graph.ground) + [graph.motor]
+    # rows: ground, motor, then per level: rigid batch, dyad batch, steps
+    order = list(graph.ground) + ([graph.motor] if graph.pivot >= 0 else [])
     entries = [(r.level, not r.rigid, idx, r.i, r.j, r.k) for idx, r in enumerate(rules)]
     entries += [(lv, False, -1, i, j, k) for i, j, k, lv in extra_rules]
     entries.sort(key=lambda e: (e[0], e[1]))
@@ -234,26 +277,44 @@ def compile_plan(spec: LinkageSpec) -> Plan:
     groups: dict[tuple[int, bool], list] = {}
     for e in entries:
         groups.setdefault((e[0], e[1]), []).append(e)
-    for (lv, is_dyad), members in groups.items():
-        for n, e in enumerate(members):
-            row_of[e[5]] = row + n
-        ip = np.array([e[3] for e in members])
-        jp = np.array([e[4] for e in members])
-        kp = np.array([e[5] for e in members])
-        rule_idx = np.array([e[2] for e in members])
-        sign = np.array([orientation[e[2]] if e[2] >= 0 else 1 for e in members], dtype=float)[:, None]
-        batches.append(Batch(rigid=not is_dyad, level=lv, start=row, stop=row + len(members),
-                             i=row_of[ip], j=row_of[jp], k_point=kp, i_point=ip, j_point=jp,
-                             rule=rule_idx, sign=sign))
-        row += len(members)
+    schedule: list[tuple[str, int]] = []
+    for level in sorted({lv for lv, _ in groups} | {st.level for st in steps}):
+        for (lv, is_dyad), members in groups.items():
+            if lv != level:
+                continue
+            for n, e in enumerate(members):
+                row_of[e[5]] = row + n
+            ip = np.array([e[3] for e in members])
+            jp = np.array([e[4] for e in members])
+            kp = np.array([e[5] for e in members])
+            rule_idx = np.array([e[2] for e in members])
+            sign = np.array([orientation[e[2]] if e[2] >= 0 else 1 for e in members], dtype=float)[:, None]
+            batches.append(Batch(rigid=not is_dyad, level=lv, start=row, stop=row + len(members),
+                                 i=row_of[ip], j=row_of[jp], k_point=kp, i_point=ip, j_point=jp,
+                                 rule=rule_idx, sign=sign))
+            schedule.append(("batch", len(batches) - 1))
+            row += len(members)
+        for n, st in enumerate(steps):
+            if st.level == level:
+                row_of[st.joints] = row + np.arange(st.joints.size)
+                row += st.joints.size
+                schedule.append(("step", n))
 
     return Plan(
-        spec=spec, graph=graph, mobility=mob,
+        spec=spec, graph=original, mobility=mob,
         rules=np.array([(r.i, r.j, r.k) for r in rules], dtype=int).reshape(-1, 3),
         level=np.array([r.level for r in rules], dtype=int),
         rigid=np.array([r.rigid for r in rules], dtype=bool),
         orientation=orientation, batches=tuple(batches), row_of=row_of,
         ground_rows=row_of[list(graph.ground)], motor_row=int(row_of[graph.motor]),
-        pivot_row=int(row_of[graph.pivot]), track_names=tuple(track_names),
+        pivot_row=int(row_of[graph.pivot]) if graph.pivot >= 0 else -1, track_names=tuple(track_names),
         track_points=np.array(track_points, dtype=int), rest_points=points,
+        steps=steps, schedule=tuple(schedule), origin=origin, scale=scale,
     )
+
+
+def _rest_input(graph: LinkageGraph) -> float:
+    """The motor angle at rest, degrees (0 for a linear input)."""
+    if graph.pivot < 0:
+        return 0.0
+    return float(np.degrees(np.angle(complex(*(graph.rest[graph.motor] - graph.rest[graph.pivot])))))

@@ -8,17 +8,19 @@ unless ``partial=True``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from linkedit.errors import MechanismError
-from linkedit.planar.diagnostics import LockUp, lockups, transmission_angle, triangle_orientation
-from linkedit.planar.kinematics import evaluate
+from linkedit.planar.diagnostics import TOGGLE, LockUp, lockups, transmission_angle, triangle_orientation
+from linkedit.planar.kinematics import State, evaluate
 from linkedit.planar.plan import Geometry, Plan, compile_plan
 from linkedit.spec.linkage import LinkageSpec, Motor
 
 DEFAULT_SAMPLES = 360
+#: fewer samples than this per cycle: the cycle is also checked at this many (lock-ups between samples)
+DENSE_SAMPLES = 1440
 
 
 @dataclass(frozen=True)
@@ -36,7 +38,7 @@ class Motion:
 
     plan: Plan
     t: np.ndarray  #: (T,) motor phase: fraction of a revolution, or of the sweep for ``range_deg``
-    motor_angle: np.ndarray  #: (T,) absolute motor (crank) angle, radians
+    motor_angle: np.ndarray  #: (T,) absolute motor (crank) angle, radians; a linear input's stroke (spec units)
     positions: np.ndarray  #: (T, J, 2)
     velocity: np.ndarray  #: (T, J, 2) d position / d motor angle
     acceleration: np.ndarray  #: (T, J, 2)
@@ -46,43 +48,58 @@ class Motion:
     transmission: np.ndarray  #: (T, R) angle at the rebuilt joint, radians
     assembled: np.ndarray  #: (T,) bool
     lockups: list[LockUp] = field(default_factory=list)
+    #: (T, X) singularity distance of each of ``plan.steps`` (slider: sin² of the rod's angle to
+    #: the slot normal; numeric group: (σ_min/σ_max)² of its Jacobian; 1 otherwise)
+    step_singularity: np.ndarray | None = None
 
     @property
     def cyclic(self) -> bool:
-        return self.plan.spec.motor.range_deg is None
+        return self.plan.spec.motor.cyclic
 
     def min_singularity(self) -> tuple[float, str, float] | None:
-        """(min d_s over dyad rules and assembled samples, its joint, motor angle in degrees)."""
-        dyads = ~self.plan.rigid
-        if not dyads.any() or not self.assembled.any():
+        """(min d_s over dyad, slider and group rules and assembled samples, its joint, the input
+        there: motor angle in degrees, or a linear input's stroke)."""
+        plan = self.plan
+        dyads = ~plan.rigid
+        watched = [n for n, st in enumerate(plan.steps) if st.kind in ("slider", "group", "rotate")]
+        if not (dyads.any() or watched) or not self.assembled.any():
             return None
-        ds = np.where(self.assembled[:, None], self.singularity, np.inf)[:, dyads]
+        steps = self.step_singularity if self.step_singularity is not None else np.ones((self.t.size, 0))
+        ds = np.where(self.assembled[:, None], np.hstack([self.singularity[:, dyads], steps[:, watched]]), np.inf)
         t, r = np.unravel_index(np.argmin(ds), ds.shape)
-        rule = np.flatnonzero(dyads)[r]
-        return float(ds[t, r]), self.plan.joint_names[self.plan.rules[rule, 2]], float(np.degrees(self.motor_angle[t]))
+        n_dyads = int(dyads.sum())
+        if r < n_dyads:
+            joint = plan.joint_names[plan.rules[np.flatnonzero(dyads)[r], 2]]
+        else:
+            joint = plan.joint_names[plan.steps[watched[r - n_dyads]].joints[0]]
+        where = self.motor_angle[t] if plan.linear else np.degrees(self.motor_angle[t])
+        return float(ds[t, r]), joint, float(where)
 
     def summary(self) -> dict:
         """Key figures for printing or JSON."""
         out: dict = {
             "name": self.plan.spec.name, "samples": int(self.t.size), "joints": self.plan.n_joints,
-            "rules": int(len(self.plan.rules)), "levels": int(self.plan.level.max(initial=0)),
+            "rules": int(len(self.plan.rules) + len(self.plan.steps)),
+            "levels": int(max([*self.plan.level.tolist(), *(st.level for st in self.plan.steps)], default=0)),
             "mobility": self.plan.mobility.rank, "assembled": bool(self.assembled.all()),
         }
         worst = self.min_singularity()
         if worst:
-            out["min_singularity"] = {"value": worst[0], "joint": worst[1], "motor_angle_deg": worst[2]}
+            where = "stroke" if self.plan.linear else "motor_angle_deg"
+            out["min_singularity"] = {"value": worst[0], "joint": worst[1], where: worst[2]}
             dyads = ~self.plan.rigid
-            dev = np.abs(np.where(self.assembled[:, None], self.transmission, np.pi / 2)[:, dyads] - np.pi / 2)
-            out["worst_transmission_angle_deg"] = float(90.0 - np.degrees(dev.max()))
+            if dyads.any():
+                dev = np.abs(np.where(self.assembled[:, None], self.transmission, np.pi / 2)[:, dyads] - np.pi / 2)
+                out["worst_transmission_angle_deg"] = float(90.0 - np.degrees(dev.max()))
         if self.lockups:
             out["lockups"] = [lk.describe() for lk in self.lockups]
         return out
 
 
 def motor_phases(spec: LinkageSpec, samples: int) -> np.ndarray:
-    """Phases t (T,): a full revolution samples t = n/T (the end is the start); a
-    ``range_deg`` sweep includes both of its ends."""
-    if spec.motor.range_deg is None:
+    """Phases t (T,): a full revolution or an ``oscillate_deg`` swing samples t = n/T (the end
+    is the start); a ``range_deg`` sweep and a linear input's stroke include both ends."""
+    if spec.motor.cyclic:
         return np.arange(samples) / samples
     return np.linspace(0.0, 1.0, samples) if samples > 1 else np.zeros(1)
 
@@ -90,9 +107,13 @@ def motor_phases(spec: LinkageSpec, samples: int) -> np.ndarray:
 def motor_turn(motor: Motor, t: np.ndarray) -> np.ndarray:
     """Motor rotation from the rest pose at phases ``t`` (T,), radians (signed by direction).
 
-    The one time axis of linkedit: phase 0 of a full revolution is the rest pose.
+    The one time axis of linkedit: phase 0 of a full revolution is the rest pose. An
+    ``oscillate_deg`` swing [a, b] goes a → b → a as a + (b − a)·(1 − cos 2πt)/2.
     """
     sign = 1.0 if motor.direction == "ccw" else -1.0
+    if motor.oscillate_deg is not None:
+        a, b = np.radians(motor.oscillate_deg)
+        return sign * (a + (b - a) * 0.5 * (1.0 - np.cos(2.0 * np.pi * t)))
     if motor.range_deg is None:
         return sign * 2.0 * np.pi * t
     a, b = np.radians(motor.range_deg)
@@ -100,10 +121,18 @@ def motor_turn(motor: Motor, t: np.ndarray) -> np.ndarray:
 
 
 def motor_angles(spec: LinkageSpec, samples: int) -> tuple[np.ndarray, np.ndarray]:
-    """Phases t (T,) and absolute motor angles (T,) in radians for ``samples`` samples."""
-    rest = np.arctan2(*(np.subtract(spec.joints[spec.motor.joint], spec.joints[spec.motor.pivot])[::-1]))
+    """Phases t (T,) and input values (T,) for ``samples`` samples.
+
+    Rotary: absolute motor angles, radians. Linear: the stroke, the driven joint's
+    displacement from rest along its slot in the spec's units, from s0 to s1.
+    """
+    m = spec.motor
     t = motor_phases(spec, samples)
-    return t, rest + motor_turn(spec.motor, t)
+    if m.linear:
+        s0, s1 = m.stroke
+        return t, s0 + (s1 - s0) * t
+    rest = np.arctan2(*(np.subtract(spec.joints[m.joint], spec.joints[m.pivot])[::-1]))
+    return t, rest + motor_turn(m, t)
 
 
 def _joint_order(plan: Plan, z: np.ndarray) -> np.ndarray:
@@ -112,20 +141,73 @@ def _joint_order(plan: Plan, z: np.ndarray) -> np.ndarray:
     return np.stack([zj.real, zj.imag], axis=-1)
 
 
-def _check_link_lengths(plan: Plan, p: np.ndarray, ok: np.ndarray, angle: np.ndarray) -> None:
-    """Every joint pair on a link must keep its rest distance; only redundant (over-constrained)
-    pairs can fail here, and then the linkage cannot move as specified."""
-    pairs = plan.pairs
-    rest = np.linalg.norm(plan.graph.rest[pairs[:, 0]] - plan.graph.rest[pairs[:, 1]], axis=-1)
-    now = np.linalg.norm(p[ok][:, pairs[:, 0]] - p[ok][:, pairs[:, 1]], axis=-1)
-    err = np.abs(now - rest)
-    scale = np.abs(plan.graph.rest).max()
-    if err.size and err.max() > 1e-7 * scale:
-        t, q = np.unravel_index(np.argmax(err), err.shape)
-        a, b = (plan.joint_names[x] for x in pairs[q])
+def _check_constraints(plan: Plan, p: np.ndarray, ok: np.ndarray, value: np.ndarray, unit: str) -> None:
+    """Every rigid-link and slider constraint must hold (relative to the linkage's size) at every
+    assembled sample; only redundant (over-constrained) ones can fail here, and then the
+    linkage cannot move as specified. ``p`` (T, J, 2) in the normalized frame."""
+    from linkedit.planar.constraints import linkage_rows
+
+    if not ok.any():
+        return
+    rows = linkage_rows(plan_graph_normalized(plan))
+    z = (p[ok, :, 0] + 1j * p[ok, :, 1]).T
+    s = value[ok] / plan.scale if plan.linear else 0.0
+    d, e = rows.terms(z)
+    size = np.maximum(np.abs(d) * np.abs(e), np.abs(e))  # distance rows are squares of lengths
+    err = np.abs(rows.residual(z, s)) / np.maximum(size, 1.0)
+    if err.size and err.max() > 1e-7:
+        r, t = np.unravel_index(np.argmax(err), err.shape)
+        where = value[ok][t]
+        at = f"motor angle {np.degrees(where):.1f}°" if unit == "°" else f"input position {where:.6g} {unit}"
         raise MechanismError(
-            f"joints {a} and {b} cannot keep their distance at motor angle {np.degrees(angle[ok][t]):.1f}° "
-            f"(off by {err[t, q]:.3g}): the linkage is over-constrained ({plan.mobility.describe()})")
+            f"{rows.labels[r]} cannot be kept at {at} (off by {err[r, t]:.3g} relative to its size): "
+            f"the linkage is over-constrained ({plan.mobility.describe()})")
+
+
+def plan_graph_normalized(plan: Plan):
+    """The plan's linkage graph in the normalized frame."""
+    o = np.array([plan.origin.real, plan.origin.imag])
+    return plan.graph.with_rest((plan.graph.rest - o) / plan.scale)
+
+
+def _explain(plan: Plan, d: np.ndarray, lik: np.ndarray, ljk: np.ndarray, ds: np.ndarray, sds: np.ndarray):
+    """The lock-up explanation of item r (rules first, then steps) at sample t, for :func:`lockups`."""
+    names = plan.joint_names
+    R = len(plan.rules)
+
+    def explain(r: int, t: int) -> tuple[str, tuple[str, str], bool, str]:
+        if r < R:
+            i, j, k = plan.rules[r]
+            far = bool(d[t, r] > lik[r] + ljk[r]) if np.isfinite(d[t, r]) else False
+            what = ""
+            if abs(ds[t, r]) <= TOGGLE:  # within rounding of a toggle: name it, never "too close"
+                how = "stretched" if abs(d[t, r] - lik[r] - ljk[r]) <= abs(d[t, r] - abs(lik[r] - ljk[r])) else "folded"
+                what = (f"joint {names[k]} reaches a toggle position: its links are fully {how} between "
+                        f"{names[i]} and {names[j]} (d_s = 0, its velocity is undefined there)")
+            return names[k], (names[i], names[j]), far, what
+        step = plan.steps[r - R]
+        k = names[step.joints[0]]
+        if abs(sds[t, r - R]) <= TOGGLE and step.kind == "slider":
+            what = (f"slider {step.name} reaches a toggle position: the rod {names[step.i]}–{k} stands "
+                    "perpendicular to the slot line (d_s = 0)")
+        elif step.kind == "slider":
+            what = (f"slider {step.name} cannot place joint {k}: the rod {names[step.i]}–{k} does not reach "
+                    "the slot line")
+        elif step.kind == "rotate":
+            what = (f"slider {step.name}: the slot of the link carrying {k} cannot reach the pin "
+                    f"{names[step.pin]} as it turns about {names[step.i]}")
+        elif step.kind == "group":
+            what = (f"the numeric group {step.name} cannot be assembled on its rest-pose branch "
+                    "(it reaches a singular position: its links cannot follow)")
+        else:
+            what = f"slider {step.name} cannot place joint {k}"
+        return k, ("", ""), False, what
+
+    return explain
+
+
+def _unit(plan: Plan) -> str:
+    return plan.spec.units if plan.linear else "°"
 
 
 def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial: bool = False,
@@ -133,34 +215,56 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
     """Simulate one motor cycle with ``samples`` samples (default: the spec's, else 360).
 
     With ``partial=True`` a linkage that locks up somewhere is still returned; its positions
-    are NaN where ``assembled`` is False and ``lockups`` says where and why.
+    are NaN where ``assembled`` is False and ``lockups`` says where and why. The evaluation
+    runs in the normalized frame (origin at the first ground joint, unit the characteristic
+    length; scale-free) and is scaled back; a ``geometry`` given by the caller is used as is.
     """
     plan = linkage if isinstance(linkage, Plan) else compile_plan(linkage)
     spec = plan.spec
     samples = samples or spec.samples or DEFAULT_SAMPLES
-    t, angle = motor_angles(spec, samples)
-    geom = geometry or plan.geometry()
-    state = evaluate(plan, geom, angle, order=2)
+    t, value = motor_angles(spec, samples)
+    if geometry is None:
+        geom, origin, scale = Geometry.of(plan, plan.normalized_points()), plan.origin, plan.scale
+    else:
+        geom, origin, scale = geometry, 0j, 1.0
+    inp = value / scale if plan.linear else value
+    close = plan.has_groups and spec.motor.cyclic and samples > 1
+    if close:  # continue once round the cycle and back to the first sample
+        turn = plan.direction * 2.0 * np.pi if spec.motor.oscillate_deg is None else 0.0
+        inp = np.append(inp, inp[0] + turn)
+    state = evaluate(plan, geom, inp, order=2)
+    if close:
+        _check_closure(plan, state)
+        state = State(z=state.z[:, :-1], dz=state.dz[:, :-1], ddz=state.ddz[:, :-1], ds=state.ds[:, :-1],
+                      step_ds=state.step_ds[:, :-1], between_ok=state.between_ok)
+    unit = _unit(plan)
+    shown = value if plan.linear else np.degrees(value)
 
-    p = _joint_order(plan, state.z)
+    pn = _joint_order(plan, state.z)  # normalized frame
     rules = plan.rules
     ds = state.ds.T.copy()
-    ok = np.isfinite(p).all(axis=(1, 2)) & (ds >= 0.0).all(axis=1)
+    sds = state.step_ds.T.copy()
+    ok = np.isfinite(pn).all(axis=(1, 2)) & (ds > TOGGLE).all(axis=1) & (sds > TOGGLE).all(axis=1)
     found: list[LockUp] = []
     if not ok.all():
-        d = np.linalg.norm(p[:, rules[:, 1]] - p[:, rules[:, 0]], axis=-1) if len(rules) else np.zeros((samples, 0))
-        rest = plan.graph.rest
-        lik = np.linalg.norm(rest[rules[:, 2]] - rest[rules[:, 0]], axis=-1)
-        ljk = np.linalg.norm(rest[rules[:, 2]] - rest[rules[:, 1]], axis=-1)
-        found = lockups(ds, d, lik, ljk, rules, np.degrees(angle), plan.joint_names, cyclic=spec.motor.range_deg is None)
+        found = _find_lockups(plan, pn, ds, sds, shown, unit)
         if not partial or not ok.any():
             raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
-    _check_link_lengths(plan, p, ok, angle)
+    elif samples < DENSE_SAMPLES and (not plan.has_groups or not state.between_ok):
+        found = _lockups_between(plan, geom, scale)
+        if found and not partial:
+            raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
+    _check_constraints(plan, pn, ok, value, unit)
+
+    o = np.array([origin.real, origin.imag])
+    p = pn * scale + o
+    p[:, list(plan.graph.ground)] = plan.graph.rest[list(plan.graph.ground)]  # exactly where they are
+    dscale, ddscale = (1.0, 1.0 / scale) if plan.linear else (scale, scale)
 
     def rows(a: np.ndarray) -> np.ndarray:
         return _joint_order(plan, a)
 
-    v, acc = rows(state.dz), rows(state.ddz)
+    v, acc = rows(state.dz) * dscale, rows(state.ddz) * ddscale
     bad = ~ok
     for arr in (p, v, acc):
         arr[bad] = np.nan
@@ -168,15 +272,74 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
     for name, point in zip(plan.track_names, plan.track_points):
         r = plan.row_of[point]
 
-        def xy(a: np.ndarray) -> np.ndarray:
-            out = np.stack([a[r].real, a[r].imag], axis=-1)
+        def xy(a: np.ndarray, factor: float, shift: np.ndarray) -> np.ndarray:
+            out = np.stack([a[r].real, a[r].imag], axis=-1) * factor + shift
             out[bad] = np.nan
             return out
 
-        tracks[name] = Track(position=xy(state.z), velocity=xy(state.dz), acceleration=xy(state.ddz))
+        tracks[name] = Track(position=xy(state.z, scale, o), velocity=xy(state.dz, dscale, 0.0),
+                             acceleration=xy(state.ddz, ddscale, 0.0))
     with np.errstate(invalid="ignore"):
-        transmission = transmission_angle(p, rules)
-        orientation = triangle_orientation(p, rules)
-    return Motion(plan=plan, t=t, motor_angle=angle, positions=p, velocity=v, acceleration=acc,
+        transmission = transmission_angle(pn, rules)
+        orientation = triangle_orientation(pn, rules)
+    return Motion(plan=plan, t=t, motor_angle=value, positions=p, velocity=v, acceleration=acc,
                   tracks=tracks, singularity=np.where(ok[:, None], ds, np.nan), orientation=orientation,
-                  transmission=transmission, assembled=ok, lockups=found)
+                  transmission=transmission, assembled=ok, lockups=found,
+                  step_singularity=np.where(ok[:, None], sds, np.nan))
+
+
+def _lockups_between(plan: Plan, geom: Geometry, scale: float) -> list[LockUp]:
+    """Lock-ups the requested samples step over: the cycle is checked again at DENSE_SAMPLES
+    (positions only, batched); what fails there is reported as found between the samples."""
+    spec = plan.spec
+    t, value = motor_angles(spec, DENSE_SAMPLES)
+    state = evaluate(plan, geom, value / scale if plan.linear else value, order=0)
+    pn = _joint_order(plan, state.z)
+    ds, sds = state.ds.T, state.step_ds.T
+    ok = np.isfinite(pn).all(axis=(1, 2)) & (ds > TOGGLE).all(axis=1) & (sds > TOGGLE).all(axis=1)
+    if ok.all():
+        return []
+    shown = value if plan.linear else np.degrees(value)
+    found = _find_lockups(plan, pn, ds, sds, shown, _unit(plan))
+    return [replace(lk, what=(lk.what or lk.because()) + " (found between the requested samples: "
+                    "simulate with more samples to see it)") for lk in found]
+
+
+def _find_lockups(plan: Plan, pn: np.ndarray, ds: np.ndarray, sds: np.ndarray, shown: np.ndarray,
+                  unit: str) -> list[LockUp]:
+    """Lock-up intervals of rules and steps, in evaluation order (see :func:`lockups`)."""
+    rules = plan.rules
+    samples = pn.shape[0]
+    d = np.linalg.norm(pn[:, rules[:, 1]] - pn[:, rules[:, 0]], axis=-1) if len(rules) else np.zeros((samples, 0))
+    rest = plan_graph_normalized(plan).rest
+    lik = np.linalg.norm(rest[rules[:, 2]] - rest[rules[:, 0]], axis=-1)
+    ljk = np.linalg.norm(rest[rules[:, 2]] - rest[rules[:, 1]], axis=-1)
+    finite = np.isfinite(pn).all(axis=2)  # (T, J)
+    bad_rules = ~(ds > TOGGLE)
+    own_rules = (ds <= TOGGLE) | (bad_rules & np.isfinite(d))
+    bad_steps = ~(sds > TOGGLE)
+    inputs_ok = np.stack([finite[:, st.inputs].all(axis=1) for st in plan.steps], axis=1) if plan.steps \
+        else np.zeros((samples, 0), dtype=bool)
+    own_steps = (sds <= TOGGLE) | (bad_steps & inputs_ok)
+    # evaluation order: by level, rules before steps within a level
+    levels = np.concatenate([plan.level, [st.level for st in plan.steps]]).astype(float)
+    order = np.argsort(levels + np.r_[np.zeros(len(rules)), np.full(len(plan.steps), 0.5)], kind="stable")
+    bad = np.concatenate([bad_rules, bad_steps], axis=1)[:, order]
+    own = np.concatenate([own_rules, own_steps], axis=1)[:, order]
+    explain = _explain(plan, d, lik, ljk, ds, sds)
+    return lockups(bad, own, shown, plan.spec.motor.cyclic, lambda r, t: explain(int(order[r]), t), unit)
+
+
+def _check_closure(plan: Plan, state: State) -> None:
+    """After one full cycle a numeric group must be back where it started (same branch)."""
+    for step in plan.steps:
+        if step.kind != "group":
+            continue
+        z = state.z[plan.row_of[step.joints]]
+        if not (np.isfinite(z[:, -1]).all() and np.isfinite(z[:, 0]).all()):
+            continue  # a lock-up, reported as such
+        gap = float(np.abs(z[:, -1] - z[:, 0]).max())
+        if gap > 1e-7:
+            raise MechanismError(
+                f"{plan.spec.name}: the numeric group {step.name} does not return to its start after one cycle "
+                f"(off by {gap * plan.scale:.3g} {plan.spec.units}): it changed assembly branch")

@@ -29,7 +29,7 @@ def _text(v: str) -> str:
 
 
 def dump_linkage(spec: LinkageSpec, header: str = "", notes: Mapping[str, str] | None = None) -> str:
-    """YAML text of ``spec`` in key order name, units, description, joints, ground, links, motor, tracks.
+    """YAML text of ``spec`` in key order name, units, description, joints, ground, links, sliders, motor, tracks.
 
     Numbers are written with ``repr`` (17 significant digits where needed), so the file loads
     back to the same doubles. ``header`` becomes a comment block at the top; ``notes`` adds
@@ -59,11 +59,23 @@ def dump_linkage(spec: LinkageSpec, header: str = "", notes: Mapping[str, str] |
     add("links:", "links")
     for n, members in spec.links.items():
         add(f"  {_text(n)}: [{', '.join(map(_text, members))}]", f"links.{n}")
-    motor = f"joint: {_text(spec.motor.joint)}, pivot: {_text(spec.motor.pivot)}"
-    if spec.motor.direction != "ccw":
-        motor += f", direction: {spec.motor.direction}"
-    if spec.motor.range_deg is not None:
-        motor += f", range_deg: [{_num(spec.motor.range_deg[0])}, {_num(spec.motor.range_deg[1])}]"
+    if spec.sliders:
+        add("sliders:", "sliders")
+        for n, sl in spec.sliders.items():
+            what = f"joint: {_text(sl.joint)}" if sl.joint is not None else f"link: {_text(sl.link)}"
+            add(f"  {_text(n)}: {{{what}, guide: {_text(sl.guide)}, angle_deg: {_num(sl.angle_deg)}}}",
+                f"sliders.{n}")
+    m = spec.motor
+    if m.linear:
+        motor = f"slider: {_text(m.slider)}, stroke: [{_num(m.stroke[0])}, {_num(m.stroke[1])}]"
+    else:
+        motor = f"joint: {_text(m.joint)}, pivot: {_text(m.pivot)}"
+        if m.direction != "ccw":
+            motor += f", direction: {m.direction}"
+    for key in ("range_deg", "oscillate_deg"):
+        value = getattr(m, key)
+        if value is not None:
+            motor += f", {key}: [{_num(value[0])}, {_num(value[1])}]"
     add(f"motor: {{{motor}}}", "motor")
     if spec.tracks:
         add("tracks:", "tracks")

@@ -1,0 +1,327 @@
+"""Sliders, numeric groups, rocker and linear inputs: closed-form references derived by hand."""
+
+from __future__ import annotations
+
+import re
+
+import h5py
+import numpy as np
+import pytest
+
+from linkedit.errors import MechanismError
+from linkedit.planar import catalog, compile_plan, simulate
+from linkedit.planar.graph import LinkageGraph, mobility
+from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.linkage_yaml import dump_linkage
+from tests.conftest import EXAMPLES
+
+
+def joint(m, name: str) -> np.ndarray:
+    """(T,) complex positions of joint ``name``."""
+    p = m.positions[:, m.plan.joint_names.index(name)]
+    return p[:, 0] + 1j * p[:, 1]
+
+
+def with_joints(spec: LinkageSpec, **moved) -> LinkageSpec:
+    data = spec.model_dump()
+    data["joints"] = {**data["joints"], **moved}
+    return LinkageSpec.model_validate(data)
+
+
+def slider_crank_x(theta: np.ndarray, r: float, l: float, e: float) -> np.ndarray:
+    return r * np.cos(theta) + np.sqrt(l * l - (r * np.sin(theta) - e) ** 2)
+
+
+# ---------------------------------------------------------------- closed-form references
+
+
+def test_offset_slider_crank_matches_the_textbook_formula_over_a_full_turn():
+    n = catalog.SLIDER_CRANK
+    m = simulate(catalog.slider_crank(), 360)
+    theta = m.motor_angle
+    b = joint(m, "B")
+    assert np.abs(b.real - slider_crank_x(theta, n["r"], n["l"], n["e"])).max() <= 1e-9
+    assert np.abs(b.imag - n["e"]).max() <= 1e-9  # stays on its line
+    # velocity and acceleration against the formula's derivative and its central differences
+    h = 1e-4
+    root = np.sqrt(n["l"] ** 2 - (n["r"] * np.sin(theta) - n["e"]) ** 2)
+    dx = -n["r"] * np.sin(theta) - (n["r"] * np.sin(theta) - n["e"]) * n["r"] * np.cos(theta) / root
+    ddx = (slider_crank_x(theta + h, n["r"], n["l"], n["e"]) - 2 * b.real
+           + slider_crank_x(theta - h, n["r"], n["l"], n["e"])) / h**2
+    names = m.plan.joint_names
+    assert np.abs(m.velocity[:, names.index("B"), 0] - dx).max() <= 1e-9
+    assert np.abs(m.velocity[:, names.index("B"), 1]).max() <= 1e-9
+    assert np.abs(m.acceleration[:, names.index("B"), 0] - ddx).max() <= 1e-5
+    # the coupler point stays rigid on the rod
+    a, c = joint(m, "A"), joint(m, "C")
+    rest = catalog.slider_crank().joints
+    for p, q, name in ((a, c, "AC"), (b, c, "BC"), (a, b, "AB")):
+        length = np.hypot(*np.subtract(rest[name[0]], rest[name[1]]))
+        assert np.abs(np.abs(p - q) - length).max() <= 1e-9
+
+
+def test_slotted_links_are_closed_form_rules():
+    kinds = {b.__name__: [st.kind for st in compile_plan(b()).steps]
+             for b in (catalog.quick_return, catalog.scotch_yoke, catalog.inverted_slider_crank, catalog.slider_crank)}
+    assert kinds == {"quick_return": ["rotate", "slider"], "scotch_yoke": ["yoke"],
+                     "inverted_slider_crank": ["rotate"], "slider_crank": ["slider"]}
+
+
+def test_quick_return_rocker_follows_the_crank_pin_and_drives_the_ram():
+    n = catalog.QUICK_RETURN
+    m = simulate(catalog.quick_return(), 360)
+    a, c, r = joint(m, "A"), joint(m, "C"), joint(m, "R")
+    phi = np.angle(a)  # the slot passes through O2 = origin: the rocker points at the pin
+    assert np.abs(c - n["rocker"] * np.exp(1j * phi)).max() <= 1e-9
+    ram = c.real + np.sqrt(n["rod"] ** 2 - (n["ram"] - c.imag) ** 2)
+    assert np.abs(r.real - ram).max() <= 1e-9 and np.abs(r.imag - n["ram"]).max() <= 1e-9
+    # quick return: the forward stroke takes more of the turn than the return
+    forward = np.mean(np.gradient(np.unwrap(np.angle(c))) > 0)
+    assert 0.55 < max(forward, 1 - forward) < 0.75
+
+
+def test_scotch_yoke_moves_by_r_cos_theta():
+    m = simulate(catalog.scotch_yoke(), 360)
+    theta = m.motor_angle
+    for name, x0 in (("Y1", 50.0), ("Y2", 90.0)):
+        y = joint(m, name)
+        assert np.abs(y.real - (x0 + 20.0 * (np.cos(theta) - 1.0))).max() <= 1e-9
+        assert np.abs(y.imag).max() <= 1e-9
+    a = joint(m, "A")
+    assert np.abs(a.real - (joint(m, "Y1").real - 30.0)).max() <= 1e-9  # the pin stays in the slot
+
+
+def test_inverted_slider_crank_arm_points_through_the_pivot():
+    m = simulate(catalog.inverted_slider_crank(), 360)
+    a, x = joint(m, "A"), joint(m, "X")
+    turn = (60.0 - a) / np.abs(60.0 - a)  # the arm's direction: from A through Q
+    assert np.abs(x - (a + (100 + 10j - 20) * turn)).max() <= 1e-9
+
+
+def test_stephenson_slider_output_keeps_rod_and_line():
+    m = simulate(catalog.stephenson_slider(), 360)
+    c, e = joint(m, "C"), joint(m, "E")
+    assert np.abs(e.imag - 20.0).max() <= 1e-9
+    assert np.abs(e.real - (c.real + np.sqrt(60.0**2 - (c.imag - 20.0) ** 2))).max() <= 1e-9
+
+
+def test_cylinder_driven_boom_matches_two_circles():
+    spec = catalog.lifting_arm()
+    m = simulate(spec, 101)
+    o, p = 0j, complex(*spec.joints["P"])
+    r0, t0 = complex(*spec.joints["R"]), complex(*spec.joints["T"])
+    stroke = m.motor_angle
+    assert stroke[0] == 0.0 and stroke[-1] == 25.0
+    # R: at |OR| from O and |PR0| + s from P, on the rest pose's side of O→P
+    a, b = abs(r0 - o), abs(r0 - p) + stroke
+    d = abs(p - o)
+    along = (a * a - b * b + d * d) / (2 * d)
+    side = np.sign(((p - o).conjugate() * (r0 - o)).imag)
+    r = o + (p - o) / d * (along + 1j * side * np.sqrt(a * a - along * along))
+    assert np.abs(joint(m, "R") - r).max() <= 1e-9
+    assert np.abs(joint(m, "T") - (o + (t0 - o) * (r - o) / (r0 - o))).max() <= 1e-9
+    # derivatives per unit of stroke against central differences of the reference
+    h = 1e-3
+    names = m.plan.joint_names
+
+    def ref(s):
+        b = abs(r0 - p) + s
+        along = (a * a - b * b + d * d) / (2 * d)
+        return o + (p - o) / d * (along + 1j * side * np.sqrt(a * a - along * along))
+
+    dr = (ref(stroke + h) - ref(stroke - h)) / (2 * h)
+    ddr = (ref(stroke + h) - 2 * ref(stroke) + ref(stroke - h)) / h**2
+    v = m.velocity[:, names.index("R")]
+    acc = m.acceleration[:, names.index("R")]
+    assert np.abs(v[:, 0] + 1j * v[:, 1] - dr).max() <= 1e-6
+    assert np.abs(acc[:, 0] + 1j * acc[:, 1] - ddr).max() <= 1e-6
+
+
+# ---------------------------------------------------------------- complex loops
+
+
+@pytest.mark.parametrize("samples", [360, 24])
+def test_complex_loop_matches_the_numeric_engine(samples):
+    from linkedit.gcs.planar_bridge import numeric_motion
+
+    plan = compile_plan(catalog.complex_loop())
+    assert [st.kind for st in plan.steps] == ["group"]
+    m = simulate(plan, samples)
+    ref = numeric_motion(plan, samples)
+    assert np.abs(m.positions - ref.positions).max() <= 1e-8
+    # the branch of the rest pose is kept: coarse samples land on the fine cycle's positions
+    fine = simulate(plan, 360)
+    assert np.abs(m.positions - fine.positions[:: 360 // samples]).max() <= 1e-9
+
+
+def test_complex_loop_keeps_its_links_rigid_every_sample():
+    spec = catalog.complex_loop()
+    m = simulate(spec, 360)
+    for members in spec.links.values():
+        for i, a in enumerate(members):
+            for b in members[i + 1:]:
+                rest = np.hypot(*np.subtract(spec.joints[a], spec.joints[b]))
+                assert np.abs(np.abs(joint(m, a) - joint(m, b)) - rest).max() <= 1e-9
+
+
+def test_validate_shows_the_numeric_group_rule(run_cli):
+    r = run_cli("validate", EXAMPLES / "complex-loop.yaml")
+    assert r.exit_code == 0, r.output
+    assert "level 1: T1, T2, T3 ← (A, P1, P2) numeric group" in r.output
+    r = run_cli("validate", EXAMPLES / "slider-crank.yaml")
+    assert "B ← (A) slider piston" in r.output
+
+
+# ---------------------------------------------------------------- inputs
+
+
+def test_oscillating_rocker_input_goes_back_and_forth():
+    base = catalog.crank_rocker().model_dump()
+    base["motor"]["oscillate_deg"] = [-30.0, 45.0]
+    spec = LinkageSpec.model_validate(base)
+    m = simulate(spec, 72)
+    a = joint(m, "A")
+    t = m.t
+    expected = np.radians(-30.0 + 75.0 * 0.5 * (1 - np.cos(2 * np.pi * t)))
+    assert np.abs(np.angle(a * np.exp(-1j * expected))).max() <= 1e-12
+    # B from the law of cosines on the same side as at rest
+    o, d = complex(*spec.joints["O"]), complex(*spec.joints["D"])
+    b0 = complex(*spec.joints["B"])
+    lc, lr = abs(b0 - complex(*spec.joints["A"])), abs(b0 - d)
+    e = d - a
+    along = (lc * lc - lr * lr + abs(e) ** 2) / (2 * abs(e))
+    b = a + e / abs(e) * (along + 1j * np.sqrt(lc * lc - along * along))
+    assert np.abs(joint(m, "B") - b).max() <= 1e-9
+    assert m.cyclic
+
+
+def test_linear_input_result_file_has_the_stroke(run_cli, tmp_path):
+    out = tmp_path / "arm.h5"
+    r = run_cli("simulate", EXAMPLES / "lifting-arm.yaml", "-o", out, "--samples", "11", "--svg", tmp_path / "arm.svg")
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        assert f.attrs["input"] == "linear" and "motor_angle" not in f
+        assert np.allclose(f["stroke"][()], np.linspace(0, 25, 11))
+        assert f["joints/velocity"].attrs["units"] == "mm/mm"
+        assert [k.decode() for k in f["steps/kind"][()]] == ["group"]
+        assert f["diagnostics/step_singularity"].shape == (11, 1)
+        assert np.isfinite(f["joints/position"][()]).all()
+
+
+# ---------------------------------------------------------------- failures
+
+
+def test_slider_that_runs_off_its_reach_names_the_slider_and_angles(run_cli, tmp_path):
+    spec = catalog.slider_crank().model_dump()
+    n = catalog.SLIDER_CRANK
+    spec["joints"]["B"] = (n["r"] + np.sqrt(25.0**2 - n["e"] ** 2), n["e"])  # rod 25: too short below
+    spec["joints"]["C"] = (30.0, 8.0)
+    path = tmp_path / "short.yaml"
+    path.write_text(dump_linkage(LinkageSpec.model_validate(spec)))
+    out = tmp_path / "short.h5"
+    r = run_cli("simulate", path, "-o", out)
+    assert r.exit_code == 1 and "Traceback" not in r.output
+    found = re.search(r"motor angles ([\d.]+)°…([\d.]+)°: slider piston cannot place joint B", r.output)
+    assert found, r.output
+    # |r sin θ − e| > l where sin θ < −(l − e)/r: θ in (180° + 40.5°, 360° − 40.5°)
+    edge = np.degrees(np.arcsin((25.0 - n["e"]) / n["r"]))
+    assert abs(float(found.group(1)) - (180 + edge)) <= 1.0 and abs(float(found.group(2)) - (360 - edge)) <= 1.0
+    assert not out.exists()
+
+
+BAD_SLIDERS = [
+    ("{joint: Z, guide: ground}", "sliders.piston.joint", "unknown joint 'Z'"),
+    ("{link: nothing, guide: ground}", "sliders.piston.link", "unknown link 'nothing'"),
+    ("{joint: B, guide: frame}", "sliders.piston.guide", "guide 'frame' is not a link"),
+    ("{joint: B, guide: rod}", "sliders.piston.joint", "cannot slide on its own link"),
+    ("{joint: O, guide: ground}", "sliders.piston.joint", "ground joint"),
+    ("{link: rod, guide: rod}", "sliders.piston.guide", "cannot slide on itself"),
+    ("{guide: ground}", "sliders.piston", "exactly one of joint"),
+]
+
+
+@pytest.mark.parametrize("entry, field, message", BAD_SLIDERS)
+def test_bad_slider_spec_is_one_line_exit_2(run_cli, tmp_path, entry, field, message):
+    text = (EXAMPLES / "slider-crank.yaml").read_text()
+    text = re.sub(r"  piston: \{joint: B, guide: ground, angle_deg: 0\}.*", f"  piston: {entry}", text)
+    assert entry in text
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    r = run_cli("validate", path)
+    assert r.exit_code == 2, r.output
+    line = r.output.strip()
+    assert len(line.splitlines()) == 1 and "Traceback" not in line
+    assert re.match(rf"linkedit: error: .*bad\.yaml:\d+: {re.escape(field)}", line), line
+    assert message in line
+
+
+def test_bad_linear_input_is_exit_2(run_cli, tmp_path):
+    text = (EXAMPLES / "lifting-arm.yaml").read_text().replace("slider: cylinder", "slider: ram")
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    r = run_cli("validate", path)
+    assert r.exit_code == 2 and "motor.slider: unknown slider 'ram'" in r.output
+
+
+def test_mobility_counts_prismatic_pairs():
+    spec = catalog.slider_crank()
+    assert mobility(LinkageGraph.from_spec(spec)) .rank == 1
+    free = spec.model_copy(update={"sliders": {}})
+    m = mobility(LinkageGraph.from_spec(free))
+    assert m.rank == 2 and m.grubler == 2
+    yoke = mobility(LinkageGraph.from_spec(catalog.scotch_yoke()))
+    assert (yoke.grubler, yoke.rank, yoke.redundant) == (1, 1, 0)
+
+
+def test_edit_refuses_sliders_and_numeric_groups(run_cli, tmp_path):
+    script = tmp_path / "scripts" / "move.yaml"
+    script.parent.mkdir()
+    script.write_text("samples: 36\noperations:\n  - name: move\n    displace: {joint: A, to: [0, 21]}\n")
+    out = tmp_path / "out"
+    for name in ("slider-crank.yaml", "complex-loop.yaml", "lifting-arm.yaml"):
+        r = run_cli("edit", EXAMPLES / name, script, "-o", out)
+        assert r.exit_code == 2, r.output
+        assert "edit does not support sliders/numeric groups yet" in r.output
+        assert len(r.output.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_numeric_engine_refuses_sliders(run_cli, tmp_path):
+    r = run_cli("simulate", EXAMPLES / "slider-crank.yaml", "--engine", "numeric", "-o", tmp_path / "x.h5")
+    assert r.exit_code == 2 and "does not support sliders" in r.output
+
+
+def test_rod_perpendicular_to_the_slot_at_rest_is_rejected():
+    spec = with_joints(catalog.slider_crank(), B=(20.0, 50.0), C=(25.0, 30.0))
+    spec = spec.model_copy(update={"sliders": {"piston": spec.sliders["piston"].model_copy(update={"angle_deg": 0.0})}})
+    with pytest.raises(MechanismError, match="perpendicular"):
+        compile_plan(spec)
+
+
+def piston_driven() -> LinkageSpec:
+    """The slider-crank driven by its piston (a linear input on a frame slot): B moves −25…0 mm."""
+    data = catalog.slider_crank().model_dump()
+    data["motor"] = {"slider": "piston", "stroke": [-25.0, 0.0]}
+    return LinkageSpec.model_validate(data)
+
+
+def test_piston_driven_crank_matches_two_circles():
+    spec = piston_driven()
+    plan = compile_plan(spec)
+    assert [st.kind for st in plan.steps] == ["drive"]
+    m = simulate(spec, 51)
+    b0, a0 = complex(*spec.joints["B"]), complex(*spec.joints["A"])
+    b = b0 + m.motor_angle  # the stroke, along +x
+    assert np.abs(joint(m, "B") - b).max() <= 1e-12
+    r, l = abs(a0), abs(b0 - a0)
+    side = np.sign((b0.conjugate() * a0).imag)
+
+    def crank_pin(b):
+        d = np.abs(b)
+        along = (r * r - l * l + d * d) / (2 * d)
+        return b / d * (along + 1j * side * np.sqrt(r * r - along * along))
+
+    assert np.abs(joint(m, "A") - crank_pin(b)).max() <= 1e-9
+    h = 1e-4
+    v = m.velocity[:, m.plan.joint_names.index("A")]
+    assert np.abs(v[:, 0] + 1j * v[:, 1] - (crank_pin(b + h) - crank_pin(b - h)) / (2 * h)).max() <= 1e-6
