@@ -30,6 +30,7 @@ COMMAND_MODULES = [
     "linkedit.commands.edit",
     "linkedit.commands.solve3d",
     "linkedit.commands.curves",
+    "linkedit.commands.synthesis",
     "linkedit.commands.bench",
     "linkedit.commands.schemas",
 ]

@@ -17,6 +17,7 @@ SECTIONS = {
     "edit": "linkedit.edit.bench",
     "gcs": "linkedit.gcs.bench",
     "curves": "linkedit.curves.bench",
+    "synthesis": "linkedit.synthesis.bench",
 }
 
 

@@ -13,6 +13,8 @@ from linkedit.errors import InputError
 from linkedit.spec.common import MAX_WEIGHT
 
 SAMPLES_HELP = "Points per resampled curve [default: 64, or the weights file's]."
+SMOOTH_HELP = "Smooth sketched or noisy curves first: Gaussian σ as a fraction of the points (e.g. 0.01) [default: 0]."
+MIRROR_HELP = "Count a curve and its mirror image as the same."
 CLOSED_HELP = "Treat every curve as closed (cyclic) or open [default: detected from the ends, or declared]."
 
 
@@ -41,7 +43,7 @@ def _skipped(failures: list[InputError]):
 
 
 def _load(inputs: list[str], closed: bool | None, samples: int | None, harmonics: int | None, anchor: str | None,
-          curves: list | None = None, skip=None):
+          curves: list | None = None, skip=None, smooth: float = 0.0):
     """Load (unless ``curves`` are given) and describe curves; ``skip`` as for ``load_inputs``."""
     from linkedit.curves.compare import describe_curves
     from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES
@@ -52,7 +54,7 @@ def _load(inputs: list[str], closed: bool | None, samples: int | None, harmonics
         if not curves:
             raise InputError("no curve could be read", field="INPUT")
     desc = describe_curves(curves, samples=samples or DEFAULT_SAMPLES, harmonics=harmonics or DEFAULT_HARMONICS,
-                           anchor=_anchor(anchor))
+                           anchor=_anchor(anchor), smooth=smooth)
     return curves, desc
 
 
@@ -185,6 +187,7 @@ def register(app: typer.Typer) -> None:
         harmonics: int = typer.Option(None, "--harmonics", min=1, max=64, help="Elliptic Fourier harmonics [default: 10]."),
         closed: bool = typer.Option(None, "--closed/--open", help=CLOSED_HELP),
         anchor: str = typer.Option(None, "--anchor", help="X,Y[,Z]: anchor point (e.g. the crank axle) for curves without one."),
+        smooth: float = typer.Option(0.0, "--smooth", min=0.0, max=0.5, help=SMOOTH_HELP),
         as_json: bool = typer.Option(False, "--json", help="Print the table as JSON."),
     ) -> None:
         """Per-curve features of normalized motion curves (one row per curve).
@@ -194,7 +197,8 @@ def register(app: typer.Typer) -> None:
         check_outputs([("--output", output)], _input_paths(inputs))
         failures: list[InputError] = []
         several = len(inputs) > 1 or any(Path(i).is_dir() for i in inputs)
-        curves, desc = _load(inputs, closed, samples, harmonics, anchor, skip=_skipped(failures) if several else None)
+        curves, desc = _load(inputs, closed, samples, harmonics, anchor, skip=_skipped(failures) if several else None,
+                             smooth=smooth)
         if output is not None:
             options = {"samples": int(desc.points.shape[1]), "harmonics": int(desc.efd.shape[1]), "inputs": inputs}
             _write_features(output, curves, desc, options)
@@ -221,6 +225,10 @@ def register(app: typer.Typer) -> None:
         closed: bool = typer.Option(None, "--closed/--open", help=CLOSED_HELP),
         anchor: str = typer.Option(None, "--anchor", help="X,Y[,Z]: anchor point for curves without one."),
         top: int = typer.Option(10, "--top", min=1, help="How many library curves to list with --query."),
+        smooth: float = typer.Option(0.0, "--smooth", min=0.0, max=0.5, help=SMOOTH_HELP),
+        mirror: bool = typer.Option(False, "--mirror", help=MIRROR_HELP),
+        partial: bool = typer.Option(False, "--partial", help="Compare an open (partial) curve with closed ones by "
+                                                              "where it fits best along them (points term only)."),
         svg: Path = typer.Option(None, "--svg", help="Overlay of the normalized curves (aligned to the first / the query)."),
         as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
     ) -> None:
@@ -239,27 +247,27 @@ def register(app: typer.Typer) -> None:
         if query is not None or library:
             if query is None or not library or inputs:
                 raise InputError("ranking needs --query and --library (and no other curves)", field="--query")
-            _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json)
+            _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json, smooth, mirror, partial)
             return
         if not inputs:
             raise InputError("give curves to compare, or --query and --library", field="INPUT")
-        _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json)
+        _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, smooth, mirror, partial)
 
 
-def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json) -> None:
+def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, smooth, mirror, partial) -> None:
     from linkedit.curves.compare import distances
     from linkedit.curves.distance import nearest
 
-    curves, desc = _load(inputs, closed, samples, harmonics, anchor)
+    curves, desc = _load(inputs, closed, samples, harmonics, anchor, smooth=smooth)
     if len(curves) < 2:
         raise InputError("compare-curves needs at least 2 curves", field="INPUT")
     w = _resolve(desc, weights)
-    dist, _ = distances(desc, w)
+    dist, _ = distances(desc, w, mirror=mirror, partial=partial)
     near = nearest(dist)
     names = [c.name for c in curves]
     rows = [{"curve": names[i], "nearest": names[j], "distance": float(dist[i, j])} for i, j in enumerate(near)]
     if svg is not None:
-        _overlay(svg, names, desc, 0, "curves aligned to " + names[0])
+        _overlay(svg, names, desc, 0, "curves aligned to " + names[0], mirror=mirror)
     if as_json:
         print_json({"curves": names, "weights": w, "distance": dist, "nearest": rows})
         return
@@ -272,10 +280,11 @@ def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json) -
         typer.echo(f"  {r['curve']} → {r['nearest']} ({r['distance']:.4f})")
 
 
-def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json) -> None:
+def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json, smooth, mirror,
+          partial) -> None:
     import numpy as np
 
-    from linkedit.curves.compare import distances
+    from linkedit.curves.compare import distances, placements
 
     from linkedit.curves.sources import load_inputs
 
@@ -285,31 +294,40 @@ def _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg,
     def warn(exc: InputError) -> None:  # a library with a bad file: warn, skip it, rank the rest
         typer.echo(f"linkedit: warning: {exc} (skipped)", err=True)
 
-    curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed, skip=warn))
+    curves, desc = _load([], closed, samples, harmonics, anchor, queried + load_inputs(library, closed=closed, skip=warn),
+                         smooth=smooth)
     w = _resolve(desc, weights)
-    dist, terms = distances(desc.take([0]), w, desc.take(range(1, len(curves))))
+    dist, terms = distances(desc.take([0]), w, desc.take(range(1, len(curves))), mirror=mirror, partial=partial)
     order = np.argsort(dist[0], kind="stable")[:top]
+    placed = placements(desc.take([0]), desc.take(1 + order), mirror=mirror)
     ranking = [{"rank": k + 1, "curve": curves[1 + i].name, "origin": curves[1 + i].origin,
-                "distance": float(dist[0, i]), "terms": {t: float(m[0, i]) for t, m in terms.items()}}
+                "distance": float(dist[0, i]), "terms": {t: float(m[0, i]) for t, m in terms.items()},
+                "placement": placed[k]}
                for k, i in enumerate(order)]
     if svg is not None:
         chosen = [0] + [1 + int(i) for i in order]
         _overlay(svg, [curves[i].name for i in chosen], desc.take(chosen), 0, f"library ranked against {curves[0].name}",
+                 mirror=mirror,
                  labels=[f"query: {curves[0].name}"] + [f"{r['rank']}. {r['curve']} ({r['distance']:.4f})" for r in ranking])
     if as_json:
         print_json({"query": curves[0].name, "weights": w, "ranking": ranking})
         return
     typer.echo(f"query {curves[0].name}: {len(curves) - 1} library curves, nearest first")
     for r in ranking:
-        typer.echo(f"{r['rank']:>4d}. {r['curve']}  {r['distance']:.4f}")
+        p = r["placement"]
+        turn = f"turn {p['rotation_deg']:.1f}°, " if "rotation_deg" in p else ""
+        typer.echo(f"{r['rank']:>4d}. {r['curve']}  {r['distance']:.4f}  (scale {p['scale']:.4g}, {turn}"
+                   f"move {', '.join(f'{v:.4g}' for v in p['translation'])}, phase {p['phase']:.3f}"
+                   + (", reversed" if p["reversed"] else "") + (", mirrored" if p["mirrored"] else "") + ")")
 
 
-def _overlay(path: Path, names: list[str], desc: Any, reference: int, title: str, labels: list[str] | None = None) -> None:
+def _overlay(path: Path, names: list[str], desc: Any, reference: int, title: str, labels: list[str] | None = None,
+             mirror: bool = False) -> None:
     from linkedit.curves.distance import align
     from linkedit.curves.svg import overlay
     from linkedit.io.atomic import write_text
 
-    pts = align(desc.points[reference], bool(desc.closed[reference]), desc.points, desc.closed)
+    pts = align(desc.points[reference], bool(desc.closed[reference]), desc.points, desc.closed, mirror=mirror)
     write_text(path, overlay(names, pts, desc.closed, title=title, highlight=reference, labels=labels))
 
 
@@ -342,13 +360,19 @@ def _learn(pairs_path: Path, output: Path | None, samples, harmonics, closed, as
     summary = (f"similar pairs: distance ≤ {fit.similar.max():.4g} (mean {fit.similar.mean():.4g}); "
                f"dissimilar pairs: distance ≥ {fit.dissimilar.min():.4g}; "
                + ("separated" if fit.separated else "NOT separated"))
+    if fit.held_out_auc is not None:
+        best_term = max(fit.term_auc, key=fit.term_auc.get)
+        summary += (f"; soft margin C = {fit.cost:g}, held-out AUC {fit.held_out_auc:.3f} (cross-validated; "
+                    f"best single term {best_term} {fit.term_auc[best_term]:.3f}, points "
+                    f"{fit.term_auc.get('points', float('nan')):.3f})")
     body = {"description": f"learned by linkedit compare-curves --learn-weights {pairs_path.name}: {summary}",
             "samples": samples, "harmonics": harmonics, "weights": {k: round(v, 12) for k, v in fit.weights.items()}}
     import yaml
 
     write_text(output, yaml.safe_dump(body, sort_keys=False, allow_unicode=True, width=100))
     if as_json:
-        print_json(body | {"similar": fit.similar, "dissimilar": fit.dissimilar, "separated": fit.separated})
+        print_json(body | {"similar": fit.similar, "dissimilar": fit.dissimilar, "separated": fit.separated,
+                           "cost": fit.cost, "held_out_auc": fit.held_out_auc, "term_auc": fit.term_auc})
     else:
         typer.echo(summary)
         typer.echo(f"weights → {output}")

@@ -4,7 +4,7 @@
   (everything :func:`describe` computes: normalization, features, turning angles, elliptic
   Fourier descriptors), against describing the curves one at a time;
 * the full 1,000 × 1,000 phase-aligned distance matrix (every term; the point term alone),
-  against correlating all N shifts directly (a matrix product per shift set, no FFT).
+  against correlating all N whole shifts directly (a matrix product per shift set, no FFT).
 """
 
 from __future__ import annotations
@@ -32,14 +32,15 @@ def random_curves(count: int, points: int = 360, seed: int = 0) -> np.ndarray:
 
 
 def direct_rms(a: np.ndarray) -> np.ndarray:
-    """Baseline: aligned RMS of closed curves (C, N, 2) by correlating every shift directly."""
+    """Baseline: aligned RMS of closed curves (C, N, 2) by correlating every whole shift directly
+    (as complex numbers: the best rotation), without the sub-sample refinement."""
     count, n, _ = a.shape
     shift = np.arange(n)[:, None]
     k = np.arange(n)[None, :]
-    flat = a.reshape(count, -1)
+    z = a[..., 0] + 1j * a[..., 1]
     best = np.zeros((count, count))
     for index in ((k + shift) % n, (-k - shift) % n):  # forward, reversed
-        corr = (flat @ a[:, index, :].reshape(count * n, -1).T).reshape(count, count, n)
+        corr = (np.conj(z) @ z[:, index].reshape(count * n, n).T).reshape(count, count, n)
         best = np.maximum(best, np.abs(corr).max(axis=2))
     energy = np.einsum("cnd,cnd->c", a, a)
     return np.sqrt(np.maximum(energy[:, None] + energy[None, :] - 2 * best, 0.0) / n)
@@ -58,7 +59,8 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
     t_terms = best_time(lambda: term_distances(desc), repeats)
     t_points = best_time(lambda: aligned_rms(desc.points, None, desc.closed), repeats)
     t_direct = best_time(lambda: direct_rms(desc.points), 1)
-    err = float(np.abs(direct_rms(desc.points) - aligned_rms(desc.points, None, desc.closed)).max())
+    gain = float((direct_rms(desc.points) - aligned_rms(desc.points, None, desc.closed)).max())
     echo(f"{matrix:,} × {matrix:,} phase-aligned distance matrix (N = 64, all shifts, both directions): "
          f"{t_terms:.2f} s all terms (target ≤ {MATRIX_TARGET:g} s), {t_points:.2f} s point term; "
-         f"direct shift correlation {t_direct:.2f} s (×{t_direct / t_points:.1f}), max difference {err:.1e}")
+         f"direct whole-shift correlation {t_direct:.2f} s (×{t_direct / t_points:.1f}); "
+         f"the sub-sample refinement lowers distances by up to {gain:.1e}")

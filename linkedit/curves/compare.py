@@ -11,15 +11,17 @@ from collections.abc import Mapping
 import numpy as np
 
 from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES, Descriptors, describe_ragged
-from linkedit.curves.distance import term_distances, term_names, weighted
+from linkedit.curves.distance import alignment, term_distances, term_names, weighted
+from linkedit.curves.smooth import smooth as smooth_curve
 from linkedit.curves.learn import Inseparable, LearnedWeights, learn_weights
 from linkedit.curves.sources import Curve
 from linkedit.errors import InputError
 
 
 def describe_curves(curves: list[Curve], *, samples: int = DEFAULT_SAMPLES, harmonics: int = DEFAULT_HARMONICS,
-                    anchor: np.ndarray | None = None) -> Descriptors:
-    """Describe loaded curves (all 2D or all 3D); ``anchor`` applies to curves without their own."""
+                    anchor: np.ndarray | None = None, smooth: float = 0.0) -> Descriptors:
+    """Describe loaded curves (all 2D or all 3D); ``anchor`` applies to curves without their own;
+    ``smooth`` > 0 smooths every curve first (σ as a fraction of its points, :mod:`linkedit.curves.smooth`)."""
     dims = {c.points.shape[1] for c in curves}
     if len(dims) > 1:
         two = next(c for c in curves if c.points.shape[1] == 2)
@@ -35,7 +37,7 @@ def describe_curves(curves: list[Curve], *, samples: int = DEFAULT_SAMPLES, harm
         raise InputError("some curves have an anchor and this one has none (give --anchor for the rest)",
                          file=missing.origin)
     with np.errstate(all="ignore"):  # a non-finite result is reported below, naming the curve
-        desc = describe_ragged([c.points for c in curves], [c.closed for c in curves], samples=samples,
+        desc = describe_ragged([smooth_curve(c.points, c.closed, smooth) for c in curves], [c.closed for c in curves], samples=samples,
                                harmonics=harmonics, anchors=None if anchors[0] is None else anchors)
     check_finite(curves, desc)
     return desc
@@ -69,11 +71,33 @@ def resolve_weights(desc: Descriptors, weights: Mapping[str, float] | None, *, f
     return out
 
 
-def distances(desc: Descriptors, weights: Mapping[str, float],
-              other: Descriptors | None = None) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def distances(desc: Descriptors, weights: Mapping[str, float], other: Descriptors | None = None, *,
+              mirror: bool = False, partial: bool = False) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Weighted distance matrix (C, C) of ``desc`` (or (C, C') against ``other``) and the term matrices."""
-    terms = term_distances(desc, other)
+    terms = term_distances(desc, other, mirror=mirror, partial=partial)
     return weighted(terms, weights), terms
+
+
+def placements(query: Descriptors, library: Descriptors, *, mirror: bool = False) -> list[dict]:
+    """The similarity transform placing each library curve onto the (one) query, in input units:
+    p_query ≈ translation + scale · matrix · p_library, and where the query's start meets the
+    library curve (``phase``: a fraction of the library curve's length from its canonical start,
+    ``reversed``: travelled the other way)."""
+    al = alignment(query.points[0], bool(query.closed[0]), library.points, library.closed, mirror=mirror)
+    qn, ln = query.normalized, library.normalized
+    n, dim = library.points.shape[1], library.points.shape[2]
+    out = []
+    for j in range(len(library)):
+        matrix = qn.frame[0] @ al.rotation[j] @ ln.frame[j].T
+        scale = float(qn.scale[0] / ln.scale[j])
+        row = {"scale": scale, "matrix": matrix.tolist(),
+               "translation": (qn.centroid[0] - scale * matrix @ ln.centroid[j]).tolist(),
+               "phase": float(((-al.shift[j] if al.reversed[j] else al.shift[j]) / n) % 1.0), "reversed": bool(al.reversed[j]), "mirrored": bool(al.mirrored[j])}
+        if dim == 2:
+            proper = matrix @ np.diag([1.0, -1.0]) if al.mirrored[j] else matrix
+            row["rotation_deg"] = float(np.degrees(np.arctan2(proper[1, 0], proper[0, 0])))
+        out.append(row)
+    return out
 
 
 def learn(desc: Descriptors, names: list[str], similar: list[tuple[str, str]], dissimilar: list[tuple[str, str]], *,

@@ -4,13 +4,19 @@ Terms (each a (Ca, Cb) matrix of nonnegative numbers):
 
 * every per-curve feature: the absolute difference (angles wrapped to [0, π]);
 * ``points``: RMS distance between the normalized resampled curves, minimized over cyclic
-  shift (both curves closed), direction of travel and the sign ambiguity of the principal
-  frame (proper rotations only: a mirror image stays different);
-* ``turning``: the same for the turning-angle sequences (no frame);
-* ``efd``: Euclidean distance of normalized elliptic Fourier descriptors.
+  shift (both curves closed; refined below one sample), direction of travel and rotation:
+  2D curves by the best rotation angle (Procrustes, so a nearly isotropic curve, whose
+  principal frame is arbitrary, still aligns), 3D curves over the sign ambiguity of the
+  principal frame (proper rotations only: a mirror image stays different unless ``mirror``);
+* ``turning``: the same for the turning-angle sequences (no frame; ``mirror`` negates them);
+* ``efd``: Euclidean distance of normalized elliptic Fourier descriptors (3D curves, and
+  ``mirror``, also against the mirror image: a 3D frame's in-plane handedness hangs on the
+  sign of its out-of-plane axis, which rounding decides for a nearly planar curve).
 
 The alignment over all N cyclic shifts is an FFT cross-correlation, batched over blocks of
-curve pairs: ‖a - shift_s(b)‖² = ‖a‖² + ‖b‖² - 2 (a ⋆ b)(s).
+curve pairs: ‖a - shift_s(b)‖² = ‖a‖² + ‖b‖² - 2 (a ⋆ b)(s); for 2D curves as complex numbers
+z = x + iy the best rotation gives ‖a‖² + ‖b‖² - 2 |(a ⋆ b)(s)|. The best whole shift is
+refined by the parabola through the correlation at it and its two neighbours.
 
 The weighted distance is d = sqrt(Σ_m w_m Δ_m²).
 """
@@ -18,6 +24,7 @@ The weighted distance is d = sqrt(Σ_m w_m Δ_m²).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.fft
@@ -28,7 +35,7 @@ from linkedit.curves.features import ANGULAR
 
 PAIRWISE = ("points", "turning", "efd")
 #: Bytes of complex spectra processed per block (bounds memory, keeps blocks cache friendly).
-BLOCK_BYTES = 1 << 20
+BLOCK_BYTES = 1 << 22
 
 
 def term_names(desc: Descriptors) -> tuple[str, ...]:
@@ -36,73 +43,129 @@ def term_names(desc: Descriptors) -> tuple[str, ...]:
     return desc.names + PAIRWISE
 
 
-def _frame_signs(dim: int, frame_flips: bool) -> tuple[np.ndarray, bool]:
-    """Sign patterns of the proper frame changes (K, D), and whether |correlation| covers the rest.
+def _frame_signs(dim: int, frame_flips: bool, mirror: bool) -> np.ndarray:
+    """Sign patterns (K, D) of the frame changes compared (real mode: 1D and 3D).
 
-    2D: the half turn (-1, -1) is the negated correlation, so |·| covers it. 3D: the four
-    patterns with an even number of flips.
+    3D: the four proper patterns (even number of flips), all eight with ``mirror``; 1D: the
+    identity, and the negation with ``mirror``.
     """
-    if not frame_flips or dim == 1:
-        return np.ones((1, dim)), False
-    if dim == 2:
-        return np.ones((1, 2)), True
-    return np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=float), False
+    if dim == 3 and frame_flips:
+        proper = [[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]]
+        return np.array(proper + ([[-s for s in p] for p in proper] if mirror else []), dtype=float)
+    patterns = [np.ones(dim)] + ([-np.ones(dim)] if mirror else [])
+    return np.array(patterns)
 
 
-def _correlations(a_spec: np.ndarray, b_spec: np.ndarray, b_rev: np.ndarray, signs: np.ndarray, n: int) -> np.ndarray:
-    """(r, c, 2, K, N): Σ_k a_k · S(b)_{k+s}, forward and reversed b, every frame pattern S."""
-    dim = a_spec.shape[1]
-    spec = np.empty((len(a_spec), len(b_spec), 2, len(signs), a_spec.shape[2]), dtype=complex)
-    for u, b in enumerate((b_spec, b_rev)):
-        per_dim = [a_spec[:, None, d, :] * b[None, :, d, :] for d in range(dim)]  # (r, c, F) each
-        for k, pattern in enumerate(signs):
-            out = spec[:, :, u, k]
-            out[...] = per_dim[0] if pattern[0] > 0 else -per_dim[0]
-            for d in range(1, dim):
-                if pattern[d] > 0:
-                    out += per_dim[d]
-                else:
-                    out -= per_dim[d]
-    return scipy.fft.irfft(spec, n=n, axis=-1, overwrite_x=True, workers=-1)
+def _variants(b: np.ndarray, reverse_sign: np.ndarray, complex_mode: bool, signs: np.ndarray,
+              mirror: bool) -> np.ndarray:
+    """(Cb, 2K, N) complex: every compared version of b — frame patterns (or, 2D, the mirror
+    image), forward then reversed (r_k = σ b_{-k})."""
+    n = b.shape[1]
+    rev = (b * reverse_sign)[:, (-np.arange(n)) % n]
+    if complex_mode:
+        forward, backward = b[..., 0] + 1j * b[..., 1], rev[..., 0] + 1j * rev[..., 1]
+        versions = [forward, np.conj(forward)] if mirror else [forward]
+        versions += [backward, np.conj(backward)] if mirror else [backward]
+        return np.stack(versions, axis=1)
+    return np.stack([(x[:, None, :, :] * signs[None, :, None, :]) for x in (b, rev)], axis=1).reshape(
+        len(b), 2 * len(signs), n, -1)
 
 
-def _spectra(x: np.ndarray, reverse_sign: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """conj(rfft) of x (C, N, D) as (C, D, F), rfft, and the rfft of each sequence reversed (r_k = σ x_{-k})."""
-    spec = np.fft.rfft(x, axis=1).transpose(0, 2, 1)
-    return np.conj(spec), spec, np.conj(spec) * reverse_sign[None, :, None]
+def _scores(a_spec: np.ndarray, v_spec: np.ndarray, complex_mode: bool, n: int) -> np.ndarray:
+    """Correlation scores (r, c, V, N): Σ_k a_k · v_{k+s} (real mode) or |Σ_k conj(a_k) v_{k+s}| (2D)."""
+    if complex_mode:
+        prod = a_spec[:, None, None, :] * v_spec[None, :, :, :]
+        corr = scipy.fft.ifft(prod, n=n, axis=-1, overwrite_x=True)
+        power = corr.real * corr.real
+        power += corr.imag * corr.imag
+        return np.sqrt(power, out=power)
+    prod = np.einsum("adf,cvdf->acvf", a_spec, v_spec)
+    return scipy.fft.irfft(prod, n=n, axis=-1, overwrite_x=True, workers=-1)
+
+
+def _spectrum(x: np.ndarray, complex_mode: bool) -> np.ndarray:
+    """FFT along the sample axis: (…, N) complex → (…, N); real (…, N, D) → (…, D, F)."""
+    if complex_mode:
+        return np.fft.fft(x, axis=-1)
+    return np.fft.rfft(x, axis=-2).swapaxes(-1, -2)
+
+
+@dataclass(frozen=True)
+class Peak:
+    """The best alignment of each pair (arrays of one shape)."""
+
+    score: np.ndarray  #: best correlation (refined below one sample for closed pairs)
+    variant: np.ndarray  #: index into the compared versions (direction × frame pattern)
+    shift: np.ndarray  #: shift in samples (fractional for closed pairs)
+
+
+def _best(scores: np.ndarray, both_closed: np.ndarray) -> Peak:
+    """Best alignment over versions and shifts of scores (…, V, N); open pairs: start to start
+    (forward versions, shift 0) or start to end (reversed versions, shift 1)."""
+    n = scores.shape[-1]
+    half = scores.shape[-2] // 2
+    lead = scores.shape[:-2]
+    flat = scores.reshape(*lead, -1)
+    best = np.argmax(flat, axis=-1)
+    open_scores = np.concatenate([scores[..., :half, 0], scores[..., half:, 1 % n]], axis=-1)
+    open_best = np.argmax(open_scores, axis=-1)
+    variant = np.where(both_closed, best // n, open_best)
+    shift = np.where(both_closed, best % n, (open_best >= half).astype(int) % n).astype(float)
+    c0 = np.take_along_axis(flat, best[..., None], -1)[..., 0]
+    row = (best // n) * n
+    cm = np.take_along_axis(flat, (row + (best - 1) % n)[..., None], -1)[..., 0]
+    cp = np.take_along_axis(flat, (row + (best + 1) % n)[..., None], -1)[..., 0]
+    curve = cm - 2.0 * c0 + cp
+    delta = np.divide(cm - cp, 2.0 * curve, out=np.zeros_like(c0), where=curve < 0)
+    refined = c0 - 0.25 * (cm - cp) * delta
+    score = np.where(both_closed, np.maximum(refined, c0), np.take_along_axis(open_scores, open_best[..., None], -1)[..., 0])
+    return Peak(score, variant, np.where(both_closed, shift + delta, shift))
+
+
+def _peaks(a: np.ndarray, b: np.ndarray, closed_a: np.ndarray, closed_b: np.ndarray, reverse_sign: np.ndarray,
+           frame_flips: bool, mirror: bool, rows: slice, cols: slice) -> Peak:
+    """Best alignments of a[rows] against b[cols] as (r, c) arrays."""
+    n, dim = a.shape[1], a.shape[2]
+    complex_mode = dim == 2 and frame_flips
+    signs = _frame_signs(dim, frame_flips, mirror)
+    if complex_mode:
+        a_spec = np.conj(_spectrum(a[rows, :, 0] + 1j * a[rows, :, 1], True))
+        v_spec = _spectrum(_variants(b[cols], reverse_sign, True, signs, mirror), True)
+    else:
+        a_spec = np.conj(_spectrum(a[rows], False))
+        v_spec = _spectrum(_variants(b[cols], reverse_sign, False, signs, mirror), False)
+    scores = _scores(a_spec, v_spec, complex_mode, n)
+    return _best(scores, closed_a[rows, None] & closed_b[None, cols])
+
+
+def _block_rows(n_b: int, versions: int, n: int) -> int:
+    return max(1, BLOCK_BYTES // (16 * max(n_b, 1) * versions * n))
 
 
 def aligned_rms(a: np.ndarray, b: np.ndarray | None, closed_a: np.ndarray, closed_b: np.ndarray | None = None, *,
-                reverse_sign: np.ndarray | float = 1.0, frame_flips: bool = True) -> np.ndarray:
+                reverse_sign: np.ndarray | float = 1.0, frame_flips: bool = True, mirror: bool = False) -> np.ndarray:
     """RMS distance of sequences a (Ca, N, D) and b (Cb, N, D), best alignment → (Ca, Cb).
 
-    Pairs of closed curves: minimized over the N cyclic shifts and both directions; otherwise
-    the sequences are compared start to start and start to end. Reversing multiplies each
-    dimension by ``reverse_sign`` (-1 for signed turning angles). ``b=None`` compares ``a``
-    with itself (only half the pairs are computed).
+    Pairs of closed curves: minimized over cyclic shifts (refined below one sample) and both
+    directions; otherwise the sequences are compared start to start and start to end. 2D
+    sequences with ``frame_flips`` (points) are also turned by the best angle; 3D ones take
+    the best sign pattern of the frame. Reversing multiplies each dimension by
+    ``reverse_sign`` (-1 for signed turning angles). ``mirror`` also compares the mirror image.
+    ``b=None`` compares ``a`` with itself (only half the pairs are computed).
     """
     symmetric = b is None
     b, closed_b = (a, closed_a) if symmetric else (b, closed_b)
     n, dim = a.shape[1], a.shape[2]
     sigma = np.broadcast_to(np.asarray(reverse_sign, dtype=float), (dim,))
-    signs, use_abs = _frame_signs(dim, frame_flips)
-    a_conj = _spectra(a, sigma)[0]
-    _, b_spec, b_rev = _spectra(b, sigma)
+    versions = 2 * len(_frame_signs(dim, frame_flips, mirror))
     energy_a, energy_b = np.einsum("cnd,cnd->c", a, a), np.einsum("cnd,cnd->c", b, b)
     out = np.empty((len(a), len(b)))
-    rows = max(1, BLOCK_BYTES // (16 * len(b) * 2 * len(signs) * max(dim, 2) * b_spec.shape[2]))
+    rows = _block_rows(len(b), versions, n)
     for start in range(0, len(a), rows):
         stop = min(start + rows, len(a))
         cols = slice(start, None) if symmetric else slice(None)
-        corr = _correlations(a_conj[start:stop], b_spec[cols], b_rev[cols], signs, n)
-        if use_abs:
-            np.abs(corr, out=corr)
-        best = corr.reshape(corr.shape[0], corr.shape[1], -1).max(axis=2)
-        both = closed_a[start:stop, None] & closed_b[None, cols]
-        if not both.all():
-            linear = np.maximum(corr[:, :, 0, :, 0].max(axis=2), corr[:, :, 1, :, 1].max(axis=2))
-            best = np.where(both, best, linear)
-        d2 = (energy_a[start:stop, None] + energy_b[None, cols] - 2.0 * best) / n
+        peak = _peaks(a, b, closed_a, closed_b, sigma, frame_flips, mirror, slice(start, stop), cols)
+        d2 = (energy_a[start:stop, None] + energy_b[None, cols] - 2.0 * peak.score) / n
         out[start:stop, cols] = np.sqrt(np.maximum(d2, 0.0))
     if symmetric:
         upper = np.triu(out)
@@ -110,30 +173,69 @@ def aligned_rms(a: np.ndarray, b: np.ndarray | None, closed_a: np.ndarray, close
     return out
 
 
-def align(reference: np.ndarray, closed_ref: bool, points: np.ndarray, closed: np.ndarray) -> np.ndarray:
-    """Curves (C, N, D) shifted, reversed and frame-flipped onto a reference (N, D) as :func:`aligned_rms` does."""
+@dataclass(frozen=True)
+class Alignment:
+    """How each curve was placed onto a reference (normalized frame), arrays (C,)."""
+
+    reversed: np.ndarray  #: bool: travelled the other way
+    mirrored: np.ndarray  #: bool: mirror image (only with ``mirror``)
+    shift: np.ndarray  #: phase offset in samples: sample k of the reference meets sample k + shift (fractional)
+    rotation: np.ndarray  #: (C, D, D) the rotation (2D: best angle; 3D: a sign pattern) applied to the curve
+
+
+def alignment(reference: np.ndarray, closed_ref: bool, points: np.ndarray, closed: np.ndarray, *,
+              mirror: bool = False) -> Alignment:
+    """The best alignment of curves (C, N, D) onto a reference (N, D), as :func:`aligned_rms` finds it."""
     n, dim = points.shape[1], points.shape[2]
-    signs, use_abs = _frame_signs(dim, True)
-    a_conj = _spectra(reference[None], np.ones(dim))[0]
-    _, b_spec, b_rev = _spectra(points, np.ones(dim))
-    corr = _correlations(a_conj, b_spec, b_rev, signs, n)[0]  # (C, 2, K, N)
-    score = np.abs(corr) if use_abs else corr.copy()
-    open_pair = ~(closed & closed_ref)
-    keep = np.zeros((2, n), dtype=bool)
-    keep[0, 0] = keep[1, 1] = True
-    score[open_pair] = np.where(keep[:, None, :], score[open_pair], -np.inf)
-    flat = score.reshape(len(points), -1).argmax(axis=1)
-    u, k, s = np.unravel_index(flat, score.shape[1:])
-    rows = np.arange(len(points))
-    flip = np.where(corr[rows, u, k, s] < 0, -1.0, 1.0) if use_abs else np.ones(len(points))
-    factor = signs[k] * flip[:, None]
-    j = np.arange(n)[None, :]
-    index = np.where(u[:, None] == 0, (j + s[:, None]) % n, (-j - s[:, None]) % n)
-    return np.take_along_axis(points, index[:, :, None], axis=1) * factor[:, None, :]
+    signs = _frame_signs(dim, True, mirror)
+    peak = _peaks(reference[None], points, np.array([closed_ref]), np.asarray(closed), np.ones(dim), True, mirror,
+                  slice(0, 1), slice(None))
+    variant, shift = peak.variant[0], peak.shift[0]
+    if dim == 2:
+        versions = 2 if mirror else 1
+        reverse, mirrored = variant >= versions, (variant % versions) == 1
+        b = points[..., 0] + 1j * points[..., 1]
+        b = np.where(mirrored[:, None], np.conj(b), b)
+        b = np.where(reverse[:, None], b[:, (-np.arange(n)) % n], b)
+        corr = np.sum(np.conj(reference[:, 0] + 1j * reference[:, 1])[None] * _roll(b, np.round(shift)), axis=1)
+        # the rotation of the whole-sample alignment (the refined shift moves it by far less than a step)
+        angle = -np.angle(corr)
+        c, s = np.cos(angle), np.sin(angle)
+        rot = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+        rot = rot @ np.where(mirrored[:, None, None], np.diag([1.0, -1.0]), np.eye(2))
+    else:
+        pattern = signs[variant % len(signs)]
+        reverse, mirrored = variant >= len(signs), np.prod(pattern, axis=1) < 0
+        rot = pattern[:, :, None] * np.eye(dim)
+    return Alignment(reverse, mirrored, shift, rot)
 
 
-def term_distances(a: Descriptors, b: Descriptors | None = None) -> dict[str, np.ndarray]:
-    """Every term as a (Ca, Cb) matrix (``b=None``: ``a`` against itself)."""
+def _roll(b: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """Rows of b (C, N) with sample k + shift_c at k (shift rounded to whole samples)."""
+    n = b.shape[1]
+    index = (np.arange(n)[None, :] + shift.astype(int)[:, None]) % n
+    return np.take_along_axis(b, index, axis=1)
+
+
+def align(reference: np.ndarray, closed_ref: bool, points: np.ndarray, closed: np.ndarray, *,
+          mirror: bool = False) -> np.ndarray:
+    """Curves (C, N, D) shifted (whole samples), reversed and turned onto a reference (N, D)."""
+    n = points.shape[1]
+    al = alignment(reference, closed_ref, points, closed, mirror=mirror)
+    placed = np.einsum("cde,cne->cnd", al.rotation, points)
+    placed = np.where(al.reversed[:, None, None], placed[:, (-np.arange(n)) % n], placed)
+    index = (np.arange(n)[None, :] + np.round(al.shift).astype(int)[:, None]) % n
+    return np.take_along_axis(placed, index[:, :, None], axis=1)
+
+
+def term_distances(a: Descriptors, b: Descriptors | None = None, *, mirror: bool = False,
+                   partial: bool = False) -> dict[str, np.ndarray]:
+    """Every term as a (Ca, Cb) matrix (``b=None``: ``a`` against itself); ``mirror``: mirror images count as equal.
+
+    ``partial`` (2D): an open curve against a closed one is compared by where it fits best along
+    the closed one (:func:`partial_rms`, the ``points`` term); the other terms describe whole
+    curves and count 0 for such pairs.
+    """
     symmetric = b is None
     other = a if symmetric else b
     if other.names != a.names or other.points.shape[1:] != a.points.shape[1:]:
@@ -143,10 +245,23 @@ def term_distances(a: Descriptors, b: Descriptors | None = None) -> dict[str, np
         diff = np.abs(a.features[:, i][:, None] - other.features[:, i][None, :])
         out[name] = np.minimum(diff, 2 * np.pi - diff) if name in ANGULAR else diff
     dim = a.points.shape[2]
-    out["points"] = aligned_rms(a.points, None if symmetric else other.points, a.closed, other.closed)
+    out["points"] = aligned_rms(a.points, None if symmetric else other.points, a.closed, other.closed, mirror=mirror)
     out["turning"] = aligned_rms(a.turning[:, :, None], None if symmetric else other.turning[:, :, None],
-                                 a.closed, other.closed, reverse_sign=-1.0 if dim == 2 else 1.0, frame_flips=False)
-    out["efd"] = efd_distance(a.efd, other.efd)
+                                 a.closed, other.closed, reverse_sign=-1.0 if dim == 2 else 1.0, frame_flips=False,
+                                 mirror=mirror and dim == 2)
+    out["efd"] = efd_distance(a.efd, other.efd, mirror=mirror or dim == 3)
+    if partial and dim == 2:
+        mixed = a.closed[:, None] != other.closed[None, :]
+        if mixed.any():
+            for name in out:
+                out[name] = np.where(mixed, 0.0, out[name])
+            ao, bc = ~a.closed, other.closed
+            if ao.any() and bc.any():
+                block = partial_rms(a.points[ao], other.points[bc], mirror=mirror)
+                out["points"][np.ix_(ao, bc)] = block
+            if a.closed.any() and (~other.closed).any():
+                block = partial_rms(other.points[~other.closed], a.points[a.closed], mirror=mirror).T
+                out["points"][np.ix_(a.closed, ~other.closed)] = block
     return out
 
 
@@ -164,3 +279,97 @@ def nearest(dist: np.ndarray) -> np.ndarray:
     d = dist.copy()
     np.fill_diagonal(d, np.inf)
     return np.argmin(d, axis=1)
+
+
+#: Partial matching: points of the open curve compared, samples of the closed curve's outline,
+#: offsets along it and fractions of its length the open curve may cover (geometric, 10 % to all);
+#: the coarse grid screens many candidates, the fine one ranks and places the best.
+PARTIAL_POINTS = 32
+PARTIAL_OUTLINE = 256
+FINE = (96, np.geomspace(0.1, 1.0, 24))
+COARSE = (32, np.geomspace(0.1, 1.0, 12))
+
+
+def _partial_setup(open_points: np.ndarray, grid: tuple[int, np.ndarray] = FINE
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Query points (Ca, n) complex centred, their means (Ca,), and the window index (F, S, 2, n)."""
+    offset_count, fractions = grid
+    n = open_points.shape[1]
+    q = open_points[:, np.linspace(0, n - 1, PARTIAL_POINTS).round().astype(int)]
+    q = q[..., 0] + 1j * q[..., 1]
+    mean = q.mean(axis=1)
+    k = np.arange(PARTIAL_POINTS) / (PARTIAL_POINTS - 1)
+    offsets = np.arange(offset_count) * PARTIAL_OUTLINE // offset_count
+    steps = fractions[:, None] * k[None, :] * PARTIAL_OUTLINE  # (F, n)
+    index = np.stack([offsets[None, :, None] + steps[:, None, :],
+                      offsets[None, :, None] - steps[:, None, :]], axis=2)  # (F, S, 2, n)
+    return q - mean[:, None], mean, np.round(index).astype(int) % PARTIAL_OUTLINE
+
+
+def _partial_fits(q: np.ndarray, rings: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For centred queries q (Ca, n) and closed outlines (B, L): residual² per window (B, Ca, W),
+    the best fits α (B, Ca, W) (q ≈ α (w − mean w)) and the window means (B, W)."""
+    w = rings[:, index.reshape(-1, index.shape[-1])]  # (B, W, n)
+    w_mean = w.mean(axis=-1)
+    w -= w_mean[..., None]
+    w_energy = np.maximum(np.einsum("bwn,bwn->bw", w.real, w.real) + np.einsum("bwn,bwn->bw", w.imag, w.imag),
+                          1e-300)
+    inner = np.conj(w) @ q.T  # (B, W, Ca): <w, q>
+    alpha = (inner / w_energy[..., None]).transpose(0, 2, 1)
+    fit = (inner.real ** 2 + inner.imag ** 2) / w_energy[..., None]
+    residual = np.sum(np.abs(q) ** 2, axis=1)[None, :, None] - fit.transpose(0, 2, 1)
+    return residual, alpha, w_mean
+
+
+#: Closed outlines compared together in :func:`partial_rms` (bounds the window arrays).
+PARTIAL_BATCH = 32
+
+
+def partial_rms(open_points: np.ndarray, closed_points: np.ndarray, *, mirror: bool = False,
+                grid: tuple[int, np.ndarray] = FINE) -> np.ndarray:
+    """RMS distance (units of the open curve's major extent) of open curves (Ca, N, 2) from the
+    best-fitting stretch of closed curves (Cb, N, 2) → (Ca, Cb).
+
+    Over every stretch (start offset, fraction of the length, direction; with ``mirror`` also of
+    the mirror image) of the closed curve, sampled at the open curve's relative arc lengths, the
+    best similarity transform (scale, rotation, translation: a complex least-squares fit) places
+    the stretch on the open curve; the smallest residual wins. ``grid``: :data:`FINE` or :data:`COARSE`.
+    """
+    q, _, index = _partial_setup(open_points, grid)
+    outline = _outline(closed_points[..., 0] + 1j * closed_points[..., 1], PARTIAL_OUTLINE)  # (Cb, L)
+    out = np.empty((len(q), len(outline)))
+    for start in range(0, len(outline), PARTIAL_BATCH):
+        rings = outline[start:start + PARTIAL_BATCH]
+        residual = _partial_fits(q, rings, index)[0].min(axis=2)  # (B, Ca)
+        if mirror:
+            residual = np.minimum(residual, _partial_fits(q, np.conj(rings), index)[0].min(axis=2))
+        out[:, start:start + PARTIAL_BATCH] = np.sqrt(np.maximum(residual, 0.0) / PARTIAL_POINTS).T
+    return out
+
+
+def partial_placement(open_points: np.ndarray, closed_points: np.ndarray, *,
+                      mirror: bool = False) -> tuple[float, complex, complex, bool]:
+    """The best stretch of one closed curve (N, 2) for one open curve (N, 2), both normalized:
+    (RMS, α, β, mirrored) with open ≈ α·w + β for w the closed curve's points (conjugated when
+    mirrored)."""
+    q, q_mean, index = _partial_setup(open_points[None])
+    ring = _outline((closed_points[:, 0] + 1j * closed_points[:, 1])[None], PARTIAL_OUTLINE)
+    best = (np.inf, 0j, 0j, False)
+    for mirrored, r in ((False, ring), (True, np.conj(ring)))[: 2 if mirror else 1]:
+        residual, alpha, w_mean = _partial_fits(q, r, index)
+        k = int(np.argmin(residual[0, 0]))
+        rms = float(np.sqrt(max(residual[0, 0, k], 0.0) / PARTIAL_POINTS))
+        if rms < best[0]:
+            best = (rms, complex(alpha[0, 0, k]), complex(q_mean[0] - alpha[0, 0, k] * w_mean[0, k]), mirrored)
+    return best
+
+
+def _outline(z: np.ndarray, count: int) -> np.ndarray:
+    """Closed polylines z (C, N) resampled at ``count`` points equally spaced in arc length."""
+    ring = np.concatenate([z, z[:, :1]], axis=1)
+    s = np.concatenate([np.zeros((len(z), 1)), np.cumsum(np.abs(np.diff(ring, axis=1)), axis=1)], axis=1)
+    out = np.empty((len(z), count), dtype=complex)
+    for c in range(len(z)):
+        at = np.arange(count) / count * s[c, -1]
+        out[c] = np.interp(at, s[c], ring[c].real) + 1j * np.interp(at, s[c], ring[c].imag)
+    return out

@@ -86,10 +86,54 @@ def variant_signs(harmonics: int) -> np.ndarray:
     return np.stack([ones, half, reverse, half * reverse])
 
 
-def efd_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Euclidean distance of normalized descriptors, smallest over the variants: (Ca, H, 4), (Cb, H, 4) → (Ca, Cb)."""
+def efd_distance(a: np.ndarray, b: np.ndarray, *, mirror: bool = False) -> np.ndarray:
+    """Euclidean distance of normalized descriptors, smallest over the variants: (Ca, H, 4), (Cb, H, 4) → (Ca, Cb).
+
+    ``mirror`` also compares the mirror image (y → -y in the normalized frame: c, d negated).
+    """
     fa, fb = a.reshape(len(a), -1), b.reshape(len(b), -1)
-    signs = variant_signs(a.shape[1]).reshape(4, -1)
+    signs = variant_signs(a.shape[1])
+    if mirror:
+        signs = np.concatenate([signs, signs * np.array([1.0, 1.0, -1.0, -1.0])])
+    signs = signs.reshape(len(signs), -1)
     best = np.max(np.stack([fa @ (fb * s).T for s in signs]), axis=0)
     d2 = np.sum(fa**2, axis=1)[:, None] + np.sum(fb**2, axis=1)[None, :] - 2 * best
     return np.sqrt(np.maximum(d2, 0.0))
+
+
+def polyline_efd(z: np.ndarray, harmonics: int) -> np.ndarray:
+    """Normalized descriptors of closed planar polylines z (C, M) complex, parametrized by arc
+    length → (C, H, 4): the fast index descriptor of :mod:`linkedit.synthesis`.
+
+    Kuhl–Giardina's sums with the true cumulative chord length t_p (period 1), so the points
+    need not be equally spaced (e.g. a linkage sampled uniformly in crank angle). Summed by
+    parts, harmonic n is Σ_p w_p e^{2πi n t_p} / (2n²π²) with w_p the change of slope dz/dt
+    at vertex p: one cos/sin per vertex, the harmonics by the angle-addition recurrence, one
+    batched matrix product — the trigonometric table and the product in float32 (descriptors
+    good to ~1e-6, plenty for an index; :func:`efd_coefficients` is the exact one).
+    """
+    delta = np.roll(z, -1, axis=1) - z  # segment p: vertex p → p+1 (the last closes the curve)
+    seg = np.abs(delta)
+    total = seg.sum(axis=1, keepdims=True)
+    t = np.cumsum(seg, axis=1)
+    t *= 2.0 * np.pi / total  # angle at vertex p+1 (the last is 2π: vertex 0)
+    slope = np.divide(delta * total, seg, out=np.zeros_like(delta), where=seg > 0)
+    w = slope - np.roll(slope, -1, axis=1)  # at vertex p+1: slope_p − slope_{p+1}
+    angle = t.astype(np.float32)
+    trig = np.empty((2 * harmonics, len(z), z.shape[1]), dtype=np.float32)  # rows 2n, 2n+1: cos, sin of (n+1)·t
+    np.cos(angle, out=trig[0])
+    np.sin(angle, out=trig[1])
+    c1, s1 = trig[0], trig[1]
+    tmp = np.empty_like(c1)
+    for n in range(1, harmonics):
+        c, s = trig[2 * n - 2], trig[2 * n - 1]
+        np.multiply(c, c1, out=trig[2 * n])
+        np.multiply(s, s1, out=tmp)
+        trig[2 * n] -= tmp
+        np.multiply(s, c1, out=trig[2 * n + 1])
+        np.multiply(c, s1, out=tmp)
+        trig[2 * n + 1] += tmp
+    parts = np.stack([w.real, w.imag], axis=2).astype(np.float32)  # (C, M, 2): x, y
+    sums = np.matmul(trig.transpose(1, 0, 2), parts).astype(float).reshape(len(z), harmonics, 2, 2)
+    sums /= (2.0 * np.pi ** 2 * np.arange(1, harmonics + 1) ** 2)[:, None, None]  # [n, cos/sin, x/y]
+    return normalize_efd(sums.transpose(0, 1, 3, 2).reshape(len(z), harmonics, 4))  # (x cos, x sin, y cos, y sin)

@@ -13,7 +13,11 @@ on it, starting it at another point or reversing it changes nothing:
   axis, which makes det = +1. An axis whose skewness is below ``SKEWED`` (a centrally
   symmetric curve: rounding would pick the sign) is signed, when an anchor is given, so the
   anchor lies on its positive side (major axis first);
-* the scale is the extent of the curve along the major axis;
+* a nearly isotropic curve (second moments within ``ISOTROPIC`` of each other, like a rounded
+  triangle) has arbitrary principal axes: its major axis is turned (in the plane of the first
+  two axes) towards the vertex farthest from the centroid, which turns with the curve;
+* the scale is the extent of the curve along the major axis; the length is that of the
+  resampled polyline (an input with noise or many tiny zigzags does not inflate it);
 * closed curves are resampled from a canonical start, open ones from their first to their last
   point, at N points equally spaced in arc length. The start of a closed curve is the point of
   greatest distance r from the centroid, located between input points: the farthest vertex
@@ -40,6 +44,9 @@ OFF_AXIS = 1e-9
 CUSP_TURN = 5 * np.pi / 6
 #: Half-width of the parabola that places the start, in resampling steps.
 START_WIDTH = 0.5
+#: Second moment ratio (minor / major) above which the principal axes are arbitrary: the
+#: major axis is then turned towards the farthest vertex instead.
+ISOTROPIC = 0.8
 
 
 @dataclass(frozen=True)
@@ -121,6 +128,14 @@ def normalize(points: np.ndarray, closed: np.ndarray | bool, samples: int = 64,
     step_f *= signs[:, :, None]
     x_next = x + step_f
 
+    iso = eigval[:, 1] >= ISOTROPIC * eigval[:, 0]
+    if iso.any():
+        turn = _toward_farthest(x[iso])  # (I, D, D)
+        frame[iso] = frame[iso] @ turn
+        x[iso] = turn.transpose(0, 2, 1) @ x[iso]
+        step_f[iso] = turn.transpose(0, 2, 1) @ step_f[iso]
+        x_next = x + step_f
+
     extents = x.max(axis=2) - x.min(axis=2)
     scale = extents[:, 0].copy()
     rel = extents / scale[:, None]
@@ -133,9 +148,25 @@ def normalize(points: np.ndarray, closed: np.ndarray | bool, samples: int = 64,
     frac /= total[:, None]
     start = np.where(closed, _closed_start(x, x_next, step_f, seg, frac, START_WIDTH / samples), 0.0)
     resampled = _resample(x, x_next, frac, closed, start, samples) / scale[:, None, None]
+    edges = np.diff(resampled, axis=2, append=resampled[:, :, :1])
+    edge_length = np.sqrt(np.einsum("cdn,cdn->cn", edges, edges))
+    edge_length[~closed, -1] = 0.0
     return Normalized(points=np.ascontiguousarray(resampled.transpose(0, 2, 1)), closed=closed.copy(),
                       centroid=box_centre + centroid * box[:, None], frame=frame, scale=scale * box,
-                      length=total / scale, extents=rel, areas=areas)
+                      length=edge_length.sum(axis=1), extents=rel, areas=areas)
+
+
+def _toward_farthest(x: np.ndarray) -> np.ndarray:
+    """Rotations (C, D, D) in the plane of the first two axes that turn the first axis towards
+    each curve's farthest vertex from the centroid (x: (C, D, M) centred, principal frame)."""
+    r2 = np.einsum("cdm,cdm->cm", x, x)
+    near = r2 >= r2.max(axis=1, keepdims=True) * (1.0 - 1e-9)
+    vertex = np.argmax(np.where(near, x[:, 0, :], -np.inf), axis=1)
+    v = x[np.arange(len(x)), :2, vertex]
+    c, s = (v / np.linalg.norm(v, axis=1, keepdims=True)).T
+    turn = np.broadcast_to(np.eye(x.shape[1]), (len(x), x.shape[1], x.shape[1])).copy()
+    turn[:, 0, 0], turn[:, 0, 1], turn[:, 1, 0], turn[:, 1, 1] = c, -s, s, c
+    return turn
 
 
 def _axis_signs(frame: np.ndarray, eigval: np.ndarray, third: np.ndarray, anchored: np.ndarray | None) -> np.ndarray:

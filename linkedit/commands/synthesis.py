@@ -1,0 +1,110 @@
+"""``linkedit atlas build`` and ``linkedit synthesize``: which linkage draws this curve?"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import typer
+
+from linkedit.commands.common import guard, print_json
+from linkedit.errors import InputError
+
+
+def _families(text: str) -> list[str]:
+    from linkedit.synthesis.families import family
+
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise InputError("name at least one family", field="--family")
+    for n in names:
+        family(n)
+    return list(dict.fromkeys(names))
+
+
+class _Progress:
+    """linkages done, linkages/s — on a terminal only."""
+
+    def __init__(self) -> None:
+        self.live = sys.stderr.isatty()
+
+    def __call__(self, done: int, total: int, seconds: float) -> None:
+        if self.live:
+            rate = done / max(seconds, 1e-9)
+            bar = "#" * int(30 * done / total)
+            sys.stderr.write(f"\r[{bar:<30}] {done:,}/{total:,} linkages, {rate:,.0f} linkages/s")
+            if done >= total:
+                sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+def register(app: typer.Typer) -> None:
+    atlas_app = typer.Typer(help="Atlases of linkage curves for `linkedit synthesize`.", no_args_is_help=True)
+    app.add_typer(atlas_app, name="atlas")
+
+    @atlas_app.command("build")
+    @guard
+    def build(
+        family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, jansen, klann, watt, stephenson."),
+        count: int = typer.Option(..., "-n", "--count", min=1, help="Linkages to add per family."),
+        output: Path = typer.Option(..., "-o", "--output", help="Atlas file (.h5); an existing one is appended to."),
+        seed: int = typer.Option(1, "--seed", min=0, help="Seed of the chunks (an atlas keeps its seed)."),
+        scheduler: str = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786): build there."),
+        workers: int = typer.Option(None, "--workers", min=1, help="Build on a local Dask cluster of N worker processes."),
+    ) -> None:
+        """Sample a family's linkages, keep the working ones, store their curves and descriptors."""
+        import time
+
+        from linkedit.synthesis.atlas import build as build_atlas
+
+        if output.suffix.lower() not in (".h5", ".hdf5"):
+            raise InputError(f"{output}: an atlas is an HDF5 file (.h5)", field="--output")
+        names = _families(family)
+        start = time.perf_counter()
+        counts = build_atlas(output, names, count, seed=seed, scheduler=scheduler, workers=workers,
+                             progress=_Progress())
+        seconds = time.perf_counter() - start
+        typer.echo(f"{count * len(names):,} linkages in {seconds:.2f} s ({count * len(names) / seconds:,.0f} "
+                   f"linkages/s) → {output}: " + ", ".join(f"{n} {c:,}" for n, c in counts.items()))
+
+    @app.command()
+    @guard
+    def synthesize(
+        target: str = typer.Argument(..., help="The curve: .csv (x, y[, t]), set.yaml:name or result.h5:track."),
+        atlas: Path = typer.Option(..., "--atlas", help="Atlas file or folder of atlases (`linkedit atlas build`)."),
+        output: Path = typer.Option(..., "-o", "--output", help="Output folder: result.yaml, result.h5, overlay.svg, "
+                                                                "history.svg, report.json."),
+        top: int = typer.Option(5, "--top", min=1, max=50, help="Candidates refined."),
+        closed: bool = typer.Option(None, "--closed/--open", help="The target is a closed cycle / an open (partial) "
+                                                                  "curve [default: detected from its ends]."),
+        smooth: float = typer.Option(0.0, "--smooth", min=0.0, max=0.5,
+                                     help="Smooth a sketched target first: Gaussian σ as a fraction of its points."),
+        seed: int = typer.Option(1, "--seed", min=0, help="Recorded with the result (the search is deterministic)."),
+        as_json: bool = typer.Option(False, "--json", help="Print the report as JSON."),
+    ) -> None:
+        """Find the linkage whose tracked point draws the target curve: atlas search, placement, refinement."""
+        from linkedit.curves.sources import load_inputs
+        from linkedit.synthesis.atlas import load
+        from linkedit.synthesis.outputs import write_all
+        from linkedit.synthesis.synthesize import synthesize as run
+
+        curves = load_inputs([target], closed=closed)
+        if len(curves) != 1:
+            raise InputError(f"the target holds {len(curves)} curves; name one (set.yaml:name, result.h5:track)",
+                             file=target)
+        curve = curves[0]
+        if curve.points.shape[1] != 2:
+            raise InputError("the target must be a planar (x, y) curve", file=curve.origin)
+        found = load(atlas)
+        result = run(curve, found, top=top, smooth=smooth, seed=seed, units=curve.units or "mm")
+        options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "seed": seed,
+                   "closed": curve.closed, "atlas_size": found.size}
+        report = write_all(output, result, options)
+        if as_json:
+            print_json({k: v for k, v in report.items() if k != "result"} | {"output": str(output)})
+            return
+        before, after = report["error"]["before"], report["error"]["after"]
+        typer.echo(f"{report['family']}: normalized RMS error {100 * before['rms']:.3g} % → {100 * after['rms']:.3g} % "
+                   f"(max {100 * after['max']:.3g} %) in {report['seconds']['total']:.2f} s → {output}/")
+        if report["note"]:
+            typer.echo(f"note: {report['note']}")

@@ -1,0 +1,251 @@
+"""Atlases: many linkages of a family, their curves and descriptors, in one chunked HDF5 file.
+
+An atlas is built in chunks of ``CHUNK`` linkages. A chunk is a pure function of (family,
+seed, chunk index): its generator is seeded with ``[seed, family ID, index]``, it draws
+parameter rows from the family's distribution until ``size`` of them turn the full cycle with
+the singularity margin, evaluates all of them in one array evaluation per block (over
+linkages and samples), and describes each coupler curve. Chunks therefore give the same bytes
+in-process or on a Dask worker, in any order, and an atlas grown by appending chunks k, k+1, …
+equals one built at once. Layout: ``specs/atlas-hdf5.md``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from linkedit import __version__
+from linkedit.curves.efd import polyline_efd
+from linkedit.errors import InputError
+from linkedit.io.atomic import atomic_path
+from linkedit.synthesis.families import family
+
+FORMAT_VERSION = "1"
+#: Linkages per chunk (the unit of work and of seeding).
+CHUNK = 10_000
+#: Curve samples per cycle used for the descriptors (uniform in crank angle).
+SAMPLES = 64
+#: Every ``COARSE_STEP``-th sample is stored: curves at SAMPLES / COARSE_STEP points.
+COARSE_STEP = 2
+#: Elliptic Fourier harmonics of the index descriptor.
+HARMONICS = 8
+#: Linkages evaluated together inside a chunk (their working arrays stay in the CPU cache).
+BLOCK = 1024
+
+
+def index_vector(efd: np.ndarray) -> np.ndarray:
+    """Normalized EFDs (K, H, 4) → the index descriptor (K, 4H − 3): everything but the
+    first harmonic's a₁ = 1, b₁ = c₁ = 0, which normalization fixes."""
+    flat = efd.reshape(len(efd), -1)
+    return np.ascontiguousarray(flat[:, 3:])
+
+
+@dataclass(frozen=True)
+class Chunk:
+    """One chunk of an atlas (K linkages)."""
+
+    params: np.ndarray  #: (K, P) float64 family parameters
+    min_ds: np.ndarray  #: (K,) smallest d_s over the cycle
+    index: np.ndarray  #: (K, 4H − 3) float32 index descriptor
+    curves: np.ndarray  #: (K, SAMPLES / COARSE_STEP, 2) float32 coarse curves, family frame
+
+
+def build_chunk(name: str, seed: int, index: int, size: int = CHUNK) -> Chunk:
+    """Chunk ``index`` of family ``name``'s atlas from ``seed`` (a pure function)."""
+    fam = family(name)
+    rng = np.random.default_rng([seed, fam.ID, index])
+    kept: list[np.ndarray] = []
+    have = 0
+    while have < size:
+        draw = fam.sample(rng, 2 * (size - have) + 16)
+        draw = draw[fam.min_singularity(draw) >= fam.margin()]
+        kept.append(draw)
+        have += len(draw)
+    params = np.concatenate(kept)[:size]
+    desc = np.empty((size, 4 * HARMONICS - 3), dtype=np.float32)
+    coarse = np.empty((size, SAMPLES // COARSE_STEP, 2), dtype=np.float32)
+    for start in range(0, size, BLOCK):
+        z = fam.curves(params[start:start + BLOCK], SAMPLES)
+        desc[start:start + BLOCK] = index_vector(polyline_efd(z, HARMONICS))
+        part = z[:, ::COARSE_STEP]
+        coarse[start:start + BLOCK, :, 0] = part.real
+        coarse[start:start + BLOCK, :, 1] = part.imag
+    return Chunk(params, fam.min_singularity(params), desc, coarse)
+
+
+def chunk_sizes(count: int, first: int = 0) -> list[tuple[int, int]]:
+    """(index, size) of the chunks holding ``count`` linkages, numbered from ``first``."""
+    return [(first + k, min(CHUNK, count - k * CHUNK)) for k in range((count + CHUNK - 1) // CHUNK)]
+
+
+def run_chunks(name: str, seed: int, jobs: list[tuple[int, int]], *, scheduler: str | None = None,
+               workers: int | None = None) -> Iterator[tuple[int, Chunk]]:
+    """Chunks in order of ``jobs``: in-process, or on Dask (``scheduler`` address, or a local
+    cluster of ``workers`` processes); results are the same either way."""
+    if scheduler is None and not workers:
+        for index, size in jobs:
+            yield index, build_chunk(name, seed, index, size)
+        return
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise InputError("the Dask path needs dask.distributed: pip install 'linkedit[cluster]'",
+                         field="--scheduler" if scheduler else "--workers") from None
+    cluster = None if scheduler else local_cluster(workers)
+    try:
+        with Client(scheduler or cluster) as client:
+            futures = [client.submit(build_chunk, name, seed, index, size, pure=True) for index, size in jobs]
+            for (index, _), future in zip(jobs, futures):
+                yield index, future.result()
+    finally:
+        if cluster is not None:
+            cluster.close()
+
+
+def local_cluster(workers: int):
+    """A local Dask cluster of ``workers`` single-threaded processes. Dask's nannies set
+    MALLOC_TRIM_THRESHOLD_=65536, which returns every freed array to the system (a chunk's
+    temporaries then page-fault on each allocation, ×1.7 slower here); it is raised to 1 GiB."""
+    import dask
+    from dask.distributed import LocalCluster
+
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 1 << 30}):
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
+
+
+def build(path: str | Path, names: list[str], count: int, *, seed: int = 1, scheduler: str | None = None,
+          workers: int | None = None, progress: Callable[[int, int, float], None] | None = None) -> dict[str, int]:
+    """Build (or append to) the atlas at ``path``: ``count`` more linkages of every family in ``names``.
+
+    An existing atlas is grown with the next chunks of its own seed (``seed`` must match);
+    the new file replaces the old one only when complete. Returns the linkage count per family.
+    ``progress(done, total, seconds)`` is called after every chunk.
+    """
+    path = Path(path)
+    total = count * len(names)
+    done, start = 0, time.perf_counter()
+    with atomic_path(path) as tmp:
+        if path.exists():
+            _check_existing(path, seed)
+            shutil.copyfile(path, tmp)
+            mode = "r+"
+        else:
+            mode = "w"
+        with h5py.File(tmp, mode) as f:
+            if mode == "w":
+                f.attrs.update({"format_version": FORMAT_VERSION, "kind": "atlas", "generator": f"linkedit {__version__}",
+                                "seed": seed, "samples": SAMPLES, "coarse_samples": SAMPLES // COARSE_STEP,
+                                "harmonics": HARMONICS, "chunk": CHUNK})
+            for name in names:
+                group = _family_group(f, name)
+                first = int(group.attrs["chunks"])
+                jobs = chunk_sizes(count, first)
+                for index, chunk in run_chunks(name, seed, jobs, scheduler=scheduler, workers=workers):
+                    _append(group, chunk)
+                    group.attrs["chunks"] = index + 1
+                    done += len(chunk.params)
+                    if progress is not None:
+                        progress(done, total, time.perf_counter() - start)
+                if len(jobs) and jobs[-1][1] < CHUNK:
+                    group.attrs["partial_chunk"] = True  # later appends still start at the next index
+            counts = {name: int(f[f"families/{name}/params"].shape[0]) for name in f["families"]}
+    return counts
+
+
+def _check_existing(path: Path, seed: int) -> None:
+    try:
+        with h5py.File(path, "r") as f:
+            if f.attrs.get("kind") != "atlas":
+                raise InputError("exists and is not a linkedit atlas (refusing to overwrite it)", file=str(path))
+            if int(f.attrs["seed"]) != seed:
+                raise InputError(f"this atlas was built with --seed {int(f.attrs['seed'])}; append with the same "
+                                 "seed (or write a new file)", file=str(path), field="--seed")
+            if int(f.attrs["chunk"]) != CHUNK or int(f.attrs["samples"]) != SAMPLES:
+                raise InputError("this atlas was built by another version of the layout; build a new one",
+                                 file=str(path))
+    except OSError as exc:
+        raise InputError(f"cannot open as HDF5: {exc}", file=str(path)) from None
+
+
+def _family_group(f: h5py.File, name: str) -> h5py.Group:
+    fam = family(name)
+    key = f"families/{name}"
+    if key in f:
+        return f[key]
+    g = f.create_group(key)
+    width = 4 * HARMONICS - 3
+    g.create_dataset("params", shape=(0, len(fam.PARAMETERS)), maxshape=(None, len(fam.PARAMETERS)),
+                     dtype="f8", chunks=(CHUNK, len(fam.PARAMETERS)))
+    g.create_dataset("min_ds", shape=(0,), maxshape=(None,), dtype="f8", chunks=(CHUNK,))
+    g.create_dataset("index", shape=(0, width), maxshape=(None, width), dtype="f4", chunks=(CHUNK, width))
+    g.create_dataset("curves", shape=(0, SAMPLES // COARSE_STEP, 2), maxshape=(None, SAMPLES // COARSE_STEP, 2),
+                     dtype="f4", chunks=(min(CHUNK, 2048), SAMPLES // COARSE_STEP, 2))
+    g["params"].attrs["columns"] = json.dumps(list(fam.PARAMETERS))
+    g["min_ds"].attrs["description"] = "smallest d_s = sin² of the transmission angle over the cycle"
+    g["index"].attrs["description"] = "normalized elliptic Fourier descriptors (arc length) minus a1, b1, c1"
+    g["curves"].attrs["description"] = "tracked point over one crank cycle, family frame (ground length 1)"
+    g.attrs.update({"family_id": fam.ID, "margin": fam.margin(), "chunks": 0,
+                    "distribution": (fam.sample.__doc__ or "").strip()})
+    return g
+
+
+def _append(group: h5py.Group, chunk: Chunk) -> None:
+    for key in ("params", "min_ds", "index", "curves"):
+        data = getattr(chunk, key)
+        ds = group[key]
+        n = ds.shape[0]
+        ds.resize(n + len(data), axis=0)
+        ds[n:] = data
+
+
+@dataclass
+class Atlas:
+    """An atlas read into memory for queries: per family, its arrays."""
+
+    path: Path
+    families: dict[str, dict[str, np.ndarray]]
+    seed: int
+
+    @property
+    def size(self) -> int:
+        return sum(len(v["params"]) for v in self.families.values())
+
+
+def load(path: str | Path) -> Atlas:
+    """Read an atlas file (or every ``*.h5`` atlas in a folder, merged by family)."""
+    path = Path(path)
+    files = sorted(path.glob("*.h5")) if path.is_dir() else [path]
+    if not files:
+        raise InputError("no .h5 atlas in this folder (build one with `linkedit atlas build`)", file=str(path))
+    families: dict[str, dict[str, list[np.ndarray]]] = {}
+    seed = 0
+    for file in files:
+        if not file.is_file():
+            raise InputError("no such file", file=str(file))
+        try:
+            f = h5py.File(file, "r")
+        except OSError as exc:
+            raise InputError(f"cannot open as HDF5: {exc}", file=str(file)) from None
+        with f:
+            if f.attrs.get("kind") != "atlas" or "families" not in f:
+                raise InputError("not a linkedit atlas (build one with `linkedit atlas build`)", file=str(file))
+            if int(f.attrs["harmonics"]) != HARMONICS or int(f.attrs["samples"]) != SAMPLES:
+                raise InputError("atlas of another layout version; rebuild it", file=str(file))
+            seed = int(f.attrs["seed"])
+            for name, g in f["families"].items():
+                family(name, field=f"{file}: families/{name}")
+                bucket = families.setdefault(name, {k: [] for k in ("params", "min_ds", "index", "curves")})
+                for key in bucket:
+                    bucket[key].append(g[key][()])
+    merged = {name: {k: np.concatenate(v) for k, v in parts.items()} for name, parts in families.items()}
+    if not any(len(v["params"]) for v in merged.values()):
+        raise InputError("the atlas is empty", file=str(path))
+    return Atlas(path, merged, seed)

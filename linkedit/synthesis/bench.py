@@ -1,0 +1,126 @@
+"""Benchmark of synthesis (``linkedit bench -s synthesis``).
+
+* atlas building, four-bar family, in-process: linkages per second including sampling,
+  rejection, the batched evaluation and the index descriptors (chunks only, and the whole
+  ``atlas build`` with HDF5 writing); on a local Dask cluster of 2 workers if
+  ``dask.distributed`` is installed (per core, the cluster already running);
+* a query of the index of a 1,000,000-curve atlas (built in memory, chunk by chunk);
+* ``synthesize`` end to end (query, re-ranking, refinement of the best 5, final check) for
+  targets drawn by held-out four-bars, against that atlas;
+* the quality table: classic curves (Hoekens' coupler curve, a straight segment, a
+  figure-eight, an ellipse, a D-shaped walking foot path) synthesized with the four-bar family.
+"""
+
+from __future__ import annotations
+
+import statistics
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from linkedit.curves.sources import make_curve
+from linkedit.io.atomic import commit
+from linkedit.synthesis import atlas, fourbar
+from linkedit.synthesis.index import Index, target_variants
+from linkedit.synthesis.synthesize import synthesize
+
+BUILD_TARGET = 100_000  # linkages / s
+QUERY_TARGET = 0.050  # s on 1,000,000 curves
+SYNTHESIZE_TARGET = 10.0  # s with --top 5
+
+
+def _median_time(fn: Callable[[], object], repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def _dask_rate(chunks: int) -> float | None:
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        return None
+    with atlas.local_cluster(2) as cluster, Client(cluster) as client:
+        client.gather(client.map(atlas.build_chunk, ["four-bar"] * 2, [0, 0], [0, 1], pure=False))  # warm up
+        t0 = time.perf_counter()
+        futures = client.map(atlas.build_chunk, ["four-bar"] * chunks, [1] * chunks, list(range(chunks)), pure=False)
+        client.gather(futures)
+        return chunks * atlas.CHUNK / (time.perf_counter() - t0) / 2
+
+
+def classic_curves(points: int = 400) -> dict[str, tuple[np.ndarray, bool]]:
+    """Classic target curves (name → (points (M,) complex, closed))."""
+    from linkedit.planar import catalog, compile_plan, simulate
+
+    t = np.linspace(0.0, 2.0 * np.pi, points, endpoint=False)
+    hoekens = simulate(compile_plan(catalog.hoekens()), points).tracks["tracer"].position
+    bottom = np.linspace(30.0, -30.0, points // 2, endpoint=False)
+    arc = np.linspace(np.pi, 2.0 * np.pi, points - points // 2, endpoint=False)
+    d_shape = np.concatenate([bottom + 0j, 30.0 * np.cos(arc) - 12j * np.sin(arc)])  # flat stance, arched swing
+    return {
+        "Hoekens coupler curve (straight stretch)": (hoekens[:, 0] + 1j * hoekens[:, 1], True),
+        "straight segment (open)": (np.linspace(0.0, 40.0, points // 4) + 5j, False),
+        "figure-eight (Gerono)": (20.0 * np.cos(t) + 10j * np.sin(2.0 * t), True),
+        "ellipse 2:1": (20.0 * np.cos(t) + 10j * np.sin(t), True),
+        "D-shaped foot path": (np.conj(d_shape), True),
+    }
+
+
+def quality(echo: Callable[[str], None], book: atlas.Atlas, index: Index, quick: bool) -> None:
+    """The quality table: normalized RMS (max) error before → after refinement, seconds."""
+    echo("quality, four-bar family, --top 5 (normalized RMS error, max in parentheses, before → after refinement):")
+    for name, (z, closed) in list(classic_curves().items())[: 1 if quick else None]:
+        curve = make_curve(name, np.stack([z.real, z.imag], axis=1), closed=closed, origin="bench")
+        t0 = time.perf_counter()
+        best = synthesize(curve, book, index, top=1 if quick else 5).best
+        echo(f"  {name:<42s} {100 * best.before[0]:6.2f} % ({100 * best.before[1]:5.2f} %) → "
+             f"{100 * best.after[0]:6.3f} % ({100 * best.after[1]:5.2f} %)   {time.perf_counter() - t0:5.2f} s")
+
+
+def run(echo: Callable[[str], None], quick: bool = False) -> None:
+    chunks, big, repeats = (1, 2 * atlas.CHUNK, 1) if quick else (10, 1_000_000, 5)
+    atlas.build_chunk("four-bar", 1, 0)  # warm up
+    t_chunks = _median_time(lambda: [atlas.build_chunk("four-bar", 1, i) for i in range(chunks)], repeats)
+    rate = chunks * atlas.CHUNK / t_chunks
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "bench.h5"
+        t0 = time.perf_counter()
+        atlas.build(path, ["four-bar"], chunks * atlas.CHUNK, seed=1)
+        commit()  # the command's outputs are renamed together at its end; this file lives in a folder about to go
+        t_file = time.perf_counter() - t0
+    echo(f"atlas build, four-bar, in-process: {rate:,.0f} linkages/s in chunks (median of {repeats}; target ≥ "
+         f"{BUILD_TARGET:,}), {chunks * atlas.CHUNK / t_file:,.0f} linkages/s writing the HDF5 atlas")
+    dask_rate = None if quick else _dask_rate(chunks)
+    if dask_rate is not None:
+        echo(f"atlas build on a local Dask cluster (2 workers): {dask_rate:,.0f} linkages/s per core "
+             f"(×{dask_rate / rate:.2f} of in-process, on a machine whose 2 cores are shared)")
+
+    t0 = time.perf_counter()
+    parts = [atlas.build_chunk("four-bar", 1, i, size) for i, size in atlas.chunk_sizes(big)]
+    t_big = time.perf_counter() - t0
+    merged = {key: np.concatenate([getattr(p, key) for p in parts]) for key in ("params", "min_ds", "index", "curves")}
+    book = atlas.Atlas(Path("memory"), {"four-bar": merged}, 1)
+    index = Index(book)
+    held = atlas.build_chunk("four-bar", 987, 0, 4).params
+    targets = [3 + 1j + 20 * np.exp(0.4j * k) * fourbar.curves(held[k][None], 300, 0.2 * k)[0] for k in range(4)]
+    variants = [target_variants(z) for z in targets]
+    t_query = statistics.median(_median_time(lambda v=v: index.query(v, 64), repeats) for v in variants)
+    echo(f"index query, {big:,} curves ({t_big:.1f} s to build them, {big / t_big:,.0f} linkages/s): "
+         f"{1e3 * t_query:.1f} ms median (target ≤ {1e3 * QUERY_TARGET:.0f} ms)")
+
+    runs = []
+    for z in targets[: 1 if quick else 4]:
+        curve = make_curve("target", np.stack([z.real, z.imag], axis=1), closed=True, origin="bench")
+        t0 = time.perf_counter()
+        result = synthesize(curve, book, index, top=1 if quick else 5)
+        runs.append((time.perf_counter() - t0, result.best.after[0]))
+    echo(f"synthesize end to end, --top 5, held-out four-bar targets against {big:,} curves: "
+         f"{statistics.median(t for t, _ in runs):.2f} s median (target ≤ {SYNTHESIZE_TARGET:g} s); "
+         f"normalized RMS error after refinement: max {max(e for _, e in runs):.2g}")
+    quality(echo, book, index, quick)

@@ -1,0 +1,115 @@
+"""The four-bar family: a crank-driven four-bar with a coupler point anywhere on the coupler plane.
+
+Family frame (ground length 1): crank axle O = 0, rocker pivot D = 1, crank pin
+A = a·e^{iθ} turning counter-clockwise (θ = 2π t, t = 0 the rest pose), coupler pin B at
+distances b from A and c from D on the side ``branch`` = ±1 of A→D (the law of cosines,
+:mod:`linkedit.planar.law_of_cosines`), coupler point P = A + (u + iv)(B − A).
+
+Parameters per linkage, columns of a (K, 6) array: a, b, c, u, v, branch.
+
+The crank turns the full cycle with a transmission angle μ (the angle at B, d_s = sin²μ)
+inside [MU_MIN, 180° − MU_MIN] exactly when cos μ = (b² + c² − |A − D|²)/(2bc) stays within
+±cos MU_MIN for |A − D| between |1 − a| and 1 + a (its extremes, at θ = 0 and π): a closed
+form, no sampling.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from linkedit.planar.law_of_cosines import dyad
+from linkedit.spec.linkage import LinkageSpec
+
+NAME = "four-bar"
+ID = 1
+PARAMETERS = ("a", "b", "c", "u", "v", "branch")
+#: Smallest transmission angle kept in an atlas (degrees); the singularity margin is sin² of it.
+MU_MIN_DEG = 20.0
+#: The catalog four-bars (family frame) the distribution also samples around: crank-rocker, Hoekens.
+SEEDS = np.array([[25 / 75, 70 / 75, 60 / 75, 0.2926414, 0.5, 1.0],
+                  [0.5, 1.25, 1.25, 2.0, 0.0, 1.0]])
+
+
+def margin() -> float:
+    """The singularity margin min d_s = sin² MU_MIN of an atlas linkage."""
+    return float(np.sin(np.radians(MU_MIN_DEG)) ** 2)
+
+
+def min_singularity(params: np.ndarray) -> np.ndarray:
+    """min over the cycle of d_s = sin²μ at B, (K,); −1 where the crank cannot turn fully."""
+    a, b, c = params[:, 0], params[:, 1], params[:, 2]
+    out = np.full(len(params), np.inf)
+    for d in (np.abs(1.0 - a), 1.0 + a):
+        cos_mu = (b * b + c * c - d * d) / (2.0 * b * c)
+        out = np.minimum(out, np.where(np.abs(cos_mu) <= 1.0, 1.0 - cos_mu * cos_mu, -1.0))
+    return out
+
+
+def sample(rng: np.random.Generator, count: int) -> np.ndarray:
+    """``count`` parameter rows from the family's distribution (not yet filtered):
+
+    three quarters over a wide range — a log-uniform in [0.05, 1], b, c log-uniform in
+    [0.2, 4], u uniform in [−1.5, 2.5], v uniform in [−2, 2], branch ±1 — and one quarter
+    around the catalog designs (crank-rocker, Hoekens): lengths times e^{N(0, 0.2²)}, u, v
+    plus N(0, 0.3²), branch kept.
+    """
+    wide = count - count // 4
+    out = np.empty((count, 6))
+    out[:wide, 0] = np.exp(rng.uniform(np.log(0.05), 0.0, wide))
+    out[:wide, 1:3] = np.exp(rng.uniform(np.log(0.2), np.log(4.0), (wide, 2)))
+    out[:wide, 3] = rng.uniform(-1.5, 2.5, wide)
+    out[:wide, 4] = rng.uniform(-2.0, 2.0, wide)
+    out[:wide, 5] = rng.choice([-1.0, 1.0], wide)
+    near = count - wide
+    base = SEEDS[rng.integers(0, len(SEEDS), near)]
+    out[wide:, :3] = base[:, :3] * np.exp(rng.normal(0.0, 0.2, (near, 3)))
+    out[wide:, 3:5] = base[:, 3:5] + rng.normal(0.0, 0.3, (near, 2))
+    out[wide:, 5] = base[:, 5]
+    return out
+
+
+def curves(params: np.ndarray, samples: int, phase: np.ndarray | float = 0.0) -> np.ndarray:
+    """Coupler-point curves (K, T) complex in the family frame at θ = 2π(phase + t/T), t = 0..T−1.
+
+    One array evaluation over linkages and samples; NaN where B cannot be placed.
+    """
+    a, b, c, u, v, branch = (params[:, i:i + 1] for i in range(6))
+    turn = np.exp(2j * np.pi * np.arange(samples) / samples)[None, :]
+    pin = (a * np.exp(2j * np.pi * np.asarray(phase, dtype=float).reshape(-1, 1))) * turn
+    # B from A (i) and D (j): law of cosines with l_ik = b, l_jk = c; orientation = branch
+    with np.errstate(invalid="ignore", divide="ignore"):
+        coupler_pin, _ = dyad(pin, np.ones_like(pin), 0.5 * (b * b - c * c), b * b, branch)
+    return pin + (u + 1j * v) * (coupler_pin - pin)
+
+
+def rest_pose(row: np.ndarray, phase: float = 0.0) -> dict[str, complex]:
+    """Joints O, A, B, D and the coupler point P at crank phase ``phase`` (family frame)."""
+    a, b, c, u, v, branch = row
+    pin = a * np.exp(2j * np.pi * phase)
+    coupler_pin, _ = dyad(np.array([[pin]]), np.array([[1.0 + 0j]]), np.array([[0.5 * (b * b - c * c)]]),
+                          np.array([[b * b]]), np.array([[branch]]))
+    B = complex(coupler_pin[0, 0])
+    return {"O": 0j, "A": complex(pin), "B": B, "D": 1 + 0j, "P": complex(pin + (u + 1j * v) * (B - pin))}
+
+
+def to_spec(row: np.ndarray, *, phase: float, scale: float, turn: complex, shift: complex, mirrored: bool,
+            name: str, units: str, description: str) -> LinkageSpec:
+    """The linkage of parameter ``row`` at crank phase ``phase``, placed by z ↦ shift + scale·turn·z
+    (z conjugated first when ``mirrored``, which also reverses the motor), track ``target`` = P.
+
+    ``turn`` is a unit complex number (the rotation).
+    """
+    pose = rest_pose(row, phase)
+
+    def place(z: complex) -> list[float]:
+        w = shift + scale * turn * (z.conjugate() if mirrored else z)
+        return [float(w.real), float(w.imag)]
+
+    return LinkageSpec.model_validate({
+        "name": name, "units": units, "description": description,
+        "joints": {k: place(z) for k, z in pose.items() if k != "P"},
+        "ground": ["O", "D"],
+        "links": {"crank": ["O", "A"], "coupler": ["A", "B"], "rocker": ["D", "B"]},
+        "motor": {"joint": "A", "pivot": "O", "direction": "cw" if mirrored else "ccw"},
+        "tracks": {"target": {"link": "coupler", "at": place(pose["P"])}},
+    })

@@ -1,0 +1,174 @@
+"""Refinement of a placed atlas candidate against the target curve.
+
+The unknowns are the family parameters (the branch stays) and the placement z ↦ τ + k·e^{iφ}·z
+(z conjugated for a mirrored candidate). The residuals are geometric: every target point's
+distance to the candidate's curve and every candidate point's distance to the target's
+(only the first set for an open target, which may be part of a cycle), both over the
+target's size. scipy's trust-region least squares minimizes them; an iterate whose linkage
+does not turn the full cycle with the family's singularity margin is never kept (its
+residuals are a wall, and only the best working iterate is returned) — the refinement keeps
+the linkage working, as LinkEdit's barrier does.
+
+The editing optimizer of :mod:`linkedit.edit` fits a track sample by sample to a target with
+its timing; the synthesis target is a shape with no timing and a free phase, so this module
+fits the family's own parameters instead, then hands the result to ``linkedit simulate``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import ModuleType
+
+import numpy as np
+from scipy.optimize import least_squares
+
+#: Crank samples of the candidate curve during refinement.
+SAMPLES = 256
+#: Points per curve where residuals are taken.
+POINTS = 120
+#: Residual of an iterate that does not work (a wall for the trust region).
+WALL = 10.0
+#: Trust-region iterations per candidate (each one evaluates the residuals about P + 5 times).
+ITERATIONS = 40
+#: Stop once the normalized RMS error is below this.
+GOOD_ENOUGH = 1e-6
+
+
+class _Done(Exception):
+    """Raised from the residuals once the fit is good enough."""
+
+
+@dataclass(frozen=True)
+class Placement:
+    """z ↦ shift + scale·e^{i·angle}·(conj(z) if mirrored else z)."""
+
+    scale: float
+    angle: float
+    shift: complex
+    mirrored: bool
+
+    def apply(self, z: np.ndarray) -> np.ndarray:
+        return self.shift + self.scale * np.exp(1j * self.angle) * (np.conj(z) if self.mirrored else z)
+
+
+@dataclass
+class Refined:
+    params: np.ndarray
+    placement: Placement
+    error: float  #: RMS of the residuals (normalized by the target's size)
+    history: list[float] = field(default_factory=list)  #: best error after each evaluation
+
+
+def arc_resample(z: np.ndarray, count: int, closed: bool) -> np.ndarray:
+    """``count`` points equally spaced in arc length along the polyline z (M,) complex."""
+    pts = np.concatenate([z, z[:1]]) if closed else z
+    s = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(pts)))])
+    at = np.linspace(0.0, s[-1], count, endpoint=not closed)
+    return np.interp(at, s, pts.real) + 1j * np.interp(at, s, pts.imag)
+
+
+def distances_to(points: np.ndarray, curve: np.ndarray, closed: bool) -> np.ndarray:
+    """Distance of each of ``points`` (..., N) complex to the polyline ``curve`` (..., M) complex → (..., N)."""
+    a = curve if closed else curve[..., :-1]
+    b = np.roll(curve, -1, axis=-1) if closed else curve[..., 1:]
+    e = (b - a)[..., None, :]
+    length2 = np.maximum(e.real ** 2 + e.imag ** 2, 1e-300)
+    rel = points[..., :, None] - a[..., None, :]
+    t = np.clip((rel.real * e.real + rel.imag * e.imag) / length2, 0.0, 1.0)
+    return np.abs(rel - t * e).min(axis=-1)
+
+
+def near_distances(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
+    """Distance of ``points`` (..., N) to a densely sampled closed curve (..., M), both complex → (..., N):
+    the nearest vertex, then the two segments that meet there (the refinement's fast version of
+    :func:`distances_to`, exact unless a segment passes nearer than both its ends and the next vertex)."""
+    dx = points.real[..., :, None] - curve.real[..., None, :]
+    dy = points.imag[..., :, None] - curve.imag[..., None, :]
+    dx *= dx
+    dy *= dy
+    dx += dy
+    j = np.argmin(dx, axis=-1)  # (..., N)
+    m = curve.shape[-1]
+    best = None
+    for k in (j - 1, j):
+        a = np.take_along_axis(curve, k % m, axis=-1)
+        e = np.take_along_axis(curve, (k + 1) % m, axis=-1) - a
+        rel = points - a
+        t = np.clip((rel.real * e.real + rel.imag * e.imag) / np.maximum(e.real ** 2 + e.imag ** 2, 1e-300), 0, 1)
+        d = np.abs(rel - t * e)
+        best = d if best is None else np.minimum(best, d)
+    return best
+
+
+def curve_error(target: np.ndarray, closed: bool, curve: np.ndarray, size: float) -> tuple[float, float]:
+    """(RMS, max) distance between a target polyline and a closed candidate curve, over ``size``:
+    target → curve and, for a closed target, curve → target."""
+    there = distances_to(arc_resample(target, 4 * POINTS, closed), curve, True)
+    parts = [there]
+    if closed:
+        parts.append(distances_to(arc_resample(curve, 4 * POINTS, True), target, True))
+    d = np.concatenate(parts) / size
+    return float(np.sqrt(np.mean(d * d))), float(d.max())
+
+
+def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np.ndarray, closed: bool,
+           size: float, *, iterations: int = ITERATIONS) -> Refined:
+    """Refine one candidate (``params`` (P,), the branch fixed) against ``target`` (M,) complex.
+
+    The finite-difference Jacobian evaluates all perturbed linkages in one batched call.
+    """
+    free = np.array([name != "branch" for name in fam.PARAMETERS])
+    n_free = int(free.sum())
+    goal = arc_resample(target, POINTS, closed)
+    outline = arc_resample(target, 4 * POINTS, closed)  # the target as the reverse distances see it
+    unit = size
+
+    def curves_of(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Parameter rows (K, P), working mask (K,), placed curves (K, SAMPLES) of x (K, n)."""
+        p = np.repeat(params[None], len(x), axis=0)
+        p[:, free] = x[:, :n_free]
+        ok = fam.min_singularity(p) >= fam.margin()
+        k, angle, sx, sy = x[:, n_free:].T
+        z = fam.curves(p, SAMPLES)
+        z = np.conj(z) if placement.mirrored else z
+        return p, ok, (sx + 1j * sy)[:, None] * unit + (np.exp(k + 1j * angle))[:, None] * z
+
+    def residuals(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        p, ok, curve = curves_of(x)
+        with np.errstate(invalid="ignore"):
+            r = near_distances(np.broadcast_to(goal, (len(x), len(goal))), curve)
+            if closed:
+                back = np.stack([arc_resample(c, POINTS, True) if good else goal for c, good in zip(curve, ok)])
+                r = np.concatenate([r, near_distances(back, np.broadcast_to(outline, (len(x), len(outline))))], axis=1)
+        r = np.where(ok[:, None], r / size, WALL)
+        return p, ok, r
+
+    x0 = np.concatenate([params[free], [np.log(placement.scale), placement.angle,
+                                        placement.shift.real / unit, placement.shift.imag / unit]])
+    best = Refined(params.copy(), placement, np.inf)
+
+    def fun(x: np.ndarray) -> np.ndarray:
+        p, ok, r = residuals(x[None])
+        error = float(np.sqrt(np.mean(r[0] ** 2)))
+        if ok[0] and error < best.error:
+            k, angle, sx, sy = x[n_free:]
+            best.params, best.error = p[0], error
+            best.placement = Placement(float(np.exp(k)), float(angle), complex(sx, sy) * unit, placement.mirrored)
+        best.history.append(best.error)
+        if error < GOOD_ENOUGH:
+            raise _Done
+        return r[0]
+
+    def jac(x: np.ndarray) -> np.ndarray:
+        step = 1e-7 * np.maximum(1.0, np.abs(x))
+        _, _, r = residuals(np.vstack([x, x + np.diag(step)]))
+        return ((r[1:] - r[0]) / step[:, None]).T
+
+    try:
+        fun(x0)
+        if np.isfinite(best.error):
+            least_squares(fun, x0, jac=jac, method="trf", x_scale="jac", max_nfev=iterations, xtol=1e-9,
+                          ftol=1e-9, gtol=1e-9)
+    except _Done:
+        pass
+    return best

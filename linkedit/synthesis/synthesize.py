@@ -1,0 +1,169 @@
+"""``linkedit synthesize``: from a target curve to a working linkage.
+
+1. the target (one curve; optionally smoothed) is described like any curve;
+2. the atlas index gives the nearest ``POOL`` linkages by the index descriptor;
+3. they are re-simulated and re-ranked by the full curve distance (every term, mirror images
+   included), each placed onto the target by the aligning similarity transform;
+4. the best ``top`` distinct candidates are refined (:mod:`linkedit.synthesis.refine`);
+5. the best working result is placed in the target's frame at the crank phase where its
+   tracked point is nearest the target's first point, and checked by ``simulate``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from linkedit.curves.compare import describe_curves, placements
+from linkedit.curves.descriptors import Descriptors, describe
+from linkedit.curves.distance import COARSE, partial_placement, partial_rms, term_distances, weighted
+from linkedit.curves.smooth import smooth as smooth_curve
+from linkedit.curves.sources import Curve
+from linkedit.errors import MechanismError
+from linkedit.planar import compile_plan, simulate
+from linkedit.planar.simulate import Motion
+from linkedit.spec.linkage import LinkageSpec
+from linkedit.synthesis.atlas import Atlas
+from linkedit.synthesis.families import family
+from linkedit.synthesis.index import Index, target_variants
+from linkedit.synthesis.refine import Placement, Refined, curve_error, refine
+
+#: Candidates taken from the index for re-ranking (closed targets; open ones, which the
+#: index describes retraced there and back, take more and re-rank them by partial matching).
+POOL = 64
+OPEN_POOL = 512
+#: Open targets: candidates ranked on the fine partial grid after the coarse screening.
+SCREENED = 48
+#: Samples of the final check and of the written result.
+RESULT_SAMPLES = 360
+#: Normalized RMS error above which the result carries a note that no family draws the target well.
+POOR = 0.03
+
+
+@dataclass
+class Candidate:
+    family: str
+    row: int
+    params: np.ndarray
+    index_distance: float
+    distance: float  #: full curve distance to the target (normalized curves)
+    placement: Placement
+    before: tuple[float, float] = (np.inf, np.inf)  #: (RMS, max) error as placed from the atlas
+    refined: Refined | None = None
+    after: tuple[float, float] = (np.inf, np.inf)
+
+
+@dataclass
+class Synthesis:
+    target: Curve
+    size: float  #: the target's size (major extent, input units): errors are over it
+    candidates: list[Candidate]
+    best: Candidate
+    spec: LinkageSpec
+    motion: Motion
+    seconds: dict[str, float] = field(default_factory=dict)
+    note: str = ""
+
+
+def target_size(points: np.ndarray, closed: bool) -> float:
+    """The target's major extent (input units), as :mod:`linkedit.curves.normalize` measures it."""
+    return float(describe(points[None], closed).normalized.scale[0])
+
+
+def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: int = 5, smooth: float = 0.0,
+               seed: int = 1, name: str = "synthesized", units: str = "mm") -> Synthesis:
+    """Find, place and refine linkages drawing ``target``; MechanismError if none survives."""
+    clock = {"start": time.perf_counter()}
+    pts = smooth_curve(target.points, target.closed, smooth)
+    z_target = pts[:, 0] + 1j * pts[:, 1]
+    size = target_size(pts, target.closed)
+    index = index or Index(atlas)
+    closed_target = z_target if target.closed else np.concatenate([z_target, z_target[-2:0:-1]])
+    hits = index.query(target_variants(closed_target), POOL if target.closed else OPEN_POOL)
+    clock["query"] = time.perf_counter()
+
+    t_desc = describe_curves([Curve(target.name, pts, target.closed, target.origin, None, target.units)])
+    candidates: list[Candidate] = []
+    for fam_name in dict.fromkeys(h.family for h in hits):
+        fam = family(fam_name)
+        mine = [h for h in hits if h.family == fam_name]
+        params = atlas.families[fam_name]["params"][[h.row for h in mine]]
+        z = fam.curves(params, RESULT_SAMPLES)
+        desc = describe(np.stack([z.real, z.imag], axis=2), True)
+        if target.closed:
+            terms = term_distances(t_desc, desc, mirror=True)
+            dist = weighted(terms, dict.fromkeys(terms, 1.0))[0]
+        else:  # screen with the coarse partial grid, rank the best with the fine one
+            dist = partial_rms(t_desc.points, desc.points, mirror=True, grid=COARSE)[0]
+            best = np.argsort(dist)[:SCREENED]
+            dist[best] = partial_rms(t_desc.points, desc.points[best], mirror=True)[0]
+            dist[np.setdiff1d(np.arange(len(dist)), best)] = np.inf
+        for k, (h, p, d) in enumerate(zip(mine, params, dist)):
+            candidates.append(Candidate(fam_name, h.row, p, h.distance, float(d), (desc, k)))  # placed below
+    candidates.sort(key=lambda c: c.distance)
+    chosen = candidates[:top]
+    for c in chosen:
+        desc, k = c.placement
+        c.placement = (_placement(placements(t_desc, desc.take([k]), mirror=True)[0]) if target.closed
+                       else _partial_placement(t_desc, desc, k))
+    clock["rank"] = time.perf_counter()
+
+    for c in chosen:
+        fam = family(c.family)
+        curve = c.placement.apply(fam.curves(c.params[None], RESULT_SAMPLES)[0])
+        c.before = curve_error(z_target, target.closed, curve, size)
+        c.refined = refine(fam, c.params, c.placement, z_target, target.closed, size)
+        if np.isfinite(c.refined.error):
+            curve = c.refined.placement.apply(fam.curves(c.refined.params[None], RESULT_SAMPLES)[0])
+            c.after = curve_error(z_target, target.closed, curve, size)
+    clock["refine"] = time.perf_counter()
+    working = [c for c in chosen if c.refined is not None and np.isfinite(c.after[0])]
+    if not working:
+        raise MechanismError(f"none of the {len(chosen)} candidates kept working through refinement")
+    best = min(working, key=lambda c: c.after[0])
+    spec = result_spec(best, z_target[0], name=name, units=units,
+                       description=f"Synthesized by linkedit from {target.origin}: {best.family} "
+                                   f"(atlas row {best.row}), normalized RMS error {best.after[0]:.3g}.")
+    motion = simulate(compile_plan(spec), RESULT_SAMPLES)
+    clock["check"] = time.perf_counter()
+    note = ""
+    if best.after[0] > POOR:
+        note = (f"no family in the atlas draws this curve well: the best found is off by {100 * best.after[0]:.1f} % "
+                f"of the target's size (RMS)")
+    seconds = {"query": clock["query"] - clock["start"], "rank": clock["rank"] - clock["query"],
+               "refine": clock["refine"] - clock["rank"], "check": clock["check"] - clock["refine"],
+               "total": clock["check"] - clock["start"]}
+    return Synthesis(target, size, candidates[:top], best, spec, motion, seconds, note)
+
+
+def _placement(place: dict) -> Placement:
+    """A ranking's placement (:func:`linkedit.curves.compare.placements`) as a :class:`Placement`."""
+    return Placement(place["scale"], float(np.radians(place["rotation_deg"])), complex(*place["translation"]),
+                     place["mirrored"])
+
+
+def _partial_placement(target: Descriptors, library: Descriptors, k: int) -> Placement:
+    """Where the open target fits best along library curve ``k``, as a placement of the library curve."""
+    _, alpha, beta, mirrored = partial_placement(target.points[0], library.points[k], mirror=True)
+    t, lib = target.normalized, library.normalized
+    f_t = t.frame[0, 0, 0] + 1j * t.frame[0, 1, 0]
+    f_l = lib.frame[k, 0, 0] + 1j * lib.frame[k, 1, 0]
+    c_t, c_l = complex(*t.centroid[0]), complex(*lib.centroid[k])
+    a = t.scale[0] * f_t * alpha * (f_l if mirrored else np.conj(f_l)) / lib.scale[k]
+    b = c_t + t.scale[0] * f_t * beta - a * (np.conj(c_l) if mirrored else c_l)
+    return Placement(float(abs(a)), float(np.angle(a)), complex(b), mirrored)
+
+
+def result_spec(c: Candidate, start: complex, *, name: str, units: str, description: str) -> LinkageSpec:
+    """The refined candidate placed in the target's frame, its rest pose at the crank phase where
+    the tracked point is nearest the target's first point ``start``."""
+    fam = family(c.family)
+    assert c.refined is not None
+    place = c.refined.placement
+    curve = place.apply(fam.curves(c.refined.params[None], 3600)[0])
+    phase = float(np.argmin(np.abs(curve - start))) / 3600  # mirrored: the motor turns cw, the same family phase
+    return fam.to_spec(c.refined.params, phase=phase, scale=place.scale, turn=np.exp(1j * place.angle),
+                       shift=place.shift, mirrored=place.mirrored, name=name, units=units, description=description)

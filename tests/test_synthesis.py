@@ -1,0 +1,242 @@
+"""Synthesis: family evaluation against `simulate`, atlases, the index, `linkedit synthesize` end to end."""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import numpy as np
+import pytest
+
+from linkedit.curves.efd import efd_coefficients, normalize_efd, polyline_efd
+from linkedit.planar import compile_plan, simulate
+from linkedit.synthesis import atlas, fourbar
+from linkedit.synthesis.index import Index, target_variants
+
+
+def working_rows(count: int, seed: int) -> np.ndarray:
+    rows = fourbar.sample(np.random.default_rng(seed), 40 * count)
+    return rows[fourbar.min_singularity(rows) >= fourbar.margin()][:count]
+
+
+@pytest.mark.parametrize("mirrored", [False, True])
+def test_family_curves_match_simulate(mirrored):
+    """The batched closed form and `simulate` of the same linkage agree to 1e-9 of its size."""
+    rows = working_rows(6, seed=3)
+    batch = fourbar.curves(rows, 360, phase=np.linspace(0, 0.9, 6))
+    for k, row in enumerate(rows):
+        spec = fourbar.to_spec(row, phase=k * 0.18, scale=40.0, turn=np.exp(1.1j), shift=3 - 7j, mirrored=mirrored,
+                               name="x", units="mm", description="")
+        motion = simulate(compile_plan(spec), 360)
+        got = motion.tracks["target"].position
+        want = 3 - 7j + 40.0 * np.exp(1.1j) * (np.conj(batch[k]) if mirrored else batch[k])
+        assert np.abs(got[:, 0] + 1j * got[:, 1] - want).max() < 1e-9 * 40.0
+        # the closed-form margin is the cycle's smallest d_s (sampled: never below it, close above)
+        ds = motion.singularity[:, ~motion.plan.rigid].min()
+        assert fourbar.min_singularity(row[None])[0] - 1e-12 <= ds <= fourbar.min_singularity(row[None])[0] + 1e-3
+
+
+def test_a_linkage_outside_the_margin_is_rejected():
+    # Grashof crank-rocker limits: 1 + a > b + c cannot turn
+    assert fourbar.min_singularity(np.array([[0.5, 0.6, 0.6, 0.0, 0.0, 1.0]]))[0] < 0
+    # a transmission angle of 10° at θ = 0: |A − D| = 0.5, b = c: cos μ = 1 − 0.125/b²
+    b = np.sqrt(0.125 / (1 - np.cos(np.radians(10.0))))
+    row = np.array([[0.5, b, b, 0.0, 0.0, 1.0]])
+    assert fourbar.min_singularity(row)[0] == pytest.approx(np.sin(np.radians(10.0)) ** 2, rel=1e-9)
+    assert fourbar.min_singularity(row)[0] < fourbar.margin()
+
+
+def test_polyline_efd_is_the_exact_efd_of_the_polyline():
+    """Points added on the polyline change nothing; equal chords: the fixed-table coefficients."""
+    rng = np.random.default_rng(0)
+    t = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    z = (2 + 0.3 * np.cos(3 * t)) * np.exp(1j * t) + 0.2 * rng.normal(size=40)
+    w = np.stack([z, 0.3 * z + 0.7 * np.roll(z, -1)], axis=1).ravel()  # a point inside every segment
+    np.testing.assert_allclose(polyline_efd(w[None], 8), polyline_efd(z[None], 8), atol=2e-5)
+    polygon = np.exp(2j * np.pi * np.arange(12) / 12) * (1 + 0j)
+    exact = normalize_efd(efd_coefficients(np.stack([polygon.real, polygon.imag], axis=1)[None], 8))
+    np.testing.assert_allclose(polyline_efd(polygon[None], 8), exact, atol=2e-6)
+
+
+def test_chunks_are_pure_and_an_atlas_grows_by_appending(tmp_path):
+    once, twice = tmp_path / "once.h5", tmp_path / "twice.h5"
+    atlas.build(once, ["four-bar"], 2 * atlas.CHUNK, seed=5)
+    atlas.build(twice, ["four-bar"], atlas.CHUNK, seed=5)
+    atlas.build(twice, ["four-bar"], atlas.CHUNK, seed=5)
+    with h5py.File(once) as a, h5py.File(twice) as b:
+        for key in ("params", "min_ds", "index", "curves"):
+            np.testing.assert_array_equal(a[f"families/four-bar/{key}"][()], b[f"families/four-bar/{key}"][()])
+        params = a["families/four-bar/params"][()]
+        assert len(params) == 2 * atlas.CHUNK and len(np.unique(params[:, 0])) == len(params)
+        assert (a["families/four-bar/min_ds"][()] >= fourbar.margin()).all()
+    chunk = atlas.build_chunk("four-bar", 5, 1, 100)
+    np.testing.assert_array_equal(chunk.params, atlas.build_chunk("four-bar", 5, 1, 100).params)
+    # stored coarse curves are the family's curves
+    z = fourbar.curves(chunk.params, atlas.SAMPLES)[:, ::atlas.COARSE_STEP]
+    np.testing.assert_allclose(chunk.curves[..., 0] + 1j * chunk.curves[..., 1], z, atol=1e-5 * np.abs(z).max())
+
+
+def test_index_finds_a_moved_resampled_atlas_curve(tmp_path):
+    path = tmp_path / "a.h5"
+    atlas.build(path, ["four-bar"], atlas.CHUNK, seed=2)
+    loaded = atlas.load(path)
+    index = Index(loaded)
+    for row in (17, 4242):
+        z = fourbar.curves(loaded.families["four-bar"]["params"][row][None], 500, phase=0.31)[0]
+        moved = 12 - 4j + 3.5 * np.exp(2.2j) * np.conj(z[::-1])  # moved, turned, scaled, mirrored, reversed
+        hits = index.query(target_variants(moved), 5)
+        assert hits[0].row == row
+
+
+def write_csv(path, z: np.ndarray) -> None:
+    path.write_text("x,y\n" + "\n".join(f"{float(p.real)!r},{float(p.imag)!r}" for p in z) + "\n")
+
+
+@pytest.fixture(scope="module")
+def small_atlas(tmp_path_factory):
+    path = tmp_path_factory.mktemp("atlas") / "four-bar.h5"
+    atlas.build(path, ["four-bar"], 3 * atlas.CHUNK, seed=1)
+    return path
+
+
+def dense_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance of each point of a (N,) to the densely sampled closed curve b (M,): brute force."""
+    return np.abs(a[:, None] - b[None, :]).min(axis=1)
+
+
+def test_synthesize_recovers_a_held_out_linkage(run_cli, small_atlas, tmp_path):
+    """A four-bar from another seed, moved, sampled at 150 points: recovered within 1 % of its size;
+    `linkedit simulate result.yaml` reproduces the reported curve."""
+    row = atlas.build_chunk("four-bar", 12345, 0, 3).params[2]
+    truth = -20 + 55j + 80 * np.exp(-0.6j) * fourbar.curves(row[None], 20000)[0]
+    target = truth[(np.arange(150) * len(truth)) // 150]
+    write_csv(tmp_path / "target.csv", target)
+    out = tmp_path / "syn"
+    result = run_cli("synthesize", tmp_path / "target.csv", "--atlas", small_atlas, "-o", out, "--top", "3")
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    assert report["error"]["after"]["rms"] <= 0.01 and report["family"] == "four-bar"
+    sim = run_cli("simulate", out / "result.yaml", "-o", tmp_path / "again.h5")
+    assert sim.exit_code == 0, sim.output
+    with h5py.File(tmp_path / "again.h5") as f, h5py.File(out / "result.h5") as g:
+        again = f["tracks/target/position"][()]
+        np.testing.assert_allclose(again, g["tracks/target/position"][()], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(again, report["result"]["curve"], rtol=0, atol=1e-9)
+    # an independent check of the error: the true curve against the re-simulated one (dense), both ways
+    fine = run_cli("simulate", out / "result.yaml", "-o", tmp_path / "fine.h5", "-n", "4000")
+    assert fine.exit_code == 0, fine.output
+    with h5py.File(tmp_path / "fine.h5") as f:
+        p = f["tracks/target/position"][()]
+    drawn = p[:, 0] + 1j * p[:, 1]
+    extent = report["target"]["size"]
+    gap = np.concatenate([dense_distance(target, drawn), dense_distance(drawn[::10], truth)]) / extent
+    assert np.sqrt(np.mean(gap ** 2)) <= 0.01
+    assert (out / "overlay.svg").read_text().count('class="target"') == 1
+    assert "candidate 1" in (out / "history.svg").read_text()
+    # the same inputs and seed give the same linkage
+    again = run_cli("synthesize", tmp_path / "target.csv", "--atlas", small_atlas, "-o", tmp_path / "syn2", "--top", "3")
+    assert again.exit_code == 0 and (tmp_path / "syn2" / "result.yaml").read_text() == (out / "result.yaml").read_text()
+
+
+def test_synthesize_an_open_part_of_a_held_out_curve(run_cli, small_atlas, tmp_path):
+    """Half a cycle of a held-out four-bar's coupler curve (an open target) is recovered within 1 %."""
+    row = atlas.build_chunk("four-bar", 4321, 0, 2).params[1]
+    part = 7 + 3j + 25 * np.exp(2.0j) * fourbar.curves(row[None], 400, phase=0.2)[0][:200]
+    write_csv(tmp_path / "part.csv", part)
+    result = run_cli("synthesize", tmp_path / "part.csv", "--atlas", small_atlas, "-o", tmp_path / "out",
+                     "--open", "--top", "3")
+    assert result.exit_code == 0, result.output
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert not report["target"]["closed"] and report["error"]["after"]["rms"] <= 0.01
+
+
+@pytest.mark.parametrize("text, message", [
+    ("x,y\n1,2\n", "at least 3 distinct points|zero length"),
+    ("x,y\n1,2\n3,nan\n4,5\n", "not a finite number"),
+    ("hello, world\nthis is not a curve\n", "unknown column"),
+])
+def test_bad_targets_exit_2_with_one_line(run_cli, small_atlas, tmp_path, text, message):
+    import re
+
+    (tmp_path / "bad.csv").write_text(text)
+    result = run_cli("synthesize", tmp_path / "bad.csv", "--atlas", small_atlas, "-o", tmp_path / "out")
+    assert result.exit_code == 2
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and re.search(message, lines[0]) and "bad.csv" in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_target_no_four_bar_draws_gets_the_best_found_and_a_note(run_cli, small_atlas, tmp_path):
+    t = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    star = (1 + 0.45 * np.cos(7 * t)) * np.exp(1j * t) * 10  # a seven-pointed star
+    write_csv(tmp_path / "star.csv", star)
+    result = run_cli("synthesize", tmp_path / "star.csv", "--atlas", small_atlas, "-o", tmp_path / "out", "--top", "2")
+    assert result.exit_code == 0, result.output
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert report["error"]["after"]["rms"] > 0.03 and "no family" in report["note"]
+    assert "note:" in result.output
+
+
+def test_atlas_build_cli(run_cli, tmp_path):
+    out = tmp_path / "a.h5"
+    result = run_cli("atlas", "build", "--family", "four-bar", "-n", "1500", "-o", out, "--seed", "4")
+    assert result.exit_code == 0, result.output
+    with h5py.File(out) as f:
+        assert f["families/four-bar/params"].shape == (1500, 6) and f.attrs["seed"] == 4
+    np.testing.assert_array_equal(atlas.build_chunk("four-bar", 4, 0, 1500).params,
+                                  h5py.File(out)["families/four-bar/params"][()])
+    bad = run_cli("atlas", "build", "--family", "five-bar", "-n", "10", "-o", tmp_path / "b.h5")
+    assert bad.exit_code == 2 and "unknown family" in bad.output
+    other_seed = run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", out, "--seed", "5")
+    assert other_seed.exit_code == 2 and "--seed 4" in other_seed.output
+
+
+def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path):
+    """The same seed on a LocalCluster of 2 worker processes (through --scheduler) and in-process."""
+    pytest.importorskip("dask.distributed")
+    with atlas.local_cluster(2) as cluster:  # what --workers 2 starts
+        result = run_cli("atlas", "build", "--family", "four-bar", "-n", str(3 * atlas.CHUNK // 2), "-o",
+                         tmp_path / "dask.h5", "--seed", "8", "--scheduler", cluster.scheduler_address)
+    assert result.exit_code == 0, result.output
+    local = run_cli("atlas", "build", "--family", "four-bar", "-n", str(3 * atlas.CHUNK // 2), "-o",
+                    tmp_path / "local.h5", "--seed", "8")
+    assert local.exit_code == 0, local.output
+    with h5py.File(tmp_path / "dask.h5") as a, h5py.File(tmp_path / "local.h5") as b:
+        for key in ("params", "min_ds", "index", "curves"):
+            np.testing.assert_array_equal(a[f"families/four-bar/{key}"][()], b[f"families/four-bar/{key}"][()])
+
+
+@pytest.mark.parametrize("name", ["jansen", "klann", "watt", "stephenson"])
+def test_catalog_families_match_simulate(name):
+    from linkedit.synthesis.families import family
+
+    fam = family(name)
+    rows = fam.sample(np.random.default_rng(11), 400)
+    rows = rows[fam.min_singularity(rows) >= fam.margin()][:2]
+    batch = fam.curves(rows, 360, phase=np.array([0.0, 0.55]))
+    for k, row in enumerate(rows):
+        for mirrored in (False, True):
+            spec = fam.to_spec(row, phase=0.55 * k, scale=90.0, turn=np.exp(-2.0j), shift=1 + 1j, mirrored=mirrored,
+                               name="x", units="mm", description="")
+            got = simulate(compile_plan(spec), 360).tracks["target"].position
+            want = 1 + 1j + 90.0 * np.exp(-2.0j) * (np.conj(batch[k]) if mirrored else batch[k])
+            assert np.abs(got[:, 0] + 1j * got[:, 1] - want).max() < 1e-9 * 90.0
+
+
+def test_a_held_out_jansen_leg_is_recovered_from_a_legs_atlas(run_cli, tmp_path):
+    legs = tmp_path / "legs.h5"
+    built = run_cli("atlas", "build", "--family", "jansen,klann", "-n", "3000", "-o", legs)
+    assert built.exit_code == 0, built.output
+    from linkedit.synthesis.families import family
+
+    row = atlas.build_chunk("jansen", 777, 0, 1).params[0]
+    foot = 4 - 1j + 120 * np.exp(-0.3j) * family("jansen").curves(row[None], 300, 0.1)[0]
+    write_csv(tmp_path / "foot.csv", foot)
+    result = run_cli("synthesize", tmp_path / "foot.csv", "--atlas", legs, "-o", tmp_path / "out", "--top", "3")
+    assert result.exit_code == 0, result.output
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert report["family"] == "jansen" and report["error"]["after"]["rms"] <= 0.01
+    sim = run_cli("simulate", tmp_path / "out" / "result.yaml", "-o", tmp_path / "again.h5")
+    assert sim.exit_code == 0, sim.output
+    with h5py.File(tmp_path / "again.h5") as f:
+        np.testing.assert_allclose(f["tracks/target/position"][()], report["result"]["curve"], rtol=0, atol=1e-9)
