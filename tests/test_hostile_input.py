@@ -410,3 +410,10 @@ def test_an_edit_whose_picture_path_is_a_folder_writes_nothing(run_cli, tmp_path
 def test_a_track_point_beyond_1e150_is_one_line(run_cli, tmp_path, gcs_result):
     assert "--track" in _one_line(run_cli("solve3d", "--from", gcs_result, "-o", tmp_path / "o.h5",
                                           "--track", "far=coupler:1e308,0,0"), 2)
+
+
+def test_runtime_warnings_of_a_command_do_not_reach_the_user():
+    body = ("import numpy as np\nfrom linkedit.commands.common import guard\n"
+            "print(guard(lambda: float(np.float64(1.0) / np.float64(0.0)))())")  # numpy warns "divide by zero"
+    p = subprocess.run([sys.executable, "-W", "default", "-c", body], capture_output=True, text=True, timeout=120)
+    assert p.stdout.strip() == "inf" and p.stderr == "", p.stderr

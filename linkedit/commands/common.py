@@ -45,9 +45,8 @@ def guard(fn: F) -> F:
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         from linkedit.io.atomic import terminate_as_interrupt, together
 
-        terminate_as_interrupt()
         try:
-            with warnings.catch_warnings(), together():
+            with terminate_as_interrupt(), warnings.catch_warnings(), together():
                 warnings.simplefilter("ignore", RuntimeWarning)
                 try:
                     return fn(*args, **kwargs)

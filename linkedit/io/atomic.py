@@ -121,14 +121,23 @@ def write_text(target: str | Path, text: str) -> None:
         tmp.write_text(text, encoding="utf-8")
 
 
-def terminate_as_interrupt() -> None:
-    """Make SIGTERM raise KeyboardInterrupt (as Ctrl-C does), so temporary files are cleaned up."""
+@contextlib.contextmanager
+def terminate_as_interrupt() -> Iterator[None]:
+    """Inside the block SIGTERM raises KeyboardInterrupt (as Ctrl-C does), so temporary files are
+    cleaned up; the previous handler is restored after it."""
 
     def handler(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
 
-    with contextlib.suppress(ValueError):  # not the main thread: leave signals alone
-        signal.signal(signal.SIGTERM, handler)
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _replace(tmp: Path, target: Path) -> None:
