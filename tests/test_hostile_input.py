@@ -417,3 +417,14 @@ def test_runtime_warnings_of_a_command_do_not_reach_the_user():
             "print(guard(lambda: float(np.float64(1.0) / np.float64(0.0)))())")  # numpy warns "divide by zero"
     p = subprocess.run([sys.executable, "-W", "default", "-c", body], capture_output=True, text=True, timeout=120)
     assert p.stdout.strip() == "inf" and p.stderr == "", p.stderr
+
+
+def test_a_stroke_far_beyond_the_linkage_is_one_line_not_a_hang(run_cli, tmp_path):
+    text = (EXAMPLES / "lifting-arm.yaml").read_text()
+    import re
+
+    spec = tmp_path / "lift.yaml"
+    spec.write_text(re.sub(r"stroke: \[[^]]*\]", "stroke: [1e9, 25]", text))
+    r = run_cli("simulate", spec, "-o", tmp_path / "lift.h5")
+    assert r.exit_code == 2 and "motor.stroke" in r.output and len(r.output.strip().splitlines()) == 1
+    assert not (tmp_path / "lift.h5").exists()

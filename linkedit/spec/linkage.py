@@ -28,6 +28,10 @@ Links = Annotated[dict[Name, list[Name]],
                   pydantic.BeforeValidator(_given, json_schema_input_type=dict[Name, list[Name] | LinkLengths])]
 
 
+#: a linear input's stroke may reach this many linkage sizes (see specs/limits.md)
+MAX_STROKE = 1e3
+
+
 class Motor(SpecModel):
     """The input: a joint turning about a ground pivot (a crank or rocker), or a joint pushed along
     a slider (a linear input, e.g. a hydraulic cylinder).
@@ -198,6 +202,7 @@ class LinkageSpec(SpecModel):
             elif track.link not in self.links:
                 raise InputError(f"unknown link {track.link!r}", field=("tracks", name, "link"))
         self._check_coincident()
+        self._check_stroke()
         return self
 
     def _check_rotary_input(self, known) -> None:
@@ -248,6 +253,18 @@ class LinkageSpec(SpecModel):
                     shared = sorted(set(self.links[s.link]) & guide)[0]
                     raise InputError(f"link {s.link!r} shares joint {shared!r} with its guide: it cannot slide on it",
                                      field=field + ("link",))
+
+    def _check_stroke(self) -> None:
+        """A linear input's stroke within ``MAX_STROKE`` sizes of the linkage: a cylinder that
+        moves a joint a thousand times further than the linkage is large cannot keep it
+        assembled, and continuing the motion over such a range would take forever."""
+        if self.motor.stroke is None:
+            return
+        xy = [c for p in self.joints.values() for c in p]
+        size = max(max(xy) - min(xy), 1e-300)
+        if max(abs(s) for s in self.motor.stroke) > MAX_STROKE * size:
+            raise InputError(f"stroke {list(self.motor.stroke)} reaches beyond {MAX_STROKE:g}× the linkage's size "
+                             f"({size:.4g}): it cannot stay assembled", field=("motor", "stroke"))
 
     def _check_coincident(self) -> None:
         names = list(self.joints)
