@@ -428,3 +428,25 @@ def test_a_stroke_far_beyond_the_linkage_is_one_line_not_a_hang(run_cli, tmp_pat
     r = run_cli("simulate", spec, "-o", tmp_path / "lift.h5")
     assert r.exit_code == 2 and "motor.stroke" in r.output and len(r.output.strip().splitlines()) == 1
     assert not (tmp_path / "lift.h5").exists()
+
+
+@pytest.mark.slow  # about 17 s: 1000 members, 6000 unknowns
+def test_a_chain_of_a_thousand_welded_members_is_solved(run_cli, tmp_path):
+    n = 1000
+    lines = ["name: chain", "units: m", "shapes:", "  bar:", "    points: {a: [0, 0, 0], b: [1, 0, 0]}", "members:"]
+    lines += [f"  m{k}: {{position: [{k}, 0, 0], shape: bar}}" for k in range(n)]
+    lines += ["constraints:", "  root: {type: pin, member: m0, point: a, world: [0, 0, 0]}"]
+    lines += [f"  w{k}: {{type: weld, member: m{k - 1}, point: b, other: m{k}, other_point: a}}" for k in range(1, n)]
+    lines += ["inputs:", "  drive:", "    type: orientation", "    member: m0",
+              "    rotation: {axis: [0, 0, 1], angles_deg: [0, 90]}", "outputs:", "  steps: 5", "  tracks:",
+              f"    tip: {{member: m{n - 1}, point: b}}"]
+    spec = tmp_path / "chain.yaml"
+    spec.write_text("\n".join(lines) + "\n")
+    r = run_cli("solve3d", spec, "-o", tmp_path / "chain.h5")
+    assert r.exit_code == 0, r.output
+    import h5py
+
+    with h5py.File(tmp_path / "chain.h5") as f:
+        tip = f["tracks/tip/position"][()]
+    np.testing.assert_allclose(tip[0], [n, 0, 0], atol=1e-9 * n)
+    np.testing.assert_allclose(tip[-1], [0, n, 0], atol=1e-9 * n)  # the whole chain turned a quarter
