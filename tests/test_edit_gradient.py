@@ -78,6 +78,19 @@ def problem_for(spec: LinkageSpec, script: EditScript):
                          float(np.ptp(x, axis=0).max()), probe_points)
 
 
+def central_jacobian(problem, v: np.ndarray, m: int) -> np.ndarray:
+    """(m, n) central differences of the residuals, steps of 1e-6 of the mechanism's size."""
+    h = 1e-6 * problem.size
+    numeric = np.empty((m, v.size))
+    for k in range(v.size):
+        e = np.zeros(v.size)
+        e[k] = h
+        rp, rm = problem.residuals(v + e)[1], problem.residuals(v - e)[1]
+        assert rp.size == rm.size == m, "an active set changed inside the difference step"
+        numeric[:, k] = (rp - rm) / (2 * h)
+    return numeric
+
+
 @pytest.mark.parametrize("free_angle", [False, True])
 @pytest.mark.parametrize("op", OPS)
 @pytest.mark.parametrize("linkage", LINKAGES)
@@ -98,14 +111,7 @@ def test_jacobian_matches_central_differences(linkage, op, free_angle):
     assert ev.works and J is not None
     J = J.toarray()
     assert np.count_nonzero(problem.eps[~problem.plan.rigid][:, None] > ev.ds[~problem.plan.rigid, :40]) > 0
-    h = 1e-6 * problem.size
-    numeric = np.empty_like(J)
-    for k in range(v.size):
-        e = np.zeros(v.size)
-        e[k] = h
-        rp, rm = problem.residuals(v + e)[1], problem.residuals(v - e)[1]
-        assert rp.size == rm.size == r.size, "an active set changed inside the difference step"
-        numeric[:, k] = (rp - rm) / (2 * h)
+    numeric = central_jacobian(problem, v, r.size)
     assert np.abs(J - numeric).max() <= 1e-6 * np.abs(numeric).max()
     g = problem.energy(v)[1]
     assert np.abs(g - numeric.T @ r).max() <= 1e-6 * np.abs(numeric.T @ r).max()
