@@ -8,6 +8,7 @@ import shutil
 import stat
 import subprocess
 import sys
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -450,3 +451,21 @@ def test_a_chain_of_a_thousand_welded_members_is_solved(run_cli, tmp_path):
         tip = f["tracks/tip/position"][()]
     np.testing.assert_allclose(tip[0], [n, 0, 0], atol=1e-9 * n)
     np.testing.assert_allclose(tip[-1], [0, n, 0], atol=1e-9 * n)  # the whole chain turned a quarter
+
+
+@pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None,
+                    reason="needs root to run linkedit as an unprivileged user (setpriv)")
+def test_an_unreadable_spec_is_one_line_for_a_user_without_override():
+    import tempfile
+
+    with tempfile.TemporaryDirectory(dir="/tmp") as folder:  # reachable by the unprivileged user
+        os.chmod(folder, 0o777)
+        spec = Path(folder) / "j.yaml"
+        spec.write_text((EXAMPLES / "jansen.yaml").read_text())
+        spec.chmod(0)
+        r = subprocess.run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups",
+                            sys.executable, "-m", "linkedit", "simulate", str(spec), "-o", f"{folder}/o.h5"],
+                           capture_output=True, text=True, timeout=60)
+        assert r.returncode == 2, r.stderr
+        assert "not readable" in r.stderr and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+        assert not (Path(folder) / "o.h5").exists()
