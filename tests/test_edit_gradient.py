@@ -78,6 +78,33 @@ def problem_for(spec: LinkageSpec, script: EditScript):
                          float(np.ptp(x, axis=0).max()), probe_points)
 
 
+def assert_forward_model_equals_simulate(spec: LinkageSpec, problem, scale: float, extra=None) -> None:
+    """At 3 random working rest poses (steps of ``scale`` × the size, shrinking when they do not
+    work), the edit's positions, tracks and d_s equal ``simulate`` of that spec to 1e-9 of the size;
+    ``extra(ev, motion)`` adds checks."""
+    plan, size = problem.plan, problem.size
+    rng = np.random.default_rng(3)
+    tried = 0
+    for n in range(40):
+        v = rng.normal(scale=scale * size / (1 + n // 4), size=problem.var.n)
+        ev = problem.evaluate(v)
+        if not ev.works:
+            continue
+        tried += 1
+        motion = simulate(with_rest_pose(spec, plan, problem.var.rest(v), "random"), 48)
+        z = ev.z[plan.row_of[: plan.n_joints], :48].T
+        assert np.abs(motion.positions[..., 0] + 1j * motion.positions[..., 1] - z).max() <= 1e-9 * size
+        for track, point in zip(plan.track_names, plan.track_points):
+            p = motion.tracks[track].position
+            assert np.abs(p[:, 0] + 1j * p[:, 1] - ev.z[plan.row_of[point], :48]).max() <= 1e-9 * size
+        if extra is not None:
+            extra(ev, motion)
+        assert failure(plan, ev.rest, ev.ds[:, :48], np.zeros(48)) is None
+        if tried == 3:
+            break
+    assert tried == 3
+
+
 def central_jacobian(problem, v: np.ndarray, m: int) -> np.ndarray:
     """(m, n) central differences of the residuals, steps of 1e-6 of the mechanism's size."""
     h = 1e-6 * problem.size
@@ -128,26 +155,4 @@ def test_forward_model_equals_simulate_at_random_rest_poses(name):
             }.get(name, getattr(catalog, name, None))()
     script = EditScript.model_validate({"samples": 48, "operations": [{"displace": {"joint": list(spec.joints)[-1], "to": [0, 0]}}],
                                         "motor": {"free_angle": True}})
-    problem = problem_for(spec, script)
-    plan = problem.plan
-    size = problem.size
-    rng = np.random.default_rng(3)
-    tried = 0
-    for n in range(40):
-        v = rng.normal(scale=0.01 * size / (1 + n // 4), size=problem.var.n)
-        ev = problem.evaluate(v)
-        if not ev.works:
-            continue
-        tried += 1
-        x = problem.var.rest(v)
-        edited = with_rest_pose(spec, plan, x, "random")
-        motion = simulate(edited, 48)
-        z = ev.z[plan.row_of[: plan.n_joints], :48].T
-        assert np.abs(motion.positions[..., 0] + 1j * motion.positions[..., 1] - z).max() <= 1e-9 * size
-        for track, point in zip(plan.track_names, plan.track_points):
-            p = motion.tracks[track].position
-            assert np.abs(p[:, 0] + 1j * p[:, 1] - ev.z[plan.row_of[point], :48]).max() <= 1e-9 * size
-        assert failure(plan, ev.rest, ev.ds[:, :48], np.zeros(48)) is None
-        if tried == 3:
-            break
-    assert tried == 3
+    assert_forward_model_equals_simulate(spec, problem_for(spec, script), scale=0.01)

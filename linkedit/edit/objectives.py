@@ -33,6 +33,7 @@ from linkedit.edit.kinematics import Evaluation, RestPoseKinematics
 from linkedit.edit.steps import dependencies as step_dependencies
 from linkedit.edit.variables import Variables, colour, column_map, seeds
 from linkedit.planar.plan import Plan
+from linkedit.planar.simulate import motor_turn
 from linkedit.spec.edit_script import EditScript, Operation
 
 Block = tuple[np.ndarray, np.ndarray | None, np.ndarray]  # r (m,), ∂r (m, C) per colour, columns (m, C)
@@ -487,6 +488,4 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
 
 def _turn_at(plan: Plan, phase: float) -> float:
     """Motor rotation from the rest pose at ``phase``, radians (as ``simulate`` samples it)."""
-    from linkedit.planar.simulate import motor_turn
-
     return float(motor_turn(plan.spec.motor, np.array([phase]))[0])
