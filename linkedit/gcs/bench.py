@@ -17,12 +17,18 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from linkedit.gcs import quaternions as quat
 from linkedit.timing import best_time
+
+if TYPE_CHECKING:
+    from linkedit.gcs.solver import Run
+    from linkedit.gcs.system import System
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "3d"
 
@@ -110,43 +116,151 @@ def _six_bar(echo: Callable[[str], None], quick: bool) -> None:
          f"{run.iterations.mean():.2f} linear solves per step, max residual {np.abs(run.residual).max():.1e}")
 
 
-def _solvespace_run(spec, angle: np.ndarray) -> tuple[float, np.ndarray] | None:
-    """Seconds per step and joint positions (T, J, 2) of a planar linkage solved by SolveSpace
-    with the crank pin set (and dragged) at each motor angle (T,); None when SolveSpace fails."""
+@dataclass(frozen=True)
+class PointModel:
+    """A mechanism as SolveSpace sketches it: named points (world positions read from the
+    linkedit run), held ones (ground and the input's driven point, set at each step), rigid
+    links (every pair of a link's points at its rest distance, unless both are held), and
+    points kept on a plane (``on_plane``: point → (plane point, unit normal))."""
+
+    points: dict[str, tuple[str, str]]  #: name → (member, member point) in the linkedit system
+    held: tuple[str, ...]
+    links: tuple[tuple[str, ...], ...]
+    planar: bool
+    on_plane: dict[str, tuple[str, tuple[float, float, float]]] = field(default_factory=dict)
+    #: points moved by a passive degree of freedom: each solver keeps them still its own way
+    #: (SolveSpace: least change of its parameters), so they are not compared
+    passive: tuple[str, ...] = ()
+
+
+#: spatial examples and their SolveSpace sketches (the RSSR coupler's fin keeps its idle spin:
+#: a passive degree of freedom in both solvers)
+SPATIAL = {
+    "six-bar": PointModel(
+        points={"A": ("crank", "A"), "B": ("crank", "B"), "C": ("coupler", "C"), "E": ("coupler", "E"),
+                "D": ("rocker", "D"), "F": ("EF", "F"), "G": ("GFH", "G"), "H": ("GFH", "H")},
+        held=("A", "D", "G", "B"), links=(("B", "C", "E"), ("C", "D"), ("E", "F"), ("G", "F", "H")), planar=True),
+    "spherical-four-bar": PointModel(
+        points={"o": ("crank", "o"), "a": ("crank", "a"), "b": ("crank", "b"), "c": ("coupler", "c"),
+                "P": ("coupler", "P"), "d": ("rocker", "d")},
+        held=("o", "a", "d", "b"), links=(("o", "b", "c", "P"), ("o", "c", "d")), planar=False),
+    "rssr": PointModel(
+        points={"O1": ("crank", "pivot"), "A": ("crank", "tip"), "O2": ("rocker", "pivot"),
+                "B": ("rocker", "tip"), "fin": ("coupler", "fin")},
+        held=("O1", "O2", "A"), links=(("O2", "B"), ("A", "B", "fin")), planar=False,
+        on_plane={"B": ("O2", (1.0, 0.0, 0.0))}, passive=("fin",)),
+}
+#: planar linkages (examples/*.yaml) through the 3D solver
+PLANAR = ("crank-rocker", "jansen", "klann")
+
+
+def _solvespace_run(model: PointModel, xyz: np.ndarray, fixed: bool) -> tuple[float, np.ndarray] | None:
+    """Seconds per step and point positions (T, P, 3) of a point model solved by SolveSpace
+    from linkedit's positions ``xyz`` (T, P, 3): the held points are set to them at each step
+    (the others start from step 0), either ``fixed`` (in an earlier group: parameters SolveSpace
+    does not solve for) or dragged (unknowns it keeps where they were put, as the issue's
+    baseline measured); None when SolveSpace fails."""
     import time
 
-    from python_solvespace import ResultFlag, SolverSystem
+    from python_solvespace import Entity, ResultFlag, SolverSystem
 
+    names = list(model.points)
+    at = {n: i for i, n in enumerate(names)}
     s = SolverSystem()
-    wp = s.create_2d_base()
-    names = list(spec.joints)
-    pts = {n: s.add_point_2d(float(x), float(y), wp) for n, (x, y) in spec.joints.items()}
-    tip, pivot = spec.motor.joint, spec.motor.pivot
-    held = set(spec.ground) | {tip}  # dragged: a distance between two of them would be redundant
-    for n in held:
-        s.dragged(pts[n], wp)
-    for members in spec.links.values():
-        for i, a in enumerate(members):
-            for b in members[i + 1:]:
-                if not (a in held and b in held):
-                    s.distance(pts[a], pts[b], float(np.hypot(*np.subtract(spec.joints[a], spec.joints[b]))), wp)
-    c = np.asarray(spec.joints[pivot], dtype=float)
-    r = float(np.hypot(*(np.asarray(spec.joints[tip]) - c)))
-    out = np.empty((angle.size, len(names), 2))
+    s.set_group(1)
+    wp = s.create_2d_base() if model.planar else Entity.FREE_IN_3D
+    if not fixed:
+        s.set_group(2)
+    pts = {}
+
+    def point(n: str) -> object:
+        x = xyz[0, at[n]]
+        return s.add_point_2d(float(x[0]), float(x[1]), wp) if model.planar else s.add_point_3d(*map(float, x))
+
+    for n in model.held:
+        pts[n] = point(n)
+        if not fixed:
+            s.dragged(pts[n], wp)
+    s.set_group(2)
+    for n in names:
+        if n not in pts:
+            pts[n] = point(n)
+    done = set()
+    for link in model.links:
+        for i, a in enumerate(link):
+            for b in link[i + 1:]:
+                if (a in model.held and b in model.held) or frozenset((a, b)) in done:
+                    continue
+                done.add(frozenset((a, b)))
+                s.distance(pts[a], pts[b], float(np.linalg.norm(xyz[0, at[a]] - xyz[0, at[b]])), wp)
+    for n, (origin, normal) in model.on_plane.items():
+        s.set_group(1)
+        turn = quat.from_axis_angle(*_turn_z_onto(np.asarray(normal)))
+        nm = s.add_normal_3d(*map(float, turn))
+        s.set_group(2)
+        plane = s.add_work_plane(pts[origin], nm)
+        s.coincident(pts[n], plane, Entity.FREE_IN_3D)
+    held = [(pts[n], at[n]) for n in model.held]
+    dim = 2 if model.planar else 3
+    out = np.zeros((xyz.shape[0], len(names), 3))
     start = time.perf_counter()
-    for k, a in enumerate(angle):
-        s.set_params(pts[tip].params, (c[0] + r * np.cos(a), c[1] + r * np.sin(a)))
+    for k in range(xyz.shape[0]):
+        for p, i in held:
+            s.set_params(p.params, tuple(map(float, xyz[k, i, :dim])))
         if s.solve() != ResultFlag.OKAY:
             return None
-        out[k] = [s.params(pts[n].params) for n in names]
-    return (time.perf_counter() - start) / angle.size, out
+        for n, i in at.items():
+            out[k, i, :dim] = s.params(pts[n].params)
+    return (time.perf_counter() - start) / xyz.shape[0], out
+
+
+def _turn_z_onto(normal: np.ndarray) -> tuple[np.ndarray, float]:
+    """Axis (3,) and angle of the rotation taking +z onto the unit ``normal``."""
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(z, normal)
+    if np.linalg.norm(axis) < 1e-12:
+        return np.array([1.0, 0.0, 0.0]), 0.0 if normal[2] > 0 else np.pi
+    return axis / np.linalg.norm(axis), float(np.arccos(np.clip(normal[2], -1.0, 1.0)))
+
+
+def _linkedit_cases(steps: int) -> list[tuple[str, "System", PointModel, Callable[["Run"], np.ndarray]]]:
+    """(name, system, SolveSpace sketch, world positions (T, P, 3) of the sketch's points from a run)."""
+    from linkedit.gcs.members import compile_mechanism
+    from linkedit.gcs.planar_bridge import planar_model, point_positions
+    from linkedit.spec.linkage import LinkageSpec
+    from linkedit.spec.mechanism3d import MechanismSpec
+    from linkedit.spec.yamlload import load_model
+
+    cases = []
+    for name in PLANAR:
+        spec = load_model(LinkageSpec, EXAMPLES.parent / f"{name}.yaml")
+        pm = planar_model(spec)
+        joints = {n: i for i, n in enumerate(pm.joint_names)}
+        model = PointModel(points={n: ("", n) for n in spec.joints}, held=(*spec.ground, spec.motor.joint),
+                           links=tuple(tuple(m) for m in spec.links.values()), planar=True)
+        pick = np.array([joints[n] for n in model.points])
+
+        def world(run, pm=pm, pick=pick):
+            return point_positions(pm.joint_member, pm.joint_point, run.position, run.orientation)[:, pick]
+
+        cases.append((name + " (planar)", pm.system, model, world))
+    for name, model in SPATIAL.items():
+        system, _ = compile_mechanism(load_model(MechanismSpec, EXAMPLES / f"{name}.yaml"))
+        member = np.array([system.member_names.index(m) for m, _ in model.points.values()])
+        local = np.array([system.points[m][p] for m, p in model.points.values()])
+
+        def world(run, member=member, local=local):
+            R = quat.to_matrix(run.orientation[:, member])
+            return run.position[:, member] + np.einsum("tpij,pj->tpi", R, local)
+
+        cases.append((name, system, model, world))
+    return cases
 
 
 def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
-    from linkedit.gcs.planar_bridge import planar_model, point_positions
+    import time
+
     from linkedit.gcs.solver import solve_run
-    from linkedit.spec.linkage import LinkageSpec
-    from linkedit.spec.yamlload import load_model
 
     try:
         import python_solvespace  # noqa: F401
@@ -154,26 +268,36 @@ def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
         echo("SolveSpace side by side: python-solvespace is not installed (pip install 'linkedit[bench]')")
         return
     steps = 24 if quick else 360
-    repeats = 1 if quick else 3
-    echo(f"{'vs SolveSpace, ' + str(steps) + ' steps':<26}{'unknowns':>9}  {'linkedit ms/step':>17}  "
-         f"{'SolveSpace ms/step':>19}  {'ratio':>6}  {'max |Δp| / size':>16}")
-    for name in ("crank-rocker", "hoekens", "jansen", "klann"):
-        spec = load_model(LinkageSpec, EXAMPLES.parent / f"{name}.yaml")
-        model = planar_model(spec)
-        t = np.arange(steps) / steps
-        angle = model.motor_rest_angle + model.direction * 2.0 * np.pi * t
-        ours = best_time(lambda: solve_run(model.system, t), repeats) / steps
-        run = solve_run(model.system, t)
-        xyz = point_positions(model.joint_member, model.joint_point, run.position, run.orientation)[..., :2]
-        runs = [_solvespace_run(spec, angle) for _ in range(repeats)]
-        if runs[0] is None:
-            echo(f"{name:<26}{model.system.n_unknowns:>9}  {ours * 1e3:>17.3f}  SolveSpace could not solve it")
-            continue
-        theirs, their_xy = min(runs, key=lambda x: x[0])
-        size = float(np.ptp(xyz.reshape(-1, 2), axis=0).max())
-        diff = float(np.abs(xyz - their_xy).max()) / size
-        echo(f"{name:<26}{model.system.n_unknowns:>9}  {ours * 1e3:>17.3f}  {theirs * 1e3:>19.3f}  "
-             f"{ours / theirs:>5.1f}×  {diff:>16.1e}")
+    repeats = 1 if quick else 5
+    t = np.arange(steps) / steps
+    echo(f"vs SolveSpace (python-solvespace), {steps} one-degree steps, medians of {repeats} interleaved runs; "
+         "SolveSpace holds the ground and the driven point dragged (the target's baseline) or fixed (an earlier group)")
+    echo(f"{'mechanism':<26}{'unknowns':>9}  {'linkedit':>9}  {'SolveSpace':>11}  {'ratio':>6}  {'target':>7}  "
+         f"{'SolveSpace':>11}  {'ratio':>6}  {'max |Δp| / size':>16}")
+    echo(f"{'':<26}{'':>9}  {'ms/step':>9}  {'dragged':>11}  {'':>6}  {'':>7}  {'fixed':>11}  {'':>6}")
+    for name, system, model, world in _linkedit_cases(steps):
+        table = system.step_table(t)
+        run = solve_run(system, t, table=table)
+        xyz = world(run)
+        times: dict[str, list[float]] = {"ours": [], "dragged": [], "fixed": []}
+        got = {}
+        for _ in range(repeats):
+            start = time.perf_counter()
+            solve_run(system, t, table=table)
+            times["ours"].append((time.perf_counter() - start) / steps)
+            for mode in ("dragged", "fixed"):
+                got[mode] = _solvespace_run(model, xyz, fixed=mode == "fixed")
+                if got[mode] is not None:
+                    times[mode].append(got[mode][0])
+        ms = {k: float(np.median(v)) * 1e3 if v else float("nan") for k, v in times.items()}
+        keep = [i for i, n in enumerate(model.points) if n not in model.passive]
+        size = float(np.ptp(xyz.reshape(-1, 3), axis=0).max())
+        diffs = [float(np.abs(xyz[:, keep] - g[1][:, keep]).max()) / size for g in got.values() if g is not None]
+        target = 2.0 if model.passive else 1.0
+        cells = [f"{ms['dragged']:>11.3f}  {ms['ours'] / ms['dragged']:>5.2f}×" if got["dragged"] else f"{'failed':>11}  {'':>6}",
+                 f"{ms['fixed']:>11.3f}  {ms['ours'] / ms['fixed']:>5.2f}×" if got["fixed"] else f"{'failed':>11}  {'':>6}"]
+        echo(f"{name:<26}{system.n_unknowns:>9}  {ms['ours']:>9.3f}  {cells[0]}  {'≤ ' + format(target, 'g') + '×':>7}  "
+             f"{cells[1]}  {max(diffs, default=float('nan')):>16.1e}{'  (passive DOF)' if model.passive else ''}")
 
 
 def run(echo: Callable[[str], None], quick: bool = False) -> None:
