@@ -87,13 +87,20 @@ class Linearization:
 
 
 class NormalEquations:
-    """Scatter plan from the Jacobian groups (R residual rows, N = 6M unknowns) to J, JᵀJ and Jᵀr."""
+    """Scatter plan from the Jacobian groups (R residual rows, N = 6M unknowns) to J, JᵀJ and Jᵀr;
+    ``scale``: per group, factors broadcastable to its Jacobian (n, k, m, 6), applied by
+    ``linearize(jac, scaled=True)`` (the solver's dimensionless rows and columns)."""
 
-    def __init__(self, groups: list[Group], n_members: int, n_rows: int) -> None:
+    def __init__(self, groups: list[Group], n_members: int, n_rows: int,
+                 scale: list[np.ndarray] | None = None) -> None:
         M = n_members
         N = 6 * M
         self.N = N
         self.R = n_rows
+        self.group_scale = scale
+        self.scale = None if scale is None else np.concatenate(
+            [np.broadcast_to(s, g.rows.shape + (g.members.shape[1], 6)).ravel() for g, s in zip(groups, scale)]
+            or [np.zeros(0)])
         self.sparse = N > SPARSE_ABOVE
         self.ordering: _Ordering | None = None  #: sparse: the last fill-reducing ordering
         six = np.arange(6)
@@ -116,8 +123,12 @@ class NormalEquations:
         if self.sparse:
             self._sparse_plan(jrow, jcol, keys_all, diag)
         else:
-            # dense J (R, N + 1): world entries land in the last column, dropped
+            # dense J (R, N + 1): world entries land in the last column, dropped; a member's
+            # entries in one row are never repeated, so they are put, not summed, unless a
+            # constraint ties a member to itself
             self.entry_index = jrow * (N + 1) + jcol
+            keep = self.entry_index[jcol < N]
+            self.unique_entries = np.unique(keep).size == keep.size
             self.nnz = N * N
             self.diag_index = diag
 
@@ -139,13 +150,23 @@ class NormalEquations:
         self.jt_indices = jrow[order].astype(np.int32)
         self.jt_indptr = np.concatenate([[0], np.cumsum(np.bincount(jcol[order], minlength=N))]).astype(np.int32)
 
-    def linearize(self, jac: list[np.ndarray]) -> Linearization:
-        """JᵀJ entries and Jᵀ from the Jacobian groups of an evaluation."""
-        flat = np.concatenate([J.ravel() for J in jac])
+    def linearize(self, jac: list[np.ndarray], scaled: bool = False) -> Linearization:
+        """JᵀJ entries and Jᵀ from the Jacobian groups of an evaluation (times ``scale`` when
+        ``scaled``)."""
+        flat = np.concatenate([J.ravel() for J in jac]) if len(jac) != 1 else jac[0].ravel()
+        if scaled:
+            flat = flat * self.scale
         if not self.sparse:
             N = self.N
-            J = np.bincount(self.entry_index, flat, minlength=self.R * (N + 1)).reshape(self.R, N + 1)[:, :N]
+            if self.unique_entries:
+                J = np.zeros((self.R, N + 1))
+                J.put(self.entry_index, flat)
+            else:
+                J = np.bincount(self.entry_index, flat, minlength=self.R * (N + 1)).reshape(self.R, N + 1)
+            J = J[:, :N]
             return Linearization((J.T @ J).ravel(), J.T)
+        if scaled:
+            jac = [J * s for J, s in zip(jac, self.group_scale)]
         F = [J.reshape(J.shape[0], J.shape[1], -1) for J in jac]
         w = np.concatenate([(np.swapaxes(f, 1, 2) @ f).ravel() for f in F])
         data = np.bincount(self.index, w, minlength=self.nnz + 1)[: self.nnz]

@@ -66,8 +66,15 @@ SLSQP_TOL = 1e-6
 FREE_PIVOT = 1e-4
 #: singular values of the scaled J below this fraction of the largest span its null space
 NULL_SINGULAR = 1e-8
+#: a null-space basis B from inverse iteration is clean when |J B| is below this fraction of
+#: √(largest diagonal of JᵀJ) (at most the largest singular value): J's rank is N minus its
+#: columns, as the diagnostics' SVD (RANK_TOL) would count it
+NULL_CLEAN = 1e-9
 #: Levenberg–Marquardt iterations a continuation (sub-)step may take before it is halved
 SUBSTEP_ITERATIONS = 20
+#: largest scaled move of a pose after its Jacobian was taken for that Jacobian to serve it
+#: (velocity, null space, next step): the velocity is then exact to this relative order
+REUSE = 1e-10
 #: degree of the polynomial through the last accepted poses that starts a step when it agrees
 #: with the second-order tangent prediction
 PREDICT_ORDER = 9
@@ -113,6 +120,9 @@ class Linear:
     lin: Linearization
     factor: Factor
     null: np.ndarray | None
+    #: rank of J read from the factorization (N minus the null space), −1 where it cannot
+    #: tell (small pivots that are not a clean null space: the diagnostics take an SVD)
+    rank: int = -1
 
     def least_norm(self, b: np.ndarray) -> np.ndarray:
         """The least-norm y (N,) of J y = b (R,): the normal equations' solution (regularized
@@ -135,16 +145,15 @@ class Pose:
     linear: Linear
     velocity: np.ndarray
     trend: np.ndarray | None = None
-    #: the accepted poses of this continuation up to this one, newest last: times (k,),
-    #: positions (k, M, 3), quaternions (k, M, 4), k ≤ PREDICT_ORDER + 1
-    history: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    #: the accepted poses of this continuation up to this one, newest last: times (k,) and
+    #: states (k, 7M) (positions (M, 3) then quaternions (M, 4), flattened), k ≤ PREDICT_ORDER + 1
+    history: tuple[np.ndarray, np.ndarray] | None = None
 
     def followed_by(self, t: float, state: State, r: np.ndarray, linear: "Linear", velocity: np.ndarray) -> "Pose":
         """The next accepted pose of the continuation."""
-        ts, P, Q = self.history or (np.array([self.t]), self.state.position[None], self.state.orientation[None])
+        ts, Z = self.history or (np.array([self.t]), _flat(self.state)[None])
         keep = slice(-PREDICT_ORDER, None)
-        history = (np.append(ts[keep], t), np.concatenate([P[keep], state.position[None]]),
-                   np.concatenate([Q[keep], state.orientation[None]]))
+        history = (np.append(ts[keep], t), np.concatenate([Z[keep], _flat(state)[None]]))
         return Pose(t, state, r, linear, velocity, (velocity - self.velocity) / (t - self.t), history)
 
     def extrapolated(self, t: float) -> State | None:
@@ -153,11 +162,15 @@ class Pose:
         three poses."""
         if self.history is None or len(self.history[0]) < 3:
             return None
-        ts, P, Q = self.history
-        w = lagrange_weights(ts, np.asarray(t))
-        k = len(w)
-        return State((w @ P.reshape(k, -1)).reshape(P.shape[1:]),
-                     quat.normalize((w @ Q.reshape(k, -1)).reshape(Q.shape[1:])))
+        ts, Z = self.history
+        z = lagrange_weights(ts, np.asarray(t)) @ Z
+        M = self.state.position.shape[0]
+        return State(z[:3 * M].reshape(M, 3), quat.normalize(z[3 * M:].reshape(M, 4)))
+
+
+def _flat(x: State) -> np.ndarray:
+    """Positions then quaternions of a state, flattened (7M,)."""
+    return np.concatenate([x.position.ravel(), x.orientation.ravel()])
 
 
 @dataclass
@@ -169,14 +182,15 @@ class Solver:
 
     def __post_init__(self) -> None:
         s = self.system
-        self.normal = NormalEquations(s.groups, s.n_members, s.n_rows)
         L = s.length_scale
         self.col = np.tile(np.r_[np.full(3, L), np.ones(3)], s.n_members)  #: scaled → real unknowns
         self.row = s.row_scale
         six = np.r_[np.full(3, L), np.ones(3)]
-        self.group_scale = [self.row[g.rows][:, :, None, None] * six for g in s.groups]
+        self.normal = NormalEquations(s.groups, s.n_members, s.n_rows,
+                                      [self.row[g.rows][:, :, None, None] * six for g in s.groups])
         self.iterations = self.factorizations = 0
         self.structure: dict[bytes, bool] = {}  #: active-input pattern → J has a null space
+        self._probes: dict[int, np.ndarray] = {}
 
     # ---- building blocks --------------------------------------------------------------------
 
@@ -184,21 +198,39 @@ class Solver:
         """The largest scaled residual row."""
         return float((np.abs(r) * self.row).max()) if r.size else 0.0
 
-    def linearize(self, x: State, table: StepTable, step: int, damping: float = 0.0) -> Linear:
-        """Evaluate the Jacobian at x and factorize the scaled JᵀJ (+ damping·diag + μI)."""
-        ev = self.system.evaluate(x, table, step, jacobian=True)
-        lin = self.normal.linearize([J * s for J, s in zip(ev.jac, self.group_scale)])
+    def linearize(self, x: State, table: StepTable, step: int, ev: Evaluation | None = None) -> Linear:
+        """Factorize the scaled JᵀJ + μI at x (from ``ev``, its evaluation with the Jacobian,
+        when given); where J has a null space, take its basis (:meth:`_null_space`)."""
+        if ev is None:
+            ev = self.system.evaluate(x, table, step, jacobian=True)
+        lin = self.normal.linearize(ev.jac, scaled=True)
         diagonal = self.normal.diagonal(lin.data)
         top = max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
-        factor = self.normal.factor(lin.data, damping, 1e-13 * top)
+        factor = self.normal.factor(lin.data, 0.0, 1e-13 * top)
         self.factorizations += 1
-        null = None
-        if self._free(table, step, lin) and (factor.pivots() < FREE_PIVOT * top).any():
-            J = lin.JT.T
-            _, sv, Vt = np.linalg.svd(J.toarray() if hasattr(J, "toarray") else J)
-            rank = int(np.sum(sv > NULL_SINGULAR * sv[0])) if sv.size else 0
-            null = Vt[rank:].T if rank < Vt.shape[0] else None
-        return Linear(ev, lin, factor, null)
+        small = factor.pivots() < FREE_PIVOT * top
+        if not small.any():
+            return Linear(ev, lin, factor, None, self.system.n_unknowns)
+        if not self._free(table, step, lin):
+            return Linear(ev, lin, factor, None)
+        return Linear(ev, lin, factor, *self._null_space(lin, factor, int(small.sum()), top))
+
+    def _null_space(self, lin: Linearization, factor: Factor, f: int, top: float) -> tuple[np.ndarray | None, int]:
+        """An orthonormal basis (N, f) of the null space of J and the rank of J, for f small
+        pivots: two inverse iterations with the factorization (from fixed random vectors; the
+        damping μ sets the null eigenvalues apart by a factor of at least FREE_PIVOT / 1e-13)
+        give it when J annihilates the result (rank N − f); otherwise an SVD decides."""
+        N = self.system.n_unknowns
+        J = lin.JT.T
+        if f not in self._probes:
+            self._probes[f] = np.random.default_rng(f).standard_normal((N, f))
+        Y = np.column_stack([factor.solve(factor.solve(b)) for b in self._probes[f].T])
+        null = np.linalg.qr(Y)[0]
+        if float(np.linalg.norm(J @ null)) <= NULL_CLEAN * np.sqrt(top):
+            return null, N - f
+        _, sv, Vt = np.linalg.svd(J.toarray() if hasattr(J, "toarray") else J)
+        rank = int(np.sum(sv > NULL_SINGULAR * sv[0])) if sv.size else 0
+        return (Vt[rank:].T if rank < Vt.shape[0] else None), -1
 
     def _free(self, table: StepTable, step: int, lin: Linearization) -> bool:
         """Whether J has a null space for the inputs active at this step: its rank is taken
@@ -227,6 +259,14 @@ class Solver:
     def _residual(self, x: State, table: StepTable, step: int) -> np.ndarray:
         return self.system.evaluate(x, table, step).r
 
+    def correction(self, x: State, r: np.ndarray, anchor: State, linear: Linear) -> np.ndarray:
+        """The minimum-change correction (N,) at x: least norm against the residual, and the
+        change from the anchor along the null space of J taken back."""
+        e = -linear.least_norm(r * self.row)
+        if linear.null is not None:
+            e -= linear.null @ (linear.null.T @ self.displacement(x, anchor))
+        return e
+
     # ---- one pose ---------------------------------------------------------------------------
 
     def chord(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable,
@@ -236,11 +276,7 @@ class Solver:
         tol = self.options.tol
         norm = float(np.linalg.norm(r * self.row))
         while self.error(r) > tol:
-            e = -linear.least_norm(r * self.row)
-            if linear.null is not None:
-                d = self.displacement(x, anchor)
-                e -= linear.null @ (linear.null.T @ d)
-            x1 = self.moved(x, e)
+            x1 = self.moved(x, self.correction(x, r, anchor, linear))
             r1 = self._residual(x1, table, step)
             self.iterations += 1
             norm1 = float(np.linalg.norm(r1 * self.row))
@@ -249,17 +285,40 @@ class Solver:
             x, r, norm = x1, r1, norm1
         return x, r, True
 
+    def newton(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable,
+               step: int) -> tuple[State, np.ndarray, bool, Linear | None]:
+        """Minimum-change Newton from a predicted pose: one correction with ``linear`` (a nearby
+        pose's factorization), the Jacobian evaluated with the residual there and factorized,
+        then :meth:`chord` with it. Returns the best (state, residual), whether it converged,
+        and the new linearization when the pose moved at most :data:`REUSE` since it (it then
+        serves the pose: velocity, null space, next step), else None."""
+        if self.error(r) <= self.options.tol:
+            return x, r, True, None
+        norm = float(np.linalg.norm(r * self.row))
+        x1 = self.moved(x, self.correction(x, r, anchor, linear))
+        ev = self.system.evaluate(x1, table, step, jacobian=True)
+        self.iterations += 1
+        norm1 = float(np.linalg.norm(ev.r * self.row))
+        if not norm1 < 0.5 * norm or not np.isfinite(norm1):
+            return (x1, ev.r, False, None) if norm1 < norm else (x, r, False, None)
+        linear = self.linearize(x1, table, step, ev)
+        x, r, ok = self.chord(x1, ev.r, anchor, linear, table, step)
+        if x is x1:
+            return x, r, ok, linear
+        return x, r, ok, linear if np.abs(self.displacement(x, x1)).max() <= REUSE else None
+
     def levenberg_marquardt(self, x: State, r: np.ndarray, table: StepTable, step: int,
-                            budget: int | None = None) -> tuple[State, np.ndarray, int]:
-        """Levenberg–Marquardt with fresh Jacobians from x: (state, residual, status). Damping
-        λ·diag(JᵀJ) is raised on failure and lowered on success; the cost stalling above tol
-        is INCONSISTENT, the iteration ``budget`` (default ``max_iterations``) running out NOT_CONVERGED."""
+                            budget: int | None = None) -> tuple[State, np.ndarray, int, Evaluation]:
+        """Levenberg–Marquardt with fresh Jacobians from x: (state, residual, status, evaluation
+        with the Jacobian at the state). Damping λ·diag(JᵀJ) is raised on failure and lowered on
+        success; the cost stalling above tol is INCONSISTENT, the iteration ``budget`` (default
+        ``max_iterations``) running out NOT_CONVERGED."""
         opt = self.options
         lam, stalls, f = 1e-10, 0, float(np.sum((r * self.row) ** 2))
         ev = self.system.evaluate(x, table, step, jacobian=True)
         budget = self.iterations + (budget or opt.max_iterations)
         while self.iterations < budget:
-            lin = self.normal.linearize([J * s for J, s in zip(ev.jac, self.group_scale)])
+            lin = self.normal.linearize(ev.jac, scaled=True)
             diagonal = self.normal.diagonal(lin.data)
             floor = 1e-13 * max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
             while True:
@@ -273,21 +332,23 @@ class Solver:
                     break
                 lam *= 10.0
                 if lam > 1e10 or self.iterations >= budget:
-                    return x, r, INCONSISTENT if lam > 1e10 else NOT_CONVERGED
+                    return x, r, INCONSISTENT if lam > 1e10 else NOT_CONVERGED, ev
             stalls = stalls + 1 if f - f1 <= 1e-9 * f else 0
             x, r, f, ev = x1, ev1.r, f1, ev1
             lam = max(lam / 10.0, 1e-12)
             if self.error(r) <= opt.tol:
-                return x, r, CONVERGED
+                return x, r, CONVERGED, ev
             if stalls >= 3:
-                return x, r, INCONSISTENT
-        return x, r, NOT_CONVERGED
+                return x, r, INCONSISTENT, ev
+        return x, r, NOT_CONVERGED, ev
 
-    def settle(self, x: State, r: np.ndarray, anchor: State, table: StepTable, step: int) -> tuple[State, np.ndarray, Linear]:
-        """Linearize a converged pose; where J has a null space, remove the pose's change along
-        it (minimum change from the anchor) with fresh Jacobians until below ``still_tol``."""
+    def settle(self, x: State, r: np.ndarray, anchor: State, table: StepTable, step: int,
+               known: Linear | Evaluation | None = None) -> tuple[State, np.ndarray, Linear]:
+        """Linearize a converged pose (``known``: its linearization, or its evaluation with the
+        Jacobian); where J has a null space, remove the pose's change along it (minimum change
+        from the anchor) with fresh Jacobians until below ``still_tol``."""
         opt = self.options
-        linear = self.linearize(x, table, step)
+        linear = known if isinstance(known, Linear) else self.linearize(x, table, step, known)
         for _ in range(8):
             if linear.null is None:
                 break
@@ -305,18 +366,19 @@ class Solver:
             linear = self.linearize(x, table, step)
         return x, r, linear
 
-    def pose(self, start: State, anchor: State, table: StepTable, step: int,
-             linear: Linear | None = None, budget: int | None = None) -> tuple[State, np.ndarray, int]:
-        """Solve one time from ``start``, closest to ``anchor``: chord with ``linear`` if given,
-        then Levenberg–Marquardt (``budget`` iterations)."""
+    def pose(self, start: State, anchor: State, table: StepTable, step: int, linear: Linear | None = None,
+             budget: int | None = None) -> tuple[State, np.ndarray, int, Linear | Evaluation | None]:
+        """Solve one time from ``start``, closest to ``anchor``: :meth:`newton` with ``linear``
+        if given, then Levenberg–Marquardt (``budget`` iterations). Returns (state, residual,
+        status, what is known of the state's linearization: a Linear, an Evaluation or None)."""
         r = self._residual(start, table, step)
-        x, ok = start, False
+        x = start
         if linear is not None:
-            x, r, ok = self.chord(start, r, anchor, linear, table, step)
-        if ok:
-            return x, r, CONVERGED
+            x, r, ok, known = self.newton(start, r, anchor, linear, table, step)
+            if ok:
+                return x, r, CONVERGED, known
         if self.error(r) <= self.options.tol:
-            return x, r, CONVERGED
+            return x, r, CONVERGED, None
         return self.levenberg_marquardt(x, r, table, step, budget)
 
     def solve(self, start: State, table: StepTable, step: int) -> tuple[State, np.ndarray, StepResult]:
@@ -324,19 +386,19 @@ class Solver:
         if self.options.solver == "slsqp-fd":
             return solve_slsqp(self, start, table, step)
         it0, f0 = self.iterations, self.factorizations
-        x, r, status = self.pose(start, start, table, step)
+        x, r, status, known = self.pose(start, start, table, step)
         if status == CONVERGED:
-            x, r, _ = self.settle(x, r, start, table, step)
+            x, r, _ = self.settle(x, r, start, table, step, known)
         return x, r, StepResult(status, self.iterations - it0, self.factorizations - f0)
 
     # ---- continuation -----------------------------------------------------------------------
 
     def first(self, anchor: State, table: StepTable, step: int) -> tuple[State, np.ndarray, int, Pose | None]:
         """Assemble at one step from ``anchor``: (state, residual, status, pose if converged)."""
-        x, r, status = self.pose(anchor, anchor, table, step)
+        x, r, status, known = self.pose(anchor, anchor, table, step)
         if status != CONVERGED:
             return x, r, status, None
-        x, r, linear = self.settle(x, r, anchor, table, step)
+        x, r, linear = self.settle(x, r, anchor, table, step, known)
         return x, r, status, Pose(float(table.t[step]), x, r, linear, self.velocity(x, table, step, linear))
 
     def advance(self, good: Pose, table: StepTable, step: int) -> tuple[State, np.ndarray, int, Pose | None, float]:
@@ -357,19 +419,19 @@ class Solver:
                 return (*best, None, here.t)
             s = t1 if h >= t1 - here.t else here.t + h
             tab, k = (table, step) if s == t1 else (self.system.step_table(np.array([s])), 0)
-            tangent = self.moved(here.state, h * here.velocity)
-            guess = tangent if here.trend is None else \
-                self.moved(here.state, h * here.velocity + 0.5 * h * h * here.trend)
-            smooth = here.extrapolated(s)
-            if smooth is not None and np.abs(self.displacement(smooth, guess)).max() < opt.predictor_tol:
-                guess = smooth
-            x, r, status = self.pose(guess, anchor, tab, k, here.linear, budget=SUBSTEP_ITERATIONS)
-            near = status == CONVERGED and np.abs(self.displacement(x, tangent)).max() <= opt.predictor_tol
+            tangent = h * here.velocity
+            second = tangent if here.trend is None else tangent + 0.5 * h * h * here.trend
+            guess = here.extrapolated(s)
+            if guess is None or np.abs(self.displacement(guess, here.state) - second).max() >= opt.predictor_tol:
+                guess = self.moved(here.state, second)
+            x, r, status, known = self.pose(guess, anchor, tab, k, here.linear, budget=SUBSTEP_ITERATIONS)
+            near = status == CONVERGED and \
+                np.abs(self.displacement(x, here.state) - tangent).max() <= opt.predictor_tol
             if not near:
                 best = (x, r, status if status != CONVERGED else NOT_CONVERGED)
                 h *= 0.5
                 continue
-            x, r, linear = self.settle(x, r, anchor, tab, k)
+            x, r, linear = self.settle(x, r, anchor, tab, k, known)
             here = here.followed_by(s, x, r, linear, self.velocity(x, tab, k, linear))
             if s == t1:
                 return x, r, CONVERGED, here, s
@@ -390,6 +452,9 @@ class Run:
     factorizations: np.ndarray  #: (T,)
     #: (T,) time up to which a failed step's continuation got (t of the step when converged)
     reached: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: (T,) rank of the scaled Jacobian at each converged step, read from its factorization;
+    #: −1 where the factorization cannot tell (or the step failed)
+    rank: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     def state(self, step: int) -> State:
         return State(self.position[step], self.orientation[step])
@@ -410,6 +475,7 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
     status = np.empty(T, dtype=np.int8)
     iters, facts = np.zeros(T, dtype=np.int32), np.zeros(T, dtype=np.int32)
     reached = t.copy()
+    rank = np.full(T, -1)
     good: Pose | None = None
     stuck = False  # the continuation from ``good`` failed once: it would fail again at the same place
     rest = (start or system.rest).copy()
@@ -439,12 +505,13 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
         if pose is not None:
             good, stuck = pose, False
             vel[k] = (pose.velocity * solver.col).reshape(M, 6)
+            rank[k] = pose.linear.rank
         pos[k], ori[k], res[k], status[k] = x.position, x.orientation, r, st
         iters[k], facts[k] = solver.iterations - it0, solver.factorizations - f0
         if progress is not None:
             progress(k, T)
     return Run(t=t, position=pos, orientation=ori, velocity=vel, residual=res, status=status,
-               iterations=iters, factorizations=facts, reached=reached)
+               iterations=iters, factorizations=facts, reached=reached, rank=rank)
 
 
 def lagrange_weights(nodes: np.ndarray, t: np.ndarray) -> np.ndarray:
