@@ -360,14 +360,16 @@ class System:
         the world frame), through the b columns of the Jacobian ``ev.jac``. Custom constraints
         that depend on t: central differences in t."""
         out = np.zeros(self.n_rows)
-        Q = np.concatenate((state.orientation, _IDENTITY))
         for blk, jac, rate in zip(self.blocks, ev.jac, table.rates):
             if rate is None:
                 continue
             s = blk.scheduled
-            Rb = quat.to_matrix(Q.take(blk.b[s], axis=0))  # (S, 3, 3)
-            w = rate[step].reshape(-1, 2, 3) @ np.swapaxes(Rb, 1, 2)  # (S, 2, 3): R_b u, R_b ω
-            out[blk.rows[s]] = np.einsum("skj,sj->sk", jac[s, :, 1, :], w.reshape(-1, 6))
+            w = rate[step]  # (S, 6): u, ω in b's frame
+            if not blk.on_world:
+                Q = np.concatenate((state.orientation, _IDENTITY))
+                Rb = quat.to_matrix(Q.take(blk.b[s], axis=0))  # (S, 3, 3)
+                w = (w.reshape(-1, 2, 3) @ np.swapaxes(Rb, 1, 2)).reshape(-1, 6)  # R_b u, R_b ω
+            out[blk.rows[s]] = (jac[s, :, 1, :] @ w[:, :, None])[:, :, 0]
         if self.customs:
             t = float(table.t[step])
             h = 1e-6
