@@ -5,9 +5,11 @@ The rank of the Jacobian is taken from its singular values after scaling lengths
 system's length scale (rows and translation columns), so that lengths and angles weigh alike:
 dof = 6M − rank, redundant = (independent equations of the active constraints) − rank.
 
-A rank costs dense SVDs of the blocks the Jacobian decouples into (:func:`jacobian_rank`, at
-most about R·N·min(R, N) operations for R rows and N unknowns), so it is not taken at every
-step of a large system: it is taken at the first step, at every step that did not converge or
+At a converged step the solver has already read the rank from the factorization it keeps
+for the pose (:attr:`~linkedit.gcs.solver.Run.rank`: N where no pivot is small, N minus a clean
+null space): that rank is used as it is. Elsewhere a rank costs dense SVDs of the blocks the
+Jacobian decouples into (:func:`jacobian_rank`, at most about R·N·min(R, N) operations for R
+rows and N unknowns), so it is not taken at every step of a large system: it is taken at the first step, at every step that did not converge or
 whose status or number of active equations differs from the step before, and every K steps, K
 chosen so that the periodic ranks of a run cost about :data:`RANK_BUDGET` operations (every
 step for small systems; over 360 steps, every 5th for the 3-pair Strandbeest and every 120th
@@ -145,7 +147,10 @@ def run_diagnostics(system: System, run: Run, table: StepTable, rank: bool = Tru
     if rank:
         evaluated = rank_steps(system, run, table)
         steps = np.flatnonzero(evaluated)
-        ranks = np.array([jacobian_rank(scaled_jacobian(system, run.state(k), table, k)) for k in steps], dtype=int)
+        known = run.rank if run.rank.size == T else np.full(T, -1)
+        known = np.where(run.status == CONVERGED, known, -1)
+        ranks = np.array([known[k] if known[k] >= 0 else jacobian_rank(scaled_jacobian(system, run.state(k), table, k))
+                          for k in steps], dtype=int)
         # carry each evaluated rank forward to the next evaluated step (step 0 is always evaluated)
         rank_at = ranks[np.cumsum(evaluated) - 1]
         dof = system.n_unknowns - rank_at

@@ -70,6 +70,8 @@ NULL_SINGULAR = 1e-8
 #: √(largest diagonal of JᵀJ) (at most the largest singular value): J's rank is N minus its
 #: columns, as the diagnostics' SVD (RANK_TOL) would count it
 NULL_CLEAN = 1e-9
+#: ... and the other directions of its span are seen by J when above this fraction
+NULL_APART = 1e-6
 #: Levenberg–Marquardt iterations a continuation (sub-)step may take before it is halved
 SUBSTEP_ITERATIONS = 20
 #: largest scaled move of a pose after its Jacobian was taken for that Jacobian to serve it
@@ -216,18 +218,24 @@ class Solver:
         return Linear(ev, lin, factor, *self._null_space(lin, factor, int(small.sum()), top))
 
     def _null_space(self, lin: Linearization, factor: Factor, f: int, top: float) -> tuple[np.ndarray | None, int]:
-        """An orthonormal basis (N, f) of the null space of J and the rank of J, for f small
-        pivots: two inverse iterations with the factorization (from fixed random vectors; the
-        damping μ sets the null eigenvalues apart by a factor of at least FREE_PIVOT / 1e-13)
-        give it when J annihilates the result (rank N − f); otherwise an SVD decides."""
+        """An orthonormal basis (N, k) of the null space of J and the rank of J, for f small
+        pivots (k ≤ f: a small pivot may also be a direction J sees weakly): two inverse
+        iterations with the factorization from fixed random vectors (the damping μ sets the null
+        eigenvalues apart from the others by a factor of at least FREE_PIVOT / 1e-13) span the
+        null space; an SVD of J on that span (N × f) picks it out when its singular values
+        are clearly zero or clearly not (rank N − k); otherwise an SVD of J decides."""
         N = self.system.n_unknowns
         J = lin.JT.T
         if f not in self._probes:
             self._probes[f] = np.random.default_rng(f).standard_normal((N, f))
         Y = np.column_stack([factor.solve(factor.solve(b)) for b in self._probes[f].T])
-        null = np.linalg.qr(Y)[0]
-        if float(np.linalg.norm(J @ null)) <= NULL_CLEAN * np.sqrt(top):
-            return null, N - f
+        span = np.linalg.qr(Y)[0]
+        _, sv, Vt = np.linalg.svd(np.asarray(J @ span))
+        sv = np.concatenate([sv, np.zeros(f - sv.size)])  # fewer rows than f: the rest are zero
+        scale = np.sqrt(top)
+        zero = sv <= NULL_CLEAN * scale
+        if zero.any() and (sv[~zero] >= NULL_APART * scale).all():
+            return span @ Vt[zero].T, N - int(zero.sum())
         _, sv, Vt = np.linalg.svd(J.toarray() if hasattr(J, "toarray") else J)
         rank = int(np.sum(sv > NULL_SINGULAR * sv[0])) if sv.size else 0
         return (Vt[rank:].T if rank < Vt.shape[0] else None), -1
