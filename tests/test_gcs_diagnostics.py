@@ -24,7 +24,9 @@ def _dense_rank(J: np.ndarray) -> int:
     return int(np.sum(s > diag.RANK_TOL * s[0])) if s.size and s[0] > 0 else 0
 
 
-def test_block_rank_equals_the_dense_rank():
+@pytest.mark.parametrize("whole", [diag.WHOLE_SVD, 0])  # small matrices whole, or block by block
+def test_block_rank_equals_the_dense_rank(monkeypatch, whole):
+    monkeypatch.setattr(diag, "WHOLE_SVD", whole)
     rng = np.random.default_rng(4)
     for _ in range(20):
         # a random matrix with decoupled blocks, dependent rows, zero rows and zero columns, shuffled

@@ -10,7 +10,6 @@ import typer
 
 from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError
-from linkedit.spec.common import MAX_WEIGHT
 
 #: what tables (features, distance matrices, rankings) can be written as, by suffix
 TABLE_FORMATS = ("csv", "hdf5", "json")
@@ -133,6 +132,8 @@ _Weights = tuple[dict[str, float] | None, dict[str, float]]
 def _load_weights(path: Path | None, overrides: list[str]) -> tuple[_Weights, int | None, int | None]:
     """Weights from a file (default: all 1) and --weight term=value overrides, and the samples/harmonics
     the file asks for."""
+    from linkedit.spec.common import MAX_WEIGHT  # pydantic: loaded when needed (start-up)
+
     weights, samples, harmonics, changed = None, None, None, {}
     if path is not None:
         from linkedit.spec.curveset import CurveWeights

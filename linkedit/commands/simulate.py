@@ -14,7 +14,6 @@ from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError, LinkeditError, MechanismError
 from linkedit.io.atomic import together
 from linkedit.io.formats import is_stdout, output_format, require, write_out
-from linkedit.io.planar_out import result_format
 
 
 class Engine(str, Enum):
@@ -30,6 +29,8 @@ def _outputs(specs: list[Path], out: Path | None, svg: Path | None, animate: boo
     for option, value, suffix in (("--output", out, ".h5"), ("--svg", svg, ".svg")):
         if value is not None and batch and _is_file(value):
             raise InputError(f"{value}: with several specs, give a folder (one file per spec is written)", field=option)
+    from linkedit.io.planar_out import result_format  # the planar engine: loaded when needed (start-up)
+
     pairs = []
     for spec in specs:
         h5 = out if out is not None and _is_file(out) else (out or Path("out")) / f"{spec.stem}.h5"

@@ -10,7 +10,6 @@ import typer
 
 from linkedit.commands.common import check_outputs, guard, print_json
 from linkedit.errors import InputError
-from linkedit.spec.mechanism3d import MAX_COORDINATE
 
 
 #: a track name becomes an HDF5 group: not empty, no "/", no leading ".", no control characters
@@ -28,6 +27,8 @@ def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
     parts = point.split(",")
     if len(parts) == 1:
         return name, member, point
+    from linkedit.spec.mechanism3d import MAX_COORDINATE  # pydantic models: loaded when needed (start-up)
+
     try:
         xyz = tuple(float(p) for p in parts)
     except ValueError:

@@ -40,6 +40,8 @@ NULL_TOL = 1e-6
 #: (a dense SVD) plus RANK_OVERHEAD (building the Jacobian) per rank
 RANK_BUDGET = 2e9
 RANK_OVERHEAD = 1e7
+#: Jacobians with at most this many entries get one dense SVD (no block decomposition)
+WHOLE_SVD = 120 * 180
 
 
 @dataclass
@@ -70,7 +72,13 @@ def scaled_jacobian(system: System, state: State, table: StepTable, step: int) -
 def decoupled_blocks(J: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """The blocks a matrix (R, N) decouples into: (row indices, column indices) of each
     connected component of the bipartite graph of its nonzero entries (zero rows and columns
-    belong to none). J's singular values are those of its blocks together."""
+    belong to none). J's singular values are those of its blocks together. A small matrix (up
+    to :data:`WHOLE_SVD` entries) is one block of its nonzero rows and columns: separate blocks
+    would save little, and finding them loads SciPy's sparse graph modules (start-up)."""
+    if J.size <= WHOLE_SVD:
+        nonzero = J != 0
+        rows, cols = np.flatnonzero(nonzero.any(axis=1)), np.flatnonzero(nonzero.any(axis=0))
+        return [(rows, cols)] if rows.size else []
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 

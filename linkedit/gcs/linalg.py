@@ -4,7 +4,8 @@ The scatter indices depend only on the topology, so they are computed once
 (:class:`NormalEquations`). Small systems assemble the dense Jacobian and factorize JᵀJ by
 LAPACK's Cholesky directly (no sparse machinery, no argument checks). Large ones assemble
 JᵀJ with one batched product per group (the 6×6 blocks of every constraint's member pairs) and
-one ``bincount``, and factorize it by a sparse LU (SuperLU, symmetric mode, no pivoting) on its
+one ``bincount``, and factorize it by a sparse LU (SciPy's sparse modules are loaded only then:
+start-up) (SuperLU, symmetric mode, no pivoting) on its
 exact nonzeros (a planar linkage decouples into in-plane and out-of-plane unknowns). The
 minimum-degree ordering is computed for the first pattern and kept: later factorizations with
 no new nonzeros take the matrix already permuted and skip the ordering. Jᵀ is kept as a CSR
@@ -15,13 +16,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.linalg
-import scipy.sparse
-import scipy.sparse.linalg
 
 from linkedit.gcs.system import Group
+
+if TYPE_CHECKING:
+    import scipy.sparse
 
 #: unknowns above which the sparse factorization is used
 SPARSE_ABOVE = 120
@@ -50,14 +53,18 @@ class Factor:
     def sparse(cls, H: scipy.sparse.csc_matrix, order: str) -> tuple["Factor", np.ndarray]:
         """LU factorization of a sparse symmetric H without pivoting, with SuperLU's column
         ordering ``order``; also returns that ordering (N,) (H[p][:, p] needs no reordering)."""
-        lu = scipy.sparse.linalg.splu(H, permc_spec=order, diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        from scipy.sparse.linalg import splu
+
+        lu = splu(H, permc_spec=order, diag_pivot_thresh=0.0, options={"SymmetricMode": True})
         return cls(lu.solve, lu.U.diagonal), np.argsort(lu.perm_c)
 
     @classmethod
     def permuted(cls, B: scipy.sparse.csc_matrix, p: np.ndarray, inverse: np.ndarray) -> "Factor":
         """LU factorization of H from B = H[p][:, p], already in a fill-reducing order:
         H x = g is B y = g[p] with x = y[inverse]."""
-        lu = scipy.sparse.linalg.splu(B, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        from scipy.sparse.linalg import splu
+
+        lu = splu(B, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
         return cls(lambda g: lu.solve(g.take(p)).take(inverse), lu.U.diagonal)
 
 
@@ -170,7 +177,9 @@ class NormalEquations:
         F = [J.reshape(J.shape[0], J.shape[1], -1) for J in jac]
         w = np.concatenate([(np.swapaxes(f, 1, 2) @ f).ravel() for f in F])
         data = np.bincount(self.index, w, minlength=self.nnz + 1)[: self.nnz]
-        JT = scipy.sparse.csr_matrix((flat.take(self.jt_take), self.jt_indices.copy(), self.jt_indptr.copy()),
+        from scipy.sparse import csr_matrix
+
+        JT = csr_matrix((flat.take(self.jt_take), self.jt_indices.copy(), self.jt_indptr.copy()),
                                      shape=(self.N, self.R))
         JT.eliminate_zeros()  # in place; Jᵀr is taken several times per factorization
         return Linearization(data, JT)
@@ -182,16 +191,18 @@ class NormalEquations:
         data[self.diag_index] = d + damping * d + floor
         if not self.sparse:
             return Factor.dense(data.reshape(self.N, self.N).T)  # symmetric: the Fortran-ordered view
+        from scipy.sparse import csc_matrix
+
         pattern = data != 0.0
         o = self.ordering
         if o is None or (pattern & ~o.pattern).any():
             # a new pattern: minimum-degree ordering on its exact nonzeros, kept for the next ones
-            H = scipy.sparse.csc_matrix((data, self.indices.copy(), self.indptr.copy()), shape=(self.N, self.N))
+            H = csc_matrix((data, self.indices.copy(), self.indptr.copy()), shape=(self.N, self.N))
             H.eliminate_zeros()  # in place
             factor, p = Factor.sparse(H, "MMD_AT_PLUS_A")
             self.ordering = self._ordering(pattern, p)
             return factor
-        B = scipy.sparse.csc_matrix((data.take(o.take), o.indices, o.indptr), shape=(self.N, self.N))
+        B = csc_matrix((data.take(o.take), o.indices, o.indptr), shape=(self.N, self.N))
         return Factor.permuted(B, o.p, o.inverse)
 
     def _ordering(self, pattern: np.ndarray, p: np.ndarray) -> _Ordering:
