@@ -14,15 +14,18 @@ idle spin, a crank whose input window has closed) do not move, like SolveSpace's
 solve. J⁺ comes from the Cholesky (or sparse LU) factorization of JᵀJ + μI, μ = 1e-13 of its
 largest diagonal. Whether J has a null space is decided once per set of active inputs (a rank
 at the first pose that has it) and, at each pose, by small pivots; only then is the null space
-taken (an SVD of J: the normal equations' solution is rounding there, amplified by 1/μ), its
+taken (two inverse iterations with that factorization, checked against J; an SVD where they
+are not clean — the normal equations' solution is rounding there, amplified by 1/μ), its
 component removed from every correction and velocity, and the last iterations use fresh
-Jacobians until d ⊥ null(J) to :attr:`Options.still_tol`.
+Jacobians until d ⊥ null(J) to :attr:`Options.still_tol`. The rank of J read off the same
+factorization is kept per step (:attr:`Run.rank`) for the diagnostics.
 
 **Continuation.** From a solved pose x at time s, with its factorization and exact velocity v
 (J v = −∂r/∂t, least norm), a step of length h starts from the polynomial through the last ten
 accepted poses (or, where that strays from it, from x ⊕ (h·v + ½h²·a), a the change of velocity
-since the pose before), and corrects it by simplified Newton with the factorization of x (one back-substitution per iteration), falling back
-to Levenberg–Marquardt with fresh Jacobians. A (sub-)step is accepted when it converges to a
+since the pose before), and corrects it once with the factorization of x (one back-substitution);
+the Jacobian at the corrected pose is evaluated with its residual and factorized, and corrects
+the rest (simplified Newton); falling back to Levenberg–Marquardt with fresh Jacobians. A (sub-)step is accepted when it converges to a
 pose within :attr:`Options.predictor_tol` of its tangent prediction x ⊕ h·v and moves at most
 :attr:`Options.max_motion`; otherwise it is halved. So a coarse run solves the same poses as a
 fine one (the same branch), or fails at the time where the step fell below
@@ -30,8 +33,9 @@ fine one (the same branch), or fails at the time where the step fell below
 continued from: the next one starts again from the last good pose (continuation, then a direct
 solve from it).
 
-Each accepted pose is factorized once: that factorization gives its velocity, its rank test and
-the corrections of the next step.
+Each accepted pose is factorized once (at its first corrected iterate, when the later
+corrections moved it at most :data:`REUSE`, else afresh): that factorization gives its
+velocity, its null space and rank, and the first correction of the next step.
 
 Status per step: **converged** (largest scaled residual row ≤ tol), **inconsistent** (the
 least-squares cost stopped decreasing above tol: the constraints contradict each other) or
@@ -229,13 +233,18 @@ class Solver:
         if f not in self._probes:
             self._probes[f] = np.random.default_rng(f).standard_normal((N, f))
         Y = np.column_stack([factor.solve(factor.solve(b)) for b in self._probes[f].T])
-        span = np.linalg.qr(Y)[0]
-        _, sv, Vt = np.linalg.svd(np.asarray(J @ span))
-        sv = np.concatenate([sv, np.zeros(f - sv.size)])  # fewer rows than f: the rest are zero
         scale = np.sqrt(top)
-        zero = sv <= NULL_CLEAN * scale
-        if zero.any() and (sv[~zero] >= NULL_APART * scale).all():
-            return span @ Vt[zero].T, N - int(zero.sum())
+        if f == 1:  # the usual case (one idle spin): no decomposition needed
+            span = Y / np.linalg.norm(Y)
+            if float(np.linalg.norm(J @ span)) <= NULL_CLEAN * scale:
+                return span, N - 1
+        else:
+            span = np.linalg.qr(Y)[0]
+            _, sv, Vt = np.linalg.svd(np.asarray(J @ span))
+            sv = np.concatenate([sv, np.zeros(f - sv.size)])  # fewer rows than f: the rest are zero
+            zero = sv <= NULL_CLEAN * scale
+            if zero.any() and (sv[~zero] >= NULL_APART * scale).all():
+                return span @ Vt[zero].T, N - int(zero.sum())
         _, sv, Vt = np.linalg.svd(J.toarray() if hasattr(J, "toarray") else J)
         rank = int(np.sum(sv > NULL_SINGULAR * sv[0])) if sv.size else 0
         return (Vt[rank:].T if rank < Vt.shape[0] else None), -1

@@ -330,16 +330,7 @@ class System:
         jacs: list[np.ndarray] = []
         for blk, act in zip(self.blocks, par.active):
             out = r[blk.start:blk.stop].reshape(len(blk.a), -1)
-            v = blk.vectors
-            if blk.kind == "location":
-                J = kinds.location(X[v[0]], X[v[1]], W[v[0]], W[v[1]], out, jacobian)
-            elif blk.kind == "orientation":
-                qb = None if blk.on_world else Q.take(blk.b, axis=0)
-                J = kinds.orientation(Q.take(blk.a, axis=0), qb, par.rel_inverse, out, jacobian)
-            elif blk.kind == "axis":
-                J = kinds.axis(W[v[0]], W[v[1]], out, jacobian)
-            else:
-                J = kinds.plane(X[v[0]], X[v[1]], W[v[0]], W[v[1]], W[v[2]], out, jacobian)
+            J = EVALUATE[blk.kind](blk, X, W, Q, par, out, jacobian)
             if jacobian:
                 jacs.append(J if act is None else J * act[:, None, None, None])
         if len(par.inactive_rows):
@@ -405,6 +396,39 @@ class System:
             np.add.at(J, (rows, np.broadcast_to(cols, (n, k, m, 6))), jac)
         return J[:, : 6 * M]
 
+
+
+def _location(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+              jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.location(X[v[0]], X[v[1]], W[v[0]], W[v[1]], out, jacobian)
+
+
+def _orientation(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+                 jacobian: bool) -> np.ndarray | None:
+    qb = None if blk.on_world else Q.take(blk.b, axis=0)
+    return kinds.orientation(Q.take(blk.a, axis=0), qb, par.rel_inverse, out, jacobian)
+
+
+def _axis(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+          jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.axis(W[v[0]], W[v[1]], out, jacobian)
+
+
+def _plane(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+           jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.plane(X[v[0]], X[v[1]], W[v[0]], W[v[1]], W[v[2]], out, jacobian)
+
+
+#: how a block of each kind is evaluated, from what :meth:`System.evaluate` gathered once for all
+#: kinds — the block, world points X (K, 3) and world vectors W (K, 3) of the system's member
+#: vectors (the block's at ``blk.vectors``, in the order of ``constraints.VECTORS``), quaternions
+#: Q (M+1, 4) with the world last, the step's parameters — writing its residual rows into
+#: ``out`` (n, k) and returning its Jacobian (n, k, 2, 6) when ``jacobian``: a new kind is one
+#: entry here (and its rows in ``constraints``)
+EVALUATE = {"location": _location, "orientation": _orientation, "axis": _axis, "plane": _plane}
 
 
 def characteristic_length(rest: State, elementary: list[Elementary], points: dict[str, dict[str, np.ndarray]],
