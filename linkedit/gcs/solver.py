@@ -51,6 +51,7 @@ it reports failure.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -276,10 +277,15 @@ class Solver:
     def _residual(self, x: State, table: StepTable, step: int) -> np.ndarray:
         return self.system.evaluate(x, table, step).r
 
-    def correction(self, x: State, r: np.ndarray, anchor: State, linear: Linear) -> np.ndarray:
-        """The minimum-change correction (N,) at x: least norm against the residual, and the
-        change from the anchor along the null space of J taken back."""
-        e = -linear.least_norm(r * self.row)
+    def scaled(self, r: np.ndarray) -> tuple[np.ndarray, float, float]:
+        """The scaled residual (R,), its largest row (as :meth:`error`) and its norm."""
+        rs = r * self.row
+        return rs, float(np.abs(rs).max()) if rs.size else 0.0, math.sqrt(rs @ rs)
+
+    def correction(self, x: State, rs: np.ndarray, anchor: State, linear: Linear) -> np.ndarray:
+        """The minimum-change correction (N,) at x for the scaled residual ``rs``: least norm
+        against it, and the change from the anchor along the null space of J taken back."""
+        e = -linear.least_norm(rs)
         if linear.null is not None:
             e -= linear.null @ (linear.null.T @ self.displacement(x, anchor))
         return e
@@ -292,17 +298,17 @@ class Solver:
         residual at least twofold: the best (state, residual), whether it converged, and the
         sum of the corrections that led to the state (N,)."""
         tol = self.options.tol
-        norm = float(np.linalg.norm(r * self.row))
+        rs, err, norm = self.scaled(r)
         total = np.zeros(self.system.n_unknowns)
-        while self.error(r) > tol:
-            e = self.correction(x, r, anchor, linear)
+        while err > tol:
+            e = self.correction(x, rs, anchor, linear)
             x1 = self.moved(x, e)
             r1 = self._residual(x1, table, step)
             self.iterations += 1
-            norm1 = float(np.linalg.norm(r1 * self.row))
+            rs1, err1, norm1 = self.scaled(r1)
             if not norm1 < 0.5 * norm or not np.isfinite(norm1):
                 return (x1, r1, False, total + e) if norm1 < norm else (x, r, False, total)
-            x, r, norm, total = x1, r1, norm1, total + e
+            x, r, rs, err, norm, total = x1, r1, rs1, err1, norm1, total + e
         return x, r, True, total
 
     def newton(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable,
@@ -313,14 +319,14 @@ class Solver:
         the new linearization when the pose moved at most :data:`REUSE` since it (it then
         serves the pose: velocity, null space, next step) else None, and the sum of the
         corrections (N,)."""
-        if self.error(r) <= self.options.tol:
+        rs, err, norm = self.scaled(r)
+        if err <= self.options.tol:
             return x, r, True, None, np.zeros(self.system.n_unknowns)
-        norm = float(np.linalg.norm(r * self.row))
-        e = self.correction(x, r, anchor, linear)
+        e = self.correction(x, rs, anchor, linear)
         x1 = self.moved(x, e)
         ev = self.system.evaluate(x1, table, step, jacobian=True)
         self.iterations += 1
-        norm1 = float(np.linalg.norm(ev.r * self.row))
+        norm1 = self.scaled(ev.r)[2]
         if not norm1 < 0.5 * norm or not np.isfinite(norm1):
             return (x1, ev.r, False, None, e) if norm1 < norm else (x, r, False, None, 0.0 * e)
         linear = self.linearize(x1, table, step, ev)
