@@ -17,7 +17,8 @@
    group (SolveSpace's leanest form). Both run in this process and are timed in CPU time (a
 shared machine's waits left out). Printed: medians of interleaved runs of each, their
    ratio (target ≤ 1×, ≤ 2× with a passive DOF) and the largest difference of the compared
-   points over the run, relative to the mechanism's size.
+   points over the run, relative to the mechanism's size; and linkedit's time per step with the
+   per-step diagnostics ``solve3d`` adds (status, degrees of freedom, redundant equations).
 """
 
 from __future__ import annotations
@@ -266,6 +267,7 @@ def _linkedit_cases(steps: int) -> list[tuple[str, "System", PointModel, Callabl
 def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
     import time
 
+    from linkedit.gcs.diagnostics import run_diagnostics
     from linkedit.gcs.solver import solve_run
 
     try:
@@ -276,22 +278,25 @@ def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
     steps = 24 if quick else 360
     repeats = 1 if quick else 5
     t = np.arange(steps) / steps
-    echo(f"vs SolveSpace (python-solvespace), {steps} one-degree steps, CPU ms per step, medians of {repeats} "
+    echo(f"vs SolveSpace (python-solvespace), {steps} steps of {360 / steps:g}°, CPU ms per step, medians of {repeats} "
          "interleaved runs; "
          "SolveSpace holds the ground and the driven point dragged (the target's baseline) or fixed (an earlier group)")
     echo(f"{'mechanism':<26}{'unknowns':>9}  {'linkedit':>9}  {'SolveSpace':>11}  {'ratio':>6}  {'target':>7}  "
-         f"{'SolveSpace':>11}  {'ratio':>6}  {'max |Δp| / size':>16}")
-    echo(f"{'':<26}{'':>9}  {'ms/step':>9}  {'dragged':>11}  {'':>6}  {'':>7}  {'fixed':>11}  {'':>6}")
+         f"{'SolveSpace':>11}  {'ratio':>6}  {'max |Δp| / size':>16}  {'+ diagnostics':>14}")
+    echo(f"{'':<26}{'':>9}  {'ms/step':>9}  {'dragged':>11}  {'':>6}  {'':>7}  {'fixed':>11}  {'':>6}  {'':>16}  "
+         f"{'ms/step':>14}")
     for name, system, model, world in _linkedit_cases(steps):
         table = system.step_table(t)
         run = solve_run(system, t, table=table)
         xyz = world(run)
-        times: dict[str, list[float]] = {"ours": [], "dragged": [], "fixed": []}
+        times: dict[str, list[float]] = {"ours": [], "dragged": [], "fixed": [], "solve3d": []}
         got = {}
         for _ in range(repeats):
             start = time.process_time()
-            solve_run(system, t, table=table)
+            again = solve_run(system, t, table=table)
             times["ours"].append((time.process_time() - start) / steps)
+            run_diagnostics(system, again, table)  # as solve3d: status, dof, redundant per step
+            times["solve3d"].append((time.process_time() - start) / steps)
             for mode in ("dragged", "fixed"):
                 got[mode] = _solvespace_run(model, xyz, fixed=mode == "fixed")
                 if got[mode] is not None:
@@ -304,7 +309,8 @@ def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
         cells = [f"{ms['dragged']:>11.3f}  {ms['ours'] / ms['dragged']:>5.2f}×" if got["dragged"] else f"{'failed':>11}  {'':>6}",
                  f"{ms['fixed']:>11.3f}  {ms['ours'] / ms['fixed']:>5.2f}×" if got["fixed"] else f"{'failed':>11}  {'':>6}"]
         echo(f"{name:<26}{system.n_unknowns:>9}  {ms['ours']:>9.3f}  {cells[0]}  {'≤ ' + format(target, 'g') + '×':>7}  "
-             f"{cells[1]}  {max(diffs, default=float('nan')):>16.1e}{'  (passive DOF)' if model.passive else ''}")
+             f"{cells[1]}  {max(diffs, default=float('nan')):>16.1e}  {ms['solve3d']:>14.3f}"
+             f"{'  (passive DOF)' if model.passive else ''}")
 
 
 def run(echo: Callable[[str], None], quick: bool = False) -> None:
