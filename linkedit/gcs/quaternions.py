@@ -189,6 +189,8 @@ def skew(v: np.ndarray) -> np.ndarray:
 def left_jacobian_coefficient(theta2: np.ndarray) -> np.ndarray:
     """c(θ) = (1 − (θ/2) cot(θ/2)) / θ² of :func:`left_jacobian_inverse`, from θ² (...)
     (series below θ = 1e-4)."""
+    if theta2.max(initial=0.0) < 1e-8:  # every angle in the series range (a solved pose's error)
+        return 1.0 / 12.0 + theta2 / 720.0
     half = 0.5 * np.sqrt(theta2)
     large = half >= 0.5e-4
     c = np.where(large, 0.0, 1.0 / 12.0 + theta2 / 720.0)
