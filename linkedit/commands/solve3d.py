@@ -122,7 +122,7 @@ def register(app: typer.Typer) -> None:
         spec: Path = typer.Argument(None, help="3D mechanism spec (YAML); not needed with --from."),
         output: Path = typer.Option(None, "--output", "-o", help="Result .h5 [default: out/<spec>.h5; with --from: the same file]."),
         svg: Path = typer.Option(None, "--svg", help="Draw shapes and output curves to this .svg."),
-        view: View = typer.Option(View.iso, "--view", help="SVG projection."),
+        view: View = typer.Option(None, "--view", help="SVG projection: xy, xz, yz (orthographic) or iso [default: xy for a mechanism that stays in a plane z = const, else iso]."),
         arrows: bool = typer.Option(False, "--arrows", help="Draw velocity arrows on the curves."),
         velocity: VelocityRule = typer.Option(VelocityRule.exact, "--velocity", help="Track velocities: exact (from the constraint Jacobian at each pose) or parabola (the paper's three-point rule on positions)."),
         steps: int = typer.Option(None, "--steps", help="Time steps over t in [0, 1] [default: the spec's]."),
@@ -172,9 +172,9 @@ def register(app: typer.Typer) -> None:
             output_format(svg, ("svg",), option="--svg")
         write_result(out, res)
         if svg is not None:
-            from linkedit.gcs.svg import draw
+            from linkedit.io.gcs_svg import draw
 
-            draw(svg, res, view=view.value, velocity=arrows)
+            draw(svg, res, view=view.value if view else None, velocity=arrows)
         if as_json:
             summary = res.summary()
             summary["status"] = {k.replace(" ", "_"): v for k, v in summary["status"].items()}  # JSON keys: no spaces
