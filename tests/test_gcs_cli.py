@@ -93,7 +93,7 @@ def test_python_constraint_runs_with_allow_python(run_cli, tmp_path, monkeypatch
     assert r.exit_code == 0, r.output
     with h5py.File(out) as f:
         assert (f["diagnostics/status"][()] == 0).all()
-        names = [n.decode() for n in f["constraints/names"][()]]
+        names = [n.decode() for n in f["constraint"][()]]
         cost = f["constraints/cost"][()][:, names.index("circle")]
         assert cost.max() < 1e-18
 
