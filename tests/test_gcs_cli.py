@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import sys
 import textwrap
 
@@ -221,6 +222,10 @@ def test_overflowing_solve_with_partial_json_is_one_line_exit_1(run_cli, tmp_pat
         "  rocker_pivot: {type: pin, member: rocker, point: pivot, world: [2, -3, 0]}\n"
         "  far: {type: location, member: rocker, point: tip, world: [1e200, 2.75, 0]}")
     path = _write(tmp_path, text)
-    line = _one_line(run_cli("solve3d", path, "-o", tmp_path / "x.h5", "--steps", "5", "--partial", "--json"), 1)
+    r = run_cli("solve3d", path, "-o", tmp_path / "x.h5", "--steps", "5", "--partial", "--json")
+    assert r.exit_code == 1 and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.output
+    error = json.loads(r.stdout)["errors"][0]  # with --json, the error is in the report too
+    assert error["exit_code"] == 1 and error["text"] in r.stderr
+    line = error["message"]
     assert "far" in line and "t = 0.0000" in line and "not finite" in line
     assert not (tmp_path / "x.h5").exists()

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import check_outputs, guard, print_json
+from linkedit.commands.common import JSON, QUIET, check_outputs, guard, report, say
 from linkedit.errors import InputError
 from linkedit.spec.mechanism3d import MAX_COORDINATE
 
@@ -131,7 +131,8 @@ def register(app: typer.Typer) -> None:
         track: list[str] = typer.Option(None, "--track", help="Extra tracked point [name=]member:x,y,z (or member:point); repeatable."),
         allow_python: bool = typer.Option(False, "--allow-python", help="Allow custom constraints that run Python code (python: module:function)."),
         partial: bool = typer.Option(False, "--partial", help="Write the result even if some steps fail (their status says so)."),
-        as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Solve a 3D mechanism (members, constraints, inputs) at every time step."""
         from linkedit.gcs import check_solved, read_result, solve_spec, write_result
@@ -157,7 +158,7 @@ def register(app: typer.Typer) -> None:
             text = read_text(spec)
             model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
             res = solve_spec(model, steps=steps, solver=solver.value if solver else "lm", allow_python=allow_python,
-                             spec_text=text, velocity=velocity.value, progress=Progress(model.name))
+                             spec_text=text, velocity=velocity.value, progress=None if quiet else Progress(model.name))
             out = output or Path("out") / f"{spec.stem}.h5"
             if not partial:
                 check_solved(res)
@@ -175,9 +176,7 @@ def register(app: typer.Typer) -> None:
             from linkedit.io.gcs_svg import draw
 
             draw(svg, res, view=view.value if view else None, velocity=arrows)
-        if as_json:
-            summary = res.summary()
-            summary["status"] = {k.replace(" ", "_"): v for k, v in summary["status"].items()}  # JSON keys: no spaces
-            print_json(summary | {"output": str(out), "svg": str(svg) if svg else None})
-        else:
-            typer.echo(_line(res, out, svg))
+        summary = res.summary()
+        summary["status"] = {k.replace(" ", "_"): v for k, v in summary["status"].items()}  # JSON keys: no spaces
+        report(summary | {"output": str(out), "svg": str(svg) if svg else None})
+        say(_line(res, out, svg))
