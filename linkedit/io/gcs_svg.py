@@ -92,11 +92,11 @@ def draw(path: str | Path | None, res: GcsResult, view: str | None = None, veloc
         _arrows(fig, res, view, size)
     placed: list[np.ndarray] = []
     for name, lines in _member_lines(res, 0).items():
-        pts = np.vstack(lines) if lines else res.position[0, [res.member_names.index(name)]]
-        at = project(pts.mean(axis=0), view)
+        corners = np.vstack(lines) if lines else res.position[0, [res.member_names.index(name)]]
+        at = project(corners.mean(axis=0), view)
         below = sum(float(np.hypot(*(at - q))) < 0.03 * size for q in placed)  # stack labels that would overlap
         placed.append(at)
-        fig.annotate(at, name, cls="member-label", offset_px=(5.0, -5.0 + 13.0 * below))
+        fig.annotate(at.tolist(), name, cls="member-label", offset_px=(5.0, -5.0 + 13.0 * below))
     R = quat.to_matrix(res.orientation[0])
     for m, name in enumerate(res.member_names):
         pts = res.points.get(name, {})
@@ -106,7 +106,7 @@ def draw(path: str | Path | None, res: GcsResult, view: str | None = None, veloc
     fig.legend("members at t = 0", Stroke(INK, 3.0))
     if len(frames) > 1:
         fig.legend(f"{len(frames) - 1} later poses", Stroke(INK, 3.0, "faint"))
-    fig.triad({a: PROJECTIONS[view][0][:, i] for i, a in enumerate("xyz")})
+    fig.triad({a: PROJECTIONS[view][0][:, i].tolist() for i, a in enumerate("xyz")})
     svg = fig.render()
     if path is not None:
         write_text(path, svg)
@@ -147,11 +147,11 @@ def _ground_plane(fig: Figure, world: np.ndarray) -> None:
     grid = Stroke("#a0aec0", 0.8)
     for x in xs:
         fig.polyline(project(np.array([[x, ys[0], z], [x, ys[-1], z]]), "iso"), grid, cls="ground-plane")
-        fig.annotate(project(np.array([x, ys[0], z]), "iso"), tick_label(float(x), step), size=9,
+        fig.annotate(project(np.array([x, ys[0], z]), "iso").tolist(), tick_label(float(x), step), size=9,
                      offset_px=(-10.0, 16.0), cls="ground-tick")
     for y in ys:
         fig.polyline(project(np.array([[xs[0], y, z], [xs[-1], y, z]]), "iso"), grid, cls="ground-plane")
-        fig.annotate(project(np.array([xs[-1], y, z]), "iso"), tick_label(float(y), step), size=9,
+        fig.annotate(project(np.array([xs[-1], y, z]), "iso").tolist(), tick_label(float(y), step), size=9,
                      offset_px=(6.0, 10.0), cls="ground-tick")
     fig.legend(f"ground plane z = {tick_label(float(z), step)} (grid {tick_label(step, step)})", grid)
 
