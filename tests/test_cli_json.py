@@ -127,6 +127,12 @@ def test_a_mechanism_failure_is_exit_1_in_the_report(run_cli, tmp_path):
     report = json.loads(r.stdout)
     assert report["ok"] is False and report["exit_code"] == 1 and report["errors"][0]["exit_code"] == 1
     assert report["errors"][0]["text"] in r.stderr
+    locking = EXAMPLES / "invalid" / "locking-slider-crank.yaml"  # validate reports the lock-up as an error
+    r = run_cli("validate", locking, "--json")
+    report = json.loads(r.stdout)
+    assert r.exit_code == 1 and report["exit_code"] == 1 and report["result"][0]["lockups"]
+    assert [(e["exit_code"], e["input"]) for e in report["errors"]] == [(1, str(locking))]
+    assert report["errors"][0]["message"].startswith("locks up: ") and "slider piston" in report["errors"][0]["message"]
 
 
 def test_json_and_stdout_output_do_not_share_stdout(run_cli):

@@ -106,7 +106,7 @@ def register(app: typer.Typer) -> None:
         svg = out_dir / f"{stem}-edit.svg"
         check_outputs([("--output", edited_yaml), ("--output", h5), ("--output", svg)], [spec_path, script_path])
         failure = None
-        with _Progress() as progress:
+        with _Progress(live=not quiet) as progress:
             try:
                 result = run_script(linkage, parsed, progress=progress.update)
             except EditFailed as exc:
@@ -163,9 +163,12 @@ def _displacements(result: Any, script: Any) -> list[tuple[str, Any, Any]]:
 class _Progress:
     """A spinner with the current operation, iteration and energy, on a terminal only."""
 
+    def __init__(self, live: bool = True) -> None:
+        self.live = live
+
     def __enter__(self) -> "_Progress":
         self.bar = None
-        if sys.stderr.isatty():
+        if self.live and sys.stderr.isatty():
             from rich.progress import Progress, SpinnerColumn, TextColumn
 
             self.bar = Progress(SpinnerColumn(), TextColumn("{task.description}"), transient=True)

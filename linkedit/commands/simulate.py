@@ -10,7 +10,7 @@ from typing import Any
 
 import typer
 
-from linkedit.commands.common import JSON, QUIET, check_outputs, error_json, guard, refuse_json_with_stdout, report, say
+from linkedit.commands.common import JSON, QUIET, check_outputs, error_entry, error_json, guard, refuse_json_with_stdout, report, say
 from linkedit.errors import InputError, LinkeditError, MechanismError
 from linkedit.io.atomic import together
 from linkedit.io.formats import is_stdout, output_format, require, write_out
@@ -135,7 +135,7 @@ def register(app: typer.Typer) -> None:
         results: list[dict[str, Any]] = []
         errors: list[dict[str, Any]] = []
         worst = 0
-        progress = _progress(len(specs))
+        progress = _progress(0 if quiet else len(specs))
         for spec_path, (h5, pic) in zip(specs, targets):
             try:
                 with together():
@@ -197,8 +197,9 @@ def register(app: typer.Typer) -> None:
             reports.append({"spec": str(path)} | motion.summary() | {"grubler": plan.mobility.grubler,
                             "redundant": plan.mobility.redundant, "levels": levels,
                             "warnings": transmission_warnings(motion)})
-        if any(r.get("lockups") for r in reports):
-            worst = max(worst, 1)
+        for r in reports:  # a linkage that locks up is a mechanism failure (exit 1), named in the report
+            errors += [error_entry(f"locks up: {lk}", 1, file=r["spec"], source=r["spec"]) for lk in r.get("lockups", [])]
+            worst = max(worst, 1) if r.get("lockups") else worst
         report(reports, exit_code=worst, errors=errors)
         if not (as_json or quiet):
             for r in reports:
