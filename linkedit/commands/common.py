@@ -76,9 +76,14 @@ def report(result: Any, *, exit_code: int = 0, errors: Sequence[dict[str, Any]] 
     if not json_wanted() or mode.reported:
         return
     mode.reported = True
+    _print_report(mode.command, result, exit_code, errors, warnings)
+
+
+def _print_report(command: str, result: Any, exit_code: int, errors: Sequence[dict[str, Any]],
+                  warnings: Sequence[str] = ()) -> None:
     from linkedit import __version__
 
-    print_json({"command": mode.command, "linkedit": __version__, "ok": exit_code == 0 and not errors,
+    print_json({"command": command, "linkedit": __version__, "ok": exit_code == 0 and not errors,
                 "exit_code": exit_code, "result": result, "errors": list(errors), "warnings": list(warnings)})
 
 
@@ -100,7 +105,9 @@ def guard(fn: F) -> F:
 
     * :class:`~linkedit.errors.InputError` → 2, :class:`~linkedit.errors.MechanismError` → 1;
     * an unwritable output path (OSError) → 2; Ctrl-C or SIGTERM → 130;
-    * a closed pipe on stdout (``| head``) → a quiet exit 0.
+    * a closed pipe on stdout (``| head``) → a quiet exit 0;
+    * with ``--json`` (a parameter ``as_json``) the error is also the run's JSON report on stdout,
+      and ``--quiet`` (``quiet``) silences :func:`say` (see ``specs/cli-json.md``).
 
     The outputs the body writes appear together when it succeeds and not at all when it fails
     (:func:`linkedit.io.atomic.together`); numpy's RuntimeWarnings stay quiet (results are
@@ -115,7 +122,8 @@ def guard(fn: F) -> F:
             return _run(*args, **kwargs)
         except typer.Exit as exc:
             if exc.exit_code and not mode.reported:  # a failure nobody reported yet (a usage check, a bad file)
-                report(None, exit_code=exc.exit_code, errors=[error_entry("failed", exc.exit_code)])
+                report(None, exit_code=exc.exit_code,
+                       errors=[error_entry(f"failed with exit code {exc.exit_code} (see stderr)", exc.exit_code)])
             raise
         finally:
             _MODE.reset(token)
@@ -209,14 +217,11 @@ class OneLineErrors(TyperGroup):
             code = exc.exit_code
             words = list(sys.argv[1:] if args is None else args)
             if "--json" in words and not {"--quiet", "-q"} & set(words):
-                from linkedit import __version__
-
                 first = next((w for w in words if not w.startswith("-")), "")
                 sub = getattr(self.commands.get(first), "commands", None)  # a group (atlas): add its command
                 rest = words[words.index(first) + 1:] if first else []
                 command = first + (f" {rest[0]}" if sub and rest and rest[0] in sub else "")
-                print_json({"command": command, "linkedit": __version__, "ok": False, "exit_code": code,
-                            "result": None, "errors": [error_entry(message, code)], "warnings": []})
+                _print_report(command, None, code, [error_entry(message, code)])
         except typer.Abort:
             typer.echo("linkedit: error: interrupted", err=True)
             code = 130
