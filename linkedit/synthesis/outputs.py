@@ -76,7 +76,7 @@ def _report(result: Synthesis, options: dict[str, Any]) -> dict[str, Any]:
                   "normalized_by": "target size (major extent); RMS over target→result and result→target distances"},
         "note": result.note,
         "result": {"spec": "result.yaml", "simulation": "result.h5", "track": "target", "samples": RESULT_SAMPLES,
-                   "min_singularity": float(result.motion.singularity[:, ~result.motion.plan.rigid].min()),
+                   "min_singularity": result.motion.min_singularity()[0],
                    "curve": track.tolist()},
         "candidates": [_candidate_row(c) for c in result.candidates],
         "seconds": result.seconds,

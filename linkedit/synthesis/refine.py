@@ -32,6 +32,10 @@ WALL = 10.0
 ITERATIONS = 40
 #: Stop once the normalized RMS error is below this.
 GOOD_ENOUGH = 1e-6
+#: The barrier acts within this fraction of the margin above it: w·log(BAND·m / (d_s − m)) while positive.
+BAND = 0.5
+#: Weight of the barrier residual, in units of the normalized distance residuals.
+BARRIER = 1e-3
 
 
 class _Done(Exception):
@@ -124,24 +128,28 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
     unit = size
 
     def curves_of(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Parameter rows (K, P), working mask (K,), placed curves (K, SAMPLES) of x (K, n)."""
+        """Parameter rows (K, P), min d_s (K,), placed curves (K, SAMPLES) of x (K, n)."""
         p = np.repeat(params[None], len(x), axis=0)
         p[:, free] = x[:, :n_free]
-        ok = fam.min_singularity(p) >= fam.margin()
         k, angle, sx, sy = x[:, n_free:].T
         z = fam.curves(p, SAMPLES)
         z = np.conj(z) if placement.mirrored else z
-        return p, ok, (sx + 1j * sy)[:, None] * unit + (np.exp(k + 1j * angle))[:, None] * z
+        return p, fam.min_singularity(p), (sx + 1j * sy)[:, None] * unit + (np.exp(k + 1j * angle))[:, None] * z
 
     def residuals(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        p, ok, curve = curves_of(x)
+        """Parameter rows (K, P), working mask (K,) and residuals (K, R + 1) of x (K, n): the
+        distances over the target's size and √R, then the barrier (R: the distance count)."""
+        p, ds, curve = curves_of(x)
+        ok = ds > fam.margin()
         with np.errstate(invalid="ignore"):
             r = near_distances(np.broadcast_to(goal, (len(x), len(goal))), curve)
             if closed:
                 back = np.stack([arc_resample(c, POINTS, True) if good else goal for c, good in zip(curve, ok)])
                 r = np.concatenate([r, near_distances(back, np.broadcast_to(outline, (len(x), len(outline))))], axis=1)
-        r = np.where(ok[:, None], r / size, WALL)
-        return p, ok, r
+            wall = BAND * fam.margin() / (ds - fam.margin())
+            barrier = BARRIER * np.log(np.maximum(wall, 1.0))
+        r = np.concatenate([r / (size * np.sqrt(r.shape[1])), barrier[:, None]], axis=1)
+        return p, ok, np.where(ok[:, None], r, WALL)
 
     x0 = np.concatenate([params[free], [np.log(placement.scale), placement.angle,
                                         placement.shift.real / unit, placement.shift.imag / unit]])
@@ -149,7 +157,7 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
 
     def fun(x: np.ndarray) -> np.ndarray:
         p, ok, r = residuals(x[None])
-        error = float(np.sqrt(np.mean(r[0] ** 2)))
+        error = float(np.sqrt(np.sum(r[0, :-1] ** 2)))
         if ok[0] and error < best.error:
             k, angle, sx, sy = x[n_free:]
             best.params, best.error = p[0], error

@@ -39,6 +39,9 @@ OPEN_POOL = 512
 SCREENED = 48
 #: Samples of the final check and of the written result.
 RESULT_SAMPLES = 360
+#: Candidates of one family whose parameters differ by less than this (RMS, family frame) are near-copies:
+#: the refined shortlist takes distinct ones first (several starts, not one start several times).
+NEAR = 0.05
 #: Normalized RMS error above which the result carries a note that no family draws the target well.
 POOR = 0.03
 
@@ -104,7 +107,7 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
         for k, (h, p, d) in enumerate(zip(mine, params, dist)):
             candidates.append(Candidate(fam_name, h.row, p, h.distance, float(d), (desc, k)))  # placed below
     candidates.sort(key=lambda c: c.distance)
-    chosen = candidates[:top]
+    chosen = diverse(candidates, top)
     for c in chosen:
         desc, k = c.placement
         c.placement = (_placement(placements(t_desc, desc.take([k]), mirror=True)[0]) if target.closed
@@ -136,7 +139,21 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
     seconds = {"query": clock["query"] - clock["start"], "rank": clock["rank"] - clock["query"],
                "refine": clock["refine"] - clock["rank"], "check": clock["check"] - clock["refine"],
                "total": clock["check"] - clock["start"]}
-    return Synthesis(target, size, candidates[:top], best, spec, motion, seconds, note)
+    return Synthesis(target, size, chosen, best, spec, motion, seconds, note)
+
+
+def diverse(candidates: list[Candidate], count: int) -> list[Candidate]:
+    """The first ``count`` of ``candidates`` (best first) that are not near-copies of one taken
+    before: same family and parameters within ``NEAR`` (RMS over the parameters, family frame);
+    near-copies fill up the list only if too few distinct ones remain."""
+    taken: list[Candidate] = []
+    for c in candidates:
+        if len(taken) == count:
+            break
+        if all(t.family != c.family or np.sqrt(np.mean((t.params - c.params) ** 2)) > NEAR for t in taken):
+            taken.append(c)
+    rest = [c for c in candidates if all(c is not t for t in taken)]
+    return taken + rest[:count - len(taken)]
 
 
 def _placement(place: dict) -> Placement:
