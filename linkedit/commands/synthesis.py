@@ -79,6 +79,9 @@ def register(app: typer.Typer) -> None:
                                                                   "curve [default: detected from its ends]."),
         smooth: float = typer.Option(0.0, "--smooth", min=0.0, max=0.5,
                                      help="Smooth a sketched target first: Gaussian σ as a fraction of its points."),
+        timing: bool = typer.Option(False, "--timing", help="Match the target's sample times too (a closed target "
+                                                              "with a CSV t column or a result.h5 track): positions "
+                                                              "and velocities at those times."),
         seed: int = typer.Option(1, "--seed", min=0, help="Recorded with the result (the search is deterministic)."),
         as_json: bool = typer.Option(False, "--json", help="Print the report as JSON."),
     ) -> None:
@@ -98,8 +101,8 @@ def register(app: typer.Typer) -> None:
         if curve.points.shape[1] != 2:
             raise InputError("the target must be a planar (x, y) curve", file=curve.origin)
         found = load(atlas)
-        result = run(curve, found, top=top, smooth=smooth, seed=seed, units=curve.units or "mm")
-        options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "seed": seed,
+        result = run(curve, found, top=top, smooth=smooth, timing=timing, seed=seed, units=curve.units or "mm")
+        options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "timing": timing, "seed": seed,
                    "closed": curve.closed, "atlas_size": found.size}
         report = write_all(output, result, options)
         if as_json:
@@ -108,5 +111,9 @@ def register(app: typer.Typer) -> None:
         before, after = report["error"]["before"], report["error"]["after"]
         typer.echo(f"{report['family']}: normalized RMS error {100 * before['rms']:.3g} % → {100 * after['rms']:.3g} % "
                    f"(max {100 * after['max']:.3g} %) in {report['seconds']['total']:.2f} s → {output}/")
+        if "timed" in report["error"]:
+            timed = report["error"]["timed"]
+            typer.echo(f"at the target's times: {100 * timed['before']['rms']:.3g} % → {100 * timed['after']['rms']:.3g} % "
+                       f"(max {100 * timed['after']['max']:.3g} %)")
         if report["note"]:
             typer.echo(f"note: {report['note']}")

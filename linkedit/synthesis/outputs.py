@@ -48,13 +48,15 @@ def _candidate_row(c: Candidate) -> dict[str, Any]:
     refined = c.refined
     row = {"family": c.family, "atlas_row": c.row, "index_distance": c.index_distance, "curve_distance": c.distance,
            "error_before": {"rms": c.before[0], "max": c.before[1]},
+           "timed_error_before": None if c.timed_before is None else {"rms": c.timed_before[0], "max": c.timed_before[1]},
            "parameters_before": dict(zip(fam.PARAMETERS, c.params.tolist()))}
     if refined is not None and np.isfinite(c.after[0]):
         row |= {"error_after": {"rms": c.after[0], "max": c.after[1]},
+                "timed_error_after": None if c.timed_after is None else {"rms": c.timed_after[0], "max": c.timed_after[1]},
                 "parameters_after": dict(zip(fam.PARAMETERS, refined.params.tolist())),
                 "placement": {"scale": refined.placement.scale, "rotation_deg": float(np.degrees(refined.placement.angle)),
                               "translation": [refined.placement.shift.real, refined.placement.shift.imag],
-                              "mirrored": refined.placement.mirrored},
+                              "mirrored": refined.placement.mirrored, "motor_reversed": refined.placement.reversed},
                 "evaluations": len(refined.history)}
     else:
         row["error_after"] = None
@@ -73,7 +75,12 @@ def _report(result: Synthesis, options: dict[str, Any]) -> dict[str, Any]:
         "family": best.family,
         "error": {"before": {"rms": best.before[0], "max": best.before[1]},
                   "after": {"rms": best.after[0], "max": best.after[1]},
-                  "normalized_by": "target size (major extent); RMS over target→result and result→target distances"},
+                  "normalized_by": "target size (major extent); RMS over target→result and result→target distances"}
+        | ({} if best.timed_after is None else {"timed": {
+            "before": {"rms": best.timed_before[0], "max": best.timed_before[1]},
+            "after": {"rms": best.timed_after[0], "max": best.timed_after[1]},
+            "measured": "distance from each target sample to the result at the sample's time (rest pose = first "
+                        "sample), over the target size"}}),
         "note": result.note,
         "result": {"spec": "result.yaml", "simulation": "result.h5", "track": "target", "samples": RESULT_SAMPLES,
                    "min_singularity": result.motion.min_singularity()[0],

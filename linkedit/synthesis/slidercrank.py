@@ -82,9 +82,10 @@ def curves(params: np.ndarray, samples: int, phase: np.ndarray | float = 0.0) ->
 
 
 def to_spec(row: np.ndarray, *, phase: float, scale: float, turn: complex, shift: complex, mirrored: bool,
-            name: str, units: str, description: str) -> LinkageSpec:
+            name: str, units: str, description: str, reversed: bool = False) -> LinkageSpec:
     """The linkage of parameter ``row`` at crank phase ``phase``, placed by z ↦ shift + scale·turn·z
-    (z conjugated first when ``mirrored``, which also reverses the motor), track ``target`` = P on the rod.
+    (z conjugated first when ``mirrored``, which also reverses the motor; ``reversed`` reverses
+    it again), track ``target`` = P on the rod.
 
     ``turn`` is a unit complex number (the rotation); the slot's direction is turn·1 (a mirror keeps the x axis).
     """
@@ -101,6 +102,6 @@ def to_spec(row: np.ndarray, *, phase: float, scale: float, turn: complex, shift
         "ground": ["O"],
         "links": {"crank": ["O", "A"], "rod": ["A", "B"]},
         "sliders": {"piston": {"joint": "B", "guide": "ground", "angle_deg": float(np.degrees(np.angle(turn)))}},
-        "motor": {"joint": "A", "pivot": "O", "direction": "cw" if mirrored else "ccw"},
+        "motor": {"joint": "A", "pivot": "O", "direction": "cw" if mirrored != reversed else "ccw"},
         "tracks": {"target": {"link": "rod", "at": place(point)}},
     })
