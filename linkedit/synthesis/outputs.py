@@ -74,13 +74,21 @@ def _report(result: Synthesis, options: dict[str, Any]) -> dict[str, Any]:
         "options": options,
         "family": best.family,
         "error": {"before": {"rms": best.before[0], "max": best.before[1]},
-                  "after": {"rms": best.after[0], "max": best.after[1]},
-                  "normalized_by": "target size (major extent); RMS over target→result and result→target distances"}
-        | ({} if best.timed_after is None else {"timed": {
+                  "refined": {"rms": best.after[0], "max": best.after[1]},
+                  "after": {"rms": result.error[0], "max": result.error[1]},
+                  "normalized_by": "target size (major extent); RMS over target→result and result→target distances, "
+                                   "both curves sampled evenly along their length; after: result.yaml simulated"}
+        | ({} if result.timed_error is None or best.timed_before is None or best.timed_after is None else {"timed": {
             "before": {"rms": best.timed_before[0], "max": best.timed_before[1]},
-            "after": {"rms": best.timed_after[0], "max": best.timed_after[1]},
+            "refined": {"rms": best.timed_after[0], "max": best.timed_after[1]},
+            "after": {"rms": result.timed_error[0], "max": result.timed_error[1]},
             "measured": "distance from each target sample to the result at the sample's time (rest pose = first "
                         "sample), over the target size"}}),
+        "polish": None if result.polish is None else {
+            "kept": result.polish.kept, "why": result.polish.why,
+            "error": None if result.polish.error is None else {"rms": result.polish.error[0],
+                                                                "max": result.polish.error[1]},
+            "min_singularity": result.polish.min_singularity},
         "note": result.note,
         "result": {"spec": "result.yaml", "simulation": "result.h5", "track": "target", "samples": RESULT_SAMPLES,
                    "min_singularity": result.motion.min_singularity()[0],
@@ -99,7 +107,7 @@ def _overlay(path: Path, result: Synthesis) -> None:
     edit_overlay(path, before=drawing(before), after=drawing(result.motion),
                  targets={"target": result.target.points[:, :2]}, envelope=None, units=result.spec.units,
                  title=f"synthesize: {best.family}, RMS error {100 * best.before[0]:.2g} % → "
-                       f"{100 * best.after[0]:.2g} % of the target's size")
+                       f"{100 * result.error[0]:.2g} % of the target's size")
 
 
 def _history(path: Path, result: Synthesis) -> None:

@@ -6,7 +6,9 @@
    included), each placed onto the target by the aligning similarity transform;
 4. the best ``top`` distinct candidates are refined (:mod:`linkedit.synthesis.refine`);
 5. the best working result is placed in the target's frame at the crank phase where its
-   tracked point is nearest the target's first point, and checked by ``simulate``.
+   tracked point is nearest the target's first point (with timing: at the first sample's phase),
+   polished through ``edit`` when that helps (:mod:`linkedit.synthesis.polish`), and its
+   errors are measured on its ``simulate``.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from linkedit.spec.linkage import LinkageSpec
 from linkedit.synthesis.atlas import Atlas
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Index, target_variants
+from linkedit.synthesis.polish import Polish, measure, polish
 from linkedit.synthesis.refine import Placement, Refined, curve_error, refine, timed_error
 from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
 from linkedit.synthesis.timed import TimedTarget, timed_fit, timed_target
@@ -76,6 +79,11 @@ class Synthesis:
     motion: Motion
     seconds: dict[str, float] = field(default_factory=dict)
     note: str = ""
+    #: (RMS, max) error of the written result (``spec`` simulated), over the target's size: its shape,
+    #: and with --timing its positions at the target's times
+    error: tuple[float, float] = (np.inf, np.inf)
+    timed_error: tuple[float, float] | None = None
+    polish: Polish | None = None  #: the final polish through `edit` (closed targets)
 
 
 def target_size(points: np.ndarray, closed: bool) -> float:
@@ -169,21 +177,33 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
         raise MechanismError(f"none of the {len(chosen)} candidates kept working through refinement "
                              "(the atlas's linkages do not turn with its margin: rebuild it with `linkedit atlas build`)")
     best = min(working, key=lambda c: c.after[0] if timed is None else c.timed_after[0])
-    error = best.after[0] if timed is None else best.timed_after[0]
-    spec = result_spec(best, z_target[0], name=name, units=units, timed=timed is not None,
-                       description=f"Synthesized by linkedit from {target.origin}: {best.family} "
-                                   f"(atlas row {best.row}), normalized RMS error {error:.3g}"
-                                   f"{' at the target times' if timed is not None else ''}.")
+    spec = result_spec(best, z_target[0], name=name, units=units, timed=timed is not None, description="")
+    refined = best.after if timed is None else best.timed_after
+    assert refined is not None
+    polished = None
+    if target.closed:  # the final polish through `edit` (kept only if it lowers the error within the margin)
+        polished = polish(spec, z_target, size, refined, family(best.family).margin(), RESULT_SAMPLES, timed)
+        if polished.kept:
+            assert polished.spec is not None
+            spec = polished.spec
+    clock["polish"] = time.perf_counter()
     motion = simulate(compile_plan(spec), RESULT_SAMPLES)
+    drawn = motion.tracks["target"].position
+    shape = curve_error(z_target, target.closed, drawn[:, 0] + 1j * drawn[:, 1], size)
+    timed_final = None if timed is None else measure(spec, z_target, size, RESULT_SAMPLES, timed)[0]
+    error = shape[0] if timed_final is None else timed_final[0]
+    spec = spec.model_copy(update={"description": f"Synthesized by linkedit from {target.origin}: {best.family} "
+                                                  f"(atlas row {best.row}), normalized RMS error {error:.3g}"
+                                                  f"{' at the target times' if timed is not None else ''}."})
     clock["check"] = time.perf_counter()
     note = ""
     if error > POOR:
         note = (f"no family in the atlas draws this curve well{' with its timing' if timed is not None else ''}: "
                 f"the best found is off by {100 * error:.1f} % of the target's size (RMS)")
     seconds = {"query": clock["query"] - clock["start"], "rank": clock["rank"] - clock["query"],
-               "refine": clock["refine"] - clock["rank"], "check": clock["check"] - clock["refine"],
-               "total": clock["check"] - clock["start"]}
-    return Synthesis(target, size, chosen, best, spec, motion, seconds, note)
+               "refine": clock["refine"] - clock["rank"], "polish": clock["polish"] - clock["refine"],
+               "check": clock["check"] - clock["polish"], "total": clock["check"] - clock["start"]}
+    return Synthesis(target, size, chosen, best, spec, motion, seconds, note, shape, timed_final, polished)
 
 
 def diverse(candidates: list[Candidate], count: int) -> list[Candidate]:
