@@ -235,3 +235,27 @@ def test_a_target_no_family_draws_is_the_best_found_with_its_error_and_a_note(ru
                           dense_distance(drawn_even, even(star, 20000))]) / report["target"]["size"]
     assert np.sqrt(np.mean(gap ** 2)) == pytest.approx(error, rel=0.02)
     assert report["result"]["min_singularity"] >= fourbar.margin() - 1e-9
+
+
+# --- the quality of classic curves (slow: a 200,000-linkage atlas) --------------------------------------------------
+
+
+@pytest.mark.slow
+def test_classic_curves_with_the_four_bar_family(tmp_path):
+    """≤ 3 % (normalized RMS, the written result re-simulated) for the classic curves a four-bar inside the 20°
+    transmission band can draw; Gerono's 2:1 figure-eight reaches the band's constrained optimum (4.15 %, SLSQP
+    from three starts), which the refinement used to stop short of (4.35 % at the first iterate on the margin)."""
+    from linkedit.curves.sources import make_curve
+    from linkedit.synthesis.bench import classic_curves
+    from linkedit.synthesis.index import Index
+    from linkedit.synthesis.synthesize import synthesize
+
+    path = tmp_path / "four-bar.h5"
+    atlas.build(path, ["four-bar"], 200_000, seed=1)
+    book = atlas.load(path)
+    index = Index(book)
+    for name, (z, closed) in classic_curves().items():
+        result = synthesize(make_curve(name, np.stack([z.real, z.imag], 1), closed=closed, origin="test"), book, index)
+        bound = 0.043 if "2:1)" in name else 0.03
+        assert result.error[0] <= bound, (name, result.error)
+        assert result.motion.min_singularity()[0] >= fourbar.margin() - 1e-9

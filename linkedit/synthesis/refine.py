@@ -4,14 +4,19 @@ The unknowns are the family parameters (the branch stays) and the placement z �
 (z conjugated for a mirrored candidate). The residuals are geometric: every target point's
 distance to the candidate's curve and every candidate point's distance to the target's
 (only the first set for an open target, which may be part of a cycle), both over the
-target's size. scipy's trust-region least squares minimizes them; an iterate whose linkage
-does not turn the full cycle with the family's singularity margin is never kept (its
-residuals are a wall, and only the best working iterate is returned) — the refinement keeps
-the linkage working, as LinkEdit's barrier does.
+target's size; with timing (:mod:`linkedit.synthesis.timed`), the position and velocity gaps
+at the target's times instead, the start phase free too. scipy's trust-region least squares
+minimizes them. The refinement keeps the linkage working, as LinkEdit's barrier does: an
+iterate whose linkage does not turn the full cycle with more than the family's singularity
+margin m is never kept (its residuals are a wall, and only the best working iterate is
+returned), and within BAND·m above the margin one more residual, BARRIER·ln(BAND·m/(d_s − m)),
+turns the wall into a slope the trust region slides along (a design whose best fit lies on the
+margin — a figure-eight — reaches the margin's constrained optimum instead of stopping at the
+first iterate that hits it).
 
-The editing optimizer of :mod:`linkedit.edit` fits a track sample by sample to a target with
-its timing; the synthesis target is a shape with no timing and a free phase, so this module
-fits the family's own parameters instead, then hands the result to ``linkedit simulate``.
+The editing optimizer of :mod:`linkedit.edit` works on the rest pose (not the family's coupler
+point) with a one-sided shape distance; it polishes the refined result afterwards
+(:mod:`linkedit.synthesis.polish`).
 """
 
 from __future__ import annotations
