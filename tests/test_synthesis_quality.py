@@ -147,6 +147,26 @@ def test_timing_reproduces_the_target_sample_by_sample(run_cli, four_bars, tmp_p
     assert np.sqrt(np.mean(gap ** 2)) == pytest.approx(report["error"]["timed"]["after"]["rms"], rel=0.2, abs=2e-5)
 
 
+def test_timing_from_a_result_track(run_cli, four_bars, tmp_path):
+    """`result.h5:target` of a held-out four-bar whose motor turns clockwise: its /t (motor phase) are the times;
+    the result re-simulated at the same samples is at the same points, sample by sample."""
+    from linkedit.spec.linkage_yaml import dump_linkage
+
+    row = atlas.build_chunk("four-bar", 4242, 0, 3).params[0]
+    spec = fourbar.to_spec(row, phase=0.2, scale=50.0, turn=np.exp(1j), shift=3 + 4j, mirrored=False, reversed=True,
+                           name="held-out", units="mm", description="")
+    assert spec.motor.direction == "cw"
+    (tmp_path / "h.yaml").write_text(dump_linkage(spec))
+    assert run_cli("simulate", tmp_path / "h.yaml", "-o", tmp_path / "h.h5", "-n", "200").exit_code == 0
+    out = tmp_path / "out"
+    result = run_cli("synthesize", f"{tmp_path / 'h.h5'}:target", "--atlas", four_bars, "-o", out, "--top", "3",
+                     "--timing")
+    assert result.exit_code == 0, result.output
+    assert run_cli("simulate", out / "result.yaml", "-o", tmp_path / "again.h5", "-n", "200").exit_code == 0
+    size = json.loads((out / "report.json").read_text())["target"]["size"]
+    assert np.abs(track(tmp_path / "again.h5") - track(tmp_path / "h.h5")).max() <= 1e-3 * size
+
+
 def test_a_target_timed_unlike_its_shape_match_changes_the_result(run_cli, four_bars, tmp_path):
     """The held-out curve run through with a warped timing (phase + 0.06·sin 2πφ), which its own linkage cannot
     have: without --timing the shape is drawn (almost exactly) with the wrong timing; with --timing the result is
