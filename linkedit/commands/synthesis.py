@@ -45,7 +45,7 @@ def register(app: typer.Typer) -> None:
     @atlas_app.command("build")
     @guard
     def build(
-        family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, jansen, klann, watt, stephenson."),
+        family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, slider-crank, jansen, klann, watt, stephenson."),
         count: int = typer.Option(..., "-n", "--count", min=1, help="Linkages to add per family."),
         output: Path = typer.Option(..., "-o", "--output", help="Atlas file (.h5); an existing one is appended to."),
         seed: int = typer.Option(1, "--seed", min=0, help="Seed of the chunks (an atlas keeps its seed)."),
