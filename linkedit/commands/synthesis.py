@@ -45,7 +45,7 @@ def register(app: typer.Typer) -> None:
     @atlas_app.command("build")
     @guard
     def build(
-        family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, jansen, klann, watt, stephenson."),
+        family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, slider-crank, jansen, klann, watt, stephenson."),
         count: int = typer.Option(..., "-n", "--count", min=1, help="Linkages to add per family."),
         output: Path = typer.Option(..., "-o", "--output", help="Atlas file (.h5); an existing one is appended to."),
         seed: int = typer.Option(1, "--seed", min=0, help="Seed of the chunks (an atlas keeps its seed)."),
@@ -82,6 +82,9 @@ def register(app: typer.Typer) -> None:
                                                                   "curve [default: detected from its ends]."),
         smooth: float = typer.Option(0.0, "--smooth", min=0.0, max=0.5,
                                      help="Smooth a sketched target first: Gaussian σ as a fraction of its points."),
+        timing: bool = typer.Option(False, "--timing", help="Match the target's sample times too (a closed target "
+                                                              "with a CSV t column or a result.h5 track): positions "
+                                                              "and velocities at those times."),
         seed: int = typer.Option(1, "--seed", min=0, help="Recorded with the result (the search is deterministic)."),
         as_json: bool = JSON,
         quiet: bool = QUIET,
@@ -102,13 +105,17 @@ def register(app: typer.Typer) -> None:
         if curve.points.shape[1] != 2:
             raise InputError("the target must be a planar (x, y) curve", file=curve.origin)
         found = load(atlas)
-        result = run(curve, found, top=top, smooth=smooth, seed=seed, units=curve.units or "mm")
-        options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "seed": seed,
+        result = run(curve, found, top=top, smooth=smooth, timing=timing, seed=seed, units=curve.units or "mm")
+        options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "timing": timing, "seed": seed,
                    "closed": curve.closed, "atlas_size": found.size}
         done = write_all(output, result, options)
         report({k: v for k, v in done.items() if k != "result"} | {"output": str(output)})
         before, after = done["error"]["before"], done["error"]["after"]
         say(f"{done['family']}: normalized RMS error {100 * before['rms']:.3g} % → {100 * after['rms']:.3g} % "
             f"(max {100 * after['max']:.3g} %) in {done['seconds']['total']:.2f} s → {output}/")
+        if "timed" in done["error"]:
+            timed = done["error"]["timed"]
+            say(f"at the target's times: {100 * timed['before']['rms']:.3g} % → {100 * timed['after']['rms']:.3g} % "
+                f"(max {100 * timed['after']['max']:.3g} %)")
         if done["note"]:
             say(f"note: {done['note']}")
