@@ -22,3 +22,12 @@ def run_cli():
         return runner.invoke(app, [str(a) for a in args], catch_exceptions=False)
 
     return run
+
+
+def report_of(result) -> object:
+    """The ``result`` of a command's ``--json`` report (specs/cli-json.md), after checking the envelope."""
+    import json
+
+    data = json.loads(result.stdout)
+    assert data["ok"] is (result.exit_code == 0) and data["exit_code"] == result.exit_code, data
+    return data["result"]

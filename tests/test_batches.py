@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from tests.conftest import EXAMPLES
+from tests.conftest import EXAMPLES, report_of
 
 
 def _ellipse_csv(path, a, b):
@@ -23,8 +23,12 @@ def test_validate_reports_every_spec_and_names_the_bad_one(run_cli, tmp_path):
     assert "crank-rocker.yaml: crank-rocker" in r.output and "klann.yaml: klann-leg" in r.output
     assert f"linkedit: error: {bad}:" in r.output
     r = run_cli("validate", EXAMPLES / "crank-rocker.yaml", bad, "--json")
-    reports = json.loads(r.stdout)
-    assert [("error" in x) for x in reports] == [False, True] and reports[1]["exit_code"] == 2
+    import json
+
+    data = json.loads(r.stdout)
+    assert data["exit_code"] == r.exit_code == 2 and not data["ok"]
+    assert [x["spec"] for x in data["result"]] == [str(EXAMPLES / "crank-rocker.yaml")]
+    assert [(e["input"], e["file"], e["exit_code"]) for e in data["errors"]] == [(str(bad), str(bad), 2)]
 
 
 def test_features_skip_a_bad_file_and_exit_2(run_cli, tmp_path):
@@ -49,7 +53,7 @@ def test_a_library_folder_with_a_bad_file_warns_and_ranks_the_rest(run_cli, tmp_
     r = run_cli("compare-curves", "--query", query, "--library", lib, "--json")
     assert r.exit_code == 0, r.output
     assert "junk.csv" in r.stderr and "warning" in r.stderr
-    ranking = json.loads(r.stdout)["ranking"]
+    ranking = report_of(r)["queries"][0]["ranking"]
     assert [x["curve"] for x in ranking][0] == "e0" and len(ranking) == 3
 
 
@@ -66,7 +70,7 @@ def test_csv_curves_as_spreadsheets_export_them(run_cli, tmp_path):
         f"{n}\t{n}\t{float(a)!r}\t{float(b)!r}\n" for n, (a, b) in enumerate(zip(x, y))))
     r = run_cli("features", plain, sheet, tabbed, "--json")
     assert r.exit_code == 0, r.output
-    rows = json.loads(r.output)
+    rows = report_of(r)
     for other in rows[1:]:
         for key in ("length", "area"):
             assert other[key] == pytest.approx(rows[0][key], rel=1e-12)
@@ -82,7 +86,7 @@ def test_compare_curves_writes_matrices_and_rankings_to_files(run_cli, tmp_path)
     import h5py
 
     sets = EXAMPLES / "curves" / "foot-paths.yaml"
-    ref = json.loads(run_cli("compare-curves", sets, "--json").stdout)
+    ref = report_of(run_cli("compare-curves", sets, "--json"))
     out = tmp_path / "m.csv"
     r = run_cli("compare-curves", sets, "-o", out)
     assert r.exit_code == 0, r.output
@@ -111,7 +115,7 @@ def test_compare_curves_writes_matrices_and_rankings_to_files(run_cli, tmp_path)
     assert table[0] == ["curve", "q1", "q2"] and len(table) == 4
     d = {row[0]: (float(row[1]), float(row[2])) for row in table[1:]}
     assert min(d, key=lambda k: d[k][0]) == "e0" and min(d, key=lambda k: d[k][1]) == "e2"
-    both = json.loads(run_cli("compare-curves", "--query", q1, "--query", q2, "--library", lib, "--json").stdout)
+    both = report_of(run_cli("compare-curves", "--query", q1, "--query", q2, "--library", lib, "--json"))
     assert [x["ranking"][0]["curve"] for x in both["queries"]] == ["e0", "e2"]
 
 

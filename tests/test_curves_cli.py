@@ -14,7 +14,7 @@ import yaml
 from linkedit.spec.curveset import CurveSet, CurveWeights
 from linkedit.spec.schema import schema_text
 from linkedit.spec.yamlload import load_model
-from tests.conftest import EXAMPLES, ROOT
+from tests.conftest import EXAMPLES, ROOT, report_of
 
 CURVES = EXAMPLES / "curves"
 
@@ -82,7 +82,7 @@ def test_features_of_3d_tracks_and_anchor(run_cli, tmp_path):
     write_result(path, {"tip": helix})
     r = run_cli("features", f"{path}:tip", "--anchor", "0,1,-3", "--json")
     assert r.exit_code == 0, r.output
-    row = json.loads(r.output)[0]
+    row = report_of(r)[0]
     assert {"area_xy", "area_yz", "area_xz", "ellipticity_yz", "anchor_distance", "anchor_angle"} <= set(row)
     assert row["anchor_distance"] == pytest.approx(np.sqrt(10) / 10, rel=1e-6)  # |(0, 1, -3)| / major extent 10
 
@@ -91,7 +91,7 @@ def test_compare_matrix_nearest_and_svg(run_cli, tmp_path):
     svg = tmp_path / "o.svg"
     r = run_cli("compare-curves", CURVES / "foot-paths.yaml", "--json", "--svg", svg)
     assert r.exit_code == 0, r.output
-    out = json.loads(r.output)
+    out = report_of(r)
     dist = np.array(out["distance"])
     assert dist.shape == (9, 9) and np.allclose(dist, dist.T) and np.allclose(np.diag(dist), 0, atol=1e-6)
     nearest = {row["curve"]: row["nearest"] for row in out["nearest"]}
@@ -119,7 +119,7 @@ def test_ranking_a_library_against_a_query(run_cli, tmp_path):
                          @ np.array([[0.0, -1.0], [1.0, 0.0]])})
     r = run_cli("compare-curves", "--query", f"{query}:foot", "--library", lib, "--json", "--svg", tmp_path / "r.svg")
     assert r.exit_code == 0, r.output
-    ranking = json.loads(r.output)["ranking"]
+    ranking = report_of(r)["queries"][0]["ranking"]
     assert ranking[0]["curve"] == "bean" and ranking[0]["distance"] < 0.2 * ranking[1]["distance"]
     assert [x["rank"] for x in ranking] == [1, 2, 3, 4]
     assert (tmp_path / "r.svg").is_file()
@@ -129,12 +129,12 @@ def test_learned_weights_separate_the_labelled_set(run_cli, tmp_path):
     out = tmp_path / "w.yaml"
     r = run_cli("compare-curves", "--learn-weights", CURVES / "pairs.yaml", "-o", out, "--json")
     assert r.exit_code == 0, r.output
-    fit = json.loads(r.output)
+    fit = report_of(r)
     assert fit["separated"] and min(fit["dissimilar"]) >= 1 - 1e-9 and max(fit["similar"]) < 1
     weights = load_model(CurveWeights, out)
     assert all(w >= 0 for w in weights.weights.values())
     # the learned metric, used for the matrix, keeps each labelled pair on its side of 1
-    dist = json.loads(run_cli("compare-curves", CURVES / "foot-paths.yaml", "--weights", out, "--json").output)
+    dist = report_of(run_cli("compare-curves", CURVES / "foot-paths.yaml", "--weights", out, "--json"))
     names = dist["curves"]
     d = np.array(dist["distance"])
     pairs = yaml.safe_load((CURVES / "pairs.yaml").read_text())
@@ -153,7 +153,7 @@ def test_example_weights_file_is_valid_and_schema_in_sync():
 def test_weight_overrides_and_unknown_terms(run_cli, tmp_path):
     r = run_cli("compare-curves", CURVES / "foot-paths.yaml", "--weight", "points=1", "--weights",
                 CURVES / "weights.yaml", "--json")
-    assert json.loads(r.output)["weights"]["points"] == 1.0
+    assert report_of(r)["weights"]["points"] == 1.0
     bad = tmp_path / "w.yaml"
     bad.write_text("weights:\n  points: 1\n  wiggle: 2\n")
     one_error_line(run_cli("compare-curves", CURVES / "foot-paths.yaml", "--weights", bad),
@@ -220,9 +220,9 @@ def test_closedness_is_detected_or_declared(run_cli, tmp_path):
     np.savetxt(arc, np.stack([np.cos(t), np.sin(t)], 1), delimiter=",")
     loop = tmp_path / "loop.csv"
     np.savetxt(loop, ellipse(2, 1, 30), delimiter=",")
-    rows = json.loads(run_cli("features", arc, loop, "--json").output)
+    rows = report_of(run_cli("features", arc, loop, "--json"))
     assert [row["closed"] for row in rows] == [False, True]
-    rows = json.loads(run_cli("features", arc, loop, "--json", "--closed").output)
+    rows = report_of(run_cli("features", arc, loop, "--json", "--closed"))
     assert [row["closed"] for row in rows] == [True, True]
 
 
@@ -248,7 +248,7 @@ def test_tiny_and_huge_curves_in_every_output(run_cli, tmp_path, size):
     inputs = [tmp_path / f"{n}.csv" for n in ("unit", "scaled", "other", "arc")]
     r = run_cli("features", *inputs, "--json")
     assert r.exit_code == 0, r.output
-    rows = json.loads(r.output)
+    rows = report_of(r)
     assert [row["closed"] for row in rows] == [True, True, True, False]
     for key in ("length", "area", "ellipticity"):
         assert rows[1][key] == pytest.approx(rows[0][key], abs=1e-9)  # the same egg, moved and scaled
@@ -257,7 +257,7 @@ def test_tiny_and_huge_curves_in_every_output(run_cli, tmp_path, size):
         assert run_cli("features", *inputs, "-o", tmp_path / f"f{suffix}").exit_code == 0
     assert json.loads((tmp_path / "f.json").read_text()) == rows
     assert "nan" not in (tmp_path / "f.csv").read_text().lower()
-    out = json.loads(run_cli("compare-curves", *inputs[:3], "--json").output)
+    out = report_of(run_cli("compare-curves", *inputs[:3], "--json"))
     assert np.isfinite(np.array(out["distance"], dtype=float)).all()
     assert [row["nearest"] for row in out["nearest"]][:2] == ["scaled", "unit"]
 
@@ -265,7 +265,10 @@ def test_tiny_and_huge_curves_in_every_output(run_cli, tmp_path, size):
 def test_curves_beyond_the_float_range_are_one_error_line(run_cli, tmp_path):
     wide = tmp_path / "wide.csv"
     wide.write_text("x,y\n-1.5e308,0\n1.5e308,0\n0,1e308\n")
-    one_error_line(run_cli("features", wide, "--json"), r"wide\.csv: curve wide: its descriptors are not finite")
+    r = run_cli("features", wide, "--json")
+    one_error_line(run_cli("features", wide), r"wide\.csv: curve wide: its descriptors are not finite")
+    assert r.exit_code == 2 and re.search(r"curve wide: its descriptors are not finite", r.stderr)  # and in the JSON:
+    assert report_of(r) is None and json.loads(r.stdout)["errors"][0]["file"] == str(wide)
     np.savetxt(tmp_path / "e.csv", ellipse(3, 1), delimiter=",")
     one_error_line(run_cli("compare-curves", wide, tmp_path / "e.csv"), r"curve wide: .*not finite")
 
@@ -284,10 +287,10 @@ def test_edit_results_before_and_after(run_cli, tmp_path):
     write_edit_result(path, {"foot": ellipse(3, 1), "knee": ellipse(4, 1)}, {"foot": ellipse(3, 2), "knee": ellipse(4, 2)})
     r = run_cli("features", f"{path}:foot", f"{path}:before/foot", f"{path}:after/knee", "--json")
     assert r.exit_code == 0, r.output
-    rows = json.loads(r.output)
+    rows = report_of(r)
     assert [row["name"] for row in rows] == ["e:after/foot", "e:before/foot", "e:after/knee"]
     assert [row["ellipticity"] for row in rows] == pytest.approx([2 / 3, 1 / 3, 1 / 2], abs=1e-12)
-    rows = json.loads(run_cli("features", path, "--json").output)
+    rows = report_of(run_cli("features", path, "--json"))
     assert [row["name"] for row in rows] == ["e:before/foot", "e:before/knee", "e:after/foot", "e:after/knee"]
     one_error_line(run_cli("features", f"{path}:hand"), r"e\.h5: after\.tracks\.hand: unknown track 'hand'.*foot, knee")
     one_error_line(run_cli("features", f"{path}:middle/foot"), r"e\.h5: .*unknown stage 'middle'")
@@ -302,11 +305,11 @@ def test_tracks_of_a_linkedit_edit_run(run_cli, tmp_path):
     (path,) = tmp_path.glob("*.h5")
     r = run_cli("compare-curves", f"{path}:before/foot", f"{path}:foot", f"{path}:after/foot", "--json")
     assert r.exit_code == 0, r.output
-    out = json.loads(r.output)
+    out = report_of(r)
     assert out["curves"] == [f"{path.stem}:before/foot", f"{path}:after/foot", f"{path}:after/foot#2"]
     dist = np.array(out["distance"])
     # identical curves: d = sqrt(|a|² + |b|² − 2·corr) cancels to rounding, so d ~ sqrt(1e-16)
     assert dist[1, 2] == pytest.approx(0.0, abs=1e-7) and dist[0, 1] > 1e-3  # the edit moved the foot path
     with h5py.File(path) as f:
-        assert len(f["before/tracks/foot/position"]) == json.loads(run_cli("features", f"{path}:before/foot",
-                                                                           "--json").output)[0]["points"]
+        assert len(f["before/tracks/foot/position"]) == report_of(run_cli("features", f"{path}:before/foot",
+                                                                           "--json"))[0]["points"]

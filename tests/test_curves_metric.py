@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.conftest import report_of
+
 from linkedit.curves import describe, term_distances, weighted
 from linkedit.curves.compare import describe_curves, placements
 from linkedit.curves.smooth import smooth
@@ -142,8 +144,8 @@ def test_ranking_reports_the_placement_and_mirror_option(run_cli, tmp_path):
     assert plain.exit_code == 0, plain.output
     mirrored = run_cli("compare-curves", "--query", tmp_path / "query.csv", "--library", tmp_path / "lib", "--json",
                        "--mirror", "--smooth", "0")
-    first = json.loads(mirrored.output)["ranking"][0]
-    assert first["distance"] < 1e-6 < json.loads(plain.output)["ranking"][0]["distance"]
+    first = report_of(mirrored)["queries"][0]["ranking"][0]
+    assert first["distance"] < 1e-6 < report_of(plain)["queries"][0]["ranking"][0]["distance"]
     assert first["placement"]["mirrored"] and first["placement"]["scale"] == pytest.approx(0.5, rel=1e-9)
 
 
@@ -193,5 +195,5 @@ def test_half_a_foot_path_matches_its_own_leg(run_cli, tmp_path, start):
     r = run_cli("compare-curves", "--query", tmp_path / "half.csv", "--library", tmp_path / "lib", "--partial",
                 "--json")  # the half path's ends are far apart: it is open, the cycles are closed
     assert r.exit_code == 0, r.output
-    ranking = json.loads(r.output)["ranking"]
+    ranking = report_of(r)["queries"][0]["ranking"]
     assert ranking[0]["curve"] == "jansen" and ranking[0]["distance"] < ranking[1]["distance"]

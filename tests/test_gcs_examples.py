@@ -47,7 +47,7 @@ def test_every_step_satisfies_every_constraint(solved, name):
     # the ball-jointed coupler / rod of these two spins freely about its own axis
     assert (res.diagnostics.dof == (1 if name in ("rssr", "spatial-slider-crank") else 0)).all()
     with h5py.File(h5) as f:  # the file holds what the result says
-        assert f.attrs["kind"] == "gcs" and f.attrs["format_version"] == "1"
+        assert f.attrs["kind"] == "gcs" and f.attrs["format_version"] == "2"
         T = f["t"].shape[0]
         assert f["members/position"].shape == (T, len(res.member_names), 3)
         assert f["members/orientation"].shape == (T, len(res.member_names), 4)

@@ -14,7 +14,7 @@ import h5py
 import numpy as np
 import pytest
 
-from tests.conftest import EXAMPLES
+from tests.conftest import EXAMPLES, report_of
 
 CRANK_ROCKER = EXAMPLES / "crank-rocker.yaml"
 
@@ -333,7 +333,7 @@ def test_one_weight_option_leaves_the_other_weights_at_1(run_cli):
 
     curves = EXAMPLES / "curves" / "foot-paths.yaml"
     r = run_cli("compare-curves", curves, "--weight", "points=2", "--json")
-    weights = json.loads(r.output)["weights"]
+    weights = report_of(r)["weights"]
     assert weights.pop("points") == 2 and set(weights.values()) == {1.0}
 
 

@@ -130,7 +130,10 @@ def test_pylinkage_json_four_bar(run_cli, tmp_path):
 
 
 @pytest.mark.parametrize("source, pattern", [
-    ("M[J[R, P[0, 0], L[ground, L1]], J[P, A[30], P[1, 0], L[L1]]]", r"joint P1 is a P joint \(slider\)"),
+    ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]], J[P, A[30], P[1, 0], L[L1]]]",
+     r"joint P2 \(P\): a slider needs its slot link and a pinned link"),
+    ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]], J[RP, P[3, 0], L[ground, L2]]]",
+     r"joint P2 \(RP\): a slider needs its slot angle"),
     ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0 L[L1]]]", r"expected ',' or '\]'"),
     ("M[J[R, P[0, 0], L[ground]], J[R, P[1, 0], L[L1]]]", r"no revolute pair on a ground link"),
 ])
@@ -139,3 +142,57 @@ def test_bad_sources_one_line_exit_2(run_cli, tmp_path, source, pattern):
     assert r.exit_code == 2, r.output
     assert len(r.output.strip().splitlines()) == 1 and re.search(pattern, r.output), r.output
     assert not (tmp_path / "x.yaml").exists()
+
+
+# Offset slider-crank (crank r, rod l, slider line y = e); the slider joint B = P2.
+R_, L_, E_ = 20.0, 70.0, 12.0
+XB0 = R_ + math.sqrt(L_**2 - E_**2)
+
+
+def _motor_angle(run_cli, spec, tmp_path, samples):
+    got = _simulated(run_cli, spec, tmp_path, samples)
+    with h5py.File(tmp_path / "sim.h5") as f:
+        return got, f["motor_angle"][()]
+
+
+@pytest.mark.parametrize("expression", [
+    # RP: the rod L2 turns on the slider block pinned at B, which slides on the frame's horizontal slot
+    f"M[J[R, P[0, 0], L[ground, L1]], J[R, P[{R_!r}, 0], L[L1, L2]], J[RP, A[0], P[{XB0!r}, {E_!r}], L[ground, L2]]]",
+    # P: the block L3 slides on the frame without turning; the rod pinned to it at B; P3 a corner of the block
+    f"M[J[R, P[0, 0], L[ground, L1]], J[R, P[{R_!r}, 0], L[L1, L2]], J[R, P[{XB0!r}, {E_!r}], L[L2, L3]],"
+    f" J[P, A[0], P[{XB0 + 10!r}, {E_ - 5!r}], L[ground, L3]]]",
+])
+def test_pyslvs_slider_crank_follows_the_closed_form(run_cli, tmp_path, expression):
+    spec = tmp_path / "slider.yaml"
+    r = run_cli("import", expression, "-o", spec)
+    assert r.exit_code == 0, r.output
+    doc = yaml.safe_load(spec.read_text())
+    assert doc["motor"] == {"joint": "P1", "pivot": "P0"} and len(doc["sliders"]) == 1
+    got, theta = _motor_angle(run_cli, spec, tmp_path, 144)
+    assert np.allclose(theta, 2 * np.pi * np.arange(144) / 144, rtol=0, atol=1e-12)
+    x_b = R_ * np.cos(theta) + np.sqrt(L_**2 - (R_ * np.sin(theta) - E_) ** 2)  # the textbook closed form
+    assert np.abs(got["P2"] - (x_b + 1j * E_)).max() < 1e-9 * L_
+    if "P3" in got:  # the block's corner moves with B, without turning
+        assert np.abs(got["P3"] - got["P2"] - (10 - 5j)).max() < 1e-9 * L_
+
+
+def test_pyslvs_inverted_slider_crank_follows_the_closed_form(run_cli, tmp_path):
+    """pyslvs' "three bar" crank slider: the arm L2 turns about the crank pin A and slides through the
+    ground pivot Q (an RP joint whose slot is on the arm); X is the arm's tip."""
+    a0, q = complex(20.0, 0.0), complex(60.0, 0.0)
+    u0 = (q - a0) / abs(q - a0)
+    x0 = a0 + 75.0 * u0 * complex(math.cos(0.3), math.sin(0.3))  # a tip off the slot line
+    angle = math.degrees(math.atan2(u0.imag, u0.real))
+    expression = (f"M[J[R, P[0, 0], L[ground, L1]], J[R, P[{a0.real!r}, 0], L[L1, L2]],"
+                  f" J[RP, A[{angle!r}], P[{q.real!r}, {q.imag!r}], L[L2, ground]],"
+                  f" J[R, P[{x0.real!r}, {x0.imag!r}], L[L2]]]")
+    spec = tmp_path / "inverted.yaml"
+    r = run_cli("import", expression, "-o", spec)
+    assert r.exit_code == 0, r.output
+    doc = yaml.safe_load(spec.read_text())
+    assert doc["sliders"] == {"S2": {"joint": "P2", "guide": "L2", "angle_deg": angle}} and "P2" in doc["ground"]
+    got, theta = _motor_angle(run_cli, spec, tmp_path, 144)
+    a = 20.0 * np.exp(1j * theta)
+    turn = (q - a) / np.abs(q - a) / u0  # the arm points from A through Q: its rotation from rest
+    assert np.abs(got["P1"] - a).max() < 1e-9 * 75
+    assert np.abs(got["P3"] - (a + (x0 - a0) * turn)).max() < 1e-9 * 75

@@ -55,6 +55,8 @@ def test_every_picture_renders(run_cli, tmp_path):
          "-n", "120"),
         ("edit", EXAMPLES / "edits" / "jansen-move-knee.yaml", "-o", tmp_path / "edit"),
         ("solve3d", EXAMPLES / "3d" / "compound-crank-rocker.yaml", "-o", tmp_path / "c.h5", "--svg", tmp_path / "3d.svg", "--steps", "61"),
+        ("solve3d", EXAMPLES / "3d" / "crank-rocker.yaml", "-o", tmp_path / "cr.h5", "--svg", tmp_path / "3d-xy.svg",
+         "--steps", "61", "--arrows"),
         ("compare-curves", f"{j}:foot", EXAMPLES / "curves" / "foot-paths.yaml", "--svg", tmp_path / "curves.svg"),
         ("plot", j, "-o", tmp_path / "kinematics.svg"),
     ]
@@ -64,6 +66,6 @@ def test_every_picture_renders(run_cli, tmp_path):
     shutil.copy(next((tmp_path / "edit").glob("*.svg")), tmp_path / "edit.svg")
     import numpy as np
 
-    for name, im in _shots(tmp_path, ["motion", "animated", "edit", "3d", "curves", "kinematics"]).items():
+    for name, im in _shots(tmp_path, ["motion", "animated", "edit", "3d", "3d-xy", "curves", "kinematics"]).items():
         inked = float((np.asarray(im) < 200).mean())
         assert min(im.size) > 300 and 0.01 < inked < 0.6, (name, im.size, inked)

@@ -8,6 +8,8 @@ import h5py
 import numpy as np
 import pytest
 
+from tests.conftest import report_of
+
 from tests.planar_specs import FOURBAR, LOCKING, TRIAD
 
 
@@ -86,7 +88,7 @@ def test_json_summary(run_cli, four_bar, tmp_path):
     import json
 
     r = run_cli("simulate", four_bar, "-o", tmp_path / "a.h5", "--json")
-    data = json.loads(r.output)
+    data = report_of(r)
     assert data[0]["samples"] == 360 and data[0]["assembled"] is True
 
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import check_outputs, guard
+from linkedit.commands.common import JSON, QUIET, check_outputs, guard, refuse_json_with_stdout, report
 
 
 def register(app: typer.Typer) -> None:
@@ -16,6 +16,8 @@ def register(app: typer.Typer) -> None:
         spec: Path = typer.Argument(..., help="Linkage spec YAML whose links are given by length (specs/linkage.md)."),
         output: Path = typer.Option(Path("-"), "--output", "-o",
                                     help="The posed spec .yaml, or - for stdout.", show_default="- (stdout)"),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Assemble the rest pose from link lengths in closed form; write the spec with full-precision positions."""
         from linkedit.io.formats import output_format, write_out
@@ -26,6 +28,7 @@ def register(app: typer.Typer) -> None:
 
         output_format(output, ("yaml",), stdout="yaml")
         check_outputs([("--output", output)], [spec])
+        refuse_json_with_stdout(output)
         data, lines = load_yaml(spec)
         model = validate(LinkageSpec, data, file=str(spec), lines=lines)
         notes = {}
@@ -33,3 +36,5 @@ def register(app: typer.Typer) -> None:
             for name, ll in link_lengths(data).items():
                 notes[f"links.{name}"] = ", ".join(f"{a}-{b} = {v:g}" for a, b, v in ll.pair_lengths())
         write_out(output, dump_linkage(model, header=f"assembled from {spec} by linkedit assemble", notes=notes))
+        report({"spec": str(spec), "output": str(output), "name": model.name,
+                "joints": {n: list(p) for n, p in model.joints.items()}})

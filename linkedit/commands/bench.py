@@ -10,7 +10,7 @@ import importlib
 
 import typer
 
-from linkedit.commands.common import guard
+from linkedit.commands.common import JSON, QUIET, guard, report, say
 
 SECTIONS = {
     "planar": "linkedit.planar.bench",
@@ -27,9 +27,12 @@ def register(app: typer.Typer) -> None:
     def bench(
         section: list[str] = typer.Option(None, "--section", "-s", help=f"Only these sections: {', '.join(SECTIONS)}."),
         quick: bool = typer.Option(False, "--quick", help="Tiny sizes and few repeats: checks the benchmark runs."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Print benchmark figures (µs per step, ratios against baselines measured in the same run)."""
         chosen = section or list(SECTIONS)
+        figures: dict[str, list[str]] = {}
         for name in chosen:
             if name not in SECTIONS:
                 from linkedit.errors import InputError
@@ -42,5 +45,12 @@ def register(app: typer.Typer) -> None:
                 if exc.name != SECTIONS[name]:
                     raise
                 continue
-            typer.echo(f"== {name}")
-            module.run(typer.echo, quick=quick)
+            say(f"== {name}")
+            lines = figures.setdefault(name, [])
+
+            def line(text: str = "", lines: list[str] = lines) -> None:
+                lines.append(text)
+                say(text)
+
+            module.run(line, quick=quick)
+        report({"sections": figures})

@@ -10,7 +10,9 @@ import os
 import re
 import sys
 import warnings
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
+from contextvars import ContextVar
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -21,6 +23,75 @@ from typer.core import TyperGroup
 from linkedit.errors import InputError, LinkeditError
 
 F = TypeVar("F", bound=Callable[..., Any])
+
+
+#: the shared ``--json`` and ``--quiet`` options (every command has both; see ``specs/cli-json.md``)
+JSON = typer.Option(False, "--json", help="Print one JSON object on stdout (specs/cli-json.md), errors included.")
+QUIET = typer.Option(False, "--quiet", "-q", help="Print nothing but errors on stderr (the exit code tells the rest).")
+
+
+@dataclass
+class _Mode:
+    json: bool = False
+    quiet: bool = False
+    command: str = ""
+    reported: bool = False
+
+
+_MODE: ContextVar[_Mode] = ContextVar("linkedit_output_mode", default=_Mode())
+
+
+def say(text: str = "", err: bool = False) -> None:
+    """A line for a person: on stdout (stderr with ``err``), silent with ``--quiet`` or ``--json``."""
+    mode = _MODE.get()
+    if not (mode.quiet or (mode.json and not err)):
+        typer.echo(text, err=err)
+
+
+def json_wanted() -> bool:
+    """Whether this run prints its JSON report (``--json`` without ``--quiet``)."""
+    mode = _MODE.get()
+    return mode.json and not mode.quiet
+
+
+def error_entry(message: str, exit_code: int, *, text: str | None = None, file: str | None = None,
+                line: int | None = None, field: str | None = None, source: object = None) -> dict[str, Any]:
+    """An error as the JSON report lists it: ``message`` (without the place), ``text`` (the stderr line
+    without its ``linkedit: error:`` prefix), ``exit_code``, ``file``, ``line``, ``field``, ``input``."""
+    return {"message": message, "text": message if text is None else text, "exit_code": exit_code, "file": file,
+            "line": line, "field": field, "input": None if source is None else str(source)}
+
+
+def error_json(exc: BaseException, source: object = None) -> dict[str, Any]:
+    """:func:`error_entry` of a linkedit error (``source``: the batch input it came from)."""
+    return error_entry(getattr(exc, "message", None) or str(exc), int(getattr(exc, "exit_code", 1)), text=str(exc),
+                       file=getattr(exc, "file", None), line=getattr(exc, "line", None),
+                       field=getattr(exc, "field_name", None) or None, source=source)
+
+
+def report(result: Any, *, exit_code: int = 0, errors: Sequence[dict[str, Any]] = (),
+           warnings: Sequence[str] = ()) -> None:
+    """Print the run's JSON report on stdout when ``--json`` is given (once per run; see ``specs/cli-json.md``)."""
+    mode = _MODE.get()
+    if not json_wanted() or mode.reported:
+        return
+    mode.reported = True
+    _print_report(mode.command, result, exit_code, errors, warnings)
+
+
+def _print_report(command: str, result: Any, exit_code: int, errors: Sequence[dict[str, Any]],
+                  warnings: Sequence[str] = ()) -> None:
+    from linkedit import __version__
+
+    print_json({"command": command, "linkedit": __version__, "ok": exit_code == 0 and not errors,
+                "exit_code": exit_code, "result": result, "errors": list(errors), "warnings": list(warnings)})
+
+
+def refuse_json_with_stdout(*outputs: Path | str | None) -> None:
+    """InputError (exit 2) when ``--json`` and an output on stdout (``-``) would share stdout."""
+    if json_wanted() and any(o is not None and str(o) == "-" for o in outputs):
+        raise InputError("the JSON report goes to stdout, which an output '-' takes: write that output "
+                         "to a file, or drop --json", field="--json")
 
 
 def fail(message: str, code: int) -> typer.Exit:
@@ -34,7 +105,9 @@ def guard(fn: F) -> F:
 
     * :class:`~linkedit.errors.InputError` → 2, :class:`~linkedit.errors.MechanismError` → 1;
     * an unwritable output path (OSError) → 2; Ctrl-C or SIGTERM → 130;
-    * a closed pipe on stdout (``| head``) → a quiet exit 0.
+    * a closed pipe on stdout (``| head``) → a quiet exit 0;
+    * with ``--json`` (a parameter ``as_json``) the error is also the run's JSON report on stdout,
+      and ``--quiet`` (``quiet``) silences :func:`say` (see ``specs/cli-json.md``).
 
     The outputs the body writes appear together when it succeeds and not at all when it fails
     (:func:`linkedit.io.atomic.together`); numpy's RuntimeWarnings stay quiet (results are
@@ -43,6 +116,19 @@ def guard(fn: F) -> F:
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        mode = _Mode(json=bool(kwargs.get("as_json")), quiet=bool(kwargs.get("quiet")), command=_command_path())
+        token = _MODE.set(mode)
+        try:
+            return _run(*args, **kwargs)
+        except typer.Exit as exc:
+            if exc.exit_code and not mode.reported:  # a failure nobody reported yet (a usage check, a bad file)
+                report(None, exit_code=exc.exit_code,
+                       errors=[error_entry(f"failed with exit code {exc.exit_code} (see stderr)", exc.exit_code)])
+            raise
+        finally:
+            _MODE.reset(token)
+
+    def _run(*args: Any, **kwargs: Any) -> Any:
         from linkedit.io.atomic import terminate_as_interrupt, together
 
         try:
@@ -57,14 +143,26 @@ def guard(fn: F) -> F:
             _quiet_stdout()
             raise typer.Exit(0) from None
         except LinkeditError as exc:
+            report(None, exit_code=exc.exit_code, errors=[error_json(exc)])
             raise fail(str(exc), exc.exit_code) from None
         except OSError as exc:
             where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-            raise fail(f"{where}{exc.strerror or exc}", 2) from None
+            message = f"{where}{exc.strerror or exc}"
+            filename = getattr(exc, "filename", None)
+            report(None, exit_code=2, errors=[error_entry(message, 2, file=None if filename is None else str(filename))])
+            raise fail(message, 2) from None
         except KeyboardInterrupt:
             raise fail("interrupted", 130) from None
 
     return wrapper  # type: ignore[return-value]
+
+
+def _command_path() -> str:
+    """The running command's name as typed: ``simulate``, ``atlas build``."""
+    from typer._click.globals import get_current_context  # typer's own copy of click
+
+    ctx = get_current_context(silent=True)
+    return " ".join(ctx.command_path.split()[1:]) if ctx is not None else ""
 
 
 def _quiet_stdout() -> None:
@@ -114,8 +212,16 @@ class OneLineErrors(TyperGroup):
             exc.show()
             code = exc.exit_code
         except usage.ClickException as exc:
-            typer.echo(f"linkedit: error: {usage_message(exc)}", err=True)
+            message = usage_message(exc)
+            typer.echo(f"linkedit: error: {message}", err=True)
             code = exc.exit_code
+            words = list(sys.argv[1:] if args is None else args)
+            if "--json" in words and not {"--quiet", "-q"} & set(words):
+                first = next((w for w in words if not w.startswith("-")), "")
+                sub = getattr(self.commands.get(first), "commands", None)  # a group (atlas): add its command
+                rest = words[words.index(first) + 1:] if first else []
+                command = first + (f" {rest[0]}" if sub and rest and rest[0] in sub else "")
+                _print_report(command, None, code, [error_entry(message, code)])
         except typer.Abort:
             typer.echo("linkedit: error: interrupted", err=True)
             code = 130

@@ -8,7 +8,7 @@ from typing import Any
 
 import typer
 
-from linkedit.commands.common import check_outputs, guard, print_json
+from linkedit.commands.common import JSON, QUIET, check_outputs, error_json, guard, refuse_json_with_stdout, report, say
 from linkedit.errors import InputError
 
 #: what tables (features, distance matrices, rankings) can be written as, by suffix
@@ -120,9 +120,9 @@ def _print_table(rows: list[dict[str, Any]]) -> None:
 
     cells = [[cell(r[c]) for c in cols] for r in rows]
     widths = [max(len(c), *(len(row[k]) for row in cells)) + 2 for k, c in enumerate(cols)]
-    typer.echo("".join(c.ljust(w) for c, w in zip(cols, widths)).rstrip())
+    say("".join(c.ljust(w) for c, w in zip(cols, widths)).rstrip())
     for row in cells:
-        typer.echo("".join(v.ljust(w) for v, w in zip(row, widths)).rstrip())
+        say("".join(v.ljust(w) for v, w in zip(row, widths)).rstrip())
 
 
 #: (the weights file's weights, or None for all 1; the --weight overrides)
@@ -189,13 +189,15 @@ def register(app: typer.Typer) -> None:
         closed: bool = typer.Option(None, "--closed/--open", help=CLOSED_HELP),
         anchor: str = typer.Option(None, "--anchor", help="X,Y[,Z]: anchor point (e.g. the crank axle) for curves without one."),
         smooth: float = typer.Option(0.0, "--smooth", min=0.0, max=0.5, help=SMOOTH_HELP),
-        as_json: bool = typer.Option(False, "--json", help="Print the table as JSON."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Per-curve features of normalized motion curves (one row per curve).
 
         An input that cannot be read is reported (named) and skipped; the exit code is then 2.
         """
         check_outputs([("--output", output)], _input_paths(inputs))
+        refuse_json_with_stdout(output)
         failures: list[InputError] = []
         several = len(inputs) > 1 or any(Path(i).is_dir() for i in inputs)
         curves, desc = _load(inputs, closed, samples, harmonics, anchor, skip=_skipped(failures) if several else None,
@@ -204,11 +206,12 @@ def register(app: typer.Typer) -> None:
             options = {"samples": int(desc.points.shape[1]), "harmonics": int(desc.efd.shape[1]), "inputs": inputs}
             _write_features(output, curves, desc, options)
             if str(output) != "-":
-                typer.echo(f"{len(curves)} curves → {output}")
-        elif as_json:
-            print_json(_feature_rows(curves, desc))
-        else:
-            _print_table(_feature_rows(curves, desc))
+                say(f"{len(curves)} curves → {output}")
+        rows = _feature_rows(curves, desc)
+        report({"output": str(output), "curves": len(curves)} if output is not None else rows,
+               exit_code=2 if failures else 0, errors=[error_json(e) for e in failures])
+        if output is None:
+            _print_table(rows)
         if failures:
             raise typer.Exit(2)
 
@@ -233,27 +236,29 @@ def register(app: typer.Typer) -> None:
         partial: bool = typer.Option(False, "--partial", help="Compare an open (partial) curve with closed ones by "
                                                               "where it fits best along them (points term only)."),
         svg: Path = typer.Option(None, "--svg", help="Overlay of the normalized curves (aligned to the first / the query)."),
-        as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Distances between motion curves, each one's nearest neighbour, or a library ranked against a query."""
         check_outputs([("--output", output), ("--svg", svg)],
                       _input_paths([*(inputs or []), query or "", *(library or []), weights_file or "", learn_pairs or ""]))
+        refuse_json_with_stdout(output, svg)
         if learn_pairs is not None:
             if inputs or query or library:
                 raise InputError("--learn-weights takes its curves from the pairs file", field="--learn-weights")
-            _learn(learn_pairs, output, samples, harmonics, closed, as_json)
+            _learn(learn_pairs, output, samples, harmonics, closed)
             return
         weights, w_samples, w_harmonics = _load_weights(weights_file, weight or [])
         samples, harmonics = samples or w_samples, harmonics or w_harmonics
         if query or library:
             if not query or not library or inputs:
                 raise InputError("ranking needs --query and --library (and no other curves)", field="--query")
-            _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, as_json, smooth, mirror, partial,
+            _rank(query, library, weights, samples, harmonics, closed, anchor, top, svg, smooth, mirror, partial,
                   output)
             return
         if not inputs:
             raise InputError("give curves to compare, or --query and --library", field="INPUT")
-        _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, smooth, mirror, partial, output)
+        _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, smooth, mirror, partial, output)
 
 
 def _write_table(output: Path, kind: str, names: list[str], columns: list[str], values: Any, extra: dict[str, Any]) -> None:
@@ -286,7 +291,7 @@ def _write_table(output: Path, kind: str, names: list[str], columns: list[str], 
             put(f, "values", values, dims=("curve", "column"), units="1", description=f"{kind}: rows curves")
 
 
-def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, smooth, mirror, partial,
+def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, smooth, mirror, partial,
             output=None) -> None:
     from linkedit.curves.compare import distances
     from linkedit.curves.distance import nearest
@@ -308,21 +313,20 @@ def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, as_json, s
     if output is not None:
         _write_table(output, "curve-distances", names, names, dist, {"weights": w})
         if str(output) != "-":
-            typer.echo(f"{len(names)} × {len(names)} distances → {output}")
+            say(f"{len(names)} × {len(names)} distances → {output}")
+        report({"output": str(output), "curves": names, "weights": w, "nearest": rows})
         return
-    if as_json:
-        print_json({"curves": names, "weights": w, "distance": dist, "nearest": rows})
-        return
+    report({"curves": names, "weights": w, "distance": dist, "nearest": rows})
     width = max(len(n) for n in names) + 2
-    typer.echo(" " * width + "".join(f"{i:>10d}" for i in range(len(names))))
+    say(" " * width + "".join(f"{i:>10d}" for i in range(len(names))))
     for i, name in enumerate(names):
-        typer.echo(f"{i:>3d} {name}".ljust(width + 4)[: width + 4] + "".join(f"{v:>10.4f}" for v in dist[i]))
-    typer.echo("nearest neighbours:")
+        say(f"{i:>3d} {name}".ljust(width + 4)[: width + 4] + "".join(f"{v:>10.4f}" for v in dist[i]))
+    say("nearest neighbours:")
     for r in rows:
-        typer.echo(f"  {r['curve']} → {r['nearest']} ({r['distance']:.4f})")
+        say(f"  {r['curve']} → {r['nearest']} ({r['distance']:.4f})")
 
 
-def _rank(queries, library, weights, samples, harmonics, closed, anchor, top, svg, as_json, smooth, mirror, partial,
+def _rank(queries, library, weights, samples, harmonics, closed, anchor, top, svg, smooth, mirror, partial,
           output=None) -> None:
     """Rank the library against each query; ``output`` gets every distance (rows library, columns queries)."""
     import numpy as np
@@ -368,17 +372,16 @@ def _rank(queries, library, weights, samples, harmonics, closed, anchor, top, sv
         _write_table(output, "curve-ranking", [c.name for c in curves[q:]], [c.name for c in curves[:q]], dist.T,
                      {"weights": w})
         if str(output) != "-":
-            typer.echo(f"{len(curves) - q} library curves × {q} queries → {output}")
+            say(f"{len(curves) - q} library curves × {q} queries → {output}")
+        report({"output": str(output), "queries": results})
         return
-    if as_json:
-        print_json(results[0] if q == 1 else {"queries": results})
-        return
+    report({"queries": results})
     for r in results:
-        typer.echo(f"query {r['query']}: {len(curves) - q} library curves, nearest first")
+        say(f"query {r['query']}: {len(curves) - q} library curves, nearest first")
         for x in r["ranking"]:
             p = x["placement"]
             turn = f"turn {p['rotation_deg']:.1f}°, " if "rotation_deg" in p else ""
-            typer.echo(f"{x['rank']:>4d}. {x['curve']}  {x['distance']:.4f}  (scale {p['scale']:.4g}, {turn}"
+            say(f"{x['rank']:>4d}. {x['curve']}  {x['distance']:.4f}  (scale {p['scale']:.4g}, {turn}"
                        f"move {', '.join(f'{v:.4g}' for v in p['translation'])}, phase {p['phase']:.3f}"
                        + (", reversed" if p["reversed"] else "") + (", mirrored" if p["mirrored"] else "") + ")")
 
@@ -393,7 +396,7 @@ def _overlay(path: Path, names: list[str], desc: Any, reference: int, title: str
     write_text(path, overlay(names, pts, desc.closed, title=title, highlight=reference, labels=labels))
 
 
-def _learn(pairs_path: Path, output: Path | None, samples, harmonics, closed, as_json) -> None:
+def _learn(pairs_path: Path, output: Path | None, samples, harmonics, closed) -> None:
     from linkedit.curves.compare import describe_curves, learn
     from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES
     from linkedit.curves.sources import load_inputs
@@ -432,9 +435,8 @@ def _learn(pairs_path: Path, output: Path | None, samples, harmonics, closed, as
     import yaml
 
     write_text(output, yaml.safe_dump(body, sort_keys=False, allow_unicode=True, width=100))
-    if as_json:
-        print_json(body | {"similar": fit.similar, "dissimilar": fit.dissimilar, "separated": fit.separated,
-                           "cost": fit.cost, "held_out_auc": fit.held_out_auc, "term_auc": fit.term_auc})
-    else:
-        typer.echo(summary)
-        typer.echo(f"weights → {output}")
+    report(body | {"output": str(output), "similar": fit.similar, "dissimilar": fit.dissimilar,
+                   "separated": fit.separated, "cost": fit.cost, "held_out_auc": fit.held_out_auc,
+                   "term_auc": fit.term_auc})
+    say(summary)
+    say(f"weights → {output}")

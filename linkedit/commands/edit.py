@@ -8,7 +8,7 @@ from typing import Any
 
 import typer
 
-from linkedit.commands.common import check_outputs, guard, print_json
+from linkedit.commands.common import JSON, QUIET, check_outputs, error_json, guard, report, say
 from linkedit.errors import InputError, MechanismError
 
 
@@ -29,7 +29,7 @@ def _load(spec_path: Path | None, script_path: Path):
             raise InputError(f"linkage file not found: {spec_path}", file=str(script_path),
                              line=lines.line_of(("linkage",)), field="linkage")
     elif script.linkage is not None:
-        typer.echo(f"note: {script_path} names linkage {script.linkage}; editing {spec_path} as given", err=True)
+        say(f"note: {script_path} names linkage {script.linkage}; editing {spec_path} as given", err=True)
     linkage = load_model(LinkageSpec, spec_path)
     _refuse_unsupported(spec_path, linkage)
     try:
@@ -78,7 +78,7 @@ def _report_json(op: Any) -> dict:
             "rejected_steps": op.rejected_steps, "seconds": op.seconds, "converged": op.converged,
             "stalled": op.stalled,
             "discarded": op.discarded, "goals_met": op.goals_met, "unmet": op.unmet,
-            "before": op.before, "after": op.after}
+            "terms": [{"term": k, "before": v, "after": op.after.get(k)} for k, v in op.before.items()]}
 
 
 def register(app: typer.Typer) -> None:
@@ -88,7 +88,8 @@ def register(app: typer.Typer) -> None:
         spec: Path = typer.Argument(..., help="Linkage spec YAML (or the edit script, when it names its linkage)."),
         script: Path = typer.Argument(None, help="Edit script YAML."),
         out_dir: Path = typer.Option(Path("out"), "--output", "-o", help="Folder for the edited spec, HDF5 and SVG."),
-        as_json: bool = typer.Option(False, "--json", help="Print the report as JSON."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Edit a linkage: displace joints, preserve or reshape track curves, fit a box — keeping it working."""
         from linkedit.edit.runner import EditFailed, run_script
@@ -105,7 +106,7 @@ def register(app: typer.Typer) -> None:
         svg = out_dir / f"{stem}-edit.svg"
         check_outputs([("--output", edited_yaml), ("--output", h5), ("--output", svg)], [spec_path, script_path])
         failure = None
-        with _Progress() as progress:
+        with _Progress(live=not quiet) as progress:
             try:
                 result = run_script(linkage, parsed, progress=progress.update)
             except EditFailed as exc:
@@ -116,15 +117,13 @@ def register(app: typer.Typer) -> None:
                    linkage_text=read_text(spec_path), edited_text=edited_text,
                    options={"spec": str(spec_path), "script": str(script_path)})
         _overlay(svg, result, parsed)
-        if as_json:
-            print_json({"spec": str(spec_path), "script": str(script_path), "edited": str(edited_yaml),
-                        "output": str(h5), "svg": str(svg), "ok": failure is None,
-                        "error": None if failure is None else str(failure), "warnings": result.warnings,
-                        "operations": [_report_json(o) for o in result.operations]})
-        else:
-            for line in _report_lines(result):
-                typer.echo(line)
-            typer.echo(f"→ {edited_yaml}, {h5}, {svg}")
+        report({"spec": str(spec_path), "script": str(script_path), "edited": str(edited_yaml),
+                "output": str(h5), "svg": str(svg), "operations": [_report_json(o) for o in result.operations]},
+               exit_code=0 if failure is None else failure.exit_code,
+               errors=[] if failure is None else [error_json(failure)], warnings=result.warnings)
+        for line in _report_lines(result):
+            say(line)
+        say(f"→ {edited_yaml}, {h5}, {svg}")
         if failure is not None:
             commit()  # the last working linkage is a result too: keep it for inspection
             raise failure
@@ -164,9 +163,12 @@ def _displacements(result: Any, script: Any) -> list[tuple[str, Any, Any]]:
 class _Progress:
     """A spinner with the current operation, iteration and energy, on a terminal only."""
 
+    def __init__(self, live: bool = True) -> None:
+        self.live = live
+
     def __enter__(self) -> "_Progress":
         self.bar = None
-        if sys.stderr.isatty():
+        if self.live and sys.stderr.isatty():
             from rich.progress import Progress, SpinnerColumn, TextColumn
 
             self.bar = Progress(SpinnerColumn(), TextColumn("{task.description}"), transient=True)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import guard
+from linkedit.commands.common import JSON, QUIET, guard, report, say
 
 
 def register(app: typer.Typer) -> None:
@@ -14,9 +14,12 @@ def register(app: typer.Typer) -> None:
     @guard
     def examples(
         directory: Path = typer.Argument(..., help="Folder to copy the examples into (created if missing)."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Copy the example linkages, edit scripts, 3D mechanisms and curve sets into DIRECTORY."""
         from linkedit.examples import copy_examples
 
         written = copy_examples(directory)
-        typer.echo(f"{len(written)} example files → {directory}")
+        report({"output": str(directory), "files": [str(p) for p in written]})
+        say(f"{len(written)} example files → {directory}")

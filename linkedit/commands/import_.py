@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import check_outputs, guard
+from linkedit.commands.common import JSON, QUIET, check_outputs, guard, refuse_json_with_stdout, report
 from linkedit.errors import InputError
 
 
@@ -39,6 +39,8 @@ def register(app: typer.Typer) -> None:
                                                         "[default: the project's first input, else the first revolute pair on a ground link]."),
         units: str = typer.Option("mm", "--units", help="Length unit of the source's numbers."),
         name: str = typer.Option(None, "--name", help="The linkage's name [default: the file's stem]."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Import a mechanism from pyslvs/PMKS (expression or project) or pylinkage (JSON) as a linkage spec.
 
@@ -49,6 +51,9 @@ def register(app: typer.Typer) -> None:
 
         output_format(output, ("yaml",), stdout="yaml")
         check_outputs([("--output", output)], [source])
+        refuse_json_with_stdout(output)
         which = tool.value if tool else guess_tool(source)
         spec = import_spec(source, which, units=units, name=name, motor=_pair(motor))  # type: ignore[arg-type]
         write_out(output, import_yaml(spec, source, which))
+        report({"source": source, "from": which, "output": str(output), "name": spec.name,
+                "joints": list(spec.joints), "links": list(spec.links), "sliders": list(spec.sliders)})

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import check_outputs, guard
+from linkedit.commands.common import JSON, QUIET, check_outputs, guard, refuse_json_with_stdout, report, say
 from linkedit.errors import InputError
 
 
@@ -20,6 +20,8 @@ def register(app: typer.Typer) -> None:
         joint: str = typer.Option(None, "--joint", help="Plot this joint instead of a track."),
         per_second: bool = typer.Option(False, "--per-second", help="Derivatives per second (needs --rpm) instead of per radian of crank angle."),
         rpm: float = typer.Option(None, "--rpm", min=0.0, help="Motor speed, revolutions per minute (with --per-second)."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Plot a point's position, velocity, acceleration and jerk, the transmission angles (40°–140° band,
         worst samples marked) and d_s against crank angle."""
@@ -33,7 +35,9 @@ def register(app: typer.Typer) -> None:
         out = output if output is not None else result.with_name(f"{result.stem}-plot.svg")
         output_format(out, ("svg",), stdout="svg")
         check_outputs([("--output", out)], [result])
+        refuse_json_with_stdout(out)
         k = read_kinematics(result, track=track, joint=joint)
         write_out(out, kinematics_svg(k, rpm=rpm))
+        report({"result": str(result), "point": k.point, "output": str(out)})
         if str(out) != "-":
-            typer.echo(f"{result}: {k.point} → {out}")
+            say(f"{result}: {k.point} → {out}")

@@ -10,7 +10,7 @@ from typing import Any
 
 import typer
 
-from linkedit.commands.common import check_outputs, guard, print_json
+from linkedit.commands.common import JSON, QUIET, check_outputs, error_entry, error_json, guard, refuse_json_with_stdout, report, say
 from linkedit.errors import InputError, LinkeditError, MechanismError
 from linkedit.io.atomic import together
 from linkedit.io.formats import is_stdout, output_format, require, write_out
@@ -123,17 +123,20 @@ def register(app: typer.Typer) -> None:
         samples: int = typer.Option(None, "--samples", "-n", min=1, help="Time samples per cycle [default: spec's, else 360]."),
         engine: Engine = typer.Option(Engine.symbolic, "--engine", help="symbolic (closed form) or numeric (3D constraint solver)."),
         partial: bool = typer.Option(False, "--partial", help="Write a cycle that locks up somewhere (positions NaN there, flagged in /diagnostics/assembled) instead of failing."),
-        as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
-        quiet: bool = typer.Option(False, "--quiet", "-q", help="Print nothing but errors (the exit code tells the rest)."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Simulate planar linkages; write HDF5 trajectories (and SVG motion plots)."""
         if engine == Engine.numeric and partial:
             raise InputError("--partial works with the symbolic engine only", field="--partial")
         targets = _outputs(specs, output, svg, animate)
+        refuse_json_with_stdout(*(p for pair in targets for p in pair))
         check_outputs([(option, path) for pair in targets for option, path in zip(("--output", "--svg"), pair)], specs)
         to_stderr = any(is_stdout(p) for pair in targets for p in pair)  # stdout carries the data
-        results, worst = [], 0
-        progress = _progress(len(specs))
+        results: list[dict[str, Any]] = []
+        errors: list[dict[str, Any]] = []
+        worst = 0
+        progress = _progress(0 if quiet else len(specs))
         for spec_path, (h5, pic) in zip(specs, targets):
             try:
                 with together():
@@ -143,17 +146,17 @@ def register(app: typer.Typer) -> None:
                 if len(specs) == 1:
                     raise
                 typer.echo(f"linkedit: error: {exc}", err=True)
-                r = {"spec": str(spec_path), "error": str(exc), "exit_code": exc.exit_code}
+                errors.append(error_json(exc, spec_path))
                 worst = max(worst, exc.exit_code)
+                progress()
+                continue
             results.append(r)
-            if not as_json and not quiet and "error" not in r:
-                typer.echo(_line(r), err=to_stderr)
+            say(_line(r), err=to_stderr)
             progress()
-        if as_json and not quiet:
-            print_json(results)
-        elif len(specs) > 1 and not quiet:
-            failed = sum("error" in r for r in results)
-            typer.echo(f"{len(specs) - failed} of {len(specs)} specs simulated" + (f", {failed} failed" if failed else ""))
+        report(results, exit_code=worst, errors=errors)
+        if len(specs) > 1:
+            failed = len(errors)
+            say(f"{len(specs) - failed} of {len(specs)} specs simulated" + (f", {failed} failed" if failed else ""))
         if worst:
             raise typer.Exit(worst)
 
@@ -162,8 +165,8 @@ def register(app: typer.Typer) -> None:
     def validate(
         specs: list[Path] = typer.Argument(..., help="Linkage spec YAML files."),
         samples: int = typer.Option(None, "--samples", "-n", min=1, help="Samples for the diagnostics [default: 360]."),
-        as_json: bool = typer.Option(False, "--json", help="Print as JSON."),
-        quiet: bool = typer.Option(False, "--quiet", "-q", help="Print nothing but errors (the exit code tells the rest)."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Check specs: print the joint ordering (rules per level), mobility and diagnostics. Writes nothing."""
         from linkedit.planar import compile_plan, simulate as run
@@ -171,6 +174,7 @@ def register(app: typer.Typer) -> None:
         from linkedit.spec.yamlload import load_model
 
         reports: list[dict[str, Any]] = []
+        errors: list[dict[str, Any]] = []
         worst = 0
         for path in specs:
             try:
@@ -180,7 +184,7 @@ def register(app: typer.Typer) -> None:
                 motion = run(plan, samples, partial=True)
             except LinkeditError as exc:  # name the bad file, go on with the others
                 typer.echo(f"linkedit: error: {exc}", err=True)
-                reports.append({"spec": str(path), "error": str(exc), "exit_code": exc.exit_code})
+                errors.append(error_json(exc, path))
                 worst = max(worst, exc.exit_code)
                 continue
             names = plan.joint_names
@@ -194,14 +198,12 @@ def register(app: typer.Typer) -> None:
             reports.append({"spec": str(path)} | motion.summary() | {"grubler": plan.mobility.grubler,
                             "redundant": plan.mobility.redundant, "levels": levels,
                             "warnings": transmission_warnings(motion)})
-        if quiet:
-            pass
-        elif as_json:
-            print_json(reports)
-        else:
+        for r in reports:  # a linkage that locks up is a mechanism failure (exit 1), named in the report
+            errors += [error_entry(f"locks up: {lk}", 1, file=r["spec"], source=r["spec"]) for lk in r.get("lockups", [])]
+            worst = max(worst, 1) if r.get("lockups") else worst
+        report(reports, exit_code=worst, errors=errors)
+        if not (as_json or quiet):
             for r in reports:
-                if "error" in r:
-                    continue
                 typer.echo(f"{r['spec']}: {r['name']}, {r['joints']} joints, mobility {r['mobility']} "
                            f"(Grübler count {r['grubler']}, {r['redundant']} redundant)")
                 typer.echo("  level 0: ground and motor")
@@ -216,8 +218,6 @@ def register(app: typer.Typer) -> None:
                     typer.echo(f"  LOCK-UP: {lk}")
                 for w in r["warnings"]:
                     typer.echo(f"  warning: {w}")
-        if any(r.get("lockups") for r in reports):
-            worst = max(worst, 1)
         if worst:
             raise typer.Exit(worst)
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import check_outputs, guard, print_json
+from linkedit.commands.common import JSON, QUIET, check_outputs, guard, report, say
 from linkedit.errors import InputError
 
 
@@ -123,7 +123,7 @@ def register(app: typer.Typer) -> None:
         spec: Path = typer.Argument(None, help="3D mechanism spec (YAML); not needed with --from."),
         output: Path = typer.Option(None, "--output", "-o", help="Result .h5 [default: out/<spec>.h5; with --from: the same file]."),
         svg: Path = typer.Option(None, "--svg", help="Draw shapes and output curves to this .svg."),
-        view: View = typer.Option(View.iso, "--view", help="SVG projection."),
+        view: View = typer.Option(None, "--view", help="SVG projection: xy, xz, yz (orthographic) or iso [default: xy for a mechanism that stays in a plane z = const, else iso]."),
         arrows: bool = typer.Option(False, "--arrows", help="Draw velocity arrows on the curves."),
         velocity: VelocityRule = typer.Option(VelocityRule.exact, "--velocity", help="Track velocities: exact (from the constraint Jacobian at each pose) or parabola (the paper's three-point rule on positions)."),
         steps: int = typer.Option(None, "--steps", help="Time steps over t in [0, 1] [default: the spec's]."),
@@ -132,7 +132,8 @@ def register(app: typer.Typer) -> None:
         track: list[str] = typer.Option(None, "--track", help="Extra tracked point [name=]member:x,y,z (or member:point); repeatable."),
         allow_python: bool = typer.Option(False, "--allow-python", help="Allow custom constraints that run Python code (python: module:function)."),
         partial: bool = typer.Option(False, "--partial", help="Write the result even if some steps fail (their status says so)."),
-        as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Solve a 3D mechanism (members, constraints, inputs) at every time step."""
         from linkedit.gcs import check_solved, read_result, solve_spec, write_result
@@ -158,7 +159,7 @@ def register(app: typer.Typer) -> None:
             text = read_text(spec)
             model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
             res = solve_spec(model, steps=steps, solver=solver.value if solver else "lm", allow_python=allow_python,
-                             spec_text=text, velocity=velocity.value, progress=Progress(model.name))
+                             spec_text=text, velocity=velocity.value, progress=None if quiet else Progress(model.name))
             out = output or Path("out") / f"{spec.stem}.h5"
             if not partial:
                 check_solved(res)
@@ -173,12 +174,10 @@ def register(app: typer.Typer) -> None:
             output_format(svg, ("svg",), option="--svg")
         write_result(out, res)
         if svg is not None:
-            from linkedit.gcs.svg import draw
+            from linkedit.io.gcs_svg import draw
 
-            draw(svg, res, view=view.value, velocity=arrows)
-        if as_json:
-            summary = res.summary()
-            summary["status"] = {k.replace(" ", "_"): v for k, v in summary["status"].items()}  # JSON keys: no spaces
-            print_json(summary | {"output": str(out), "svg": str(svg) if svg else None})
-        else:
-            typer.echo(_line(res, out, svg))
+            draw(svg, res, view=view.value if view else None, velocity=arrows)
+        summary = res.summary()
+        summary["status"] = {k.replace(" ", "_"): v for k, v in summary["status"].items()}  # JSON keys: no spaces
+        report(summary | {"output": str(out), "svg": str(svg) if svg else None})
+        say(_line(res, out, svg))

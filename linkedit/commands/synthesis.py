@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from linkedit.commands.common import check_outputs, guard, print_json
+from linkedit.commands.common import JSON, QUIET, check_outputs, guard, report, say
 from linkedit.errors import InputError
 
 
@@ -25,8 +25,8 @@ def _families(text: str) -> list[str]:
 class _Progress:
     """linkages done, linkages/s — on a terminal only."""
 
-    def __init__(self) -> None:
-        self.live = sys.stderr.isatty()
+    def __init__(self, live: bool = True) -> None:
+        self.live = live and sys.stderr.isatty()
 
     def __call__(self, done: int, total: int, seconds: float) -> None:
         if self.live:
@@ -45,12 +45,14 @@ def register(app: typer.Typer) -> None:
     @atlas_app.command("build")
     @guard
     def build(
-        family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, jansen, klann, watt, stephenson."),
+        family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, slider-crank, jansen, klann, watt, stephenson."),
         count: int = typer.Option(..., "-n", "--count", min=1, help="Linkages to add per family."),
         output: Path = typer.Option(..., "-o", "--output", help="Atlas file (.h5); an existing one is appended to."),
         seed: int = typer.Option(1, "--seed", min=0, help="Seed of the chunks (an atlas keeps its seed)."),
         scheduler: str = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786): build there."),
         workers: int = typer.Option(None, "--workers", min=1, help="Build on a local Dask cluster of N worker processes."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Sample a family's linkages, keep the working ones, store their curves and descriptors."""
         import time
@@ -62,10 +64,11 @@ def register(app: typer.Typer) -> None:
         names = _families(family)
         start = time.perf_counter()
         counts = build_atlas(output, names, count, seed=seed, scheduler=scheduler, workers=workers,
-                             progress=_Progress())
+                             progress=_Progress(live=not quiet))
         seconds = time.perf_counter() - start
-        typer.echo(f"{count * len(names):,} linkages in {seconds:.2f} s ({count * len(names) / seconds:,.0f} "
-                   f"linkages/s) → {output}: " + ", ".join(f"{n} {c:,}" for n, c in counts.items()))
+        report({"output": str(output), "families": dict(counts), "linkages": count * len(names), "seconds": seconds})
+        say(f"{count * len(names):,} linkages in {seconds:.2f} s ({count * len(names) / seconds:,.0f} "
+            f"linkages/s) → {output}: " + ", ".join(f"{n} {c:,}" for n, c in counts.items()))
 
     @app.command()
     @guard
@@ -79,8 +82,12 @@ def register(app: typer.Typer) -> None:
                                                                   "curve [default: detected from its ends]."),
         smooth: float = typer.Option(0.0, "--smooth", min=0.0, max=0.5,
                                      help="Smooth a sketched target first: Gaussian σ as a fraction of its points."),
+        timing: bool = typer.Option(False, "--timing", help="Match the target's sample times too (a closed target "
+                                                              "with a CSV t column or a result.h5 track): positions "
+                                                              "and velocities at those times."),
         seed: int = typer.Option(1, "--seed", min=0, help="Recorded with the result (the search is deterministic)."),
-        as_json: bool = typer.Option(False, "--json", help="Print the report as JSON."),
+        as_json: bool = JSON,
+        quiet: bool = QUIET,
     ) -> None:
         """Find the linkage whose tracked point draws the target curve: atlas search, placement, refinement."""
         from linkedit.curves.sources import load_inputs
@@ -98,15 +105,17 @@ def register(app: typer.Typer) -> None:
         if curve.points.shape[1] != 2:
             raise InputError("the target must be a planar (x, y) curve", file=curve.origin)
         found = load(atlas)
-        result = run(curve, found, top=top, smooth=smooth, seed=seed, units=curve.units or "mm")
-        options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "seed": seed,
+        result = run(curve, found, top=top, smooth=smooth, timing=timing, seed=seed, units=curve.units or "mm")
+        options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "timing": timing, "seed": seed,
                    "closed": curve.closed, "atlas_size": found.size}
-        report = write_all(output, result, options)
-        if as_json:
-            print_json({k: v for k, v in report.items() if k != "result"} | {"output": str(output)})
-            return
-        before, after = report["error"]["before"], report["error"]["after"]
-        typer.echo(f"{report['family']}: normalized RMS error {100 * before['rms']:.3g} % → {100 * after['rms']:.3g} % "
-                   f"(max {100 * after['max']:.3g} %) in {report['seconds']['total']:.2f} s → {output}/")
-        if report["note"]:
-            typer.echo(f"note: {report['note']}")
+        done = write_all(output, result, options)
+        report({k: v for k, v in done.items() if k != "result"} | {"output": str(output)})
+        before, after = done["error"]["before"], done["error"]["after"]
+        say(f"{done['family']}: normalized RMS error {100 * before['rms']:.3g} % → {100 * after['rms']:.3g} % "
+            f"(max {100 * after['max']:.3g} %) in {done['seconds']['total']:.2f} s → {output}/")
+        if "timed" in done["error"]:
+            timed = done["error"]["timed"]
+            say(f"at the target's times: {100 * timed['before']['rms']:.3g} % → {100 * timed['after']['rms']:.3g} % "
+                f"(max {100 * timed['after']['max']:.3g} %)")
+        if done["note"]:
+            say(f"note: {done['note']}")

@@ -25,7 +25,7 @@ import csv
 import io
 import re
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +53,10 @@ class Curve:
     origin: str  #: the file (and track) it was read from
     anchor: np.ndarray | None = None  #: (D,) an anchor point (e.g. the crank axle), input units
     units: str | None = None
+    #: (M,) the sample times (a CSV ``t`` column; a result's motor phase ``/t``), increasing; None if not given
+    times: np.ndarray | None = None
+    #: a closed curve's cycle time (from the first sample to its return there), when ``times`` are given
+    period: float | None = None
 
 
 def load_inputs(inputs: list[str], *, closed: bool | None = None,
@@ -161,8 +165,13 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
             if bad.size:
                 raise InputError(f"{bad.size} samples are not finite (first at sample {bad[0]}; did the "
                                  f"mechanism lock up?)", file=str(path), field=field)
+            phase = f.get(f"{stage}/t" if stage else "t")
+            times = None
+            if isinstance(phase, h5py.Dataset) and phase.shape == (len(points),) and f.attrs.get("input") != "linear":
+                times = np.asarray(phase[()], dtype=float)  # fractions of a revolution: one cycle takes 1
             out.append(make_curve(f"{path.stem}:{key}", points, closed=closed, origin=f"{path}:{key}",
-                                  file=str(path), field=field, units=None if units is None else str(units)))
+                                  file=str(path), field=field, units=None if units is None else str(units),
+                                  times=times, period=1.0 if times is not None else None))
     return out
 
 
@@ -215,7 +224,8 @@ def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
     if "t" in columns:
         values = values[np.argsort(values[:, columns.index("t")], kind="stable")]
     points = values[:, [columns.index(a) for a in ("x", "y", "z") if a in columns]]
-    return make_curve(path.stem, points, closed=closed, origin=file, file=file)
+    times = values[:, columns.index("t")] if "t" in columns else None
+    return make_curve(path.stem, points, closed=closed, origin=file, file=file, times=times)
 
 
 #: header names of columns that only number the rows (ignored)
@@ -287,8 +297,12 @@ def read_curve_set(path: Path, *, closed: bool | None = None) -> list[Curve]:
 
 
 def make_curve(name: str, points: np.ndarray, *, closed: bool | None, origin: str, file: str | None = None,
-               field: tuple[str | int, ...] | None = None, line: int | None = None, units: str | None = None) -> Curve:
-    """Check and clean points (M, D): finite, ≥ 3 distinct points, positive length; decide closedness."""
+               field: tuple[str | int, ...] | None = None, line: int | None = None, units: str | None = None,
+               times: np.ndarray | None = None, period: float | None = None) -> Curve:
+    """Check and clean points (M, D): finite, ≥ 3 distinct points, positive length; decide closedness.
+
+    ``times`` (M,), increasing, go with the points; a closed curve's ``period`` is, unless given, the
+    time of a last point repeating the first, or the span of the times plus their mean step."""
     where: dict[str, Any] = dict(file=file or origin, field=field, line=line)
     points = np.asarray(points, dtype=float)
     if points.ndim != 2 or points.shape[1] not in (2, 3):
@@ -298,6 +312,8 @@ def make_curve(name: str, points: np.ndarray, *, closed: bool | None, origin: st
     keep = np.ones(len(points), dtype=bool)
     keep[1:] = np.any(points[1:] != points[:-1], axis=1)
     points = points[keep]
+    if times is not None:
+        times = np.asarray(times, dtype=float)[keep]
     distinct = _distinct_up_to_3(points)
     if distinct == 1:
         raise InputError("degenerate curve: all points coincide (zero length)", **where)
@@ -306,9 +322,14 @@ def make_curve(name: str, points: np.ndarray, *, closed: bool | None, origin: st
     looped = bool(np.all(points[-1] == points[0]))
     if closed is None:
         closed = looped or is_closed(points)
+    if times is not None and closed:
+        if period is None:
+            period = float(times[-1] - times[0]) * (1.0 if looped else len(times) / (len(times) - 1))
+        if looped:
+            times = times[:-1]
     if looped and closed:
         points = points[:-1]
-    return Curve(name, points, bool(closed), origin, None, units)
+    return Curve(name, points, bool(closed), origin, None, units, times, period if closed and times is not None else None)
 
 
 def _distinct_up_to_3(points: np.ndarray) -> int:
@@ -338,12 +359,10 @@ def _unique_names(curves: list[Curve]) -> list[Curve]:
     counts: dict[str, int] = {}
     for c in curves:
         counts[c.name] = counts.get(c.name, 0) + 1
-    renamed = [c if counts[c.name] == 1 else Curve(c.origin, c.points, c.closed, c.origin, c.anchor, c.units)
-               for c in curves]
+    renamed = [c if counts[c.name] == 1 else replace(c, name=c.origin) for c in curves]
     seen: dict[str, int] = {}
     out = []
     for c in renamed:
         seen[c.name] = seen.get(c.name, 0) + 1
-        out.append(c if seen[c.name] == 1 else Curve(f"{c.name}#{seen[c.name]}", c.points, c.closed, c.origin,
-                                                     c.anchor, c.units))
+        out.append(c if seen[c.name] == 1 else replace(c, name=f"{c.name}#{seen[c.name]}"))
     return out

@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -17,6 +17,9 @@ from linkedit.errors import InputError, MechanismError
 from linkedit.gcs.diagnostics import Diagnostics
 from linkedit.gcs.outputs import ends_meet, track_positions, track_velocities, velocity
 from linkedit.gcs.solver import STATUS_NAMES
+
+if TYPE_CHECKING:
+    from linkedit.io.hdf5 import Entry
 
 KIND = "gcs"
 
@@ -120,54 +123,76 @@ def check_finite(res: GcsResult) -> None:
                                  "a result never holds NaN or inf, nothing written")
 
 
+FORMAT_VERSION = "2"
+#: the time axis t is dimensionless (one run is t ∈ [0, 1]): d/dt of a length in ``units`` is in ``units``
+PER_T = "per unit t: t is the dimensionless run parameter in [0, 1], so the unit is the quantity's own"
+
+
 def write_result(path: str | Path, res: GcsResult) -> None:
     """Write atomically (see ``specs/gcs-hdf5.md``); refuses NaN and inf (:func:`check_finite`)."""
-    from linkedit.io.hdf5 import put, result_file
+    from linkedit.io.hdf5 import result_file, scale, write_entries
 
     check_finite(res)
-
-    u = res.units
-    with result_file(path, kind=KIND, units=u, spec_text=res.spec_text, options=res.options) as f:
+    with result_file(path, kind=KIND, units=res.units, spec_text=res.spec_text, options=res.options,
+                     format_version=FORMAT_VERSION) as f:
         f.attrs["name"] = res.name
-        put(f, "t", res.t, description="time in [0, 1]")
-        m = f.create_group("members")
-        put(m, "names", res.member_names)
-        put(m, "position", res.position, units=u, description="member origin in the world")
-        put(m, "orientation", res.orientation, convention="unit quaternion [w, x, y, z], member to world")
-        put(m, "velocity", res.velocity[..., :3], units=f"{u}/t", description="d position / d t, t in [0, 1]")
-        put(m, "angular_velocity", res.velocity[..., 3:], units="rad/t", description="world frame, t in [0, 1]")
-        m.attrs["periodic"] = res.periodic
-        shapes = m.create_group("shapes")
+        for group in ("members/shapes", "constraints", "tracks", "diagnostics"):
+            f.require_group(group)
+        scale(f, "t", res.t, "time: the dimensionless run parameter, linspace(0, 1, steps)", units="1")
+        scale(f, "member", res.member_names, "member names, spec order")
+        scale(f, "constraint", res.constraint_names, "named constraints, then inputs")
+        scale(f, "xyz", ["x", "y", "z"], "world (or member-space) coordinate")
+        scale(f, "wxyz", ["w", "x", "y", "z"], "quaternion component")
         for name in res.member_names:
-            pts = res.points.get(name, {})
-            g = shapes.create_group(name)
-            put(g, "points", np.array(list(pts.values()), dtype=float).reshape(-1, 3), units=u,
-                names=json.dumps(list(pts)))
-            g.attrs["lines"] = json.dumps(res.lines.get(name, []))
-        c = f.create_group("constraints")
-        put(c, "names", res.constraint_names)
-        put(c, "is_input", res.constraint_inputs.astype(bool))
-        put(c, "cost", res.diagnostics.costs, description="per constraint: |p1-p2|^2, theta^2 (orientation, axis), d^2")
-        tr = f.create_group("tracks")
+            scale(f, f"members/shapes/{name}/point", list(res.points.get(name, {})), f"point names of member {name}")
+        write_entries(f, datasets(res))
+        f["members"].attrs["periodic"] = res.periodic
+        for name in res.member_names:
+            f[f"members/shapes/{name}"].attrs["lines"] = json.dumps(res.lines.get(name, []))
         for name, track in res.tracks.items():
-            g = tr.create_group(name)
-            put(g, "position", track.position, units=u)
-            put(g, "velocity", track.velocity, units=f"{u}/t", description="d position / d t, t in [0, 1]")
-            g.attrs["member"] = track.member
-            g.attrs["point"] = track.point
-            g.attrs["cyclic"] = track.cyclic
-            g.attrs["velocity_rule"] = res.velocity_rule
-        d = f.create_group("diagnostics")
-        dg = res.diagnostics
-        put(d, "status", dg.status.astype(np.int8), codes=json.dumps(dict(enumerate(STATUS_NAMES))))
-        put(d, "residual", dg.residual, description="residual norm, sqrt of the summed costs")
-        put(d, "dof", dg.dof, description="degrees of freedom left: 6M - rank(J)")
-        put(d, "redundant", dg.redundant, description="redundant equations: independent equations - rank(J)")
-        put(d, "dof_evaluated", dg.dof_evaluated.astype(bool),
-            description="rank of J evaluated at this step (else dof and redundant are the last evaluated step's)")
-        put(d, "iterations", res.iterations)
-        put(d, "unsatisfied", [", ".join(n) for n in dg.unsatisfied])
-        d.attrs["redundant_constraints"] = json.dumps(dg.redundant_names)
+            f[f"tracks/{name}"].attrs.update(member=track.member, point=track.point, cyclic=track.cyclic,
+                                             velocity_rule=res.velocity_rule)
+        f["diagnostics"].attrs["redundant_constraints"] = json.dumps(res.diagnostics.redundant_names)
+
+
+def datasets(res: GcsResult) -> list[Entry]:
+    """The layout of a gcs result file, one entry per dataset (add a dataset: add an entry)."""
+    from linkedit.io.hdf5 import Entry
+
+    u, d = res.units, res.diagnostics
+    tm3, tm4, tc = ("t", "member", "xyz"), ("t", "member", "wxyz"), ("t", "constraint")
+    out = [
+        Entry("members/position", res.position, tm3, "member origin in the world", u),
+        Entry("members/orientation", res.orientation, tm4, "member orientation", "1",
+              {"convention": "unit quaternion [w, x, y, z], member to world"}),
+        Entry("members/velocity", res.velocity[..., :3], tm3, f"d position / d t of the member origin; {PER_T}", u),
+        Entry("members/angular_velocity", res.velocity[..., 3:], tm3, f"world-frame angular velocity; {PER_T}", "rad"),
+        Entry("constraints/is_input", res.constraint_inputs.astype(bool), ("constraint",),
+              "the constraint is an input (its target moves with t)"),
+        Entry("constraints/cost", d.costs, tc,
+              "per constraint: |p1-p2|^2 (length units squared), theta^2 (orientation, axis: rad^2), d^2 (on-plane)"),
+        Entry("diagnostics/status", d.status.astype(np.int8), ("t",), "0 converged, 1 inconsistent, 2 did not converge",
+              None, {"codes": json.dumps(dict(enumerate(STATUS_NAMES)))}),
+        Entry("diagnostics/residual", d.residual, ("t",), "residual norm, sqrt of the summed costs"),
+        Entry("diagnostics/dof", d.dof, ("t",), "degrees of freedom left: 6M - rank(J)"),
+        Entry("diagnostics/redundant", d.redundant, ("t",),
+              "redundant equations: independent equations - rank(J)"),
+        Entry("diagnostics/dof_evaluated", d.dof_evaluated.astype(bool), ("t",),
+              "rank of J evaluated at this step (else dof and redundant are the last evaluated step's)"),
+        Entry("diagnostics/iterations", res.iterations, ("t",), "linear solves at the step"),
+        Entry("diagnostics/unsatisfied", [", ".join(n) for n in d.unsatisfied], ("t",),
+              "constraints off by more than the tolerance, worst first (comma-separated)"),
+    ]
+    for name in res.member_names:
+        pts = res.points.get(name, {})
+        out.append(Entry(f"members/shapes/{name}/points", np.array(list(pts.values()), dtype=float).reshape(-1, 3),
+                         (f"members/shapes/{name}/point", "xyz"), f"shape points of member {name}, member space", u,
+                         {"names": json.dumps(list(pts))}))
+    for name, track in res.tracks.items():
+        out += [Entry(f"tracks/{name}/position", track.position, ("t", "xyz"), f"position of track {name}", u),
+                Entry(f"tracks/{name}/velocity", track.velocity, ("t", "xyz"),
+                      f"d position / d t ({res.velocity_rule}); {PER_T}", u)]
+    return out
 
 
 def read_result(path: str | Path) -> GcsResult:
@@ -176,7 +201,7 @@ def read_result(path: str | Path) -> GcsResult:
 
     with open_result(path, kind=KIND) as f:
         try:
-            names = strings(f["members/names"])
+            names = strings(f["member"] if "member" in f else f["members/names"])  # format 2, 1
             points, lines = {}, {}
             for name in names:
                 g = f[f"members/shapes/{name}"]
@@ -202,7 +227,7 @@ def read_result(path: str | Path) -> GcsResult:
                 velocity=np.concatenate([f["members/velocity"][()], f["members/angular_velocity"][()]], axis=-1),
                 velocity_rule=str(rule),
                 periodic=bool(f["members"].attrs["periodic"]),
-                constraint_names=strings(f["constraints/names"]), constraint_inputs=f["constraints/is_input"][()],
+                constraint_names=strings(f["constraint"] if "constraint" in f else f["constraints/names"]), constraint_inputs=f["constraints/is_input"][()],
                 diagnostics=diag, iterations=d["iterations"][()], points=points, lines=lines, tracks=tracks,
                 spec_text=str(f.attrs["spec"]), options=options)
         except KeyError as exc:

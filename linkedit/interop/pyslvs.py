@@ -5,15 +5,24 @@ An expression lists joints ``J[type, (A[angle],) (color[…],) P[x, y], L[link, 
 ``P0``, ``P1``, … in the expression's order and keeps the link names. The motor is a revolute
 pair (pivot, driven joint) given as ``input`` (point indices, as pyslvs' input pairs), by
 default the first ground joint and the first other joint that shares a link with it.
-Only revolute (``R``) joints import for now: ``P`` and ``RP`` (sliders) are reported, exit 2.
+
+Sliders: in ``J[P|RP, A[a], P[x, y], L[slot, pin, …]]`` the first link carries the slot (a line
+through (x, y) at ``a`` degrees from +x at the rest pose given), the others are pinned at the
+joint. ``RP`` (the pin turns in the slot) becomes a joint slider ``{joint: Pn, guide: slot}`` with
+the joint on the pin links; ``P`` (the pin link slides without turning relative to the slot)
+becomes a translating link ``{link: pin, guide: slot}``. A slot link that would keep fewer than
+two joints gets one more, ``Pn_slot``, on the slot line one slot length (the mechanism's size)
+away, so its turning is drawn and tracked.
 """
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import yaml
 
 from linkedit.errors import InputError
@@ -138,43 +147,73 @@ def read_project(text: str, source: str) -> tuple[str, list[tuple[int, int]]]:
 def to_document(joints: list[Joint], *, name: str, units: str, motor: tuple[int, int] | None,
                 source: str) -> dict[str, Any]:
     """A linkage document (``specs/linkage.md``) from parsed joints."""
-    for n, j in enumerate(joints):
-        if j.kind != "R":
-            raise InputError(f"joint P{n} is a {j.kind} joint (slider): not supported yet, only revolute R joints",
-                             file=source)
     names = [f"P{n}" for n in range(len(joints))]
-    ground = [names[n] for n, j in enumerate(joints) if FRAME in j.links]
+    pins = [j.links[1:] if j.kind != "R" else j.links for j in joints]  # the links a joint is pinned to
+    ground = [names[n] for n in range(len(joints)) if FRAME in pins[n]]
     links: dict[str, list[str]] = {}
-    for n, j in enumerate(joints):
-        for link in j.links:
+    for n, on in enumerate(pins):
+        for link in on:
             if link != FRAME:
                 links.setdefault(link, []).append(names[n])
+    positions = {n: list(j.position) for n, j in zip(names, joints)}
+    sliders = _sliders(joints, names, links, positions, source)
     if motor is None:
         motor = _default_motor(joints)
     pivot, driven = motor
     for i in motor:
         if not 0 <= i < len(joints):
             raise InputError(f"input point {i} does not exist (P0..P{len(joints) - 1})", file=source, field="--input")
-    moving = set(names) - set(ground)
-    tracks = {n: {"joint": n} for n, j in zip(names, joints) if n in moving and len(j.links) == 1}
-    if not tracks:
-        tracks = {names[-1]: {"joint": names[-1]}} if names[-1] in moving else {}
-    return {
+    moving = [n for n in positions if n not in ground]
+    on_one = [n for n in moving if sum(n in members for members in links.values()) == 1]
+    tracks = {n: {"joint": n} for n in on_one} or ({moving[-1]: {"joint": moving[-1]}} if moving else {})
+    doc = {
         "name": name, "units": units,
         "description": f"imported from pyslvs ({source}); joints P0.. in the expression's order",
-        "joints": {n: list(j.position) for n, j in zip(names, joints)},
-        "ground": ground, "links": links,
+        "joints": positions, "ground": ground, "links": links,
         "motor": {"joint": names[driven], "pivot": names[pivot]},
         "tracks": tracks,
     }
+    if sliders:
+        doc["sliders"] = sliders
+    return doc
+
+
+def _sliders(joints: list[Joint], names: list[str], links: dict[str, list[str]], positions: dict[str, list[float]],
+             source: str) -> dict[str, dict[str, Any]]:
+    """linkedit sliders of the P and RP joints (``links`` and ``positions`` gain a slot joint where needed)."""
+    xy = np.array([j.position for j in joints], dtype=float)
+    size = float(np.ptp(xy, axis=0).max()) or 1.0
+    out: dict[str, dict[str, Any]] = {}
+    for n, j in enumerate(joints):
+        if j.kind == "R":
+            continue
+        where = f"joint P{n} ({j.kind})"
+        if j.angle is None:
+            raise InputError(f"{where}: a slider needs its slot angle A[degrees]", file=source)
+        if len(j.links) < 2:
+            raise InputError(f"{where}: a slider needs its slot link and a pinned link: L[slot, pin]", file=source)
+        slot, pinned = j.links[0], [x for x in j.links[1:]]
+        if j.kind == "RP":
+            out[f"S{n}"] = {"joint": names[n], "guide": slot, "angle_deg": j.angle}
+        else:
+            if len(pinned) != 1 or pinned[0] == FRAME:
+                raise InputError(f"{where}: a prismatic P joint imports with one moving pin link, not "
+                                 f"{', '.join(pinned)}", file=source)
+            out[f"S{n}"] = {"link": pinned[0], "guide": slot, "angle_deg": j.angle}
+        if slot != FRAME and len(links.get(slot, [])) < 2:
+            extra = f"{names[n]}_slot"
+            a = math.radians(j.angle)
+            positions[extra] = [j.position[0] + size * math.cos(a), j.position[1] + size * math.sin(a)]
+            links.setdefault(slot, []).append(extra)
+    return out
 
 
 def _default_motor(joints: list[Joint]) -> tuple[int, int]:
-    """The first ground joint and the first other joint on a link with it (pyslvs' usual input)."""
+    """The first revolute ground joint and the first other revolute joint on a link with it (pyslvs' usual input)."""
     for b, base in enumerate(joints):
-        if FRAME not in base.links:
+        if base.kind != "R" or FRAME not in base.links:
             continue
         for d, other in enumerate(joints):
-            if d != b and FRAME not in other.links and set(base.links) & set(other.links) - {FRAME}:
+            if d != b and other.kind == "R" and FRAME not in other.links and set(base.links) & set(other.links) - {FRAME}:
                 return b, d
     raise InputError("no revolute pair on a ground link to drive: give --input PIVOT,JOINT")

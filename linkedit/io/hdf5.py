@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import contextlib
 import json
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -59,10 +60,34 @@ def put(group: h5py.Group, name: str, data: Any, *, dims: tuple[str | None, ...]
 
 
 def scale(f: h5py.File, name: str, data: Any, description: str, **attrs: Any) -> h5py.Dataset:
-    """A dimension scale ``/name`` (a coordinate axis: sample times, joint names, x/y)."""
+    """A dimension scale at path ``name`` (a coordinate axis: sample times, joint names, x/y), named
+    by its last path part (a scale in a group is that group's own dimension, e.g. a member's points)."""
     ds = put(f, name, data, description=description, **attrs)
-    ds.make_scale(name)
+    ds.make_scale(name.rpartition("/")[2])
     return ds
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One dataset of a result layout: where, what, its named dimensions, what it means and its unit.
+
+    ``dims``: a dimension scale path per axis (see :func:`put`); ``units``: a string pint parses, or
+    None for a number without a unit (counts, indices, flags); ``attrs``: further attributes.
+    """
+
+    path: str
+    data: Any
+    dims: tuple[str | None, ...]
+    description: str
+    units: str | None = None
+    attrs: dict[str, Any] = field(default_factory=dict)
+
+
+def write_entries(f: h5py.File, entries: Iterable[Entry]) -> None:
+    """Write a layout: each entry one dataset (parent groups created as needed)."""
+    for e in entries:
+        extra = dict(e.attrs) | ({"units": e.units} if e.units is not None else {})
+        put(f, e.path, e.data, dims=e.dims, description=e.description, **extra)
 
 
 def open_result(path: str | Path, kind: str | None = None) -> h5py.File:

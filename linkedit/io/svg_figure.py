@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 from dataclasses import dataclass, field
 from xml.sax.saxutils import escape, quoteattr
@@ -166,7 +166,10 @@ class Figure:
     """Collects primitives in world coordinates and renders one SVG document.
 
     ``size_px``: length of the longer side of the plot area; ``duration_s``: cycle time of the
-    animated primitives; ``cyclic``: the last animation frame returns to the first.
+    animated primitives; ``cyclic``: the last animation frame returns to the first;
+    ``axis_names``: the horizontal and vertical axes' names (``("x", "z")`` for a side view of a
+    3D mechanism), or None for a projection without world axes (an isometric view: the plot
+    area is framed, without ticks; a :meth:`triad` shows the directions).
     """
 
     title: str = ""
@@ -174,6 +177,7 @@ class Figure:
     size_px: float = 640.0
     duration_s: float | None = None
     cyclic: bool = True
+    axis_names: tuple[str, str] | None = ("x", "y")
     _items: list[_Item] = field(default_factory=list, repr=False)
     _legend: list[_Entry] = field(default_factory=list, repr=False)
     _captions: tuple[list[str], str] | None = field(default=None, repr=False)
@@ -385,6 +389,35 @@ class Figure:
             raise ValueError("frame captions need frames and an animated figure (duration_s)")
         self._captions = (list(captions), cls)
 
+    def triad(self, directions: Mapping[str, Sequence[float]], *, length_px: float = 30.0, cls: str = "triad") -> None:
+        """Axis arrows in the plot's lower-left corner: name → the world axis's direction on the drawing
+        ``(2,)`` (x right, y up; its length, at most 1, is the foreshortening: 0 is an axis seen end-on,
+        drawn as a dot)."""
+        dirs = {str(n): finite(f"triad {n}", d, (2,)) for n, d in directions.items()}
+
+        def draw(v: View) -> str:
+            c = np.array([v.left + 14.0 + length_px, v.top + v.height - 14.0 - length_px])
+            out = []
+            for n, d in dirs.items():
+                tip = c + length_px * np.array([d[0], -d[1]])
+                if float(np.hypot(*d)) < 0.05:  # seen end-on: a dot in a ring
+                    out.append(f"<g{attrs(data_name=n)}><circle cx=\"{c[0]:.2f}\" cy=\"{c[1]:.2f}\" r=\"4\" fill=\"none\"/>"
+                               f"<circle cx=\"{c[0]:.2f}\" cy=\"{c[1]:.2f}\" r=\"1.2\"/>"
+                               f"<text x=\"{c[0] + 6:.2f}\" y=\"{c[1] + 12:.2f}\"{HALO}>{text(n)}</text></g>")
+                    continue
+                u = (tip - c) / float(np.hypot(*(tip - c)))
+                nrm = np.array([-u[1], u[0]])
+                head = points_text([tip, tip - 7 * u + 3 * nrm, tip - 7 * u - 3 * nrm])
+                at = tip + 9 * u
+                out.append(f"<g{attrs(data_name=n)}><line x1=\"{c[0]:.2f}\" y1=\"{c[1]:.2f}\" x2=\"{tip[0]:.2f}\""
+                           f" y2=\"{tip[1]:.2f}\"/><polygon points={attr(head)} stroke=\"none\"/>"
+                           f"<text x=\"{at[0]:.2f}\" y=\"{at[1] + 4:.2f}\" text-anchor=\"middle\""
+                           f"{HALO}>{text(n)}</text></g>")
+            return (f"<g{attrs(cls=cls)} font-size=\"11\" fill={attr(INK)} stroke={attr(INK)} stroke-width=\"1.4\""
+                    f" {FONT}>{''.join(out)}</g>")
+
+        self._items.append(_Item(np.zeros(0), np.zeros(0), draw))
+
     def legend(self, label: str, stroke: Stroke = Stroke(), kind: str = "line") -> None:
         """A legend entry: a ``line`` sample, a ``box`` or a ``dot`` in ``stroke``, then ``label``."""
         if kind not in ("line", "box", "dot"):
@@ -435,6 +468,10 @@ class Figure:
     def _axes(self, v: View) -> str:
         x0, x1, y0, y1 = v.window
         right, bottom = v.left + v.width, v.top + v.height
+        if self.axis_names is None:
+            return (f"<g class=\"axes\" stroke=\"#4a5568\"><rect x=\"{v.left:.2f}\" y=\"{v.top:.2f}\""
+                    f" width=\"{v.width:.2f}\" height=\"{v.height:.2f}\" fill=\"none\" stroke-width=\"1\"/></g>")
+        hname, vname = self.axis_names
         grid, marks = [], []
         for axis, (lo, hi), extent in ((0, (x0, x1), v.width), (1, (y0, y1), v.height)):
             step, ticks = axis_ticks(lo, hi, extent)
@@ -459,9 +496,9 @@ class Figure:
                 f"<rect x=\"{v.left:.2f}\" y=\"{v.top:.2f}\" width=\"{v.width:.2f}\" height=\"{v.height:.2f}\""
                 f" fill=\"none\" stroke-width=\"1\"/>{''.join(marks)}"
                 f"<text class=\"unit\" x=\"{mid_x:.2f}\" y=\"{bottom + 36:.2f}\" text-anchor=\"middle\""
-                f" stroke=\"none\">x{text(unit)}</text>"
+                f" stroke=\"none\">{text(hname + unit)}</text>"
                 f"<text class=\"unit\" x=\"16\" y=\"{mid_y:.2f}\" text-anchor=\"middle\" stroke=\"none\""
-                f" transform=\"rotate(-90 16 {mid_y:.2f})\">y{text(unit)}</text></g>")
+                f" transform=\"rotate(-90 16 {mid_y:.2f})\">{text(vname + unit)}</text></g>")
 
     def _legend_svg(self, x: float, y: float) -> str:
         rows = []

@@ -10,10 +10,11 @@ from __future__ import annotations
 from typing import Any
 
 from linkedit.errors import InputError
-from linkedit.synthesis import fourbar
+from linkedit.synthesis import fourbar, slidercrank
 from linkedit.synthesis.legs import JANSEN, KLANN, STEPHENSON, WATT
 
-FAMILIES: dict[str, Any] = {fourbar.NAME: fourbar, **{f.NAME: f for f in (JANSEN, KLANN, WATT, STEPHENSON)}}
+FAMILIES: dict[str, Any] = {fourbar.NAME: fourbar, slidercrank.NAME: slidercrank,
+                            **{f.NAME: f for f in (JANSEN, KLANN, WATT, STEPHENSON)}}
 
 
 def family(name: str, field: str = "--family") -> Any:

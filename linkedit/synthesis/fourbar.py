@@ -93,9 +93,10 @@ def rest_pose(row: np.ndarray, phase: float = 0.0) -> dict[str, complex]:
 
 
 def to_spec(row: np.ndarray, *, phase: float, scale: float, turn: complex, shift: complex, mirrored: bool,
-            name: str, units: str, description: str) -> LinkageSpec:
+            name: str, units: str, description: str, reversed: bool = False) -> LinkageSpec:
     """The linkage of parameter ``row`` at crank phase ``phase``, placed by z ↦ shift + scale·turn·z
-    (z conjugated first when ``mirrored``, which also reverses the motor), track ``target`` = P.
+    (z conjugated first when ``mirrored``, which also reverses the motor; ``reversed`` reverses
+    it again), track ``target`` = P.
 
     ``turn`` is a unit complex number (the rotation).
     """
@@ -110,6 +111,6 @@ def to_spec(row: np.ndarray, *, phase: float, scale: float, turn: complex, shift
         "joints": {k: place(z) for k, z in pose.items() if k != "P"},
         "ground": ["O", "D"],
         "links": {"crank": ["O", "A"], "coupler": ["A", "B"], "rocker": ["D", "B"]},
-        "motor": {"joint": "A", "pivot": "O", "direction": "cw" if mirrored else "ccw"},
+        "motor": {"joint": "A", "pivot": "O", "direction": "cw" if mirrored != reversed else "ccw"},
         "tracks": {"target": {"link": "coupler", "at": place(pose["P"])}},
     })

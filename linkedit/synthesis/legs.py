@@ -92,12 +92,13 @@ class CatalogFamily:
         return self._evaluate(params, samples, phase)[0][:, self.track_joint, :]
 
     def to_spec(self, row: np.ndarray, *, phase: float, scale: float, turn: complex, shift: complex, mirrored: bool,
-                name: str, units: str, description: str) -> LinkageSpec:
+                name: str, units: str, description: str, reversed: bool = False) -> LinkageSpec:
         """The linkage of ``row`` at crank phase ``phase``, placed like :func:`linkedit.synthesis.fourbar.to_spec`."""
         pose = self._evaluate(row[None], 1, phase)[0][0, :, 0]
         placed = shift + scale * turn * (np.conj(pose) if mirrored else pose)
-        motor = self.spec.motor.model_copy(update={"direction": (self.spec.motor.direction if not mirrored else
-                                                                 ("cw" if self.spec.motor.direction == "ccw" else "ccw"))})
+        flip = {"ccw": "cw", "cw": "ccw"}
+        motor = self.spec.motor.model_copy(update={"direction": (self.spec.motor.direction if mirrored == reversed else
+                                                                 flip[self.spec.motor.direction])})
         data = self.spec.model_dump(mode="python")
         data.update(name=name, units=units, description=description,
                     joints={n: [float(p.real), float(p.imag)] for n, p in zip(self.plan.joint_names, placed)},

@@ -48,13 +48,15 @@ def _candidate_row(c: Candidate) -> dict[str, Any]:
     refined = c.refined
     row = {"family": c.family, "atlas_row": c.row, "index_distance": c.index_distance, "curve_distance": c.distance,
            "error_before": {"rms": c.before[0], "max": c.before[1]},
+           "timed_error_before": None if c.timed_before is None else {"rms": c.timed_before[0], "max": c.timed_before[1]},
            "parameters_before": dict(zip(fam.PARAMETERS, c.params.tolist()))}
     if refined is not None and np.isfinite(c.after[0]):
         row |= {"error_after": {"rms": c.after[0], "max": c.after[1]},
+                "timed_error_after": None if c.timed_after is None else {"rms": c.timed_after[0], "max": c.timed_after[1]},
                 "parameters_after": dict(zip(fam.PARAMETERS, refined.params.tolist())),
                 "placement": {"scale": refined.placement.scale, "rotation_deg": float(np.degrees(refined.placement.angle)),
                               "translation": [refined.placement.shift.real, refined.placement.shift.imag],
-                              "mirrored": refined.placement.mirrored},
+                              "mirrored": refined.placement.mirrored, "motor_reversed": refined.placement.reversed},
                 "evaluations": len(refined.history)}
     else:
         row["error_after"] = None
@@ -72,11 +74,24 @@ def _report(result: Synthesis, options: dict[str, Any]) -> dict[str, Any]:
         "options": options,
         "family": best.family,
         "error": {"before": {"rms": best.before[0], "max": best.before[1]},
-                  "after": {"rms": best.after[0], "max": best.after[1]},
-                  "normalized_by": "target size (major extent); RMS over target→result and result→target distances"},
+                  "refined": {"rms": best.after[0], "max": best.after[1]},
+                  "after": {"rms": result.error[0], "max": result.error[1]},
+                  "normalized_by": "target size (major extent); RMS over target→result and result→target distances, "
+                                   "both curves sampled evenly along their length; after: result.yaml simulated"}
+        | ({} if result.timed_error is None or best.timed_before is None or best.timed_after is None else {"timed": {
+            "before": {"rms": best.timed_before[0], "max": best.timed_before[1]},
+            "refined": {"rms": best.timed_after[0], "max": best.timed_after[1]},
+            "after": {"rms": result.timed_error[0], "max": result.timed_error[1]},
+            "measured": "distance from each target sample to the result at the sample's time (rest pose = first "
+                        "sample), over the target size"}}),
+        "polish": None if result.polish is None else {
+            "kept": result.polish.kept, "why": result.polish.why,
+            "error": None if result.polish.error is None else {"rms": result.polish.error[0],
+                                                                "max": result.polish.error[1]},
+            "min_singularity": result.polish.min_singularity},
         "note": result.note,
         "result": {"spec": "result.yaml", "simulation": "result.h5", "track": "target", "samples": RESULT_SAMPLES,
-                   "min_singularity": float(result.motion.singularity[:, ~result.motion.plan.rigid].min()),
+                   "min_singularity": result.motion.min_singularity()[0],
                    "curve": track.tolist()},
         "candidates": [_candidate_row(c) for c in result.candidates],
         "seconds": result.seconds,
@@ -92,7 +107,7 @@ def _overlay(path: Path, result: Synthesis) -> None:
     edit_overlay(path, before=drawing(before), after=drawing(result.motion),
                  targets={"target": result.target.points[:, :2]}, envelope=None, units=result.spec.units,
                  title=f"synthesize: {best.family}, RMS error {100 * best.before[0]:.2g} % → "
-                       f"{100 * best.after[0]:.2g} % of the target's size")
+                       f"{100 * result.error[0]:.2g} % of the target's size")
 
 
 def _history(path: Path, result: Synthesis) -> None:

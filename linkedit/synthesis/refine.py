@@ -4,23 +4,31 @@ The unknowns are the family parameters (the branch stays) and the placement z �
 (z conjugated for a mirrored candidate). The residuals are geometric: every target point's
 distance to the candidate's curve and every candidate point's distance to the target's
 (only the first set for an open target, which may be part of a cycle), both over the
-target's size. scipy's trust-region least squares minimizes them; an iterate whose linkage
-does not turn the full cycle with the family's singularity margin is never kept (its
-residuals are a wall, and only the best working iterate is returned) — the refinement keeps
-the linkage working, as LinkEdit's barrier does.
+target's size; with timing (:mod:`linkedit.synthesis.timed`), the position and velocity gaps
+at the target's times instead, the start phase free too. scipy's trust-region least squares
+minimizes them. The refinement keeps the linkage working, as LinkEdit's barrier does: an
+iterate whose linkage does not turn the full cycle with more than the family's singularity
+margin m is never kept (its residuals are a wall, and only the best working iterate is
+returned), and within BAND·m above the margin one more residual, BARRIER·ln(BAND·m/(d_s − m)),
+turns the wall into a slope the trust region slides along (a design whose best fit lies on the
+margin — a figure-eight — reaches the margin's constrained optimum instead of stopping at the
+first iterate that hits it).
 
-The editing optimizer of :mod:`linkedit.edit` fits a track sample by sample to a target with
-its timing; the synthesis target is a shape with no timing and a free phase, so this module
-fits the family's own parameters instead, then hands the result to ``linkedit simulate``.
+The editing optimizer of :mod:`linkedit.edit` works on the rest pose (not the family's coupler
+point) with a one-sided shape distance; it polishes the refined result afterwards
+(:mod:`linkedit.synthesis.polish`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import ModuleType
 
 import numpy as np
 from scipy.optimize import least_squares
+
+from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
+from linkedit.synthesis.timed import VELOCITY_WEIGHT, TimedTarget, central, timed_sequence
 
 #: Crank samples of the candidate curve during refinement.
 SAMPLES = 256
@@ -32,6 +40,10 @@ WALL = 10.0
 ITERATIONS = 40
 #: Stop once the normalized RMS error is below this.
 GOOD_ENOUGH = 1e-6
+#: The barrier acts within this fraction of the margin above it: w·log(BAND·m / (d_s − m)) while positive.
+BAND = 0.5
+#: Weight of the barrier residual, in units of the normalized distance residuals.
+BARRIER = 1e-3
 
 
 class _Done(Exception):
@@ -40,12 +52,15 @@ class _Done(Exception):
 
 @dataclass(frozen=True)
 class Placement:
-    """z ↦ shift + scale·e^{i·angle}·(conj(z) if mirrored else z)."""
+    """z ↦ shift + scale·e^{i·angle}·(conj(z) if mirrored else z); with timing, the family phase at
+    the target's first sample and whether the crank turns the other way (``reversed``)."""
 
     scale: float
     angle: float
     shift: complex
     mirrored: bool
+    phase: float = 0.0
+    reversed: bool = False
 
     def apply(self, z: np.ndarray) -> np.ndarray:
         return self.shift + self.scale * np.exp(1j * self.angle) * (np.conj(z) if self.mirrored else z)
@@ -111,9 +126,19 @@ def curve_error(target: np.ndarray, closed: bool, curve: np.ndarray, size: float
     return float(np.sqrt(np.mean(d * d))), float(d.max())
 
 
+def timed_error(timed: TimedTarget, fam: ModuleType, params: np.ndarray, placement: Placement) -> tuple[float, float]:
+    """(RMS, max) distance, over the target's size, between the timed target's samples and the placed
+    candidate at the same phases (:mod:`linkedit.synthesis.timed`)."""
+    seq = timed_sequence(fam.curves(params[None], TIMED_SAMPLES, placement.phase)[0], placement.reversed)
+    d = np.abs(timed.points - placement.apply(seq)) / timed.size
+    return float(np.sqrt(np.mean(d * d))), float(d.max())
+
+
 def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np.ndarray, closed: bool,
-           size: float, *, iterations: int = ITERATIONS) -> Refined:
-    """Refine one candidate (``params`` (P,), the branch fixed) against ``target`` (M,) complex.
+           size: float, *, timed: TimedTarget | None = None, iterations: int = ITERATIONS) -> Refined:
+    """Refine one candidate (``params`` (P,), the branch fixed) against ``target`` (M,) complex:
+    by shape (point-to-curve distances), or with ``timed`` by positions and velocities at the
+    target's times (the start phase free too).
 
     The finite-difference Jacobian evaluates all perturbed linkages in one batched call.
     """
@@ -123,37 +148,61 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
     outline = arc_resample(target, 4 * POINTS, closed)  # the target as the reverse distances see it
     unit = size
 
-    def curves_of(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Parameter rows (K, P), working mask (K,), placed curves (K, SAMPLES) of x (K, n)."""
+    def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Parameter rows (K, P), the placements' complex factors (K,) and shifts (K,) of x (K, n)."""
         p = np.repeat(params[None], len(x), axis=0)
         p[:, free] = x[:, :n_free]
-        ok = fam.min_singularity(p) >= fam.margin()
-        k, angle, sx, sy = x[:, n_free:].T
-        z = fam.curves(p, SAMPLES)
-        z = np.conj(z) if placement.mirrored else z
-        return p, ok, (sx + 1j * sy)[:, None] * unit + (np.exp(k + 1j * angle))[:, None] * z
+        k, angle, sx, sy = x[:, n_free:n_free + 4].T
+        return p, np.exp(k + 1j * angle), (sx + 1j * sy) * unit
 
-    def residuals(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        p, ok, curve = curves_of(x)
+    def distances(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Parameter rows (K, P), min d_s (K,) and residuals (K, R): point-to-curve distances."""
+        p, factor, shift = unpack(x)
+        ds = fam.min_singularity(p)
+        z = fam.curves(p, SAMPLES)
+        curve = shift[:, None] + factor[:, None] * (np.conj(z) if placement.mirrored else z)
         with np.errstate(invalid="ignore"):
             r = near_distances(np.broadcast_to(goal, (len(x), len(goal))), curve)
             if closed:
-                back = np.stack([arc_resample(c, POINTS, True) if good else goal for c, good in zip(curve, ok)])
+                back = np.stack([arc_resample(c, POINTS, True) if np.isfinite(c).all() else goal for c in curve])
                 r = np.concatenate([r, near_distances(back, np.broadcast_to(outline, (len(x), len(outline))))], axis=1)
-        r = np.where(ok[:, None], r / size, WALL)
-        return p, ok, r
+        return p, ds, r
+
+    def timed_residuals(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Parameter rows (K, P), min d_s (K,) and residuals (K, 4N): positions and λ·velocities, x and y
+        apart (times √2: their RMS is that of the distances)."""
+        assert timed is not None
+        p, factor, shift = unpack(x)
+        z = timed_sequence(fam.curves(p, TIMED_SAMPLES, x[:, -1]), placement.reversed)
+        curve = shift[:, None] + factor[:, None] * (np.conj(z) if placement.mirrored else z)
+        gap = np.concatenate([timed.points - curve, VELOCITY_WEIGHT * (timed.velocities - central(curve))], axis=1)
+        return p, fam.min_singularity(p), np.concatenate([gap.real, gap.imag], axis=1) * np.sqrt(2.0)
+
+    def residuals(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Parameter rows (K, P), working mask (K,) and residuals (K, R + 1) of x (K, n): the
+        distances over the target's size and √R, then the barrier (R: the distance count)."""
+        p, ds, r = (distances if timed is None else timed_residuals)(x)
+        ok = (ds > fam.margin()) & np.isfinite(r).all(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            wall = BAND * fam.margin() / (ds - fam.margin())
+            barrier = BARRIER * np.log(np.maximum(wall, 1.0))
+        r = np.concatenate([r / (size * np.sqrt(r.shape[1])), barrier[:, None]], axis=1)
+        return p, ok, np.where(ok[:, None], r, WALL)
 
     x0 = np.concatenate([params[free], [np.log(placement.scale), placement.angle,
-                                        placement.shift.real / unit, placement.shift.imag / unit]])
+                                        placement.shift.real / unit, placement.shift.imag / unit],
+                         [] if timed is None else [placement.phase]])
     best = Refined(params.copy(), placement, np.inf)
 
     def fun(x: np.ndarray) -> np.ndarray:
         p, ok, r = residuals(x[None])
-        error = float(np.sqrt(np.mean(r[0] ** 2)))
+        error = float(np.sqrt(np.sum(r[0, :-1] ** 2)))
         if ok[0] and error < best.error:
-            k, angle, sx, sy = x[n_free:]
+            k, angle, sx, sy = x[n_free:n_free + 4]
             best.params, best.error = p[0], error
-            best.placement = Placement(float(np.exp(k)), float(angle), complex(sx, sy) * unit, placement.mirrored)
+            best.placement = replace(placement, scale=float(np.exp(k)), angle=float(angle),
+                                     shift=complex(sx, sy) * unit,
+                                     phase=placement.phase if timed is None else float(x[-1] % 1.0))
         best.history.append(best.error)
         if error < GOOD_ENOUGH:
             raise _Done

@@ -6,7 +6,9 @@
    included), each placed onto the target by the aligning similarity transform;
 4. the best ``top`` distinct candidates are refined (:mod:`linkedit.synthesis.refine`);
 5. the best working result is placed in the target's frame at the crank phase where its
-   tracked point is nearest the target's first point, and checked by ``simulate``.
+   tracked point is nearest the target's first point (with timing: at the first sample's phase),
+   polished through ``edit`` when that helps (:mod:`linkedit.synthesis.polish`), and its
+   errors are measured on its ``simulate``.
 """
 
 from __future__ import annotations
@@ -29,16 +31,24 @@ from linkedit.spec.linkage import LinkageSpec
 from linkedit.synthesis.atlas import Atlas
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Index, target_variants
-from linkedit.synthesis.refine import Placement, Refined, curve_error, refine
+from linkedit.synthesis.polish import Polish, measure, polish
+from linkedit.synthesis.refine import Placement, Refined, curve_error, refine, timed_error
+from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
+from linkedit.synthesis.timed import TimedTarget, timed_fit, timed_target
 
 #: Candidates taken from the index for re-ranking (closed targets; open ones, which the
 #: index describes retraced there and back, take more and re-rank them by partial matching).
 POOL = 64
 OPEN_POOL = 512
+#: With --timing: candidates taken from the index (a close shape may have the wrong timing).
+TIMED_POOL = 512
 #: Open targets: candidates ranked on the fine partial grid after the coarse screening.
 SCREENED = 48
 #: Samples of the final check and of the written result.
 RESULT_SAMPLES = 360
+#: Candidates of one family whose parameters differ by less than this (RMS, family frame) are near-copies:
+#: the refined shortlist takes distinct ones first (several starts, not one start several times).
+NEAR = 0.05
 #: Normalized RMS error above which the result carries a note that no family draws the target well.
 POOR = 0.03
 
@@ -54,6 +64,9 @@ class Candidate:
     before: tuple[float, float] = (np.inf, np.inf)  #: (RMS, max) error as placed from the atlas
     refined: Refined | None = None
     after: tuple[float, float] = (np.inf, np.inf)
+    #: with --timing: (RMS, max) error of the positions at the target's times, as placed and refined
+    timed_before: tuple[float, float] | None = None
+    timed_after: tuple[float, float] | None = None
 
 
 @dataclass
@@ -66,6 +79,11 @@ class Synthesis:
     motion: Motion
     seconds: dict[str, float] = field(default_factory=dict)
     note: str = ""
+    #: (RMS, max) error of the written result (``spec`` simulated), over the target's size: its shape,
+    #: and with --timing its positions at the target's times
+    error: tuple[float, float] = (np.inf, np.inf)
+    timed_error: tuple[float, float] | None = None
+    polish: Polish | None = None  #: the final polish through `edit` (closed targets)
 
 
 def target_size(points: np.ndarray, closed: bool) -> float:
@@ -74,16 +92,23 @@ def target_size(points: np.ndarray, closed: bool) -> float:
 
 
 def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: int = 5, smooth: float = 0.0,
-               seed: int = 1, name: str = "synthesized", units: str = "mm") -> Synthesis:
-    """Find, place and refine linkages drawing ``target``; MechanismError if none survives."""
+               timing: bool = False, seed: int = 1, name: str = "synthesized", units: str = "mm") -> Synthesis:
+    """Find, place and refine linkages drawing ``target``; MechanismError if none survives.
+
+    ``timing``: the target's sample times count (:mod:`linkedit.synthesis.timed`): candidates are
+    ranked, placed and refined by positions and velocities at those times, and the result's rest
+    pose is the target's first sample."""
     clock = {"start": time.perf_counter()}
     pts = smooth_curve(target.points, target.closed, smooth)
     z_target = pts[:, 0] + 1j * pts[:, 1]
     size = target_size(pts, target.closed)
+    timed = timed_target(z_target, target.times, target.period, target.closed, size, target.origin) if timing else None
     index = index or Index(atlas)
     closed_target = z_target if target.closed else np.concatenate([z_target, z_target[-2:0:-1]])
-    hits = index.query(target_variants(closed_target), POOL if target.closed else OPEN_POOL)
+    hits = index.query(target_variants(closed_target), TIMED_POOL if timed else POOL if target.closed else OPEN_POOL)
     clock["query"] = time.perf_counter()
+    if timed is not None:
+        return _finish(target, z_target, size, _timed_candidates(timed, hits, atlas, top), timed, clock, name, units)
 
     t_desc = describe_curves([Curve(target.name, pts, target.closed, target.origin, None, target.units)])
     candidates: list[Candidate] = []
@@ -104,39 +129,95 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
         for k, (h, p, d) in enumerate(zip(mine, params, dist)):
             candidates.append(Candidate(fam_name, h.row, p, h.distance, float(d), (desc, k)))  # placed below
     candidates.sort(key=lambda c: c.distance)
-    chosen = candidates[:top]
+    chosen = diverse(candidates, top)
     for c in chosen:
         desc, k = c.placement
         c.placement = (_placement(placements(t_desc, desc.take([k]), mirror=True)[0]) if target.closed
                        else _partial_placement(t_desc, desc, k))
-    clock["rank"] = time.perf_counter()
+    return _finish(target, z_target, size, chosen, None, clock, name, units)
 
+
+def _timed_candidates(timed: TimedTarget, hits: list, atlas: Atlas, top: int) -> list[Candidate]:
+    """The index hits re-ranked and placed by the timed distance; the best ``top`` distinct ones."""
+    candidates: list[Candidate] = []
+    for fam_name in dict.fromkeys(h.family for h in hits):
+        mine = [h for h in hits if h.family == fam_name]
+        params = atlas.families[fam_name]["params"][[h.row for h in mine]]
+        with np.errstate(invalid="ignore"):
+            fit = timed_fit(timed, family(fam_name).curves(params, TIMED_SAMPLES))
+        for k, (h, p) in enumerate(zip(mine, params)):
+            place = Placement(float(fit.scale[k]), float(fit.angle[k]), complex(fit.shift[k]), bool(fit.mirrored[k]),
+                              float(fit.phase[k]), bool(fit.reversed[k]))
+            distance = float(fit.distance[k]) if np.isfinite(fit.distance[k]) else np.inf
+            candidates.append(Candidate(fam_name, h.row, p, h.distance, distance, place))
+    candidates.sort(key=lambda c: c.distance)
+    return diverse(candidates, top)
+
+
+def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candidate], timed: TimedTarget | None,
+            clock: dict[str, float], name: str, units: str) -> Synthesis:
+    """Refine the chosen candidates, keep the best working one, write its spec and check it by ``simulate``."""
+    clock["rank"] = time.perf_counter()
     for c in chosen:
         fam = family(c.family)
-        curve = c.placement.apply(fam.curves(c.params[None], RESULT_SAMPLES)[0])
-        c.before = curve_error(z_target, target.closed, curve, size)
-        c.refined = refine(fam, c.params, c.placement, z_target, target.closed, size)
+        with np.errstate(invalid="ignore"):
+            curve = c.placement.apply(fam.curves(c.params[None], RESULT_SAMPLES)[0])
+            c.before = curve_error(z_target, target.closed, curve, size)
+            if timed is not None:
+                c.timed_before = timed_error(timed, fam, c.params, c.placement)
+        c.refined = refine(fam, c.params, c.placement, z_target, target.closed, size, timed=timed)
         if np.isfinite(c.refined.error):
             curve = c.refined.placement.apply(fam.curves(c.refined.params[None], RESULT_SAMPLES)[0])
             c.after = curve_error(z_target, target.closed, curve, size)
+            if timed is not None:
+                c.timed_after = timed_error(timed, fam, c.refined.params, c.refined.placement)
     clock["refine"] = time.perf_counter()
     working = [c for c in chosen if c.refined is not None and np.isfinite(c.after[0])]
     if not working:
-        raise MechanismError(f"none of the {len(chosen)} candidates kept working through refinement")
-    best = min(working, key=lambda c: c.after[0])
-    spec = result_spec(best, z_target[0], name=name, units=units,
-                       description=f"Synthesized by linkedit from {target.origin}: {best.family} "
-                                   f"(atlas row {best.row}), normalized RMS error {best.after[0]:.3g}.")
+        raise MechanismError(f"none of the {len(chosen)} candidates kept working through refinement "
+                             "(the atlas's linkages do not turn with its margin: rebuild it with `linkedit atlas build`)")
+    best = min(working, key=lambda c: c.after[0] if timed is None else c.timed_after[0])
+    spec = result_spec(best, z_target[0], name=name, units=units, timed=timed is not None, description="")
+    refined = best.after if timed is None else best.timed_after
+    assert refined is not None
+    polished = None
+    if target.closed:  # the final polish through `edit` (kept only if it lowers the error within the margin)
+        polished = polish(spec, z_target, size, refined, family(best.family).margin(), RESULT_SAMPLES, timed)
+        if polished.kept:
+            assert polished.spec is not None
+            spec = polished.spec
+    clock["polish"] = time.perf_counter()
     motion = simulate(compile_plan(spec), RESULT_SAMPLES)
+    drawn = motion.tracks["target"].position
+    shape = curve_error(z_target, target.closed, drawn[:, 0] + 1j * drawn[:, 1], size)
+    timed_final = None if timed is None else measure(spec, z_target, size, RESULT_SAMPLES, timed)[0]
+    error = shape[0] if timed_final is None else timed_final[0]
+    spec = spec.model_copy(update={"description": f"Synthesized by linkedit from {target.origin}: {best.family} "
+                                                  f"(atlas row {best.row}), normalized RMS error {error:.3g}"
+                                                  f"{' at the target times' if timed is not None else ''}."})
     clock["check"] = time.perf_counter()
     note = ""
-    if best.after[0] > POOR:
-        note = (f"no family in the atlas draws this curve well: the best found is off by {100 * best.after[0]:.1f} % "
-                f"of the target's size (RMS)")
+    if error > POOR:
+        note = (f"no family in the atlas draws this curve well{' with its timing' if timed is not None else ''}: "
+                f"the best found is off by {100 * error:.1f} % of the target's size (RMS)")
     seconds = {"query": clock["query"] - clock["start"], "rank": clock["rank"] - clock["query"],
-               "refine": clock["refine"] - clock["rank"], "check": clock["check"] - clock["refine"],
-               "total": clock["check"] - clock["start"]}
-    return Synthesis(target, size, candidates[:top], best, spec, motion, seconds, note)
+               "refine": clock["refine"] - clock["rank"], "polish": clock["polish"] - clock["refine"],
+               "check": clock["check"] - clock["polish"], "total": clock["check"] - clock["start"]}
+    return Synthesis(target, size, chosen, best, spec, motion, seconds, note, shape, timed_final, polished)
+
+
+def diverse(candidates: list[Candidate], count: int) -> list[Candidate]:
+    """The first ``count`` of ``candidates`` (best first) that are not near-copies of one taken
+    before: same family and parameters within ``NEAR`` (RMS over the parameters, family frame);
+    near-copies fill up the list only if too few distinct ones remain."""
+    taken: list[Candidate] = []
+    for c in candidates:
+        if len(taken) == count:
+            break
+        if all(t.family != c.family or np.sqrt(np.mean((t.params - c.params) ** 2)) > NEAR for t in taken):
+            taken.append(c)
+    rest = [c for c in candidates if all(c is not t for t in taken)]
+    return taken + rest[:count - len(taken)]
 
 
 def _placement(place: dict) -> Placement:
@@ -157,13 +238,19 @@ def _partial_placement(target: Descriptors, library: Descriptors, k: int) -> Pla
     return Placement(float(abs(a)), float(np.angle(a)), complex(b), mirrored)
 
 
-def result_spec(c: Candidate, start: complex, *, name: str, units: str, description: str) -> LinkageSpec:
+def result_spec(c: Candidate, start: complex, *, name: str, units: str, description: str,
+                timed: bool = False) -> LinkageSpec:
     """The refined candidate placed in the target's frame, its rest pose at the crank phase where
-    the tracked point is nearest the target's first point ``start``."""
+    the tracked point is nearest the target's first point ``start`` (``timed``: the fitted phase
+    of the target's first sample, the motor reversed when the fit runs the crank backwards)."""
     fam = family(c.family)
     assert c.refined is not None
     place = c.refined.placement
-    curve = place.apply(fam.curves(c.refined.params[None], 3600)[0])
-    phase = float(np.argmin(np.abs(curve - start))) / 3600  # mirrored: the motor turns cw, the same family phase
+    if timed:
+        phase = place.phase
+    else:
+        curve = place.apply(fam.curves(c.refined.params[None], 3600)[0])
+        phase = float(np.argmin(np.abs(curve - start))) / 3600  # mirrored: the motor turns cw, the same family phase
     return fam.to_spec(c.refined.params, phase=phase, scale=place.scale, turn=np.exp(1j * place.angle),
-                       shift=place.shift, mirrored=place.mirrored, name=name, units=units, description=description)
+                       shift=place.shift, mirrored=place.mirrored, reversed=timed and place.reversed, name=name,
+                       units=units, description=description)
