@@ -100,7 +100,12 @@ class Edited:
         for name in preserved:
             b, a = before["tracks"][name], after["tracks"][name]
             assert np.abs(a - b).max() <= preserve_tol * np.ptp(b, axis=0).max(), name
-        if not free_angle:
+        if not free_angle and self.original.motor.linear:  # the driven joint stays on its slot line
+            slider = self.original.sliders[self.original.motor.slider]
+            move = np.subtract(edited.joints[slider.joint], self.original.joints[slider.joint])
+            u = np.radians(slider.angle_deg)
+            assert abs(-np.sin(u) * move[0] + np.cos(u) * move[1]) <= 1e-9 * size
+        elif not free_angle:
             assert abs(rest_angle(edited) - rest_angle(self.original)) < 1e-12
         assert np.array_equal(dyad_orientations(edited), dyad_orientations(self.original))
         return after

@@ -6,6 +6,7 @@ import re
 
 import h5py
 import numpy as np
+import yaml
 import pytest
 
 from linkedit.errors import MechanismError
@@ -273,16 +274,19 @@ def test_mobility_counts_prismatic_pairs():
     assert (yoke.grubler, yoke.rank, yoke.redundant) == (1, 1, 0)
 
 
-def test_edit_refuses_a_linear_input(run_cli, tmp_path):
+def test_edit_moves_a_cylinders_driven_joint_along_its_slot(run_cli, tmp_path):
     script = tmp_path / "scripts" / "move.yaml"
     script.parent.mkdir()
     script.write_text("samples: 36\noperations:\n  - name: move\n    displace: {joint: R, to: [60, 12]}\n")
     out = tmp_path / "out"
     r = run_cli("edit", EXAMPLES / "lifting-arm.yaml", script, "-o", out)
-    assert r.exit_code == 2, r.output
-    assert "edit does not support this input yet: this linkage has a linear input" in r.output
-    assert len(r.output.strip().splitlines()) == 1
-    assert not out.exists()
+    assert r.exit_code == 0, r.output
+    edited = yaml.safe_load((out / "lifting-arm-edited.yaml").read_text())
+    moved = np.subtract(edited["joints"]["R"], [60, 10])
+    u = np.radians(63.43494882292201)  # the barrel's direction: R stays on its slot line
+    assert abs(-np.sin(u) * moved[0] + np.cos(u) * moved[1]) < 1e-9 * 150
+    # the closest point of that line to the target (60, 12)
+    assert np.allclose(moved, 2 * np.sin(u) * np.array([np.cos(u), np.sin(u)]), atol=0.05)
 
 
 def test_numeric_engine_refuses_sliders(run_cli, tmp_path):

@@ -67,13 +67,13 @@ class RestPoseSteps:
         return None
 
 
-def place(step: st.Step, zj: np.ndarray, rest_n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def place(step: st.Step, zj: np.ndarray, rest_n: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Positions (n, T) of the step's joints and its d_s (T,) (NaN or ≤ 0: cannot place).
 
-    ``zj`` (J, T): normalized joint positions, the step's inputs known (others 0); a group is
-    continued from its rest position through the samples in order (sample 0 is the rest pose).
+    ``zj`` (J, T): normalized joint positions, the step's inputs known (others 0); ``s`` (T,)
+    the linear input's stroke (normalized; 0 for a rotary motor); a group is continued from its
+    rest position through the samples in order (the rest pose first).
     """
-    s = np.zeros(zj.shape[1])
     if step.kind == "group":
         out, ds, _ = st.solve_group(step, zj, s, rest_n[step.joints])
         return out, ds

@@ -15,12 +15,17 @@ from linkedit.planar.simulate import Motion
 
 def _motion(group: Any, motion: Motion, units: str) -> None:
     put(group, "rest", motion.plan.graph.rest, units=units, description="rest pose of the joints")
-    put(group, "motor_angle", motion.motor_angle, units="rad", description="absolute motor angle at each phase")
+    per = units if motion.plan.linear else "rad"
+    if motion.plan.linear:
+        put(group, "stroke", motion.motor_angle, units=units,
+            description="the driven joint's displacement along its slot from rest at each phase")
+    else:
+        put(group, "motor_angle", motion.motor_angle, units="rad", description="absolute motor angle at each phase")
     put(group, "joints/position", motion.positions, units=units)
-    put(group, "joints/velocity", motion.velocity, units=f"{units}/rad")
+    put(group, "joints/velocity", motion.velocity, units=f"{units}/{per}")
     for name, track in motion.tracks.items():
         put(group, f"tracks/{name}/position", track.position, units=units)
-        put(group, f"tracks/{name}/velocity", track.velocity, units=f"{units}/rad")
+        put(group, f"tracks/{name}/velocity", track.velocity, units=f"{units}/{per}")
     put(group, "diagnostics/singularity", motion.singularity)
 
 
