@@ -155,6 +155,39 @@ def test_complex_loop_matches_the_numeric_engine(samples):
     assert np.abs(m.positions - fine.positions[:: 360 // samples]).max() <= 1e-9
 
 
+def test_complex_loop_polish_rejects_a_wrong_prediction_and_continues_sequentially(monkeypatch):
+    """The batched polish accepts a sample only when Newton converges close to its predictor on the
+    rest pose's side of every singular position: predictions thrown far off (towards the group's
+    other assembly) are rejected and those samples continued one by one from the sample before."""
+    from linkedit.planar import steps
+
+    plan = compile_plan(catalog.complex_loop())
+    good = simulate(plan, 360)
+    predict = steps._predict
+    spoiled = []
+
+    def wrong(known, solved, want):
+        out = predict(known, solved, want)
+        bad = np.arange(want.size) % 3 == 0
+        out[bad] = 2.0 * out[bad][:, [0, 1, 0, 1, 0, 1]].mean(axis=1, keepdims=True) - out[bad]  # point-mirrored
+        spoiled.append(int(bad.sum()))
+        return out
+
+    polish = steps._polish
+    rejected = []
+
+    def counting(*args):
+        accept, jac = polish(*args)
+        rejected.append(int((~accept).sum()))
+        return accept, jac
+
+    monkeypatch.setattr(steps, "_predict", wrong)
+    monkeypatch.setattr(steps, "_polish", counting)
+    m = simulate(plan, 360)
+    assert sum(spoiled) > 100 and sum(rejected) >= sum(spoiled) // 2
+    assert np.abs(m.positions - good.positions).max() <= 1e-9
+
+
 def test_complex_loop_keeps_its_links_rigid_every_sample():
     spec = catalog.complex_loop()
     m = simulate(spec, 360)
