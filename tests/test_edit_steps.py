@@ -36,6 +36,7 @@ CASES = {
     "lifting-arm": ("tip", "T", "boom", [100, 15]),  # a linear input driving a numeric group
     "piston-driven crank": ("coupler_point", "C", "rod", [40, 10]),  # a linear input, closed form
     "lifting-arm, from -5": ("tip", "T", "boom", [100, 15]),  # its stroke starts off the rest pose
+    "two-slots": ("foot", "Q", "rod", [35, 10]),  # a joint in two slots: their crossing
 }
 
 #: a crank turned by a piston: B pushed along its horizontal slot, A placed by a dyad from O and B
@@ -128,6 +129,7 @@ CLI_EDITS = {
     "complex-loop, rocker": ("body_tip", "P2", [46, 7]),
     "lifting-arm": ("tip", "P", [42, -28]),  # moves the barrel's pivot: the cylinder's stroke stays 25 mm
     "piston-driven crank": ("coupler_point", "O", [3, 4]),
+    "two-slots": ("foot", "A", [24, 24]),  # a longer slotted crank: the pin P rides the same lines
 }
 
 

@@ -361,3 +361,48 @@ def test_piston_driven_crank_matches_two_circles():
     h = 1e-4
     v = m.velocity[:, m.plan.joint_names.index("A")]
     assert np.abs(v[:, 0] + 1j * v[:, 1] - (crank_pin(b + h) - crank_pin(b - h)) / (2 * h)).max() <= 1e-6
+
+
+# ---------------------------------------------------------------- a joint in two slots
+
+
+def test_joint_in_two_slots_is_their_crossing_with_velocity_and_acceleration():
+    """P rides in the slotted crank (the line through O at the crank angle θ) and in the rail
+    y = h: x_P = h·cot θ, dx/dθ = −h/sin²θ, d²x/dθ² = 2h·cos θ/sin³θ; Q on the column x = c at
+    the rod's length below P: y_Q = h − sqrt(l² − (c − x_P)²)."""
+    spec = catalog.two_slots()
+    n = catalog.TWO_SLOTS
+    h, c, rod = n["h"], n["column"], n["rod"]
+    plan = compile_plan(spec)
+    assert [(st.kind, st.name) for st in plan.steps] == [("lines", "arm and rail"), ("slider", "column")]
+    m = simulate(plan, 61)
+    theta = m.motor_angle
+    assert np.allclose(np.degrees(theta), np.linspace(25.0, 85.0, 61), atol=1e-12)
+    x = h / np.tan(theta)
+    assert np.abs(joint(m, "P") - (x + 1j * h)).max() <= 1e-9
+    assert np.abs(joint(m, "Q") - (c + 1j * (h - np.sqrt(rod**2 - (c - x) ** 2)))).max() <= 1e-9
+    p = list(spec.joints).index("P")
+    v, a = m.velocity[:, p], m.acceleration[:, p]
+    assert np.abs(v[:, 0] + h / np.sin(theta) ** 2).max() <= 1e-9 * h and np.abs(v[:, 1]).max() <= 1e-12
+    assert np.abs(a[:, 0] - 2 * h * np.cos(theta) / np.sin(theta) ** 3).max() <= 1e-9 * h
+    # d_s = sin² of the angle between the slots: the crank's angle to the rail
+    assert np.allclose(m.step_singularity[:, 0], np.sin(theta) ** 2, rtol=0, atol=1e-12)
+
+
+def test_validate_shows_the_two_slot_rule(run_cli):
+    r = run_cli("validate", EXAMPLES / "two-slots.yaml")
+    assert r.exit_code == 0, r.output
+    assert "level 1: P ← (O, A) two slots, sliders arm and rail" in r.output
+
+
+def test_parallel_slots_lock_up_naming_both_sliders(run_cli, tmp_path):
+    spec = catalog.two_slots().model_dump(mode="json", exclude_none=True)
+    spec["joints"]["Q"] = [40.0, -9970.0]  # a rod so long that Q follows P far out
+    spec["motor"]["range_deg"] = [130.0, 140.0]  # θ = 175°…185°: the crank's slot turns parallel to the rail
+    path = tmp_path / "parallel.yaml"
+    path.write_text(yaml.safe_dump(spec))
+    r = run_cli("simulate", path, "-o", tmp_path / "p.h5", "--samples", "11")
+    assert r.exit_code == 1 and "Traceback" not in r.output, r.output
+    assert ("motor angles 180.0°…180.0°: sliders arm and rail: the two slots of joint P are parallel "
+            "(d_s = 0)") in r.output
+    assert not (tmp_path / "p.h5").exists()

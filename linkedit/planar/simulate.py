@@ -61,7 +61,7 @@ class Motion:
         there: motor angle in degrees, or a linear input's stroke)."""
         plan = self.plan
         dyads = ~plan.rigid
-        watched = [n for n, st in enumerate(plan.steps) if st.kind in ("slider", "group", "rotate")]
+        watched = [n for n, st in enumerate(plan.steps) if st.kind in ("slider", "group", "rotate", "lines")]
         if not (dyads.any() or watched) or not self.assembled.any():
             return None
         steps = self.step_singularity if self.step_singularity is not None else np.ones((self.t.size, 0))
@@ -199,6 +199,9 @@ def _explain(plan: Plan, d: np.ndarray, lik: np.ndarray, ljk: np.ndarray, ds: np
         if abs(sds[t, r - R]) <= TOGGLE and step.kind == "slider":
             what = (f"slider {step.name} reaches a toggle position: the rod {names[step.i]}–{k} stands "
                     "perpendicular to the slot line (d_s = 0)")
+        elif step.kind == "lines":
+            what = (f"sliders {step.name}: the two slots of joint {k} are parallel (d_s = 0): "
+                    "they do not cross at one point")
         elif step.kind == "slider":
             what = (f"slider {step.name} cannot place joint {k}: the rod {names[step.i]}–{k} does not reach "
                     "the slot line")

@@ -8,6 +8,9 @@ Each :class:`Step` writes some joints from joints known before it, over T sample
   l² < p² is a lock-up (the rod cannot reach the line); d_s = (l² − p²)/l² is 0 where the rod
   stands perpendicular to the line.
 * ``drive``: the linearly driven joint, z_k = P + D·s.
+* ``lines``: a joint in two slots whose lines (P₁, D₁), (P₂, D₂) are known: their crossing
+  z_k = P₁ + D₁·Im(D̄₂(P₂ − P₁))/Im(D̄₂D₁); one solution, no branch. d_s = sin² of the angle
+  between the lines: 0 where they are parallel (no single crossing: a lock-up naming both sliders).
 * ``rotate`` / ``yoke``: a slotted link turning about its known joint / translating along the
   frame until its slot meets a known pin (see :func:`_slotted_positions`).
 * ``group``: a complex loop: Newton's method on the group's constraint rows at every sample
@@ -70,6 +73,7 @@ class Step:
         out = ", ".join(names[k] for k in self.joints)
         src = ", ".join(names[k] for k in self.inputs)
         what = {"slider": f"slider {self.name}", "drive": f"linear input {self.name}",
+                "lines": f"two slots, sliders {self.name}",
                 "group": "numeric group",
                 "rotate": f"slotted link turning, slider {self.name}",
                 "yoke": f"slotted link translating (yoke), slider {self.name}"}[self.kind]
@@ -106,6 +110,13 @@ def compile_step(graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set
     b = _Builder(graph.n_joints)
     k = rule.joints[0]
     base = all_rows.take(np.array(own))
+    if rule.kind == "lines":
+        o = graph.sliders[rule.i]
+        both = own + [r for r, lab in enumerate(all_rows.labels) if lab == f"slider {o.name}"]
+        rows = all_rows.take(np.array(both))
+        inputs = sorted(set().union(*rows.joints) - {k})
+        return Step("lines", rule.level, joints, np.array(inputs, dtype=int), f"{s.name} and {o.name}", rows,
+                    slider=rule.slider, source=np.array(both))
     if rule.kind == "drive":
         drive = [r for r, lab in enumerate(all_rows.labels) if lab == f"linear input {s.name}"]
         rows = all_rows.take(np.array(own + drive))
@@ -164,6 +175,12 @@ def positions(step: Step, z: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.
     if step.kind == "drive":
         p, d = _line(step.rows, 0, step.joints[0], z)
         return (p + d * s)[None], np.ones(z.shape[1])
+    if step.kind == "lines":
+        (p1, d1), (p2, d2) = _line(step.rows, 0, step.joints[0], z), _line(step.rows, 1, step.joints[0], z)
+        cross = (np.conj(d2) * d1).imag
+        with np.errstate(invalid="ignore", divide="ignore"):
+            at = (np.conj(d2) * (p2 - p1)).imag / cross
+        return (p1 + d1 * at)[None], cross * cross / ((d1 * np.conj(d1)).real * (d2 * np.conj(d2)).real)
     if step.kind == "slider":
         p, d = _line(step.rows, 0, step.joints[0], z)
         d = d / np.abs(d)
