@@ -17,7 +17,7 @@ from linkedit.edit.objectives import build_problem
 from linkedit.edit.runner import with_rest_pose
 from linkedit.edit.variables import parametrize
 from linkedit.planar import catalog, compile_plan
-from linkedit.planar.simulate import motor_phases, motor_turn, simulate
+from linkedit.planar.simulate import motor_input, motor_phases, simulate
 from linkedit.spec.edit_script import EditScript
 from linkedit.spec.linkage import LinkageSpec
 
@@ -74,7 +74,7 @@ def problem_for(spec: LinkageSpec, script: EditScript):
     var = parametrize(plan, x, {index[n]: a for n, a in script.locked().items()}, script.motor.free_angle)
     t = motor_phases(spec, script.samples)
     probe_points = {k: int(plan.track_points[plan.track_names.index(v)]) for k, v in probes[0].items()}
-    return build_problem(plan, script, script.operations[0], var, motor_turn(spec.motor, t), t,
+    return build_problem(plan, script, script.operations[0], var, motor_input(spec.motor, t), t,
                          float(np.ptp(x, axis=0).max()), probe_points)
 
 

@@ -33,14 +33,32 @@ CASES = {
     "complex-loop": ("body_tip", "T3", "body", [0, 24]),
     "slider-crank, rocker": ("coupler_point", "C", "rod", [50, 20]),  # oscillate_deg input
     "complex-loop, rocker": ("body_tip", "T3", "body", [0, 24]),
+    "lifting-arm": ("tip", "T", "boom", [100, 15]),  # a linear input driving a numeric group
+    "piston-driven crank": ("coupler_point", "C", "rod", [40, 10]),  # a linear input, closed form
+    "lifting-arm, from -5": ("tip", "T", "boom", [100, 15]),  # its stroke starts off the rest pose
+    "two-slots": ("foot", "Q", "rod", [35, 10]),  # a joint in two slots: their crossing
+}
+
+#: a crank turned by a piston: B pushed along its horizontal slot, A placed by a dyad from O and B
+PISTON_DRIVEN = {
+    "name": "piston-driven crank", "units": "mm",
+    "joints": {"O": [0, 0], "A": [12, 16], "B": [60, 0], "C": [40, 20]},
+    "ground": ["O"], "links": {"crank": ["O", "A"], "rod": ["A", "B", "C"]},
+    "sliders": {"piston": {"joint": "B", "guide": "ground", "angle_deg": 0}},
+    "motor": {"slider": "piston", "stroke": [0, -18]},
+    "tracks": {"coupler_point": {"joint": "C"}, "crank_pin": {"joint": "A"}},
 }
 
 
 def spec_of(name: str) -> LinkageSpec:
+    if name == "piston-driven crank":
+        return LinkageSpec.model_validate(PISTON_DRIVEN)
     spec = load_model(LinkageSpec, EXAMPLES / f"{name.split(',')[0]}.yaml")
     if name.endswith("offset slot"):  # d_s = 1 − h²/|A−Q|² of the turning slotted link varies
         sleeve = spec.sliders["sleeve"].model_copy(update={"angle_deg": 30.0})
         spec = spec.model_copy(update={"sliders": {"sleeve": sleeve}})
+    if name.endswith("from -5"):  # stroke [-5, 20]: the group is continued from the rest pose to −5 first
+        spec = spec.model_copy(update={"motor": spec.motor.model_copy(update={"stroke": (-5.0, 20.0)})})
     if name.endswith("rocker"):  # a rocker input from the rest pose to 110° and back
         spec = spec.model_copy(update={"motor": spec.motor.model_copy(update={"oscillate_deg": (0.0, 110.0)})})
     return spec
@@ -76,7 +94,10 @@ def test_jacobian_through_steps_matches_central_differences(name, op):
     ev, r, J = problem.residuals(v, jacobian=True)
     assert ev.works and J is not None, ev.why
     J = J.toarray()
-    assert (ev.ds[steps, :40] < problem.eps[steps, None]).any() or name.startswith(("scotch-yoke", "complex-loop"))
+    # the barrier active on a slider rule (a dyad's, when the linkage has none)
+    watched = steps if steps.size else np.flatnonzero(guarded)
+    assert (ev.ds[watched, :40] < problem.eps[watched, None]).any() or name.startswith(
+        ("scotch-yoke", "complex-loop", "lifting-arm"))
     numeric = central_jacobian(problem, v, r.size)
     assert np.abs(J - numeric).max() <= 1e-6 * np.abs(numeric).max()
 
@@ -106,6 +127,9 @@ CLI_EDITS = {
     "complex-loop": ("body_tip", "P2", [46, 7]),
     "slider-crank, rocker": ("coupler_point", "B", [86, 10]),
     "complex-loop, rocker": ("body_tip", "P2", [46, 7]),
+    "lifting-arm": ("tip", "P", [42, -28]),  # moves the barrel's pivot: the cylinder's stroke stays 25 mm
+    "piston-driven crank": ("coupler_point", "O", [3, 4]),
+    "two-slots": ("foot", "A", [24, 24]),  # a longer slotted crank: the pin P rides the same lines
 }
 
 
@@ -131,3 +155,41 @@ def test_edit_through_the_cli_on_sliders_and_a_complex_loop_resimulates_exactly(
     # every slider rule keeps its side, the group its assembly branch
     old, new = compile_plan(e.original).steps, compile_plan(edited).steps
     assert [(s.kind, s.sign, s.det_sign) for s in old] == [(s.kind, s.sign, s.det_sign) for s in new]
+
+
+@pytest.mark.parametrize("name", ["lifting-arm", "piston-driven crank"])
+def test_a_null_edit_of_a_linear_input_leaves_the_linkage_unchanged(run_cli, tmp_path, name):
+    import yaml
+
+    from tests.test_edit_trust import Edited
+
+    track, joint, _ = CLI_EDITS[name]
+    spec = spec_of(name)
+    script = tmp_path / "s.yaml"
+    script.write_text(yaml.safe_dump({"samples": 60, "operations": [
+        {"preserve": [track], "displace": {"joint": joint, "to": list(spec.joints[joint])}}]}))
+    linkage = tmp_path / "linkage.yaml"
+    linkage.write_text(yaml.safe_dump(spec.model_dump(mode="json", exclude_none=True)))
+    e = Edited(run_cli, tmp_path, linkage, script)
+    e.check(run_cli, preserved=[track])
+    size = float(np.ptp(np.array(list(spec.joints.values())), axis=0).max())
+    for n, xy in spec.joints.items():
+        assert np.hypot(*np.subtract(e.edited.joints[n], xy)) <= 1e-9 * size, n
+
+
+def test_the_predicate_names_a_linear_input_by_its_stroke_and_its_guide():
+    from linkedit.edit.feasibility import failure
+    from linkedit.planar import compile_plan
+
+    plan = compile_plan(spec_of("piston-driven crank"))
+    rest = plan.graph.rest[:, 0] + 1j * plan.graph.rest[:, 1]
+    stroke = np.linspace(0.0, -18.0, 7)
+    ds = np.ones((len(plan.rules) + len(plan.steps), 7))
+    ds[np.flatnonzero(~plan.rigid)[0], 4] = -0.1  # the dyad cannot close at the fifth sample
+    assert failure(plan, rest, ds, stroke) == "joint A cannot be assembled at stroke -12 mm"
+    arm = compile_plan(spec_of("lifting-arm"))
+    names = arm.joint_names
+    rest = arm.graph.rest[:, 0] + 1j * arm.graph.rest[:, 1]
+    rest[names.index("Q")] = rest[names.index("P")]  # the cylinder's barrel shrinks to nothing
+    why = failure(arm, rest, np.ones((len(arm.rules) + len(arm.steps), 1)), np.zeros(1))
+    assert why == "linear input cylinder: its guide barrel vanishes (P and Q meet)"

@@ -6,6 +6,7 @@ import re
 
 import h5py
 import numpy as np
+import yaml
 import pytest
 
 from linkedit.errors import MechanismError
@@ -154,6 +155,39 @@ def test_complex_loop_matches_the_numeric_engine(samples):
     assert np.abs(m.positions - fine.positions[:: 360 // samples]).max() <= 1e-9
 
 
+def test_complex_loop_polish_rejects_a_wrong_prediction_and_continues_sequentially(monkeypatch):
+    """The batched polish accepts a sample only when Newton converges close to its predictor on the
+    rest pose's side of every singular position: predictions thrown far off (towards the group's
+    other assembly) are rejected and those samples continued one by one from the sample before."""
+    from linkedit.planar import steps
+
+    plan = compile_plan(catalog.complex_loop())
+    good = simulate(plan, 360)
+    predict = steps._predict
+    spoiled = []
+
+    def wrong(known, solved, want):
+        out = predict(known, solved, want)
+        bad = np.arange(want.size) % 3 == 0
+        out[bad] = 2.0 * out[bad][:, [0, 1, 0, 1, 0, 1]].mean(axis=1, keepdims=True) - out[bad]  # point-mirrored
+        spoiled.append(int(bad.sum()))
+        return out
+
+    polish = steps._polish
+    rejected = []
+
+    def counting(*args):
+        accept, jac = polish(*args)
+        rejected.append(int((~accept).sum()))
+        return accept, jac
+
+    monkeypatch.setattr(steps, "_predict", wrong)
+    monkeypatch.setattr(steps, "_polish", counting)
+    m = simulate(plan, 360)
+    assert sum(spoiled) > 100 and sum(rejected) >= sum(spoiled) // 2
+    assert np.abs(m.positions - good.positions).max() <= 1e-9
+
+
 def test_complex_loop_keeps_its_links_rigid_every_sample():
     spec = catalog.complex_loop()
     m = simulate(spec, 360)
@@ -273,16 +307,19 @@ def test_mobility_counts_prismatic_pairs():
     assert (yoke.grubler, yoke.rank, yoke.redundant) == (1, 1, 0)
 
 
-def test_edit_refuses_a_linear_input(run_cli, tmp_path):
+def test_edit_moves_a_cylinders_driven_joint_along_its_slot(run_cli, tmp_path):
     script = tmp_path / "scripts" / "move.yaml"
     script.parent.mkdir()
     script.write_text("samples: 36\noperations:\n  - name: move\n    displace: {joint: R, to: [60, 12]}\n")
     out = tmp_path / "out"
     r = run_cli("edit", EXAMPLES / "lifting-arm.yaml", script, "-o", out)
-    assert r.exit_code == 2, r.output
-    assert "edit does not support this input yet: this linkage has a linear input" in r.output
-    assert len(r.output.strip().splitlines()) == 1
-    assert not out.exists()
+    assert r.exit_code == 0, r.output
+    edited = yaml.safe_load((out / "lifting-arm-edited.yaml").read_text())
+    moved = np.subtract(edited["joints"]["R"], [60, 10])
+    u = np.radians(63.43494882292201)  # the barrel's direction: R stays on its slot line
+    assert abs(-np.sin(u) * moved[0] + np.cos(u) * moved[1]) < 1e-9 * 150
+    # the closest point of that line to the target (60, 12)
+    assert np.allclose(moved, 2 * np.sin(u) * np.array([np.cos(u), np.sin(u)]), atol=0.05)
 
 
 def test_numeric_engine_refuses_sliders(run_cli, tmp_path):
@@ -324,3 +361,48 @@ def test_piston_driven_crank_matches_two_circles():
     h = 1e-4
     v = m.velocity[:, m.plan.joint_names.index("A")]
     assert np.abs(v[:, 0] + 1j * v[:, 1] - (crank_pin(b + h) - crank_pin(b - h)) / (2 * h)).max() <= 1e-6
+
+
+# ---------------------------------------------------------------- a joint in two slots
+
+
+def test_joint_in_two_slots_is_their_crossing_with_velocity_and_acceleration():
+    """P rides in the slotted crank (the line through O at the crank angle θ) and in the rail
+    y = h: x_P = h·cot θ, dx/dθ = −h/sin²θ, d²x/dθ² = 2h·cos θ/sin³θ; Q on the column x = c at
+    the rod's length below P: y_Q = h − sqrt(l² − (c − x_P)²)."""
+    spec = catalog.two_slots()
+    n = catalog.TWO_SLOTS
+    h, c, rod = n["h"], n["column"], n["rod"]
+    plan = compile_plan(spec)
+    assert [(st.kind, st.name) for st in plan.steps] == [("lines", "arm and rail"), ("slider", "column")]
+    m = simulate(plan, 61)
+    theta = m.motor_angle
+    assert np.allclose(np.degrees(theta), np.linspace(25.0, 85.0, 61), atol=1e-12)
+    x = h / np.tan(theta)
+    assert np.abs(joint(m, "P") - (x + 1j * h)).max() <= 1e-9
+    assert np.abs(joint(m, "Q") - (c + 1j * (h - np.sqrt(rod**2 - (c - x) ** 2)))).max() <= 1e-9
+    p = list(spec.joints).index("P")
+    v, a = m.velocity[:, p], m.acceleration[:, p]
+    assert np.abs(v[:, 0] + h / np.sin(theta) ** 2).max() <= 1e-9 * h and np.abs(v[:, 1]).max() <= 1e-12
+    assert np.abs(a[:, 0] - 2 * h * np.cos(theta) / np.sin(theta) ** 3).max() <= 1e-9 * h
+    # d_s = sin² of the angle between the slots: the crank's angle to the rail
+    assert np.allclose(m.step_singularity[:, 0], np.sin(theta) ** 2, rtol=0, atol=1e-12)
+
+
+def test_validate_shows_the_two_slot_rule(run_cli):
+    r = run_cli("validate", EXAMPLES / "two-slots.yaml")
+    assert r.exit_code == 0, r.output
+    assert "level 1: P ← (O, A) two slots, sliders arm and rail" in r.output
+
+
+def test_parallel_slots_lock_up_naming_both_sliders(run_cli, tmp_path):
+    spec = catalog.two_slots().model_dump(mode="json", exclude_none=True)
+    spec["joints"]["Q"] = [40.0, -9970.0]  # a rod so long that Q follows P far out
+    spec["motor"]["range_deg"] = [130.0, 140.0]  # θ = 175°…185°: the crank's slot turns parallel to the rail
+    path = tmp_path / "parallel.yaml"
+    path.write_text(yaml.safe_dump(spec))
+    r = run_cli("simulate", path, "-o", tmp_path / "p.h5", "--samples", "11")
+    assert r.exit_code == 1 and "Traceback" not in r.output, r.output
+    assert ("motor angles 180.0°…180.0°: sliders arm and rail: the two slots of joint P are parallel "
+            "(d_s = 0)") in r.output
+    assert not (tmp_path / "p.h5").exists()

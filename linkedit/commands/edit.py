@@ -31,7 +31,6 @@ def _load(spec_path: Path | None, script_path: Path):
     elif script.linkage is not None:
         say(f"note: {script_path} names linkage {script.linkage}; editing {spec_path} as given", err=True)
     linkage = load_model(LinkageSpec, spec_path)
-    _refuse_unsupported(spec_path, linkage)
     try:
         check_against(script, linkage)
     except InputError as exc:
@@ -42,18 +41,6 @@ def _load(spec_path: Path | None, script_path: Path):
     except MechanismError as exc:
         raise MechanismError(f"{spec_path}: only a linkage that works can be edited: {exc}") from None
     return spec_path, linkage, script
-
-
-def _refuse_unsupported(spec_path: Path, linkage: Any) -> None:
-    """edit works on rotary inputs (crank, sweep, rocker), with sliders and numeric groups; not yet
-    on a linear input (one line, exit 2)."""
-    m = linkage.motor
-    why = None
-    if m.linear:
-        why = "a linear input"
-    if why is not None:
-        raise InputError(f"edit does not support this input yet: this linkage has {why}",
-                         file=str(spec_path), field="linkage")
 
 
 def _report_lines(result: Any) -> list[str]:

@@ -3,8 +3,9 @@
 A linkage works when every dyad triangle (i) has, at the rest pose, the orientation the plan
 was compiled with (so phase 0 rebuilds exactly the rest pose: no branch change), and (ii) can
 be closed at every sample (d_s > 0); every slider rule and numeric group can be placed at every
-sample on the side (determinant sign) it had at rest (:mod:`linkedit.edit.steps`). Rigid placements are exact by construction and are never
-checked: a joint collinear with its link's two reference joints (Hoekens' tracer) or a mirrored
+sample on the side (determinant sign) it had at rest (:mod:`linkedit.edit.steps`). The input
+must keep working: a crank its length (and its rest direction unless freed), a linear input's
+guide link its length. Rigid placements are exact by construction and are never checked: a joint collinear with its link's two reference joints (Hoekens' tracer) or a mirrored
 plate is a working linkage.
 
 The line search, the final re-check at 4× the samples and the report all call :func:`failure`.
@@ -35,15 +36,16 @@ def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray,
 
     ``rest`` (J,) complex; ``ds`` (R, T) singularity distance per rule (rigid rows ignored),
     NaN where not computed, optionally followed by one row per step of ``plan.steps`` (a slider
-    rule or a numeric group that cannot be placed: ≤ 0 or NaN); ``turn_deg`` (T,) motor rotation of each sample from the rest pose;
-    ``arm`` the direction the crank must keep at rest (its rest angle is fixed), or None.
+    rule or a numeric group that cannot be placed: ≤ 0 or NaN); ``turn_deg`` (T,) motor rotation of
+    each sample from the rest pose, degrees (a linear input: its stroke, spec units);
+    ``arm`` the direction the crank must keep at rest (its rest angle is fixed), or None (and for a
+    linear input, whose guide link must keep a length instead).
     """
     names = plan.joint_names
     g = plan.graph
-    crank = rest[g.motor] - rest[g.pivot]
-    if (crank.conjugate() * (arm if arm is not None else crank)).real <= 0.0:
-        return (f"the crank {names[g.pivot]}-{names[g.motor]} vanishes or turns away from its rest angle "
-                "(free it with motor: {free_angle: true})")
+    why = _drive(plan, rest) if plan.linear else _crank(plan, rest, arm)
+    if why is not None:
+        return why
     bad = flipped(plan, rest)
     if bad.size:
         i, j, k = plan.rules[bad[0]]
@@ -55,10 +57,38 @@ def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray,
         return None
     r, t = np.argwhere(~closed)[0]
     rule = np.flatnonzero(dyad)[r]
-    rest_deg = np.degrees(np.angle(rest[plan.graph.motor] - rest[plan.graph.pivot]))
-    angle = f"motor angle {(rest_deg + turn_deg[t] + 180.0) % 360.0 - 180.0:.1f}°"
+    if plan.linear:
+        angle = f"stroke {turn_deg[t]:.6g} {plan.spec.units}"
+    else:
+        rest_deg = np.degrees(np.angle(rest[g.motor] - rest[g.pivot]))
+        angle = f"motor angle {(rest_deg + turn_deg[t] + 180.0) % 360.0 - 180.0:.1f}°"
     if rule >= len(plan.rules):
         step = plan.steps[rule - len(plan.rules)]
-        what = f"slider {step.name}" if step.kind != "group" else f"numeric group {step.name}"
+        what = {"group": f"numeric group {step.name}", "lines": f"sliders {step.name}"}.get(step.kind, f"slider {step.name}")
         return f"{what} cannot be assembled at {angle}"
     return f"joint {names[plan.rules[rule, 2]]} cannot be assembled at {angle}"
+
+
+def _crank(plan: Plan, rest: np.ndarray, arm: complex | None) -> str | None:
+    """The crank keeps a length and, unless freed, its rest direction ``arm``."""
+    names, g = plan.joint_names, plan.graph
+    crank = rest[g.motor] - rest[g.pivot]
+    if (crank.conjugate() * (arm if arm is not None else crank)).real <= 0.0:
+        return (f"the crank {names[g.pivot]}-{names[g.motor]} vanishes or turns away from its rest angle "
+                "(free it with motor: {free_angle: true})")
+    return None
+
+
+def _drive(plan: Plan, rest: np.ndarray) -> str | None:
+    """A linear input: the guide link carrying its slot keeps a length (the slot line stays
+    defined; a slot in the frame always is)."""
+    names, g = plan.joint_names, plan.graph
+    slider = g.sliders[g.drive]
+    if g.fixed(slider.guide):
+        return None
+    a, b = g.frame_pair(slider.guide)
+    size = float(np.abs(rest - rest[g.ground[0]]).max())
+    if abs(rest[b] - rest[a]) <= 1e-9 * size:
+        return (f"linear input {slider.name}: its guide {g.link_names[slider.guide]} vanishes "
+                f"({names[a]} and {names[b]} meet)")
+    return None

@@ -24,7 +24,7 @@ from linkedit.edit import steps as es
 from linkedit.edit.feasibility import failure
 from linkedit.errors import MechanismError
 from linkedit.planar import law_of_cosines as loc
-from linkedit.planar.kinematics import GROUP_STEP_DEG, continuation_grid
+from linkedit.planar.kinematics import GROUP_STEP_DEG, GROUP_STEP_LENGTH, continuation_grid
 from linkedit.planar.plan import Plan
 
 
@@ -52,17 +52,23 @@ class Evaluation:
 
 
 class RestPoseKinematics:
-    """Points of ``plan`` at motor rotations ``spin`` (T,) = exp(i·(angle − rest angle)).
+    """Points of ``plan`` at inputs ``inputs`` (T,) from the rest pose: motor rotations
+    (radians; spin = exp(i·rotation)) or, for a linear input, strokes (the driven joint's
+    displacement along its slot, spec units: fixed in length, whatever the rest pose).
 
     ``drest`` (J, C) complex: the rest-pose tangent in each direction (constant: the
     parametrization is affine); ``arm``: the crank's rest direction when its angle is fixed.
     """
 
-    def __init__(self, plan: Plan, spin: np.ndarray, drest: np.ndarray, arm: complex | None = None) -> None:
+    def __init__(self, plan: Plan, inputs: np.ndarray, drest: np.ndarray, arm: complex | None = None) -> None:
         self.plan = plan
-        self.spin = np.asarray(spin, dtype=complex)
+        inputs = np.asarray(inputs, dtype=float)
+        self.linear = plan.linear
+        self.spin = np.exp(1j * inputs) if not self.linear else np.ones(inputs.size, dtype=complex)
+        self.stroke = inputs / plan.scale if self.linear else np.zeros(inputs.size)  # normalized frame
         self.drest = drest
-        self.turn_deg = np.degrees(np.angle(self.spin))  # (T,) for messages
+        #: (T,) for messages: the rotation in degrees, or the stroke in spec units
+        self.turn_deg = inputs if self.linear else np.degrees(np.angle(self.spin))
         self.arm = arm  # the crank's rest direction when its angle is fixed
         self.J = plan.n_joints
         g = plan.graph
@@ -80,10 +86,14 @@ class RestPoseKinematics:
                                           [plan.row_of[s.joints[0]] for s in plan.steps]]).astype(int)
         # a numeric group is continued from the rest pose at most GROUP_STEP_DEG apart (as in simulate)
         self.keep = None
-        if plan.has_groups:
+        if plan.has_groups and self.linear:
+            self.stroke, self.keep = continuation_grid(0.0, self.stroke, GROUP_STEP_LENGTH)
+            self.spin = np.ones(self.stroke.size, dtype=complex)
+        elif plan.has_groups:
             turn = np.unwrap(np.concatenate([[0.0], np.angle(self.spin)]))[1:]
             fine, self.keep = continuation_grid(0.0, turn, np.radians(GROUP_STEP_DEG))
             self.spin = np.exp(1j * fine)
+            self.stroke = np.zeros(fine.size)
 
     @property
     def directions(self) -> int:
@@ -112,12 +122,14 @@ class RestPoseKinematics:
             if why is not None:
                 return Evaluation(rest=world, z=z, ds=ds, dz=dz, dlnds=dlnds, why=why)
         z[plan.ground_rows] = rest[self.ground, None]
-        arm = rest[self.motor] - rest[self.pivot]
-        z[plan.motor_row] = rest[self.pivot] + arm * self.spin
         if tangents:
             dz[plan.ground_rows] = D[self.ground][:, :, None]
-            darm = D[self.motor] - D[self.pivot]
-            dz[plan.motor_row] = D[self.pivot][:, None] + darm[:, None] * self.spin
+        if not self.linear:  # a linear input's driven joint is placed by its step
+            arm = rest[self.motor] - rest[self.pivot]
+            z[plan.motor_row] = rest[self.pivot] + arm * self.spin
+            if tangents:
+                darm = D[self.motor] - D[self.pivot]
+                dz[plan.motor_row] = D[self.pivot][:, None] + darm[:, None] * self.spin
         with np.errstate(invalid="ignore", divide="ignore"):
             for kind, n in plan.schedule or tuple(("batch", n) for n in range(len(plan.batches))):
                 if kind == "step":
@@ -177,7 +189,7 @@ class RestPoseKinematics:
         its d_s in row ``r`` of ``ds`` (and ∂ln d_s when guarded)."""
         rows = self.plan.row_of[: self.J]
         zj = z[rows]
-        out, ds[r] = es.place(step, zj, rest)
+        out, ds[r] = es.place(step, zj, rest, self.stroke)
         z[rows[step.joints]] = zj[step.joints] = out
         if dz is None:
             return

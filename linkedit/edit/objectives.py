@@ -33,7 +33,7 @@ from linkedit.edit.kinematics import Evaluation, RestPoseKinematics
 from linkedit.edit.steps import dependencies as step_dependencies
 from linkedit.edit.variables import Variables, colour, column_map, seeds
 from linkedit.planar.plan import Plan
-from linkedit.planar.simulate import motor_turn
+from linkedit.planar.simulate import motor_input
 from linkedit.spec.edit_script import EditScript, Operation
 
 Block = tuple[np.ndarray, np.ndarray | None, np.ndarray]  # r (m,), ∂r (m, C) per colour, columns (m, C)
@@ -346,7 +346,7 @@ def mirror_frame(plan: Plan, x: np.ndarray, mirror: dict[str, str], index: dict[
     u = 1j * (b - a) / abs(b - a)
     mid = 0.5 * (a + b)
     pivot = plan.graph.pivot
-    on_axis = abs(((z[pivot] - mid) * np.conj(1j * u)).real) <= 1e-9 * size
+    on_axis = pivot >= 0 and abs(((z[pivot] - mid) * np.conj(1j * u)).real) <= 1e-9 * size
     return pairs, complex(u * u), ((pivot, 0j) if on_axis else (None, complex(mid)))
 
 
@@ -355,7 +355,8 @@ def dependencies(plan: Plan, uses: np.ndarray) -> np.ndarray:
     dep = np.zeros((plan.n_points, uses.shape[1]), dtype=bool)
     g = plan.graph
     dep[plan.ground_rows] = uses[list(g.ground)]
-    dep[plan.motor_row] = uses[g.motor] | uses[g.pivot]
+    if g.pivot >= 0:  # a linear input's driven joint is written by its step
+        dep[plan.motor_row] = uses[g.motor] | uses[g.pivot]
     J = plan.n_joints
     for kind, n in plan.schedule or tuple(("batch", n) for n in range(len(plan.batches))):
         if kind == "step":
@@ -373,17 +374,18 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
                   t: np.ndarray, size: float, probes: dict[int, int]) -> Problem:
     """The energy of operation ``op`` from the rest pose ``var.x0``.
 
-    ``turn`` (T,) motor rotations from the rest pose (radians, signed) at the phases ``t`` (T,)
-    of one cycle, as ``simulate`` samples them; ``probes`` maps displacement index → point id of
+    ``turn`` (T,) the input from the rest pose at the phases ``t`` (T,) of one cycle, as
+    ``simulate`` samples them (:func:`~linkedit.planar.simulate.motor_input`: motor rotations,
+    radians, signed; a linear input's stroke, spec units); ``probes`` maps displacement index → point id of
     the link point it moves.
     """
     T = t.size
     names = plan.joint_names
     index = {n: i for i, n in enumerate(names)}
     displaces = op.listed("displace")
-    cyclic = plan.spec.motor.range_deg is None
+    cyclic = plan.spec.motor.cyclic
     extra = [_turn_at(plan, d.when) for d in displaces if d.when is not None]
-    spin = np.exp(1j * np.concatenate([turn, [0.0], extra]))
+    inputs = np.concatenate([turn, [0.0], extra])
 
     uses = var.uses()
     dep = dependencies(plan, uses)
@@ -398,8 +400,8 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
     colours = colour(np.vstack([dep, pair_dep, mirror_dep, ground_dep])) if var.n else np.zeros(0, dtype=int)
     C = int(colours.max(initial=-1)) + 1
     g = plan.graph
-    arm = None if script.motor.free_angle else complex(*(var.x0[g.motor] - var.x0[g.pivot]))
-    kin = RestPoseKinematics(plan, spin, seeds(var, colours, C), arm)
+    arm = None if script.motor.free_angle or plan.linear else complex(*(var.x0[g.motor] - var.x0[g.pivot]))
+    kin = RestPoseKinematics(plan, inputs, seeds(var, colours, C), arm)
     start = kin.evaluate(var.x0)
     me, ms, mr = script.weights.edit, script.weights.singularity, script.weights.regularization
     w = op.terms
@@ -487,5 +489,5 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
 
 
 def _turn_at(plan: Plan, phase: float) -> float:
-    """Motor rotation from the rest pose at ``phase``, radians (as ``simulate`` samples it)."""
-    return float(motor_turn(plan.spec.motor, np.array([phase]))[0])
+    """The input from the rest pose at ``phase`` (as ``simulate`` samples it)."""
+    return float(motor_input(plan.spec.motor, np.array([phase]))[0])

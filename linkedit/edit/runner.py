@@ -22,7 +22,7 @@ from linkedit.edit.objectives import Problem, build_problem
 from linkedit.edit.variables import parametrize
 from linkedit.errors import InputError, MechanismError
 from linkedit.planar.plan import Plan, compile_plan
-from linkedit.planar.simulate import DEFAULT_SAMPLES, Motion, motor_phases, motor_turn, simulate
+from linkedit.planar.simulate import DEFAULT_SAMPLES, Motion, motor_input, motor_phases, motor_turn, simulate
 from linkedit.spec.edit_script import EditScript, Operation
 from linkedit.spec.linkage import LinkageSpec, LinkTrack
 
@@ -132,7 +132,7 @@ def _check(plan: Plan, spec: LinkageSpec, samples: int, arm: complex | None) -> 
     rest = np.array([spec.joints[n] for n in plan.joint_names], dtype=float)
     z = rest[:, 0] + 1j * rest[:, 1]
     t = motor_phases(spec, samples)
-    turn = np.degrees(motor_turn(spec.motor, t))
+    turn = motor_input(spec.motor, t) if plan.linear else np.degrees(motor_turn(spec.motor, t))
     ones = np.ones((len(plan.rules), samples))
     why = failure(plan, z, ones, turn, arm) or check_steps(plan, z)  # rest branches first: re-basing needs them
     if why is not None:
@@ -185,7 +185,7 @@ def run_script(linkage: LinkageSpec, script: EditScript,
                              + "; ".join(lk.describe() for lk in before_motion.lockups))
     T = script.samples
     t = motor_phases(linkage, T)
-    turn = motor_turn(linkage.motor, t)
+    turn = motor_input(linkage.motor, t)
     index = {n: i for i, n in enumerate(plan.joint_names)}
     locked = {index[n]: axes for n, axes in script.locked().items()}
     x = plan.graph.rest.copy()
@@ -222,7 +222,7 @@ def run_script(linkage: LinkageSpec, script: EditScript,
 
     fine = 4 * T
     g = out_plan.graph
-    arm = None if script.motor.free_angle else complex(*(g.rest[g.motor] - g.rest[g.pivot]))
+    arm = None if script.motor.free_angle or out_plan.linear else complex(*(g.rest[g.motor] - g.rest[g.pivot]))
     note = f"edited by linkedit ({len(script.operations)} operations)"
     failure_why = None
     for k in range(len(accepted) - 1, -1, -1):

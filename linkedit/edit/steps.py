@@ -7,7 +7,8 @@ engine's own :func:`~linkedit.planar.steps.compile_steps`, in the plan's normali
 Positions come from the engine's rules; tangents along each rest-pose direction from the
 implicit function theorem (:func:`~linkedit.planar.steps.rest_tangent`: one batched solve per
 direction); a slider's d_s = Re(D̄·w)²/(|D|²·|w|²) (w the rod, D the slot direction: 0 where
-the rod stands perpendicular to its slot) and a turning slotted link's d_s = 1 − h²/|w|² come
+the rod stands perpendicular to its slot), a joint in two slots' d_s = sin² of the angle between
+them and a turning slotted link's d_s = 1 − h²/|w|² come
 with the tangent of ln d_s, for the barrier. A numeric group has no barrier: the predicate
 keeps it solvable and on its rest branch (sign of its Jacobian's determinant).
 """
@@ -24,7 +25,7 @@ from linkedit.planar.ordering import order_joints
 from linkedit.planar.plan import Plan
 
 #: step kinds whose singularity distance the barrier guards
-GUARDED = ("slider", "rotate")
+GUARDED = ("slider", "rotate", "lines")
 
 
 class RestPoseSteps:
@@ -67,13 +68,13 @@ class RestPoseSteps:
         return None
 
 
-def place(step: st.Step, zj: np.ndarray, rest_n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def place(step: st.Step, zj: np.ndarray, rest_n: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Positions (n, T) of the step's joints and its d_s (T,) (NaN or ≤ 0: cannot place).
 
-    ``zj`` (J, T): normalized joint positions, the step's inputs known (others 0); a group is
-    continued from its rest position through the samples in order (sample 0 is the rest pose).
+    ``zj`` (J, T): normalized joint positions, the step's inputs known (others 0); ``s`` (T,)
+    the linear input's stroke (normalized; 0 for a rotary motor); a group is continued from its
+    rest position through the samples in order (the rest pose first).
     """
-    s = np.zeros(zj.shape[1])
     if step.kind == "group":
         out, ds, _ = st.solve_group(step, zj, s, rest_n[step.joints])
         return out, ds
@@ -88,6 +89,17 @@ def tangents(graph: LinkageGraph, step: st.Step, zj: np.ndarray, dzj: np.ndarray
 
 def dlnds(graph: LinkageGraph, step: st.Step, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray) -> np.ndarray:
     """∂ln d_s (C, T) of a guarded step (``dzj`` (J, C, T) with the step's joints filled in)."""
+    if step.kind == "lines":  # d_s = Im(D̄₂D₁)² / (|D₁|²|D₂|²), D_r = dc_r·z + d0_r of its two slot rows
+        rows = step.rows
+        d = [rows.dc[r] @ zj + rows.d0[r] for r in (0, 1)]
+        dd = [np.einsum("j,jct->ct", rows.dc[r], dzj) for r in (0, 1)]
+        for c in range(drest.shape[1]):
+            slots = linkage_rows_tangent(graph, drest[:, c]).take(step.source)
+            for r in (0, 1):
+                dd[r][c] += slots.dc[r] @ zj + slots.d0[r]
+        cross = (np.conj(d[1]) * d[0]).imag
+        dcross = (np.conj(dd[1]) * d[0] + np.conj(d[1]) * dd[0]).imag
+        return 2.0 * dcross / cross - sum(2.0 * (np.conj(d[r]) * dd[r]).real / np.abs(d[r]) ** 2 for r in (0, 1))
     if step.kind == "slider":  # d_s = Re(D̄w)² / (|D|²|w|²), w = z_k − z_i, D = dc·z + d0
         k, i = step.joints[0], step.i
         rows = step.rows

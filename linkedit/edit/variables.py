@@ -43,20 +43,25 @@ class Variables:
 def parametrize(plan: Plan, x: np.ndarray, locked: dict[int, str], free_angle: bool) -> Variables:
     """Variables for rest pose ``x`` (J, 2); ``locked`` maps joint → locked axes ("xy", "x", "y").
 
-    With the motor angle fixed, a motor joint locked on any axis is locked entirely.
+    With the motor angle fixed, a motor joint locked on any axis is locked entirely. A linear
+    input's driven joint keeps its slot line unless ``free_angle``: its one variable ``.along``
+    is its rest position on the slot (where the stroke, fixed in length units, starts from).
     """
     names = plan.joint_names
     motor, pivot = plan.graph.motor, plan.graph.pivot
     columns: list[np.ndarray] = []
     labels: list[str] = []
     J = len(names)
-    follows_pivot = not free_angle and motor not in locked
+    follows_pivot = not free_angle and motor not in locked and not plan.linear
     for j in range(J):
-        if j == motor and follows_pivot:
-            arm = x[motor] - x[pivot]
+        if j == motor and not free_angle and motor not in locked:
+            if plan.linear:
+                label, direction = "along", np.exp(1j * plan.graph.sliders[plan.graph.drive].angle)
+            else:
+                label, direction = "radius", complex(*(x[motor] - x[pivot]))
             col = np.zeros(2 * J)
-            col[2 * motor:2 * motor + 2] = arm / np.hypot(*arm)
-            columns.append(col), labels.append(f"{names[j]}.radius")
+            col[2 * motor:2 * motor + 2] = np.array([direction.real, direction.imag]) / abs(direction)
+            columns.append(col), labels.append(f"{names[j]}.{label}")
             continue
         if j == motor and not free_angle:  # partly locked, angle fixed: the crank pin stays
             continue

@@ -26,8 +26,10 @@ def _motion(stage: str, motion: Motion, units: str) -> list[Entry]:
     txy, g = ("t", "joint", "xy"), stage
     out = [
         Entry(f"{g}/rest", motion.plan.graph.rest, ("joint", "xy"), "rest pose of the joints", units),
-        Entry(f"{g}/motor_angle", motion.motor_angle, ("t",),
-              f"absolute {what} at each phase", units if motion.plan.linear else "rad"),
+        Entry(f"{g}/stroke", motion.motor_angle, ("t",),
+              "the driven joint's displacement along its slot from rest at each phase", units)
+        if motion.plan.linear else
+        Entry(f"{g}/motor_angle", motion.motor_angle, ("t",), "absolute motor angle at each phase", "rad"),
         Entry(f"{g}/joints/position", motion.positions, txy, "joint positions", units),
         Entry(f"{g}/joints/velocity", motion.velocity, txy, f"d position / d {what}", f"{units}/{per}"),
         Entry(f"{g}/diagnostics/singularity", motion.singularity, ("t", f"{g}/rule"),

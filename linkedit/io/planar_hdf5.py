@@ -76,7 +76,7 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
             description="orientation of triangle (i, j, k) at rest: +1 ccw, -1 cw, 0 collinear")
         if plan.steps:
             steps = f.create_group("steps")
-            put(steps, "kind", [st.kind for st in plan.steps], description="slider, drive, translate or group")
+            put(steps, "kind", [st.kind for st in plan.steps], description="slider, drive, lines, rotate, yoke or group")
             put(steps, "name", [st.name for st in plan.steps], description="the slider, or the group's joints")
             put(steps, "level", np.array([st.level for st in plan.steps], dtype=int), description="level of each step")
             for n, st in enumerate(plan.steps):

@@ -354,6 +354,29 @@ def scotch_yoke() -> LinkageSpec:
     )
 
 
+#: two-slots: the rail's height h, the rod P–Q, the column's x
+TWO_SLOTS = {"h": 30.0, "rod": math.hypot(10.0, 40.0), "column": 40.0}
+
+
+def two_slots() -> LinkageSpec:
+    """A joint in two slots (mm): the pin P rides in the slotted crank O–A (a line through O at the
+    crank angle θ) and in the horizontal rail y = h, so x_P = h·cot θ; the rod P–Q drives Q along
+    the vertical column x = 40. The crank sweeps θ = 25°…85° (at θ = 0° the slots are parallel)."""
+    n = TWO_SLOTS
+    return _spec(
+        name="two-slots", units="mm",
+        description="A pin in two slots: the slotted crank and a horizontal rail (x_P = 30·cot θ); "
+                    "the rod P-Q drives Q along a vertical column.",
+        joints={"O": 0j, "A": 20 + 20j, "P": n["h"] + 1j * n["h"], "Q": n["column"] - 10j}, ground=["O"],
+        links={"crank": ["O", "A"], "rod": ["P", "Q"]},
+        sliders={"arm": {"joint": "P", "guide": "crank", "angle_deg": 45.0},
+                 "rail": {"joint": "P", "guide": "ground", "angle_deg": 0.0},
+                 "column": {"joint": "Q", "guide": "ground", "angle_deg": 90.0}},
+        motor={"joint": "A", "pivot": "O", "range_deg": [-20.0, 40.0]},
+        tracks={"pin": {"joint": "P"}, "foot": {"joint": "Q"}},
+    )
+
+
 def inverted_slider_crank() -> LinkageSpec:
     """An inverted slider-crank (mm): the ground pivot Q slides in the slotted arm A–X, so the arm
     always points from the crank pin A through Q."""
@@ -484,6 +507,10 @@ The rest pose below is the crank at 0 degrees, computed exactly from these lengt
             header="Inverted slider-crank: the arm A-X slides through the ground pivot Q.\n"
                    "Written by linkedit.planar.catalog.",
             notes={"sliders.sleeve": "Q slides in the arm's slot (the slot line passes through A)"}),
+    Example("two-slots.yaml", two_slots,
+            header="A pin in two slots: P = crossing of the slotted crank's line and the rail y = 30,\n"
+                   "x_P = 30 cot(theta). Written by linkedit.planar.catalog.",
+            notes={"sliders.arm": "P in the crank's slot (the line O-A)", "sliders.rail": "and in the rail y = 30"}),
     Example("stephenson-slider.yaml", stephenson_slider,
             header="Stephenson III six-bar with a slider output. Written by linkedit.planar.catalog.",
             notes={"sliders.output": "E slides along y = 20"}),

@@ -87,8 +87,9 @@ def continuation_grid(start: float, values: np.ndarray, max_step: float) -> tupl
     path = np.concatenate([[start], values])
     parts = np.maximum(np.ceil(np.abs(np.diff(path)) / max_step - 1e-9), 1).astype(int)
     first = np.concatenate([[0], np.cumsum(parts)])
-    fine = np.concatenate([path[n] + (path[n + 1] - path[n]) * np.arange(parts[n]) / parts[n]
-                           for n in range(values.size)] + [path[-1:]])
+    piece = np.repeat(np.arange(values.size), parts)  # the move each fine value belongs to
+    within = np.arange(first[-1]) - first[piece]
+    fine = np.append(path[piece] + (path[piece + 1] - path[piece]) * within / parts[piece], path[-1])
     return fine, first[1:]
 
 

@@ -45,6 +45,8 @@ class StepRule:
     * ``slider``: joint k of a pin-in-slot slider from the known joint ``i`` at a fixed
       distance and the known slot line (circle–line intersection, closed form);
     * ``drive``: the linearly driven joint from its known slot line and the input (closed form);
+    * ``lines``: a joint in two slots (sliders ``slider`` and ``i``) whose lines are known: their
+      crossing (closed form);
     * ``rotate`` / ``yoke``: a slotted link from the known pin of slider ``slider`` in its slot,
       turning about its known joint ``i`` / translating along the frame (slider ``i``) (closed form);
     * ``group``: a complex loop, solved numerically as one group.
@@ -148,6 +150,12 @@ def _slider_round(graph: LinkageGraph, known: set[int], taken: set[int], neighbo
             continue
         if n == graph.drive:
             out.append(StepRule("drive", (k,), level, n))
+            taken.add(k)
+            continue
+        other = next((m for m, o in enumerate(graph.sliders) if m != n and o.joint == k and m != graph.drive
+                      and _frame_known(graph, o.guide, known)), -1)
+        if other >= 0:  # a joint in two known slots: where their lines cross
+            out.append(StepRule("lines", (k,), level, n, other))
             taken.add(k)
             continue
         have = [i for i in sorted(neighbours[k]) if i in known]

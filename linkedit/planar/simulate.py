@@ -61,7 +61,7 @@ class Motion:
         there: motor angle in degrees, or a linear input's stroke)."""
         plan = self.plan
         dyads = ~plan.rigid
-        watched = [n for n, st in enumerate(plan.steps) if st.kind in ("slider", "group", "rotate")]
+        watched = [n for n, st in enumerate(plan.steps) if st.kind in ("slider", "group", "rotate", "lines")]
         if not (dyads.any() or watched) or not self.assembled.any():
             return None
         steps = self.step_singularity if self.step_singularity is not None else np.ones((self.t.size, 0))
@@ -120,6 +120,16 @@ def motor_turn(motor: Motor, t: np.ndarray) -> np.ndarray:
     return sign * (a + (b - a) * t)
 
 
+def motor_input(motor: Motor, t: np.ndarray) -> np.ndarray:
+    """The input's change from the rest pose at phases ``t`` (T,): the motor's rotation
+    (:func:`motor_turn`, radians) or a linear input's stroke s0 + (s1 − s0)·t, the driven joint's
+    displacement along its slot in the spec's units."""
+    if motor.linear:
+        s0, s1 = motor.stroke
+        return s0 + (s1 - s0) * np.asarray(t, dtype=float)
+    return motor_turn(motor, t)
+
+
 def motor_angles(spec: LinkageSpec, samples: int) -> tuple[np.ndarray, np.ndarray]:
     """Phases t (T,) and input values (T,) for ``samples`` samples.
 
@@ -129,8 +139,7 @@ def motor_angles(spec: LinkageSpec, samples: int) -> tuple[np.ndarray, np.ndarra
     m = spec.motor
     t = motor_phases(spec, samples)
     if m.linear:
-        s0, s1 = m.stroke
-        return t, s0 + (s1 - s0) * t
+        return t, motor_input(m, t)
     rest = np.arctan2(*(np.subtract(spec.joints[m.joint], spec.joints[m.pivot])[::-1]))
     return t, rest + motor_turn(m, t)
 
@@ -190,6 +199,9 @@ def _explain(plan: Plan, d: np.ndarray, lik: np.ndarray, ljk: np.ndarray, ds: np
         if abs(sds[t, r - R]) <= TOGGLE and step.kind == "slider":
             what = (f"slider {step.name} reaches a toggle position: the rod {names[step.i]}–{k} stands "
                     "perpendicular to the slot line (d_s = 0)")
+        elif step.kind == "lines":
+            what = (f"sliders {step.name}: the two slots of joint {k} are parallel (d_s = 0): "
+                    "they do not cross at one point")
         elif step.kind == "slider":
             what = (f"slider {step.name} cannot place joint {k}: the rod {names[step.i]}–{k} does not reach "
                     "the slot line")

@@ -8,13 +8,17 @@ Each :class:`Step` writes some joints from joints known before it, over T sample
   l² < p² is a lock-up (the rod cannot reach the line); d_s = (l² − p²)/l² is 0 where the rod
   stands perpendicular to the line.
 * ``drive``: the linearly driven joint, z_k = P + D·s.
+* ``lines``: a joint in two slots whose lines (P₁, D₁), (P₂, D₂) are known: their crossing
+  z_k = P₁ + D₁·Im(D̄₂(P₂ − P₁))/Im(D̄₂D₁); one solution, no branch. d_s = sin² of the angle
+  between the lines: 0 where they are parallel (no single crossing: a lock-up naming both sliders).
 * ``rotate`` / ``yoke``: a slotted link turning about its known joint / translating along the
   frame until its slot meets a known pin (see :func:`_slotted_positions`).
-* ``group``: a complex loop: Newton's method on the group's constraint rows at every sample,
-  continued from the previous sample (the samples are dense: see
-  :func:`linkedit.planar.kinematics.evaluate`), keeping the rest pose's branch (the sign of the
-  group Jacobian's determinant never changes; a change means the group passed a singular
-  position, reported as a lock-up).
+* ``group``: a complex loop: Newton's method on the group's constraint rows at every sample
+  (the samples are dense: see :func:`linkedit.planar.kinematics.evaluate`), continued from the
+  rest pose through every GROUP_STRIDE-th sample, the samples between polished all at once
+  from a predictor and checked (:func:`solve_group`), keeping the rest pose's branch (the sign
+  of the group Jacobian's determinant never changes; a change means the group passed a
+  singular position, reported as a lock-up).
 
 Velocities and accelerations of every step come from its constraint rows F(z) = 0 by the
 implicit function theorem: J_S·ż_S = −dF[ż_K] + F_s·ṡ and J_S·z̈_S = −dF[z̈_K] − d²F[ż, ż]
@@ -36,6 +40,9 @@ from linkedit.planar.ordering import StepRule
 #: linkage's characteristic length, squared for distance rows)
 GROUP_TOLERANCE = 1e-13
 GROUP_ITERATIONS = 12
+#: a numeric group is continued sequentially through every GROUP_STRIDE-th sample only; the
+#: samples between are predicted from those and polished all at once
+GROUP_STRIDE = 20
 
 
 @dataclass(frozen=True)
@@ -66,6 +73,7 @@ class Step:
         out = ", ".join(names[k] for k in self.joints)
         src = ", ".join(names[k] for k in self.inputs)
         what = {"slider": f"slider {self.name}", "drive": f"linear input {self.name}",
+                "lines": f"two slots, sliders {self.name}",
                 "group": "numeric group",
                 "rotate": f"slotted link turning, slider {self.name}",
                 "yoke": f"slotted link translating (yoke), slider {self.name}"}[self.kind]
@@ -102,6 +110,13 @@ def compile_step(graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set
     b = _Builder(graph.n_joints)
     k = rule.joints[0]
     base = all_rows.take(np.array(own))
+    if rule.kind == "lines":
+        o = graph.sliders[rule.i]
+        both = own + [r for r, lab in enumerate(all_rows.labels) if lab == f"slider {o.name}"]
+        rows = all_rows.take(np.array(both))
+        inputs = sorted(set().union(*rows.joints) - {k})
+        return Step("lines", rule.level, joints, np.array(inputs, dtype=int), f"{s.name} and {o.name}", rows,
+                    slider=rule.slider, source=np.array(both))
     if rule.kind == "drive":
         drive = [r for r, lab in enumerate(all_rows.labels) if lab == f"linear input {s.name}"]
         rows = all_rows.take(np.array(own + drive))
@@ -160,6 +175,12 @@ def positions(step: Step, z: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.
     if step.kind == "drive":
         p, d = _line(step.rows, 0, step.joints[0], z)
         return (p + d * s)[None], np.ones(z.shape[1])
+    if step.kind == "lines":
+        (p1, d1), (p2, d2) = _line(step.rows, 0, step.joints[0], z), _line(step.rows, 1, step.joints[0], z)
+        cross = (np.conj(d2) * d1).imag
+        with np.errstate(invalid="ignore", divide="ignore"):
+            at = (np.conj(d2) * (p2 - p1)).imag / cross
+        return (p1 + d1 * at)[None], cross * cross / ((d1 * np.conj(d1)).real * (d2 * np.conj(d2)).real)
     if step.kind == "slider":
         p, d = _line(step.rows, 0, step.joints[0], z)
         d = d / np.abs(d)
@@ -241,42 +262,33 @@ def _newton(form: RealForm, x: np.ndarray, s: float, k: int) -> tuple[bool, floa
     return False, first, jac
 
 
-def solve_group(step: Step, z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
-    """Continue the group from ``start`` (n,) through the samples of ``z`` (J, T) one by one.
+def _accepted(moved: np.ndarray, first: np.ndarray) -> np.ndarray:
+    """Whether Newton ended close to where it started: within 1.5× its first step, itself at most
+    0.1 (of the linkage's size): it converged to the solution nearest its predictor."""
+    return (moved <= 1.5 * first + 1e-9) & (first <= 0.1)
 
-    Each move from one sample to the next is a homotopy in the known joints (interpolated
-    linearly); Newton's first step is the tangent predictor, and a move is accepted only when
-    Newton converges close to it (within half its length) without the Jacobian's determinant
-    changing sign; otherwise it is halved (down to 1/256). Returns positions (n, T) (NaN from
-    the first sample where it fails), the singularity distance (T,) — (σ_min/σ_max)² of the
-    row-scaled group Jacobian — and the index of the first failing sample (−1: none).
-    """
-    cols = np.concatenate([step.joints, step.inputs])
-    form = RealForm.of(step.rows.columns(cols))
-    n = step.joints.size
-    k = 2 * n
-    T = z.shape[1]
-    out = np.full((n, T), np.nan + 0j)
-    ds = np.full(T, np.nan)
-    known = z[cols[n:]]
-    known_xy = np.empty((2 * known.shape[0], T))
-    known_xy[0::2], known_xy[1::2] = known.real, known.imag
-    x = np.empty(2 * cols.size)
-    start = np.asarray(start, dtype=complex)
-    x[0:k:2], x[1:k:2] = start.real, start.imag
-    prev_known, prev_s = known_xy[:, 0], s[0]
+
+def _continue(form: RealForm, step: Step, X: np.ndarray, s: np.ndarray, k: int, x: np.ndarray,
+              path: np.ndarray, out: np.ndarray, jacs: np.ndarray) -> int:
+    """Continue the group sequentially from X-row ``x`` (known at sample ``path[0]``) through the
+    samples ``path`` in order, writing ``out``/``jacs`` rows. Each move from one sample to the next
+    is a homotopy in the known joints (interpolated linearly); Newton's first step is the tangent
+    predictor, and a move is accepted only when Newton converges close to it (:func:`_accepted`)
+    without the Jacobian's determinant changing sign; otherwise it is halved (down to 1/256).
+    Returns the position in ``path`` where it fails, or −1."""
     square = form.c.size == k
-    jacs = np.zeros((T, form.c.size, k))
-    for t in range(T):
+    x = x.copy()
+    prev = path[0]
+    for n, t in enumerate(path):
         done, piece = 0.0, 1.0
+        jac = jacs[prev]
         while done < 1.0:
             f = min(done + piece, 1.0)
             trial = x.copy()
-            trial[k:] = prev_known + f * (known_xy[:, t] - prev_known)
-            ok, first, jac = _newton(form, trial, prev_s + f * (s[t] - prev_s), k)
+            trial[k:] = X[prev, k:] + f * (X[t, k:] - X[prev, k:])
+            ok, first, jac = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k)
             if ok:
-                moved = float(np.abs(trial[:k] - x[:k]).max())
-                ok = moved <= 1.5 * first + 1e-9 and first <= 0.1
+                ok = bool(_accepted(np.abs(trial[:k] - x[:k]).max(), first))
                 if ok and square and np.sign(np.linalg.det(jac)) != step.det_sign:
                     ok = False  # passed a singular position: another assembly branch
             if ok:
@@ -285,13 +297,121 @@ def solve_group(step: Step, z: np.ndarray, s: np.ndarray, start: np.ndarray) -> 
             else:
                 piece *= 0.5
                 if piece < 1.0 / 256:
-                    _conditioning(jacs[:t], ds)
-                    return out, ds, t
+                    return n
         jacs[t] = jac
-        out[:, t] = x[0:k:2] + 1j * x[1:k:2]
-        prev_known, prev_s = known_xy[:, t], s[t]
-    _conditioning(jacs, ds)
-    return out, ds, -1
+        out[t] = x[:k]
+        prev = t
+    return -1
+
+
+def _polish(form: RealForm, step: Step, X: np.ndarray, s: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Newton's method on every row of X (T, W) at once, from the predictor in X[:, :k] (updated in
+    place). Returns (accepted (T,) — converged, close to its predictor (:func:`_accepted`), on the
+    rest pose's side of every singular position (sign of det J) — and the Jacobians (T, m, k) at
+    the accepted rows)."""
+    q, g, c, drive = form.q, form.g, form.c, form.drive
+    m, W = g.shape
+    flat = q.reshape(m * W, W).T
+    square = c.size == k
+    start = X[:, :k].copy()
+    first = np.zeros(X.shape[0])
+    done = np.zeros(X.shape[0], dtype=bool)
+    jac = np.zeros((X.shape[0], m, k))
+    live = np.arange(X.shape[0])
+    with np.errstate(invalid="ignore", over="ignore"):
+        for it in range(GROUP_ITERATIONS + 1):
+            x = X[live]
+            qx = (x @ flat).reshape(live.size, m, W)
+            f = (qx @ x[:, :, None])[..., 0] + x @ g.T + c - drive * s[live, None]
+            jac[live] = 2.0 * qx[:, :, :k] + g[:, :k]
+            conv = np.abs(f).max(axis=1) <= GROUP_TOLERANCE
+            done[live[conv]] = True
+            live, f = live[~conv], f[~conv]
+            if not live.size or it == GROUP_ITERATIONS:
+                break
+            a, b = jac[live], -f
+            if not square:
+                at = np.swapaxes(a, 1, 2)
+                a, b = at @ a, (at @ b[..., None])[..., 0]
+            try:
+                delta = np.linalg.solve(a, b[..., None])[..., 0]
+            except np.linalg.LinAlgError:  # an exactly singular row: left to the sequential fallback
+                regular = np.abs(np.linalg.det(a)) > 0.0
+                live, a, b = live[regular], a[regular], b[regular]
+                delta = np.linalg.solve(a, b[..., None])[..., 0]
+            if it == 0:
+                first[live] = np.abs(delta).max(axis=1)
+            X[live, :k] += delta
+            live = live[np.isfinite(X[live, :k]).all(axis=1)]
+    accept = done & _accepted(np.abs(X[:, :k] - start).max(axis=1), first)
+    if square and accept.any():
+        accept[accept] = np.sign(np.linalg.det(jac[accept])) == step.det_sign
+    return accept, jac
+
+
+def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndarray:
+    """Positions (len(want), k) at samples ``want`` by a cubic through the solved samples ``known``
+    (indices, increasing) and their positions ``solved`` (len(known), k)."""
+    if known.size == 1:
+        return np.repeat(solved, want.size, axis=0)
+    from scipy.interpolate import CubicSpline
+
+    return CubicSpline(known, solved, axis=0)(want)
+
+
+def solve_group(step: Step, z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Continue the group from ``start`` (n,) through the samples of ``z`` (J, T), in order.
+
+    Every GROUP_STRIDE-th sample (and the last) is continued sequentially (:func:`_continue`); the
+    samples between are predicted by a cubic through those and polished by Newton's method all at
+    once (:func:`_polish`), each checked like a sequential move (converged near its predictor, the
+    determinant's sign of the rest pose); a sample that fails the check is continued sequentially
+    from the one before it. Returns positions (n, T) (NaN from the first sample where it fails),
+    the singularity distance (T,) — (σ_min/σ_max)² of the row-scaled group Jacobian — and the
+    index of the first failing sample (−1: none).
+    """
+    cols = np.concatenate([step.joints, step.inputs])
+    form = RealForm.of(step.rows.columns(cols))
+    n = step.joints.size
+    k = 2 * n
+    T = z.shape[1]
+    known = z[cols[n:]]
+    X = np.empty((T, 2 * cols.size))
+    X[:, k::2], X[:, k + 1::2] = known.real.T, known.imag.T
+    x0 = np.empty(2 * cols.size)
+    start = np.asarray(start, dtype=complex)
+    x0[0:k:2], x0[1:k:2] = start.real, start.imag
+    x0[k:] = X[0, k:]
+    out = np.full((T, k), np.nan)
+    jacs = np.zeros((T, form.c.size, k))
+    coarse = np.unique(np.append(np.arange(0, T, GROUP_STRIDE), T - 1))
+    stop = _continue(form, step, X, s, k, x0, coarse, out, jacs)
+    last = coarse[stop - 1] if stop > 0 else (coarse[-1] if stop < 0 else -1)
+    fail = -1
+    if last >= 0:
+        inner = np.setdiff1d(np.arange(last + 1), coarse)
+        if inner.size:
+            solved = coarse[coarse <= last]
+            polished = X[inner]
+            polished[:, :k] = _predict(solved, out[solved], inner)
+            accept, jac = _polish(form, step, polished, s[inner], k)
+            rows = inner[accept]
+            out[rows], jacs[rows] = polished[accept, :k], jac[accept]
+            for t in inner[~accept]:  # a sequential move from the sample before
+                if _continue(form, step, X, s, k, np.concatenate([out[t - 1], X[t - 1, k:]]),
+                             np.array([t - 1, t]), out, jacs) >= 0:
+                    fail = int(t)
+                    break
+    if fail < 0 and stop >= 0:  # the coarse continuation stopped: go on sample by sample
+        x = x0 if last < 0 else np.concatenate([out[last], X[last, k:]])
+        path = np.arange(max(last, 0), T)
+        at = _continue(form, step, X, s, k, x, path, out, jacs)
+        fail = int(path[at]) if at >= 0 else -1
+    if fail >= 0:
+        out[fail:] = np.nan
+    ds = np.full(T, np.nan)
+    _conditioning(jacs[: fail if fail >= 0 else T], ds)
+    return (out[:, 0::2] + 1j * out[:, 1::2]).T, ds, fail
 
 
 def _conditioning(jacs: np.ndarray, ds: np.ndarray) -> None:
@@ -299,8 +419,8 @@ def _conditioning(jacs: np.ndarray, ds: np.ndarray) -> None:
     if not len(jacs):
         return
     scaled = jacs / np.maximum(np.abs(jacs).max(axis=2, keepdims=True), 1e-300)
-    sv = np.linalg.svd(scaled, compute_uv=False)
-    ds[: len(jacs)] = (sv[:, -1] / sv[:, 0]) ** 2
+    eig = np.linalg.eigvalsh(np.swapaxes(scaled, 1, 2) @ scaled)  # σ², ascending
+    ds[: len(jacs)] = np.maximum(eig[:, 0], 0.0) / eig[:, -1]
 
 
 def _solve(jac: np.ndarray, rhs: np.ndarray) -> np.ndarray:
