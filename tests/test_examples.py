@@ -13,7 +13,13 @@ from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.yamlload import load_model
 from tests.conftest import EXAMPLES
 
-MOVING = [e.file for e in catalog.EXAMPLES if e.simulates and not e.build().motor.linear]  # full turns
+
+def _full_turn(e: catalog.Example) -> bool:
+    m = e.build().motor
+    return not m.linear and m.range_deg is None and m.oscillate_deg is None
+
+
+MOVING = [e.file for e in catalog.EXAMPLES if e.simulates and _full_turn(e)]  # full turns
 
 
 def load(file: str) -> LinkageSpec:
