@@ -46,7 +46,11 @@ class Elementary:
 
     Parameters by kind — location: member points ``sa``, ``sb``; orientation: ``rel`` (a's
     orientation = b's ⊗ rel); axis: member axes ``sa``, ``sb``; plane: point ``sa``, plane point
-    ``sb`` and unit normal ``nb`` in b's space. An input's ``schedule`` drives ``sb`` (or ``rel``).
+    ``sb`` and unit normal ``nb`` in b's space; line: point ``sa``, line point ``sb`` and unit
+    direction ``nb`` in b's space; distance: member points ``sa``, ``sb`` and the length
+    ``value``; angle: member axes ``sa``, ``sb`` and the angle ``value`` (radians); parallel:
+    member axes ``sa``, ``sb``. An input's ``schedule`` drives ``sb`` (or ``rel``; ``value`` for
+    the kinds with a value).
     """
 
     kind: str
@@ -57,6 +61,7 @@ class Elementary:
     sb: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rel: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
     nb: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    value: float = 0.0
     schedule: Schedule | None = None
 
 
@@ -88,6 +93,7 @@ class Block:
     sb: np.ndarray
     rel: np.ndarray
     nb: np.ndarray
+    value: np.ndarray  # (n,) targets of the kinds with a value (constraints.VALUE_KINDS)
     rows: np.ndarray  # (n, k) residual row indices (contiguous)
     start: int
     stop: int
@@ -106,6 +112,7 @@ class StepParameters:
     rel_inverse: np.ndarray  #: (n, 4) inverse relative orientations of the orientation block (driven ones at this step)
     active: list[np.ndarray | None]  #: per block (n,) bool, None when all are active
     inactive_rows: np.ndarray  #: residual rows of inputs outside their window
+    values: list[np.ndarray]  #: per block (n,) targets of the kinds with a value (driven ones at this step)
 
 
 @dataclass
@@ -113,8 +120,8 @@ class StepTable:
     """Parameters driven by inputs, evaluated once for the whole run: per step, the driven
     member-space vectors (T, S, 9) (as :attr:`System.vectors`) and inverse relative
     orientations (T, S', 4); per block, the activity (T, n) of its constraints (None for a
-    block without inputs) and the rates of its driven ones, and (T,) whether any input is
-    outside its window."""
+    block without inputs), the rates of its driven ones and its values (T, n) (None unless
+    an input drives a value), and (T,) whether any input is outside its window."""
 
     t: np.ndarray
     vectors: np.ndarray
@@ -124,6 +131,8 @@ class StepTable:
     system: "System" = field(repr=False)
     #: per block, the virtual velocities (T, S, 6) of its driven constraints (Schedule.rate), or None
     rates: list[np.ndarray | None] = field(default_factory=list, repr=False)
+    #: per block, its values (T, n) when an input drives one of them, else None
+    values: list[np.ndarray | None] = field(default_factory=list, repr=False)
     _last: tuple[int, StepParameters] | None = field(default=None, repr=False)
 
     def at(self, step: int) -> StepParameters:
@@ -143,7 +152,8 @@ class StepTable:
         if self.partial[step]:
             active = [None if act is None or act[step].all() else act[step] for act in self.active]
             rows = np.concatenate([blk.rows[~a].ravel() for blk, a in zip(sys.blocks, active) if a is not None])
-        par = StepParameters(float(self.t[step]), vectors, rel_inverse, active, rows)
+        values = [blk.value if v is None else v[step] for blk, v in zip(sys.blocks, self.values)]
+        par = StepParameters(float(self.t[step]), vectors, rel_inverse, active, rows, values)
         self._last = (step, par)
         return par
 
@@ -248,14 +258,15 @@ class System:
             a = np.array([e.a for e in group], dtype=int)
             b = np.array([M if e.b == WORLD else e.b for e in group], dtype=int)
             scheduled = np.array([i for i, e in enumerate(group) if e.schedule is not None], dtype=int)
-            params = {p: np.array([getattr(e, p) for e in group], dtype=float) for p in ("sa", "sb", "rel", "nb")}
+            params = {p: np.array([getattr(e, p) for e in group], dtype=float)
+                      for p in ("sa", "sb", "rel", "nb", "value")}
             slots = []
             for vec, side in kinds.VECTORS[kind]:
                 start = sum(len(v) for v in vectors)
                 slots.append(slice(start, start + n))
                 vec_member.append(a if side == "a" else b)
                 vectors.append(params[vec])
-                if vec == "sb":  # an input drives sb (or rel)
+                if vec == "sb" and kind not in kinds.VALUE_KINDS:  # an input drives sb (or rel, or value)
                     driven.append(start + scheduled)
             if kind == "orientation":
                 rel, driven_rel = params["rel"], scheduled
@@ -290,14 +301,17 @@ class System:
     def step_table(self, t: np.ndarray) -> StepTable:
         """Evaluate every input's schedule at the times ``t`` (T,) once, for the whole run."""
         t = np.asarray(t, dtype=float)
-        vectors, rel_inverse, active, rates = [], [], [], []
+        vectors, rel_inverse, active, rates, driven_values = [], [], [], [], []
         partial = np.zeros(t.size, dtype=bool)
         for blk in self.blocks:
-            act = rate = None
+            act = rate = value = None
             if len(blk.scheduled):
                 rate = np.stack([s.rate(t) for s in blk.schedules], axis=1)
                 values = np.stack([s.evaluate(t) for s in blk.schedules], axis=1)
-                if blk.kind == "orientation":
+                if blk.kind in kinds.VALUE_KINDS:
+                    value = np.tile(blk.value, (t.size, 1))
+                    value[:, blk.scheduled] = values[..., 0]
+                elif blk.kind == "orientation":
                     rel_inverse.append(quat.conjugate(values))
                 else:
                     vectors.append(np.tile(values, 3))
@@ -306,9 +320,10 @@ class System:
                 partial |= ~act.all(axis=1)
             active.append(act)
             rates.append(rate)
+            driven_values.append(value)
         stack = lambda xs, k: np.concatenate(xs, axis=1) if xs else np.zeros((t.size, 0, k))  # noqa: E731
         return StepTable(t=t, vectors=stack(vectors, 9), rel_inverse=stack(rel_inverse, 4), active=active,
-                         partial=partial, system=self, rates=rates)
+                         partial=partial, system=self, rates=rates, values=driven_values)
 
     # ---- evaluation -------------------------------------------------------------------------
 
@@ -328,7 +343,7 @@ class System:
         X = P.take(m, axis=0) + W
         r = np.empty(self.n_rows)
         jacs: list[np.ndarray] = []
-        for blk, act in zip(self.blocks, par.active):
+        for blk, act, value in zip(self.blocks, par.active, par.values):
             out = r[blk.start:blk.stop].reshape(len(blk.a), -1)
             v = blk.vectors
             if blk.kind == "location":
@@ -338,6 +353,14 @@ class System:
                 J = kinds.orientation(Q.take(blk.a, axis=0), qb, par.rel_inverse, out, jacobian)
             elif blk.kind == "axis":
                 J = kinds.axis(W[v[0]], W[v[1]], out, jacobian)
+            elif blk.kind == "line":
+                J = kinds.line(X[v[0]], X[v[1]], W[v[0]], W[v[1]], W[v[2]], out, jacobian)
+            elif blk.kind == "distance":
+                J = kinds.distance(X[v[0]], X[v[1]], W[v[0]], W[v[1]], value, out, jacobian)
+            elif blk.kind == "angle":
+                J = kinds.angle(W[v[0]], W[v[1]], value, out, jacobian)
+            elif blk.kind == "parallel":
+                J = kinds.parallel(W[v[0]], W[v[1]], out, jacobian)
             else:
                 J = kinds.plane(X[v[0]], X[v[1]], W[v[0]], W[v[1]], W[v[2]], out, jacobian)
             if jacobian:
@@ -357,14 +380,18 @@ class System:
     def time_derivative(self, state: State, table: StepTable, step: int, ev: Evaluation) -> np.ndarray:
         """∂r/∂t (R,) at fixed member states: each driven constraint's rows times its input's
         virtual velocity of member b (:meth:`~linkedit.gcs.inputs.Schedule.rate`, turned into
-        the world frame), through the b columns of the Jacobian ``ev.jac``. Custom constraints
-        that depend on t: central differences in t."""
+        the world frame), through the b columns of the Jacobian ``ev.jac``; for a driven value
+        (a distance), minus the value's rate. Custom constraints that depend on t: central
+        differences in t."""
         out = np.zeros(self.n_rows)
         Q = np.concatenate((state.orientation, _IDENTITY))
         for blk, jac, rate in zip(self.blocks, ev.jac, table.rates):
             if rate is None:
                 continue
             s = blk.scheduled
+            if blk.kind in kinds.VALUE_KINDS:
+                out[blk.rows[s]] = -rate[step]
+                continue
             Rb = quat.to_matrix(Q.take(blk.b[s], axis=0))  # (S, 3, 3)
             w = rate[step].reshape(-1, 2, 3) @ np.swapaxes(Rb, 1, 2)  # (S, 2, 3): R_b u, R_b ω
             out[blk.rows[s]] = np.einsum("skj,sj->sk", jac[s, :, 1, :], w.reshape(-1, 6))
@@ -417,7 +444,7 @@ def characteristic_length(rest: State, elementary: list[Elementary], points: dic
         pts = np.array(list(points.get(name, {}).values()), dtype=float).reshape(-1, 3)
         world.append(rest.position[m] + pts @ R[m].T)
     for e in elementary:
-        if e.kind in ("location", "plane"):
+        if e.kind in kinds.LENGTH_KINDS:
             world.append((rest.position[e.a] + R[e.a] @ np.asarray(e.sa))[None])
             if e.b == WORLD:
                 world.append(np.asarray(e.sb, dtype=float)[None])
