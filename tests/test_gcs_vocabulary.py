@@ -67,7 +67,7 @@ def _slider_crank(presets: bool) -> dict:
     """Crank 1 about z, rod 3, slider on the line y = 0.5 along x: revolute and prismatic
     joints, or the slider held by on_line + orientation."""
     e, L = 0.5, 3.0
-    x0 = 1.0 + np.sqrt(L**2 - e**2)
+    x0 = float(1.0 + np.sqrt(L**2 - e**2))
     data = {
         "name": "slider-crank", "units": "m",
         "members": {
@@ -234,10 +234,9 @@ def test_distance_constraint_replaces_a_ball_jointed_coupler():
         assert np.abs(res.tracks["tip"].position / s - oracle.rssr(2 * np.pi * res.t)).max() < 1e-9 * 8
 
 
-def test_linear_actuator_lifts_an_arm_with_its_closed_form_position_and_velocity():
-    """A luffing arm turned by a hydraulic cylinder from (2, −1, 0) to the arm's lug at 1 from
-    the pivot, its length 1.5 → 2.8: cos(θ + β) = (6 − d²) / (2√5), β = atan2(1, 2)."""
-    data = {
+def _luffing_arm() -> dict:
+    """An arm hinged at the origin about z, its lug (1, 0, 0) pushed by a cylinder from (2, −1, 0)."""
+    return {
         "name": "luffing-arm", "units": "m",
         "members": {"arm": {"shape": {"points": {"lug": [1, 0, 0], "tip": [3, 0, 0]}}}},
         "joints": {"pivot": {"type": "revolute", "members": ["arm", "world"], "at": [0, 0, 0], "axis": Z}},
@@ -245,7 +244,12 @@ def test_linear_actuator_lifts_an_arm_with_its_closed_form_position_and_velocity
                                 "keyframes": [1.5, 2.8]}},
         "outputs": {"tracks": {"tip": {"member": "arm", "point": "tip"}}},
     }
-    res = _solve(data, 41)
+
+
+def test_linear_actuator_lifts_an_arm_with_its_closed_form_position_and_velocity():
+    """A luffing arm turned by a hydraulic cylinder from (2, −1, 0) to the arm's lug at 1 from
+    the pivot, its length 1.5 → 2.8: cos(θ + β) = (6 − d²) / (2√5), β = atan2(1, 2)."""
+    res = _solve(_luffing_arm(), 41)
     d, rate = 1.5 + 1.3 * res.t, 1.3
     c = (6.0 - d**2) / (2 * np.sqrt(5.0))
     theta = np.arccos(c) - np.arctan2(1.0, 2.0)

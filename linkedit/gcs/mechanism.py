@@ -41,7 +41,8 @@ def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "
                                unsatisfied_tol=max(UNSATISFIED_TOL, options.satisfied_tol))
     res = GcsResult(
         name=spec.name, units=spec.units, t=t, member_names=system.member_names, position=run.position,
-        orientation=run.orientation, velocity=run.velocity, velocity_rule=velocity,
+        orientation=run.orientation, velocity=run.velocity, acceleration=run.acceleration,
+        velocity_rule=velocity,
         periodic=periodic_inputs(system), constraint_names=system.constraint_names,
         constraint_inputs=system.constraint_inputs, diagnostics=diag, iterations=run.iterations,
         points=system.points, lines=system.lines, spec_text=spec_text,

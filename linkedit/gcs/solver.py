@@ -31,7 +31,8 @@ continued from: the next one starts again from the last good pose (continuation,
 solve from it).
 
 Each accepted pose is factorized once: that factorization gives its velocity, its rank test and
-the corrections of the next step.
+the corrections of the next step; at the output times, also its acceleration
+(:mod:`linkedit.gcs.acceleration`).
 
 Status per step: **converged** (largest scaled residual row ≤ tol), **inconsistent** (the
 least-squares cost stopped decreasing above tol: the constraints contradict each other) or
@@ -53,6 +54,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from linkedit.gcs import quaternions as quat
+from linkedit.gcs.acceleration import acceleration
 from linkedit.gcs.linalg import Factor, Linearization, NormalEquations
 from linkedit.gcs.system import Evaluation, State, StepTable, System
 
@@ -384,6 +386,7 @@ class Run:
     position: np.ndarray  #: (T, M, 3)
     orientation: np.ndarray  #: (T, M, 4)
     velocity: np.ndarray  #: (T, M, 6): d position / dt and world angular velocity
+    acceleration: np.ndarray  #: (T, M, 6): d² position / dt² and world angular acceleration
     residual: np.ndarray  #: (T, R) residual vector at each solved step
     status: np.ndarray  #: (T,) int8: 0 converged, 1 inconsistent, 2 did not converge
     iterations: np.ndarray  #: (T,) linear solves
@@ -405,7 +408,7 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
     solver = Solver(system, options)
     T, M = t.size, system.n_members
     pos, ori = np.empty((T, M, 3)), np.empty((T, M, 4))
-    vel = np.zeros((T, M, 6))
+    vel, acc = np.zeros((T, M, 6)), np.zeros((T, M, 6))
     res = np.empty((T, system.n_rows))
     status = np.empty(T, dtype=np.int8)
     iters, facts = np.zeros(T, dtype=np.int32), np.zeros(T, dtype=np.int32)
@@ -439,11 +442,12 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
         if pose is not None:
             good, stuck = pose, False
             vel[k] = (pose.velocity * solver.col).reshape(M, 6)
+            acc[k] = (acceleration(solver, pose.state, table, k, pose.linear, pose.velocity) * solver.col).reshape(M, 6)
         pos[k], ori[k], res[k], status[k] = x.position, x.orientation, r, st
         iters[k], facts[k] = solver.iterations - it0, solver.factorizations - f0
         if progress is not None:
             progress(k, T)
-    return Run(t=t, position=pos, orientation=ori, velocity=vel, residual=res, status=status,
+    return Run(t=t, position=pos, orientation=ori, velocity=vel, acceleration=acc, residual=res, status=status,
                iterations=iters, factorizations=facts, reached=reached)
 
 
