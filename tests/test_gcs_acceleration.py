@@ -11,7 +11,7 @@ import yaml
 
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.members import compile_mechanism
-from linkedit.gcs.solver import solve_run
+from linkedit.gcs.solver import Options, solve_run
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
 from tests.conftest import EXAMPLES
@@ -26,7 +26,7 @@ def _differences(data: dict) -> tuple[np.ndarray, np.ndarray, float]:
     velocities solved at TIMES ± DELTA, and the mechanism's size."""
     system, _ = compile_mechanism(validate(MechanismSpec, data, file="test"))
     t = np.concatenate([[0.0], np.ravel([[s - DELTA, s, s + DELTA] for s in TIMES])])
-    run = solve_run(system, t)
+    run = solve_run(system, t, Options(accelerations=True))
     assert (run.status == 0).all()
     v = run.velocity[1:].reshape(len(TIMES), 3, -1, 6)
     a = run.acceleration[1:].reshape(len(TIMES), 3, -1, 6)[:, 1]

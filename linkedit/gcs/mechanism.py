@@ -31,7 +31,7 @@ def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "
     system, tracks = compile_mechanism(spec, allow_python=allow_python)
     t = np.linspace(0.0, 1.0, steps)
     table = system.step_table(t)
-    options = Options(solver=solver)
+    options = Options(solver=solver, accelerations=True)
     with np.errstate(all="ignore"):  # overflow is checked (check_run_finite), not warned about
         start = time.perf_counter()
         run = solve_run(system, t, options, table=table, progress=progress)

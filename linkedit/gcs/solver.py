@@ -83,7 +83,9 @@ class Options:
     (sub-)step; ``predictor_tol``: largest distance between a sub-step's tangent prediction and
     its solution; ``max_motion``: largest motion of a sub-step; ``min_fraction``: smallest
     sub-step, as a fraction of a time step; ``still_tol``: largest component of a pose's change
-    along free directions."""
+    along free directions; ``accelerations``: compute them at every output step (two more
+    Jacobian evaluations per step, :mod:`linkedit.gcs.acceleration`; ``solve3d`` asks for them,
+    pose-only callers such as the planar numeric engine and the SolveSpace bench do not)."""
 
     tol: float = 1e-12
     max_iterations: int = 100
@@ -92,6 +94,7 @@ class Options:
     min_fraction: float = 1e-9
     still_tol: float = 1e-10
     solver: str = "lm"
+    accelerations: bool = False
 
     @property
     def satisfied_tol(self) -> float:
@@ -386,7 +389,7 @@ class Run:
     position: np.ndarray  #: (T, M, 3)
     orientation: np.ndarray  #: (T, M, 4)
     velocity: np.ndarray  #: (T, M, 6): d position / dt and world angular velocity
-    acceleration: np.ndarray  #: (T, M, 6): d² position / dt² and world angular acceleration
+    acceleration: np.ndarray | None  #: (T, M, 6): d² position / dt² and world angular acceleration (None: not asked)
     residual: np.ndarray  #: (T, R) residual vector at each solved step
     status: np.ndarray  #: (T,) int8: 0 converged, 1 inconsistent, 2 did not converge
     iterations: np.ndarray  #: (T,) linear solves
@@ -442,12 +445,14 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
         if pose is not None:
             good, stuck = pose, False
             vel[k] = (pose.velocity * solver.col).reshape(M, 6)
-            acc[k] = (acceleration(solver, pose.state, table, k, pose.linear, pose.velocity) * solver.col).reshape(M, 6)
+            if options.accelerations:
+                acc[k] = (acceleration(solver, pose.state, table, k, pose.linear, pose.velocity) * solver.col).reshape(M, 6)
         pos[k], ori[k], res[k], status[k] = x.position, x.orientation, r, st
         iters[k], facts[k] = solver.iterations - it0, solver.factorizations - f0
         if progress is not None:
             progress(k, T)
-    return Run(t=t, position=pos, orientation=ori, velocity=vel, acceleration=acc, residual=res, status=status,
+    return Run(t=t, position=pos, orientation=ori, velocity=vel,
+               acceleration=acc if options.accelerations else None, residual=res, status=status,
                iterations=iters, factorizations=facts, reached=reached)
 
 
