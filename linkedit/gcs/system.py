@@ -436,8 +436,8 @@ def characteristic_length(rest: State, elementary: list[Elementary], points: dic
                           member_names: list[str]) -> float:
     """The size of a mechanism: the diagonal of the bounding box of everything it places at
     rest — member origins, shape points and constrained points turned into the world, world
-    targets — so that it scales with the units and not with where the mechanism sits. 1 when
-    everything is at one point."""
+    targets — so that it scales with the units and not with where the mechanism sits; at least
+    the longest distance a distance constraint asks for. 1 when everything is at one point."""
     R = quat.to_matrix(rest.orientation)
     world = [rest.position]
     for m, name in enumerate(member_names):
@@ -450,6 +450,7 @@ def characteristic_length(rest: State, elementary: list[Elementary], points: dic
                 world.append(np.asarray(e.sb, dtype=float)[None])
     X = np.concatenate(world)
     size = float(np.linalg.norm(X.max(axis=0) - X.min(axis=0))) if X.size else 0.0
+    size = max([size] + [e.value for e in elementary if e.kind == "distance"])
     return size if size > 0.0 and np.isfinite(size) else 1.0
 
 
