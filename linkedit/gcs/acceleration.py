@@ -67,6 +67,19 @@ def jacobian_product(system: System, ev: Evaluation, v: np.ndarray) -> np.ndarra
     return out
 
 
+def _along(x: State, delta: np.ndarray) -> State:
+    """x moved by local coordinates ``delta`` (6M,) with the exact exponential (q ← exp(δθ) ⊗ q;
+    :meth:`State.moved`'s retraction agrees with it to second order only)."""
+    d = delta.reshape(-1, 6)
+    return State(x.position + d[:, :3], quat.multiply(quat.exp(d[:, 3:]), x.orientation))
+
+
+def _first_order(solver, ev: Evaluation, x: State, table: StepTable, step: int, real: np.ndarray) -> np.ndarray:
+    """The velocity equations' left side J v + ∂r/∂t (R,), scaled rows, for real velocities (6M,)."""
+    system = solver.system
+    return (jacobian_product(system, ev, real) + system.time_derivative(x, table, step, ev)) * solver.row
+
+
 def acceleration(solver, state: State, table: StepTable, step: int, linear, velocity: np.ndarray) -> np.ndarray:
     """The scaled acceleration (6M,) at a solved pose with its :class:`~linkedit.gcs.solver.Linear`
     and scaled velocity (module docstring)."""
@@ -75,10 +88,10 @@ def acceleration(solver, state: State, table: StepTable, step: int, linear, velo
     real = velocity * solver.col
     terms, nulls = [], []
     for s in (h, -h):
-        x = solver.moved(state, s * velocity)
+        x = _along(state, s * real)
         tab = advanced(table, step, s)
         ev = system.evaluate(x, tab, 0, jacobian=True)
-        terms.append((jacobian_product(system, ev, real) + system.time_derivative(x, tab, 0, ev)) * solver.row)
+        terms.append(_first_order(solver, ev, x, tab, 0, real))
         if linear.null is not None:
             J = system.dense_jacobian(ev) * solver.row[:, None] * solver.col
             nulls.append(np.linalg.svd(J)[2][-linear.null.shape[1]:].T)
