@@ -354,3 +354,28 @@ def test_conflicting_joints_name_the_constraint_that_fails(run_cli, tmp_path):
     r = run_cli("solve3d", path, "-o", tmp_path / "out.h5")
     assert r.exit_code == 1, r.output
     assert "step 0" in r.output and "hinge.axis" in r.output and "hinge.point" not in r.output, r.output
+
+
+def test_luffing_arm_example_follows_its_closed_form(run_cli, tmp_path):
+    """examples/3d/luffing-arm.yaml (barrel, rod and arm joined by presets, a distance input
+    from the barrel's base to the rod's eye): the arm's angle, the tip's exact velocity and the
+    arm's exact angular acceleration against the closed form, from the result file."""
+    from linkedit.gcs.result import read_result
+    from tests.conftest import EXAMPLES
+
+    r = run_cli("solve3d", EXAMPLES / "3d" / "luffing-arm.yaml", "-o", tmp_path / "arm.h5")
+    assert r.exit_code == 0, r.output
+    res = read_result(tmp_path / "arm.h5")
+    d, rate = 1.5 + 1.3 * res.t, 1.3
+    c = (6.0 - d**2) / (2 * np.sqrt(5.0))
+    dc, ddc = -d * rate / np.sqrt(5.0), -rate**2 / np.sqrt(5.0)
+    theta = np.arccos(c) - np.arctan2(1.0, 2.0)
+    omega = -dc / np.sqrt(1 - c**2)
+    alpha = -ddc / np.sqrt(1 - c**2) - dc**2 * c / (1 - c**2) ** 1.5
+    tip = res.tracks["tip"]
+    zero = np.zeros_like(theta)
+    assert np.abs(tip.position - 3 * np.column_stack([np.cos(theta), np.sin(theta), zero])).max() < 3e-9
+    want_v = 3 * omega[:, None] * np.column_stack([-np.sin(theta), np.cos(theta), zero])
+    assert np.abs(tip.velocity - want_v).max() < 1e-9 * np.abs(want_v).max()
+    arm = res.member_names.index("arm")
+    assert np.abs(res.acceleration[:, arm, 5] - alpha).max() < 1e-9 * np.abs(alpha).max()
