@@ -195,7 +195,8 @@ def _closed_form(name: str, res) -> None:
         assert np.abs(fork @ [np.cos(b), np.sin(b), 0]).max() < 1e-9
 
 
-MECHANISMS = {"four-bar": _four_bar, "four-bar-balls": lambda presets: _four_bar(presets, balls=True), "slider-crank": _slider_crank, "sleeve": _sleeve, "puck": _puck, "cardan": _cardan}
+MECHANISMS = {"four-bar": _four_bar, "four-bar-balls": lambda presets: _four_bar(presets, balls=True),
+              "slider-crank": _slider_crank, "sleeve": _sleeve, "puck": _puck, "cardan": _cardan}
 
 
 @pytest.mark.parametrize("name", sorted(MECHANISMS))

@@ -139,7 +139,8 @@ def write_result(path: str | Path, res: GcsResult) -> None:
         put(m, "orientation", res.orientation, convention="unit quaternion [w, x, y, z], member to world")
         put(m, "velocity", res.velocity[..., :3], units=f"{u}/t", description="d position / d t, t in [0, 1]")
         put(m, "angular_velocity", res.velocity[..., 3:], units="rad/t", description="world frame, t in [0, 1]")
-        put(m, "acceleration", res.acceleration[..., :3], units=f"{u}/t^2", description="d2 position / d t2, t in [0, 1]")
+        put(m, "acceleration", res.acceleration[..., :3], units=f"{u}/t^2",
+            description="d2 position / d t2, t in [0, 1]")
         put(m, "angular_acceleration", res.acceleration[..., 3:], units="rad/t^2",
             description="d angular_velocity / d t, world frame, t in [0, 1]")
         m.attrs["periodic"] = res.periodic

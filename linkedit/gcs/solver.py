@@ -446,7 +446,8 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
             good, stuck = pose, False
             vel[k] = (pose.velocity * solver.col).reshape(M, 6)
             if options.accelerations:
-                acc[k] = (acceleration(solver, pose.state, table, k, pose.linear, pose.velocity) * solver.col).reshape(M, 6)
+                a = acceleration(solver, pose.state, table, k, pose.linear, pose.velocity)
+                acc[k] = (a * solver.col).reshape(M, 6)
         pos[k], ori[k], res[k], status[k] = x.position, x.orientation, r, st
         iters[k], facts[k] = solver.iterations - it0, solver.factorizations - f0
         if progress is not None:
