@@ -67,7 +67,7 @@ def _solve_file(run_cli, tmp_path, data: dict, steps: int) -> tuple[np.ndarray, 
     """t and the member accelerations (T, M, 6) of a CLI solve, read from the result file."""
     spec = tmp_path / "m.yaml"
     spec.write_text(yaml.safe_dump(data, sort_keys=False))
-    r = run_cli("solve3d", spec, "-o", tmp_path / "m.h5", "--steps", steps)
+    r = run_cli("solve3d", spec, "-o", tmp_path / "m.h5", "--steps", steps, "--accelerations")
     assert r.exit_code == 0, r.output
     with h5py.File(tmp_path / "m.h5") as f:
         assert f["members/acceleration"].attrs["units"] == "m/t^2"
@@ -98,3 +98,20 @@ def test_linear_actuator_angular_acceleration_matches_its_closed_form(run_cli, t
     want = -ddc / np.sqrt(1 - c**2) - dc**2 * c / (1 - c**2) ** 1.5
     assert np.abs(acc[:, 0, 5] - want).max() < 1e-9 * np.abs(want).max()
     assert np.abs(acc[:, 0, :5]).max() < 1e-9 * np.abs(want).max()  # the pivot holds, the axis stays z
+
+
+def test_accelerations_are_written_only_when_asked_and_kept_by_from(run_cli, tmp_path):
+    """Without --accelerations the file has none (nothing is made up); --from keeps them; they
+    are refused with --from (nothing is solved)."""
+    spec = EXAMPLES / "3d" / "crank-rocker.yaml"
+    assert run_cli("solve3d", spec, "-o", tmp_path / "plain.h5", "--steps", 9).exit_code == 0
+    with h5py.File(tmp_path / "plain.h5") as f:
+        assert "acceleration" not in f["members"] and "angular_acceleration" not in f["members"]
+    assert run_cli("solve3d", spec, "-o", tmp_path / "acc.h5", "--steps", 9, "--accelerations").exit_code == 0
+    r = run_cli("solve3d", "--from", tmp_path / "acc.h5", "-o", tmp_path / "again.h5", "--track", "new=coupler:1,0,0")
+    assert r.exit_code == 0, r.output
+    with h5py.File(tmp_path / "acc.h5") as f, h5py.File(tmp_path / "again.h5") as g:
+        for key in ("members/acceleration", "members/angular_acceleration"):
+            assert np.array_equal(f[key][()], g[key][()]) and np.abs(f[key][()]).max() > 1.0
+    r = run_cli("solve3d", "--from", tmp_path / "acc.h5", "--accelerations")
+    assert r.exit_code == 2 and "--accelerations" in r.output

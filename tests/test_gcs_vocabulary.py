@@ -364,7 +364,7 @@ def test_luffing_arm_example_follows_its_closed_form(run_cli, tmp_path):
     from linkedit.gcs.result import read_result
     from tests.conftest import EXAMPLES
 
-    r = run_cli("solve3d", EXAMPLES / "3d" / "luffing-arm.yaml", "-o", tmp_path / "arm.h5")
+    r = run_cli("solve3d", EXAMPLES / "3d" / "luffing-arm.yaml", "-o", tmp_path / "arm.h5", "--accelerations")
     assert r.exit_code == 0, r.output
     res = read_result(tmp_path / "arm.h5")
     d, rate = 1.5 + 1.3 * res.t, 1.3

@@ -45,8 +45,9 @@ class GcsResult:
     orientation: np.ndarray  #: (T, M, 4) unit quaternions [w, x, y, z], member → world
     #: (T, M, 6) exact member velocities: d position / dt and world angular velocity (rad / t)
     velocity: np.ndarray
-    #: (T, M, 6) exact member accelerations: d² position / dt² and world angular acceleration (rad / t²)
-    acceleration: np.ndarray
+    #: (T, M, 6) exact member accelerations: d² position / dt² and world angular acceleration
+    #: (rad / t²); None unless asked for (``solve3d --accelerations``)
+    acceleration: np.ndarray | None
     velocity_rule: str  #: "exact" or "parabola": how track velocities are taken
     periodic: bool  #: the run is one period of its inputs (outputs.periodic_inputs)
     constraint_names: list[str]
@@ -110,8 +111,9 @@ def check_finite(res: GcsResult) -> None:
     T = res.t.size
     d = res.diagnostics
     arrays = {"member position": res.position, "member orientation": res.orientation,
-              "member acceleration": res.acceleration,
               "constraint cost": d.costs, "residual": d.residual}
+    if res.acceleration is not None:
+        arrays["member acceleration"] = res.acceleration
     for name, tr in res.tracks.items():
         arrays[f"track {name!r} position"] = tr.position
         arrays[f"track {name!r} velocity"] = tr.velocity
@@ -139,10 +141,11 @@ def write_result(path: str | Path, res: GcsResult) -> None:
         put(m, "orientation", res.orientation, convention="unit quaternion [w, x, y, z], member to world")
         put(m, "velocity", res.velocity[..., :3], units=f"{u}/t", description="d position / d t, t in [0, 1]")
         put(m, "angular_velocity", res.velocity[..., 3:], units="rad/t", description="world frame, t in [0, 1]")
-        put(m, "acceleration", res.acceleration[..., :3], units=f"{u}/t^2",
-            description="d2 position / d t2, t in [0, 1]")
-        put(m, "angular_acceleration", res.acceleration[..., 3:], units="rad/t^2",
-            description="d angular_velocity / d t, world frame, t in [0, 1]")
+        if res.acceleration is not None:
+            put(m, "acceleration", res.acceleration[..., :3], units=f"{u}/t^2",
+                description="d2 position / d t2, t in [0, 1]")
+            put(m, "angular_acceleration", res.acceleration[..., 3:], units="rad/t^2",
+                description="d angular_velocity / d t, world frame, t in [0, 1]")
         m.attrs["periodic"] = res.periodic
         shapes = m.create_group("shapes")
         for name in res.member_names:
@@ -208,7 +211,7 @@ def read_result(path: str | Path) -> GcsResult:
                 position=f["members/position"][()], orientation=f["members/orientation"][()],
                 velocity=np.concatenate([f["members/velocity"][()], f["members/angular_velocity"][()]], axis=-1),
                 acceleration=np.concatenate([f["members/acceleration"][()], f["members/angular_acceleration"][()]],
-                                            axis=-1),
+                                            axis=-1) if "acceleration" in f["members"] else None,
                 velocity_rule=str(rule),
                 periodic=bool(f["members"].attrs["periodic"]),
                 constraint_names=strings(f["constraints/names"]), constraint_inputs=f["constraints/is_input"][()],
@@ -227,8 +230,9 @@ def _check_read(res: GcsResult, file: str) -> None:
     steps, members = len(res.t), len(res.member_names)
     shapes = {"members/position": (res.position, (steps, members, 3)),
               "members/orientation": (res.orientation, (steps, members, 4)),
-              "members/velocity, members/angular_velocity": (res.velocity, (steps, members, 6)),
-              "members/acceleration, members/angular_acceleration": (res.acceleration, (steps, members, 6))}
+              "members/velocity, members/angular_velocity": (res.velocity, (steps, members, 6))}
+    if res.acceleration is not None:
+        shapes["members/acceleration, members/angular_acceleration"] = (res.acceleration, (steps, members, 6))
     shapes |= {f"tracks/{n}/position": (tr.position, (steps, 3)) for n, tr in res.tracks.items()}
     shapes |= {f"tracks/{n}/velocity": (tr.velocity, (steps, 3)) for n, tr in res.tracks.items()}
     for where, (array, shape) in shapes.items():
