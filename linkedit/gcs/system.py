@@ -38,6 +38,7 @@ WORLD = -1
 _ORIGIN = np.zeros((1, 3))
 _IDENTITY = np.array([[1.0, 0.0, 0.0, 0.0]])
 _ONES = np.ones(3)
+_ONES6 = np.ones(6)
 
 
 @dataclass(frozen=True)
@@ -112,7 +113,7 @@ class StepParameters:
     rel_inverse: np.ndarray  #: (n, 4) inverse relative orientations of the orientation block (driven ones at this step)
     active: list[np.ndarray | None]  #: per block (n,) bool, None when all are active
     inactive_rows: np.ndarray  #: residual rows of inputs outside their window
-    values: list[np.ndarray]  #: per block (n,) targets of the kinds with a value (driven ones at this step)
+    values: dict[str, np.ndarray]  #: per kind with a value, the targets (n,) of its block (driven ones at this step)
 
 
 @dataclass
@@ -152,7 +153,8 @@ class StepTable:
         if self.partial[step]:
             active = [None if act is None or act[step].all() else act[step] for act in self.active]
             rows = np.concatenate([blk.rows[~a].ravel() for blk, a in zip(sys.blocks, active) if a is not None])
-        values = [blk.value if v is None else v[step] for blk, v in zip(sys.blocks, self.values)]
+        values = {blk.kind: blk.value if v is None else v[step] for blk, v in zip(sys.blocks, self.values)
+                  if blk.kind in kinds.VALUE_KINDS}
         par = StepParameters(float(self.t[step]), vectors, rel_inverse, active, rows, values)
         self._last = (step, par)
         return par
@@ -343,26 +345,9 @@ class System:
         X = P.take(m, axis=0) + W
         r = np.empty(self.n_rows)
         jacs: list[np.ndarray] = []
-        for blk, act, value in zip(self.blocks, par.active, par.values):
+        for blk, act in zip(self.blocks, par.active):
             out = r[blk.start:blk.stop].reshape(len(blk.a), -1)
-            v = blk.vectors
-            if blk.kind == "location":
-                J = kinds.location(X[v[0]], X[v[1]], W[v[0]], W[v[1]], out, jacobian)
-            elif blk.kind == "orientation":
-                qb = None if blk.on_world else Q.take(blk.b, axis=0)
-                J = kinds.orientation(Q.take(blk.a, axis=0), qb, par.rel_inverse, out, jacobian)
-            elif blk.kind == "axis":
-                J = kinds.axis(W[v[0]], W[v[1]], out, jacobian)
-            elif blk.kind == "line":
-                J = kinds.line(X[v[0]], X[v[1]], W[v[0]], W[v[1]], W[v[2]], out, jacobian)
-            elif blk.kind == "distance":
-                J = kinds.distance(X[v[0]], X[v[1]], W[v[0]], W[v[1]], value, out, jacobian)
-            elif blk.kind == "angle":
-                J = kinds.angle(W[v[0]], W[v[1]], value, out, jacobian)
-            elif blk.kind == "parallel":
-                J = kinds.parallel(W[v[0]], W[v[1]], out, jacobian)
-            else:
-                J = kinds.plane(X[v[0]], X[v[1]], W[v[0]], W[v[1]], W[v[2]], out, jacobian)
+            J = EVALUATE[blk.kind](blk, X, W, Q, par, out, jacobian)
             if jacobian:
                 jacs.append(J if act is None else J * act[:, None, None, None])
         if len(par.inactive_rows):
@@ -384,7 +369,6 @@ class System:
         (a distance), minus the value's rate. Custom constraints that depend on t: central
         differences in t."""
         out = np.zeros(self.n_rows)
-        Q = np.concatenate((state.orientation, _IDENTITY))
         for blk, jac, rate in zip(self.blocks, ev.jac, table.rates):
             if rate is None:
                 continue
@@ -392,9 +376,12 @@ class System:
             if blk.kind in kinds.VALUE_KINDS:
                 out[blk.rows[s]] = -rate[step]
                 continue
-            Rb = quat.to_matrix(Q.take(blk.b[s], axis=0))  # (S, 3, 3)
-            w = rate[step].reshape(-1, 2, 3) @ np.swapaxes(Rb, 1, 2)  # (S, 2, 3): R_b u, R_b ω
-            out[blk.rows[s]] = np.einsum("skj,sj->sk", jac[s, :, 1, :], w.reshape(-1, 6))
+            w = rate[step]  # (S, 6): u, ω in b's frame
+            if not blk.on_world:
+                Q = np.concatenate((state.orientation, _IDENTITY))
+                Rb = quat.to_matrix(Q.take(blk.b[s], axis=0))  # (S, 3, 3)
+                w = (w.reshape(-1, 2, 3) @ np.swapaxes(Rb, 1, 2)).reshape(-1, 6)  # R_b u, R_b ω
+            out[blk.rows[s]] = (jac[s, :, 1, :] * w[:, None, :]) @ _ONES6  # (a batched matmul is slower)
         if self.customs:
             t = float(table.t[step])
             h = 1e-6
@@ -430,6 +417,64 @@ class System:
             np.add.at(J, (rows, np.broadcast_to(cols, (n, k, m, 6))), jac)
         return J[:, : 6 * M]
 
+
+
+def _location(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+              jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.location(X[v[0]], X[v[1]], W[v[0]], W[v[1]], out, jacobian)
+
+
+def _orientation(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+                 jacobian: bool) -> np.ndarray | None:
+    qb = None if blk.on_world else Q.take(blk.b, axis=0)
+    return kinds.orientation(Q.take(blk.a, axis=0), qb, par.rel_inverse, out, jacobian)
+
+
+def _axis(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+          jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.axis(W[v[0]], W[v[1]], out, jacobian)
+
+
+def _plane(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+           jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.plane(X[v[0]], X[v[1]], W[v[0]], W[v[1]], W[v[2]], out, jacobian)
+
+
+def _line(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+          jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.line(X[v[0]], X[v[1]], W[v[0]], W[v[1]], W[v[2]], out, jacobian)
+
+
+def _distance(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+              jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.distance(X[v[0]], X[v[1]], W[v[0]], W[v[1]], par.values["distance"], out, jacobian)
+
+
+def _angle(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+           jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.angle(W[v[0]], W[v[1]], par.values["angle"], out, jacobian)
+
+
+def _parallel(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+              jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.parallel(W[v[0]], W[v[1]], out, jacobian)
+
+
+#: how a block of each kind is evaluated, from what :meth:`System.evaluate` gathered once for all
+#: kinds — the block, world points X (K, 3) and world vectors W (K, 3) of the system's member
+#: vectors (the block's at ``blk.vectors``, in the order of ``constraints.VECTORS``), quaternions
+#: Q (M+1, 4) with the world last, the step's parameters — writing its residual rows into
+#: ``out`` (n, k) and returning its Jacobian (n, k, 2, 6) when ``jacobian``: a new kind is one
+#: entry here (and its rows in ``constraints``)
+EVALUATE = {"location": _location, "orientation": _orientation, "axis": _axis, "plane": _plane,
+            "line": _line, "distance": _distance, "angle": _angle, "parallel": _parallel}
 
 
 def characteristic_length(rest: State, elementary: list[Elementary], points: dict[str, dict[str, np.ndarray]],
