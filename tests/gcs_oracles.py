@@ -25,8 +25,12 @@ def scaled_spec(data: dict, s: float) -> dict:
             for sub in c["constraints"].values():
                 constraint(sub)
             return
-        if c["type"] in ("location", "pin", "revolute", "weld") and "world" in c:
+        if c["type"] in ("location", "pin", "revolute", "weld", "distance") and "world" in c:
             c["world"] = mul(c["world"])
+        if c["type"] == "distance":
+            c["value"] = s * float(c["value"])
+        if c["type"] == "on_line":
+            c["line"]["point"] = mul(c["line"]["point"])
         for key in ("point", "other_point"):
             if isinstance(c.get(key), list):
                 c[key] = mul(c[key])
@@ -35,11 +39,18 @@ def scaled_spec(data: dict, s: float) -> dict:
 
     for c in out.get("constraints", {}).values():
         constraint(c)
+    for joint in out.get("joints", {}).values():
+        joint["at"] = mul(joint["at"])
     for inp in out.get("inputs", {}).values():
-        if isinstance(inp.get("point"), list):
-            inp["point"] = mul(inp["point"])
+        for key in ("point", "other_point"):
+            if isinstance(inp.get(key), list):
+                inp[key] = mul(inp[key])
         if inp["type"] == "location":
             inp["keyframes"] = [mul(k) for k in inp["keyframes"]]
+        if inp["type"] == "distance":
+            inp["keyframes"] = [s * float(k) for k in inp["keyframes"]]
+            if "world" in inp:
+                inp["world"] = mul(inp["world"])
     for tr in out.get("outputs", {}).get("tracks", {}).values():
         if isinstance(tr.get("point"), list):
             tr["point"] = mul(tr["point"])

@@ -33,13 +33,20 @@ def _elementary(kind, rng, b):
         return Elementary("location", 0, 0, b, sa=v(), sb=v())
     if kind == "orientation":
         return Elementary("orientation", 0, 0, b, rel=tuple(quat.normalize(rng.normal(size=4))))
-    if kind == "axis":
-        return Elementary("axis", 0, 0, b, sa=_unit(rng), sb=_unit(rng))
-    return Elementary("plane", 0, 0, b, sa=v(), sb=v(), nb=_unit(rng))
+    if kind in ("axis", "parallel"):
+        return Elementary(kind, 0, 0, b, sa=_unit(rng), sb=_unit(rng))
+    if kind == "distance":
+        return Elementary("distance", 0, 0, b, sa=v(), sb=v(), value=float(rng.uniform(0.1, 3.0)))
+    if kind == "angle":
+        return Elementary("angle", 0, 0, b, sa=_unit(rng), sb=_unit(rng), value=float(rng.uniform(0.1, 3.0)))
+    return Elementary(kind, 0, 0, b, sa=v(), sb=v(), nb=_unit(rng))  # plane, line
+
+
+KINDS = ["location", "orientation", "axis", "plane", "line", "distance", "angle", "parallel"]
 
 
 @pytest.mark.parametrize("relative", [False, True], ids=["fixed", "relative"])
-@pytest.mark.parametrize("kind", ["location", "orientation", "axis", "plane"])
+@pytest.mark.parametrize("kind", KINDS)
 @pytest.mark.parametrize("seed", range(4))
 def test_jacobian_matches_finite_differences(kind, relative, seed):
     rng = np.random.default_rng(seed)

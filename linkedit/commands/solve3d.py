@@ -132,6 +132,7 @@ def register(app: typer.Typer) -> None:
         track: list[str] = typer.Option(None, "--track", help="Extra tracked point [name=]member:x,y,z (or member:point); repeatable."),
         allow_python: bool = typer.Option(False, "--allow-python", help="Allow custom constraints that run Python code (python: module:function)."),
         partial: bool = typer.Option(False, "--partial", help="Write the result even if some steps fail (their status says so)."),
+        accelerations: bool = typer.Option(False, "--accelerations", help="Also compute and write the exact member accelerations (J a = -gamma at each pose; about twice the time per step)."),
         as_json: bool = JSON,
         quiet: bool = QUIET,
     ) -> None:
@@ -147,7 +148,7 @@ def register(app: typer.Typer) -> None:
                 raise InputError("give a spec or --from RESULT.h5, not both", field="--from")
             given = {"--steps": steps is not None, "--solver": solver is not None,
                      "--allow-python": allow_python, "--partial": partial,
-                     "--velocity": velocity != VelocityRule.exact}
+                     "--velocity": velocity != VelocityRule.exact, "--accelerations": accelerations}
             ignored = [option for option, on in given.items() if on]
             if ignored:
                 raise InputError(f"nothing is solved with --from: drop {', '.join(ignored)}", field="--from")
@@ -159,7 +160,8 @@ def register(app: typer.Typer) -> None:
             text = read_text(spec)
             model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
             res = solve_spec(model, steps=steps, solver=solver.value if solver else "lm", allow_python=allow_python,
-                             spec_text=text, velocity=velocity.value, progress=None if quiet else Progress(model.name))
+                             spec_text=text, velocity=velocity.value, accelerations=accelerations,
+                             progress=None if quiet else Progress(model.name))
             out = output or Path("out") / f"{spec.stem}.h5"
             if not partial:
                 check_solved(res)

@@ -1,4 +1,4 @@
-"""Residual vectors and analytic Jacobians of the four elementary constraint kinds, batched.
+"""Residual vectors and analytic Jacobians of the elementary constraint kinds, batched.
 
 The functions take world-frame quantities already gathered per constraint (n of them): member
 vectors turned into the world frame ``wa``, ``wb`` (n, 3), world points ``xa``, ``xb`` (n, 3)
@@ -9,7 +9,9 @@ and, with ``jacobian=True``, returns from the same intermediates the Jacobian ``
 of member b, ``[dp (3), δθ (3)]``, δθ a world-frame rotation increment (``q ← exp(δθ) ⊗ q``).
 
 Per-constraint costs (the squared residual norm) are the paper's: |p1 − p2|² for location,
-θ² = 4·arccos²(|Re(o1 o2⁻¹)|) for orientation, θ² = arccos²(â1·â2) for axis, d² for on-plane.
+θ² = 4·arccos²(|Re(o1 o2⁻¹)|) for orientation, θ² = arccos²(â1·â2) for axis, d² for on-plane;
+and for the designer's kinds: d² (distance from a line) for point-on-line, (|p1 − p2| − D)²
+for a distance D, (θ − α)² for an angle α between axes, sin²θ for parallel axes (either way).
 """
 
 from __future__ import annotations
@@ -19,13 +21,19 @@ import numpy as np
 from linkedit.gcs import quaternions as quat
 
 #: residual rows per constraint kind, and independent equations (the rank of the rows)
-ROWS = {"location": 3, "orientation": 3, "axis": 3, "plane": 1}
-EQUATIONS = {"location": 3, "orientation": 3, "axis": 2, "plane": 1}
+ROWS = {"location": 3, "orientation": 3, "axis": 3, "plane": 1, "line": 3, "distance": 1, "angle": 1,
+        "parallel": 3}
+EQUATIONS = {"location": 3, "orientation": 3, "axis": 2, "plane": 1, "line": 2, "distance": 1, "angle": 1,
+             "parallel": 2}
 #: kinds whose residual is a length (the others are angles, radians)
-LENGTH_KINDS = ("location", "plane")
+LENGTH_KINDS = ("location", "plane", "line", "distance")
+#: kinds with a scalar target ``value`` (a length, or an angle in radians) that an input may drive
+VALUE_KINDS = ("distance", "angle")
 #: member vectors each kind turns into the world frame: (vector, member "a" or "b")
 VECTORS = {"location": (("sa", "a"), ("sb", "b")), "orientation": (),
-           "axis": (("sa", "a"), ("sb", "b")), "plane": (("sa", "a"), ("sb", "b"), ("nb", "b"))}
+           "axis": (("sa", "a"), ("sb", "b")), "plane": (("sa", "a"), ("sb", "b"), ("nb", "b")),
+           "line": (("sa", "a"), ("sb", "b"), ("nb", "b")), "distance": (("sa", "a"), ("sb", "b")),
+           "angle": (("sa", "a"), ("sb", "b")), "parallel": (("sa", "a"), ("sb", "b"))}
 
 _EYE = np.eye(3)
 
@@ -143,4 +151,78 @@ def plane(xa: np.ndarray, xo: np.ndarray, wa: np.ndarray, u: np.ndarray, normal:
     J[:, 0, 0, 3:] = quat.cross(wa, normal)
     J[:, 0, 1, :3] = -normal
     J[:, 0, 1, 3:] = quat.cross(normal, dist) - quat.cross(u, normal)
+    return J
+
+
+def line(xa: np.ndarray, xo: np.ndarray, wa: np.ndarray, u: np.ndarray, direction: np.ndarray, out: np.ndarray,
+         jacobian: bool = False) -> np.ndarray | None:
+    """Point a (``xa``) on the line through ``xo`` with unit ``direction`` n (world frame,
+    (n, 3)): r = n × (xa − xo), (n, 3), whose norm is the distance from the line (two
+    independent rows); ``wa``, ``u``: the member point and the line point turned into the world
+    frame (without the positions). J = [[n]×, −[n]×[wa]×] for a, [−[n]×, [d]×[n]× + [n]×[u]×]
+    for b (d = xa − xo)."""
+    d = xa - xo
+    out[:] = quat.cross(direction, d)
+    if not jacobian:
+        return None
+    N = quat.skew(direction)
+    J = np.empty((len(xa), 3, 2, 6))
+    J[:, :, 0, :3] = N
+    J[:, :, 0, 3:] = -N @ quat.skew(wa)
+    J[:, :, 1, :3] = -N
+    J[:, :, 1, 3:] = quat.skew(d) @ N + N @ quat.skew(u)
+    return J
+
+
+def distance(xa: np.ndarray, xb: np.ndarray, wa: np.ndarray, wb: np.ndarray, value: np.ndarray, out: np.ndarray,
+             jacobian: bool = False) -> np.ndarray | None:
+    """Point a at distance ``value`` (n,) from point b: r = |xa − xb| − value, (n, 1); ``wa``,
+    ``wb`` as in :func:`location`. With û = (xa − xb) / |xa − xb|: J = [ûᵀ, (wa × û)ᵀ] for a,
+    [−ûᵀ, −(wb × û)ᵀ] for b (û = x̂ where the points coincide: any direction lengthens)."""
+    e = xa - xb
+    n = np.sqrt(quat.dot(e, e))
+    out[:, 0] = n - value
+    if not jacobian:
+        return None
+    u = np.divide(e, n[:, None], out=np.tile(_EYE[0], (len(e), 1)), where=n[:, None] > 0.0)
+    J = np.empty((len(e), 1, 2, 6))
+    J[:, 0, 0, :3] = u
+    J[:, 0, 0, 3:] = quat.cross(wa, u)
+    J[:, 0, 1, :3] = -u
+    J[:, 0, 1, 3:] = -quat.cross(wb, u)
+    return J
+
+
+def angle(wa: np.ndarray, wb: np.ndarray, value: np.ndarray, out: np.ndarray,
+          jacobian: bool = False) -> np.ndarray | None:
+    """Axes a and b (world frame, unit, (n, 3)) at the angle ``value`` (n,) (radians, in
+    (0, π)): r = θ − value, θ = atan2(|âa × âb|, âa·âb), (n, 1). Turning a about ĉ = âa × âb /
+    |âa × âb| closes the angle: J = [0, −ĉᵀ] for a, [0, ĉᵀ] for b (ĉ any axis ⊥ a where the axes
+    are parallel)."""
+    c = quat.cross(wa, wb)
+    s = np.sqrt(quat.dot(c, c))
+    out[:, 0] = np.arctan2(s, quat.dot(wa, wb)) - value
+    if not jacobian:
+        return None
+    flat = s < 1e-12
+    if flat.any():
+        c[flat] = _perpendicular(wa[flat])
+        s[flat] = 1.0
+    c /= s[:, None]
+    J = np.zeros((len(wa), 1, 2, 6))
+    J[:, 0, 0, 3:] = -c
+    J[:, 0, 1, 3:] = c
+    return J
+
+
+def parallel(wa: np.ndarray, wb: np.ndarray, out: np.ndarray, jacobian: bool = False) -> np.ndarray | None:
+    """Axes a and b (world frame, unit, (n, 3)) parallel, pointing either way: r = âa × âb,
+    (n, 3) (|r| = sin θ; two independent rows). J = [0, [wb]×[wa]×] for a, [0, −[wa]×[wb]×] for b."""
+    out[:] = quat.cross(wa, wb)
+    if not jacobian:
+        return None
+    A, B = quat.skew(wa), quat.skew(wb)
+    J = np.zeros((len(wa), 3, 2, 6))
+    J[:, :, 0, 3:] = B @ A
+    J[:, :, 1, 3:] = -A @ B
     return J

@@ -35,7 +35,8 @@ class Schedule:
 
     ``mode``: "vector" (K, 3) lerp; "direction" (K, 3) slerp of unit vectors; "orientation"
     (K, 4) quaternion slerp; "rotation": ``values`` are angles (K,) in radians about ``axis``,
-    the orientation is ``rotation(axis, angle) ⊗ base``.
+    the orientation is ``rotation(axis, angle) ⊗ base``; "scalar" (K, 1) lerp of a
+    constraint's value (a distance), whose rate is its time derivative (T, 1).
     """
 
     mode: str
@@ -68,7 +69,7 @@ class Schedule:
         seg, frac, _ = self._segments(t)
         nxt = np.minimum(seg + 1, len(self.times) - 1)
         v0, v1 = self.values[seg], self.values[nxt]
-        if self.mode == "vector":
+        if self.mode in ("vector", "scalar"):
             return v0 + frac[:, None] * (v1 - v0)
         if self.mode == "direction":
             return quat.rotate(quat.exp(frac[:, None] * _turn(v0, v1)), v0)
@@ -81,11 +82,13 @@ class Schedule:
         """The virtual velocity (T, 6) ``[u, ω]`` of the value at ``t`` (module docstring);
         zero outside the window and before the first / after the last keyframe."""
         seg, _, inv = self._segments(t)
-        out = np.zeros((np.size(t), 6))
+        out = np.zeros((np.size(t), 1 if self.mode == "scalar" else 6))
         if len(self.times) == 1:
             return out
         v0, v1 = self.values[seg], self.values[seg + 1]
-        if self.mode == "vector":
+        if self.mode == "scalar":
+            out[:] = (v1 - v0) * inv[:, None]
+        elif self.mode == "vector":
             out[:, :3] = (v1 - v0) * inv[:, None]
         elif self.mode == "direction":
             out[:, 3:] = _turn(v0, v1) * inv[:, None]

@@ -18,10 +18,12 @@ from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
 
 def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "lm",
                allow_python: bool = False, spec_text: str = "", rank: bool = True,
-               velocity: str = "exact", progress: Callable[[int, int], None] | None = None) -> GcsResult:
+               velocity: str = "exact", accelerations: bool = False,
+               progress: Callable[[int, int], None] | None = None) -> GcsResult:
     """Solve every step t = linspace(0, 1, steps) (default: the spec's ``outputs.steps``).
     ``velocity``: "exact" (from J v = −∂r/∂t at each pose) or "parabola" (the paper's
-    three-point rule on the positions); ``progress(k, T)`` is called after each step.
+    three-point rule on the positions); ``accelerations``: also the exact member accelerations
+    (:mod:`linkedit.gcs.acceleration`); ``progress(k, T)`` is called after each step.
 
     Raises :class:`MechanismError` when a step's state or residual is not finite (overflow):
     a result never holds NaN or inf."""
@@ -31,7 +33,7 @@ def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "
     system, tracks = compile_mechanism(spec, allow_python=allow_python)
     t = np.linspace(0.0, 1.0, steps)
     table = system.step_table(t)
-    options = Options(solver=solver)
+    options = Options(solver=solver, accelerations=accelerations)
     with np.errstate(all="ignore"):  # overflow is checked (check_run_finite), not warned about
         start = time.perf_counter()
         run = solve_run(system, t, options, table=table, progress=progress)
@@ -41,12 +43,13 @@ def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "
                                unsatisfied_tol=max(UNSATISFIED_TOL, options.satisfied_tol))
     res = GcsResult(
         name=spec.name, units=spec.units, t=t, member_names=system.member_names, position=run.position,
-        orientation=run.orientation, velocity=run.velocity, velocity_rule=velocity,
+        orientation=run.orientation, velocity=run.velocity, acceleration=run.acceleration,
+        velocity_rule=velocity,
         periodic=periodic_inputs(system), constraint_names=system.constraint_names,
         constraint_inputs=system.constraint_inputs, diagnostics=diag, iterations=run.iterations,
         points=system.points, lines=system.lines, spec_text=spec_text,
         options={"steps": steps, "solver": solver, "tolerance": options.satisfied_tol, "velocity": velocity,
-                 "seconds": round(seconds, 6)})
+                 "accelerations": accelerations, "seconds": round(seconds, 6)})
     for tr in tracks:
         res.add_track(tr.name, system.member_names[tr.member], tr.point)
     return res

@@ -2,9 +2,12 @@
 
 Members keep their spec order. Each named constraint (and each input) becomes one or more
 elementary constraints owned by its name: pin = location + axis, weld = location +
-orientation, a group = all its parts under the group's name. Defaults that refer to "the rest
-pose" (a weld's relative orientation, a pin's other axis, a rotation input's base) are taken
-from the members' spec positions and orientations.
+orientation, a group = all its parts under the group's name; perpendicular = an angle of 90°,
+an angle of 0° or 180° = an axis constraint (aligned or opposite). Each joint becomes named
+constraints ``joint.part`` (:data:`~linkedit.spec.mechanism3d.JOINT_PARTS`), its world
+placement turned into each member's space at rest (the world always second). Defaults that
+refer to "the rest pose" (a weld's relative orientation, a pin's other axis, a rotation
+input's base) are taken from the members' spec positions and orientations.
 """
 
 from __future__ import annotations
@@ -121,6 +124,59 @@ class _Builder:
         if isinstance(c, ms.OnPlane):
             self.add("plane", owner, c.member, other, sa=self.point(c.member, c.point),
                      sb=tuple(float(x) for x in c.plane.point), nb=_unit(c.plane.normal))
+        if isinstance(c, ms.OnLine):
+            self.add("line", owner, c.member, other, sa=self.point(c.member, c.point),
+                     sb=tuple(float(x) for x in c.line.point), nb=_unit(c.line.direction))
+        if isinstance(c, ms.Distance):
+            sb = c.world if other is None else self.point(other, c.other_point)
+            self.add("distance", owner, c.member, other, sa=self.point(c.member, c.point), sb=tuple(sb),
+                     value=float(c.value))
+        if isinstance(c, (ms.Angle, ms.Parallel)):
+            sa, sb = _unit(c.axis), _unit(c.world if other is None else c.other_axis)
+            degrees = 90.0 if c.type == "perpendicular" else getattr(c, "angle_deg", None)
+            if degrees is None:
+                self.add("parallel", owner, c.member, other, sa=sa, sb=sb)
+            elif degrees in (0.0, 180.0):
+                self.add("axis", owner, c.member, other, sa=sa, sb=sb if degrees == 0.0 else tuple(-x for x in sb))
+            else:
+                self.add("angle", owner, c.member, other, sa=sa, sb=sb, value=float(np.radians(degrees)))
+
+    def joint(self, name: str, j: Any) -> None:
+        """The named constraints ``name.part`` of a joint placed in the world at rest."""
+        m1, m2 = j.members
+        axes = tuple(getattr(j, "axes", ()))
+        if m1 == ms.WORLD:
+            m1, m2, axes = m2, m1, axes[::-1]
+        other = None if m2 == ms.WORLD else m2
+
+        def point(member: str | None) -> tuple[float, float, float]:
+            if member is None:
+                return tuple(float(x) for x in j.at)
+            i = self.index[member]
+            return tuple(self.R0[i].T @ (np.asarray(j.at, dtype=float) - self.P0[i]))
+
+        def direction(member: str | None, v: Any) -> tuple[float, float, float]:
+            return _unit(v) if member is None else tuple(self.R0[self.index[member]].T @ np.asarray(_unit(v)))
+
+        def part(suffix: str, kind: str, **params: Any) -> None:
+            self.add(kind, self.owner(f"{name}.{suffix}"), m1, other, **params)
+
+        kind = j.type
+        if kind in ("revolute", "universal", "spherical"):
+            part("point", "location", sa=point(m1), sb=point(other))
+        if kind in ("prismatic", "cylindrical"):
+            part("line", "line", sa=point(m1), sb=point(other), nb=direction(other, j.axis))
+        if kind == "planar":
+            part("plane", "plane", sa=point(m1), sb=point(other), nb=direction(other, j.normal))
+        if kind in ("revolute", "cylindrical", "planar"):
+            v = j.normal if kind == "planar" else j.axis
+            part("axis", "axis", sa=direction(m1, v), sb=direction(other, v))
+        if kind == "prismatic":
+            rel = self.Q0[self.index[m1]] if other is None else self.rest_relative(m1, other)
+            part("orientation", "orientation", rel=tuple(rel))
+        if kind == "universal":
+            part("perpendicular", "angle", sa=direction(m1, axes[0]), sb=direction(other, axes[1]),
+                 value=0.5 * np.pi)
 
     def input(self, inp: Any, owner: int) -> None:
         name = self.names[owner]
@@ -145,6 +201,10 @@ class _Builder:
             values = np.array([_unit(v) for v in inp.keyframes])
             sched = dict(mode="direction", values=values)
             count = len(values)
+        elif isinstance(inp, ms.DistanceInput):
+            values = np.asarray(inp.keyframes, dtype=float)[:, None]
+            sched = dict(mode="scalar", values=values)
+            count = len(values)
         else:
             values = np.asarray(inp.keyframes, dtype=float)
             sched = dict(mode="vector", values=values)
@@ -161,6 +221,10 @@ class _Builder:
             self.add("orientation", owner, inp.member, other, rel=tuple(first), schedule=schedule)
         elif isinstance(inp, ms.AxisInput):
             self.add("axis", owner, inp.member, other, sa=_unit(inp.axis), sb=tuple(first), schedule=schedule)
+        elif isinstance(inp, ms.DistanceInput):
+            sb = inp.world if other is None else self.point(other, inp.other_point)
+            self.add("distance", owner, inp.member, other, sa=self.point(inp.member, inp.point), sb=tuple(sb),
+                     value=float(first[0]), schedule=schedule)
         else:
             self.add("location", owner, inp.member, other, sa=self.point(inp.member, inp.point),
                      sb=tuple(first), schedule=schedule)
@@ -171,6 +235,8 @@ def compile_mechanism(spec: ms.MechanismSpec, allow_python: bool = False) -> tup
     b = _Builder(spec, allow_python)
     for name, c in spec.constraints.items():
         b.constraint(c, b.owner(name))
+    for name, j in spec.joints.items():
+        b.joint(name, j)
     for name, inp in spec.inputs.items():
         b.input(inp, b.owner(name, is_input=True))
     points = {m: {p: np.asarray(v, dtype=float) for p, v in spec.member_points(m).items()} for m in spec.members}

@@ -48,6 +48,9 @@ class GcsResult:
     orientation: np.ndarray  #: (T, M, 4) unit quaternions [w, x, y, z], member → world
     #: (T, M, 6) exact member velocities: d position / dt and world angular velocity (rad / t)
     velocity: np.ndarray
+    #: (T, M, 6) exact member accelerations: d² position / dt² and world angular acceleration
+    #: (rad / t²); None unless asked for (``solve3d --accelerations``)
+    acceleration: np.ndarray | None
     velocity_rule: str  #: "exact" or "parabola": how track velocities are taken
     periodic: bool  #: the run is one period of its inputs (outputs.periodic_inputs)
     constraint_names: list[str]
@@ -112,6 +115,8 @@ def check_finite(res: GcsResult) -> None:
     d = res.diagnostics
     arrays = {"member position": res.position, "member orientation": res.orientation,
               "constraint cost": d.costs, "residual": d.residual}
+    if res.acceleration is not None:
+        arrays["member acceleration"] = res.acceleration
     for name, tr in res.tracks.items():
         arrays[f"track {name!r} position"] = tr.position
         arrays[f"track {name!r} velocity"] = tr.velocity
@@ -167,6 +172,13 @@ def datasets(res: GcsResult) -> list[Entry]:
               {"convention": "unit quaternion [w, x, y, z], member to world"}),
         Entry("members/velocity", res.velocity[..., :3], tm3, f"d position / d t of the member origin; {PER_T}", u),
         Entry("members/angular_velocity", res.velocity[..., 3:], tm3, f"world-frame angular velocity; {PER_T}", "rad"),
+    ]
+    if res.acceleration is not None:
+        out += [Entry("members/acceleration", res.acceleration[..., :3], tm3,
+                      f"d2 position / d t2 of the member origin (solve3d --accelerations); {PER_T}", u),
+                Entry("members/angular_acceleration", res.acceleration[..., 3:], tm3,
+                      f"world-frame angular acceleration (solve3d --accelerations); {PER_T}", "rad")]
+    out += [
         Entry("constraints/is_input", res.constraint_inputs.astype(bool), ("constraint",),
               "the constraint is an input (its target moves with t)"),
         Entry("constraints/cost", d.costs, tc,
@@ -225,6 +237,8 @@ def read_result(path: str | Path) -> GcsResult:
                 name=str(f.attrs["name"]), units=str(f.attrs["units"]), t=f["t"][()], member_names=names,
                 position=f["members/position"][()], orientation=f["members/orientation"][()],
                 velocity=np.concatenate([f["members/velocity"][()], f["members/angular_velocity"][()]], axis=-1),
+                acceleration=np.concatenate([f["members/acceleration"][()], f["members/angular_acceleration"][()]],
+                                            axis=-1) if "acceleration" in f["members"] else None,
                 velocity_rule=str(rule),
                 periodic=bool(f["members"].attrs["periodic"]),
                 constraint_names=strings(f["constraint"] if "constraint" in f else f["constraints/names"]), constraint_inputs=f["constraints/is_input"][()],
@@ -244,6 +258,8 @@ def _check_read(res: GcsResult, file: str) -> None:
     shapes = {"members/position": (res.position, (steps, members, 3)),
               "members/orientation": (res.orientation, (steps, members, 4)),
               "members/velocity, members/angular_velocity": (res.velocity, (steps, members, 6))}
+    if res.acceleration is not None:
+        shapes["members/acceleration, members/angular_acceleration"] = (res.acceleration, (steps, members, 6))
     shapes |= {f"tracks/{n}/position": (tr.position, (steps, 3)) for n, tr in res.tracks.items()}
     shapes |= {f"tracks/{n}/velocity": (tr.velocity, (steps, 3)) for n, tr in res.tracks.items()}
     for where, (array, shape) in shapes.items():

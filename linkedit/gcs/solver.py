@@ -35,7 +35,8 @@ solve from it).
 
 Each accepted pose is factorized once (at its first corrected iterate, when the later
 corrections moved it at most :data:`REUSE`, else afresh): that factorization gives its
-velocity, its null space and rank, and the first correction of the next step.
+velocity, its null space and rank, the first correction of the next step and, with
+``Options.accelerations``, its acceleration (:mod:`linkedit.gcs.acceleration`).
 
 Status per step: **converged** (largest scaled residual row ≤ tol), **inconsistent** (the
 least-squares cost stopped decreasing above tol: the constraints contradict each other) or
@@ -58,6 +59,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from linkedit.gcs import quaternions as quat
+from linkedit.gcs.acceleration import acceleration
 from linkedit.gcs.linalg import Factor, Linearization, NormalEquations
 from linkedit.gcs.system import Evaluation, State, StepTable, System
 
@@ -95,7 +97,9 @@ class Options:
     (sub-)step; ``predictor_tol``: largest distance between a sub-step's tangent prediction and
     its solution; ``max_motion``: largest motion of a sub-step; ``min_fraction``: smallest
     sub-step, as a fraction of a time step; ``still_tol``: largest component of a pose's change
-    along free directions."""
+    along free directions; ``accelerations``: compute them at every output step (two more
+    Jacobian evaluations per step, :mod:`linkedit.gcs.acceleration`; ``solve3d`` asks for them,
+    pose-only callers such as the planar numeric engine and the SolveSpace bench do not)."""
 
     tol: float = 1e-12
     max_iterations: int = 100
@@ -104,6 +108,7 @@ class Options:
     min_fraction: float = 1e-9
     still_tol: float = 1e-10
     solver: str = "lm"
+    accelerations: bool = False
 
     @property
     def satisfied_tol(self) -> float:
@@ -477,6 +482,7 @@ class Run:
     position: np.ndarray  #: (T, M, 3)
     orientation: np.ndarray  #: (T, M, 4)
     velocity: np.ndarray  #: (T, M, 6): d position / dt and world angular velocity
+    acceleration: np.ndarray | None  #: (T, M, 6): d² position / dt² and world angular acceleration (None: not asked)
     residual: np.ndarray  #: (T, R) residual vector at each solved step
     status: np.ndarray  #: (T,) int8: 0 converged, 1 inconsistent, 2 did not converge
     iterations: np.ndarray  #: (T,) linear solves
@@ -501,7 +507,7 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
     solver = Solver(system, options)
     T, M = t.size, system.n_members
     pos, ori = np.empty((T, M, 3)), np.empty((T, M, 4))
-    vel = np.zeros((T, M, 6))
+    vel, acc = np.zeros((T, M, 6)), np.zeros((T, M, 6))
     res = np.empty((T, system.n_rows))
     status = np.empty(T, dtype=np.int8)
     iters, facts = np.zeros(T, dtype=np.int32), np.zeros(T, dtype=np.int32)
@@ -537,11 +543,15 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
             good, stuck = pose, False
             vel[k] = (pose.velocity * solver.col).reshape(M, 6)
             rank[k] = pose.linear.rank
+            if options.accelerations:
+                a = acceleration(solver, pose.state, table, k, pose.linear, pose.velocity)
+                acc[k] = (a * solver.col).reshape(M, 6)
         pos[k], ori[k], res[k], status[k] = x.position, x.orientation, r, st
         iters[k], facts[k] = solver.iterations - it0, solver.factorizations - f0
         if progress is not None:
             progress(k, T)
-    return Run(t=t, position=pos, orientation=ori, velocity=vel, residual=res, status=status,
+    return Run(t=t, position=pos, orientation=ori, velocity=vel,
+               acceleration=acc if options.accelerations else None, residual=res, status=status,
                iterations=iters, factorizations=facts, reached=reached, rank=rank)
 
 

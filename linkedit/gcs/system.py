@@ -47,7 +47,11 @@ class Elementary:
 
     Parameters by kind — location: member points ``sa``, ``sb``; orientation: ``rel`` (a's
     orientation = b's ⊗ rel); axis: member axes ``sa``, ``sb``; plane: point ``sa``, plane point
-    ``sb`` and unit normal ``nb`` in b's space. An input's ``schedule`` drives ``sb`` (or ``rel``).
+    ``sb`` and unit normal ``nb`` in b's space; line: point ``sa``, line point ``sb`` and unit
+    direction ``nb`` in b's space; distance: member points ``sa``, ``sb`` and the length
+    ``value``; angle: member axes ``sa``, ``sb`` and the angle ``value`` (radians); parallel:
+    member axes ``sa``, ``sb``. An input's ``schedule`` drives ``sb`` (or ``rel``; ``value`` for
+    the kinds with a value).
     """
 
     kind: str
@@ -58,6 +62,7 @@ class Elementary:
     sb: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rel: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
     nb: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    value: float = 0.0
     schedule: Schedule | None = None
 
 
@@ -89,6 +94,7 @@ class Block:
     sb: np.ndarray
     rel: np.ndarray
     nb: np.ndarray
+    value: np.ndarray  # (n,) targets of the kinds with a value (constraints.VALUE_KINDS)
     rows: np.ndarray  # (n, k) residual row indices (contiguous)
     start: int
     stop: int
@@ -107,6 +113,7 @@ class StepParameters:
     rel_inverse: np.ndarray  #: (n, 4) inverse relative orientations of the orientation block (driven ones at this step)
     active: list[np.ndarray | None]  #: per block (n,) bool, None when all are active
     inactive_rows: np.ndarray  #: residual rows of inputs outside their window
+    values: dict[str, np.ndarray]  #: per kind with a value, the targets (n,) of its block (driven ones at this step)
 
 
 @dataclass
@@ -114,8 +121,8 @@ class StepTable:
     """Parameters driven by inputs, evaluated once for the whole run: per step, the driven
     member-space vectors (T, S, 9) (as :attr:`System.vectors`) and inverse relative
     orientations (T, S', 4); per block, the activity (T, n) of its constraints (None for a
-    block without inputs) and the rates of its driven ones, and (T,) whether any input is
-    outside its window."""
+    block without inputs), the rates of its driven ones and its values (T, n) (None unless
+    an input drives a value), and (T,) whether any input is outside its window."""
 
     t: np.ndarray
     vectors: np.ndarray
@@ -125,6 +132,8 @@ class StepTable:
     system: "System" = field(repr=False)
     #: per block, the virtual velocities (T, S, 6) of its driven constraints (Schedule.rate), or None
     rates: list[np.ndarray | None] = field(default_factory=list, repr=False)
+    #: per block, its values (T, n) when an input drives one of them, else None
+    values: list[np.ndarray | None] = field(default_factory=list, repr=False)
     _last: tuple[int, StepParameters] | None = field(default=None, repr=False)
 
     def at(self, step: int) -> StepParameters:
@@ -144,7 +153,9 @@ class StepTable:
         if self.partial[step]:
             active = [None if act is None or act[step].all() else act[step] for act in self.active]
             rows = np.concatenate([blk.rows[~a].ravel() for blk, a in zip(sys.blocks, active) if a is not None])
-        par = StepParameters(float(self.t[step]), vectors, rel_inverse, active, rows)
+        values = {blk.kind: blk.value if v is None else v[step] for blk, v in zip(sys.blocks, self.values)
+                  if blk.kind in kinds.VALUE_KINDS}
+        par = StepParameters(float(self.t[step]), vectors, rel_inverse, active, rows, values)
         self._last = (step, par)
         return par
 
@@ -249,14 +260,15 @@ class System:
             a = np.array([e.a for e in group], dtype=int)
             b = np.array([M if e.b == WORLD else e.b for e in group], dtype=int)
             scheduled = np.array([i for i, e in enumerate(group) if e.schedule is not None], dtype=int)
-            params = {p: np.array([getattr(e, p) for e in group], dtype=float) for p in ("sa", "sb", "rel", "nb")}
+            params = {p: np.array([getattr(e, p) for e in group], dtype=float)
+                      for p in ("sa", "sb", "rel", "nb", "value")}
             slots = []
             for vec, side in kinds.VECTORS[kind]:
                 start = sum(len(v) for v in vectors)
                 slots.append(slice(start, start + n))
                 vec_member.append(a if side == "a" else b)
                 vectors.append(params[vec])
-                if vec == "sb":  # an input drives sb (or rel)
+                if vec == "sb" and kind not in kinds.VALUE_KINDS:  # an input drives sb (or rel, or value)
                     driven.append(start + scheduled)
             if kind == "orientation":
                 rel, driven_rel = params["rel"], scheduled
@@ -291,14 +303,17 @@ class System:
     def step_table(self, t: np.ndarray) -> StepTable:
         """Evaluate every input's schedule at the times ``t`` (T,) once, for the whole run."""
         t = np.asarray(t, dtype=float)
-        vectors, rel_inverse, active, rates = [], [], [], []
+        vectors, rel_inverse, active, rates, driven_values = [], [], [], [], []
         partial = np.zeros(t.size, dtype=bool)
         for blk in self.blocks:
-            act = rate = None
+            act = rate = value = None
             if len(blk.scheduled):
                 rate = np.stack([s.rate(t) for s in blk.schedules], axis=1)
                 values = np.stack([s.evaluate(t) for s in blk.schedules], axis=1)
-                if blk.kind == "orientation":
+                if blk.kind in kinds.VALUE_KINDS:
+                    value = np.tile(blk.value, (t.size, 1))
+                    value[:, blk.scheduled] = values[..., 0]
+                elif blk.kind == "orientation":
                     rel_inverse.append(quat.conjugate(values))
                 else:
                     vectors.append(np.tile(values, 3))
@@ -307,9 +322,10 @@ class System:
                 partial |= ~act.all(axis=1)
             active.append(act)
             rates.append(rate)
+            driven_values.append(value)
         stack = lambda xs, k: np.concatenate(xs, axis=1) if xs else np.zeros((t.size, 0, k))  # noqa: E731
         return StepTable(t=t, vectors=stack(vectors, 9), rel_inverse=stack(rel_inverse, 4), active=active,
-                         partial=partial, system=self, rates=rates)
+                         partial=partial, system=self, rates=rates, values=driven_values)
 
     # ---- evaluation -------------------------------------------------------------------------
 
@@ -349,13 +365,17 @@ class System:
     def time_derivative(self, state: State, table: StepTable, step: int, ev: Evaluation) -> np.ndarray:
         """∂r/∂t (R,) at fixed member states: each driven constraint's rows times its input's
         virtual velocity of member b (:meth:`~linkedit.gcs.inputs.Schedule.rate`, turned into
-        the world frame), through the b columns of the Jacobian ``ev.jac``. Custom constraints
-        that depend on t: central differences in t."""
+        the world frame), through the b columns of the Jacobian ``ev.jac``; for a driven value
+        (a distance), minus the value's rate. Custom constraints that depend on t: central
+        differences in t."""
         out = np.zeros(self.n_rows)
         for blk, jac, rate in zip(self.blocks, ev.jac, table.rates):
             if rate is None:
                 continue
             s = blk.scheduled
+            if blk.kind in kinds.VALUE_KINDS:
+                out[blk.rows[s]] = -rate[step]
+                continue
             w = rate[step]  # (S, 6): u, ω in b's frame
             if not blk.on_world:
                 Q = np.concatenate((state.orientation, _IDENTITY))
@@ -423,33 +443,59 @@ def _plane(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepPar
     return kinds.plane(X[v[0]], X[v[1]], W[v[0]], W[v[1]], W[v[2]], out, jacobian)
 
 
+def _line(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+          jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.line(X[v[0]], X[v[1]], W[v[0]], W[v[1]], W[v[2]], out, jacobian)
+
+
+def _distance(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+              jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.distance(X[v[0]], X[v[1]], W[v[0]], W[v[1]], par.values["distance"], out, jacobian)
+
+
+def _angle(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+           jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.angle(W[v[0]], W[v[1]], par.values["angle"], out, jacobian)
+
+
+def _parallel(blk: Block, X: np.ndarray, W: np.ndarray, Q: np.ndarray, par: StepParameters, out: np.ndarray,
+              jacobian: bool) -> np.ndarray | None:
+    v = blk.vectors
+    return kinds.parallel(W[v[0]], W[v[1]], out, jacobian)
+
+
 #: how a block of each kind is evaluated, from what :meth:`System.evaluate` gathered once for all
 #: kinds — the block, world points X (K, 3) and world vectors W (K, 3) of the system's member
 #: vectors (the block's at ``blk.vectors``, in the order of ``constraints.VECTORS``), quaternions
 #: Q (M+1, 4) with the world last, the step's parameters — writing its residual rows into
 #: ``out`` (n, k) and returning its Jacobian (n, k, 2, 6) when ``jacobian``: a new kind is one
 #: entry here (and its rows in ``constraints``)
-EVALUATE = {"location": _location, "orientation": _orientation, "axis": _axis, "plane": _plane}
+EVALUATE = {"location": _location, "orientation": _orientation, "axis": _axis, "plane": _plane,
+            "line": _line, "distance": _distance, "angle": _angle, "parallel": _parallel}
 
 
 def characteristic_length(rest: State, elementary: list[Elementary], points: dict[str, dict[str, np.ndarray]],
                           member_names: list[str]) -> float:
     """The size of a mechanism: the diagonal of the bounding box of everything it places at
     rest — member origins, shape points and constrained points turned into the world, world
-    targets — so that it scales with the units and not with where the mechanism sits. 1 when
-    everything is at one point."""
+    targets — so that it scales with the units and not with where the mechanism sits; at least
+    the longest distance a distance constraint asks for. 1 when everything is at one point."""
     R = quat.to_matrix(rest.orientation)
     world = [rest.position]
     for m, name in enumerate(member_names):
         pts = np.array(list(points.get(name, {}).values()), dtype=float).reshape(-1, 3)
         world.append(rest.position[m] + pts @ R[m].T)
     for e in elementary:
-        if e.kind in ("location", "plane"):
+        if e.kind in kinds.LENGTH_KINDS:
             world.append((rest.position[e.a] + R[e.a] @ np.asarray(e.sa))[None])
             if e.b == WORLD:
                 world.append(np.asarray(e.sb, dtype=float)[None])
     X = np.concatenate(world)
     size = float(np.linalg.norm(X.max(axis=0) - X.min(axis=0))) if X.size else 0.0
+    size = max([size] + [e.value for e in elementary if e.kind == "distance"])
     return size if size > 0.0 and np.isfinite(size) else 1.0
 
 

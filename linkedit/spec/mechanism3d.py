@@ -1,9 +1,11 @@
 """The 3D mechanism spec for ``linkedit solve3d`` (see ``specs/mechanism3d.md``).
 
 Members (position, orientation, shape points) are held together by named constraints —
-location, orientation, axis, on-plane, the composites pin (revolute) and weld, groups, and
-custom Python constraints — and driven by inputs interpolated over time windows. Outputs are
-tracked member points sampled at ``steps`` times in [0, 1].
+location, orientation, axis, on-plane, on-line, distance, angle, parallel, perpendicular, the
+composites pin (revolute) and weld, groups, and custom Python constraints — and by joints
+placed in the world as in a drawing (revolute, prismatic, cylindrical, universal, spherical,
+planar: presets that expand to those constraints), and driven by inputs interpolated over time
+windows. Outputs are tracked member points sampled at ``steps`` times in [0, 1].
 
 A spec file is data: a ``custom`` constraint names a Python function (``python:
 module:function``) that is imported only when the caller allows it (``--allow-python``, passed
@@ -143,6 +145,60 @@ class OnPlane(SpecModel):
     other: Name | None = None
 
 
+class Line(SpecModel):
+    point: Vec3
+    direction: Direction
+
+
+class OnLine(SpecModel):
+    """Member point on a line: in the world, or in another member's space (``other``)."""
+
+    type: Literal["on_line"]
+    member: Name
+    point: PointRef
+    line: Line
+    other: Name | None = None
+
+
+#: a length in the spec's unit, > 0
+Length = Annotated[Finite, pydantic.Field(gt=0.0, le=MAX_COORDINATE)]
+
+
+class Distance(SpecModel):
+    """Member point at distance ``value`` (spec unit) from a world point or another member's point."""
+
+    type: Literal["distance"]
+    member: Name
+    point: PointRef
+    value: Length
+    world: Vec3 | None = None
+    other: Name | None = None
+    other_point: PointRef | None = None
+
+
+class Angle(SpecModel):
+    """Member axis at ``angle_deg`` (0 to 180) from a world axis or another member's axis."""
+
+    type: Literal["angle"]
+    member: Name
+    axis: Direction
+    angle_deg: Annotated[Finite, pydantic.Field(ge=0.0, le=180.0)]
+    world: Direction | None = None
+    other: Name | None = None
+    other_axis: Direction | None = None
+
+
+class Parallel(SpecModel):
+    """Member axis parallel (either way) or perpendicular to a world axis or another member's axis."""
+
+    type: Literal["parallel", "perpendicular"]
+    member: Name
+    axis: Direction
+    world: Direction | None = None
+    other: Name | None = None
+    other_axis: Direction | None = None
+
+
 class Pin(SpecModel):
     """Revolute joint = location + axis. ``axis`` is in member space (default z); the world or
     other member's axis defaults to the same line as in the rest pose."""
@@ -189,7 +245,8 @@ class Group(SpecModel):
     constraints: dict[Name, "Constraint"] = pydantic.Field(min_length=1)
 
 
-Constraint = Annotated[Union[Location, OrientationC, AxisC, OnPlane, Pin, Weld, CustomC, Group],
+Constraint = Annotated[Union[Location, OrientationC, AxisC, OnPlane, OnLine, Distance, Angle, Parallel, Pin, Weld,
+                             CustomC, Group],
                        pydantic.Field(discriminator="type")]
 Group.model_rebuild()
 
@@ -240,7 +297,83 @@ class AxisInput(_InputBase):
     keyframes: list[Direction] = pydantic.Field(min_length=1)
 
 
-Input = Annotated[Union[LocationInput, OrientationInput, AxisInput], pydantic.Field(discriminator="type")]
+class DistanceInput(_InputBase):
+    """A linear actuator: the distance from a member point to a world point or another member's
+    point follows length keyframes (linear)."""
+
+    type: Literal["distance"]
+    member: Name
+    point: PointRef
+    world: Vec3 | None = None
+    other: Name | None = None
+    other_point: PointRef | None = None
+    keyframes: list[Length] = pydantic.Field(min_length=1)
+
+
+Input = Annotated[Union[LocationInput, OrientationInput, AxisInput, DistanceInput],
+                  pydantic.Field(discriminator="type")]
+
+
+#: the fixed frame in a joint's ``members``
+WORLD = "world"
+
+
+class _Joint(SpecModel):
+    """A joint between ``members`` [m1, m2] (``world`` for the fixed frame), placed as in a
+    drawing: ``at`` is a world point of the rest pose where the joint sits."""
+
+    members: tuple[Name, Name]
+    at: Point3
+
+
+class RevoluteJoint(_Joint):
+    """Turning about ``axis`` (world direction at rest) through ``at``: point + axis."""
+
+    type: Literal["revolute"]
+    axis: Direction
+
+
+class PrismaticJoint(_Joint):
+    """Sliding along ``axis`` through ``at``, no turning: line + orientation."""
+
+    type: Literal["prismatic"]
+    axis: Direction
+
+
+class CylindricalJoint(_Joint):
+    """Turning about and sliding along ``axis`` through ``at``: line + axis."""
+
+    type: Literal["cylindrical"]
+    axis: Direction
+
+
+class UniversalJoint(_Joint):
+    """A cross at ``at``: m1 turns about ``axes[0]``, m2 about ``axes[1]`` (world directions at
+    rest), kept perpendicular: point + perpendicular."""
+
+    type: Literal["universal"]
+    axes: tuple[Direction, Direction]
+
+
+class SphericalJoint(_Joint):
+    """A ball at ``at``: point."""
+
+    type: Literal["spherical"]
+
+
+class PlanarJoint(_Joint):
+    """m1 slides and turns on the plane through ``at`` with ``normal``: plane + axis."""
+
+    type: Literal["planar"]
+    normal: Direction
+
+
+#: the constraints each joint type expands to, named ``joint.part``
+JOINT_PARTS = {"revolute": ("point", "axis"), "prismatic": ("line", "orientation"), "cylindrical": ("line", "axis"),
+               "universal": ("point", "perpendicular"), "spherical": ("point",), "planar": ("plane", "axis")}
+
+Joint = Annotated[Union[RevoluteJoint, PrismaticJoint, CylindricalJoint, UniversalJoint, SphericalJoint,
+                        PlanarJoint], pydantic.Field(discriminator="type")]
 
 
 class TrackSpec(SpecModel):
@@ -268,6 +401,7 @@ class MechanismSpec(SpecModel):
     shapes: dict[Name, Shape] = pydantic.Field(default_factory=dict)
     members: dict[Name, Member] = pydantic.Field(min_length=1)
     constraints: dict[Name, Constraint] = pydantic.Field(default_factory=dict)
+    joints: dict[Name, Joint] = pydantic.Field(default_factory=dict)
     inputs: dict[Name, Input] = pydantic.Field(default_factory=dict)
     outputs: Outputs = pydantic.Field(default_factory=Outputs)
 
@@ -298,6 +432,8 @@ class MechanismSpec(SpecModel):
         allow = bool((info.context or {}).get("allow_python", False))
         for name, c in self.constraints.items():
             self._check_constraint(c, ("constraints", name), allow)
+        for name, joint in self.joints.items():
+            self._check_joint(joint, ("joints", name))
         for name, inp in self.inputs.items():
             self._check_input(inp, ("inputs", name))
         for name, tr in self.outputs.tracks.items():
@@ -344,23 +480,46 @@ class MechanismSpec(SpecModel):
                                  field=field + ("python",))
             load_function(c.python, field + ("python",))
             return
-        targets = {Location: ("world",), OrientationC: ("world",), AxisC: ("world",), OnPlane: (),
-                   Pin: ("world",), Weld: ("world",)}[type(c)]
+        targets = () if isinstance(c, (OnPlane, OnLine)) else ("world",)
         self._sides(c, field, targets)
-        if isinstance(c, (Location, Pin, Weld)) and c.other is not None:
-            if c.other_point is None:
-                raise InputError("a relative constraint needs 'other_point'", field=field + ("other_point",))
-            self._point(c.other, c.other_point, field + ("other_point",))
-        if isinstance(c, AxisC) and c.other is not None and c.other_axis is None:
+        self._other_point(c, field)
+        if isinstance(c, (AxisC, Angle, Parallel)) and c.other is not None and c.other_axis is None:
             raise InputError("a relative axis constraint needs 'other_axis'", field=field + ("other_axis",))
         if isinstance(c, OrientationC) and c.other is None and c.relative is not None:
             raise InputError("'relative' needs 'other'", field=field + ("relative",))
+
+    def _other_point(self, c: Any, field: tuple) -> None:
+        """A relative point-to-point constraint (or input) names the other member's point."""
+        if isinstance(c, (Location, Pin, Weld, Distance, DistanceInput)) and c.other is not None:
+            if c.other_point is None:
+                raise InputError("a relative constraint needs 'other_point'", field=field + ("other_point",))
+            self._point(c.other, c.other_point, field + ("other_point",))
+
+    def _check_joint(self, joint: Any, field: tuple) -> None:
+        for part in JOINT_PARTS[joint.type]:
+            if f"{field[-1]}.{part}" in self.constraints or f"{field[-1]}.{part}" in self.inputs:
+                raise InputError(f"its constraint {field[-1]}.{part!s} has the name of a constraint or input: "
+                                 "rename one", field=field)
+        if joint.members[0] == joint.members[1]:
+            raise InputError("a joint needs two different members", field=field + ("members",))
+        for i, m in enumerate(joint.members):
+            if m == WORLD and WORLD in self.members:
+                raise InputError("'world' in a joint is the fixed frame, and a member is named 'world' too: "
+                                 "rename that member", field=field + ("members", i))
+            if m != WORLD:
+                self._member(m, field + ("members", i))
+        if isinstance(joint, UniversalJoint):
+            a, b = joint.axes
+            if abs(sum(x * y for x, y in zip(a, b))) > 1e-9:
+                raise InputError("the two axes of a universal joint must be perpendicular at rest",
+                                 field=field + ("axes",))
 
     def _check_input(self, inp: Any, field: tuple) -> None:
         t0, t1 = inp.window
         if not (0.0 <= t0 < t1 <= 1.0):
             raise InputError("the window must be [t0, t1] with 0 <= t0 < t1 <= 1", field=field + ("window",))
-        self._sides(inp, field, ())
+        self._sides(inp, field, ("world",) if isinstance(inp, DistanceInput) else ())
+        self._other_point(inp, field)
         if isinstance(inp, OrientationInput):
             if (inp.keyframes is None) == (inp.rotation is None):
                 raise InputError("give either 'keyframes' or 'rotation'", field=field)

@@ -1,0 +1,103 @@
+"""Exact accelerations of a solved pose: J a = −γ with the pose's factorization.
+
+Along the solved motion x(t) the residual stays zero: J v + ∂r/∂t = 0, and once more
+differentiated, J a + γ = 0 with γ = d/dσ [J(x ⊕ σv, t + σ) v + ∂r/∂t(x ⊕ σv, t + σ)] at σ = 0,
+the second-order terms (the change of the velocity equations along the velocity itself).
+γ is taken by a central difference of those exact first-order terms (error ~1e-10 of the
+size per unit t², far below the 1e-6 of a position difference), with the inputs' parameters
+moved along their exact rates (so a keyframe or the end of a window is not straddled), and
+``a`` is the least-norm solution with the factorization the pose already has. Where J has a
+null space (a free degree of freedom left still), the velocity stays ⊥ null(J): P v = 0 with
+P the projector on the null space, so P a = −Ṗ v, added from the null spaces at σ = ±h.
+
+Accelerations are d²/dt² of the member positions and the world-frame angular accelerations
+dω/dt (rotation increments q ← exp(δθ) ⊗ q agree with them to second order).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from linkedit.gcs import constraints as kinds
+from linkedit.gcs import quaternions as quat
+from linkedit.gcs.system import Evaluation, State, StepTable, System
+
+#: the central difference's step, in scaled pose units along the velocity
+STEP = 1e-5
+
+
+def advanced(table: StepTable, step: int, s: float) -> StepTable:
+    """A one-step table at t + s whose driven parameters moved from their values at ``step``
+    by s along their rates (:meth:`~linkedit.gcs.inputs.Schedule.rate`; exact inside the
+    keyframe segment that starts at ``step``); activity and rates are those of ``step``."""
+    sys = table.system
+    vectors, rel_inverse, values = [], [], []
+    col = 0
+    for blk, rate, value in zip(sys.blocks, table.rates, table.values):
+        if rate is None:
+            values.append(None)
+            continue
+        w = s * rate[step]
+        if blk.kind in kinds.VALUE_KINDS:
+            v = value[step].copy()
+            v[blk.scheduled] += w[:, 0]
+            values.append(v[None])
+            continue
+        values.append(None)
+        turn = quat.exp(w[:, 3:])
+        if blk.kind == "orientation":  # one block per kind: every driven orientation
+            rel_inverse.append(quat.multiply(table.rel_inverse[step], quat.conjugate(turn)))
+        else:
+            base = table.vectors[step, col:col + len(w), :3]
+            vectors.append(np.tile(quat.rotate(turn, base) + w[:, :3], 3))
+            col += len(w)
+    stack = lambda xs, k: np.concatenate(xs)[None] if xs else np.zeros((1, 0, k))  # noqa: E731
+    return StepTable(t=np.array([table.t[step] + s]), vectors=stack(vectors, 9), rel_inverse=stack(rel_inverse, 4),
+                     active=[None if a is None else a[step:step + 1] for a in table.active],
+                     partial=table.partial[step:step + 1], system=sys,
+                     rates=[None if r is None else r[step:step + 1] for r in table.rates], values=values)
+
+
+def jacobian_product(system: System, ev: Evaluation, v: np.ndarray) -> np.ndarray:
+    """J v (R,) from the Jacobian groups of ``ev`` and local velocities v (6M,)."""
+    V = np.concatenate([v.reshape(-1, 6), np.zeros((1, 6))])
+    out = np.zeros(system.n_rows)
+    for grp, jac in zip(system.groups, ev.jac):
+        out[grp.rows] += np.einsum("nkmj,nmj->nk", jac, V[grp.members])
+    return out
+
+
+def _along(x: State, delta: np.ndarray) -> State:
+    """x moved by local coordinates ``delta`` (6M,) with the exact exponential (q ← exp(δθ) ⊗ q;
+    :meth:`State.moved`'s retraction agrees with it to second order only)."""
+    d = delta.reshape(-1, 6)
+    return State(x.position + d[:, :3], quat.multiply(quat.exp(d[:, 3:]), x.orientation))
+
+
+def _first_order(solver, ev: Evaluation, x: State, table: StepTable, step: int, real: np.ndarray) -> np.ndarray:
+    """The velocity equations' left side J v + ∂r/∂t (R,), scaled rows, for real velocities (6M,)."""
+    system = solver.system
+    return (jacobian_product(system, ev, real) + system.time_derivative(x, table, step, ev)) * solver.row
+
+
+def acceleration(solver, state: State, table: StepTable, step: int, linear, velocity: np.ndarray) -> np.ndarray:
+    """The scaled acceleration (6M,) at a solved pose with its :class:`~linkedit.gcs.solver.Linear`
+    and scaled velocity (module docstring)."""
+    system = solver.system
+    h = STEP / max(1.0, float(np.abs(velocity).max(initial=0.0)))
+    real = velocity * solver.col
+    terms, nulls = [], []
+    for s in (h, -h):
+        x = _along(state, s * real)
+        tab = advanced(table, step, s)
+        ev = system.evaluate(x, tab, 0, jacobian=True)
+        terms.append(_first_order(solver, ev, x, tab, 0, real))
+        if linear.null is not None:
+            J = system.dense_jacobian(ev) * solver.row[:, None] * solver.col
+            nulls.append(np.linalg.svd(J)[2][-linear.null.shape[1]:].T)
+    a = linear.least_norm(-(terms[0] - terms[1]) / (2 * h))
+    if nulls:
+        Pv = [N @ (N.T @ velocity) for N in nulls]
+        N = linear.null
+        a -= N @ (N.T @ ((Pv[0] - Pv[1]) / (2 * h)))
+    return a
