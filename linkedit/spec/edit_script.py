@@ -7,7 +7,7 @@ Shapes are checked here; names (joints, tracks, locks) are checked against the l
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 import pydantic
 
@@ -15,12 +15,14 @@ from linkedit.errors import InputError
 from linkedit.spec.common import MAX_WEIGHT, Count, Finite, Name, SpecModel, Vec2
 from linkedit.spec.linkage import LinkageSpec
 
-Phase = pydantic.confloat(strict=True, ge=0.0, lt=1.0, allow_inf_nan=False)
+Phase = Annotated[float, pydantic.Strict(), pydantic.Field(ge=0.0, lt=1.0, allow_inf_nan=False)]
 #: a weight of an objective term: sums of weighted squares must not overflow
-Weight = pydantic.confloat(strict=True, ge=0.0, le=MAX_WEIGHT, allow_inf_nan=False)
-Positive = pydantic.confloat(strict=True, gt=0.0, allow_inf_nan=False)
+Weight = Annotated[float, pydantic.Strict(), pydantic.Field(ge=0.0, le=MAX_WEIGHT, allow_inf_nan=False)]
+Positive = Annotated[float, pydantic.Strict(), pydantic.Field(gt=0.0, allow_inf_nan=False)]
 #: the weight of one target among an operation's targets
-ItemWeight = pydantic.confloat(strict=True, gt=0.0, le=MAX_WEIGHT, allow_inf_nan=False)
+ItemWeight = Annotated[float, pydantic.Strict(), pydantic.Field(gt=0.0, le=MAX_WEIGHT, allow_inf_nan=False)]
+#: the singularity barrier's threshold ε on d_s, in (0, 1)
+Epsilon = Annotated[float, pydantic.Strict(), pydantic.Field(gt=0.0, lt=1.0)]
 
 
 class Displace(SpecModel):
@@ -60,11 +62,18 @@ class Displace(SpecModel):
     @property
     def when(self) -> float | None:
         """Motor phase of the target, or None for the rest pose."""
-        return self.phase if self.link is not None or self.at is None else self.at
+        if self.link is not None or self.at is None:
+            return self.phase
+        assert not isinstance(self.at, tuple)  # a joint's ``at`` is a phase (checked by _what)
+        return self.at
 
     @property
     def label(self) -> str:
-        what = self.joint if self.joint is not None else f"{self.link}@({self.at[0]:g}, {self.at[1]:g})"
+        if self.joint is not None:
+            what = self.joint
+        else:
+            assert isinstance(self.at, tuple)  # a link point's ``at`` is its rest position (checked by _what)
+            what = f"{self.link}@({self.at[0]:g}, {self.at[1]:g})"
         return f"displace {what}" + ("" if self.when is None else f" at {self.when:g}")
 
 
@@ -213,7 +222,7 @@ class EditScript(SpecModel):
     lock: list[Name | Lock] = pydantic.Field(default_factory=list)
     motor: MotorFreedom = MotorFreedom()
     weights: Weights = Weights()
-    singularity_epsilon: pydantic.confloat(strict=True, gt=0.0, lt=1.0) = 0.05
+    singularity_epsilon: Epsilon = 0.05
     solver: Literal["gauss-newton", "bfgs"] = "gauss-newton"
     #: Mirrored parts: pairs of joint-name suffixes, e.g. [[_L, _R]]: joints whose names differ only
     #: by them are mirror images, and corresponding lengths stay equal through the edit.
@@ -262,10 +271,10 @@ def check_against(script: EditScript, linkage: LinkageSpec) -> None:
         raise InputError("every joint is locked: nothing is left for the edit to change", field=("lock",))
     for o, op in enumerate(script.operations):
         base: tuple = ("operations", o)
-        for n, item in enumerate(op.preserve):
-            name = item if isinstance(item, str) else item.track
-            if name not in tracks:
-                raise InputError(f"unknown track {name!r} (tracks: {', '.join(sorted(tracks)) or 'none'})",
+        for n, kept in enumerate(op.preserve):
+            track = kept if isinstance(kept, str) else kept.track
+            if track not in tracks:
+                raise InputError(f"unknown track {track!r} (tracks: {', '.join(sorted(tracks)) or 'none'})",
                                  field=base + ("preserve", n))
         for kind in ("retarget", "follow", "drag"):
             items = op.listed(kind)
