@@ -61,7 +61,8 @@ def parametrize(plan: Plan, x: np.ndarray, locked: dict[int, str], free_angle: b
                 label, direction = "radius", complex(*(x[motor] - x[pivot]))
             col = np.zeros(2 * J)
             col[2 * motor:2 * motor + 2] = np.array([direction.real, direction.imag]) / abs(direction)
-            columns.append(col), labels.append(f"{names[j]}.{label}")
+            columns.append(col)
+            labels.append(f"{names[j]}.{label}")
             continue
         if j == motor and not free_angle:  # partly locked, angle fixed: the crank pin stays
             continue
@@ -72,7 +73,8 @@ def parametrize(plan: Plan, x: np.ndarray, locked: dict[int, str], free_angle: b
             col[2 * j + a] = 1.0
             if j == pivot and follows_pivot:
                 col[2 * motor + a] = 1.0
-            columns.append(col), labels.append(f"{names[j]}.{axis}")
+            columns.append(col)
+            labels.append(f"{names[j]}.{axis}")
     B = np.column_stack(columns) if columns else np.zeros((2 * J, 0))
     return Variables(x0=x.copy(), B=B, labels=tuple(labels))
 

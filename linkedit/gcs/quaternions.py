@@ -38,9 +38,10 @@ def _matrix_tensor() -> np.ndarray:
     for i, signs in enumerate([(1, 1, -1, -1), (1, -1, 1, -1), (1, -1, -1, 1)]):
         for k, c in enumerate(signs):
             add(k, k, i, i, c)
-    add(x, y, 0, 1, 2), add(w, z, 0, 1, -2), add(x, z, 0, 2, 2), add(w, y, 0, 2, 2)
-    add(x, y, 1, 0, 2), add(w, z, 1, 0, 2), add(y, z, 1, 2, 2), add(w, x, 1, 2, -2)
-    add(x, z, 2, 0, 2), add(w, y, 2, 0, -2), add(y, z, 2, 1, 2), add(w, x, 2, 1, 2)
+    for args in ((x, y, 0, 1, 2), (w, z, 0, 1, -2), (x, z, 0, 2, 2), (w, y, 0, 2, 2),
+                 (x, y, 1, 0, 2), (w, z, 1, 0, 2), (y, z, 1, 2, 2), (w, x, 1, 2, -2),
+                 (x, z, 2, 0, 2), (w, y, 2, 0, -2), (y, z, 2, 1, 2), (w, x, 2, 1, 2)):
+        add(*args)
     return T.reshape(16, 9)
 
 

@@ -152,24 +152,34 @@ class Geometry:
     arm: complex  # motor joint − pivot at rest
     rest_angle: float  # motor angle at rest, radians
     ground: np.ndarray  # (G, 1) complex
-    coef: tuple[np.ndarray | None, ...]  # rigid batches: (R, 1) complex
-    lik2: tuple[np.ndarray | None, ...]  # dyad batches: l_ik², (R, 1)
-    ljk2: tuple[np.ndarray | None, ...]
-    half_diff: tuple[np.ndarray | None, ...]  # (l_ik² − l_jk²)/2
+    # per batch; a batch of the other kind (rigid or dyad) has an empty (0, 1) entry
+    coef: tuple[np.ndarray, ...]  # rigid batches: (R, 1) complex
+    lik2: tuple[np.ndarray, ...]  # dyad batches: l_ik², (R, 1)
+    ljk2: tuple[np.ndarray, ...]
+    half_diff: tuple[np.ndarray, ...]  # (l_ik² − l_jk²)/2
 
     @classmethod
     def of(cls, plan: Plan, points: np.ndarray) -> "Geometry":
         z = points[:, 0] + 1j * points[:, 1]
         g = plan.graph
-        coef, lik2, ljk2, half = [], [], [], []
+        coef: list[np.ndarray] = []
+        lik2: list[np.ndarray] = []
+        ljk2: list[np.ndarray] = []
+        half: list[np.ndarray] = []
+        none = np.empty((0, 1))
         for b in plan.batches:
             zi, zj, zk = z[b.i_point, None], z[b.j_point, None], z[b.k_point, None]
             if b.rigid:
                 coef.append((zk - zi) / (zj - zi))
-                lik2.append(None), ljk2.append(None), half.append(None)
+                lik2.append(none)
+                ljk2.append(none)
+                half.append(none)
             else:
                 a, c = np.abs(zk - zi) ** 2, np.abs(zk - zj) ** 2
-                coef.append(None), lik2.append(a), ljk2.append(c), half.append(0.5 * (a - c))
+                coef.append(none)
+                lik2.append(a)
+                ljk2.append(c)
+                half.append(0.5 * (a - c))
         pivot = complex(z[g.pivot]) if g.pivot >= 0 else 0j
         arm = complex(z[g.motor] - z[g.pivot]) if g.pivot >= 0 else 1.0 + 0j
         return cls(
