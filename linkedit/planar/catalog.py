@@ -14,6 +14,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.linkage_yaml import dump_linkage
@@ -34,10 +35,9 @@ def _xy(z: complex) -> tuple[float, float]:
     return (z.real, z.imag)
 
 
-def _spec(**fields: object) -> LinkageSpec:
+def _spec(joints: dict[str, complex], **fields: object) -> LinkageSpec:
     """Validate a spec given as plain data (joints as complex numbers)."""
-    joints = {n: _xy(z) for n, z in fields.pop("joints").items()}  # type: ignore[union-attr]
-    return LinkageSpec.model_validate({**fields, "joints": joints})
+    return LinkageSpec.model_validate({**fields, "joints": {n: _xy(z) for n, z in joints.items()}})
 
 
 # ---------------------------------------------------------------- Jansen and the Strandbeest
@@ -130,7 +130,8 @@ def strandbeest(pairs: int) -> LinkageSpec:
 
 #: Klann leg lengths (mm) after the optimized geometry published at boim.com/Walkin8r/Klann.html:
 #: crank A–C, frame pivots B (lower rocker) and D (upper rocker) relative to the crank axle A.
-KLANN = dict(crank=17.5, B=complex(-38.8, -12.5), D=complex(-14.6, 41.9), BH=23.7, CF=73.4, CH=38.8,
+#: lengths (float) and ground pivots (complex), mm
+KLANN: dict[str, Any] = dict(crank=17.5, B=complex(-38.8, -12.5), D=complex(-14.6, 41.9), BH=23.7, CF=73.4, CH=38.8,
              DE=34.1, EF=57.7, EG=111.7, FG=59.0, FH=35.2)
 
 

@@ -69,7 +69,7 @@ def lockups(bad: np.ndarray, own: np.ndarray, angle: np.ndarray, cyclic: bool,
     first most often; ``explain(rule, sample)`` gives its (joint, inputs, stretched, what).
     ``angle`` (T,): the input at each sample (degrees, or spec units for a linear input).
     """
-    failing = bad.any(axis=1)
+    failing = np.asarray(bad.any(axis=1))
     first = np.where(own.any(axis=1), own.argmax(axis=1), bad.argmax(axis=1))
     out = []
     for s, e in _runs(failing, cyclic):

@@ -50,14 +50,19 @@ class LinkageGraph:
             guide=-1 if s.guide == FRAME else link_names.index(s.guide), angle=float(np.radians(s.angle_deg)))
             for n, s in spec.sliders.items())
         m = spec.motor
-        drive = list(spec.sliders).index(m.slider) if m.linear else -1
+        if m.slider is not None:  # a linear input
+            drive = list(spec.sliders).index(m.slider)
+            motor, pivot = sliders[drive].joint, -1
+        else:
+            assert m.joint is not None and m.pivot is not None  # checked by the spec
+            drive, motor, pivot = -1, index[m.joint], index[m.pivot]
         return cls(
             joint_names=names,
             link_names=link_names,
             links=tuple(tuple(index[j] for j in members) for members in spec.links.values()),
             ground=tuple(index[g] for g in spec.ground),
-            motor=sliders[drive].joint if m.linear else index[m.joint],
-            pivot=-1 if m.linear else index[m.pivot],
+            motor=motor,
+            pivot=pivot,
             rest=np.array([spec.joints[n] for n in names], dtype=float),
             sliders=sliders, drive=drive,
         )

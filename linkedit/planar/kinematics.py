@@ -28,12 +28,18 @@ class State:
     """Evaluated plan. ``z``, ``dz``, ``ddz``: (P, T) complex in internal rows; ``ds``: (R, T)."""
 
     z: np.ndarray
-    dz: np.ndarray | None
-    ddz: np.ndarray | None
-    ds: np.ndarray | None  # singularity distance per rule (1 for rigid rules); < 0: cannot close
-    step_ds: np.ndarray | None = None  # (X, T) per step of plan.steps: < 0 or NaN: cannot place
+    dz: np.ndarray | None  # None when evaluated with order 0
+    ddz: np.ndarray | None  # None when evaluated with order < 2
+    ds: np.ndarray  # singularity distance per rule (1 for rigid rules); < 0: cannot close
+    step_ds: np.ndarray  # (X, T) per step of plan.steps: < 0 or NaN: cannot place
     #: with numeric groups: whether every intermediate continuation sample assembled too
     between_ok: bool = True
+
+    def derivatives(self) -> tuple[np.ndarray, np.ndarray]:
+        """(dz, ddz), (P, T) each, of an evaluation with order 2."""
+        if self.dz is None or self.ddz is None:
+            raise ValueError("the plan was evaluated without its derivatives (order < 2)")
+        return self.dz, self.ddz
 
 
 class Workspace:
@@ -112,8 +118,8 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> S
         return None if a is None else a[:, keep]
 
     between_ok = bool(np.isfinite(full.z).all() and (full.ds > TOGGLE).all() and (full.step_ds > TOGGLE).all())
-    return State(z=pick(full.z), dz=pick(full.dz), ddz=pick(full.ddz), ds=pick(full.ds), step_ds=pick(full.step_ds),
-                 between_ok=between_ok)
+    return State(z=full.z[:, keep], dz=pick(full.dz), ddz=pick(full.ddz), ds=full.ds[:, keep],
+                 step_ds=full.step_ds[:, keep], between_ok=between_ok)
 
 
 def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int) -> State:

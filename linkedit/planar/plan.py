@@ -22,7 +22,7 @@ from linkedit.errors import MechanismError
 from linkedit.planar.graph import LinkageGraph, Mobility, mobility
 from linkedit.planar.ordering import order_joints
 from linkedit.planar.steps import Step, compile_steps
-from linkedit.spec.linkage import JointTrack, LinkageSpec
+from linkedit.spec.linkage import JointTrack, LinkageSpec, LinkTrack
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,7 @@ class Plan:
         """This plan for ``spec``: the same topology and tracks at another rest pose, without
         compiling again. Every dyad triangle must keep its orientation (ValueError otherwise)."""
         graph = dataclasses.replace(self.graph, rest=np.array([spec.joints[n] for n in self.joint_names], dtype=float))
-        extra = [spec.tracks[n].at for n, p in zip(self.track_names, self.track_points) if p >= self.n_joints]
+        extra = [_link_point(spec.tracks[n]) for n, p in zip(self.track_names, self.track_points) if p >= self.n_joints]
         points = np.vstack([graph.rest, np.array(extra, dtype=float).reshape(-1, 2)])
         orientation = np.array([_orientation(graph.rest, i, j, k) for i, j, k in self.rules], dtype=int)
         if not np.array_equal(orientation[~self.rigid], self.orientation[~self.rigid]):
@@ -189,6 +189,12 @@ class Geometry:
         )
 
 
+def _link_point(track: JointTrack | LinkTrack) -> tuple[float, float]:
+    """The rest position of a point tracked on a link."""
+    assert isinstance(track, LinkTrack)  # only link tracks add points beyond the joints
+    return track.at
+
+
 def _orientation(p: np.ndarray, i: int, j: int, k: int) -> int:
     u, v = p[j] - p[i], p[k] - p[i]
     cross = u[0] * v[1] - u[1] * v[0]
@@ -256,7 +262,10 @@ def compile_plan(spec: LinkageSpec) -> Plan:
     level_of = {g: 0 for g in initial}
     level_of.update({r.k: r.level for r in rules})
     level_of.update({k: st.level for st in steps for k in st.joints})
-    track_names, track_points, extra_rest, extra_rules = [], [], [], []
+    track_names: list[str] = []
+    track_points: list[int] = []
+    extra_rest: list[tuple[float, float]] = []
+    extra_rules: list[tuple[int, int, int, int]] = []
     for name, track in spec.tracks.items():
         track_names.append(name)
         if isinstance(track, JointTrack):
@@ -276,7 +285,8 @@ def compile_plan(spec: LinkageSpec) -> Plan:
 
     # rows: ground, motor, then per level: rigid batch, dyad batch, steps
     order = list(graph.ground) + ([graph.motor] if graph.pivot >= 0 else [])
-    entries = [(r.level, not r.rigid, idx, r.i, r.j, r.k) for idx, r in enumerate(rules)]
+    entries: list[tuple[int, bool, int, int, int, int]] = [
+        (r.level, not r.rigid, idx, r.i, r.j, r.k) for idx, r in enumerate(rules)]
     entries += [(lv, False, -1, i, j, k) for i, j, k, lv in extra_rules]
     entries.sort(key=lambda e: (e[0], e[1]))
     row_of = np.empty(len(points), dtype=int)
@@ -284,7 +294,7 @@ def compile_plan(spec: LinkageSpec) -> Plan:
         row_of[p] = row
     batches = []
     row = len(order)
-    groups: dict[tuple[int, bool], list] = {}
+    groups: dict[tuple[int, bool], list[tuple[int, bool, int, int, int, int]]] = {}
     for e in entries:
         groups.setdefault((e[0], e[1]), []).append(e)
     schedule: list[tuple[str, int]] = []
@@ -292,8 +302,8 @@ def compile_plan(spec: LinkageSpec) -> Plan:
         for (lv, is_dyad), members in groups.items():
             if lv != level:
                 continue
-            for n, e in enumerate(members):
-                row_of[e[5]] = row + n
+            for offset, e in enumerate(members):
+                row_of[e[5]] = row + offset
             ip = np.array([e[3] for e in members])
             jp = np.array([e[4] for e in members])
             kp = np.array([e[5] for e in members])
@@ -304,11 +314,11 @@ def compile_plan(spec: LinkageSpec) -> Plan:
                                  rule=rule_idx, sign=sign))
             schedule.append(("batch", len(batches) - 1))
             row += len(members)
-        for n, st in enumerate(steps):
+        for index, st in enumerate(steps):
             if st.level == level:
                 row_of[st.joints] = row + np.arange(st.joints.size)
                 row += st.joints.size
-                schedule.append(("step", n))
+                schedule.append(("step", index))
 
     return Plan(
         spec=spec, graph=original, mobility=mob,

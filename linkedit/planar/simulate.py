@@ -124,7 +124,7 @@ def motor_input(motor: Motor, t: np.ndarray) -> np.ndarray:
     """The input's change from the rest pose at phases ``t`` (T,): the motor's rotation
     (:func:`motor_turn`, radians) or a linear input's stroke s0 + (s1 − s0)·t, the driven joint's
     displacement along its slot in the spec's units."""
-    if motor.linear:
+    if motor.stroke is not None:  # a linear input
         s0, s1 = motor.stroke
         return s0 + (s1 - s0) * np.asarray(t, dtype=float)
     return motor_turn(motor, t)
@@ -138,7 +138,7 @@ def motor_angles(spec: LinkageSpec, samples: int) -> tuple[np.ndarray, np.ndarra
     """
     m = spec.motor
     t = motor_phases(spec, samples)
-    if m.linear:
+    if m.joint is None or m.pivot is None:  # a linear input
         return t, motor_input(m, t)
     rest = np.arctan2(*(np.subtract(spec.joints[m.joint], spec.joints[m.pivot])[::-1]))
     return t, rest + motor_turn(m, t)
@@ -247,7 +247,8 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
     state = evaluate(plan, geom, inp, order=2)
     if close:
         _check_closure(plan, state)
-        state = State(z=state.z[:, :-1], dz=state.dz[:, :-1], ddz=state.ddz[:, :-1], ds=state.ds[:, :-1],
+        dz, ddz = state.derivatives()
+        state = State(z=state.z[:, :-1], dz=dz[:, :-1], ddz=ddz[:, :-1], ds=state.ds[:, :-1],
                       step_ds=state.step_ds[:, :-1], between_ok=state.between_ok)
     unit = _unit(plan)
     shown = value if plan.linear else np.degrees(value)
@@ -276,7 +277,8 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
     def rows(a: np.ndarray) -> np.ndarray:
         return _joint_order(plan, a)
 
-    v, acc = rows(state.dz) * dscale, rows(state.ddz) * ddscale
+    dz, ddz = state.derivatives()
+    v, acc = rows(dz) * dscale, rows(ddz) * ddscale
     bad = ~ok
     for arr in (p, v, acc):
         arr[bad] = np.nan
@@ -284,13 +286,13 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
     for name, point in zip(plan.track_names, plan.track_points):
         r = plan.row_of[point]
 
-        def xy(a: np.ndarray, factor: float, shift: np.ndarray) -> np.ndarray:
+        def xy(a: np.ndarray, factor: float, shift: np.ndarray | float) -> np.ndarray:
             out = np.stack([a[r].real, a[r].imag], axis=-1) * factor + shift
             out[bad] = np.nan
             return out
 
-        tracks[name] = Track(position=xy(state.z, scale, o), velocity=xy(state.dz, dscale, 0.0),
-                             acceleration=xy(state.ddz, ddscale, 0.0))
+        tracks[name] = Track(position=xy(state.z, scale, o), velocity=xy(dz, dscale, 0.0),
+                             acceleration=xy(ddz, ddscale, 0.0))
     with np.errstate(invalid="ignore"):
         transmission = transmission_angle(pn, rules)
         orientation = triangle_orientation(pn, rules)
