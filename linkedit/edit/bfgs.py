@@ -36,9 +36,10 @@ def minimize(energy: Energy, x0: np.ndarray, *, max_iterations: int = 500, max_s
     first trial step of each line search (in the units of x).
     """
     x = np.asarray(x0, dtype=float).copy()
-    e, g, _ = energy(x)
+    e, g0, _ = energy(x)
     if not np.isfinite(e):
         raise ValueError("the starting point is infeasible")
+    g = _gradient(g0)
     n = x.size
     H = np.eye(n)
     scaled = False
@@ -56,7 +57,7 @@ def minimize(energy: Energy, x0: np.ndarray, *, max_iterations: int = 500, max_s
             H = np.eye(n)
             scaled = False
             p, slope = -g, -float(g @ g)
-        alpha = min(1.0, max_step / max(np.linalg.norm(p), 1e-300))
+        alpha = min(1.0, max_step / max(float(np.linalg.norm(p)), 1e-300))
         accepted = False
         for _ in range(60):
             x_new = x + alpha * p
@@ -76,6 +77,7 @@ def minimize(energy: Energy, x0: np.ndarray, *, max_iterations: int = 500, max_s
                 continue
             converged = True  # no feasible decrease along the search direction: a minimum to precision
             break
+        g_new = _gradient(g_new)
         s, y = x_new - x, g_new - g
         sy = float(s @ y)
         if sy > 1e-12 * np.linalg.norm(s) * np.linalg.norm(y):
@@ -96,3 +98,10 @@ def minimize(energy: Energy, x0: np.ndarray, *, max_iterations: int = 500, max_s
             break
     return BfgsResult(x=x, energy=e, iterations=it, evaluations=evaluations, converged=converged,
                       history=history, rejected=rejected)
+
+
+def _gradient(g: np.ndarray | None) -> np.ndarray:
+    """The gradient the energy gives at a working point (it gives none only where E = inf)."""
+    if g is None:
+        raise ValueError("the energy gave no gradient at a working point")
+    return g

@@ -34,6 +34,7 @@ def minimize(problem: Problem, v0: np.ndarray, *, max_iterations: int = 200, rto
     ev, r, J = problem.residuals(v, jacobian=True)
     if not ev.works:
         raise ValueError(f"the starting point does not work: {ev.why}")
+    assert J is not None  # asked for with jacobian=True
     e = 0.5 * float(r @ r)
     history = [e]
     lam, nu = 1e-4, 2.0
@@ -62,6 +63,7 @@ def minimize(problem: Problem, v0: np.ndarray, *, max_iterations: int = 200, rto
                 converged = True
                 break
             continue
+        assert J_new is not None  # asked for with jacobian=True
         e_new = 0.5 * float(r_new @ r_new)
         predicted = 0.5 * float(step @ (lam * d * step - g))
         if e_new < e and predicted > 0:

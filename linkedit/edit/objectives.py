@@ -197,6 +197,7 @@ class Problem:
             if ev.dz is not None:
                 drest = self.kin.drest
                 D.append(sign * ((d / np.abs(d)).conj()[:, None] * (drest[b] - drest[a])).real)
+        assert self.mirror_cols is not None  # built with the mirrored pairs
         return s * (r[0] + r[1]), (None if ev.dz is None else s * (D[0] + D[1])), self.mirror_cols
 
     def _mirror_ground(self, ev: Evaluation) -> Block:
@@ -261,6 +262,8 @@ class Problem:
         dyads = np.flatnonzero(self.kin.guarded)
         cols = self.point_cols[self.kin.guard_rows[dyads]]  # (R, C)
         dv = np.where(cols >= 0, step[np.maximum(cols, 0)], 0.0)
+        if ev.dlnds is None:
+            raise ValueError("barrier_step needs an evaluation with tangents")
         change = np.einsum("rct,rc->rt", ev.dlnds[dyads, :, :T], dv)
         lnds = np.log(ev.ds[dyads, :T])
         entering = (lnds + change < np.log(self.eps[dyads])[:, None]) & (change < -np.log(factor))
@@ -413,8 +416,8 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
 
     ref = np.abs(start.rest[pairs[:, 1]] - start.rest[pairs[:, 0]])
     if op.transform is not None and op.transform.scale != 1.0:
-        members = set(range(len(names))) if op.transform.joints == "all" else {index[n] for n in op.transform.joints}
-        scaled = np.array([a in members and b in members for a, b in pairs])
+        moved = set(range(len(names))) if op.transform.joints == "all" else {index[n] for n in op.transform.joints}
+        scaled = np.array([a in moved and b in moved for a, b in pairs])
         ref = np.where(scaled, ref * op.transform.scale, ref)
 
     problem = Problem(plan=plan, kin=kin, var=var, samples=T, size=size, weights=(me, ms, mr), eps=eps,
@@ -475,10 +478,10 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
                                                       problem.rest_column, target, me * w.transform))
     if op.envelope is not None:
         env = op.envelope
-        members = range(len(names)) if not env.joints else [index[n] for n in env.joints]
+        boxed = list(range(len(names))) if not env.joints else [index[n] for n in env.joints]
         inf = np.inf
         problem.envelope = Envelope(
-            rows=plan.row_of[np.array(list(members))],
+            rows=plan.row_of[np.array(boxed)],
             lo=complex(-inf if env.xmin is None else env.xmin, -inf if env.ymin is None else env.ymin),
             hi=complex(inf if env.xmax is None else env.xmax, inf if env.ymax is None else env.ymax),
             weight=me * w.envelope)

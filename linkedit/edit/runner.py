@@ -235,8 +235,8 @@ def run_script(linkage: LinkageSpec, script: EditScript,
                                 warnings=_warnings(after_motion, script.singularity_epsilon))
             if k == len(accepted) - 1:
                 return result
-            for op in reports[k:]:
-                op.discarded = True
+            for report in reports[k:]:
+                report.discarded = True
             kept = f"kept the linkage as it was after operation {reports[k - 1].name!r}" if k else \
                 "kept the original linkage unchanged"
             raise EditFailed(f"the result of operation {reports[-1].name!r} does not work at {fine} samples "
