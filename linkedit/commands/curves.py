@@ -426,7 +426,7 @@ def _learn(pairs_path: Path, output: Path | None, samples, harmonics, closed) ->
                f"dissimilar pairs: distance ≥ {fit.dissimilar.min():.4g}; "
                + ("separated" if fit.separated else "NOT separated"))
     if fit.held_out_auc is not None:
-        best_term = max(fit.term_auc, key=fit.term_auc.get)
+        best_term = max(fit.term_auc, key=lambda term: fit.term_auc[term])
         summary += (f"; soft margin C = {fit.cost:g}, held-out AUC {fit.held_out_auc:.3f} (cross-validated; "
                     f"best single term {best_term} {fit.term_auc[best_term]:.3f}, points "
                     f"{fit.term_auc.get('points', float('nan')):.3f})")

@@ -216,7 +216,7 @@ class LinkageSpec(SpecModel):
             raise InputError("no link carries both the motor joint and its pivot (the crank)", field=("motor",))
 
     def _check_linear_input(self) -> None:
-        slider = self.sliders.get(self.motor.slider)
+        slider = self.sliders.get(self.motor.slider) if self.motor.slider is not None else None
         if slider is None:
             raise InputError(f"unknown slider {self.motor.slider!r}", field=("motor", "slider"))
         if slider.joint is None:

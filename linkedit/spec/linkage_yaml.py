@@ -62,14 +62,14 @@ def dump_linkage(spec: LinkageSpec, header: str = "", notes: Mapping[str, str] |
     if spec.sliders:
         add("sliders:", "sliders")
         for n, sl in spec.sliders.items():
-            what = f"joint: {_text(sl.joint)}" if sl.joint is not None else f"link: {_text(sl.link)}"
+            what = f"joint: {_text(sl.joint)}" if sl.joint is not None else f"link: {_text(str(sl.link))}"
             add(f"  {_text(n)}: {{{what}, guide: {_text(sl.guide)}, angle_deg: {_num(sl.angle_deg)}}}",
                 f"sliders.{n}")
     m = spec.motor
-    if m.linear:
+    if m.slider is not None and m.stroke is not None:  # a linear input
         motor = f"slider: {_text(m.slider)}, stroke: [{_num(m.stroke[0])}, {_num(m.stroke[1])}]"
     else:
-        motor = f"joint: {_text(m.joint)}, pivot: {_text(m.pivot)}"
+        motor = f"joint: {_text(str(m.joint))}, pivot: {_text(str(m.pivot))}"
         if m.direction != "ccw":
             motor += f", direction: {m.direction}"
     for key in ("range_deg", "oscillate_deg"):

@@ -523,7 +523,11 @@ class MechanismSpec(SpecModel):
         if isinstance(inp, OrientationInput):
             if (inp.keyframes is None) == (inp.rotation is None):
                 raise InputError("give either 'keyframes' or 'rotation'", field=field)
-            count = len(inp.keyframes) if inp.keyframes is not None else len(inp.rotation.angles_deg)
+            if inp.keyframes is not None:
+                count = len(inp.keyframes)
+            else:
+                assert inp.rotation is not None  # exactly one of them is given (checked above)
+                count = len(inp.rotation.angles_deg)
         else:
             count = len(inp.keyframes)
         if inp.times is not None:

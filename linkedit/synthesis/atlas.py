@@ -99,7 +99,7 @@ def run_chunks(name: str, seed: int, jobs: list[tuple[int, int]], *, scheduler: 
     except ImportError:
         raise InputError("the Dask path needs dask.distributed: pip install 'linkedit[cluster]'",
                          field="--scheduler" if scheduler else "--workers") from None
-    cluster = None if scheduler else local_cluster(workers)
+    cluster = None if scheduler else local_cluster(workers or 1)
     try:
         with Client(scheduler or cluster) as client:
             futures = [client.submit(build_chunk, name, seed, index, size, pure=True) for index, size in jobs]

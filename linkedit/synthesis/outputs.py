@@ -113,7 +113,7 @@ def _overlay(path: Path, result: Synthesis) -> None:
 def _history(path: Path, result: Synthesis) -> None:
     """log₁₀ of each refined candidate's best normalized RMS error against evaluations."""
     refined = [c for c in result.candidates if c.refined is not None and c.refined.history]
-    histories = [c.refined.history for c in refined]
+    histories = [c.refined.history for c in refined if c.refined is not None]
     longest = max((len(h) for h in histories), default=1)
     lows = [np.log10(max(min(h), 1e-12)) for h in histories] or [0.0]
     highs = [np.log10(max(max(h), 1e-12)) for h in histories if np.isfinite(max(h))] or [1.0]

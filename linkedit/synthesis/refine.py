@@ -104,14 +104,14 @@ def near_distances(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
     dx += dy
     j = np.argmin(dx, axis=-1)  # (..., N)
     m = curve.shape[-1]
-    best = None
+    best = np.full(j.shape, np.inf)
     for k in (j - 1, j):
         a = np.take_along_axis(curve, k % m, axis=-1)
         e = np.take_along_axis(curve, (k + 1) % m, axis=-1) - a
         rel = points - a
         t = np.clip((rel.real * e.real + rel.imag * e.imag) / np.maximum(e.real ** 2 + e.imag ** 2, 1e-300), 0, 1)
         d = np.abs(rel - t * e)
-        best = d if best is None else np.minimum(best, d)
+        best = np.minimum(best, d)
     return best
 
 
