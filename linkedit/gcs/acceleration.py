@@ -31,7 +31,9 @@ def advanced(table: StepTable, step: int, s: float) -> StepTable:
     by s along their rates (:meth:`~linkedit.gcs.inputs.Schedule.rate`; exact inside the
     keyframe segment that starts at ``step``); activity and rates are those of ``step``."""
     sys = table.system
-    vectors, rel_inverse, values = [], [], []
+    vectors: list[np.ndarray] = []
+    rel_inverse: list[np.ndarray] = []
+    values: list[np.ndarray | None] = []
     col = 0
     for blk, rate, value in zip(sys.blocks, table.rates, table.values):
         if rate is None:
@@ -39,6 +41,7 @@ def advanced(table: StepTable, step: int, s: float) -> StepTable:
             continue
         w = s * rate[step]
         if blk.kind in kinds.VALUE_KINDS:
+            assert value is not None  # a driven value kind has its values
             v = value[step].copy()
             v[blk.scheduled] += w[:, 0]
             values.append(v[None])
@@ -62,7 +65,7 @@ def jacobian_product(system: System, ev: Evaluation, v: np.ndarray) -> np.ndarra
     """J v (R,) from the Jacobian groups of ``ev`` and local velocities v (6M,)."""
     V = np.concatenate([v.reshape(-1, 6), np.zeros((1, 6))])
     out = np.zeros(system.n_rows)
-    for grp, jac in zip(system.groups, ev.jac):
+    for grp, jac in zip(system.groups, ev.jacobians()):
         out[grp.rows] += np.einsum("nkmj,nmj->nk", jac, V[grp.members])
     return out
 

@@ -12,6 +12,7 @@ input's base) are taken from the members' spec positions and orientations.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -62,8 +63,8 @@ class _Builder:
 
     def point(self, member: str, ref: Any) -> tuple[float, float, float]:
         if isinstance(ref, str):
-            return tuple(float(c) for c in self.spec.member_points(member)[ref])
-        return tuple(float(c) for c in ref)
+            return _vec3(self.spec.member_points(member)[ref])
+        return _vec3(ref)
 
     def rest_relative(self, member: str, other: str) -> np.ndarray:
         """The member's rest orientation in the other's frame: q_other⁻¹ ⊗ q_member."""
@@ -103,7 +104,7 @@ class _Builder:
         other = c.other
         if isinstance(c, (ms.Location, ms.Pin, ms.Weld)):
             sb = c.world if other is None else self.point(other, c.other_point)
-            self.add("location", owner, c.member, other, sa=self.point(c.member, c.point), sb=tuple(sb))
+            self.add("location", owner, c.member, other, sa=self.point(c.member, c.point), sb=_vec3(sb))
         if isinstance(c, ms.Pin):
             axis = _unit(c.axis)
             target = self.axis_target(c.member, axis, other, c.world_axis if other is None else c.other_axis)
@@ -129,7 +130,7 @@ class _Builder:
                      sb=tuple(float(x) for x in c.line.point), nb=_unit(c.line.direction))
         if isinstance(c, ms.Distance):
             sb = c.world if other is None else self.point(other, c.other_point)
-            self.add("distance", owner, c.member, other, sa=self.point(c.member, c.point), sb=tuple(sb),
+            self.add("distance", owner, c.member, other, sa=self.point(c.member, c.point), sb=_vec3(sb),
                      value=float(c.value))
         if isinstance(c, (ms.Angle, ms.Parallel)):
             sa, sb = _unit(c.axis), _unit(c.world if other is None else c.other_axis)
@@ -151,7 +152,7 @@ class _Builder:
 
         def point(member: str | None) -> tuple[float, float, float]:
             if member is None:
-                return tuple(float(x) for x in j.at)
+                return _vec3(j.at)
             i = self.index[member]
             return tuple(self.R0[i].T @ (np.asarray(j.at, dtype=float) - self.P0[i]))
 
@@ -193,7 +194,7 @@ class _Builder:
             values = np.radians(np.asarray(rot.angles_deg, dtype=float))
             sched = dict(mode="rotation", values=values, axis=np.asarray(_unit(rot.axis)), base=base)
             count = len(values)
-        elif isinstance(inp, ms.OrientationInput):
+        elif isinstance(inp, ms.OrientationInput) and inp.keyframes is not None:
             values = np.array([orientation_quaternion(o) for o in inp.keyframes])
             sched = dict(mode="orientation", values=values)
             count = len(values)
@@ -223,7 +224,7 @@ class _Builder:
             self.add("axis", owner, inp.member, other, sa=_unit(inp.axis), sb=tuple(first), schedule=schedule)
         elif isinstance(inp, ms.DistanceInput):
             sb = inp.world if other is None else self.point(other, inp.other_point)
-            self.add("distance", owner, inp.member, other, sa=self.point(inp.member, inp.point), sb=tuple(sb),
+            self.add("distance", owner, inp.member, other, sa=self.point(inp.member, inp.point), sb=_vec3(sb),
                      value=float(first[0]), schedule=schedule)
         else:
             self.add("location", owner, inp.member, other, sa=self.point(inp.member, inp.point),
@@ -246,3 +247,11 @@ def compile_mechanism(spec: ms.MechanismSpec, allow_python: bool = False) -> tup
     tracks = [TrackDef(name, b.index[tr.member], np.asarray(b.point(tr.member, tr.point)))
               for name, tr in spec.outputs.tracks.items()]
     return system, tracks
+
+
+def _vec3(v: Iterable[float] | None) -> tuple[float, float, float]:
+    """Three floats from a 3-vector of the spec (which validation guarantees is given here)."""
+    if v is None:
+        raise ValueError("a 3-vector the spec requires is missing")
+    x, y, z = (float(c) for c in v)
+    return (x, y, z)

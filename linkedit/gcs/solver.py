@@ -215,7 +215,7 @@ class Solver:
         when given); where J has a null space, take its basis (:meth:`_null_space`)."""
         if ev is None:
             ev = self.system.evaluate(x, table, step, jacobian=True)
-        lin = self.normal.linearize(ev.jac, scaled=True)
+        lin = self.normal.linearize(ev.jacobians(), scaled=True)
         diagonal = self.normal.diagonal(lin.data)
         top = max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
         factor = self.normal.factor(lin.data, 0.0, 1e-13 * top)
@@ -349,7 +349,7 @@ class Solver:
         ev = self.system.evaluate(x, table, step, jacobian=True)
         budget = self.iterations + (budget or opt.max_iterations)
         while self.iterations < budget:
-            lin = self.normal.linearize(ev.jac, scaled=True)
+            lin = self.normal.linearize(ev.jacobians(), scaled=True)
             diagonal = self.normal.diagonal(lin.data)
             floor = 1e-13 * max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
             while True:

@@ -25,7 +25,7 @@ matrix JᵀJ and the gradient Jᵀr are assembled from the groups with precomput
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -189,6 +189,12 @@ class Evaluation:
     r: np.ndarray
     jac: list[np.ndarray] | None = None
 
+    def jacobians(self) -> list[np.ndarray]:
+        """The Jacobian per group, (n, k, m, 6) each, of an evaluation with ``jacobian=True``."""
+        if self.jac is None:
+            raise ValueError("evaluated without the Jacobian")
+        return self.jac
+
 
 @dataclass(frozen=True)
 class Group:
@@ -235,7 +241,7 @@ class System:
 
     @classmethod
     def build(cls, member_names: list[str], rest: State, constraint_names: list[str],
-              elementary: list[Elementary], customs: list[Custom] = (), *,
+              elementary: list[Elementary], customs: Sequence[Custom] = (), *,
               constraint_inputs: list[bool] | None = None, length_scale: float | None = None,
               points: dict[str, dict[str, np.ndarray]] | None = None,
               lines: dict[str, list[list[str]]] | None = None) -> "System":
@@ -244,7 +250,9 @@ class System:
         if length_scale is None:
             length_scale = characteristic_length(rest, elementary, points or {}, member_names)
         blocks, row_owner, row_scale, groups = [], [], [], []
-        vec_member, vectors, driven = [], [], []
+        vec_member: list[np.ndarray] = []
+        vectors: list[np.ndarray] = []
+        driven: list[np.ndarray] = []
         rel, driven_rel = np.zeros((0, 4)), np.zeros(0, dtype=int)
         n_rows = 0
         equations = np.zeros(len(constraint_names), dtype=int)
@@ -281,12 +289,12 @@ class System:
             row_scale.append(np.full(n * k, 1.0 / length_scale if kind in kinds.LENGTH_KINDS else 1.0))
             groups.append(Group(np.column_stack([a, b]), rows))
         for c in customs:
-            rows = n_rows + np.arange(c.size)
+            custom_rows = n_rows + np.arange(c.size)
             n_rows += c.size
             equations[c.owner] += c.size
             row_owner.append(np.full(c.size, c.owner))
             row_scale.append(np.ones(c.size))
-            groups.append(Group(np.array([c.members]), rows[None, :]))
+            groups.append(Group(np.array([c.members]), custom_rows[None, :]))
         cat = lambda xs, dt: np.concatenate(xs).astype(dt) if xs else np.zeros(0, dtype=dt)  # noqa: E731
         return cls(
             member_names=list(member_names), constraint_names=list(constraint_names),
@@ -348,18 +356,18 @@ class System:
         for blk, act in zip(self.blocks, par.active):
             out = r[blk.start:blk.stop].reshape(len(blk.a), -1)
             J = EVALUATE[blk.kind](blk, X, W, Q, par, out, jacobian)
-            if jacobian:
+            if J is not None:
                 jacs.append(J if act is None else J * act[:, None, None, None])
         if len(par.inactive_rows):
             r[par.inactive_rows] = 0.0  # an input outside its window adds nothing
         row = self.blocks[-1].stop if self.blocks else 0
         for c in self.customs:
-            m = list(c.members)
-            res, jac = _custom(c, self.constraint_names[c.owner], P[m], Q[m], par.t, jacobian)
+            members = list(c.members)
+            res, jac = _custom(c, self.constraint_names[c.owner], P[members], Q[members], par.t, jacobian)
             r[row:row + c.size] = res
             row += c.size
-            if jacobian:
-                jacs.append(jac.reshape(1, c.size, len(m), 6))
+            if jac is not None:
+                jacs.append(jac.reshape(1, c.size, len(members), 6))
         return Evaluation(r, jacs if jacobian else None)
 
     def time_derivative(self, state: State, table: StepTable, step: int, ev: Evaluation) -> np.ndarray:
@@ -369,7 +377,7 @@ class System:
         (a distance), minus the value's rate. Custom constraints that depend on t: central
         differences in t."""
         out = np.zeros(self.n_rows)
-        for blk, jac, rate in zip(self.blocks, ev.jac, table.rates):
+        for blk, jac, rate in zip(self.blocks, ev.jacobians(), table.rates):
             if rate is None:
                 continue
             s = blk.scheduled
@@ -410,7 +418,7 @@ class System:
         """The Jacobian (R, 6M) from an evaluation with ``jacobian=True`` (world columns dropped)."""
         M = self.n_members
         J = np.zeros((self.n_rows, 6 * (M + 1)))
-        for grp, jac in zip(self.groups, ev.jac):
+        for grp, jac in zip(self.groups, ev.jacobians()):
             n, k, m = jac.shape[:3]
             rows = np.broadcast_to(grp.rows[:, :, None, None], (n, k, m, 6))
             cols = 6 * grp.members[:, None, :, None] + np.arange(6)
