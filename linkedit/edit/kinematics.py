@@ -112,7 +112,8 @@ class RestPoseKinematics:
         dz = alloc((plan.n_points, C, T), dtype=complex) if tangents else None
         dlnds = np.zeros((R + len(plan.steps), C, T)) if tangents else None
         D = self.drest if self.steps is None else self.drest / self.steps.scale
-        graph, steps, why = None, (), None
+        graph, why = None, None
+        steps: tuple = ()
         if self.steps is not None:
             try:
                 graph, steps = self.steps.compile(rest)
@@ -122,12 +123,12 @@ class RestPoseKinematics:
             if why is not None:
                 return Evaluation(rest=world, z=z, ds=ds, dz=dz, dlnds=dlnds, why=why)
         z[plan.ground_rows] = rest[self.ground, None]
-        if tangents:
+        if dz is not None:
             dz[plan.ground_rows] = D[self.ground][:, :, None]
         if not self.linear:  # a linear input's driven joint is placed by its step
             arm = rest[self.motor] - rest[self.pivot]
             z[plan.motor_row] = rest[self.pivot] + arm * self.spin
-            if tangents:
+            if dz is not None:
                 darm = D[self.motor] - D[self.pivot]
                 dz[plan.motor_row] = D[self.pivot][:, None] + darm[:, None] * self.spin
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -141,12 +142,13 @@ class RestPoseKinematics:
                 ri, rj = rest[b.i_point], rest[b.j_point]
                 if b.rigid:
                     fixed = self.fixed[n]
+                    assert fixed is not None  # every rigid batch has its fixed coefficients
                     joint = np.isnan(fixed)
                     rk = rest[np.where(joint, b.k_point, 0)]
                     c = np.where(joint, (rk - ri) / (rj - ri), fixed)
                     e = zj - zi
                     z[out] = zi + c[:, None] * e
-                    if tangents:
+                    if dz is not None:
                         Di, Dj = D[b.i_point], D[np.where(joint, b.j_point, 0)]
                         Dk = D[np.where(joint, b.k_point, 0)]
                         dc = np.where(joint[:, None], (Dk - Di - c[:, None] * (Dj - Di)) / (rj - ri)[:, None], 0.0)
@@ -158,7 +160,7 @@ class RestPoseKinematics:
                 half = 0.5 * (lik2 - ljk2)
                 z[out], t = loc.dyad(zi, zj, half[:, None], lik2[:, None], b.sign)
                 ds[b.rule] = loc.singularity_distance(t, lik2[:, None], ljk2[:, None])
-                if tangents:
+                if dz is not None and dlnds is not None:
                     Di, Dj, Dk = D[b.i_point], D[b.j_point], D[b.k_point]
                     dL = 2.0 * ((rk - ri).conj()[:, None] * (Dk - Di)).real  # (R, C)
                     dM = 2.0 * ((rk - rj).conj()[:, None] * (Dk - Dj)).real
@@ -175,10 +177,11 @@ class RestPoseKinematics:
                                      - (dL / lik2[:, None])[:, :, None] - (dM / ljk2[:, None])[:, :, None])
         if self.keep is not None:
             z, ds = z[:, self.keep], ds[:, self.keep]
-            dz, dlnds = (None, None) if not tangents else (dz[..., self.keep], dlnds[..., self.keep])
+            dz = None if dz is None else dz[..., self.keep]
+            dlnds = None if dlnds is None else dlnds[..., self.keep]
         if self.steps is not None:
             z = self.steps.origin + self.steps.scale * z
-            if tangents:
+            if dz is not None:
                 dz *= self.steps.scale
         why = failure(plan, world, ds, self.turn_deg, self.arm)
         return Evaluation(rest=world, z=z, ds=ds, dz=dz, dlnds=dlnds, why=why)
@@ -195,5 +198,5 @@ class RestPoseKinematics:
             return
         dzj = dz[rows]
         dz[rows[step.joints]] = dzj[step.joints] = es.tangents(graph, step, zj, dzj, D)
-        if step.kind in es.GUARDED:
+        if step.kind in es.GUARDED and dlnds is not None:
             dlnds[r] = es.dlnds(graph, step, zj, dzj, D)

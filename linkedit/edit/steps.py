@@ -89,12 +89,14 @@ def tangents(graph: LinkageGraph, step: st.Step, zj: np.ndarray, dzj: np.ndarray
 
 def dlnds(graph: LinkageGraph, step: st.Step, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray) -> np.ndarray:
     """∂ln d_s (C, T) of a guarded step (``dzj`` (J, C, T) with the step's joints filled in)."""
+    source = step.source
+    assert source is not None  # guarded steps (slider, lines) know the rows of their slots
     if step.kind == "lines":  # d_s = Im(D̄₂D₁)² / (|D₁|²|D₂|²), D_r = dc_r·z + d0_r of its two slot rows
         rows = step.rows
         d = [rows.dc[r] @ zj + rows.d0[r] for r in (0, 1)]
         dd = [np.einsum("j,jct->ct", rows.dc[r], dzj) for r in (0, 1)]
         for c in range(drest.shape[1]):
-            slots = linkage_rows_tangent(graph, drest[:, c]).take(step.source)
+            slots = linkage_rows_tangent(graph, drest[:, c]).take(source)
             for r in (0, 1):
                 dd[r][c] += slots.dc[r] @ zj + slots.d0[r]
         cross = (np.conj(d[1]) * d[0]).imag
@@ -107,8 +109,8 @@ def dlnds(graph: LinkageGraph, step: st.Step, zj: np.ndarray, dzj: np.ndarray, d
         w, dw = zj[k] - zj[i], dzj[k] - dzj[i]
         dd = np.einsum("j,jct->ct", rows.dc[0], dzj)
         for c in range(drest.shape[1]):
-            if step.source[0] >= 0:
-                slot = linkage_rows_tangent(graph, drest[:, c]).take(np.array([step.source[0]]))
+            if source[0] >= 0:
+                slot = linkage_rows_tangent(graph, drest[:, c]).take(np.array([source[0]]))
                 dd[c] += slot.dc[0] @ zj + slot.d0[0]
         a = (np.conj(d) * w).real
         da = (np.conj(dd) * w + np.conj(d) * dw).real
