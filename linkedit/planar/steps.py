@@ -196,16 +196,18 @@ def _slotted_positions(step: Step, z: np.ndarray) -> tuple[np.ndarray, np.ndarra
     """``rotate``: the link turns about joint i by R = ū̄·w / (σ·sqrt(|w|² − h²) + i·h), w = z_pin − z_i,
     h the pin's rest offset across the slot; d_s = 1 − h²/|w|² (< 0: the slot cannot reach the pin).
     ``yoke``: it slides by λ·g, λ = Im(ū̄·(z_pin − z̄_pin)) / Im(ū̄·g); d_s = Im(ū̄·g)², constant."""
+    offsets = step.offsets
+    if offsets is None or step.kind not in ("yoke", "rotate"):
+        raise ValueError(f"a {step.kind!r} step is not a slotted link")
     if step.kind == "yoke":
         along = (np.conj(step.u) * (z[step.pin] - step.at)).imag / step.l2
-        return step.offsets[:, None] + along * step.g, np.full(z.shape[1], step.l2 * step.l2)
+        return offsets[:, None] + along * step.g, np.full(z.shape[1], step.l2 * step.l2)
     w = z[step.pin] - z[step.i]
-    if step.kind == "rotate":
-        w2 = w.real * w.real + w.imag * w.imag
-        h = step.l2
-        with np.errstate(invalid="ignore", divide="ignore"):
-            rot = np.conj(step.u) * w / (step.sign * np.sqrt(w2 - h * h) + 1j * h)
-            return z[step.i] + step.offsets[:, None] * rot, 1.0 - h * h / w2
+    w2 = w.real * w.real + w.imag * w.imag
+    h = step.l2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rot = np.conj(step.u) * w / (step.sign * np.sqrt(w2 - h * h) + 1j * h)
+        return z[step.i] + offsets[:, None] * rot, 1.0 - h * h / w2
 
 
 @dataclass(frozen=True)
@@ -262,7 +264,7 @@ def _newton(form: RealForm, x: np.ndarray, s: float, k: int) -> tuple[bool, floa
     return False, first, jac
 
 
-def _accepted(moved: np.ndarray, first: np.ndarray) -> np.ndarray:
+def _accepted(moved: np.ndarray | float, first: np.ndarray | float) -> np.ndarray | bool:
     """Whether Newton ended close to where it started: within 1.5× its first step, itself at most
     0.1 (of the linkage's size): it converged to the solution nearest its predictor."""
     return (moved <= 1.5 * first + 1e-9) & (first <= 0.1)
@@ -475,7 +477,9 @@ def rest_tangent(graph: LinkageGraph, step: Step, z: np.ndarray, dz: np.ndarray,
     """
     from linkedit.planar.constraints import linkage_rows_tangent, rows_rest_derivative
 
-    tangent = linkage_rows_tangent(graph, drest).take(step.source[step.source >= 0])
+    source = step.source
+    assert source is not None  # compile_steps gives every step the rows of its slots (or none: empty)
+    tangent = linkage_rows_tangent(graph, drest).take(source[source >= 0])
     if step.kind == "slider":  # its slot row, then its own rod row
         tangent = _concat(tangent, _rod_tangent(graph, step, drest))
     rows = step.rows
