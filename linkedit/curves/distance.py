@@ -156,6 +156,8 @@ def aligned_rms(a: np.ndarray, b: np.ndarray | None, closed_a: np.ndarray, close
     symmetric = b is None
     if b is None:
         b, closed_b = a, closed_a
+    elif closed_b is None:
+        raise ValueError("closed_b is needed with b")
     n, dim = a.shape[1], a.shape[2]
     sigma = np.broadcast_to(np.asarray(reverse_sign, dtype=float), (dim,))
     versions = 2 * len(_frame_signs(dim, frame_flips, mirror))

@@ -272,6 +272,7 @@ def read_curve_set(path: Path, *, closed: bool | None = None) -> list[Curve]:
                                origin=f"{path}:{entry.name}", file=str(path), field=field,
                                line=lines.line_of(field), units=spec.units)
         else:
+            assert entry.source is not None  # a curve gives points or a source (checked by CurveSet)
             source = path.parent / entry.source
             if source.resolve() in _READING.get():
                 field = ("curves", i, "source")

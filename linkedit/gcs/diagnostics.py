@@ -157,8 +157,9 @@ def run_diagnostics(system: System, run: Run, table: StepTable, rank: bool = Tru
         steps = np.flatnonzero(evaluated)
         known = run.rank if run.rank.size == T else np.full(T, -1)
         known = np.where(run.status == CONVERGED, known, -1)
-        ranks = np.array([known[k] if known[k] >= 0 else jacobian_rank(scaled_jacobian(system, run.state(k), table, k))
-                          for k in steps], dtype=int)
+        ranks = np.array([known[k] if known[k] >= 0 else
+                          jacobian_rank(scaled_jacobian(system, run.state(int(k)), table, int(k))) for k in steps],
+                         dtype=np.int64)
         # carry each evaluated rank forward to the next evaluated step (step 0 is always evaluated)
         rank_at = ranks[np.cumsum(evaluated) - 1]
         dof = system.n_unknowns - rank_at

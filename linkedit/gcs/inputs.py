@@ -75,6 +75,8 @@ class Schedule:
             return quat.rotate(quat.exp(frac[:, None] * _turn(v0, v1)), v0)
         if self.mode == "orientation":
             return quat.slerp(v0, v1, frac)
+        if self.axis is None or self.base is None:
+            raise ValueError("a rotation schedule needs its axis and base")
         angle = v0 + frac * (v1 - v0)
         return quat.multiply(quat.from_axis_angle(self.axis, angle), self.base)
 

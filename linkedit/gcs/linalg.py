@@ -125,16 +125,16 @@ class NormalEquations:
             world = out[:, :, None] | out[:, None, :]
             keys.append(np.where(world, -1, flat[:, :, None] * N + flat[:, None, :]).ravel())
         cat = lambda xs: np.concatenate(xs) if xs else np.zeros(0, dtype=int)  # noqa: E731
-        jrow, jcol, keys_all = cat(jrow), cat(jcol), cat(keys)
+        rows_all, cols_all, keys_all = cat(jrow), cat(jcol), cat(keys)
         diag = np.arange(N) * (N + 1)
         if self.sparse:
-            self._sparse_plan(jrow, jcol, keys_all, diag)
+            self._sparse_plan(rows_all, cols_all, keys_all, diag)
         else:
             # dense J (R, N + 1): world entries land in the last column, dropped; a member's
             # entries in one row are never repeated, so they are put, not summed, unless a
             # constraint ties a member to itself
-            self.entry_index = jrow * (N + 1) + jcol
-            keep = self.entry_index[jcol < N]
+            self.entry_index = rows_all * (N + 1) + cols_all
+            keep = self.entry_index[cols_all < N]
             self.unique_entries = np.unique(keep).size == keep.size
             self.nnz = N * N
             self.diag_index = diag
@@ -165,6 +165,7 @@ class NormalEquations:
             flat = flat * self.scale
         if not self.sparse:
             N = self.N
+            J: np.ndarray
             if self.unique_entries:
                 J = np.zeros((self.R, N + 1))
                 J.put(self.entry_index, flat)
@@ -173,6 +174,8 @@ class NormalEquations:
             J = J[:, :N]
             return Linearization((J.T @ J).ravel(), J.T)
         if scaled:
+            if self.group_scale is None:
+                raise ValueError("these normal equations were built without a scale")
             jac = [J * s for J, s in zip(jac, self.group_scale)]
         F = [J.reshape(J.shape[0], J.shape[1], -1) for J in jac]
         w = np.concatenate([(np.swapaxes(f, 1, 2) @ f).ravel() for f in F])

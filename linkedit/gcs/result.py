@@ -255,7 +255,8 @@ def read_result(path: str | Path) -> GcsResult:
 def _check_read(res: GcsResult, file: str) -> None:
     """InputError unless the arrays of a result read back agree in shape and the drawing lines name points."""
     steps, members = len(res.t), len(res.member_names)
-    shapes = {"members/position": (res.position, (steps, members, 3)),
+    shapes: dict[str, tuple[np.ndarray, tuple[int, ...]]] = {
+              "members/position": (res.position, (steps, members, 3)),
               "members/orientation": (res.orientation, (steps, members, 4)),
               "members/velocity, members/angular_velocity": (res.velocity, (steps, members, 6))}
     if res.acceleration is not None:

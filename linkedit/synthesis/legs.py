@@ -19,7 +19,7 @@ import numpy as np
 
 from linkedit.planar import catalog, compile_plan
 from linkedit.planar.law_of_cosines import dyad
-from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.linkage import JointTrack, LinkageSpec
 
 #: Crank samples at which a linkage must assemble with the margin.
 CHECK_SAMPLES = 64
@@ -36,9 +36,12 @@ class CatalogFamily:
         self.plan = compile_plan(spec)
         names = self.plan.joint_names
         rest = np.array([spec.joints[n] for n in names], dtype=float)
-        self.pivot = names.index(spec.motor.pivot)
-        self.motor = names.index(spec.motor.joint)
-        self.track_joint = names.index(spec.tracks[track].joint)
+        motor, tracked = spec.motor, spec.tracks[track]
+        if motor.joint is None or motor.pivot is None or not isinstance(tracked, JointTrack):
+            raise ValueError(f"family {name!r}: needs a crank and a tracked joint")
+        self.pivot = names.index(motor.pivot)
+        self.motor = names.index(motor.joint)
+        self.track_joint = names.index(tracked.joint)
         self.ground = [names.index(g) for g in spec.ground]
         self.direction = 1.0 if spec.motor.direction == "ccw" else -1.0
         self.size = float(np.ptp(rest, axis=0).max())
