@@ -204,10 +204,11 @@ class OneLineErrors(TyperGroup):
     """The command group: usage errors (unknown command or option, bad option value) are one line
     ``linkedit: error: --samples: must be ≥ 8`` with exit 2, like every other input error."""
 
-    def main(self, args: Any = None, prog_name: str | None = None, complete_var: str | None = None,
-             standalone_mode: bool = True, **extra: Any) -> Any:
+    def main(self, args: Sequence[str] | None = None, prog_name: str | None = None, complete_var: str | None = None,
+             standalone_mode: bool = True, windows_expand_args: bool = True, **extra: Any) -> Any:
         try:
-            code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+            code = super().main(args, prog_name, complete_var, standalone_mode=False,
+                                windows_expand_args=windows_expand_args, **extra)
         except usage.NoArgsIsHelpError as exc:
             exc.show()
             code = exc.exit_code

@@ -254,7 +254,7 @@ def check_memory(samples: int | None, spec: Any, path: Path) -> None:
     need = count * len(spec.joints) * BYTES_PER_SAMPLE_JOINT
     have = _available_memory()
     if need > have:
-        where = {"field": "--samples"} if samples else {"file": str(path), "field": "samples"}
+        where: dict[str, Any] = {"field": "--samples"} if samples else {"file": str(path), "field": "samples"}
         gib = need / 2**30
         raise InputError(f"{count:,} samples of {len(spec.joints)} joints need about "
                          f"{f'{gib:,.1f}' if gib < 1e6 else f'{gib:.1e}'} GiB; {have / 2**30:,.1f} GiB are available",

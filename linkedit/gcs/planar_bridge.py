@@ -121,7 +121,7 @@ def planar_model(spec: LinkageSpec) -> PlanarModel:
                         values=sign * np.array(window_angles), axis=np.array(z), base=Q0[crank])
     first = schedule.evaluate(np.zeros(1))[0]
     elems.append(Elementary("orientation", len(cnames) - 1, crank, WORLD, rel=tuple(first), schedule=schedule))
-    arm = rest[jindex[spec.motor.joint]] - rest[jindex[spec.motor.pivot]]
+    arm = rest[jindex[str(spec.motor.joint)]] - rest[jindex[str(spec.motor.pivot)]]
     track_member, track_point = [], []
     for track in spec.tracks.values():
         if isinstance(track, JointTrack):

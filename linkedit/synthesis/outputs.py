@@ -21,6 +21,7 @@ from linkedit.io.planar_svg import drawing
 from linkedit.io.svg import edit_overlay
 from linkedit.io.svg_figure import INK, PALETTE, Figure, Stroke
 from linkedit.planar import compile_plan, simulate
+from linkedit.planar.simulate import Motion
 from linkedit.spec.linkage_yaml import dump_linkage
 from linkedit.synthesis.families import family
 from linkedit.synthesis.refine import Refined
@@ -91,7 +92,7 @@ def _report(result: Synthesis, options: dict[str, Any]) -> dict[str, Any]:
             "min_singularity": result.polish.min_singularity},
         "note": result.note,
         "result": {"spec": "result.yaml", "simulation": "result.h5", "track": "target", "samples": RESULT_SAMPLES,
-                   "min_singularity": result.motion.min_singularity()[0],
+                   "min_singularity": _min_singularity(result.motion),
                    "curve": track.tolist()},
         "candidates": [_candidate_row(c) for c in result.candidates],
         "seconds": result.seconds,
@@ -131,3 +132,9 @@ def _history(path: Path, result: Synthesis) -> None:
             fig.polyline(np.stack([x, values[ok]], axis=1), stroke, cls="history", name=f"candidate {k + 1}",
                          label=f"candidate {k + 1}" + (" (kept)" if kept else ""))
     write_text(path, fig.render())
+
+
+def _min_singularity(motion: Motion) -> float | None:
+    """The smallest d_s of the result over its cycle (None for a linkage without dyads or slider rules)."""
+    found = motion.min_singularity()
+    return None if found is None else found[0]

@@ -112,6 +112,7 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
 
     t_desc = describe_curves([Curve(target.name, pts, target.closed, target.origin, None, target.units)])
     candidates: list[Candidate] = []
+    curve_of: dict[int, tuple[Descriptors, int]] = {}  # id(candidate) → its curve, for placing it below
     for fam_name in dict.fromkeys(h.family for h in hits):
         fam = family(fam_name)
         mine = [h for h in hits if h.family == fam_name]
@@ -127,11 +128,13 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
             dist[best] = partial_rms(t_desc.points, desc.points[best], mirror=True)[0]
             dist[np.setdiff1d(np.arange(len(dist)), best)] = np.inf
         for k, (h, p, d) in enumerate(zip(mine, params, dist)):
-            candidates.append(Candidate(fam_name, h.row, p, h.distance, float(d), (desc, k)))  # placed below
+            c = Candidate(fam_name, h.row, p, h.distance, float(d), Placement(1.0, 0.0, 0j, False))
+            candidates.append(c)
+            curve_of[id(c)] = (desc, k)
     candidates.sort(key=lambda c: c.distance)
     chosen = diverse(candidates, top)
     for c in chosen:
-        desc, k = c.placement
+        desc, k = curve_of[id(c)]
         c.placement = (_placement(placements(t_desc, desc.take([k]), mirror=True)[0]) if target.closed
                        else _partial_placement(t_desc, desc, k))
     return _finish(target, z_target, size, chosen, None, clock, name, units)
@@ -176,7 +179,7 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
     if not working:
         raise MechanismError(f"none of the {len(chosen)} candidates kept working through refinement "
                              "(the atlas's linkages do not turn with its margin: rebuild it with `linkedit atlas build`)")
-    best = min(working, key=lambda c: c.after[0] if timed is None else c.timed_after[0])
+    best = min(working, key=lambda c: c.after[0] if timed is None or c.timed_after is None else c.timed_after[0])
     spec = result_spec(best, z_target[0], name=name, units=units, timed=timed is not None, description="")
     refined = best.after if timed is None else best.timed_after
     assert refined is not None
