@@ -26,7 +26,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -35,7 +35,7 @@ from linkedit.timing import best_time
 
 if TYPE_CHECKING:
     from linkedit.gcs.solver import Run
-    from linkedit.gcs.system import System
+    from linkedit.gcs.system import State, System
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "3d"
 
@@ -178,9 +178,9 @@ def _solvespace_run(model: PointModel, xyz: np.ndarray, fixed: bool) -> tuple[fl
     wp = s.create_2d_base() if model.planar else Entity.FREE_IN_3D
     if not fixed:
         s.set_group(2)
-    pts = {}
+    pts: dict[str, Any] = {}  # SolveSpace entities
 
-    def point(n: str) -> object:
+    def point(n: str) -> Any:
         x = xyz[0, at[n]]
         return s.add_point_2d(float(x[0]), float(x[1]), wp) if model.planar else s.add_point_3d(*map(float, x))
 
@@ -202,7 +202,8 @@ def _solvespace_run(model: PointModel, xyz: np.ndarray, fixed: bool) -> tuple[fl
                 s.distance(pts[a], pts[b], float(np.linalg.norm(xyz[0, at[a]] - xyz[0, at[b]])), wp)
     for n, (origin, normal) in model.on_plane.items():
         s.set_group(1)
-        turn = quat.from_axis_angle(*_turn_z_onto(np.asarray(normal)))
+        axis, angle = _turn_z_onto(np.asarray(normal))
+        turn = quat.from_axis_angle(axis, np.asarray(angle))
         nm = s.add_normal_3d(*map(float, turn))
         s.set_group(2)
         plane = s.add_work_plane(pts[origin], nm)
@@ -238,16 +239,16 @@ def _linkedit_cases(steps: int) -> list[tuple[str, "System", PointModel, Callabl
     from linkedit.spec.mechanism3d import MechanismSpec
     from linkedit.spec.yamlload import load_model
 
-    cases = []
+    cases: list[tuple[str, System, PointModel, Callable[[Run], np.ndarray]]] = []
     for name in PLANAR:
         spec = load_model(LinkageSpec, EXAMPLES.parent / f"{name}.yaml")
         pm = planar_model(spec)
         joints = {n: i for i, n in enumerate(pm.joint_names)}
-        model = PointModel(points={n: ("", n) for n in spec.joints}, held=(*spec.ground, spec.motor.joint),
+        model = PointModel(points={n: ("", n) for n in spec.joints}, held=(*spec.ground, str(spec.motor.joint)),
                            links=tuple(tuple(m) for m in spec.links.values()), planar=True)
         pick = np.array([joints[n] for n in model.points])
 
-        def world(run, pm=pm, pick=pick):
+        def world(run: Run, pm: Any = pm, pick: np.ndarray = pick) -> np.ndarray:
             return point_positions(pm.joint_member, pm.joint_point, run.position, run.orientation)[:, pick]
 
         cases.append((name + " (planar)", pm.system, model, world))
@@ -256,11 +257,11 @@ def _linkedit_cases(steps: int) -> list[tuple[str, "System", PointModel, Callabl
         member = np.array([system.member_names.index(m) for m, _ in model.points.values()])
         local = np.array([system.points[m][p] for m, p in model.points.values()])
 
-        def world(run, member=member, local=local):
+        def spatial(run: Run, member: np.ndarray = member, local: np.ndarray = local) -> np.ndarray:
             R = quat.to_matrix(run.orientation[:, member])
             return run.position[:, member] + np.einsum("tpij,pj->tpi", R, local)
 
-        cases.append((name, system, model, world))
+        cases.append((name, system, model, spatial))
     return cases
 
 
@@ -298,9 +299,9 @@ def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
             run_diagnostics(system, again, table)  # as solve3d: status, dof, redundant per step
             times["solve3d"].append((time.process_time() - start) / steps)
             for mode in ("dragged", "fixed"):
-                got[mode] = _solvespace_run(model, xyz, fixed=mode == "fixed")
-                if got[mode] is not None:
-                    times[mode].append(got[mode][0])
+                ran = got[mode] = _solvespace_run(model, xyz, fixed=mode == "fixed")
+                if ran is not None:
+                    times[mode].append(ran[0])
         ms = {k: float(np.median(v)) * 1e3 if v else float("nan") for k, v in times.items()}
         keep = [i for i, n in enumerate(model.points) if n not in model.passive]
         size = float(np.ptp(xyz.reshape(-1, 3), axis=0).max())
