@@ -85,6 +85,9 @@ def register(app: typer.Typer) -> None:
         timing: bool = typer.Option(False, "--timing", help="Match the target's sample times too (a closed target "
                                                               "with a CSV t column or a result.h5 track): positions "
                                                               "and velocities at those times."),
+        margin: float = typer.Option(20.0, "--margin", metavar="DEG", min=1.0, max=60.0,
+                                     help="Transmission band [DEG, 180° − DEG] every candidate and the result keep "
+                                          "(d_s ≥ sin² DEG); below the atlas's 20° trades transmission for accuracy."),
         seed: int = typer.Option(1, "--seed", min=0, help="Recorded with the result (the search is deterministic)."),
         as_json: bool = JSON,
         quiet: bool = QUIET,
@@ -105,9 +108,10 @@ def register(app: typer.Typer) -> None:
         if curve.points.shape[1] != 2:
             raise InputError("the target must be a planar (x, y) curve", file=curve.origin)
         found = load(atlas)
-        result = run(curve, found, top=top, smooth=smooth, timing=timing, seed=seed, units=curve.units or "mm")
-        options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "timing": timing, "seed": seed,
-                   "closed": curve.closed, "atlas_size": found.size}
+        result = run(curve, found, top=top, smooth=smooth, timing=timing, margin_deg=margin, seed=seed,
+                     units=curve.units or "mm")
+        options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "timing": timing,
+                   "margin_deg": margin, "seed": seed, "closed": curve.closed, "atlas_size": found.size}
         done = write_all(output, result, options)
         report({k: v for k, v in done.items() if k != "result"} | {"output": str(output)})
         before, after = done["error"]["before"], done["error"]["after"]

@@ -7,8 +7,8 @@ distance to the candidate's curve and every candidate point's distance to the ta
 target's size; with timing (:mod:`linkedit.synthesis.timed`), the position and velocity gaps
 at the target's times instead, the start phase free too. scipy's trust-region least squares
 minimizes them. The refinement keeps the linkage working, as LinkEdit's barrier does: an
-iterate whose linkage does not turn the full cycle with more than the family's singularity
-margin m is never kept (its residuals are a wall, and only the best working iterate is
+iterate whose linkage does not turn the full cycle with more than the singularity margin m
+(sin² of the transmission band's edge, the family's 20° unless asked otherwise) is never kept (its residuals are a wall, and only the best working iterate is
 returned), and within BAND·m above the margin one more residual, BARRIER·ln(BAND·m/(d_s − m)),
 turns the wall into a slope the trust region slides along (a design whose best fit lies on the
 margin — a figure-eight — reaches the margin's constrained optimum instead of stopping at the
@@ -135,10 +135,10 @@ def timed_error(timed: TimedTarget, fam: ModuleType, params: np.ndarray, placeme
 
 
 def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np.ndarray, closed: bool,
-           size: float, *, timed: TimedTarget | None = None, iterations: int = ITERATIONS) -> Refined:
+           size: float, *, margin: float, timed: TimedTarget | None = None, iterations: int = ITERATIONS) -> Refined:
     """Refine one candidate (``params`` (P,), the branch fixed) against ``target`` (M,) complex:
     by shape (point-to-curve distances), or with ``timed`` by positions and velocities at the
-    target's times (the start phase free too).
+    target's times (the start phase free too); every kept iterate has min d_s > ``margin``.
 
     The finite-difference Jacobian evaluates all perturbed linkages in one batched call.
     """
@@ -182,9 +182,9 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
         """Parameter rows (K, P), working mask (K,) and residuals (K, R + 1) of x (K, n): the
         distances over the target's size and √R, then the barrier (R: the distance count)."""
         p, ds, r = (distances if timed is None else timed_residuals)(x)
-        ok = (ds > fam.margin()) & np.isfinite(r).all(axis=1)
+        ok = (ds > margin) & np.isfinite(r).all(axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
-            wall = BAND * fam.margin() / (ds - fam.margin())
+            wall = BAND * margin / (ds - margin)
             barrier = BARRIER * np.log(np.maximum(wall, 1.0))
         r = np.concatenate([r / (size * np.sqrt(r.shape[1])), barrier[:, None]], axis=1)
         return p, ok, np.where(ok[:, None], r, WALL)

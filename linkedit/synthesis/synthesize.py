@@ -1,10 +1,12 @@
 """``linkedit synthesize``: from a target curve to a working linkage.
 
 1. the target (one curve; optionally smoothed) is described like any curve;
-2. the atlas index gives the nearest ``POOL`` linkages by the index descriptor;
+2. the atlas index gives the nearest ``POOL`` linkages by the index descriptor (those that turn
+   with the singularity margin asked for: a transmission band [μ, 180° − μ], d_s ≥ sin² μ);
 3. they are re-simulated and re-ranked by the full curve distance (every term, mirror images
    included), each placed onto the target by the aligning similarity transform;
-4. the best ``top`` distinct candidates are refined (:mod:`linkedit.synthesis.refine`);
+4. the best ``top`` distinct candidates are refined (:mod:`linkedit.synthesis.refine`) inside that
+   band;
 5. the best working result is placed in the target's frame at the crank phase where its
    tracked point is nearest the target's first point (with timing: at the first sample's phase),
    polished through ``edit`` when that helps (:mod:`linkedit.synthesis.polish`), and its
@@ -24,13 +26,13 @@ from linkedit.curves.descriptors import Descriptors, describe
 from linkedit.curves.distance import COARSE, partial_placement, partial_rms, term_distances, weighted
 from linkedit.curves.smooth import smooth as smooth_curve
 from linkedit.curves.sources import Curve
-from linkedit.errors import MechanismError
+from linkedit.errors import InputError, MechanismError
 from linkedit.planar import compile_plan, simulate
 from linkedit.planar.simulate import Motion
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.synthesis.atlas import Atlas
 from linkedit.synthesis.families import family
-from linkedit.synthesis.index import Index, target_variants
+from linkedit.synthesis.index import Hit, Index, target_variants
 from linkedit.synthesis.polish import Polish, measure, polish
 from linkedit.synthesis.refine import Placement, Refined, curve_error, refine, timed_error
 from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
@@ -51,6 +53,10 @@ RESULT_SAMPLES = 360
 NEAR = 0.05
 #: Normalized RMS error above which the result carries a note that no family draws the target well.
 POOR = 0.03
+#: The transmission band's edge μ (degrees) by default: the atlas families' own margin, d_s ≥ sin² μ.
+MARGIN_DEG = 20.0
+#: A result whose min d_s is within this factor of the margin lies on it (the note then names --margin).
+ON_MARGIN = 1.02
 
 
 @dataclass
@@ -84,6 +90,7 @@ class Synthesis:
     error: tuple[float, float] = (np.inf, np.inf)
     timed_error: tuple[float, float] | None = None
     polish: Polish | None = None  #: the final polish through `edit` (closed targets)
+    margin_deg: float = MARGIN_DEG  #: the transmission band's edge μ the result keeps (d_s ≥ sin² μ)
 
 
 def target_size(points: np.ndarray, closed: bool) -> float:
@@ -91,13 +98,25 @@ def target_size(points: np.ndarray, closed: bool) -> float:
     return float(describe(points[None], closed).normalized.scale[0])
 
 
+def margin_of(margin_deg: float) -> float:
+    """The singularity margin sin² μ of the transmission band [μ, 180° − μ], μ = ``margin_deg`` (degrees)."""
+    if not 0.0 < margin_deg < 90.0:
+        raise InputError(f"the transmission band's edge must lie between 0° and 90° (got {margin_deg:g}°)",
+                         field="--margin")
+    return float(np.sin(np.radians(margin_deg)) ** 2)
+
+
 def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: int = 5, smooth: float = 0.0,
-               timing: bool = False, seed: int = 1, name: str = "synthesized", units: str = "mm") -> Synthesis:
+               timing: bool = False, margin_deg: float = MARGIN_DEG, seed: int = 1, name: str = "synthesized",
+               units: str = "mm") -> Synthesis:
     """Find, place and refine linkages drawing ``target``; MechanismError if none survives.
 
     ``timing``: the target's sample times count (:mod:`linkedit.synthesis.timed`): candidates are
     ranked, placed and refined by positions and velocities at those times, and the result's rest
-    pose is the target's first sample."""
+    pose is the target's first sample. ``margin_deg``: every candidate, iterate and the result keep
+    the transmission angle (every rebuilt joint's angle) within [μ, 180° − μ], d_s ≥ sin² μ; below
+    the atlas's 20° the refinement may leave the atlas's band, trading transmission for accuracy."""
+    margin = margin_of(margin_deg)
     clock = {"start": time.perf_counter()}
     pts = smooth_curve(target.points, target.closed, smooth)
     z_target = pts[:, 0] + 1j * pts[:, 1]
@@ -106,9 +125,11 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
     index = index or Index(atlas)
     closed_target = z_target if target.closed else np.concatenate([z_target, z_target[-2:0:-1]])
     hits = index.query(target_variants(closed_target), TIMED_POOL if timed else POOL if target.closed else OPEN_POOL)
+    hits = within(hits, atlas, margin, margin_deg)
     clock["query"] = time.perf_counter()
     if timed is not None:
-        return _finish(target, z_target, size, _timed_candidates(timed, hits, atlas, top), timed, clock, name, units)
+        return _finish(target, z_target, size, _timed_candidates(timed, hits, atlas, top), timed, clock, name, units,
+                       margin_deg)
 
     t_desc = describe_curves([Curve(target.name, pts, target.closed, target.origin, None, target.units)])
     candidates: list[Candidate] = []
@@ -137,7 +158,22 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
         desc, k = curve_of[id(c)]
         c.placement = (_placement(placements(t_desc, desc.take([k]), mirror=True)[0]) if target.closed
                        else _partial_placement(t_desc, desc, k))
-    return _finish(target, z_target, size, chosen, None, clock, name, units)
+    return _finish(target, z_target, size, chosen, None, clock, name, units, margin_deg)
+
+
+def within(hits: list[Hit], atlas: Atlas, margin: float, margin_deg: float) -> list[Hit]:
+    """The hits whose linkage turns the full cycle with min d_s ≥ ``margin`` (the family's closed form);
+    MechanismError if none does (a band narrower than the atlas's)."""
+    kept = []
+    for fam_name in dict.fromkeys(h.family for h in hits):
+        mine = [h for h in hits if h.family == fam_name]
+        ds = family(fam_name).min_singularity(atlas.families[fam_name]["params"][[h.row for h in mine]])
+        kept += [h for h, d in zip(mine, ds) if d >= margin]
+    if not kept:
+        raise MechanismError(f"none of the {len(hits)} nearest atlas linkages keeps the transmission angle within "
+                             f"[{margin_deg:g}°, {180 - margin_deg:g}°] (--margin {margin_deg:g}); a narrower band "
+                             "needs an atlas built for it")
+    return sorted(kept, key=lambda h: h.distance)
 
 
 def _timed_candidates(timed: TimedTarget, hits: list, atlas: Atlas, top: int) -> list[Candidate]:
@@ -158,9 +194,10 @@ def _timed_candidates(timed: TimedTarget, hits: list, atlas: Atlas, top: int) ->
 
 
 def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candidate], timed: TimedTarget | None,
-            clock: dict[str, float], name: str, units: str) -> Synthesis:
+            clock: dict[str, float], name: str, units: str, margin_deg: float) -> Synthesis:
     """Refine the chosen candidates, keep the best working one, write its spec and check it by ``simulate``."""
     clock["rank"] = time.perf_counter()
+    margin = margin_of(margin_deg)
     for c in chosen:
         fam = family(c.family)
         with np.errstate(invalid="ignore"):
@@ -168,7 +205,7 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
             c.before = curve_error(z_target, target.closed, curve, size)
             if timed is not None:
                 c.timed_before = timed_error(timed, fam, c.params, c.placement)
-        c.refined = refine(fam, c.params, c.placement, z_target, target.closed, size, timed=timed)
+        c.refined = refine(fam, c.params, c.placement, z_target, target.closed, size, margin=margin, timed=timed)
         if np.isfinite(c.refined.error):
             curve = c.refined.placement.apply(fam.curves(c.refined.params[None], RESULT_SAMPLES)[0])
             c.after = curve_error(z_target, target.closed, curve, size)
@@ -185,7 +222,7 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
     assert refined is not None
     polished = None
     if target.closed:  # the final polish through `edit` (kept only if it lowers the error within the margin)
-        polished = polish(spec, z_target, size, refined, family(best.family).margin(), RESULT_SAMPLES, timed)
+        polished = polish(spec, z_target, size, refined, margin, RESULT_SAMPLES, timed)
         if polished.kept:
             assert polished.spec is not None
             spec = polished.spec
@@ -203,10 +240,14 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
     if error > POOR:
         note = (f"no family in the atlas draws this curve well{' with its timing' if timed is not None else ''}: "
                 f"the best found is off by {100 * error:.1f} % of the target's size (RMS)")
+        worst = motion.min_singularity()
+        if worst is not None and worst[0] <= ON_MARGIN * margin:
+            note += (f"; it lies on the transmission band's edge ({margin_deg:g}°): a smaller --margin trades "
+                     "transmission quality for accuracy")
     seconds = {"query": clock["query"] - clock["start"], "rank": clock["rank"] - clock["query"],
                "refine": clock["refine"] - clock["rank"], "polish": clock["polish"] - clock["refine"],
                "check": clock["check"] - clock["polish"], "total": clock["check"] - clock["start"]}
-    return Synthesis(target, size, chosen, best, spec, motion, seconds, note, shape, timed_final, polished)
+    return Synthesis(target, size, chosen, best, spec, motion, seconds, note, shape, timed_final, polished, margin_deg)
 
 
 def diverse(candidates: list[Candidate], count: int) -> list[Candidate]:
