@@ -163,16 +163,16 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
 
 def within(hits: list[Hit], atlas: Atlas, margin: float, margin_deg: float) -> list[Hit]:
     """The hits whose linkage turns the full cycle with min d_s ≥ ``margin`` (the family's closed form);
-    MechanismError if none does (a band narrower than the atlas's)."""
+    MechanismError if none does (a band narrower than the atlas's, or an atlas edited by hand)."""
     kept = []
     for fam_name in dict.fromkeys(h.family for h in hits):
         mine = [h for h in hits if h.family == fam_name]
         ds = family(fam_name).min_singularity(atlas.families[fam_name]["params"][[h.row for h in mine]])
         kept += [h for h, d in zip(mine, ds) if d >= margin]
     if not kept:
-        raise MechanismError(f"none of the {len(hits)} nearest atlas linkages keeps the transmission angle within "
-                             f"[{margin_deg:g}°, {180 - margin_deg:g}°] (--margin {margin_deg:g}); a narrower band "
-                             "needs an atlas built for it")
+        raise MechanismError(f"none of the {len(hits)} nearest atlas linkages turns the full cycle with the "
+                             f"transmission angle within [{margin_deg:g}°, {180 - margin_deg:g}°] (--margin "
+                             f"{margin_deg:g}): rebuild the atlas with `linkedit atlas build`, or ask for a wider band")
     return sorted(kept, key=lambda h: h.distance)
 
 
