@@ -15,6 +15,7 @@ import json
 import os
 import shutil
 import time
+from collections import deque
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -101,10 +102,12 @@ def run_chunks(name: str, seed: int, jobs: list[tuple[int, int]], *, scheduler: 
                          field="--scheduler" if scheduler else "--workers") from None
     cluster = None if scheduler else local_cluster(workers or 1)
     try:
-        with Client(scheduler or cluster) as client:
-            futures = [client.submit(build_chunk, name, seed, index, size, pure=True) for index, size in jobs]
-            for (index, _), future in zip(jobs, futures):
-                yield index, future.result()
+        # results come straight from the workers (not relayed by the scheduler); each is released as
+        # soon as it is read, so workers never hold more than the results not yet written
+        with Client(scheduler or cluster, direct_to_workers=True) as client:
+            futures = deque(client.submit(build_chunk, name, seed, index, size, pure=True) for index, size in jobs)
+            for index, _ in jobs:
+                yield index, futures.popleft().result()
     finally:
         if cluster is not None:
             cluster.close()

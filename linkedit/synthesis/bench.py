@@ -2,8 +2,8 @@
 
 * atlas building, four-bar family, in-process: linkages per second including sampling,
   rejection, the batched evaluation and the index descriptors (chunks only, and the whole
-  ``atlas build`` with HDF5 writing); on a local Dask cluster of 2 workers if
-  ``dask.distributed`` is installed (per core, the cluster already running);
+  ``atlas build`` with HDF5 writing); ``atlas build`` in-process against a local Dask cluster
+  of 2 workers if ``dask.distributed`` is installed (per core, :func:`dask_comparison`);
 * a query of the index of a 1,000,000-curve atlas (built in memory, chunk by chunk);
 * ``synthesize`` end to end (query, re-ranking, refinement of the best 5, final check) for
   targets drawn by held-out four-bars, against that atlas;
@@ -15,6 +15,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
 import statistics
 import tempfile
 import time
@@ -43,17 +45,85 @@ def _median_time(fn: Callable[[], object], repeats: int) -> float:
     return statistics.median(times)
 
 
-def _dask_rate(chunks: int) -> float | None:
+#: Worker processes of the local Dask cluster the bench builds on (one per core of a 2-core machine).
+DASK_WORKERS = 2
+
+
+def _build_seconds(folder: Path, count: int, scheduler: str | None = None) -> float:
+    """Wall seconds of ``atlas build`` of ``count`` four-bars into a new HDF5 file in ``folder``."""
+    path = folder / "bench.h5"
+    path.unlink(missing_ok=True)
+    t0 = time.perf_counter()
+    atlas.build(path, ["four-bar"], count, seed=1, scheduler=scheduler)
+    commit()  # the command's outputs are renamed together at its end; this file lives in a folder about to go
+    return time.perf_counter() - t0
+
+
+def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> None:
+    """``atlas build`` in-process and on a local Dask cluster of :data:`DASK_WORKERS` single-threaded
+    workers (started once, before the timing), both writing the HDF5 atlas, runs interleaved.
+
+    Per core: the in-process rate divided by the threads it keeps busy (its CPU seconds per wall
+    second, 1 for this single-threaded code), the Dask rate divided by the workers (one per
+    core; the client, writing the file, and the scheduler run on the same cores). Wall-clock
+    figures count other processes' use of the cores against both, so the CPU seconds of every
+    process of the run (client, scheduler, nannies, workers) and the share of the cores others
+    used meanwhile are printed too.
+    """
     try:
-        from dask.distributed import Client
+        import psutil
+        from dask.distributed import Client  # noqa: F401 (the extra is installed)
     except ImportError:
-        return None
-    with atlas.local_cluster(2) as cluster, Client(cluster) as client:
-        client.gather(client.map(atlas.build_chunk, ["four-bar"] * 2, [0, 0], [0, 1], pure=False))  # warm up
-        t0 = time.perf_counter()
-        futures = client.map(atlas.build_chunk, ["four-bar"] * chunks, [1] * chunks, list(range(chunks)), pure=False)
-        client.gather(futures)
-        return chunks * atlas.CHUNK / (time.perf_counter() - t0) / 2
+        echo("atlas build on Dask: not timed (pip install 'linkedit[cluster]')")
+        return
+    count = chunks * atlas.CHUNK
+    me = psutil.Process()
+
+    def ours() -> float:
+        """CPU seconds of this process and its children so far."""
+        total = 0.0
+        for proc in [me, *me.children(recursive=True)]:
+            with contextlib.suppress(psutil.NoSuchProcess):
+                times = proc.cpu_times()
+                total += times.user + times.system
+        return total
+
+    def machine() -> float:
+        """CPU seconds the machine's cores were busy so far (or taken by the hypervisor: steal)."""
+        times = psutil.cpu_times()
+        return sum(getattr(times, field, 0.0) for field in ("user", "nice", "system", "irq", "softirq", "steal"))
+
+    runs: dict[str, list[tuple[float, float, float]]] = {"in-process": [], "dask": []}  # wall, ours, others
+    t0 = time.perf_counter()
+    with atlas.local_cluster(DASK_WORKERS) as cluster, tempfile.TemporaryDirectory() as tmp:
+        start = time.perf_counter() - t0
+        folder, address = Path(tmp), cluster.scheduler_address
+        _build_seconds(folder, 2 * atlas.CHUNK, address)  # workers import linkedit, the client connects once
+        _build_seconds(folder, atlas.CHUNK)
+        load = os.getloadavg()[0]
+        for _ in range(repeats):
+            for kind, scheduler in (("in-process", None), ("dask", address)):
+                before, every = ours(), machine()
+                seconds = _build_seconds(folder, count, scheduler)
+                used = ours() - before
+                runs[kind].append((seconds, used, machine() - every - used))
+    wall = {k: statistics.median(r[0] for r in v) for k, v in runs.items()}
+    cpu = {k: statistics.median(r[1] for r in v) for k, v in runs.items()}
+    threads = cpu["in-process"] / wall["in-process"]
+    per_core = count / wall["in-process"] / max(threads, 1.0)
+    dask_core = count / wall["dask"] / DASK_WORKERS
+    others = statistics.median(r[2] / r[0] for v in runs.values() for r in v)
+    echo(f"atlas build -n {count:,} (HDF5 written) in-process and on a local Dask cluster of {DASK_WORKERS} "
+         f"single-threaded workers (started in {start:.1f} s, before the timing), runs interleaved, medians of "
+         f"{repeats}:")
+    echo(f"  in-process: {count / wall['in-process']:,.0f} linkages/s, {threads:.2f} CPU-s per s "
+         f"= {per_core:,.0f} linkages/s per core")
+    echo(f"  Dask: {count / wall['dask']:,.0f} linkages/s / {DASK_WORKERS} workers = {dask_core:,.0f} linkages/s "
+         f"per core = ×{dask_core / per_core:.2f} of in-process (wall clock)")
+    echo(f"  per CPU-second of every process of the run: in-process {count / cpu['in-process']:,.0f}, Dask "
+         f"{count / cpu['dask']:,.0f} linkages (×{cpu['in-process'] / cpu['dask']:.2f}: the ratio on cores of its own)")
+    echo(f"  other processes meanwhile: {others:.2f} of the machine's {os.cpu_count()} cores busy "
+         f"(load average {load:.2f} before); they slow the Dask run, which needs every core, more")
 
 
 def chebyshev_straight_line(points: int) -> np.ndarray:
@@ -142,10 +212,8 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
         t_file = time.perf_counter() - t0
     echo(f"atlas build, four-bar, in-process: {rate:,.0f} linkages/s in chunks (median of {repeats}; target ≥ "
          f"{BUILD_TARGET:,}), {chunks * atlas.CHUNK / t_file:,.0f} linkages/s writing the HDF5 atlas")
-    dask_rate = None if quick else _dask_rate(chunks)
-    if dask_rate is not None:
-        echo(f"atlas build on a local Dask cluster (2 workers): {dask_rate:,.0f} linkages/s per core "
-             f"(×{dask_rate / rate:.2f} of in-process, on a machine whose 2 cores are shared)")
+    if not quick:
+        dask_comparison(echo, 4 * chunks, repeats)
 
     t0 = time.perf_counter()
     parts = [atlas.build_chunk("four-bar", 1, i, size) for i, size in atlas.chunk_sizes(big)]
