@@ -119,15 +119,21 @@ def run_chunks(name: str, seed: int, jobs: list[tuple[int, int]], *, scheduler: 
 #: Fixed thresholds of 1 GiB keep the temporaries in the heap. Start remote workers with them too
 #: (``MALLOC_TRIM_THRESHOLD_=1073741824 MALLOC_MMAP_THRESHOLD_=1073741824 dask worker …``).
 WORKER_MALLOC = {"MALLOC_TRIM_THRESHOLD_": 1 << 30, "MALLOC_MMAP_THRESHOLD_": 1 << 30}
+#: Dask settings of the local cluster: no statistical profile of the workers (a stack sample every
+#: 10 ms) and the event-loop latency check every second instead of every 20 ms in every server.
+#: Both feed a dashboard nobody watches here; they cost an idle 2-worker cluster ~90 ms of CPU per second
+#: (40 without them), taken from the cores the chunks are built on.
+LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s"}
 
 
 def local_cluster(workers: int):
     """A local Dask cluster of ``workers`` single-threaded processes, with :data:`WORKER_MALLOC`
-    in their environment."""
+    in their environment and :data:`LOCAL_CLUSTER_CONFIG`."""
     import dask
     from dask.distributed import LocalCluster
 
-    with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_MALLOC.items()}):
+    environ = {f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_MALLOC.items()}
+    with dask.config.set({**environ, **LOCAL_CLUSTER_CONFIG}):
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
 
 
