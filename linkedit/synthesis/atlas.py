@@ -87,6 +87,25 @@ def chunk_sizes(count: int, first: int = 0) -> list[tuple[int, int]]:
     return [(first + k, min(CHUNK, count - k * CHUNK)) for k in range((count + CHUNK - 1) // CHUNK)]
 
 
+#: Most chunks one Dask task builds. A task costs the scheduler, the client and the worker ~10 ms
+#: of CPU whatever its size (a chunk of four-bars is ~70 ms of work), so consecutive chunks go
+#: together, as long as every worker thread still gets several tasks (see :func:`dask_tasks`).
+TASK_CHUNKS = 4
+
+
+def build_chunks(name: str, seed: int, jobs: list[tuple[int, int]]) -> list[Chunk]:
+    """Chunks ``jobs`` ((index, size) pairs) of family ``name``'s atlas: one Dask task."""
+    return [build_chunk(name, seed, index, size) for index, size in jobs]
+
+
+def dask_tasks(jobs: list[tuple[int, int]], threads: int) -> list[list[tuple[int, int]]]:
+    """``jobs`` cut into runs of consecutive chunks, one per Dask task: at most :data:`TASK_CHUNKS`
+    each, and at least 4 runs per worker thread (so the last ones balance) while that allows more
+    than one chunk per run."""
+    per_task = max(1, min(TASK_CHUNKS, len(jobs) // (4 * max(threads, 1))))
+    return [jobs[k:k + per_task] for k in range(0, len(jobs), per_task)]
+
+
 def run_chunks(name: str, seed: int, jobs: list[tuple[int, int]], *, scheduler: str | None = None,
                workers: int | None = None) -> Iterator[tuple[int, Chunk]]:
     """Chunks in order of ``jobs``: in-process, or on Dask (``scheduler`` address, or a local
@@ -105,9 +124,10 @@ def run_chunks(name: str, seed: int, jobs: list[tuple[int, int]], *, scheduler: 
         # results come straight from the workers (not relayed by the scheduler); each is released as
         # soon as it is read, so workers never hold more than the results not yet written
         with Client(scheduler or cluster, direct_to_workers=True) as client:
-            futures = deque(client.submit(build_chunk, name, seed, index, size, pure=True) for index, size in jobs)
-            for index, _ in jobs:
-                yield index, futures.popleft().result()
+            tasks = dask_tasks(jobs, sum(client.nthreads().values()))
+            futures = deque(client.submit(build_chunks, name, seed, task, pure=True) for task in tasks)
+            for task in tasks:
+                yield from zip([index for index, _ in task], futures.popleft().result())
     finally:
         if cluster is not None:
             cluster.close()
