@@ -63,12 +63,12 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
     """``atlas build`` in-process and on a local Dask cluster of :data:`DASK_WORKERS` single-threaded
     workers (started once, before the timing), both writing the HDF5 atlas, runs interleaved.
 
-    Per core: the in-process rate divided by the threads it keeps busy (its CPU seconds per wall
-    second, 1 for this single-threaded code), the Dask rate divided by the workers (one per
-    core; the client, writing the file, and the scheduler run on the same cores). Wall-clock
-    figures count other processes' use of the cores against both, so the CPU seconds of every
-    process of the run (client, scheduler, nannies, workers) and the share of the cores others
-    used meanwhile are printed too.
+    Per core: the in-process rate divided by the threads it keeps busy (over a tenth of the wall
+    time; its numpy code is single-threaded), the Dask rate divided by the workers (one per core;
+    the client, writing the file, and the scheduler share those cores). Wall-clock figures count
+    other processes' use of the cores against both, so the CPU seconds used (in-process: its
+    threads; Dask: every process of the run, client, scheduler, nannies and workers) and the share
+    of the cores others took meanwhile are printed too.
     """
     try:
         import psutil
@@ -78,9 +78,14 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
         return
     count = chunks * atlas.CHUNK
     me = psutil.Process()
+    own = {t.id for t in me.threads()}  # before the cluster starts: this program's threads, numpy's included
+
+    def own_threads() -> dict[int, float]:
+        """CPU seconds of each of this program's own threads so far (not the cluster's)."""
+        return {t.id: t.user_time + t.system_time for t in me.threads() if t.id in own}
 
     def ours() -> float:
-        """CPU seconds of this process and its children so far."""
+        """CPU seconds of this process and its children (the cluster) so far."""
         total = 0.0
         for proc in [me, *me.children(recursive=True)]:
             with contextlib.suppress(psutil.NoSuchProcess):
@@ -93,7 +98,7 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
         times = psutil.cpu_times()
         return sum(getattr(times, field, 0.0) for field in ("user", "nice", "system", "irq", "softirq", "steal"))
 
-    runs: dict[str, list[tuple[float, float, float]]] = {"in-process": [], "dask": []}  # wall, ours, others
+    runs: dict[str, list[tuple[float, float, float, int]]] = {"in-process": [], "dask": []}  # wall, CPU, others, threads
     t0 = time.perf_counter()
     with atlas.local_cluster(DASK_WORKERS) as cluster, tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter() - t0
@@ -103,27 +108,30 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
         load = os.getloadavg()[0]
         for _ in range(repeats):
             for kind, scheduler in (("in-process", None), ("dask", address)):
-                before, every = ours(), machine()
+                threads, total, every = own_threads(), ours(), machine()
                 seconds = _build_seconds(folder, count, scheduler)
-                used = ours() - before
-                runs[kind].append((seconds, used, machine() - every - used))
-    wall = {k: statistics.median(r[0] for r in v) for k, v in runs.items()}
-    cpu = {k: statistics.median(r[1] for r in v) for k, v in runs.items()}
-    threads = cpu["in-process"] / wall["in-process"]
-    per_core = count / wall["in-process"] / max(threads, 1.0)
-    dask_core = count / wall["dask"] / DASK_WORKERS
-    others = statistics.median(r[2] / r[0] for v in runs.values() for r in v)
+                total = ours() - total
+                every = machine() - every - total
+                if scheduler is None:
+                    used = [cpu - threads.get(tid, 0.0) for tid, cpu in own_threads().items()]
+                    runs[kind].append((seconds, sum(used), every, sum(cpu > 0.1 * seconds for cpu in used)))
+                else:
+                    runs[kind].append((seconds, total, every, DASK_WORKERS))
+    wall, cpu, others, cores = ({k: statistics.median(r[i] for r in v) for k, v in runs.items()} for i in range(4))
+    rate = {k: count / wall[k] for k in runs}
+    per_core = {k: rate[k] / cores[k] for k in runs}
     echo(f"atlas build -n {count:,} (HDF5 written) in-process and on a local Dask cluster of {DASK_WORKERS} "
          f"single-threaded workers (started in {start:.1f} s, before the timing), runs interleaved, medians of "
          f"{repeats}:")
-    echo(f"  in-process: {count / wall['in-process']:,.0f} linkages/s, {threads:.2f} CPU-s per s "
-         f"= {per_core:,.0f} linkages/s per core")
-    echo(f"  Dask: {count / wall['dask']:,.0f} linkages/s / {DASK_WORKERS} workers = {dask_core:,.0f} linkages/s "
-         f"per core = ×{dask_core / per_core:.2f} of in-process (wall clock)")
-    echo(f"  per CPU-second of every process of the run: in-process {count / cpu['in-process']:,.0f}, Dask "
-         f"{count / cpu['dask']:,.0f} linkages (×{cpu['in-process'] / cpu['dask']:.2f}: the ratio on cores of its own)")
-    echo(f"  other processes meanwhile: {others:.2f} of the machine's {os.cpu_count()} cores busy "
-         f"(load average {load:.2f} before); they slow the Dask run, which needs every core, more")
+    echo(f"  in-process: {rate['in-process']:,.0f} linkages/s on {cores['in-process']:g} busy thread(s) "
+         f"= {per_core['in-process']:,.0f} linkages/s per core ({cpu['in-process'] / wall['in-process']:.2f} CPU-s per s)")
+    echo(f"  Dask: {rate['dask']:,.0f} linkages/s / {DASK_WORKERS} workers = {per_core['dask']:,.0f} linkages/s per "
+         f"core = ×{per_core['dask'] / per_core['in-process']:.2f} of in-process (wall clock)")
+    echo(f"  per CPU-second: in-process {count / cpu['in-process']:,.0f}, Dask (every process of the run) "
+         f"{count / cpu['dask']:,.0f} linkages = ×{cpu['in-process'] / cpu['dask']:.2f} (the ratio on cores of its own)")
+    echo(f"  other processes meanwhile: {others['in-process'] / wall['in-process']:.2f} (in-process runs), "
+         f"{others['dask'] / wall['dask']:.2f} (Dask runs) of the machine's {os.cpu_count()} cores busy (load "
+         f"average {load:.2f} before); they slow the Dask run, which needs every core, more")
 
 
 def chebyshev_straight_line(points: int) -> np.ndarray:
