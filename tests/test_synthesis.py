@@ -193,10 +193,10 @@ def test_atlas_build_cli(run_cli, tmp_path):
 
 def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path):
     """The same seed on a LocalCluster of 2 worker processes (through --scheduler) and in-process:
-    17 chunks, the last one partial, built two per Dask task."""
+    33 chunks, the last one partial, built two per Dask task."""
     pytest.importorskip("dask.distributed")
-    count = str(16 * atlas.CHUNK + atlas.CHUNK // 2)
-    assert [len(task) for task in atlas.dask_tasks(atlas.chunk_sizes(int(count)), 2)] == [2] * 8 + [1]
+    count = str(32 * atlas.CHUNK + atlas.CHUNK // 2)
+    assert [len(task) for task in atlas.dask_tasks(atlas.chunk_sizes(int(count)), 2)] == [2] * 16 + [1]
     with atlas.local_cluster(2) as cluster:  # what --workers 2 starts
         result = run_cli("atlas", "build", "--family", "four-bar", "-n", count, "-o",
                          tmp_path / "dask.h5", "--seed", "8", "--scheduler", cluster.scheduler_address)
@@ -210,7 +210,7 @@ def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path):
 
 def test_dask_tasks_are_runs_of_consecutive_chunks():
     jobs = atlas.chunk_sizes(100 * atlas.CHUNK, first=3)
-    for threads, per_task in ((1, atlas.TASK_CHUNKS), (8, 3), (30, 1), (0, atlas.TASK_CHUNKS)):
+    for threads, per_task in ((1, atlas.TASK_CHUNKS), (4, 3), (15, 1), (0, atlas.TASK_CHUNKS)):
         tasks = atlas.dask_tasks(jobs, threads)
         assert sum(tasks, []) == jobs and {len(task) for task in tasks[:-1]} == {per_task}
     assert atlas.dask_tasks(jobs[:1], 2) == [jobs[:1]] and atlas.dask_tasks([], 2) == []

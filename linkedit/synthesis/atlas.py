@@ -89,7 +89,7 @@ def chunk_sizes(count: int, first: int = 0) -> list[tuple[int, int]]:
 
 #: Most chunks one Dask task builds. A task costs the scheduler, the client and the worker ~10 ms
 #: of CPU whatever its size (a chunk of four-bars is ~70 ms of work), so consecutive chunks go
-#: together, as long as every worker thread still gets several tasks (see :func:`dask_tasks`).
+#: together, as long as every worker thread still gets 8 tasks (see :func:`dask_tasks`).
 TASK_CHUNKS = 4
 
 
@@ -100,9 +100,9 @@ def build_chunks(name: str, seed: int, jobs: list[tuple[int, int]]) -> list[Chun
 
 def dask_tasks(jobs: list[tuple[int, int]], threads: int) -> list[list[tuple[int, int]]]:
     """``jobs`` cut into runs of consecutive chunks, one per Dask task: at most :data:`TASK_CHUNKS`
-    each, and at least 4 runs per worker thread (so the last ones balance) while that allows more
-    than one chunk per run."""
-    per_task = max(1, min(TASK_CHUNKS, len(jobs) // (4 * max(threads, 1))))
+    each, and at least 8 runs per worker thread while that allows more than one chunk per run (a
+    worker that finishes first idles for about one task at the end)."""
+    per_task = max(1, min(TASK_CHUNKS, len(jobs) // (8 * max(threads, 1))))
     return [jobs[k:k + per_task] for k in range(0, len(jobs), per_task)]
 
 
