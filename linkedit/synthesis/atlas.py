@@ -121,16 +121,35 @@ def run_chunks(name: str, seed: int, jobs: list[tuple[int, int]], *, scheduler: 
                          field="--scheduler" if scheduler else "--workers") from None
     cluster = None if scheduler else local_cluster(workers or 1)
     try:
-        # results come straight from the workers (not relayed by the scheduler); each is released as
-        # soon as it is read, so workers never hold more than the results not yet written
-        with Client(scheduler or cluster, direct_to_workers=True) as client:
-            tasks = dask_tasks(jobs, sum(client.nthreads().values()))
+        with Client(scheduler or cluster) as client:
+            nthreads = client.nthreads()
+            # results come straight from the workers when they can be reached (the scheduler relaying
+            # them costs as much CPU again); each is released once read, so the workers hold only
+            # the results not yet written
+            direct = cluster is not None or any(reaches(client, address) for address in list(nthreads)[:1])
+            tasks = dask_tasks(jobs, sum(nthreads.values()))
             futures = deque(client.submit(build_chunks, name, seed, task, pure=True) for task in tasks)
             for task in tasks:
-                yield from zip([index for index, _ in task], futures.popleft().result())
+                yield from zip([index for index, _ in task], client.gather(futures.popleft(), direct=direct))
     finally:
         if cluster is not None:
             cluster.close()
+
+
+def reaches(client, address: str, timeout: float = 2.0) -> bool:
+    """Whether ``client`` connects to the Dask server at ``address`` within ``timeout`` seconds
+    (workers behind a gateway are reachable only through their scheduler)."""
+    from distributed.comm import connect
+
+    async def probe() -> None:
+        comm = await connect(address, timeout=timeout, **client.connection_args)
+        await comm.close()
+
+    try:
+        client.sync(probe)
+    except Exception:  # refused, timed out, or something else answering there: relay through the scheduler
+        return False
+    return True
 
 
 #: glibc malloc settings for Dask workers. Dask's nannies set MALLOC_TRIM_THRESHOLD_=65536,
