@@ -16,11 +16,13 @@
 from __future__ import annotations
 
 import contextlib
+import multiprocessing
 import os
 import statistics
 import tempfile
 import time
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -45,13 +47,13 @@ def _median_time(fn: Callable[[], object], repeats: int) -> float:
     return statistics.median(times)
 
 
-#: Worker processes of the local Dask cluster the bench builds on (one per core of a 2-core machine).
+#: Worker processes of the local Dask cluster the bench builds on (one per core of a 2-core machine),
+#: and in-process builds run side by side as its baseline.
 DASK_WORKERS = 2
 
 
-def _build_seconds(folder: Path, count: int, scheduler: str | None = None) -> float:
-    """Wall seconds of ``atlas build`` of ``count`` four-bars into a new HDF5 file in ``folder``."""
-    path = folder / "bench.h5"
+def _build_seconds(path: Path, count: int, scheduler: str | None = None) -> float:
+    """Wall seconds of ``atlas build`` of ``count`` four-bars into a new HDF5 file ``path``."""
     path.unlink(missing_ok=True)
     t0 = time.perf_counter()
     atlas.build(path, ["four-bar"], count, seed=1, scheduler=scheduler)
@@ -60,15 +62,18 @@ def _build_seconds(folder: Path, count: int, scheduler: str | None = None) -> fl
 
 
 def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> None:
-    """``atlas build`` in-process and on a local Dask cluster of :data:`DASK_WORKERS` single-threaded
-    workers (started once, before the timing), both writing the HDF5 atlas, runs interleaved.
+    """``atlas build`` of ``chunks`` chunks, writing the HDF5 atlas, per core: in-process; as
+    :data:`DASK_WORKERS` in-process builds side by side (separate processes, each a share of
+    the linkages); on a local Dask cluster of as many single-threaded workers (started once,
+    before the timing). Runs interleaved, medians of ``repeats``.
 
     Per core: the in-process rate divided by the threads it keeps busy (over a tenth of the wall
-    time; its numpy code is single-threaded), the Dask rate divided by the workers (one per core;
-    the client, writing the file, and the scheduler share those cores). Wall-clock figures count
-    other processes' use of the cores against both, so the CPU seconds used (in-process: its
-    threads; Dask: every process of the run, client, scheduler, nannies and workers) and the share
-    of the cores others took meanwhile are printed too.
+    time; its numpy code is single-threaded); the side-by-side and Dask rates divided by their
+    processes, one per core (Dask's client, writing the file, and scheduler share those cores).
+    Other processes on the machine slow the runs that need every core most: the side-by-side
+    builds show what the machine gives that many processes meanwhile, and the CPU seconds used
+    (in-process: its threads; Dask: every process of the run, client, scheduler, nannies and
+    workers) give the ratio on cores of its own.
     """
     try:
         import psutil
@@ -98,40 +103,52 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
         times = psutil.cpu_times()
         return sum(getattr(times, field, 0.0) for field in ("user", "nice", "system", "irq", "softirq", "steal"))
 
-    runs: dict[str, list[tuple[float, float, float, int]]] = {"in-process": [], "dask": []}  # wall, CPU, others, threads
+    spawn = multiprocessing.get_context("spawn")  # no fork of a process running the cluster's threads
+    runs: dict[str, list[tuple[float, float, float, int]]] = {"in-process": [], "side by side": [], "dask": []}
     t0 = time.perf_counter()
-    with atlas.local_cluster(DASK_WORKERS) as cluster, tempfile.TemporaryDirectory() as tmp:
+    with (atlas.local_cluster(DASK_WORKERS) as cluster, tempfile.TemporaryDirectory() as tmp,
+          ProcessPoolExecutor(DASK_WORKERS, mp_context=spawn) as pool):
         start = time.perf_counter() - t0
-        folder, address = Path(tmp), cluster.scheduler_address
-        _build_seconds(folder, 2 * atlas.CHUNK, address)  # workers import linkedit, the client connects once
-        _build_seconds(folder, atlas.CHUNK)
+        paths = [Path(tmp) / f"bench-{k}.h5" for k in range(DASK_WORKERS)]
+        share = [count // DASK_WORKERS] * DASK_WORKERS
+
+        def side_by_side() -> float:
+            t0 = time.perf_counter()
+            list(pool.map(_build_seconds, paths, share))
+            return time.perf_counter() - t0
+
+        _build_seconds(paths[0], 2 * atlas.CHUNK, cluster.scheduler_address)  # workers import linkedit
+        _build_seconds(paths[0], atlas.CHUNK)
+        side_by_side()  # the pool's processes start and import linkedit
         load = os.getloadavg()[0]
         for _ in range(repeats):
-            for kind, scheduler in (("in-process", None), ("dask", address)):
+            for kind in runs:
                 threads, total, every = own_threads(), ours(), machine()
-                seconds = _build_seconds(folder, count, scheduler)
+                if kind == "side by side":
+                    seconds = side_by_side()
+                else:
+                    seconds = _build_seconds(paths[0], count, cluster.scheduler_address if kind == "dask" else None)
                 total = ours() - total
                 every = machine() - every - total
-                if scheduler is None:
+                if kind == "in-process":
                     used = [cpu - threads.get(tid, 0.0) for tid, cpu in own_threads().items()]
                     runs[kind].append((seconds, sum(used), every, sum(cpu > 0.1 * seconds for cpu in used)))
                 else:
                     runs[kind].append((seconds, total, every, DASK_WORKERS))
     wall, cpu, others, cores = ({k: statistics.median(r[i] for r in v) for k, v in runs.items()} for i in range(4))
-    rate = {k: count / wall[k] for k in runs}
-    per_core = {k: rate[k] / cores[k] for k in runs}
-    echo(f"atlas build -n {count:,} (HDF5 written) in-process and on a local Dask cluster of {DASK_WORKERS} "
-         f"single-threaded workers (started in {start:.1f} s, before the timing), runs interleaved, medians of "
-         f"{repeats}:")
-    echo(f"  in-process: {rate['in-process']:,.0f} linkages/s on {cores['in-process']:g} busy thread(s) "
-         f"= {per_core['in-process']:,.0f} linkages/s per core ({cpu['in-process'] / wall['in-process']:.2f} CPU-s per s)")
-    echo(f"  Dask: {rate['dask']:,.0f} linkages/s / {DASK_WORKERS} workers = {per_core['dask']:,.0f} linkages/s per "
-         f"core = ×{per_core['dask'] / per_core['in-process']:.2f} of in-process (wall clock)")
-    echo(f"  per CPU-second: in-process {count / cpu['in-process']:,.0f}, Dask (every process of the run) "
-         f"{count / cpu['dask']:,.0f} linkages = ×{cpu['in-process'] / cpu['dask']:.2f} (the ratio on cores of its own)")
-    echo(f"  other processes meanwhile: {others['in-process'] / wall['in-process']:.2f} (in-process runs), "
-         f"{others['dask'] / wall['dask']:.2f} (Dask runs) of the machine's {os.cpu_count()} cores busy (load "
-         f"average {load:.2f} before); they slow the Dask run, which needs every core, more")
+    per_core = {k: count / wall[k] / cores[k] for k in runs}
+    echo(f"atlas build -n {count:,} (HDF5 written), per core = linkages/s / busy threads or processes; runs "
+         f"interleaved, medians of {repeats} (load average {load:.2f} before):")
+    echo(f"  in-process, {cores['in-process']:g} busy thread(s): {per_core['in-process']:,.0f} linkages/s per core "
+         f"(other processes kept {others['in-process'] / wall['in-process']:.2f} of the {os.cpu_count()} cores busy)")
+    echo(f"  {DASK_WORKERS} in-process builds side by side: {per_core['side by side']:,.0f} linkages/s per core "
+         f"= ×{per_core['side by side'] / per_core['in-process']:.2f} (what the machine gives {DASK_WORKERS} "
+         f"processes; others kept {others['side by side'] / wall['side by side']:.2f} cores busy)")
+    echo(f"  local Dask cluster, {DASK_WORKERS} single-threaded workers (started in {start:.1f} s, before the "
+         f"timing): {per_core['dask']:,.0f} linkages/s per core = ×{per_core['dask'] / per_core['in-process']:.2f} "
+         f"of in-process, ×{per_core['dask'] / per_core['side by side']:.2f} of side by side; per CPU-second of "
+         f"every process of the run ×{cpu['in-process'] / cpu['dask']:.2f} of in-process (the ratio on cores of "
+         f"its own)")
 
 
 def chebyshev_straight_line(points: int) -> np.ndarray:
