@@ -1,0 +1,441 @@
+"""Many time steps solved at once ("waves"), each accepted only where the step-by-step
+continuation would have accepted it.
+
+The continuation of :mod:`linkedit.gcs.solver` pays Python's per-call cost at every step.
+Where the scaled Jacobian has full column rank (nothing free to keep still), the pose at a
+time is the root of the constraints nearest its prediction, whatever the anchor, so the next
+W steps can be solved together: each started from the polynomial through accepted poses,
+corrected by Gauss–Newton with all W Jacobians evaluated, assembled and solved as array
+operations (W × rows × unknowns; the elementary kinds' kernels of
+:data:`linkedit.gcs.system.EVALUATE` run on W times their constraints). Each solved step is
+then put to the continuation's own acceptance test, taken from the step before it: converged
+(largest scaled residual row ≤ ``tol``), no small pivot in its factorization, within
+``predictor_tol`` of the tangent prediction x_{k−1} ⊕ h·v_{k−1} (v the exact velocity,
+J v = −∂r/∂t) and moving at most ``max_motion``. The longest accepted run of steps is kept:
+those are the poses the continuation accepts (the same branch, equal to the rounding of the
+residual), and the continuation solves the first rejected step (sub-steps, Levenberg–
+Marquardt), after which the waves resume. A wave doubles after a wave accepted whole, up to
+:data:`LONGEST`, and restarts at :data:`SHORTEST` after a rejection.
+
+Steps with an input outside its window, systems with custom constraints, a null space or the
+sparse factorization, and runs that ask for accelerations go step by step.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import numpy as np
+import scipy.linalg
+
+from linkedit.gcs import constraints as kinds
+from linkedit.gcs import quaternions as quat
+from linkedit.gcs.solver import FREE_PIVOT, Solver, lagrange_weights
+from linkedit.gcs.system import EVALUATE, Block, StepParameters, StepTable
+
+#: steps of the first block, and after a rejected step
+SHORTEST = 16
+#: steps of the longest block
+LONGEST = 1 << 20
+#: a block solves steps STRIDE apart first (from extrapolation), then the ones between; the
+#: spacing adapts to the extrapolation's error, up to WIDEST_STRIDE
+STRIDE = 8
+WIDEST_STRIDE = 16
+#: Gauss–Newton iterations of a wave of one step, or of the steps between solved ones
+ITERATIONS = 8
+#: ... and of a wave of several extrapolated steps: the far ones are started again from the
+#: near ones' solutions rather than iterated long
+WAVE_ITERATIONS = 4
+#: steps of the widest wave
+WIDEST = 16
+#: solved poses (and their velocities) the polynomial extrapolation goes through
+NODES = 4
+#: converged steps a block starts from
+START = 2
+#: largest scaled move of a pose since its factorization for the factorization to serve its
+#: velocity (by two refinements: error ~REFINE³ relative)
+REFINE = 1e-5
+#: batches of at most this many poses solve their triangular systems pose by pose
+FEW = 24
+
+_potrs = scipy.linalg.get_lapack_funcs("potrs", dtype=np.float64)
+
+
+@dataclasses.dataclass
+class Solved:
+    """A wave's result for B steps: positions (B, M, 3), quaternions (B, M, 4), residuals
+    (B, R), scaled velocities (B, N), linear solves (B,) and whether each step passed the
+    continuation's acceptance test (B,) (the accepted ones are a prefix: ``accepted``)."""
+
+    position: np.ndarray
+    orientation: np.ndarray
+    residual: np.ndarray
+    velocity: np.ndarray
+    iterations: np.ndarray
+    accepted: int
+
+
+class Waves:
+    """Batched evaluation and solution of one system over a step table (module docstring)."""
+
+    def __init__(self, solver: Solver, table: StepTable) -> None:
+        self.solver = solver
+        self.system = solver.system
+        self.table = table
+        self._blocks: dict[int, list[Block]] = {}
+        self._scatter: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    @staticmethod
+    def applies(solver: Solver) -> bool:
+        """Whether the system's structure allows waves (see the module docstring; the rank is
+        checked at the first pose by the caller)."""
+        o, s = solver.options, solver.system
+        return (o.solver == "lm" and not o.accelerations and not s.customs and not solver.normal.sparse
+                and solver.normal.unique_entries)
+
+    # ---- batched evaluation ---------------------------------------------------------------
+
+    def _batched_blocks(self, B: int) -> list[Block]:
+        """The system's blocks for B poses laid out member-major: member (or vector) i of pose
+        b at i·B + b, so each kernel sees B times its constraints, constraint-major."""
+        if B not in self._blocks:
+            lanes = np.arange(B)
+            spread = lambda idx: (idx[:, None] * B + lanes).ravel()  # noqa: E731
+            self._blocks[B] = [dataclasses.replace(
+                blk, a=spread(blk.a), b=spread(blk.b),
+                vectors=tuple(slice(v.start * B, v.stop * B) for v in blk.vectors)) for blk in self.system.blocks]
+        return self._blocks[B]
+
+    def evaluate(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
+                 jacobian: bool) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Residuals (B, R) at positions P (B, M, 3) and quaternions Q (B, M, 4) at the table's
+        ``steps`` (B,), and with ``jacobian`` the Jacobian per group (B, n, k, 2, 6)."""
+        s, tab = self.system, self.table
+        B, M = P.shape[0], s.n_members
+        # member-major layouts (M + 1, B, ·), the world last
+        Pm = np.concatenate([np.swapaxes(P, 0, 1), np.zeros((1, B, 3))]).reshape(-1, 3)
+        Qm = np.concatenate([np.swapaxes(Q, 0, 1), np.tile([1.0, 0.0, 0.0, 0.0], (1, B, 1))]).reshape(-1, 4)
+        V = np.repeat(s.vectors[:, None], B, axis=1)  # (K, B, 9)
+        if tab.vectors.shape[1]:
+            V[s.driven_vectors] = np.swapaxes(tab.vectors[steps], 0, 1)
+        m = (s.vector_member[:, None] * B + np.arange(B)).ravel()
+        R = quat.to_matrix(Qm).reshape(-1, 9)
+        W = (R.take(m, axis=0) * V.reshape(-1, 9)).reshape(-1, 3, 3).sum(axis=2)
+        X = Pm.take(m, axis=0) + W
+        rel = s.rel_inverse
+        if tab.rel_inverse.shape[1]:
+            rel = np.repeat(rel[:, None], B, axis=1)
+            rel[s.driven_rel] = np.swapaxes(tab.rel_inverse[steps], 0, 1)
+        else:
+            rel = np.repeat(rel, B, axis=0)
+        values = {blk.kind: np.repeat(blk.value, B) if v is None else v[steps].T.ravel()
+                  for blk, v in zip(s.blocks, tab.values) if blk.kind in kinds.VALUE_KINDS}
+        par = StepParameters(0.0, np.zeros((0, 9)), rel.reshape(-1, 4), [None] * len(s.blocks),
+                             np.zeros(0, dtype=int), values)
+        r = np.empty((B, s.n_rows))
+        jacs: list[np.ndarray] = []
+        for blk, wide in zip(s.blocks, self._batched_blocks(B)):
+            n, k = blk.rows.shape
+            out = np.empty((n * B, k))
+            J = EVALUATE[blk.kind](wide, X, W, Qm, par, out, jacobian)
+            r[:, blk.start:blk.stop] = np.swapaxes(out.reshape(n, B, k), 0, 1).reshape(B, -1)
+            if J is not None:
+                jacs.append(np.swapaxes(J.reshape((n, B) + J.shape[1:]), 0, 1))
+        return r, jacs
+
+    def time_derivative(self, Q: np.ndarray, steps: np.ndarray, jacs: list[np.ndarray]) -> np.ndarray:
+        """∂r/∂t (B, R) at quaternions Q (B, M, 4) (as :meth:`System.time_derivative`, batched)."""
+        s = self.system
+        B = Q.shape[0]
+        out = np.zeros((B, s.n_rows))
+        for blk, jac, rate in zip(s.blocks, jacs, self.table.rates):
+            if rate is None:
+                continue
+            sel = blk.scheduled
+            if blk.kind in kinds.VALUE_KINDS:
+                out[:, blk.rows[sel]] = -rate[steps]
+                continue
+            w = rate[steps]  # (B, S, 6): u, ω in b's frame
+            if not blk.on_world:
+                Qe = np.concatenate([Q, np.tile([1.0, 0.0, 0.0, 0.0], (B, 1, 1))], axis=1)
+                Rb = quat.to_matrix(Qe[:, blk.b[sel]])  # (B, S, 3, 3)
+                w = (w.reshape(B, -1, 2, 3) @ np.swapaxes(Rb, 2, 3)).reshape(B, -1, 6)
+            out[:, blk.rows[sel]] = (jac[:, sel][..., 1, :] * w[:, :, None, :]).sum(axis=3)
+        return out
+
+    def jacobian(self, jacs: list[np.ndarray]) -> np.ndarray:
+        """The scaled dense Jacobians (B, R, N) from the groups' (B, n, k, 2, 6)."""
+        ne = self.solver.normal
+        B = jacs[0].shape[0]
+        if B not in self._scatter:
+            if ne.scale is None:
+                raise ValueError("the solver's normal equations are built with its scale")
+            entry = ne.entry_index  # into (R, N + 1), the world's entries in the last column
+            keep = np.flatnonzero(entry % (ne.N + 1) < ne.N)
+            at = entry[keep] // (ne.N + 1) * ne.N + entry[keep] % (ne.N + 1)  # into (R, N)
+            self._scatter[B] = (keep, ne.scale[keep], (np.arange(B)[:, None] * (ne.R * ne.N) + at).ravel())
+        keep, scale, at = self._scatter[B]
+        flat = np.concatenate([J.reshape(B, -1) for J in jacs], axis=1)[:, keep] * scale
+        dense = np.zeros(B * ne.R * ne.N)
+        dense[at] = flat.ravel()
+        return dense.reshape(B, ne.R, ne.N)
+
+    # ---- a block of steps -----------------------------------------------------------------
+
+    def block(self, k: int, stop: int, pos: np.ndarray, ori: np.ndarray, vel: np.ndarray, first: int) -> Solved:
+        """Solve the steps k … stop − 1 given the accepted ones before k (positions (T, M, 3),
+        quaternions (T, M, 4), real velocities (T, M, 6) of the run, converged from step
+        ``first`` on, k − first ≥ :data:`START`): every
+        :data:`STRIDE`-th step (and the last) first, in waves from the polynomial through the
+        poses before it, then the steps between them at once from the cubic Hermite
+        interpolation of their neighbours; then the continuation's acceptance test."""
+        col, M = self.solver.col, self.system.n_members
+        t, L = self.table.t, self.system.length_scale
+        solved: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]] = []
+        prior = np.unique(np.clip(k - 1 - STRIDE * np.arange(NODES), first, None))
+        node_t = list(t[prior])
+        z, dz = flat(pos[prior], ori[prior], vel[prior])
+        node_z, node_dz = list(z), list(dz)
+        real = lambda v: (v * col).reshape(len(v), M, 6)  # noqa: E731
+        here, stride, width = k - 1, STRIDE, 1 if len(prior) < NODES else 4
+        while here < stop - 1:
+            ahead = np.unique(np.minimum(here + stride * np.arange(1, width + 1), stop - 1))
+            P, Q = self.extrapolated(np.array(node_t[-NODES:]), np.array(node_z[-NODES:]),
+                                     np.array(node_dz[-NODES:]), t[ahead])
+            predicted = P[0].copy()
+            r, v, it, done = self.solve(P, Q, ahead, WAVE_ITERATIONS if len(ahead) > 1 else ITERATIONS)
+            n = int(np.argmin(done)) if not done.all() else len(ahead)
+            if n == 0:
+                if len(ahead) == 1 and stride == 1:
+                    break  # the block ends here
+                stride, width = max(1, stride // 2), 1
+                continue
+            solved += [(int(ahead[j]), P[j], Q[j], v[j], r[j], int(it[j])) for j in range(n)]
+            node_t += list(t[ahead[:n]])
+            z, dz = flat(P[:n], Q[:n], real(v[:n]))
+            node_z += list(z)
+            node_dz += list(dz)
+            here = int(ahead[n - 1])
+            # the spacing keeps the first prediction's error between 1e-9 and 1e-6 of the size
+            error = float(np.abs(P[0] - predicted).max()) / L
+            if error > 1e-6:
+                stride = max(1, stride // 2)
+            elif error < 1e-9:
+                stride = min(2 * stride, WIDEST_STRIDE)
+            # as many steps as the extrapolation reaches within 1e-4 of the size (its error grows
+            # about as the fifth power of the distance); the ones after the first unsolved one
+            # start again from the poses now known
+            reach = (1e-4 / max(error, 1e-16)) ** 0.2 * (1 if error > 1e-6 else 0.5 if error < 1e-9 else 1)
+            width = int(np.clip(reach, 1, WIDEST))
+        if not solved:
+            return Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
+                          np.zeros((0, self.system.n_unknowns)), np.zeros(0, dtype=np.int32), 0)
+        coarse = np.array([x[0] for x in solved])
+        cP, cQ, cV, cR = (np.array([x[j] for x in solved]) for j in (1, 2, 3, 4))
+        c_it = np.array([x[5] for x in solved], dtype=np.int32)
+        i = len(coarse)
+        end = int(coarse[i - 1]) + 1
+        steps = np.arange(k, end)
+        B = steps.size
+        P, Q = np.empty((B, M, 3)), np.empty((B, M, 4))
+        V, R = np.empty((B, self.system.n_unknowns)), np.empty((B, self.system.n_rows))
+        its = np.zeros(B, dtype=np.int32)
+        ok = np.zeros(B, dtype=bool)
+        at = coarse[:i] - k
+        P[at], Q[at], V[at], R[at], its[at], ok[at] = cP[:i], cQ[:i], cV[:i], cR[:i], c_it[:i], True
+        fine = np.setdiff1d(np.arange(B), at)
+        if fine.size:
+            right = np.searchsorted(at, fine)  # the coarse step after each fine one
+            left = right - 1
+            opening = left[:, None, None] < 0
+            lP = np.where(opening, pos[k - 1], P[at[left]])
+            lQ = np.where(opening, ori[k - 1], Q[at[left]])
+            lV = np.where(opening, vel[k - 1], real(V[at[left]]))
+            lt = np.where(left < 0, t[k - 1], t[k + at[left]])
+            fP, fQ = self.hermite(lt, flat(lP, lQ, lV), t[k + at[right]],
+                                  flat(P[at[right]], Q[at[right]], real(V[at[right]])), t[k + fine])
+            r, v, it, done = self.solve(fP, fQ, k + fine)
+            P[fine], Q[fine], V[fine], R[fine], its[fine], ok[fine] = fP, fQ, v, r, it, done
+        before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
+        n = self.accepted(P, Q, V, ok, steps, before, float(t[k - 1]))
+        return Solved(P, Q, R, V, its, n)
+
+    # ---- poses ------------------------------------------------------------------------------
+
+    def moved(self, P: np.ndarray, Q: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Poses after scaled local steps e (B, N) (as :meth:`State.moved`)."""
+        B, M = P.shape[:2]
+        d = (e * self.solver.col).reshape(B, M, 6)
+        return P + d[..., :3], quat.turned(Q.reshape(-1, 4), d[..., 3:].reshape(-1, 3)).reshape(B, M, 4)
+
+    def displacement(self, P: np.ndarray, Q: np.ndarray, P0: np.ndarray, Q0: np.ndarray) -> np.ndarray:
+        """Scaled local coordinates (B, N) from poses 0 to poses (as :meth:`State.minus`)."""
+        B, M = P.shape[:2]
+        phi = quat.log(quat.multiply(Q.reshape(-1, 4), quat.conjugate(Q0.reshape(-1, 4)))).reshape(B, M, 3)
+        return np.concatenate([P - P0, phi], axis=2).reshape(B, -1) / self.solver.col
+
+    def _factor(self, J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Cholesky factors L (B, N, N) of the scaled JᵀJ + μI (μ as the continuation's: 1e-13
+        of the largest diagonal entry, at least 1e-13) from Jacobians J (B, R, N), and whether
+        each is sound (B,): positive definite with every pivot above :data:`FREE_PIVOT` of that
+        entry (no free or singular direction)."""
+        B, _, N = J.shape
+        H = np.ascontiguousarray(np.swapaxes(J, 1, 2)) @ J
+        diagonal = H.reshape(B, N * N)[:, ::N + 1]  # a view
+        top = np.maximum(diagonal.max(axis=1), 1.0)
+        diagonal += (1e-13 * top)[:, None]
+        try:
+            L = np.linalg.cholesky(H)
+            ok = np.ones(B, dtype=bool)
+        except np.linalg.LinAlgError:  # some pose is not positive definite: one by one
+            L, ok = np.tile(np.eye(N), (B, 1, 1)), np.zeros(B, dtype=bool)
+            for i, h in enumerate(H):
+                try:
+                    L[i], ok[i] = np.linalg.cholesky(h), True
+                except np.linalg.LinAlgError:
+                    pass
+        pivots = np.diagonal(L, axis1=1, axis2=2) ** 2
+        return L, ok & (pivots >= FREE_PIVOT * top[:, None]).all(axis=1)
+
+    def solve(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
+              budget: int = ITERATIONS) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Gauss–Newton at the table's ``steps`` (B,) from poses P (B, M, 3), Q (B, M, 4)
+        (moved in place). A pose's JᵀJ + μI is factorized at its first iterate and again only
+        where a step reusing it (chord) contracted the residual less than tenfold; every step
+        contracts it twofold at least. The exact velocity at the solved pose (J v = −∂r/∂t,
+        J evaluated there) is solved with the kept factorization and refined twice against
+        that J (the factorization is at most :data:`REFINE` away, so the refinement contracts
+        the error by that much each time), or with a fresh one. Returns the residuals (B, R),
+        the scaled velocities (B, N), the linear solves (B,) and whether each step converged
+        with a sound factorization (:meth:`_factor`) (B,), after at most ``budget`` steps."""
+        solver, tol = self.solver, self.solver.options.tol
+        row = solver.row
+        B, N = len(steps), self.system.n_unknowns
+        r = np.empty((B, self.system.n_rows))
+        velocity = np.zeros((B, N))
+        iterations = np.zeros(B, dtype=np.int32)
+        done = np.zeros(B, dtype=bool)
+        sound = np.zeros(B, dtype=bool)
+        L = np.zeros((B, N, N))
+        have = np.zeros(B, dtype=bool)  # a factorization is kept
+        since = np.zeros(B)  # largest scaled move since it was taken
+        last = np.full(B, np.inf)  # residual norm before the last step
+        newton = np.zeros(B, dtype=bool)  # the last step used a factorization of its own iterate
+        live = np.arange(B)  # still iterating
+        for _ in range(budget + 1):
+            rl, jacs = self.evaluate(_take(P, live), _take(Q, live), _take(steps, live), True)
+            r[live] = rl
+            rs = rl * row
+            norm = np.sqrt((rs * rs).sum(axis=1))
+            J = self.jacobian(jacs)
+            converged = np.abs(rs).max(axis=1) <= tol
+            slow = norm > 0.1 * last[live]
+            # a Newton step must contract twofold; a chord step that did not is retried afresh
+            going = ~converged & np.isfinite(norm) & ((norm < 0.5 * last[live]) | ~newton[live])
+            fresh = going & (~have[live] | slow) | converged & (since[live] > REFINE)
+            if fresh.any():
+                f = np.flatnonzero(fresh)
+                L[live[f]], sound[live[f]] = self._factor(_take(J, f))
+                have[live[f]], since[live[f]] = True, 0.0
+            newton[live] = fresh
+            if converged.any():
+                c = np.flatnonzero(converged)
+                lc = live[c]
+                Jc, Lc = _take(J, c), _take(L, lc)
+                rt = self.time_derivative(_take(Q, lc), steps[lc], [_take(j, c) for j in jacs])
+                b = ((-rt * row)[:, None, :] @ Jc)[:, 0]
+                v = cholesky_solve(Lc, b)
+                for _ in range(2):  # iterative refinement against this J
+                    v += cholesky_solve(Lc, b - ((Jc @ v[..., None])[..., 0][:, None, :] @ Jc)[:, 0])
+                velocity[lc] = v
+                done[lc] = sound[lc]
+                iterations[lc] += 1
+            g = np.flatnonzero(going)
+            if not g.size:
+                break
+            lg = live[g]
+            step = -cholesky_solve(_take(L, lg), (_take(rs, g)[:, None, :] @ _take(J, g))[:, 0])
+            last[lg] = norm[g]
+            since[lg] += np.abs(step).max(axis=1)
+            iterations[lg] += 1
+            P[lg], Q[lg] = self.moved(_take(P, lg), _take(Q, lg), step)
+            live = lg
+        return r, velocity, iterations, done
+
+    def accepted(self, P: np.ndarray, Q: np.ndarray, velocity: np.ndarray, done: np.ndarray, steps: np.ndarray,
+                 before: tuple[np.ndarray, np.ndarray, np.ndarray], t_before: float) -> int:
+        """How many of the consecutive ``steps`` (B,), solved (P, Q, scaled velocities,
+        ``done``), pass the continuation's acceptance test, each from the step before it; the
+        first from ``before`` (position (M, 3), quaternions (M, 4), scaled velocity (N,)) at
+        ``t_before``."""
+        opt = self.solver.options
+        P0 = np.concatenate([before[0][None], P[:-1]])
+        Q0 = np.concatenate([before[1][None], Q[:-1]])
+        v0 = np.concatenate([before[2][None], velocity[:-1]])
+        h = np.diff(np.concatenate([[t_before], self.table.t[steps]]))
+        moved = self.displacement(P, Q, P0, Q0)
+        ok = done & (np.abs(moved - h[:, None] * v0).max(axis=1) <= opt.predictor_tol) \
+            & (np.abs(v0).max(axis=1) * np.abs(h) <= opt.max_motion)
+        return int(np.argmin(ok)) if not ok.all() else len(steps)
+
+    # ---- predictions ----------------------------------------------------------------------
+
+    def extrapolated(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
+                     t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (B, M, 3) and quaternions (B, M, 4) at times ``t`` (B,) from the osculating
+        polynomial (degree 2k − 1) through k solved poses and their time derivatives (k, 7M)
+        (:func:`flat`) at ``t_nodes`` (k,) (quaternions component-wise, then normalized)."""
+        t0, span = t_nodes[-1], max(float(np.ptp(t_nodes)), float(np.abs(t - t_nodes[-1]).max()))
+        x = (t_nodes - t0) / span  # normalized times: a well-conditioned system
+        powers = np.arange(2 * len(x))
+        A = np.concatenate([x[:, None] ** powers, powers * x[:, None] ** np.maximum(powers - 1, 0)])
+        coefficients = np.linalg.solve(A, np.concatenate([nodes, rates * span]))
+        Z = ((t[:, None] - t0) / span) ** powers @ coefficients
+        return self._split(Z)
+
+    def _split(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        M = self.system.n_members
+        return Z[:, :3 * M].reshape(-1, M, 3), quat.normalize(Z[:, 3 * M:].reshape(-1, M, 4))
+
+    def hermite(self, t0: np.ndarray, y0: tuple[np.ndarray, np.ndarray], t1: np.ndarray,
+                y1: tuple[np.ndarray, np.ndarray], t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Poses at times ``t`` (B,) from the cubic Hermite interpolation between solved poses
+        at ``t0`` and ``t1`` (B,) each, y = (state, its time derivative) (B, 7M) (:func:`flat`)."""
+        (z0, d0), (z1, d1) = y0, y1
+        h = (t1 - t0)[:, None]
+        s = (t[:, None] - t0[:, None]) / h
+        s2, s3 = s * s, s * s * s
+        Z = (2 * s3 - 3 * s2 + 1) * z0 + (s3 - 2 * s2 + s) * h * d0 + (3 * s2 - 2 * s3) * z1 + (s3 - s2) * h * d1
+        return self._split(Z)
+
+
+def flat(P: np.ndarray, Q: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Poses as flat states (B, 7M) — positions (B, M, 3) then quaternions (B, M, 4) — and their
+    time derivatives (B, 7M) from the real velocities V (B, M, 6): ṗ, and q̇ = ½ (0, ω) ⊗ q."""
+    B, M = P.shape[:2]
+    w = np.concatenate([np.zeros(V.shape[:2] + (1,)), V[..., 3:]], axis=2)
+    dq = 0.5 * quat.multiply(w.reshape(-1, 4), Q.reshape(-1, 4)).reshape(B, 4 * M)
+    return (np.concatenate([P.reshape(B, 3 * M), Q.reshape(B, 4 * M)], axis=1),
+            np.concatenate([V[..., :3].reshape(B, 3 * M), dq], axis=1))
+
+
+def cholesky_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x (B, N) of L Lᵀ x = b for lower-triangular L (B, N, N) and b (B, N): forward and back
+    substitution, each a loop over the N unknowns of array operations over B (LAPACK's potrs
+    pose by pose for at most :data:`FEW` poses, where that loop's fixed cost dominates)."""
+    if len(L) <= FEW:
+        return np.array([_potrs(c, x, lower=True)[0] for c, x in zip(L, b)]).reshape(b.shape)
+    n = L.shape[1]
+    d = np.diagonal(L, axis1=1, axis2=2)
+    y = np.empty_like(b)
+    for i in range(n):
+        y[:, i] = (b[:, i] - np.einsum("bj,bj->b", L[:, i, :i], y[:, :i])) / d[:, i]
+    x = np.empty_like(b)
+    for i in range(n - 1, -1, -1):
+        x[:, i] = (y[:, i] - np.einsum("bj,bj->b", L[:, i + 1:, i], x[:, i + 1:])) / d[:, i]
+    return x
+
+
+def _take(a: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """a[idx] for sorted distinct indices ``idx`` into a's first axis: a itself (no copy) when
+    they are all of them."""
+    return a if len(idx) == len(a) else a[idx]
