@@ -91,3 +91,13 @@ def test_free_motion_and_accelerations_go_step_by_step():
     assert not solve_run(rssr, np.arange(40) / 40).batched.any()
     run = solve_run(_system("crank-rocker"), np.arange(40) / 40, Options(accelerations=True))
     assert not run.batched.any()
+
+
+def test_blas_runs_on_one_thread_inside_and_is_restored_after():
+    from linkedit.blas import _controls, single_threaded
+
+    controls = _controls()
+    before = [get() for _, get in controls]
+    with single_threaded():
+        assert all(get() == 1 for _, get in controls)
+    assert [get() for _, get in controls] == before
