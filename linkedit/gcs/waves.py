@@ -244,15 +244,12 @@ class Waves:
         P[at], Q[at], V[at], R[at], its[at], ok[at] = cP[:i], cQ[:i], cV[:i], cR[:i], c_it[:i], True
         fine = np.setdiff1d(np.arange(B), at)
         if fine.size:
-            right = np.searchsorted(at, fine)  # the coarse step after each fine one
-            left = right - 1
-            opening = left[:, None, None] < 0
-            lP = np.where(opening, pos[k - 1], P[at[left]])
-            lQ = np.where(opening, ori[k - 1], Q[at[left]])
-            lV = np.where(opening, vel[k - 1], real(V[at[left]]))
-            lt = np.where(left < 0, t[k - 1], t[k + at[left]])
-            fP, fQ = self.hermite(lt, flat(lP, lQ, lV), t[k + at[right]],
-                                  flat(P[at[right]], Q[at[right]], real(V[at[right]])), t[k + fine])
+            # each from the osculating polynomial through the NODES solved poses around it
+            nt, nz, ndz = np.array(node_t), np.array(node_z), np.array(node_dz)
+            right = np.searchsorted(nt, t[k + fine])  # the node after each fine step
+            lo = np.clip(right - NODES // 2, 0, max(len(nt) - NODES, 0))
+            around = lo[:, None] + np.arange(min(NODES, len(nt)))
+            fP, fQ = self.osculating(nt[around], nz[around], ndz[around], t[k + fine])
             r, v, it, done = self.solve(fP, fQ, k + fine)
             P[fine], Q[fine], V[fine], R[fine], its[fine], ok[fine] = fP, fQ, v, r, it, done
         before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
@@ -331,7 +328,7 @@ class Waves:
             slow = norm > 0.1 * last[live]
             # a Newton step must contract twofold; a chord step that did not is retried afresh
             going = ~converged & np.isfinite(norm) & ((norm < 0.5 * last[live]) | ~newton[live])
-            fresh = going & (~have[live] | slow) | converged & (since[live] > REFINE)
+            fresh = going & (~have[live] | slow) | converged & (~have[live] | (since[live] > REFINE))
             if fresh.any():
                 f = np.flatnonzero(fresh)
                 L[live[f]], sound[live[f]] = self._factor(_take(J, f))
@@ -379,33 +376,31 @@ class Waves:
 
     # ---- predictions ----------------------------------------------------------------------
 
+    def osculating(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
+                   t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (B, M, 3) and quaternions (B, M, 4) at times ``t`` (B,), each from the
+        osculating polynomial (degree 2k − 1) through its own k solved poses and their time
+        derivatives (B, k, 7M) (:func:`flat`) at ``t_nodes`` (B, k) (quaternions component-wise,
+        then normalized)."""
+        t0 = t_nodes[:, -1:]
+        span = np.maximum(np.ptp(t_nodes, axis=1), np.abs(t - t0[:, 0]))[:, None]
+        x = (t_nodes - t0) / span  # normalized times: well-conditioned systems
+        powers = np.arange(2 * t_nodes.shape[1])
+        A = np.concatenate([x[..., None] ** powers, powers * x[..., None] ** np.maximum(powers - 1, 0)], axis=1)
+        coefficients = np.linalg.solve(A, np.concatenate([nodes, rates * span[..., None]], axis=1))
+        Z = (((t[:, None] - t0) / span) ** powers)[:, None, :] @ coefficients
+        return self._split(Z[:, 0])
+
     def extrapolated(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
                      t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Positions (B, M, 3) and quaternions (B, M, 4) at times ``t`` (B,) from the osculating
-        polynomial (degree 2k − 1) through k solved poses and their time derivatives (k, 7M)
-        (:func:`flat`) at ``t_nodes`` (k,) (quaternions component-wise, then normalized)."""
-        t0, span = t_nodes[-1], max(float(np.ptp(t_nodes)), float(np.abs(t - t_nodes[-1]).max()))
-        x = (t_nodes - t0) / span  # normalized times: a well-conditioned system
-        powers = np.arange(2 * len(x))
-        A = np.concatenate([x[:, None] ** powers, powers * x[:, None] ** np.maximum(powers - 1, 0)])
-        coefficients = np.linalg.solve(A, np.concatenate([nodes, rates * span]))
-        Z = ((t[:, None] - t0) / span) ** powers @ coefficients
-        return self._split(Z)
+        """As :meth:`osculating`, every time from the same k poses (k,) / (k, 7M)."""
+        B = len(t)
+        return self.osculating(np.broadcast_to(t_nodes, (B,) + t_nodes.shape),
+                               np.broadcast_to(nodes, (B,) + nodes.shape), np.broadcast_to(rates, (B,) + rates.shape), t)
 
     def _split(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         M = self.system.n_members
         return Z[:, :3 * M].reshape(-1, M, 3), quat.normalize(Z[:, 3 * M:].reshape(-1, M, 4))
-
-    def hermite(self, t0: np.ndarray, y0: tuple[np.ndarray, np.ndarray], t1: np.ndarray,
-                y1: tuple[np.ndarray, np.ndarray], t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Poses at times ``t`` (B,) from the cubic Hermite interpolation between solved poses
-        at ``t0`` and ``t1`` (B,) each, y = (state, its time derivative) (B, 7M) (:func:`flat`)."""
-        (z0, d0), (z1, d1) = y0, y1
-        h = (t1 - t0)[:, None]
-        s = (t[:, None] - t0[:, None]) / h
-        s2, s3 = s * s, s * s * s
-        Z = (2 * s3 - 3 * s2 + 1) * z0 + (s3 - 2 * s2 + s) * h * d0 + (3 * s2 - 2 * s3) * z1 + (s3 - s2) * h * d1
-        return self._split(Z)
 
 
 def flat(P: np.ndarray, Q: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
