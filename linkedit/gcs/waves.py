@@ -82,7 +82,7 @@ class Waves:
         self.system = solver.system
         self.table = table
         self._blocks: dict[int, list[Block]] = {}
-        self._scatter: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._scatter: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     @staticmethod
     def applies(solver: Solver) -> bool:
@@ -163,21 +163,28 @@ class Waves:
         return out
 
     def jacobian(self, jacs: list[np.ndarray]) -> np.ndarray:
-        """The scaled dense Jacobians (B, R, N) from the groups' (B, n, k, 2, 6)."""
-        ne = self.solver.normal
-        B = jacs[0].shape[0]
+        """The scaled dense Jacobians (B, R, N) from the groups' (B, n, k, 2, 6) as
+        :meth:`evaluate` returns them (views of the kernels' constraint-major arrays, which are
+        scattered as they lie)."""
+        s, ne = self.system, self.solver.normal
+        B, R, N, M = jacs[0].shape[0], s.n_rows, s.n_unknowns, s.n_members
         if B not in self._scatter:
-            if ne.scale is None:
-                raise ValueError("the solver's normal equations are built with its scale")
-            entry = ne.entry_index  # into (R, N + 1), the world's entries in the last column
-            keep = np.flatnonzero(entry % (ne.N + 1) < ne.N)
-            at = entry[keep] // (ne.N + 1) * ne.N + entry[keep] % (ne.N + 1)  # into (R, N)
-            self._scatter[B] = (keep, ne.scale[keep], (np.arange(B)[:, None] * (ne.R * ne.N) + at).ravel())
-        keep, scale, at = self._scatter[B]
-        flat = np.concatenate([J.reshape(B, -1) for J in jacs], axis=1)[:, keep] * scale
-        dense = np.zeros(B * ne.R * ne.N)
-        dense[at] = flat.ravel()
-        return dense.reshape(B, ne.R, ne.N)
+            if ne.group_scale is None:
+                raise ValueError("the solver's normal equations are built with their scale")
+            at, scale = [], []
+            lanes = np.arange(B)[None, :, None, None, None]
+            for grp, sc in zip(s.groups, ne.group_scale):
+                n, k = grp.rows.shape
+                col = 6 * grp.members[:, None, None, :, None] + np.arange(6)  # (n, 1, 1, 2, 6)
+                dest = lanes * (R * N) + grp.rows[:, None, :, None, None] * N + col  # (n, B, k, 2, 6)
+                world = np.broadcast_to(grp.members[:, None, None, :, None] >= M, dest.shape)
+                at.append(np.where(world, B * R * N, dest).ravel())  # the world's entries: a dump slot
+                scale.append(np.broadcast_to(np.broadcast_to(sc, (n, k, 2, 6))[:, None], dest.shape).ravel())
+            self._scatter[B] = (np.concatenate(at), np.concatenate(scale))
+        at, scale = self._scatter[B]
+        dense = np.zeros(B * R * N + 1)
+        dense[at] = np.concatenate([np.swapaxes(J, 0, 1).ravel() for J in jacs]) * scale
+        return dense[:-1].reshape(B, R, N)
 
     # ---- a block of steps -----------------------------------------------------------------
 
