@@ -171,16 +171,17 @@ class Waves:
         if B not in self._scatter:
             if ne.group_scale is None:
                 raise ValueError("the solver's normal equations are built with their scale")
-            at, scale = [], []
+            dests: list[np.ndarray] = []
+            scales: list[np.ndarray] = []
             lanes = np.arange(B)[None, :, None, None, None]
             for grp, sc in zip(s.groups, ne.group_scale):
                 n, k = grp.rows.shape
                 col = 6 * grp.members[:, None, None, :, None] + np.arange(6)  # (n, 1, 1, 2, 6)
                 dest = lanes * (R * N) + grp.rows[:, None, :, None, None] * N + col  # (n, B, k, 2, 6)
                 world = np.broadcast_to(grp.members[:, None, None, :, None] >= M, dest.shape)
-                at.append(np.where(world, B * R * N, dest).ravel())  # the world's entries: a dump slot
-                scale.append(np.broadcast_to(np.broadcast_to(sc, (n, k, 2, 6))[:, None], dest.shape).ravel())
-            self._scatter[B] = (np.concatenate(at), np.concatenate(scale))
+                dests.append(np.where(world, B * R * N, dest).ravel())  # the world's entries: a dump slot
+                scales.append(np.broadcast_to(np.broadcast_to(sc, (n, k, 2, 6))[:, None], dest.shape).ravel())
+            self._scatter[B] = (np.concatenate(dests), np.concatenate(scales))
         at, scale = self._scatter[B]
         dense = np.zeros(B * R * N + 1)
         dense[at] = np.concatenate([np.swapaxes(J, 0, 1).ravel() for J in jacs]) * scale
