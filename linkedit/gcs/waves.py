@@ -197,7 +197,7 @@ class Waves:
         poses before it, then the steps between them at once from the cubic Hermite
         interpolation of their neighbours; then the continuation's acceptance test."""
         col, M = self.solver.col, self.system.n_members
-        t, L = self.table.t, self.system.length_scale
+        t = self.table.t
         solved: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]] = []
         prior = np.unique(np.clip(k - 1 - STRIDE * np.arange(NODES), first, None))
         node_t = list(t[prior])
@@ -209,7 +209,7 @@ class Waves:
             ahead = np.unique(np.minimum(here + stride * np.arange(1, width + 1), stop - 1))
             P, Q = self.extrapolated(np.array(node_t[-NODES:]), np.array(node_z[-NODES:]),
                                      np.array(node_dz[-NODES:]), t[ahead])
-            predicted = P[0].copy()
+            P0, Q0 = P.copy(), Q.copy()
             r, v, it, done = self.solve(P, Q, ahead, WAVE_ITERATIONS if len(ahead) > 1 else ITERATIONS)
             n = int(np.argmin(done)) if not done.all() else len(ahead)
             if n == 0:
@@ -224,7 +224,7 @@ class Waves:
             node_dz += list(dz)
             here = int(ahead[n - 1])
             # the spacing keeps the first prediction's error between 1e-9 and 1e-6 of the size
-            error = float(np.abs(P[0] - predicted).max()) / L
+            error = float(np.abs(self.displacement(P[:1], Q[:1], P0[:1], Q0[:1])).max())
             if error > 1e-6:
                 stride = max(1, stride // 2)
             elif error < 1e-9:
