@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from linkedit.gcs import quaternions as quat
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.planar_bridge import planar_model
 from linkedit.gcs.solver import Options, solve_run
@@ -101,3 +102,26 @@ def test_blas_runs_on_one_thread_inside_and_is_restored_after():
     with single_threaded():
         assert all(get() == 1 for _, get in controls)
     assert [get() for _, get in controls] == before
+
+
+def test_a_planar_linkage_solves_its_in_plane_and_out_of_plane_unknowns_apart():
+    from linkedit.gcs.solver import Solver
+    from linkedit.gcs.waves import SPLIT_FROM, Waves
+
+    system = _system("crank-rocker")
+    t = np.arange(2 * SPLIT_FROM) / (2 * SPLIT_FROM)
+    run = solve_run(system, t)
+    waves = Waves(Solver(system), system.step_table(t))
+    steps = np.arange(len(t))
+    r, jacs = waves.evaluate(run.position.copy(), run.orientation.copy(), steps, True)
+    J = waves.jacobian(jacs)
+    assert waves.parts and [p[1].stop - p[1].start for p in waves.parts] == [9, 9]
+    for rs, cs in waves.parts:  # J is zero off its diagonal blocks
+        assert not J[:, rs, :cs.start].any() and not J[:, rs, cs.stop:].any()
+    # a pose out of the plane ties them: its factorization is not sound (it goes step by step)
+    P, Q = run.position[:SPLIT_FROM].copy(), run.orientation[:SPLIT_FROM].copy()
+    P[0, :, 2] += 1e-3 * system.length_scale
+    Q[0] = quat.turned(Q[0], np.tile([0.01, 0.0, 0.0], (len(Q[0]), 1)))
+    _, jacs = waves.evaluate(P, Q, steps[:SPLIT_FROM], True)
+    _, sound = waves._factor(waves.jacobian(jacs), waves.parts)
+    assert not sound[0] and sound[1:].all()

@@ -54,6 +54,8 @@ START = 2
 #: largest scaled move of a pose since its factorization for the factorization to serve its
 #: velocity (by two refinements: error ~REFINE³ relative)
 REFINE = 1e-5
+#: batches of at least this many poses factorize J's diagonal blocks (:attr:`Waves.parts`) apart
+SPLIT_FROM = 64
 #: batches of at most this many poses solve their triangular systems pose by pose
 FEW = 24
 
@@ -83,6 +85,11 @@ class Waves:
         self.table = table
         self._blocks: dict[int, list[Block]] = {}
         self._scatter: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        #: the diagonal blocks (row slice, unknown slice) of J in the order ``rows``, ``cols``
+        #: (original indices) where it has more than one ([]: one; None: not yet seen)
+        self.parts: list[tuple[slice, slice]] | None = None
+        self.rows = np.arange(self.system.n_rows)
+        self.cols = np.arange(self.system.n_unknowns)
 
     @staticmethod
     def applies(solver: Solver) -> bool:
@@ -165,27 +172,69 @@ class Waves:
     def jacobian(self, jacs: list[np.ndarray]) -> np.ndarray:
         """The scaled dense Jacobians (B, R, N) from the groups' (B, n, k, 2, 6) as
         :meth:`evaluate` returns them (views of the kernels' constraint-major arrays, which are
-        scattered as they lie)."""
+        scattered as they lie), rows and unknowns in the order of :attr:`parts` (decided
+        from the first call's with at least :data:`SPLIT_FROM` poses)."""
         s, ne = self.system, self.solver.normal
         B, R, N, M = jacs[0].shape[0], s.n_rows, s.n_unknowns, s.n_members
         if B not in self._scatter:
             if ne.group_scale is None:
                 raise ValueError("the solver's normal equations are built with their scale")
+            row_at, col_at = (np.argsort(self.rows), np.argsort(self.cols)) if self.parts else (np.arange(R), np.arange(N))
             dests: list[np.ndarray] = []
             scales: list[np.ndarray] = []
             lanes = np.arange(B)[None, :, None, None, None]
             for grp, sc in zip(s.groups, ne.group_scale):
                 n, k = grp.rows.shape
-                col = 6 * grp.members[:, None, None, :, None] + np.arange(6)  # (n, 1, 1, 2, 6)
-                dest = lanes * (R * N) + grp.rows[:, None, :, None, None] * N + col  # (n, B, k, 2, 6)
-                world = np.broadcast_to(grp.members[:, None, None, :, None] >= M, dest.shape)
+                member = grp.members[:, None, None, :, None]
+                col = col_at[np.minimum(6 * member + np.arange(6), N - 1)]  # (n, 1, 1, 2, 6)
+                dest = lanes * (R * N) + row_at[grp.rows][:, None, :, None, None] * N + col  # (n, B, k, 2, 6)
+                world = np.broadcast_to(member >= M, dest.shape)
                 dests.append(np.where(world, B * R * N, dest).ravel())  # the world's entries: a dump slot
                 scales.append(np.broadcast_to(np.broadcast_to(sc, (n, k, 2, 6))[:, None], dest.shape).ravel())
             self._scatter[B] = (np.concatenate(dests), np.concatenate(scales))
         at, scale = self._scatter[B]
         dense = np.zeros(B * R * N + 1)
         dense[at] = np.concatenate([np.swapaxes(J, 0, 1).ravel() for J in jacs]) * scale
-        return dense[:-1].reshape(B, R, N)
+        J = dense[:-1].reshape(B, R, N)
+        if self.parts is None and B >= SPLIT_FROM:  # many poses: no accidental zeros
+            self._decouple(J)
+            if self.parts:
+                self._scatter.clear()
+                return self.jacobian(jacs)
+        return J
+
+    def _decouple(self, J: np.ndarray) -> None:
+        """Set :attr:`parts` from Jacobians J (B, R, N): the unknowns that no residual row ties
+        together (a planar mechanism's in-plane and out-of-plane ones) solve apart."""
+        pattern = (J != 0.0).any(axis=0)
+        R, N = pattern.shape
+        root = np.arange(N)
+
+        def find(i: int) -> int:
+            while root[i] != i:
+                root[i] = root[root[i]]
+                i = int(root[i])
+            return i
+
+        for row in pattern:
+            cols = np.flatnonzero(row)
+            for c in cols[1:]:
+                root[find(int(c))] = find(int(cols[0]))
+        label = np.array([find(i) for i in range(N)])
+        groups = [np.flatnonzero(label == g) for g in np.unique(label)]
+        if len(groups) == 1:
+            self.parts = []
+            return
+        part_of = np.empty(N, dtype=int)
+        for i, g in enumerate(groups):
+            part_of[g] = i
+        row_part = np.array([part_of[np.flatnonzero(row)[0]] if row.any() else 0 for row in pattern])
+        self.cols = np.concatenate(groups)
+        self.rows = np.argsort(row_part, kind="stable")
+        col_stops = np.cumsum([len(g) for g in groups])
+        row_stops = np.cumsum(np.bincount(row_part, minlength=len(groups)))
+        self.parts = [(slice(r1 - rn, r1), slice(c1 - len(g), c1))
+                      for r1, rn, c1, g in zip(row_stops, np.bincount(row_part, minlength=len(groups)), col_stops, groups)]
 
     # ---- a block of steps -----------------------------------------------------------------
 
@@ -278,28 +327,46 @@ class Waves:
         phi = quat.log(quat.multiply(Q.reshape(-1, 4), quat.conjugate(Q0.reshape(-1, 4)))).reshape(B, M, 3)
         return np.concatenate([P - P0, phi], axis=2).reshape(B, -1) / self.solver.col
 
-    def _factor(self, J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _factor(self, J: np.ndarray, parts: list[tuple[slice, slice]]) -> tuple[np.ndarray, np.ndarray]:
         """Cholesky factors L (B, N, N) of the scaled JᵀJ + μI (μ as the continuation's: 1e-13
-        of the largest diagonal entry, at least 1e-13) from Jacobians J (B, R, N), and whether
-        each is sound (B,): positive definite with every pivot above :data:`FREE_PIVOT` of that
-        entry (no free or singular direction)."""
-        B, _, N = J.shape
-        H = np.ascontiguousarray(np.swapaxes(J, 1, 2)) @ J
-        diagonal = H.reshape(B, N * N)[:, ::N + 1]  # a view
-        top = np.maximum(diagonal.max(axis=1), 1.0)
-        diagonal += (1e-13 * top)[:, None]
-        try:
-            L = np.linalg.cholesky(H)
-            ok = np.ones(B, dtype=bool)
-        except np.linalg.LinAlgError:  # some pose is not positive definite: one by one
-            L, ok = np.tile(np.eye(N), (B, 1, 1)), np.zeros(B, dtype=bool)
-            for i, h in enumerate(H):
-                try:
-                    L[i], ok[i] = np.linalg.cholesky(h), True
-                except np.linalg.LinAlgError:
-                    pass
-        pivots = np.diagonal(L, axis1=1, axis2=2) ** 2
-        return L, ok & (pivots >= FREE_PIVOT * top[:, None]).all(axis=1)
+        of the largest diagonal entry, at least 1e-13) from Jacobians J (B, R, N) (as
+        :meth:`jacobian` orders them: one factor per block of ``parts``, a subset of
+        :attr:`parts`' or none), and whether each is sound (B,): positive definite with every
+        pivot above :data:`FREE_PIVOT` of that entry (no free or singular direction), and J
+        zero off its blocks."""
+        B, R, N = J.shape
+        parts = parts or [(slice(0, R), slice(0, N))]
+        normal = [np.ascontiguousarray(np.swapaxes(J[:, rs, cs], 1, 2)) @ J[:, rs, cs] for rs, cs in parts]
+        top = np.maximum(np.max([np.diagonal(H, axis1=1, axis2=2).max(axis=1) for H in normal], axis=0), 1.0)
+        L = np.zeros((B, N, N))
+        sound = np.ones(B, dtype=bool)
+        for (rs, cs), H in zip(parts, normal):
+            n = H.shape[1]
+            H.reshape(B, n * n)[:, ::n + 1] += (1e-13 * top)[:, None]
+            try:
+                block = np.linalg.cholesky(H)
+            except np.linalg.LinAlgError:  # some pose is not positive definite: one by one
+                block = np.tile(np.eye(n), (B, 1, 1))
+                for i, h in enumerate(H):
+                    try:
+                        block[i] = np.linalg.cholesky(h)
+                    except np.linalg.LinAlgError:
+                        sound[i] = False
+            L[:, cs, cs] = block
+            sound &= (np.diagonal(block, axis1=1, axis2=2) ** 2 >= FREE_PIVOT * top[:, None]).all(axis=1)
+            if len(parts) > 1:  # a pose whose J leaves the blocks (one out of the plane) goes step by step
+                sound &= ~(J[:, rs, :cs.start] != 0.0).any(axis=(1, 2)) & ~(J[:, rs, cs.stop:] != 0.0).any(axis=(1, 2))
+        return L, sound
+
+    @staticmethod
+    def _solve(L: np.ndarray, b: np.ndarray, parts: list[tuple[slice, slice]]) -> np.ndarray:
+        """x (B, N) of L Lᵀ x = b (B, N), block by block of ``parts`` (L's)."""
+        if not parts:
+            return cholesky_solve(L, b)
+        x = np.empty_like(b)
+        for _, cs in parts:
+            x[:, cs] = cholesky_solve(L[:, cs, cs], b[:, cs])
+        return x
 
     def solve(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
               budget: int = ITERATIONS) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -326,12 +393,15 @@ class Waves:
         last = np.full(B, np.inf)  # residual norm before the last step
         newton = np.zeros(B, dtype=bool)  # the last step used a factorization of its own iterate
         live = np.arange(B)  # still iterating
+        parts: list[tuple[slice, slice]] = []  # block by block where the blocks pay for their loops
         for _ in range(budget + 1):
             rl, jacs = self.evaluate(_take(P, live), _take(Q, live), _take(steps, live), True)
             r[live] = rl
             rs = rl * row
             norm = np.sqrt((rs * rs).sum(axis=1))
             J = self.jacobian(jacs)
+            if B >= SPLIT_FROM and self.parts:
+                parts = self.parts
             converged = np.abs(rs).max(axis=1) <= tol
             slow = norm > 0.1 * last[live]
             # a Newton step must contract twofold; a chord step that did not is retried afresh
@@ -339,7 +409,7 @@ class Waves:
             fresh = going & (~have[live] | slow) | converged & (~have[live] | (since[live] > REFINE))
             if fresh.any():
                 f = np.flatnonzero(fresh)
-                L[live[f]], sound[live[f]] = self._factor(_take(J, f))
+                L[live[f]], sound[live[f]] = self._factor(_take(J, f), parts)
                 have[live[f]], since[live[f]] = True, 0.0
             newton[live] = fresh
             if converged.any():
@@ -347,18 +417,20 @@ class Waves:
                 lc = live[c]
                 Jc, Lc = _take(J, c), _take(L, lc)
                 rt = self.time_derivative(_take(Q, lc), steps[lc], [_take(j, c) for j in jacs])
-                b = ((-rt * row)[:, None, :] @ Jc)[:, 0]
-                v = cholesky_solve(Lc, b)
+                b = ((-rt * row)[:, self.rows][:, None, :] @ Jc)[:, 0]
+                v = self._solve(Lc, b, parts)
                 for _ in range(2):  # iterative refinement against this J
-                    v += cholesky_solve(Lc, b - ((Jc @ v[..., None])[..., 0][:, None, :] @ Jc)[:, 0])
-                velocity[lc] = v
+                    v += self._solve(Lc, b - ((Jc @ v[..., None])[..., 0][:, None, :] @ Jc)[:, 0], parts)
+                velocity[lc[:, None], self.cols] = v
                 done[lc] = sound[lc]
                 iterations[lc] += 1
             g = np.flatnonzero(going)
             if not g.size:
                 break
             lg = live[g]
-            step = -cholesky_solve(_take(L, lg), (_take(rs, g)[:, None, :] @ _take(J, g))[:, 0])
+            step = np.empty((len(g), N))
+            step[:, self.cols] = -self._solve(_take(L, lg), (_take(rs, g)[:, self.rows][:, None, :] @ _take(J, g))[:, 0],
+                                              parts)
             last[lg] = norm[g]
             since[lg] += np.abs(step).max(axis=1)
             iterations[lg] += 1
