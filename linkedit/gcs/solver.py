@@ -519,7 +519,7 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
 
 def _solve_run(system: System, t: np.ndarray, options: Options | None, start: State | None,
                table: StepTable | None, progress: Callable[[int, int], None] | None) -> Run:
-    from linkedit.gcs.waves import LONGEST, SHORTEST, START, Waves
+    from linkedit.gcs.waves import SHORTEST, START, Waves
 
     options = options or Options()
     t = np.asarray(t, dtype=float)
@@ -540,7 +540,7 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
     batched = np.zeros(T, dtype=bool)
     streak = 0  #: the first of the converged steps just before k
     resting, pause = 0, SHORTEST  #: no wave before step ``resting``; the next pause after a wave accepted none
-    width = LONGEST
+    width = T
     #: steps k0..k solved by waves and accepted since the last step-by-step pose ``good`` (−1: none)
     wave_from = -1
 
@@ -580,7 +580,7 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
                     for j in done:
                         progress(int(j), T)
                 k += n
-                width = min(2 * width, LONGEST) if k == stop else SHORTEST
+                width = 2 * width if k == stop else SHORTEST
                 pause = SHORTEST
                 continue
             width = SHORTEST

@@ -1,21 +1,31 @@
-"""Many time steps solved at once ("waves"), each accepted only where the step-by-step
-continuation would have accepted it.
+"""Many time steps solved at once, each kept only where the step-by-step continuation would
+have accepted it.
 
 The continuation of :mod:`linkedit.gcs.solver` pays Python's per-call cost at every step.
 Where the scaled Jacobian has full column rank (nothing free to keep still), the pose at a
-time is the root of the constraints nearest its prediction, whatever the anchor, so the next
-W steps can be solved together: each started from the polynomial through accepted poses,
-corrected by Gauss–Newton with all W Jacobians evaluated, assembled and solved as array
-operations (W × rows × unknowns; the elementary kinds' kernels of
-:data:`linkedit.gcs.system.EVALUATE` run on W times their constraints). Each solved step is
-then put to the continuation's own acceptance test, taken from the step before it: converged
-(largest scaled residual row ≤ ``tol``), no small pivot in its factorization, within
-``predictor_tol`` of the tangent prediction x_{k−1} ⊕ h·v_{k−1} (v the exact velocity,
-J v = −∂r/∂t) and moving at most ``max_motion``. The longest accepted run of steps is kept:
-those are the poses the continuation accepts (the same branch, equal to the rounding of the
-residual), and the continuation solves the first rejected step (sub-steps, Levenberg–
-Marquardt), after which the waves resume. A wave doubles after a wave accepted whole, up to
-:data:`LONGEST`, and restarts at :data:`SHORTEST` after a rejection.
+time is the root of the constraints nearest its prediction whatever the anchor, so a *block*
+of steps can be solved together:
+
+1. every few steps first (:data:`STRIDE`, adapted to the prediction error, up to
+   :data:`WIDEST_STRIDE`), in *waves* of up to :data:`WIDEST` steps, each predicted by the
+   osculating polynomial through the last :data:`NODES` solved poses and their exact
+   velocities (within ~1e-9 of the size one stride ahead), the far ones of a wave started
+   again from the near ones' solutions rather than iterated long;
+2. then all the steps between at once, predicted by the osculating polynomial through the
+   solved poses around them (typically within 1e-12 of the size: most need no correction);
+3. Gauss–Newton on all of them as array operations: the elementary kinds' kernels of
+   :data:`linkedit.gcs.system.EVALUATE` run on B times their constraints, the dense scaled
+   Jacobians (B × rows × unknowns) are factorized by a batched Cholesky (block by block where J
+   decouples, as a planar linkage's in-plane and out-of-plane unknowns do), a factorization
+   is kept while it contracts the residual (chord) and serves the exact velocity by iterative
+   refinement when the pose moved little since;
+4. each step is put to the continuation's own acceptance test, taken from the step before it:
+   converged (largest scaled residual row ≤ ``tol``), no small pivot, within
+   ``predictor_tol`` of the tangent prediction x_{k−1} ⊕ h·v_{k−1} and moving at most
+   ``max_motion``. The accepted run of steps is kept — the poses the continuation accepts (the
+   same branch, equal to rounding) — and the continuation solves the first rejected step
+   (sub-steps, Levenberg–Marquardt), after which blocks resume (:data:`SHORTEST` steps,
+   doubling).
 
 Steps with an input outside its window, systems with custom constraints, a null space or the
 sparse factorization, and runs that ask for accelerations go step by step.
@@ -29,13 +39,12 @@ import scipy.linalg
 
 from linkedit.gcs import constraints as kinds
 from linkedit.gcs import quaternions as quat
-from linkedit.gcs.solver import FREE_PIVOT, Solver, lagrange_weights
+from linkedit.gcs.solver import FREE_PIVOT, Solver
 from linkedit.gcs.system import EVALUATE, Block, StepParameters, StepTable
 
-#: steps of the first block, and after a rejected step
+#: steps of a block after a rejected step (doubling after each block accepted whole); the
+#: first block is the whole run
 SHORTEST = 16
-#: steps of the longest block
-LONGEST = 1 << 20
 #: a block solves steps STRIDE apart first (from extrapolation), then the ones between; the
 #: spacing adapts to the extrapolation's error, up to WIDEST_STRIDE
 STRIDE = 8
