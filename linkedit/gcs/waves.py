@@ -34,6 +34,7 @@ sparse factorization, and runs that ask for accelerations go step by step.
 from __future__ import annotations
 
 import dataclasses
+
 import numpy as np
 import scipy.linalg
 
