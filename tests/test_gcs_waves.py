@@ -43,7 +43,8 @@ def _assert_same(on, off, size):
 
 
 @pytest.mark.parametrize("name,scale", [("crank-rocker", 1.0), ("crank-rocker", 1e3), ("six-bar", 1e-3),
-                                        ("spherical-four-bar", 1.0), ("jansen", 1.0), ("klann", 100.0)])
+                                        ("spherical-four-bar", 1.0), ("jansen", 1.0), ("klann", 100.0),
+                                        ("luffing-arm", 1.0), ("bennett", 1e-3), ("compound-crank-rocker", 1.0)])
 def test_waves_give_the_step_by_step_poses_and_velocities(name, scale):
     system = _system(name, scale)
     t = np.arange(360) / 360

@@ -86,6 +86,22 @@ class Solved:
     accepted: int
 
 
+@dataclasses.dataclass
+class _Layout:
+    """An evaluation's fixed parts for B poses, member-major (member or vector i of pose b at
+    i·B + b, so each kernel sees B times its constraints, constraint-major): the blocks with
+    spread indices, the member of each member vector (K·B,), the member vectors (K, B, 9), the
+    inverse relative orientations (n, B, 4), and buffers for positions (M + 1, B, 3) and
+    quaternions (M + 1, B, 4), the world last."""
+
+    blocks: list[Block]
+    member: np.ndarray
+    vectors: np.ndarray
+    rel_inverse: np.ndarray
+    position: np.ndarray
+    orientation: np.ndarray
+
+
 class Waves:
     """Batched evaluation and solution of one system over a step table (module docstring)."""
 
@@ -93,7 +109,7 @@ class Waves:
         self.solver = solver
         self.system = solver.system
         self.table = table
-        self._blocks: dict[int, list[Block]] = {}
+        self._layouts: dict[int, _Layout] = {}
         self._scatter: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         #: the diagonal blocks (row slice, unknown slice) of J in the order ``rows``, ``cols``
         #: (original indices) where it has more than one ([]: one; None: not yet seen)
@@ -111,16 +127,21 @@ class Waves:
 
     # ---- batched evaluation ---------------------------------------------------------------
 
-    def _batched_blocks(self, B: int) -> list[Block]:
-        """The system's blocks for B poses laid out member-major: member (or vector) i of pose
-        b at i·B + b, so each kernel sees B times its constraints, constraint-major."""
-        if B not in self._blocks:
+    def _layout(self, B: int) -> "_Layout":
+        """What an evaluation of B poses needs that does not change between calls (cached)."""
+        if B not in self._layouts:
+            s = self.system
             lanes = np.arange(B)
             spread = lambda idx: (idx[:, None] * B + lanes).ravel()  # noqa: E731
-            self._blocks[B] = [dataclasses.replace(
-                blk, a=spread(blk.a), b=spread(blk.b),
-                vectors=tuple(slice(v.start * B, v.stop * B) for v in blk.vectors)) for blk in self.system.blocks]
-        return self._blocks[B]
+            blocks = [dataclasses.replace(blk, a=spread(blk.a), b=spread(blk.b),
+                                          vectors=tuple(slice(v.start * B, v.stop * B) for v in blk.vectors))
+                      for blk in s.blocks]
+            P = np.zeros((s.n_members + 1, B, 3))
+            Q = np.zeros((s.n_members + 1, B, 4))
+            Q[-1, :, 0] = 1.0  # the world
+            self._layouts[B] = _Layout(blocks, spread(s.vector_member), np.repeat(s.vectors[:, None], B, axis=1),
+                                       np.repeat(s.rel_inverse[:, None], B, axis=1), P, Q)
+        return self._layouts[B]
 
     def evaluate(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
                  jacobian: bool) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -128,29 +149,28 @@ class Waves:
         ``steps`` (B,), and with ``jacobian`` the Jacobian per group (B, n, k, 2, 6)."""
         s, tab = self.system, self.table
         B, M = P.shape[0], s.n_members
+        lay = self._layout(B)
         # member-major layouts (M + 1, B, ·), the world last
-        Pm = np.concatenate([np.swapaxes(P, 0, 1), np.zeros((1, B, 3))]).reshape(-1, 3)
-        Qm = np.concatenate([np.swapaxes(Q, 0, 1), np.tile([1.0, 0.0, 0.0, 0.0], (1, B, 1))]).reshape(-1, 4)
-        V = np.repeat(s.vectors[:, None], B, axis=1)  # (K, B, 9)
+        lay.position[:M] = np.swapaxes(P, 0, 1)
+        lay.orientation[:M] = np.swapaxes(Q, 0, 1)
+        Pm, Qm = lay.position.reshape(-1, 3), lay.orientation.reshape(-1, 4)
+        V = lay.vectors
         if tab.vectors.shape[1]:
+            V = V.copy()
             V[s.driven_vectors] = np.swapaxes(tab.vectors[steps], 0, 1)
-        m = (s.vector_member[:, None] * B + np.arange(B)).ravel()
         R = quat.to_matrix(Qm).reshape(-1, 9)
-        W = (R.take(m, axis=0) * V.reshape(-1, 9)).reshape(-1, 3, 3).sum(axis=2)
-        X = Pm.take(m, axis=0) + W
-        rel = s.rel_inverse
+        W = (R.take(lay.member, axis=0) * V.reshape(-1, 9)).reshape(-1, 3, 3).sum(axis=2)
+        X = Pm.take(lay.member, axis=0) + W
+        rel = lay.rel_inverse
         if tab.rel_inverse.shape[1]:
-            rel = np.repeat(rel[:, None], B, axis=1)
+            rel = rel.copy()
             rel[s.driven_rel] = np.swapaxes(tab.rel_inverse[steps], 0, 1)
-        else:
-            rel = np.repeat(rel, B, axis=0)
         values = {blk.kind: np.repeat(blk.value, B) if v is None else v[steps].T.ravel()
                   for blk, v in zip(s.blocks, tab.values) if blk.kind in kinds.VALUE_KINDS}
-        par = StepParameters(0.0, np.zeros((0, 9)), rel.reshape(-1, 4), [None] * len(s.blocks),
-                             np.zeros(0, dtype=int), values)
+        par = StepParameters(0.0, V[:0, 0], rel.reshape(-1, 4), [None] * len(s.blocks), steps[:0], values)
         r = np.empty((B, s.n_rows))
         jacs: list[np.ndarray] = []
-        for blk, wide in zip(s.blocks, self._batched_blocks(B)):
+        for blk, wide in zip(s.blocks, lay.blocks):
             n, k = blk.rows.shape
             out = np.empty((n * B, k))
             J = EVALUATE[blk.kind](wide, X, W, Qm, par, out, jacobian)
