@@ -49,7 +49,7 @@ SHORTEST = 16
 #: a block solves steps STRIDE apart first (from extrapolation), then the ones between; the
 #: spacing adapts to the extrapolation's error, up to WIDEST_STRIDE
 STRIDE = 8
-WIDEST_STRIDE = 16
+WIDEST_STRIDE = 8
 #: Gauss–Newton iterations of a wave of one step, or of the steps between solved ones
 ITERATIONS = 8
 #: ... and of a wave of several extrapolated steps: the far ones are started again from the
