@@ -161,7 +161,8 @@ WORKER_MALLOC = {"MALLOC_TRIM_THRESHOLD_": 1 << 30, "MALLOC_MMAP_THRESHOLD_": 1 
 #: Dask settings of the local cluster: no statistical profile of the workers (a stack sample every
 #: 10 ms) and the event-loop latency check every second instead of every 20 ms in every server.
 #: Both feed a dashboard nobody watches here; they cost an idle 2-worker cluster ~90 ms of CPU per second
-#: (40 without them), taken from the cores the chunks are built on.
+#: (40 without them), taken from the cores the chunks are built on. Remote workers: the environment
+#: ``DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False DASK_DISTRIBUTED__ADMIN__TICK__INTERVAL=1s``.
 LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s"}
 
 

@@ -2,8 +2,9 @@
 
 * atlas building, four-bar family, in-process: linkages per second including sampling,
   rejection, the batched evaluation and the index descriptors (chunks only, and the whole
-  ``atlas build`` with HDF5 writing); ``atlas build`` in-process against a local Dask cluster
-  of 2 workers if ``dask.distributed`` is installed (per core, :func:`dask_comparison`);
+  ``atlas build`` with HDF5 writing); per core, ``atlas build`` in-process, as 2 in-process
+  builds side by side and on a local Dask cluster of 2 workers if ``dask.distributed`` is
+  installed (:func:`dask_comparison`);
 * a query of the index of a 1,000,000-curve atlas (built in memory, chunk by chunk);
 * ``synthesize`` end to end (query, re-ranking, refinement of the best 5, final check) for
   targets drawn by held-out four-bars, against that atlas;
