@@ -123,10 +123,11 @@ def run_chunks(name: str, seed: int, jobs: list[tuple[int, int]], *, scheduler: 
     try:
         with Client(scheduler or cluster) as client:
             nthreads = client.nthreads()
-            # results come straight from the workers when they can be reached (the scheduler relaying
-            # them costs as much CPU again); each is released once read, so the workers hold only
-            # the results not yet written
-            direct = cluster is not None or any(reaches(client, address) for address in list(nthreads)[:1])
+            # results come straight from the workers when one of them can be reached (relayed by the
+            # scheduler, they cost twice the CPU); each is released once read, so the workers hold
+            # only the results not yet written
+            first = next(iter(nthreads), None)
+            direct = cluster is not None or (first is not None and reaches(client, first))
             tasks = dask_tasks(jobs, sum(nthreads.values()))
             futures = deque(client.submit(build_chunks, name, seed, task, pure=True) for task in tasks)
             for task in tasks:
