@@ -191,19 +191,43 @@ def test_atlas_build_cli(run_cli, tmp_path):
     assert other_seed.exit_code == 2 and "--seed 4" in other_seed.output
 
 
-def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path):
-    """The same seed on a LocalCluster of 2 worker processes (through --scheduler) and in-process."""
+def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path, monkeypatch):
+    """The same seed on a LocalCluster of 2 worker processes (through --scheduler) and in-process:
+    33 chunks, the last one partial, built two per Dask task."""
     pytest.importorskip("dask.distributed")
+    count = str(32 * atlas.CHUNK + atlas.CHUNK // 2)
+    assert [len(task) for task in atlas.dask_tasks(atlas.chunk_sizes(int(count)), 2)] == [2] * 16 + [1]
     with atlas.local_cluster(2) as cluster:  # what --workers 2 starts
-        result = run_cli("atlas", "build", "--family", "four-bar", "-n", str(3 * atlas.CHUNK // 2), "-o",
+        result = run_cli("atlas", "build", "--family", "four-bar", "-n", count, "-o",
                          tmp_path / "dask.h5", "--seed", "8", "--scheduler", cluster.scheduler_address)
+        # workers the client cannot reach: their results come through the scheduler, the same
+        monkeypatch.setattr(atlas, "reaches", lambda client, address: False)
+        relayed = dict(atlas.run_chunks("four-bar", 8, atlas.chunk_sizes(2500), scheduler=cluster.scheduler_address))
     assert result.exit_code == 0, result.output
-    local = run_cli("atlas", "build", "--family", "four-bar", "-n", str(3 * atlas.CHUNK // 2), "-o",
-                    tmp_path / "local.h5", "--seed", "8")
+    local = run_cli("atlas", "build", "--family", "four-bar", "-n", count, "-o", tmp_path / "local.h5", "--seed", "8")
     assert local.exit_code == 0, local.output
     with h5py.File(tmp_path / "dask.h5") as a, h5py.File(tmp_path / "local.h5") as b:
         for key in ("params", "min_ds", "index", "curves"):
             np.testing.assert_array_equal(a[f"families/four-bar/{key}"][()], b[f"families/four-bar/{key}"][()])
+    for key in ("params", "min_ds", "index", "curves"):
+        np.testing.assert_array_equal(getattr(relayed[0], key), getattr(atlas.build_chunk("four-bar", 8, 0, 2500), key))
+
+
+def test_a_dask_server_is_reached_or_not():
+    pytest.importorskip("dask.distributed")
+    from dask.distributed import Client
+
+    with atlas.local_cluster(1) as cluster, Client(cluster) as client:
+        assert atlas.reaches(client, next(iter(client.nthreads())))
+        assert not atlas.reaches(client, "tcp://127.0.0.1:1", timeout=0.5)  # nothing listens there
+
+
+def test_dask_tasks_are_runs_of_consecutive_chunks():
+    jobs = atlas.chunk_sizes(100 * atlas.CHUNK, first=3)
+    for threads, per_task in ((1, atlas.TASK_CHUNKS), (4, 3), (15, 1), (0, atlas.TASK_CHUNKS)):
+        tasks = atlas.dask_tasks(jobs, threads)
+        assert sum(tasks, []) == jobs and {len(task) for task in tasks[:-1]} == {per_task}
+    assert atlas.dask_tasks(jobs[:1], 2) == [jobs[:1]] and atlas.dask_tasks([], 2) == []
 
 
 @pytest.mark.parametrize("name", ["jansen", "klann", "watt", "stephenson"])

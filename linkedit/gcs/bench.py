@@ -18,7 +18,8 @@
 shared machine's waits left out). Printed: medians of interleaved runs of each, their
    ratio (target ≤ 1×, ≤ 2× with a passive DOF) and the largest difference of the compared
    points over the run, relative to the mechanism's size; and linkedit's time per step with the
-   per-step diagnostics ``solve3d`` adds (status, degrees of freedom, redundant equations).
+   per-step diagnostics ``solve3d`` adds (status, degrees of freedom, redundant equations), and
+   how many steps it solved in waves (:mod:`linkedit.gcs.waves`).
 """
 
 from __future__ import annotations
@@ -283,7 +284,7 @@ def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
          "interleaved runs; "
          "SolveSpace holds the ground and the driven point dragged (the target's baseline) or fixed (an earlier group)")
     echo(f"{'mechanism':<26}{'unknowns':>9}  {'linkedit':>9}  {'SolveSpace':>11}  {'ratio':>6}  {'target':>7}  "
-         f"{'SolveSpace':>11}  {'ratio':>6}  {'max |Δp| / size':>16}  {'+ diagnostics':>14}")
+         f"{'SolveSpace':>11}  {'ratio':>6}  {'max |Δp| / size':>16}  {'+ diagnostics':>14}  {'in waves':>8}")
     echo(f"{'':<26}{'':>9}  {'ms/step':>9}  {'dragged':>11}  {'':>6}  {'':>7}  {'fixed':>11}  {'':>6}  {'':>16}  "
          f"{'ms/step':>14}")
     for name, system, model, world in _linkedit_cases(steps):
@@ -310,7 +311,8 @@ def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
         cells = [f"{ms['dragged']:>11.3f}  {ms['ours'] / ms['dragged']:>5.2f}×" if got["dragged"] else f"{'failed':>11}  {'':>6}",
                  f"{ms['fixed']:>11.3f}  {ms['ours'] / ms['fixed']:>5.2f}×" if got["fixed"] else f"{'failed':>11}  {'':>6}"]
         echo(f"{name:<26}{system.n_unknowns:>9}  {ms['ours']:>9.3f}  {cells[0]}  {'≤ ' + format(target, 'g') + '×':>7}  "
-             f"{cells[1]}  {max(diffs, default=float('nan')):>16.1e}  {ms['solve3d']:>14.3f}"
+             f"{cells[1]}  {max(diffs, default=float('nan')):>16.1e}  {ms['solve3d']:>14.3f}  "
+             f"{f'{int(run.batched.sum())}/{steps}':>8}"
              f"{'  (passive DOF)' if model.passive else ''}")
 
 

@@ -143,7 +143,15 @@ def rank_steps(system: System, run: Run, table: StepTable) -> np.ndarray:
 def run_diagnostics(system: System, run: Run, table: StepTable, rank: bool = True,
                     unsatisfied_tol: float = UNSATISFIED_TOL) -> Diagnostics:
     """Diagnostics of every step of a run: a residual row above ``unsatisfied_tol`` (scaled)
-    names its constraint unsatisfied; the rank is evaluated at :func:`rank_steps`."""
+    names its constraint unsatisfied; the rank is evaluated at :func:`rank_steps` (small SVDs:
+    BLAS on one thread, :mod:`linkedit.blas`)."""
+    from linkedit.blas import single_threaded
+
+    with single_threaded():
+        return _run_diagnostics(system, run, table, rank, unsatisfied_tol)
+
+
+def _run_diagnostics(system: System, run: Run, table: StepTable, rank: bool, unsatisfied_tol: float) -> Diagnostics:
     T = run.t.size
     costs = system.costs(run.residual)
     bad = np.abs(run.residual) * system.row_scale > unsatisfied_tol

@@ -33,6 +33,11 @@ fine one (the same branch), or fails at the time where the step fell below
 continued from: the next one starts again from the last good pose (continuation, then a direct
 solve from it).
 
+**Waves.** Where J has full column rank, :func:`solve_run` solves many steps at once
+(:mod:`linkedit.gcs.waves`) and keeps each only where the step-by-step acceptance test above,
+taken from the step before it, passes: the same poses (the same branch), far fewer Python
+calls. The first rejected step is solved by the continuation, which the waves then resume from.
+
 Each accepted pose is factorized once (at its first corrected iterate, when the later
 corrections moved it at most :data:`REUSE`, else afresh): that factorization gives its
 velocity, its null space and rank, the first correction of the next step and, with
@@ -109,6 +114,8 @@ class Options:
     still_tol: float = 1e-10
     solver: str = "lm"
     accelerations: bool = False
+    #: solve many steps at once where that gives the continuation's poses (:mod:`linkedit.gcs.waves`)
+    waves: bool = True
 
     @property
     def satisfied_tol(self) -> float:
@@ -492,6 +499,8 @@ class Run:
     #: (T,) rank of the scaled Jacobian at each converged step, read from its factorization;
     #: −1 where the factorization cannot tell (or the step failed)
     rank: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    #: (T,) bool: the step was solved in a wave (:mod:`linkedit.gcs.waves`), not step by step
+    batched: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     def state(self, step: int) -> State:
         return State(self.position[step], self.orientation[step])
@@ -499,8 +508,19 @@ class Run:
 
 def solve_run(system: System, t: np.ndarray, options: Options | None = None, start: State | None = None,
               table: StepTable | None = None, progress: Callable[[int, int], None] | None = None) -> Run:
-    """Solve every time step of ``t`` (T,) by continuation from the first (module docstring);
-    ``progress(k, T)`` is called after each step."""
+    """Solve every time step of ``t`` (T,) by continuation from the first (module docstring),
+    many steps at once where :mod:`linkedit.gcs.waves` applies (the same poses), BLAS on one
+    thread (:mod:`linkedit.blas`); ``progress(k, T)`` is called after each step."""
+    from linkedit.blas import single_threaded
+
+    with single_threaded():
+        return _solve_run(system, t, options, start, table, progress)
+
+
+def _solve_run(system: System, t: np.ndarray, options: Options | None, start: State | None,
+               table: StepTable | None, progress: Callable[[int, int], None] | None) -> Run:
+    from linkedit.gcs.waves import SHORTEST, START, Waves
+
     options = options or Options()
     t = np.asarray(t, dtype=float)
     table = table or system.step_table(t)
@@ -516,7 +536,57 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
     good: Pose | None = None
     stuck = False  # the continuation from ``good`` failed once: it would fail again at the same place
     rest = (start or system.rest).copy()
-    for k in range(T):
+    waves = Waves(solver, table) if options.waves and Waves.applies(solver) else None
+    batched = np.zeros(T, dtype=bool)
+    streak = 0  #: the first of the converged steps just before k
+    resting, pause = 0, SHORTEST  #: no wave before step ``resting``; the next pause after a wave accepted none
+    width = T
+    #: steps k0..k solved by waves and accepted since the last step-by-step pose ``good`` (−1: none)
+    wave_from = -1
+
+    def resume(k: int) -> Pose:
+        """The continuation's pose at step k, solved by a wave (its factorization and history)."""
+        x = State(pos[k].copy(), ori[k].copy())
+        linear = solver.linearize(x, table, k)
+        lo = max(0, k - PREDICT_ORDER)
+        ts = t[lo:k + 1]
+        Z = np.concatenate([pos[lo:k + 1].reshape(k + 1 - lo, -1), ori[lo:k + 1].reshape(k + 1 - lo, -1)], axis=1)
+        v = vel[k].ravel() / solver.col
+        trend = (v - vel[k - 1].ravel() / solver.col) / (t[k] - t[k - 1]) if k > 0 else None
+        return Pose(float(t[k]), x, res[k].copy(), linear, v, trend, (ts, Z))
+
+    k = 0
+    while k < T:
+        if waves is not None and k - streak >= START and k >= resting and not table.partial[k] \
+                and abs(t[k] - t[k - 1]) * np.abs(vel[k - 1].ravel() / solver.col).max() <= options.max_motion:
+            # many steps at once from the accepted ones before them (not where the first of them
+            # would move too far for the acceptance test, nor for a while after a wave that
+            # accepted none)
+            stop = min(T, k + width)
+            partial = np.flatnonzero(table.partial[k:stop])
+            stop = k + int(partial[0]) if partial.size else stop
+            it0 = solver.iterations
+            wave = waves.block(k, stop, pos, ori, vel, streak)
+            n = wave.accepted
+            if n:
+                done = np.arange(k, k + n)
+                pos[done], ori[done], res[done] = wave.position[:n], wave.orientation[:n], wave.residual[:n]
+                vel[done] = (wave.velocity[:n] * solver.col).reshape(n, M, 6)
+                status[done], rank[done], batched[done] = CONVERGED, system.n_unknowns, True
+                iters[done] = facts[done] = wave.iterations[:n]
+                solver.iterations = it0
+                wave_from = k if wave_from < 0 else wave_from
+                if progress is not None:
+                    for j in done:
+                        progress(int(j), T)
+                k += n
+                width = 2 * width if k == stop else SHORTEST
+                pause = SHORTEST
+                continue
+            width = SHORTEST
+            resting, pause = k + pause, 2 * pause
+        if wave_from >= 0:  # step by step again, from the last pose a wave accepted
+            good, stuck, wave_from = resume(k - 1), False, -1
         it0, f0 = solver.iterations, solver.factorizations
         if options.solver == "slsqp-fd":
             x, r, info = solver.solve(good.state if good else rest, table, k)
@@ -526,6 +596,8 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
                 pose = Pose(t[k], x, r, linear, solver.velocity(x, table, k, linear))
         elif good is None:
             x, r, st, pose = solver.first(rest, table, k)
+            if pose is not None and (pose.linear.null is not None or pose.linear.rank != system.n_unknowns):
+                waves = None  # free directions to keep still, or a rank the pivots cannot tell: step by step
         else:
             pose, tried = None, not stuck
             if tried:
@@ -547,12 +619,15 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
                 a = acceleration(solver, pose.state, table, k, pose.linear, pose.velocity)
                 acc[k] = (a * solver.col).reshape(M, 6)
         pos[k], ori[k], res[k], status[k] = x.position, x.orientation, r, st
+        if st != CONVERGED:
+            streak = k + 1
         iters[k], facts[k] = solver.iterations - it0, solver.factorizations - f0
         if progress is not None:
             progress(k, T)
+        k += 1
     return Run(t=t, position=pos, orientation=ori, velocity=vel,
                acceleration=acc if options.accelerations else None, residual=res, status=status,
-               iterations=iters, factorizations=facts, reached=reached, rank=rank)
+               iterations=iters, factorizations=facts, reached=reached, rank=rank, batched=batched)
 
 
 def lagrange_weights(nodes: np.ndarray, t: float) -> np.ndarray:

@@ -2,8 +2,9 @@
 
 * atlas building, four-bar family, in-process: linkages per second including sampling,
   rejection, the batched evaluation and the index descriptors (chunks only, and the whole
-  ``atlas build`` with HDF5 writing); on a local Dask cluster of 2 workers if
-  ``dask.distributed`` is installed (per core, the cluster already running);
+  ``atlas build`` with HDF5 writing); per core, ``atlas build`` in-process, as 2 in-process
+  builds side by side and on a local Dask cluster of 2 workers if ``dask.distributed`` is
+  installed (:func:`dask_comparison`);
 * a query of the index of a 1,000,000-curve atlas (built in memory, chunk by chunk);
 * ``synthesize`` end to end (query, re-ranking, refinement of the best 5, final check) for
   targets drawn by held-out four-bars, against that atlas;
@@ -17,10 +18,14 @@
 
 from __future__ import annotations
 
+import contextlib
+import multiprocessing
+import os
 import statistics
 import tempfile
 import time
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -46,17 +51,108 @@ def _median_time(fn: Callable[[], object], repeats: int) -> float:
     return statistics.median(times)
 
 
-def _dask_rate(chunks: int) -> float | None:
+#: Worker processes of the local Dask cluster the bench builds on (one per core of a 2-core machine),
+#: and in-process builds run side by side as its baseline.
+DASK_WORKERS = 2
+
+
+def _build_seconds(path: Path, count: int, scheduler: str | None = None) -> float:
+    """Wall seconds of ``atlas build`` of ``count`` four-bars into a new HDF5 file ``path``."""
+    path.unlink(missing_ok=True)
+    t0 = time.perf_counter()
+    atlas.build(path, ["four-bar"], count, seed=1, scheduler=scheduler)
+    commit()  # the command's outputs are renamed together at its end; this file lives in a folder about to go
+    return time.perf_counter() - t0
+
+
+def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> None:
+    """``atlas build`` of ``chunks`` chunks, writing the HDF5 atlas, per core: in-process; as
+    :data:`DASK_WORKERS` in-process builds side by side (separate processes, each a share of
+    the linkages); on a local Dask cluster of as many single-threaded workers (started once,
+    before the timing). Runs interleaved, medians of ``repeats``.
+
+    Per core: the in-process rate divided by the threads it keeps busy (over a tenth of the wall
+    time; its numpy code is single-threaded); the side-by-side and Dask rates divided by their
+    processes, one per core (Dask's client, writing the file, and scheduler share those cores).
+    Other processes on the machine slow the runs that need every core most: the side-by-side
+    builds show what the machine gives that many processes meanwhile, and the CPU seconds used
+    (in-process: its threads; Dask: every process of the run, client, scheduler, nannies and
+    workers) give the ratio on cores of its own.
+    """
     try:
-        from dask.distributed import Client
+        import psutil
+        from dask.distributed import Client  # noqa: F401 (the extra is installed)
     except ImportError:
-        return None
-    with atlas.local_cluster(2) as cluster, Client(cluster) as client:
-        client.gather(client.map(atlas.build_chunk, ["four-bar"] * 2, [0, 0], [0, 1], pure=False))  # warm up
-        t0 = time.perf_counter()
-        futures = client.map(atlas.build_chunk, ["four-bar"] * chunks, [1] * chunks, list(range(chunks)), pure=False)
-        client.gather(futures)
-        return chunks * atlas.CHUNK / (time.perf_counter() - t0) / 2
+        echo("atlas build on Dask: not timed (pip install 'linkedit[cluster]')")
+        return
+    count = chunks * atlas.CHUNK
+    me = psutil.Process()
+    own = {t.id for t in me.threads()}  # before the cluster starts: this program's threads, numpy's included
+
+    def own_threads() -> dict[int, float]:
+        """CPU seconds of each of this program's own threads so far (not the cluster's)."""
+        return {t.id: t.user_time + t.system_time for t in me.threads() if t.id in own}
+
+    def ours() -> float:
+        """CPU seconds of this process and its children (the cluster) so far."""
+        total = 0.0
+        for proc in [me, *me.children(recursive=True)]:
+            with contextlib.suppress(psutil.NoSuchProcess):
+                times = proc.cpu_times()
+                total += times.user + times.system
+        return total
+
+    def machine() -> float:
+        """CPU seconds the machine's cores were busy so far (or taken by the hypervisor: steal)."""
+        times = psutil.cpu_times()
+        return sum(getattr(times, field, 0.0) for field in ("user", "nice", "system", "irq", "softirq", "steal"))
+
+    spawn = multiprocessing.get_context("spawn")  # no fork of a process running the cluster's threads
+    runs: dict[str, list[tuple[float, float, float, int]]] = {"in-process": [], "side by side": [], "dask": []}
+    t0 = time.perf_counter()
+    with (atlas.local_cluster(DASK_WORKERS) as cluster, tempfile.TemporaryDirectory() as tmp,
+          ProcessPoolExecutor(DASK_WORKERS, mp_context=spawn) as pool):
+        start = time.perf_counter() - t0
+        paths = [Path(tmp) / f"bench-{k}.h5" for k in range(DASK_WORKERS)]
+        share = [count // DASK_WORKERS] * DASK_WORKERS
+
+        def side_by_side() -> float:
+            t0 = time.perf_counter()
+            list(pool.map(_build_seconds, paths, share))
+            return time.perf_counter() - t0
+
+        _build_seconds(paths[0], 2 * atlas.CHUNK, cluster.scheduler_address)  # workers import linkedit
+        _build_seconds(paths[0], atlas.CHUNK)
+        side_by_side()  # the pool's processes start and import linkedit
+        load = os.getloadavg()[0]
+        for _ in range(repeats):
+            for kind in runs:
+                threads, total, every = own_threads(), ours(), machine()
+                if kind == "side by side":
+                    seconds = side_by_side()
+                else:
+                    seconds = _build_seconds(paths[0], count, cluster.scheduler_address if kind == "dask" else None)
+                total = ours() - total
+                every = machine() - every - total
+                if kind == "in-process":
+                    used = [cpu - threads.get(tid, 0.0) for tid, cpu in own_threads().items()]
+                    runs[kind].append((seconds, sum(used), every, sum(cpu > 0.1 * seconds for cpu in used)))
+                else:
+                    runs[kind].append((seconds, total, every, DASK_WORKERS))
+    wall, cpu, others, cores = ({k: statistics.median(r[i] for r in v) for k, v in runs.items()} for i in range(4))
+    per_core = {k: count / wall[k] / cores[k] for k in runs}
+    echo(f"atlas build -n {count:,} (HDF5 written), per core = linkages/s / busy threads or processes; runs "
+         f"interleaved, medians of {repeats} (load average {load:.2f} before):")
+    echo(f"  in-process, {cores['in-process']:g} busy thread(s): {per_core['in-process']:,.0f} linkages/s per core "
+         f"(other processes kept {others['in-process'] / wall['in-process']:.2f} of the {os.cpu_count()} cores busy)")
+    echo(f"  {DASK_WORKERS} in-process builds side by side: {per_core['side by side']:,.0f} linkages/s per core "
+         f"= ×{per_core['side by side'] / per_core['in-process']:.2f} (what the machine gives {DASK_WORKERS} "
+         f"processes; others kept {others['side by side'] / wall['side by side']:.2f} cores busy)")
+    echo(f"  local Dask cluster, {DASK_WORKERS} single-threaded workers (started in {start:.1f} s, before the "
+         f"timing): {per_core['dask']:,.0f} linkages/s per core = ×{per_core['dask'] / per_core['in-process']:.2f} "
+         f"of in-process, ×{per_core['dask'] / per_core['side by side']:.2f} of side by side; per CPU-second of "
+         f"every process of the run ×{cpu['in-process'] / cpu['dask']:.2f} of in-process (the ratio on cores of "
+         f"its own)")
 
 
 def chebyshev_straight_line(points: int) -> np.ndarray:
@@ -150,10 +246,8 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
         t_file = time.perf_counter() - t0
     echo(f"atlas build, four-bar, in-process: {rate:,.0f} linkages/s in chunks (median of {repeats}; target ≥ "
          f"{BUILD_TARGET:,}), {chunks * atlas.CHUNK / t_file:,.0f} linkages/s writing the HDF5 atlas")
-    dask_rate = None if quick else _dask_rate(chunks)
-    if dask_rate is not None:
-        echo(f"atlas build on a local Dask cluster (2 workers): {dask_rate:,.0f} linkages/s per core "
-             f"(×{dask_rate / rate:.2f} of in-process, on a machine whose 2 cores are shared)")
+    if not quick:
+        dask_comparison(echo, 4 * chunks, repeats)
 
     t0 = time.perf_counter()
     parts = [atlas.build_chunk("four-bar", 1, i, size) for i, size in atlas.chunk_sizes(big)]

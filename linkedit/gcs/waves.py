@@ -1,0 +1,546 @@
+"""Many time steps solved at once, each kept only where the step-by-step continuation would
+have accepted it.
+
+The continuation of :mod:`linkedit.gcs.solver` pays Python's per-call cost at every step.
+Where the scaled Jacobian has full column rank (nothing free to keep still), the pose at a
+time is the root of the constraints nearest its prediction whatever the anchor, so a *block*
+of steps can be solved together:
+
+1. every few steps first (:data:`STRIDE`, adapted to the prediction error, up to
+   :data:`WIDEST_STRIDE`), in *waves* of up to :data:`WIDEST` steps, each predicted by the
+   osculating polynomial through the last :data:`NODES` solved poses and their exact
+   velocities (within ~1e-9 of the size one stride ahead), the far ones of a wave started
+   again from the near ones' solutions rather than iterated long;
+2. then all the steps between at once, predicted by the osculating polynomial through the
+   solved poses around them (typically within 1e-12 of the size: most need no correction);
+3. Gauss–Newton on all of them as array operations: the elementary kinds' kernels of
+   :data:`linkedit.gcs.system.EVALUATE` run on B times their constraints, the dense scaled
+   Jacobians (B × rows × unknowns) are factorized by a batched Cholesky (block by block where J
+   decouples, as a planar linkage's in-plane and out-of-plane unknowns do), a factorization
+   is kept while it contracts the residual (chord) and serves the exact velocity by iterative
+   refinement when the pose moved little since;
+4. each step is put to the continuation's own acceptance test, taken from the step before it:
+   converged (largest scaled residual row ≤ ``tol``), no small pivot, within
+   ``predictor_tol`` of the tangent prediction x_{k−1} ⊕ h·v_{k−1} and moving at most
+   ``max_motion``. The accepted run of steps is kept — the poses the continuation accepts (the
+   same branch, equal to rounding) — and the continuation solves the first rejected step
+   (sub-steps, Levenberg–Marquardt), after which blocks resume (:data:`SHORTEST` steps,
+   doubling).
+
+Steps with an input outside its window, systems with custom constraints, a null space or the
+sparse factorization, and runs that ask for accelerations go step by step.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import scipy.linalg
+
+from linkedit.gcs import constraints as kinds
+from linkedit.gcs import quaternions as quat
+from linkedit.gcs.solver import FREE_PIVOT, Solver
+from linkedit.gcs.system import EVALUATE, Block, StepParameters, StepTable
+
+#: steps of a block after a rejected step (doubling after each block accepted whole); the
+#: first block is the whole run
+SHORTEST = 16
+#: a block solves steps STRIDE apart first (from extrapolation), then the ones between; the
+#: spacing adapts to the extrapolation's error, up to WIDEST_STRIDE
+STRIDE = 8
+WIDEST_STRIDE = 8
+#: Gauss–Newton iterations of a wave of one step, or of the steps between solved ones
+ITERATIONS = 8
+#: ... and of a wave of several extrapolated steps: the far ones are started again from the
+#: near ones' solutions rather than iterated long
+WAVE_ITERATIONS = 4
+#: steps of the widest wave
+WIDEST = 16
+#: solved poses (and their velocities) the polynomial extrapolation goes through
+NODES = 4
+#: converged steps a block starts from
+START = 2
+#: largest scaled move of a pose since its factorization for the factorization to serve its
+#: velocity (by two refinements: error ~REFINE³ relative)
+REFINE = 1e-5
+#: batches of at least this many poses factorize J's diagonal blocks (:attr:`Waves.parts`) apart
+SPLIT_FROM = 64
+#: batches of at most this many poses solve their triangular systems pose by pose
+FEW = 24
+
+_potrs = scipy.linalg.get_lapack_funcs("potrs", dtype=np.float64)
+
+
+@dataclasses.dataclass
+class Solved:
+    """A wave's result for B steps: positions (B, M, 3), quaternions (B, M, 4), residuals
+    (B, R), scaled velocities (B, N), linear solves (B,) and whether each step passed the
+    continuation's acceptance test (B,) (the accepted ones are a prefix: ``accepted``)."""
+
+    position: np.ndarray
+    orientation: np.ndarray
+    residual: np.ndarray
+    velocity: np.ndarray
+    iterations: np.ndarray
+    accepted: int
+
+
+@dataclasses.dataclass
+class _Layout:
+    """An evaluation's fixed parts for B poses, member-major (member or vector i of pose b at
+    i·B + b, so each kernel sees B times its constraints, constraint-major): the blocks with
+    spread indices, the member of each member vector (K·B,), the member vectors (K, B, 9), the
+    inverse relative orientations (n, B, 4), and buffers for positions (M + 1, B, 3) and
+    quaternions (M + 1, B, 4), the world last."""
+
+    blocks: list[Block]
+    member: np.ndarray
+    vectors: np.ndarray
+    rel_inverse: np.ndarray
+    position: np.ndarray
+    orientation: np.ndarray
+
+
+class Waves:
+    """Batched evaluation and solution of one system over a step table (module docstring)."""
+
+    def __init__(self, solver: Solver, table: StepTable) -> None:
+        self.solver = solver
+        self.system = solver.system
+        self.table = table
+        self._layouts: dict[int, _Layout] = {}
+        self._scatter: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        #: the diagonal blocks (row slice, unknown slice) of J in the order ``rows``, ``cols``
+        #: (original indices) where it has more than one ([]: one; None: not yet seen)
+        self.parts: list[tuple[slice, slice]] | None = None
+        self.rows = np.arange(self.system.n_rows)
+        self.cols = np.arange(self.system.n_unknowns)
+
+    @staticmethod
+    def applies(solver: Solver) -> bool:
+        """Whether the system's structure allows waves (see the module docstring; the rank is
+        checked at the first pose by the caller)."""
+        o, s = solver.options, solver.system
+        return (o.solver == "lm" and not o.accelerations and not s.customs and not solver.normal.sparse
+                and solver.normal.unique_entries)
+
+    # ---- batched evaluation ---------------------------------------------------------------
+
+    def _layout(self, B: int) -> "_Layout":
+        """What an evaluation of B poses needs that does not change between calls (cached)."""
+        if B not in self._layouts:
+            s = self.system
+            lanes = np.arange(B)
+            spread = lambda idx: (idx[:, None] * B + lanes).ravel()  # noqa: E731
+            blocks = [dataclasses.replace(blk, a=spread(blk.a), b=spread(blk.b),
+                                          vectors=tuple(slice(v.start * B, v.stop * B) for v in blk.vectors))
+                      for blk in s.blocks]
+            P = np.zeros((s.n_members + 1, B, 3))
+            Q = np.zeros((s.n_members + 1, B, 4))
+            Q[-1, :, 0] = 1.0  # the world
+            self._layouts[B] = _Layout(blocks, spread(s.vector_member), np.repeat(s.vectors[:, None], B, axis=1),
+                                       np.repeat(s.rel_inverse[:, None], B, axis=1), P, Q)
+        return self._layouts[B]
+
+    def evaluate(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
+                 jacobian: bool) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Residuals (B, R) at positions P (B, M, 3) and quaternions Q (B, M, 4) at the table's
+        ``steps`` (B,), and with ``jacobian`` the Jacobian per group (B, n, k, 2, 6)."""
+        s, tab = self.system, self.table
+        B, M = P.shape[0], s.n_members
+        lay = self._layout(B)
+        # member-major layouts (M + 1, B, ·), the world last
+        lay.position[:M] = np.swapaxes(P, 0, 1)
+        lay.orientation[:M] = np.swapaxes(Q, 0, 1)
+        Pm, Qm = lay.position.reshape(-1, 3), lay.orientation.reshape(-1, 4)
+        V = lay.vectors
+        if tab.vectors.shape[1]:
+            V = V.copy()
+            V[s.driven_vectors] = np.swapaxes(tab.vectors[steps], 0, 1)
+        R = quat.to_matrix(Qm).reshape(-1, 9)
+        W = (R.take(lay.member, axis=0) * V.reshape(-1, 9)).reshape(-1, 3, 3).sum(axis=2)
+        X = Pm.take(lay.member, axis=0) + W
+        rel = lay.rel_inverse
+        if tab.rel_inverse.shape[1]:
+            rel = rel.copy()
+            rel[s.driven_rel] = np.swapaxes(tab.rel_inverse[steps], 0, 1)
+        values = {blk.kind: np.repeat(blk.value, B) if v is None else v[steps].T.ravel()
+                  for blk, v in zip(s.blocks, tab.values) if blk.kind in kinds.VALUE_KINDS}
+        par = StepParameters(0.0, V[:0, 0], rel.reshape(-1, 4), [None] * len(s.blocks), steps[:0], values)
+        r = np.empty((B, s.n_rows))
+        jacs: list[np.ndarray] = []
+        for blk, wide in zip(s.blocks, lay.blocks):
+            n, k = blk.rows.shape
+            out = np.empty((n * B, k))
+            J = EVALUATE[blk.kind](wide, X, W, Qm, par, out, jacobian)
+            r[:, blk.start:blk.stop] = np.swapaxes(out.reshape(n, B, k), 0, 1).reshape(B, -1)
+            if J is not None:
+                jacs.append(np.swapaxes(J.reshape((n, B) + J.shape[1:]), 0, 1))
+        return r, jacs
+
+    def time_derivative(self, Q: np.ndarray, steps: np.ndarray, jacs: list[np.ndarray]) -> np.ndarray:
+        """∂r/∂t (B, R) at quaternions Q (B, M, 4) (as :meth:`System.time_derivative`, batched)."""
+        s = self.system
+        B = Q.shape[0]
+        out = np.zeros((B, s.n_rows))
+        for blk, jac, rate in zip(s.blocks, jacs, self.table.rates):
+            if rate is None:
+                continue
+            sel = blk.scheduled
+            if blk.kind in kinds.VALUE_KINDS:
+                out[:, blk.rows[sel]] = -rate[steps]
+                continue
+            w = rate[steps]  # (B, S, 6): u, ω in b's frame
+            if not blk.on_world:
+                Qe = np.concatenate([Q, np.tile([1.0, 0.0, 0.0, 0.0], (B, 1, 1))], axis=1)
+                Rb = quat.to_matrix(Qe[:, blk.b[sel]])  # (B, S, 3, 3)
+                w = (w.reshape(B, -1, 2, 3) @ np.swapaxes(Rb, 2, 3)).reshape(B, -1, 6)
+            out[:, blk.rows[sel]] = (jac[:, sel][..., 1, :] * w[:, :, None, :]).sum(axis=3)
+        return out
+
+    def jacobian(self, jacs: list[np.ndarray]) -> np.ndarray:
+        """The scaled dense Jacobians (B, R, N) from the groups' (B, n, k, 2, 6) as
+        :meth:`evaluate` returns them (views of the kernels' constraint-major arrays, which are
+        scattered as they lie), rows and unknowns in the order of :attr:`parts` (decided
+        from the first call's with at least :data:`SPLIT_FROM` poses)."""
+        s, ne = self.system, self.solver.normal
+        B, R, N, M = jacs[0].shape[0], s.n_rows, s.n_unknowns, s.n_members
+        if B not in self._scatter:
+            if ne.group_scale is None:
+                raise ValueError("the solver's normal equations are built with their scale")
+            row_at, col_at = (np.argsort(self.rows), np.argsort(self.cols)) if self.parts else (np.arange(R), np.arange(N))
+            dests: list[np.ndarray] = []
+            scales: list[np.ndarray] = []
+            lanes = np.arange(B)[None, :, None, None, None]
+            for grp, sc in zip(s.groups, ne.group_scale):
+                n, k = grp.rows.shape
+                member = grp.members[:, None, None, :, None]
+                col = col_at[np.minimum(6 * member + np.arange(6), N - 1)]  # (n, 1, 1, 2, 6)
+                dest = lanes * (R * N) + row_at[grp.rows][:, None, :, None, None] * N + col  # (n, B, k, 2, 6)
+                world = np.broadcast_to(member >= M, dest.shape)
+                dests.append(np.where(world, B * R * N, dest).ravel())  # the world's entries: a dump slot
+                scales.append(np.broadcast_to(np.broadcast_to(sc, (n, k, 2, 6))[:, None], dest.shape).ravel())
+            self._scatter[B] = (np.concatenate(dests), np.concatenate(scales))
+        at, scale = self._scatter[B]
+        dense = np.zeros(B * R * N + 1)
+        dense[at] = np.concatenate([np.swapaxes(J, 0, 1).ravel() for J in jacs]) * scale
+        J = dense[:-1].reshape(B, R, N)
+        if self.parts is None and B >= SPLIT_FROM:  # many poses: no accidental zeros
+            self._decouple(J)
+            if self.parts:
+                self._scatter.clear()
+                return self.jacobian(jacs)
+        return J
+
+    def _decouple(self, J: np.ndarray) -> None:
+        """Set :attr:`parts` from Jacobians J (B, R, N): the unknowns that no residual row ties
+        together (a planar mechanism's in-plane and out-of-plane ones) solve apart."""
+        pattern = (J != 0.0).any(axis=0)
+        R, N = pattern.shape
+        root = np.arange(N)
+
+        def find(i: int) -> int:
+            while root[i] != i:
+                root[i] = root[root[i]]
+                i = int(root[i])
+            return i
+
+        for row in pattern:
+            cols = np.flatnonzero(row)
+            for c in cols[1:]:
+                root[find(int(c))] = find(int(cols[0]))
+        label = np.array([find(i) for i in range(N)])
+        groups = [np.flatnonzero(label == g) for g in np.unique(label)]
+        if len(groups) == 1:
+            self.parts = []
+            return
+        part_of = np.empty(N, dtype=int)
+        for i, g in enumerate(groups):
+            part_of[g] = i
+        row_part = np.array([part_of[np.flatnonzero(row)[0]] if row.any() else 0 for row in pattern])
+        self.cols = np.concatenate(groups)
+        self.rows = np.argsort(row_part, kind="stable")
+        col_stops = np.cumsum([len(g) for g in groups])
+        row_stops = np.cumsum(np.bincount(row_part, minlength=len(groups)))
+        self.parts = [(slice(r1 - rn, r1), slice(c1 - len(g), c1))
+                      for r1, rn, c1, g in zip(row_stops, np.bincount(row_part, minlength=len(groups)), col_stops, groups)]
+
+    # ---- a block of steps -----------------------------------------------------------------
+
+    def block(self, k: int, stop: int, pos: np.ndarray, ori: np.ndarray, vel: np.ndarray, first: int) -> Solved:
+        """Solve the steps k … stop − 1 given the accepted ones before k (positions (T, M, 3),
+        quaternions (T, M, 4), real velocities (T, M, 6) of the run, converged from step
+        ``first`` on, k − first ≥ :data:`START`): every
+        :data:`STRIDE`-th step (and the last) first, in waves from the polynomial through the
+        poses before it, then the steps between them at once from the cubic Hermite
+        interpolation of their neighbours; then the continuation's acceptance test."""
+        col, M = self.solver.col, self.system.n_members
+        t = self.table.t
+        solved: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]] = []
+        prior = np.unique(np.clip(k - 1 - STRIDE * np.arange(NODES), first, None))
+        node_t = list(t[prior])
+        z, dz = flat(pos[prior], ori[prior], vel[prior])
+        node_z, node_dz = list(z), list(dz)
+        real = lambda v: (v * col).reshape(len(v), M, 6)  # noqa: E731
+        here, stride, width = k - 1, STRIDE, 1 if len(prior) < NODES else 4
+        while here < stop - 1:
+            ahead = np.unique(np.minimum(here + stride * np.arange(1, width + 1), stop - 1))
+            P, Q = self.extrapolated(np.array(node_t[-NODES:]), np.array(node_z[-NODES:]),
+                                     np.array(node_dz[-NODES:]), t[ahead])
+            P0, Q0 = P.copy(), Q.copy()
+            r, v, it, done = self.solve(P, Q, ahead, WAVE_ITERATIONS if len(ahead) > 1 else ITERATIONS)
+            n = int(np.argmin(done)) if not done.all() else len(ahead)
+            if n == 0:
+                if len(ahead) == 1 and stride == 1:
+                    break  # the block ends here
+                stride, width = max(1, stride // 2), 1
+                continue
+            solved += [(int(ahead[j]), P[j], Q[j], v[j], r[j], int(it[j])) for j in range(n)]
+            node_t += list(t[ahead[:n]])
+            z, dz = flat(P[:n], Q[:n], real(v[:n]))
+            node_z += list(z)
+            node_dz += list(dz)
+            here = int(ahead[n - 1])
+            # the spacing keeps the first prediction's error between 1e-9 and 1e-6 of the size
+            error = float(np.abs(self.displacement(P[:1], Q[:1], P0[:1], Q0[:1])).max())
+            if error > 1e-6:
+                stride = max(1, stride // 2)
+            elif error < 1e-9:
+                stride = min(2 * stride, WIDEST_STRIDE)
+            # as many steps as the extrapolation reaches within 1e-4 of the size (its error grows
+            # about as the fifth power of the distance); the ones after the first unsolved one
+            # start again from the poses now known
+            reach = (1e-4 / max(error, 1e-16)) ** 0.2 * (1 if error > 1e-6 else 0.5 if error < 1e-9 else 1)
+            width = int(np.clip(reach, 1, WIDEST))
+        if not solved:
+            return Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
+                          np.zeros((0, self.system.n_unknowns)), np.zeros(0, dtype=np.int32), 0)
+        coarse = np.array([x[0] for x in solved])
+        cP, cQ, cV, cR = (np.array([x[j] for x in solved]) for j in (1, 2, 3, 4))
+        c_it = np.array([x[5] for x in solved], dtype=np.int32)
+        i = len(coarse)
+        end = int(coarse[i - 1]) + 1
+        steps = np.arange(k, end)
+        B = steps.size
+        P, Q = np.empty((B, M, 3)), np.empty((B, M, 4))
+        V, R = np.empty((B, self.system.n_unknowns)), np.empty((B, self.system.n_rows))
+        its = np.zeros(B, dtype=np.int32)
+        ok = np.zeros(B, dtype=bool)
+        at = coarse[:i] - k
+        P[at], Q[at], V[at], R[at], its[at], ok[at] = cP[:i], cQ[:i], cV[:i], cR[:i], c_it[:i], True
+        fine = np.setdiff1d(np.arange(B), at)
+        if fine.size:
+            # each from the osculating polynomial through the NODES solved poses around it
+            nt, nz, ndz = np.array(node_t), np.array(node_z), np.array(node_dz)
+            right = np.searchsorted(nt, t[k + fine])  # the node after each fine step
+            lo = np.clip(right - NODES // 2, 0, max(len(nt) - NODES, 0))
+            around = lo[:, None] + np.arange(min(NODES, len(nt)))
+            fP, fQ = self.osculating(nt[around], nz[around], ndz[around], t[k + fine])
+            r, v, it, done = self.solve(fP, fQ, k + fine)
+            P[fine], Q[fine], V[fine], R[fine], its[fine], ok[fine] = fP, fQ, v, r, it, done
+        before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
+        n = self.accepted(P, Q, V, ok, steps, before, float(t[k - 1]))
+        return Solved(P, Q, R, V, its, n)
+
+    # ---- poses ------------------------------------------------------------------------------
+
+    def moved(self, P: np.ndarray, Q: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Poses after scaled local steps e (B, N) (as :meth:`State.moved`)."""
+        B, M = P.shape[:2]
+        d = (e * self.solver.col).reshape(B, M, 6)
+        return P + d[..., :3], quat.turned(Q.reshape(-1, 4), d[..., 3:].reshape(-1, 3)).reshape(B, M, 4)
+
+    def displacement(self, P: np.ndarray, Q: np.ndarray, P0: np.ndarray, Q0: np.ndarray) -> np.ndarray:
+        """Scaled local coordinates (B, N) from poses 0 to poses (as :meth:`State.minus`)."""
+        B, M = P.shape[:2]
+        phi = quat.log(quat.multiply(Q.reshape(-1, 4), quat.conjugate(Q0.reshape(-1, 4)))).reshape(B, M, 3)
+        return np.concatenate([P - P0, phi], axis=2).reshape(B, -1) / self.solver.col
+
+    def _factor(self, J: np.ndarray, parts: list[tuple[slice, slice]]) -> tuple[np.ndarray, np.ndarray]:
+        """Cholesky factors L (B, N, N) of the scaled JᵀJ + μI (μ as the continuation's: 1e-13
+        of the largest diagonal entry, at least 1e-13) from Jacobians J (B, R, N) (as
+        :meth:`jacobian` orders them: one factor per block of ``parts``, a subset of
+        :attr:`parts`' or none), and whether each is sound (B,): positive definite with every
+        pivot above :data:`FREE_PIVOT` of that entry (no free or singular direction), and J
+        zero off its blocks."""
+        B, R, N = J.shape
+        parts = parts or [(slice(0, R), slice(0, N))]
+        normal = [np.ascontiguousarray(np.swapaxes(J[:, rs, cs], 1, 2)) @ J[:, rs, cs] for rs, cs in parts]
+        top = np.maximum(np.max([np.diagonal(H, axis1=1, axis2=2).max(axis=1) for H in normal], axis=0), 1.0)
+        L = np.zeros((B, N, N))
+        sound = np.ones(B, dtype=bool)
+        for (rs, cs), H in zip(parts, normal):
+            n = H.shape[1]
+            H.reshape(B, n * n)[:, ::n + 1] += (1e-13 * top)[:, None]
+            try:
+                block = np.linalg.cholesky(H)
+            except np.linalg.LinAlgError:  # some pose is not positive definite: one by one
+                block = np.tile(np.eye(n), (B, 1, 1))
+                for i, h in enumerate(H):
+                    try:
+                        block[i] = np.linalg.cholesky(h)
+                    except np.linalg.LinAlgError:
+                        sound[i] = False
+            L[:, cs, cs] = block
+            sound &= (np.diagonal(block, axis1=1, axis2=2) ** 2 >= FREE_PIVOT * top[:, None]).all(axis=1)
+            if len(parts) > 1:  # a pose whose J leaves the blocks (one out of the plane) goes step by step
+                sound &= ~(J[:, rs, :cs.start] != 0.0).any(axis=(1, 2)) & ~(J[:, rs, cs.stop:] != 0.0).any(axis=(1, 2))
+        return L, sound
+
+    @staticmethod
+    def _solve(L: np.ndarray, b: np.ndarray, parts: list[tuple[slice, slice]]) -> np.ndarray:
+        """x (B, N) of L Lᵀ x = b (B, N), block by block of ``parts`` (L's)."""
+        if not parts:
+            return cholesky_solve(L, b)
+        x = np.empty_like(b)
+        for _, cs in parts:
+            x[:, cs] = cholesky_solve(L[:, cs, cs], b[:, cs])
+        return x
+
+    def solve(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
+              budget: int = ITERATIONS) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Gauss–Newton at the table's ``steps`` (B,) from poses P (B, M, 3), Q (B, M, 4)
+        (moved in place). A pose's JᵀJ + μI is factorized at its first iterate and again only
+        where a step reusing it (chord) contracted the residual less than tenfold; every step
+        contracts it twofold at least. The exact velocity at the solved pose (J v = −∂r/∂t,
+        J evaluated there) is solved with the kept factorization and refined twice against
+        that J (the factorization is at most :data:`REFINE` away, so the refinement contracts
+        the error by that much each time), or with a fresh one. Returns the residuals (B, R),
+        the scaled velocities (B, N), the linear solves (B,) and whether each step converged
+        with a sound factorization (:meth:`_factor`) (B,), after at most ``budget`` steps."""
+        solver, tol = self.solver, self.solver.options.tol
+        row = solver.row
+        B, N = len(steps), self.system.n_unknowns
+        r = np.empty((B, self.system.n_rows))
+        velocity = np.zeros((B, N))
+        iterations = np.zeros(B, dtype=np.int32)
+        done = np.zeros(B, dtype=bool)
+        sound = np.zeros(B, dtype=bool)
+        L = np.zeros((B, N, N))
+        have = np.zeros(B, dtype=bool)  # a factorization is kept
+        since = np.zeros(B)  # largest scaled move since it was taken
+        last = np.full(B, np.inf)  # residual norm before the last step
+        newton = np.zeros(B, dtype=bool)  # the last step used a factorization of its own iterate
+        live = np.arange(B)  # still iterating
+        parts: list[tuple[slice, slice]] = []  # block by block where the blocks pay for their loops
+        for _ in range(budget + 1):
+            rl, jacs = self.evaluate(_take(P, live), _take(Q, live), _take(steps, live), True)
+            r[live] = rl
+            rs = rl * row
+            norm = np.sqrt((rs * rs).sum(axis=1))
+            J = self.jacobian(jacs)
+            if B >= SPLIT_FROM and self.parts:
+                parts = self.parts
+            converged = np.abs(rs).max(axis=1) <= tol
+            slow = norm > 0.1 * last[live]
+            # a Newton step must contract twofold; a chord step that did not is retried afresh
+            going = ~converged & np.isfinite(norm) & ((norm < 0.5 * last[live]) | ~newton[live])
+            fresh = going & (~have[live] | slow) | converged & (~have[live] | (since[live] > REFINE))
+            if fresh.any():
+                f = np.flatnonzero(fresh)
+                L[live[f]], sound[live[f]] = self._factor(_take(J, f), parts)
+                have[live[f]], since[live[f]] = True, 0.0
+            newton[live] = fresh
+            if converged.any():
+                c = np.flatnonzero(converged)
+                lc = live[c]
+                Jc, Lc = _take(J, c), _take(L, lc)
+                rt = self.time_derivative(_take(Q, lc), steps[lc], [_take(j, c) for j in jacs])
+                b = ((-rt * row)[:, self.rows][:, None, :] @ Jc)[:, 0]
+                v = self._solve(Lc, b, parts)
+                for _ in range(2):  # iterative refinement against this J
+                    v += self._solve(Lc, b - ((Jc @ v[..., None])[..., 0][:, None, :] @ Jc)[:, 0], parts)
+                velocity[lc[:, None], self.cols] = v
+                done[lc] = sound[lc]
+                iterations[lc] += 1
+            g = np.flatnonzero(going)
+            if not g.size:
+                break
+            lg = live[g]
+            step = np.empty((len(g), N))
+            step[:, self.cols] = -self._solve(_take(L, lg), (_take(rs, g)[:, self.rows][:, None, :] @ _take(J, g))[:, 0],
+                                              parts)
+            last[lg] = norm[g]
+            since[lg] += np.abs(step).max(axis=1)
+            iterations[lg] += 1
+            P[lg], Q[lg] = self.moved(_take(P, lg), _take(Q, lg), step)
+            live = lg
+        return r, velocity, iterations, done
+
+    def accepted(self, P: np.ndarray, Q: np.ndarray, velocity: np.ndarray, done: np.ndarray, steps: np.ndarray,
+                 before: tuple[np.ndarray, np.ndarray, np.ndarray], t_before: float) -> int:
+        """How many of the consecutive ``steps`` (B,), solved (P, Q, scaled velocities,
+        ``done``), pass the continuation's acceptance test, each from the step before it; the
+        first from ``before`` (position (M, 3), quaternions (M, 4), scaled velocity (N,)) at
+        ``t_before``."""
+        opt = self.solver.options
+        P0 = np.concatenate([before[0][None], P[:-1]])
+        Q0 = np.concatenate([before[1][None], Q[:-1]])
+        v0 = np.concatenate([before[2][None], velocity[:-1]])
+        h = np.diff(np.concatenate([[t_before], self.table.t[steps]]))
+        moved = self.displacement(P, Q, P0, Q0)
+        ok = done & (np.abs(moved - h[:, None] * v0).max(axis=1) <= opt.predictor_tol) \
+            & (np.abs(v0).max(axis=1) * np.abs(h) <= opt.max_motion)
+        return int(np.argmin(ok)) if not ok.all() else len(steps)
+
+    # ---- predictions ----------------------------------------------------------------------
+
+    def osculating(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
+                   t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (B, M, 3) and quaternions (B, M, 4) at times ``t`` (B,), each from the
+        osculating polynomial (degree 2k − 1) through its own k solved poses and their time
+        derivatives (B, k, 7M) (:func:`flat`) at ``t_nodes`` (B, k) (quaternions component-wise,
+        then normalized)."""
+        t0 = t_nodes[:, -1:]
+        span = np.maximum(np.ptp(t_nodes, axis=1), np.abs(t - t0[:, 0]))[:, None]
+        x = (t_nodes - t0) / span  # normalized times: well-conditioned systems
+        powers = np.arange(2 * t_nodes.shape[1])
+        A = np.concatenate([x[..., None] ** powers, powers * x[..., None] ** np.maximum(powers - 1, 0)], axis=1)
+        coefficients = np.linalg.solve(A, np.concatenate([nodes, rates * span[..., None]], axis=1))
+        Z = (((t[:, None] - t0) / span) ** powers)[:, None, :] @ coefficients
+        return self._split(Z[:, 0])
+
+    def extrapolated(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
+                     t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """As :meth:`osculating`, every time from the same k poses (k,) / (k, 7M)."""
+        B = len(t)
+        return self.osculating(np.broadcast_to(t_nodes, (B,) + t_nodes.shape),
+                               np.broadcast_to(nodes, (B,) + nodes.shape), np.broadcast_to(rates, (B,) + rates.shape), t)
+
+    def _split(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        M = self.system.n_members
+        return Z[:, :3 * M].reshape(-1, M, 3), quat.normalize(Z[:, 3 * M:].reshape(-1, M, 4))
+
+
+def flat(P: np.ndarray, Q: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Poses as flat states (B, 7M) — positions (B, M, 3) then quaternions (B, M, 4) — and their
+    time derivatives (B, 7M) from the real velocities V (B, M, 6): ṗ, and q̇ = ½ (0, ω) ⊗ q."""
+    B, M = P.shape[:2]
+    w = np.concatenate([np.zeros(V.shape[:2] + (1,)), V[..., 3:]], axis=2)
+    dq = 0.5 * quat.multiply(w.reshape(-1, 4), Q.reshape(-1, 4)).reshape(B, 4 * M)
+    return (np.concatenate([P.reshape(B, 3 * M), Q.reshape(B, 4 * M)], axis=1),
+            np.concatenate([V[..., :3].reshape(B, 3 * M), dq], axis=1))
+
+
+def cholesky_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x (B, N) of L Lᵀ x = b for lower-triangular L (B, N, N) and b (B, N): forward and back
+    substitution, each a loop over the N unknowns of array operations over B (LAPACK's potrs
+    pose by pose for at most :data:`FEW` poses, where that loop's fixed cost dominates)."""
+    if len(L) <= FEW:
+        return np.array([_potrs(c, x, lower=True)[0] for c, x in zip(L, b)]).reshape(b.shape)
+    n = L.shape[1]
+    d = np.diagonal(L, axis1=1, axis2=2)
+    y = np.empty_like(b)
+    for i in range(n):
+        y[:, i] = (b[:, i] - np.einsum("bj,bj->b", L[:, i, :i], y[:, :i])) / d[:, i]
+    x = np.empty_like(b)
+    for i in range(n - 1, -1, -1):
+        x[:, i] = (y[:, i] - np.einsum("bj,bj->b", L[:, i + 1:, i], x[:, i + 1:])) / d[:, i]
+    return x
+
+
+def _take(a: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """a[idx] for sorted distinct indices ``idx`` into a's first axis: a itself (no copy) when
+    they are all of them."""
+    return a if len(idx) == len(a) else a[idx]

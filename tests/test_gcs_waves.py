@@ -1,0 +1,128 @@
+"""Waves (many steps solved at once) give the step-by-step continuation's poses and exact
+velocities, fall back to it where its acceptance test fails, and leave it alone where they do
+not apply (linkedit.gcs.waves)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from linkedit.gcs import quaternions as quat
+from linkedit.gcs.members import compile_mechanism
+from linkedit.gcs.planar_bridge import planar_model
+from linkedit.gcs.solver import Options, solve_run
+from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.mechanism3d import MechanismSpec
+from linkedit.spec.yamlload import load_yaml, validate
+from tests import gcs_oracles as oracle
+from tests.conftest import EXAMPLES
+
+
+def _system(name: str, scale: float = 1.0):
+    if name in ("jansen", "klann"):
+        data = load_yaml(EXAMPLES / f"{name}.yaml")[0]
+        data = dict(data, joints={k: [scale * c for c in v] for k, v in data["joints"].items()})
+        return planar_model(validate(LinkageSpec, data, file="test")).system
+    data = load_yaml(EXAMPLES / "3d" / f"{name}.yaml")[0]
+    return compile_mechanism(validate(MechanismSpec, oracle.scaled_spec(data, scale), file="test"))[0]
+
+
+def _both(system, t):
+    on = solve_run(system, t, Options(waves=True))
+    off = solve_run(system, t, Options(waves=False))
+    return on, off
+
+
+def _assert_same(on, off, size):
+    assert (on.status == off.status).all()
+    assert np.abs(on.position - off.position).max() < 1e-9 * size
+    q = np.abs(np.sum(on.orientation * off.orientation, axis=-1))
+    assert np.abs(q - 1.0).max() < 1e-12
+    scale = np.abs(off.velocity).max()
+    assert np.abs(on.velocity - off.velocity).max() < 1e-8 * scale
+
+
+@pytest.mark.parametrize("name,scale", [("crank-rocker", 1.0), ("crank-rocker", 1e3), ("six-bar", 1e-3),
+                                        ("spherical-four-bar", 1.0), ("jansen", 1.0), ("klann", 100.0),
+                                        ("luffing-arm", 1.0), ("bennett", 1e-3), ("compound-crank-rocker", 1.0)])
+def test_waves_give_the_step_by_step_poses_and_velocities(name, scale):
+    system = _system(name, scale)
+    t = np.arange(360) / 360
+    on, off = _both(system, t)
+    assert (off.status == 0).all()
+    assert on.batched.sum() >= 350  # solved in waves, but for the first steps
+    assert not off.batched.any()
+    _assert_same(on, off, system.length_scale)
+
+
+def test_waves_match_the_closed_form_crank_rocker():
+    """An oracle independent of both solvers: the crank-rocker's coupler point P."""
+    from linkedit.gcs.mechanism import solve_spec
+
+    spec = validate(MechanismSpec, load_yaml(EXAMPLES / "3d" / "crank-rocker.yaml")[0], file="test")
+    res = solve_spec(spec, steps=721, rank=False)
+    assert (res.diagnostics.status == 0).all()
+    assert solve_run(compile_mechanism(spec)[0], res.t).batched.sum() > 700
+    assert np.abs(res.tracks["P"].position - oracle.crank_rocker(2 * np.pi * res.t)).max() < 1e-9 * 10
+
+
+def test_coarse_steps_fall_back_step_by_step_and_stay_on_the_branch():
+    """19 steps of the Jansen leg: the acceptance test rejects the wide steps (the continuation
+    sub-steps them), and the result is the fine run's."""
+    system = _system("jansen")
+    fine = solve_run(system, np.linspace(0.0, 1.0, 361))
+    on, off = _both(system, np.linspace(0.0, 1.0, 19))
+    _assert_same(on, off, system.length_scale)
+    assert np.abs(on.position - fine.position[::20]).max() < 1e-9 * system.length_scale
+
+
+def test_a_closed_input_window_goes_step_by_step_and_holds():
+    data = load_yaml(EXAMPLES / "3d" / "crank-rocker.yaml")[0]
+    data["inputs"]["drive"]["window"] = [0.0, 0.5]
+    data["inputs"]["drive"]["rotation"]["angles_deg"] = [0, 180]
+    system = compile_mechanism(validate(MechanismSpec, data, file="test"))[0]
+    on, off = _both(system, np.linspace(0.0, 1.0, 201))
+    _assert_same(on, off, system.length_scale)
+    late = on.t > 0.5
+    assert not on.batched[late].any() and on.batched[~late].sum() > 90
+    assert np.abs(on.position[late] - on.position[np.argmax(late)]).max() < 1e-12 * system.length_scale
+
+
+def test_free_motion_and_accelerations_go_step_by_step():
+    rssr = _system("rssr")  # the coupler's idle spin: a null space to keep still
+    assert not solve_run(rssr, np.arange(40) / 40).batched.any()
+    run = solve_run(_system("crank-rocker"), np.arange(40) / 40, Options(accelerations=True))
+    assert not run.batched.any()
+
+
+def test_blas_runs_on_one_thread_inside_and_is_restored_after():
+    from linkedit.blas import _controls, single_threaded
+
+    controls = _controls()
+    before = [get() for _, get in controls]
+    with single_threaded():
+        assert all(get() == 1 for _, get in controls)
+    assert [get() for _, get in controls] == before
+
+
+def test_a_planar_linkage_solves_its_in_plane_and_out_of_plane_unknowns_apart():
+    from linkedit.gcs.solver import Solver
+    from linkedit.gcs.waves import SPLIT_FROM, Waves
+
+    system = _system("crank-rocker")
+    t = np.arange(2 * SPLIT_FROM) / (2 * SPLIT_FROM)
+    run = solve_run(system, t)
+    waves = Waves(Solver(system), system.step_table(t))
+    steps = np.arange(len(t))
+    r, jacs = waves.evaluate(run.position.copy(), run.orientation.copy(), steps, True)
+    J = waves.jacobian(jacs)
+    assert waves.parts and [p[1].stop - p[1].start for p in waves.parts] == [9, 9]
+    for rs, cs in waves.parts:  # J is zero off its diagonal blocks
+        assert not J[:, rs, :cs.start].any() and not J[:, rs, cs.stop:].any()
+    # a pose out of the plane ties them: its factorization is not sound (it goes step by step)
+    P, Q = run.position[:SPLIT_FROM].copy(), run.orientation[:SPLIT_FROM].copy()
+    P[0, :, 2] += 1e-3 * system.length_scale
+    Q[0] = quat.turned(Q[0], np.tile([0.01, 0.0, 0.0], (len(Q[0]), 1)))
+    _, jacs = waves.evaluate(P, Q, steps[:SPLIT_FROM], True)
+    _, sound = waves._factor(waves.jacobian(jacs), waves.parts)
+    assert not sound[0] and sound[1:].all()
