@@ -565,7 +565,6 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
             stop = min(T, k + width)
             partial = np.flatnonzero(table.partial[k:stop])
             stop = k + int(partial[0]) if partial.size else stop
-            it0 = solver.iterations
             wave = waves.block(k, stop, pos, ori, vel, streak)
             n = wave.accepted
             if n:
@@ -573,8 +572,7 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
                 pos[done], ori[done], res[done] = wave.position[:n], wave.orientation[:n], wave.residual[:n]
                 vel[done] = (wave.velocity[:n] * solver.col).reshape(n, M, 6)
                 status[done], rank[done], batched[done] = CONVERGED, system.n_unknowns, True
-                iters[done] = facts[done] = wave.iterations[:n]
-                solver.iterations = it0
+                iters[done], facts[done] = wave.work[:n, 0], wave.work[:n, 1]
                 wave_from = k if wave_from < 0 else wave_from
                 if progress is not None:
                     for j in done:

@@ -74,15 +74,15 @@ _potrs = scipy.linalg.get_lapack_funcs("potrs", dtype=np.float64)
 
 @dataclasses.dataclass
 class Solved:
-    """A wave's result for B steps: positions (B, M, 3), quaternions (B, M, 4), residuals
-    (B, R), scaled velocities (B, N), linear solves (B,) and whether each step passed the
-    continuation's acceptance test (B,) (the accepted ones are a prefix: ``accepted``)."""
+    """A block's result for B steps: positions (B, M, 3), quaternions (B, M, 4), residuals
+    (B, R), scaled velocities (B, N), linear solves and factorizations (B, 2), and how many
+    steps, from the first, pass the continuation's acceptance test (``accepted``)."""
 
     position: np.ndarray
     orientation: np.ndarray
     residual: np.ndarray
     velocity: np.ndarray
-    iterations: np.ndarray
+    work: np.ndarray
     accepted: int
 
 
@@ -277,7 +277,7 @@ class Waves:
         interpolation of their neighbours; then the continuation's acceptance test."""
         col, M = self.solver.col, self.system.n_members
         t = self.table.t
-        solved: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]] = []
+        solved: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
         prior = np.unique(np.clip(k - 1 - STRIDE * np.arange(NODES), first, None))
         node_t = list(t[prior])
         z, dz = flat(pos[prior], ori[prior], vel[prior])
@@ -296,7 +296,7 @@ class Waves:
                     break  # the block ends here
                 stride, width = max(1, stride // 2), 1
                 continue
-            solved += [(int(ahead[j]), P[j], Q[j], v[j], r[j], int(it[j])) for j in range(n)]
+            solved += [(int(ahead[j]), P[j], Q[j], v[j], r[j], it[j]) for j in range(n)]
             node_t += list(t[ahead[:n]])
             z, dz = flat(P[:n], Q[:n], real(v[:n]))
             node_z += list(z)
@@ -315,17 +315,17 @@ class Waves:
             width = int(np.clip(reach, 1, WIDEST))
         if not solved:
             return Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
-                          np.zeros((0, self.system.n_unknowns)), np.zeros(0, dtype=np.int32), 0)
+                          np.zeros((0, self.system.n_unknowns)), np.zeros((0, 2), dtype=np.int32), 0)
         coarse = np.array([x[0] for x in solved])
         cP, cQ, cV, cR = (np.array([x[j] for x in solved]) for j in (1, 2, 3, 4))
-        c_it = np.array([x[5] for x in solved], dtype=np.int32)
+        c_it = np.array([x[5] for x in solved], dtype=np.int32).reshape(-1, 2)
         i = len(coarse)
         end = int(coarse[i - 1]) + 1
         steps = np.arange(k, end)
         B = steps.size
         P, Q = np.empty((B, M, 3)), np.empty((B, M, 4))
         V, R = np.empty((B, self.system.n_unknowns)), np.empty((B, self.system.n_rows))
-        its = np.zeros(B, dtype=np.int32)
+        its = np.zeros((B, 2), dtype=np.int32)
         ok = np.zeros(B, dtype=bool)
         at = coarse[:i] - k
         P[at], Q[at], V[at], R[at], its[at], ok[at] = cP[:i], cQ[:i], cV[:i], cR[:i], c_it[:i], True
@@ -407,14 +407,14 @@ class Waves:
         J evaluated there) is solved with the kept factorization and refined twice against
         that J (the factorization is at most :data:`REFINE` away, so the refinement contracts
         the error by that much each time), or with a fresh one. Returns the residuals (B, R),
-        the scaled velocities (B, N), the linear solves (B,) and whether each step converged
+        the scaled velocities (B, N), the linear solves and factorizations (B, 2) and whether each step converged
         with a sound factorization (:meth:`_factor`) (B,), after at most ``budget`` steps."""
         solver, tol = self.solver, self.solver.options.tol
         row = solver.row
         B, N = len(steps), self.system.n_unknowns
         r = np.empty((B, self.system.n_rows))
         velocity = np.zeros((B, N))
-        iterations = np.zeros(B, dtype=np.int32)
+        work = np.zeros((B, 2), dtype=np.int32)  # linear solves, factorizations
         done = np.zeros(B, dtype=bool)
         sound = np.zeros(B, dtype=bool)
         L = np.zeros((B, N, N))
@@ -441,6 +441,7 @@ class Waves:
                 f = np.flatnonzero(fresh)
                 L[live[f]], sound[live[f]] = self._factor(_take(J, f), parts)
                 have[live[f]], since[live[f]] = True, 0.0
+                work[live[f], 1] += 1
             newton[live] = fresh
             if converged.any():
                 c = np.flatnonzero(converged)
@@ -453,7 +454,7 @@ class Waves:
                     v += self._solve(Lc, b - ((Jc @ v[..., None])[..., 0][:, None, :] @ Jc)[:, 0], parts)
                 velocity[lc[:, None], self.cols] = v
                 done[lc] = sound[lc]
-                iterations[lc] += 1
+                work[lc, 0] += 1
             g = np.flatnonzero(going)
             if not g.size:
                 break
@@ -463,10 +464,10 @@ class Waves:
                                               parts)
             last[lg] = norm[g]
             since[lg] += np.abs(step).max(axis=1)
-            iterations[lg] += 1
+            work[lg, 0] += 1
             P[lg], Q[lg] = self.moved(_take(P, lg), _take(Q, lg), step)
             live = lg
-        return r, velocity, iterations, done
+        return r, velocity, work, done
 
     def accepted(self, P: np.ndarray, Q: np.ndarray, velocity: np.ndarray, done: np.ndarray, steps: np.ndarray,
                  before: tuple[np.ndarray, np.ndarray, np.ndarray], t_before: float) -> int:
