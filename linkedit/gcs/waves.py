@@ -271,10 +271,10 @@ class Waves:
     def block(self, k: int, stop: int, pos: np.ndarray, ori: np.ndarray, vel: np.ndarray, first: int) -> Solved:
         """Solve the steps k … stop − 1 given the accepted ones before k (positions (T, M, 3),
         quaternions (T, M, 4), real velocities (T, M, 6) of the run, converged from step
-        ``first`` on, k − first ≥ :data:`START`): every
-        :data:`STRIDE`-th step (and the last) first, in waves from the polynomial through the
-        poses before it, then the steps between them at once from the cubic Hermite
-        interpolation of their neighbours; then the continuation's acceptance test."""
+        ``first`` on, k − first ≥ :data:`START`): steps about :data:`STRIDE` apart (and the
+        last) first, in waves from the osculating polynomial through the poses before them, then
+        the steps between them at once from the one through the poses around them; then the
+        continuation's acceptance test."""
         col, M = self.solver.col, self.system.n_members
         t = self.table.t
         solved: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
@@ -318,17 +318,16 @@ class Waves:
                           np.zeros((0, self.system.n_unknowns)), np.zeros((0, 2), dtype=np.int32), 0)
         coarse = np.array([x[0] for x in solved])
         cP, cQ, cV, cR = (np.array([x[j] for x in solved]) for j in (1, 2, 3, 4))
-        c_it = np.array([x[5] for x in solved], dtype=np.int32).reshape(-1, 2)
-        i = len(coarse)
-        end = int(coarse[i - 1]) + 1
+        c_it = np.array([x[5] for x in solved], dtype=np.int32)
+        end = int(coarse[-1]) + 1
         steps = np.arange(k, end)
         B = steps.size
         P, Q = np.empty((B, M, 3)), np.empty((B, M, 4))
         V, R = np.empty((B, self.system.n_unknowns)), np.empty((B, self.system.n_rows))
         its = np.zeros((B, 2), dtype=np.int32)
         ok = np.zeros(B, dtype=bool)
-        at = coarse[:i] - k
-        P[at], Q[at], V[at], R[at], its[at], ok[at] = cP[:i], cQ[:i], cV[:i], cR[:i], c_it[:i], True
+        at = coarse - k
+        P[at], Q[at], V[at], R[at], its[at], ok[at] = cP, cQ, cV, cR, c_it, True
         fine = np.setdiff1d(np.arange(B), at)
         if fine.size:
             # each from the osculating polynomial through the NODES solved poses around it
