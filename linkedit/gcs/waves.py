@@ -167,7 +167,9 @@ class Waves:
             rel[s.driven_rel] = np.swapaxes(tab.rel_inverse[steps], 0, 1)
         values = {blk.kind: np.repeat(blk.value, B) if v is None else v[steps].T.ravel()
                   for blk, v in zip(s.blocks, tab.values) if blk.kind in kinds.VALUE_KINDS}
-        par = StepParameters(0.0, V[:0, 0], rel.reshape(-1, 4), [None] * len(s.blocks), steps[:0], values)
+        # the kernels read only the relative orientations and the values; every input is active
+        par = StepParameters(0.0, np.zeros((0, 9)), rel.reshape(-1, 4), [None] * len(s.blocks),
+                             np.zeros(0, dtype=int), values)
         r = np.empty((B, s.n_rows))
         jacs: list[np.ndarray] = []
         for blk, wide in zip(s.blocks, lay.blocks):
