@@ -64,7 +64,8 @@ START = 2
 #: largest scaled move of a pose since its factorization for the factorization to serve its
 #: velocity (by two refinements: error ~REFINE³ relative)
 REFINE = 1e-5
-#: batches of at least this many poses factorize J's diagonal blocks (:attr:`Waves.parts`) apart
+#: J's diagonal blocks (:attr:`Waves.parts`) are found from the first batch of at least this
+#: many poses (no accidental zeros)
 SPLIT_FROM = 64
 #: batches of at most this many poses solve their triangular systems pose by pose
 FEW = 24
@@ -84,6 +85,26 @@ class Solved:
     velocity: np.ndarray
     work: np.ndarray
     accepted: int
+
+
+@dataclasses.dataclass
+class Part:
+    """A diagonal block of the Jacobian: its residual rows (Rp,) and unknowns (Np,)."""
+
+    rows: np.ndarray
+    cols: np.ndarray
+
+
+@dataclasses.dataclass
+class Jacobians:
+    """Scaled Jacobians of B poses, block by block of :attr:`Waves.parts`: (B, Rp, Np) each,
+    and whether a pose's J has entries off the blocks (``leaves``, (B,))."""
+
+    blocks: list[np.ndarray]
+    leaves: np.ndarray
+
+    def take(self, idx: np.ndarray) -> "Jacobians":
+        return Jacobians([_take(J, idx) for J in self.blocks], _take(self.leaves, idx))
 
 
 @dataclasses.dataclass
@@ -110,12 +131,13 @@ class Waves:
         self.system = solver.system
         self.table = table
         self._layouts: dict[int, _Layout] = {}
-        self._scatter: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        #: the diagonal blocks (row slice, unknown slice) of J in the order ``rows``, ``cols``
-        #: (original indices) where it has more than one ([]: one; None: not yet seen)
-        self.parts: list[tuple[slice, slice]] | None = None
-        self.rows = np.arange(self.system.n_rows)
-        self.cols = np.arange(self.system.n_unknowns)
+        #: per group, where a pose's Jacobian entries go, their scales, and which are off the
+        #: blocks (:meth:`_place`)
+        self._places: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
+        #: the diagonal blocks of J that solve apart (a planar linkage's in-plane and
+        #: out-of-plane unknowns), one block until a batch of SPLIT_FROM poses was seen
+        self.parts = [Part(np.arange(self.system.n_rows), np.arange(self.system.n_unknowns))]
+        self.decided = False
 
     @staticmethod
     def applies(solver: Solver) -> bool:
@@ -201,43 +223,66 @@ class Waves:
             out[:, blk.rows[sel]] = (jac[:, sel][..., 1, :] * w[:, :, None, :]).sum(axis=3)
         return out
 
-    def jacobian(self, jacs: list[np.ndarray]) -> np.ndarray:
-        """The scaled dense Jacobians (B, R, N) from the groups' (B, n, k, 2, 6) as
-        :meth:`evaluate` returns them (views of the kernels' constraint-major arrays, which are
-        scattered as they lie), rows and unknowns in the order of :attr:`parts` (decided
-        from the first call's with at least :data:`SPLIT_FROM` poses)."""
-        s, ne = self.system, self.solver.normal
-        B, R, N, M = jacs[0].shape[0], s.n_rows, s.n_unknowns, s.n_members
-        if B not in self._scatter:
-            if ne.group_scale is None:
-                raise ValueError("the solver's normal equations are built with their scale")
-            row_at, col_at = (np.argsort(self.rows), np.argsort(self.cols)) if self.parts else (np.arange(R), np.arange(N))
-            dests: list[np.ndarray] = []
-            scales: list[np.ndarray] = []
-            lanes = np.arange(B)[None, :, None, None, None]
-            for grp, sc in zip(s.groups, ne.group_scale):
-                n, k = grp.rows.shape
-                member = grp.members[:, None, None, :, None]
-                col = col_at[np.minimum(6 * member + np.arange(6), N - 1)]  # (n, 1, 1, 2, 6)
-                dest = lanes * (R * N) + row_at[grp.rows][:, None, :, None, None] * N + col  # (n, B, k, 2, 6)
-                world = np.broadcast_to(member >= M, dest.shape)
-                dests.append(np.where(world, B * R * N, dest).ravel())  # the world's entries: a dump slot
-                scales.append(np.broadcast_to(np.broadcast_to(sc, (n, k, 2, 6))[:, None], dest.shape).ravel())
-            self._scatter[B] = (np.concatenate(dests), np.concatenate(scales))
-        at, scale = self._scatter[B]
-        dense = np.zeros(B * R * N + 1)
-        dense[at] = np.concatenate([np.swapaxes(J, 0, 1).ravel() for J in jacs]) * scale
-        J = dense[:-1].reshape(B, R, N)
-        if self.parts is None and B >= SPLIT_FROM:  # many poses: no accidental zeros
-            self._decouple(J)
-            if self.parts:
-                self._scatter.clear()
+    def jacobian(self, jacs: list[np.ndarray]) -> Jacobians:
+        """The scaled Jacobians, dense block by block of :attr:`parts`, from the groups'
+        (B, n, k, 2, 6) as :meth:`evaluate` returns them (views of the kernels'
+        constraint-major arrays, put in place as they lie; the blocks are found from the first
+        call with at least :data:`SPLIT_FROM` poses)."""
+        B = jacs[0].shape[0]
+        if self._places is None:
+            self._places = self._place()
+        sizes = [len(p.rows) * len(p.cols) for p in self.parts]
+        flat = np.zeros((B, sum(sizes) + 1))  # the last entry: a dump for the world's entries and the off-block ones
+        leaves = np.zeros(B, dtype=bool)
+        for J, (at, scale, off) in zip(jacs, self._places):
+            J = J.reshape((B,) + at.shape)
+            flat[:, at] = J * scale
+            if off.any():
+                leaves |= (J[:, off] != 0.0).any(axis=1)
+        ends = np.cumsum(sizes)
+        blocks = [flat[:, e - n:e].reshape(B, len(p.rows), len(p.cols)) for p, e, n in zip(self.parts, ends, sizes)]
+        if not self.decided and B >= SPLIT_FROM:  # many poses: no accidental zeros
+            self.decided = True
+            if self._decouple(blocks[0]):
+                self._places = None
                 return self.jacobian(jacs)
-        return J
+        return Jacobians(blocks, leaves)
 
-    def _decouple(self, J: np.ndarray) -> None:
-        """Set :attr:`parts` from Jacobians J (B, R, N): the unknowns that no residual row ties
-        together (a planar mechanism's in-plane and out-of-plane ones) solve apart."""
+    def _place(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Per group: where a pose's Jacobian entries (n, k·12) go in the concatenated flat
+        blocks of :attr:`parts` (their total size for the world's and the off-block ones), their
+        scales (n, k·12), and which lie off the blocks (n, k·12)."""
+        s, ne = self.system, self.solver.normal
+        R, N, M = s.n_rows, s.n_unknowns, s.n_members
+        if ne.group_scale is None:
+            raise ValueError("the solver's normal equations are built with their scale")
+        part_row, part_col = np.empty(R, dtype=int), np.empty(N + 1, dtype=int)
+        at_row, at_col = np.empty(R, dtype=int), np.empty(N + 1, dtype=int)
+        start, starts = 0, []
+        for i, p in enumerate(self.parts):
+            part_row[p.rows], at_row[p.rows] = i, np.arange(len(p.rows))
+            part_col[p.cols], at_col[p.cols] = i, np.arange(len(p.cols))
+            starts.append(start)
+            start += len(p.rows) * len(p.cols)
+        part_col[N], at_col[N] = -1, 0  # the world
+        places = []
+        for grp, sc in zip(s.groups, ne.group_scale):
+            n, k = grp.rows.shape
+            member = grp.members[:, None, :, None]  # (n, 1, 2, 1)
+            col = np.where(member >= M, N, 6 * member + np.arange(6))  # (n, 1, 2, 6)
+            row = grp.rows[:, :, None, None]  # (n, k, 1, 1)
+            same = part_row[row] == part_col[col]
+            at = np.asarray(starts)[part_row[row]] + at_row[row] * np.array([len(p.cols) for p in self.parts])[part_row[row]] \
+                + at_col[col]
+            at = np.where(same, at, start)  # (n, k, 2, 6)
+            off = ~same & (col < N)
+            places.append((at.reshape(n, k * 12), np.broadcast_to(sc, (n, k, 2, 6)).reshape(n, k * 12),
+                           np.broadcast_to(off, (n, k, 2, 6)).reshape(n, k * 12)))
+        return places
+
+    def _decouple(self, J: np.ndarray) -> bool:
+        """Split :attr:`parts` (one block) by Jacobians J (B, R, N): the unknowns that no
+        residual row ties together solve apart; whether it split."""
         pattern = (J != 0.0).any(axis=0)
         R, N = pattern.shape
         root = np.arange(N)
@@ -255,18 +300,10 @@ class Waves:
         label = np.array([find(i) for i in range(N)])
         groups = [np.flatnonzero(label == g) for g in np.unique(label)]
         if len(groups) == 1:
-            self.parts = []
-            return
-        part_of = np.empty(N, dtype=int)
-        for i, g in enumerate(groups):
-            part_of[g] = i
-        row_part = np.array([part_of[np.flatnonzero(row)[0]] if row.any() else 0 for row in pattern])
-        self.cols = np.concatenate(groups)
-        self.rows = np.argsort(row_part, kind="stable")
-        col_stops = np.cumsum([len(g) for g in groups])
-        row_stops = np.cumsum(np.bincount(row_part, minlength=len(groups)))
-        self.parts = [(slice(r1 - rn, r1), slice(c1 - len(g), c1))
-                      for r1, rn, c1, g in zip(row_stops, np.bincount(row_part, minlength=len(groups)), col_stops, groups)]
+            return False
+        row_label = np.array([label[np.flatnonzero(row)[0]] if row.any() else label[0] for row in pattern])
+        self.parts = [Part(np.flatnonzero(row_label == label[g[0]]), g) for g in groups]
+        return True
 
     # ---- a block of steps -----------------------------------------------------------------
 
@@ -358,46 +395,43 @@ class Waves:
         phi = quat.log(quat.multiply(Q.reshape(-1, 4), quat.conjugate(Q0.reshape(-1, 4)))).reshape(B, M, 3)
         return np.concatenate([P - P0, phi], axis=2).reshape(B, -1) / self.solver.col
 
-    def _factor(self, J: np.ndarray, parts: list[tuple[slice, slice]]) -> tuple[np.ndarray, np.ndarray]:
-        """Cholesky factors L (B, N, N) of the scaled JᵀJ + μI (μ as the continuation's: 1e-13
-        of the largest diagonal entry, at least 1e-13) from Jacobians J (B, R, N) (as
-        :meth:`jacobian` orders them: one factor per block of ``parts``, a subset of
-        :attr:`parts`' or none), and whether each is sound (B,): positive definite with every
-        pivot above :data:`FREE_PIVOT` of that entry (no free or singular direction), and J
-        zero off its blocks."""
-        B, R, N = J.shape
-        parts = parts or [(slice(0, R), slice(0, N))]
-        normal = [np.ascontiguousarray(np.swapaxes(J[:, rs, cs], 1, 2)) @ J[:, rs, cs] for rs, cs in parts]
+    @staticmethod
+    def _factor(J: Jacobians) -> tuple[list[np.ndarray], np.ndarray]:
+        """Cholesky factors (B, Np, Np) of the scaled JᵀJ + μI, block by block (μ as the
+        continuation's: 1e-13 of the largest diagonal entry, at least 1e-13), and whether each
+        pose's is sound (B,): positive definite with every pivot above :data:`FREE_PIVOT` of
+        that entry (no free or singular direction), and J zero off its blocks."""
+        normal = [np.swapaxes(Jp, 1, 2) @ Jp for Jp in J.blocks]
+        B = len(J.leaves)
         top = np.maximum(np.max([np.diagonal(H, axis1=1, axis2=2).max(axis=1) for H in normal], axis=0), 1.0)
-        L = np.zeros((B, N, N))
-        sound = np.ones(B, dtype=bool)
-        for (rs, cs), H in zip(parts, normal):
+        factors = []
+        sound = ~J.leaves
+        for H in normal:
             n = H.shape[1]
             H.reshape(B, n * n)[:, ::n + 1] += (1e-13 * top)[:, None]
             try:
-                block = np.linalg.cholesky(H)
+                L = np.linalg.cholesky(H)
             except np.linalg.LinAlgError:  # some pose is not positive definite: one by one
-                block = np.tile(np.eye(n), (B, 1, 1))
+                L = np.tile(np.eye(n), (B, 1, 1))
                 for i, h in enumerate(H):
                     try:
-                        block[i] = np.linalg.cholesky(h)
+                        L[i] = np.linalg.cholesky(h)
                     except np.linalg.LinAlgError:
                         sound[i] = False
-            L[:, cs, cs] = block
-            sound &= (np.diagonal(block, axis1=1, axis2=2) ** 2 >= FREE_PIVOT * top[:, None]).all(axis=1)
-            if len(parts) > 1:  # a pose whose J leaves the blocks (one out of the plane) goes step by step
-                sound &= ~(J[:, rs, :cs.start] != 0.0).any(axis=(1, 2)) & ~(J[:, rs, cs.stop:] != 0.0).any(axis=(1, 2))
-        return L, sound
+            factors.append(L)
+            sound &= (np.diagonal(L, axis1=1, axis2=2) ** 2 >= FREE_PIVOT * top[:, None]).all(axis=1)
+        return factors, sound
 
     @staticmethod
-    def _solve(L: np.ndarray, b: np.ndarray, parts: list[tuple[slice, slice]]) -> np.ndarray:
-        """x (B, N) of L Lᵀ x = b (B, N), block by block of ``parts`` (L's)."""
-        if not parts:
-            return cholesky_solve(L, b)
-        x = np.empty_like(b)
-        for _, cs in parts:
-            x[:, cs] = cholesky_solve(L[:, cs, cs], b[:, cs])
-        return x
+    def _solve(factors: list[np.ndarray], b: list[np.ndarray]) -> list[np.ndarray]:
+        """x of L Lᵀ x = b block by block: factors (B, Np, Np) and right-hand sides (B, Np)."""
+        return [cholesky_solve(L, bp) if bp.any() else np.zeros_like(bp)  # a planar linkage's out-of-plane
+                for L, bp in zip(factors, b)]                                 # part rarely is
+
+    @staticmethod
+    def _gradient(J: Jacobians, r: np.ndarray, parts: list[Part]) -> list[np.ndarray]:
+        """Jᵀ r block by block (B, Np) for residual rows r (B, R)."""
+        return [(r[:, p.rows][:, None, :] @ Jp)[:, 0] for p, Jp in zip(parts, J.blocks)]
 
     def solve(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
               budget: int = ITERATIONS) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -408,8 +442,9 @@ class Waves:
         J evaluated there) is solved with the kept factorization and refined twice against
         that J (the factorization is at most :data:`REFINE` away, so the refinement contracts
         the error by that much each time), or with a fresh one. Returns the residuals (B, R),
-        the scaled velocities (B, N), the linear solves and factorizations (B, 2) and whether each step converged
-        with a sound factorization (:meth:`_factor`) (B,), after at most ``budget`` steps."""
+        the scaled velocities (B, N), the linear solves and factorizations (B, 2) and whether
+        each step converged with a sound factorization (:meth:`_factor`) (B,), after at most
+        ``budget`` steps."""
         solver, tol = self.solver, self.solver.options.tol
         row = solver.row
         B, N = len(steps), self.system.n_unknowns
@@ -418,21 +453,21 @@ class Waves:
         work = np.zeros((B, 2), dtype=np.int32)  # linear solves, factorizations
         done = np.zeros(B, dtype=bool)
         sound = np.zeros(B, dtype=bool)
-        L = np.zeros((B, N, N))
+        factors: list[np.ndarray] | None = None  # per block (B, Np, Np), once the blocks are known
         have = np.zeros(B, dtype=bool)  # a factorization is kept
         since = np.zeros(B)  # largest scaled move since it was taken
         last = np.full(B, np.inf)  # residual norm before the last step
         newton = np.zeros(B, dtype=bool)  # the last step used a factorization of its own iterate
         live = np.arange(B)  # still iterating
-        parts: list[tuple[slice, slice]] = []  # block by block where the blocks pay for their loops
         for _ in range(budget + 1):
             rl, jacs = self.evaluate(_take(P, live), _take(Q, live), _take(steps, live), True)
             r[live] = rl
             rs = rl * row
             norm = np.sqrt((rs * rs).sum(axis=1))
             J = self.jacobian(jacs)
-            if B >= SPLIT_FROM and self.parts:
-                parts = self.parts
+            parts = self.parts
+            if factors is None:
+                factors = [np.zeros((B, len(p.cols), len(p.cols))) for p in parts]
             converged = np.abs(rs).max(axis=1) <= tol
             slow = norm > 0.1 * last[live]
             # a Newton step must contract twofold; a chord step that did not is retried afresh
@@ -440,20 +475,25 @@ class Waves:
             fresh = going & (~have[live] | slow) | converged & (~have[live] | (since[live] > REFINE))
             if fresh.any():
                 f = np.flatnonzero(fresh)
-                L[live[f]], sound[live[f]] = self._factor(_take(J, f), parts)
+                new, sound[live[f]] = self._factor(J.take(f))
+                for L, Lf in zip(factors, new):
+                    L[live[f]] = Lf
                 have[live[f]], since[live[f]] = True, 0.0
                 work[live[f], 1] += 1
             newton[live] = fresh
             if converged.any():
                 c = np.flatnonzero(converged)
                 lc = live[c]
-                Jc, Lc = _take(J, c), _take(L, lc)
+                Jc, Lc = J.take(c), [_take(L, lc) for L in factors]
                 rt = self.time_derivative(_take(Q, lc), steps[lc], [_take(j, c) for j in jacs])
-                b = ((-rt * row)[:, self.rows][:, None, :] @ Jc)[:, 0]
-                v = self._solve(Lc, b, parts)
+                b = self._gradient(Jc, -rt * row, parts)
+                v = self._solve(Lc, b)
                 for _ in range(2):  # iterative refinement against this J
-                    v += self._solve(Lc, b - ((Jc @ v[..., None])[..., 0][:, None, :] @ Jc)[:, 0], parts)
-                velocity[lc[:, None], self.cols] = v
+                    fix = self._solve(Lc, [bp - ((Jp @ vp[..., None])[..., 0][:, None, :] @ Jp)[:, 0]
+                                           for bp, Jp, vp in zip(b, Jc.blocks, v)])
+                    v = [vp + dp for vp, dp in zip(v, fix)]
+                for p, vp in zip(parts, v):
+                    velocity[lc[:, None], p.cols] = vp
                 done[lc] = sound[lc]
                 work[lc, 0] += 1
             g = np.flatnonzero(going)
@@ -461,8 +501,8 @@ class Waves:
                 break
             lg = live[g]
             step = np.empty((len(g), N))
-            step[:, self.cols] = -self._solve(_take(L, lg), (_take(rs, g)[:, self.rows][:, None, :] @ _take(J, g))[:, 0],
-                                              parts)
+            for p, x in zip(parts, self._solve([_take(L, lg) for L in factors], self._gradient(J.take(g), _take(rs, g), parts))):
+                step[:, p.cols] = -x
             last[lg] = norm[g]
             since[lg] += np.abs(step).max(axis=1)
             work[lg, 0] += 1
@@ -499,8 +539,10 @@ class Waves:
         x = (t_nodes - t0) / span  # normalized times: well-conditioned systems
         powers = np.arange(2 * t_nodes.shape[1])
         A = np.concatenate([x[..., None] ** powers, powers * x[..., None] ** np.maximum(powers - 1, 0)], axis=1)
-        coefficients = np.linalg.solve(A, np.concatenate([nodes, rates * span[..., None]], axis=1))
-        Z = (((t[:, None] - t0) / span) ** powers)[:, None, :] @ coefficients
+        # the interpolant's weights on the node values and rates: w A = (1, τ, τ², …) at τ
+        w = np.linalg.solve(np.swapaxes(A, 1, 2), (((t[:, None] - t0) / span) ** powers)[..., None])[..., 0]
+        k = t_nodes.shape[1]
+        Z = w[:, None, :k] @ nodes + (w[:, None, k:] * span[..., None]) @ rates
         return self._split(Z[:, 0])
 
     def extrapolated(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
