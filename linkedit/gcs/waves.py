@@ -62,6 +62,8 @@ WIDEST = 16
 #: be predicted from
 CORRECTIONS = 2
 ROUGH = 1e-4
+#: the largest prediction error (scaled) a wave's width aims for
+REACH = 1e-4
 #: solved poses (and their velocities) the polynomial extrapolation goes through
 NODES = 4
 #: converged steps a block starts from
@@ -69,6 +71,7 @@ START = 2
 #: largest scaled move of a pose since its factorization for the factorization to serve its
 #: velocity (by two refinements: error ~REFINE³ relative)
 REFINE = 1e-5
+FRESH = 1e-9
 #: J's diagonal blocks (:attr:`Waves.parts`) are found from the first batch of at least this
 #: many poses (no accidental zeros)
 SPLIT_FROM = 64
@@ -352,9 +355,9 @@ class Waves:
                 stride = max(1, stride // 2)
             elif error < 1e-9:
                 stride = min(2 * stride, WIDEST_STRIDE)
-            # as many steps as the extrapolation reaches within 1e-4 of the size (its error grows
-            # about as the fifth power of the distance)
-            reach = (1e-4 / max(error, 1e-16)) ** 0.2 * (1 if error > 1e-6 else 0.5 if error < 1e-9 else 1)
+            # as many steps as the extrapolation reaches within REACH of the size (its error
+            # grows about as the fifth power of the distance)
+            reach = (REACH / max(error, 1e-16)) ** 0.2 * (1 if error > 1e-6 else 0.5 if error < 1e-9 else 1)
             width = int(np.clip(reach, 1, WIDEST))
         if not coarse:
             return Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
@@ -369,9 +372,8 @@ class Waves:
             # each from the osculating polynomial through the NODES poses around it
             nt, nz, ndz = np.array(node_t), np.array(node_z), np.array(node_dz)
             right = np.searchsorted(nt, t[k + fine])  # the node after each fine step
-            lo = np.clip(right - NODES // 2, 0, max(len(nt) - NODES, 0))
-            around = lo[:, None] + np.arange(min(NODES, len(nt)))
-            P[fine], Q[fine] = self.osculating(nt[around], nz[around], ndz[around], t[k + fine])
+            around = np.clip(right - NODES // 2, 0, max(len(nt) - NODES, 0))
+            P[fine], Q[fine] = self.osculating(nt, nz, ndz, around, t[k + fine])
         R, V, work, ok = self.solve(P, Q, steps)
         work[at] += CORRECTIONS  # the rough corrections: a linear solve and a factorization each
         before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
@@ -515,7 +517,9 @@ class Waves:
                 rt = self.time_derivative(_take(Q, lc), steps[lc], [_take(j, c) for j in jacs])
                 b = self._gradient(Jc, -rt * row, parts)
                 v = self._solve(Lc, b)
-                for _ in range(2):  # iterative refinement against this J
+                # iterative refinement against this J: once where the factorization is of a
+                # pose at most FRESH away, twice up to REFINE
+                for _ in range(1 if (since[lc] <= FRESH).all() else 2):
                     fix = self._solve(Lc, [bp - ((Jp @ vp[..., None])[..., 0][:, None, :] @ Jp)[:, 0]
                                            for bp, Jp, vp in zip(b, Jc.blocks, v)])
                     v = [vp + dp for vp, dp in zip(v, fix)]
@@ -555,33 +559,44 @@ class Waves:
 
     # ---- predictions ----------------------------------------------------------------------
 
-    def osculating(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
+    def osculating(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray, around: np.ndarray,
                    t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Positions (B, M, 3) and quaternions (B, M, 4) at times ``t`` (B,), each from the
-        osculating polynomial (degree 2k − 1) through its own k solved poses and their time
-        derivatives (B, k, 7M) (:func:`flat`) at ``t_nodes`` (B, k) (quaternions component-wise,
-        then normalized)."""
-        t0 = t_nodes[:, -1:]
-        span = np.maximum(np.ptp(t_nodes, axis=1), np.abs(t - t0[:, 0]))[:, None]
-        x = (t_nodes - t0) / span  # normalized times: well-conditioned systems
-        powers = np.arange(2 * t_nodes.shape[1])
-        A = np.concatenate([x[..., None] ** powers, powers * x[..., None] ** np.maximum(powers - 1, 0)], axis=1)
+        osculating polynomial (degree 2k − 1) through k consecutive ones of n solved poses
+        (the first of them ``around`` (B,)) and their time derivatives: times (n,), flat poses
+        and derivatives (n, 7M) (:func:`flat`; quaternions component-wise, then normalized)."""
+        k = min(NODES, len(t_nodes))
+        first, which = np.unique(around, return_inverse=True)
+        window = first[:, None] + np.arange(k)  # (W, k): the node sets in use
+        tw = t_nodes[window]
+        t0, span = tw[:, -1], np.maximum(np.ptp(tw, axis=1), np.finfo(float).tiny)
         # the interpolant's weights on the node values and rates: w A = (1, τ, τ², …) at τ
-        w = np.linalg.solve(np.swapaxes(A, 1, 2), (((t[:, None] - t0) / span) ** powers)[..., None])[..., 0]
-        k = t_nodes.shape[1]
-        Z = w[:, None, :k] @ nodes + (w[:, None, k:] * span[..., None]) @ rates
+        inverse = np.linalg.inv(_hermite((tw - t0[:, None]) / span[:, None]))[which]  # (B, 2k, 2k)
+        w = (((t - t0[which]) / span[which])[:, None] ** np.arange(2 * k))[:, None, :] @ inverse
+        idx = window[which]
+        Z = w[:, :, :k] @ nodes[idx] + (w[:, :, k:] * span[which][:, None, None]) @ rates[idx]
         return self._split(Z[:, 0])
 
     def extrapolated(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
                      t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """As :meth:`osculating`, every time from the same k poses (k,) / (k, 7M)."""
-        B = len(t)
-        return self.osculating(np.broadcast_to(t_nodes, (B,) + t_nodes.shape),
-                               np.broadcast_to(nodes, (B,) + nodes.shape), np.broadcast_to(rates, (B,) + rates.shape), t)
+        """As :meth:`osculating`, every time from the same k poses: times (k,), flat poses and
+        their time derivatives (k, 7M), normalized by the farthest time."""
+        t0, k = t_nodes[-1], len(t_nodes)
+        span = max(float(np.ptp(t_nodes)), float(np.abs(t - t0).max()))
+        A = _hermite((t_nodes - t0) / span)
+        w = np.linalg.solve(A.T, ((t - t0) / span) ** np.arange(2 * k)[:, None])  # (2k, B)
+        return self._split(w[:k].T @ nodes + (span * w[k:].T) @ rates)
 
     def _split(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         M = self.system.n_members
         return Z[:, :3 * M].reshape(-1, M, 3), quat.normalize(Z[:, 3 * M:].reshape(-1, M, 4))
+
+
+def _hermite(x: np.ndarray) -> np.ndarray:
+    """The osculating interpolation matrices (..., 2k, 2k) at normalized node times x (..., k):
+    rows the values then the derivatives of the monomials 1, x, …, x^(2k−1)."""
+    powers = np.arange(2 * x.shape[-1])
+    return np.concatenate([x[..., None] ** powers, powers * x[..., None] ** np.maximum(powers - 1, 0)], axis=-2)
 
 
 def flat(P: np.ndarray, Q: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
