@@ -401,7 +401,8 @@ class Waves:
                 step[:, p.cols] = -x
             size = np.abs(step).max(axis=1)
             error = float(size[0]) if i == 0 else error
-            rt = self.time_derivative(Q, steps, jacs)
+            if i == CORRECTIONS - 1:
+                rt = self.time_derivative(Q, steps, jacs)
             P[:], Q[:] = self.moved(P, Q, step)
         velocity = np.empty((B, N))
         for p, x in zip(parts, self._solve(factors, self._gradient(J, -rt * row, parts))):
