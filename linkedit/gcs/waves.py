@@ -190,7 +190,7 @@ class Waves:
             V = V.copy()
             V[s.driven_vectors] = np.swapaxes(tab.vectors[steps], 0, 1)
         R = quat.to_matrix(Qm).reshape(-1, 9)
-        W = (R.take(lay.member, axis=0) * V.reshape(-1, 9)).reshape(-1, 3, 3).sum(axis=2)
+        W = np.einsum("nij,nj->ni", R.take(lay.member, axis=0).reshape(-1, 3, 3), V.reshape(-1, 9)[:, :3])
         X = Pm.take(lay.member, axis=0) + W
         rel = lay.rel_inverse
         if tab.rel_inverse.shape[1]:
