@@ -64,6 +64,9 @@ CORRECTIONS = 2
 ROUGH = 1e-4
 #: the largest prediction error (scaled) a wave's width aims for
 REACH = 1e-4
+#: the first prediction error of a wave (scaled) below which the spacing doubles, and above
+#: which it halves
+LOW, HIGH = 1e-9, 1e-6
 #: solved poses (and their velocities) the polynomial extrapolation goes through
 NODES = 4
 #: converged steps a block starts from
@@ -350,14 +353,14 @@ class Waves:
             node_z += list(z)
             node_dz += list(dz)
             here = int(ahead[n - 1])
-            # the spacing keeps the first prediction's error between 1e-9 and 1e-6 of the size
-            if error > 1e-6:
+            # the spacing keeps the first prediction's error between LOW and HIGH (of the size)
+            if error > HIGH:
                 stride = max(1, stride // 2)
-            elif error < 1e-9:
+            elif error < LOW:
                 stride = min(2 * stride, WIDEST_STRIDE)
             # as many steps as the extrapolation reaches within REACH of the size (its error
             # grows about as the fifth power of the distance)
-            reach = (REACH / max(error, 1e-16)) ** 0.2 * (1 if error > 1e-6 else 0.5 if error < 1e-9 else 1)
+            reach = (REACH / max(error, 1e-16)) ** 0.2 * (1 if error > HIGH else 0.5 if error < LOW else 1)
             width = int(np.clip(reach, 1, WIDEST))
         if not coarse:
             return Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
