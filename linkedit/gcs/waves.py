@@ -80,14 +80,14 @@ STILL_DONE = 1e-8
 #: free direction (predictions from poses only, two corrections whatever their error) the
 #: second ones
 REACH, LOW, HIGH = 1e-4, 1e-9, 1e-6
-REACH_FREE, LOW_FREE, HIGH_FREE = 1e-2, 1e-7, 1e-4
+REACH_FREE, LOW_FREE, HIGH_FREE = 1e-1, 1e-7, 1e-4
 #: solved poses (and their velocities) the polynomial extrapolation goes through
 NODES = 4
 #: ... where J has a free direction: poses only, for the polynomial through them (the
 #: step-by-step poses keep it still from step to step, their velocities at every instant: the
 #: two differ along it by ~1e-6 of the size per step, which the osculating polynomial would
 #: amplify)
-VALUES = 8
+VALUES = 6
 #: converged steps a block starts from
 START = 2
 #: largest scaled move of a pose since its factorization for the factorization to serve its
@@ -425,14 +425,15 @@ class Waves:
                 P[fine], Q[fine] = self._split(lagrange_between(nt, nz, around, t[k + fine], count))
             else:
                 P[fine], Q[fine] = self.osculating(nt, nz, ndz, around, t[k + fine])
-        R, V, work, ok, null = self.solve(P, Q, steps)
+        R, V, work, ok, null = self.solve(P, Q, steps, velocities=not self.free)
         work[at] += CORRECTIONS  # the rough corrections: a linear solve and a factorization each
-        for _ in range(STILL_PASSES if self.free else 0):
-            # the free direction kept still from step to step, then solved again there
-            moved = self.keep_still(P, Q, null, pos[k - 1], ori[k - 1])
-            R, V, again, ok, null = self.solve(P, Q, steps)
+        for i in range(STILL_PASSES if self.free else 0):
+            # the free direction kept still from step to step, then solved again there (the
+            # velocities at the last pass)
+            last = self.keep_still(P, Q, null, pos[k - 1], ori[k - 1]) <= STILL_DONE or i == STILL_PASSES - 1
+            R, V, again, ok, null = self.solve(P, Q, steps, velocities=last)
             work += again
-            if moved <= STILL_DONE:
+            if last:
                 break
         before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
         n = self.accepted(P, Q, V, ok, null, steps, before, float(t[k - 1]))
@@ -618,8 +619,8 @@ class Waves:
         """Jᵀ r block by block (B, Np) for residual rows r (B, R)."""
         return [(r[:, p.rows][:, None, :] @ Jp)[:, 0] for p, Jp in zip(parts, J.blocks)]
 
-    def solve(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
-              budget: int = ITERATIONS) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def solve(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray, budget: int = ITERATIONS,
+              velocities: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Least-norm Gauss–Newton at the table's ``steps`` (B,) from poses P (B, M, 3),
         Q (B, M, 4) (moved in place). A pose's JᵀJ + μI is factorized at its first iterate and
         again only where a step reusing it (chord) contracted the residual less than tenfold;
@@ -631,7 +632,7 @@ class Waves:
         (B, R), the scaled velocities (B, N), the linear solves and factorizations (B, 2),
         whether each step converged with a sound factorization (:meth:`_factor`) (B,), and J's
         unit null vectors there (B, N) where it has a free direction (else zeros), after at
-        most ``budget`` steps."""
+        most ``budget`` steps; without ``velocities``, the velocities are left zero."""
         solver, tol = self.solver, self.solver.options.tol
         row = solver.row
         B, N = len(steps), self.system.n_unknowns
@@ -672,7 +673,9 @@ class Waves:
                 have[live[f]], since[live[f]] = True, 0.0
                 work[live[f], 1] += 1
             newton[live] = fresh
-            if converged.any():
+            if converged.any() and not velocities:
+                done[live[converged]] = kept.sound[live[converged]]
+            elif converged.any():
                 c = np.flatnonzero(converged)
                 lc = live[c]
                 Jc, Fc = J.take(c), kept.take(lc)
