@@ -294,12 +294,14 @@ class Solver:
         rs = r * self.row
         return rs, float(np.abs(rs).max()) if rs.size else 0.0, math.sqrt(rs @ rs)
 
-    def correction(self, x: State, rs: np.ndarray, anchor: State, linear: Linear) -> np.ndarray:
+    def correction(self, x: State, rs: np.ndarray, anchor: State, linear: Linear,
+                   d: np.ndarray | None = None) -> np.ndarray:
         """The minimum-change correction (N,) at x for the scaled residual ``rs``: least norm
-        against it, and the change from the anchor along the null space of J taken back."""
+        against it, and the change from the anchor along the null space of J taken back (``d``:
+        x's displacement from the anchor (N,), when known)."""
         e = -linear.least_norm(rs)
         if linear.null is not None:
-            e -= linear.null @ (linear.null.T @ self.displacement(x, anchor))
+            e -= linear.null @ (linear.null.T @ (self.displacement(x, anchor) if d is None else d))
         return e
 
     # ---- one pose ---------------------------------------------------------------------------
@@ -323,18 +325,18 @@ class Solver:
             x, r, rs, err, norm, total = x1, r1, rs1, err1, norm1, total + e
         return x, r, True, total
 
-    def newton(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable,
-               step: int) -> tuple[State, np.ndarray, bool, Linear | None, np.ndarray]:
-        """Minimum-change Newton from a predicted pose: one correction with ``linear`` (a nearby
-        pose's factorization), the Jacobian evaluated with the residual there and factorized,
-        then :meth:`chord` with it. Returns the best (state, residual), whether it converged,
-        the new linearization when the pose moved at most :data:`REUSE` since it (it then
-        serves the pose: velocity, null space, next step) else None, and the sum of the
-        corrections (N,)."""
+    def newton(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable, step: int,
+               d: np.ndarray | None = None) -> tuple[State, np.ndarray, bool, Linear | None, np.ndarray]:
+        """Minimum-change Newton from a predicted pose (``d``: its displacement from the anchor
+        (N,), when known): one correction with ``linear`` (a nearby pose's factorization), the
+        Jacobian evaluated with the residual there and factorized, then :meth:`chord` with it.
+        Returns the best (state, residual), whether it converged, the new linearization when
+        the pose moved at most :data:`REUSE` since it (it then serves the pose: velocity, null
+        space, next step) else None, and the sum of the corrections (N,)."""
         rs, err, norm = self.scaled(r)
         if err <= self.options.tol:
             return x, r, True, None, np.zeros(self.system.n_unknowns)
-        e = self.correction(x, rs, anchor, linear)
+        e = self.correction(x, rs, anchor, linear, d)
         x1 = self.moved(x, e)
         ev = self.system.evaluate(x1, table, step, jacobian=True)
         self.iterations += 1
@@ -405,15 +407,17 @@ class Solver:
         return x, r, linear
 
     def pose(self, start: State, anchor: State, table: StepTable, step: int, linear: Linear | None = None,
-             budget: int | None = None) -> tuple[State, np.ndarray, int, Linear | Evaluation | None, np.ndarray | None]:
+             budget: int | None = None, d: np.ndarray | None = None
+             ) -> tuple[State, np.ndarray, int, Linear | Evaluation | None, np.ndarray | None]:
         """Solve one time from ``start``, closest to ``anchor``: :meth:`newton` with ``linear``
-        if given, then Levenberg–Marquardt (``budget`` iterations). Returns (state, residual,
-        status, what is known of the state's linearization: a Linear, an Evaluation or None,
-        the sum of the corrections from ``start`` (N,) or None when Levenberg–Marquardt took it)."""
+        if given (``d``: the start's displacement from the anchor, when known), then
+        Levenberg–Marquardt (``budget`` iterations). Returns (state, residual, status, what is
+        known of the state's linearization: a Linear, an Evaluation or None, the sum of the
+        corrections from ``start`` (N,) or None when Levenberg–Marquardt took it)."""
         r = self._residual(start, table, step)
         x = start
         if linear is not None:
-            x, r, ok, known, total = self.newton(start, r, anchor, linear, table, step)
+            x, r, ok, known, total = self.newton(start, r, anchor, linear, table, step, d)
             if ok:
                 return x, r, CONVERGED, known, total
         if self.error(r) <= self.options.tol:
@@ -463,9 +467,11 @@ class Solver:
             guess, g = here.extrapolated(s), second
             if guess is not None:
                 g = self.displacement(guess, here.state)
+            exact = guess is not None and here is good  # g: the guess's displacement from the anchor
             if guess is None or np.abs(g - second).max() >= opt.predictor_tol:
-                guess, g = self.moved(here.state, second), second
-            x, r, status, known, total = self.pose(guess, anchor, tab, k, here.linear, budget=SUBSTEP_ITERATIONS)
+                guess, g, exact = self.moved(here.state, second), second, False
+            x, r, status, known, total = self.pose(guess, anchor, tab, k, here.linear, SUBSTEP_ITERATIONS,
+                                                   g if exact else None)
             # the pose's displacement from here: the prediction's and the corrections' (to first
             # order in the corrections, ample for the test), or taken afresh after LM
             moved = g + total if total is not None else self.displacement(x, here.state)
