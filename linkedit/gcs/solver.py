@@ -21,7 +21,7 @@ Jacobians until d ⊥ null(J) to :attr:`Options.still_tol`. The rank of J read o
 factorization is kept per step (:attr:`Run.rank`) for the diagnostics.
 
 **Continuation.** From a solved pose x at time s, with its factorization and exact velocity v
-(J v = −∂r/∂t, least norm), a step of length h starts from the polynomial through the last ten
+(J v = −∂r/∂t, least norm), a step of length h starts from the polynomial through the last eight
 accepted poses (or, where that strays from it, from x ⊕ (h·v + ½h²·a), a the change of velocity
 since the pose before), and corrects it once with the factorization of x (one back-substitution);
 the Jacobian at the corrected pose is evaluated with its residual and factorized, and corrects
@@ -90,8 +90,9 @@ SUBSTEP_ITERATIONS = 20
 #: (velocity, null space, next step): the velocity is then exact to this relative order
 REUSE = 1e-10
 #: degree of the polynomial through the last accepted poses that starts a step when it agrees
-#: with the second-order tangent prediction
-PREDICT_ORDER = 9
+#: with the second-order tangent prediction (higher degrees amplify the poses' own errors, up to
+#: the tolerance, more than they follow the motion at a few hundred steps per cycle)
+PREDICT_ORDER = 7
 
 
 @dataclass
