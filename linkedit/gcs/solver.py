@@ -65,7 +65,7 @@ import numpy as np
 
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.acceleration import acceleration
-from linkedit.gcs.linalg import Factor, Linearization, NormalEquations
+from linkedit.gcs.linalg import Factor, Linearization, NormalEquations, orthonormal
 from linkedit.gcs.system import Evaluation, State, StepTable, System
 
 CONVERGED, INCONSISTENT, NOT_CONVERGED = 0, 1, 2
@@ -173,7 +173,7 @@ class Pose:
         """The next accepted pose of the continuation."""
         ts, Z = self.history or (np.array([self.t]), _flat(self.state)[None])
         keep = slice(-PREDICT_ORDER, None)
-        history = (np.append(ts[keep], t), np.concatenate([Z[keep], _flat(state)[None]]))
+        history = (np.concatenate([ts[keep], [t]]), np.concatenate([Z[keep], _flat(state)[None]]))
         return Pose(t, state, r, linear, velocity, (velocity - self.velocity) / (t - self.t), history)
 
     def extrapolated(self, t: float) -> State | None:
@@ -246,14 +246,15 @@ class Solver:
         J = lin.JT.T
         if f not in self._probes:
             self._probes[f] = np.random.default_rng(f).standard_normal((N, f))
-        Y = np.column_stack([factor.solve(factor.solve(b)) for b in self._probes[f].T])
-        scale = np.sqrt(top)
+        Y = factor.solve(factor.solve(self._probes[f]))
+        scale = math.sqrt(top)
         if f == 1:  # the usual case (one idle spin): no decomposition needed
-            span = Y / np.linalg.norm(Y)
-            if float(np.linalg.norm(J @ span)) <= NULL_CLEAN * scale:
+            span = Y / math.sqrt(Y[:, 0] @ Y[:, 0])
+            seen = J @ span[:, 0]
+            if math.sqrt(seen @ seen) <= NULL_CLEAN * scale:
                 return span, N - 1
         else:
-            span = np.linalg.qr(Y)[0]
+            span = orthonormal(Y)
             _, sv, Vt = np.linalg.svd(np.asarray(J @ span))
             sv = np.concatenate([sv, np.zeros(f - sv.size)])  # fewer rows than f: the rest are zero
             zero = sv <= NULL_CLEAN * scale
@@ -300,20 +301,23 @@ class Solver:
         """The minimum-change correction (N,) at x for the scaled residual ``rs``: least norm
         against it, and the change from the anchor along the null space of J taken back (``d``:
         x's displacement from the anchor (N,), when known)."""
-        e = -linear.least_norm(rs)
-        if linear.null is not None:
-            e -= linear.null @ (linear.null.T @ (self.displacement(x, anchor) if d is None else d))
-        return e
+        y = linear.factor.solve(linear.lin.gradient(rs))
+        if linear.null is None:
+            return -y
+        if d is None:
+            d = self.displacement(x, anchor)
+        return linear.null @ (linear.null.T @ (y - d)) - y  # −(y − P y) − P d, P the null projector
 
     # ---- one pose ---------------------------------------------------------------------------
 
-    def chord(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable,
-              step: int) -> tuple[State, np.ndarray, bool, np.ndarray]:
+    def chord(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable, step: int,
+              scaled: tuple[np.ndarray, float, float] | None = None) -> tuple[State, np.ndarray, bool, np.ndarray]:
         """Minimum-change simplified Newton with a kept factorization while it contracts the
-        residual at least twofold: the best (state, residual), whether it converged, and the
-        sum of the corrections that led to the state (N,)."""
+        residual at least twofold (``scaled``: :meth:`scaled` of r, when known): the best
+        (state, residual), whether it converged, and the sum of the corrections that led to the
+        state (N,)."""
         tol = self.options.tol
-        rs, err, norm = self.scaled(r)
+        rs, err, norm = scaled or self.scaled(r)
         total = np.zeros(self.system.n_unknowns)
         while err > tol:
             e = self.correction(x, rs, anchor, linear)
@@ -341,11 +345,12 @@ class Solver:
         x1 = self.moved(x, e)
         ev = self.system.evaluate(x1, table, step, jacobian=True)
         self.iterations += 1
-        norm1 = self.scaled(ev.r)[2]
+        scaled = self.scaled(ev.r)
+        norm1 = scaled[2]
         if not norm1 < 0.5 * norm or not np.isfinite(norm1):
             return (x1, ev.r, False, None, e) if norm1 < norm else (x, r, False, None, 0.0 * e)
         linear = self.linearize(x1, table, step, ev)
-        x, r, ok, more = self.chord(x1, ev.r, anchor, linear, table, step)
+        x, r, ok, more = self.chord(x1, ev.r, anchor, linear, table, step, scaled)
         return x, r, ok, linear if np.abs(more).max(initial=0.0) <= REUSE else None, e + more
 
     def levenberg_marquardt(self, x: State, r: np.ndarray, table: StepTable, step: int,
@@ -394,7 +399,7 @@ class Solver:
             if linear.null is None:
                 break
             d = self.displacement(x, anchor)
-            free = d - linear.still(d)
+            free = linear.null @ (linear.null.T @ d)
             if np.abs(free).max(initial=0.0) <= opt.still_tol:
                 break
             x1 = self.moved(x, -free - linear.least_norm(r * self.row))
@@ -639,7 +644,9 @@ def lagrange_weights(nodes: np.ndarray, t: float) -> np.ndarray:
     """Weights (k,) of the Lagrange polynomial through distinct ``nodes`` (k,) at a time ``t``
     that is none of them: w_j = ∏_{i≠j} (t − t_i) / (t_j − t_i)."""
     d = t - nodes
-    return (np.prod(d) / d) / (nodes[:, None] - nodes + np.eye(len(nodes))).prod(axis=1)
+    between = nodes[:, None] - nodes  # t_j − t_i, 1 on the diagonal (i = j is left out)
+    between.flat[::len(nodes) + 1] = 1.0
+    return (d.prod() / d) / between.prod(axis=1)
 
 
 def solve_slsqp(solver: Solver, start: State, table: StepTable, step: int) -> tuple[State, np.ndarray, StepResult]:
