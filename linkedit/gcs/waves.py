@@ -7,18 +7,22 @@ time is the root of the constraints nearest its prediction whatever the anchor, 
 of steps can be solved together:
 
 1. every few steps first (:data:`STRIDE`, adapted to the prediction error, up to
-   :data:`WIDEST_STRIDE`), in *waves* of up to :data:`WIDEST` steps, each predicted by the
-   osculating polynomial through the last :data:`NODES` solved poses and their exact
-   velocities (within ~1e-9 of the size one stride ahead), the far ones of a wave started
-   again from the near ones' solutions rather than iterated long;
-2. then all the steps between at once, predicted by the osculating polynomial through the
-   solved poses around them (typically within 1e-12 of the size: most need no correction);
-3. Gauss–Newton on all of them as array operations: the elementary kinds' kernels of
-   :data:`linkedit.gcs.system.EVALUATE` run on B times their constraints, the dense scaled
-   Jacobians (B × rows × unknowns) are factorized by a batched Cholesky (block by block where J
-   decouples, as a planar linkage's in-plane and out-of-plane unknowns do), a factorization
-   is kept while it contracts the residual (chord) and serves the exact velocity by iterative
-   refinement when the pose moved little since;
+   :data:`WIDEST_STRIDE`), roughly, in *waves* of up to :data:`WIDEST` steps: each predicted
+   by the osculating polynomial through the last :data:`NODES` such poses and their
+   velocities (within ~1e-9 of the size one stride ahead), then :data:`CORRECTIONS`
+   Gauss–Newton steps for all of them at once (the error after each about the square of the
+   one before: ~1e-10 of the size or better), and the velocity from the last linearization;
+2. then all the steps of the block at once: the rough ones from where they are, the ones
+   between from the osculating polynomial through the rough poses around them (typically
+   within 1e-10 of the size);
+3. Gauss–Newton on all of them as array operations to convergence: the elementary kinds'
+   kernels of :data:`linkedit.gcs.system.EVALUATE` run on B times their constraints, the
+   scaled Jacobians are placed straight from the kernels' arrays into dense blocks
+   (B × rows × unknowns, one per diagonal block of J where it decouples, as a planar
+   linkage's in-plane and out-of-plane unknowns do) and factorized by a batched Cholesky; a
+   factorization is kept while it contracts the residual (chord) and serves the exact
+   velocity (J v = −∂r/∂t at the solved pose) by iterative refinement when the pose moved
+   little since;
 4. each step is put to the continuation's own acceptance test, taken from the step before it:
    converged (largest scaled residual row ≤ ``tol``), no small pivot, within
    ``predictor_tol`` of the tangent prediction x_{k−1} ⊕ h·v_{k−1} and moving at most
@@ -50,13 +54,19 @@ SHORTEST = 16
 #: spacing adapts to the extrapolation's error, up to WIDEST_STRIDE
 STRIDE = 8
 WIDEST_STRIDE = 8
-#: Gauss–Newton iterations of a wave of one step, or of the steps between solved ones
+#: Gauss–Newton iterations of a block's steps
 ITERATIONS = 8
-#: ... and of a wave of several extrapolated steps: the far ones are started again from the
-#: near ones' solutions rather than iterated long
-WAVE_ITERATIONS = 4
 #: steps of the widest wave
 WIDEST = 16
+#: Gauss–Newton steps of a wave's rough poses, and the largest last one (scaled) for a pose to
+#: be predicted from
+CORRECTIONS = 2
+ROUGH = 1e-4
+#: the largest prediction error (scaled) a wave's width aims for
+REACH = 1e-4
+#: the first prediction error of a wave (scaled) below which the spacing doubles, and above
+#: which it halves
+LOW, HIGH = 1e-9, 1e-6
 #: solved poses (and their velocities) the polynomial extrapolation goes through
 NODES = 4
 #: converged steps a block starts from
@@ -64,6 +74,7 @@ START = 2
 #: largest scaled move of a pose since its factorization for the factorization to serve its
 #: velocity (by two refinements: error ~REFINE³ relative)
 REFINE = 1e-5
+FRESH = 1e-9
 #: J's diagonal blocks (:attr:`Waves.parts`) are found from the first batch of at least this
 #: many poses (no accidental zeros)
 SPLIT_FROM = 64
@@ -131,9 +142,10 @@ class Waves:
         self.system = solver.system
         self.table = table
         self._layouts: dict[int, _Layout] = {}
-        #: per group, where a pose's Jacobian entries go, their scales, and which are off the
-        #: blocks (:meth:`_place`)
-        self._places: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
+        #: per group, where a pose's Jacobian entries go and their scales; where the blocks
+        #: and the off-block slots end (:meth:`_place`)
+        self._places: list[tuple[np.ndarray, np.ndarray]] | None = None
+        self._ends: list[int] = []
         #: the diagonal blocks of J that solve apart (a planar linkage's in-plane and
         #: out-of-plane unknowns), one block until a batch of SPLIT_FROM poses was seen
         self.parts = [Part(np.arange(self.system.n_rows), np.arange(self.system.n_unknowns))]
@@ -181,7 +193,7 @@ class Waves:
             V = V.copy()
             V[s.driven_vectors] = np.swapaxes(tab.vectors[steps], 0, 1)
         R = quat.to_matrix(Qm).reshape(-1, 9)
-        W = (R.take(lay.member, axis=0) * V.reshape(-1, 9)).reshape(-1, 3, 3).sum(axis=2)
+        W = np.einsum("nij,nj->ni", R.take(lay.member, axis=0).reshape(-1, 3, 3), V.reshape(-1, 9)[:, :3])
         X = Pm.take(lay.member, axis=0) + W
         rel = lay.rel_inverse
         if tab.rel_inverse.shape[1]:
@@ -230,17 +242,15 @@ class Waves:
         call with at least :data:`SPLIT_FROM` poses)."""
         B = jacs[0].shape[0]
         if self._places is None:
-            self._places = self._place()
-        sizes = [len(p.rows) * len(p.cols) for p in self.parts]
-        flat = np.zeros((B, sum(sizes) + 1))  # the last entry: a dump for the world's entries and the off-block ones
-        leaves = np.zeros(B, dtype=bool)
-        for J, (at, scale, off) in zip(jacs, self._places):
-            J = J.reshape((B,) + at.shape)
-            flat[:, at] = J * scale
-            if off.any():
-                leaves |= (J[:, off] != 0.0).any(axis=1)
-        ends = np.cumsum(sizes)
-        blocks = [flat[:, e - n:e].reshape(B, len(p.rows), len(p.cols)) for p, e, n in zip(self.parts, ends, sizes)]
+            self._places, self._ends = self._place()
+        # the blocks, then a slot for each entry off them, then a dump for the world's entries
+        flat = np.zeros((B, self._ends[-1] + 1))
+        for J, (at, scale) in zip(jacs, self._places):
+            flat[:, at] = J.reshape((B,) + at.shape) * scale
+        ends = self._ends
+        blocks = [flat[:, e - len(p.rows) * len(p.cols):e].reshape(B, len(p.rows), len(p.cols))
+                  for p, e in zip(self.parts, ends)]
+        leaves = np.asarray(flat[:, ends[-2]:ends[-1]].any(axis=1))
         if not self.decided and B >= SPLIT_FROM:  # many poses: no accidental zeros
             self.decided = True
             if self._decouple(blocks[0]):
@@ -248,37 +258,39 @@ class Waves:
                 return self.jacobian(jacs)
         return Jacobians(blocks, leaves)
 
-    def _place(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """Per group: where a pose's Jacobian entries (n, k·12) go in the concatenated flat
-        blocks of :attr:`parts` (their total size for the world's and the off-block ones), their
-        scales (n, k·12), and which lie off the blocks (n, k·12)."""
+    def _place(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int]]:
+        """Per group: where a pose's Jacobian entries (n, k·12) go in its flat Jacobian — the
+        blocks of :attr:`parts` one after the other, then a slot for each entry off them, then
+        a dump for the world's — and their scales (n, k·12); and where the blocks and the
+        off-block slots end."""
         s, ne = self.system, self.solver.normal
         R, N, M = s.n_rows, s.n_unknowns, s.n_members
         if ne.group_scale is None:
             raise ValueError("the solver's normal equations are built with their scale")
         part_row, part_col = np.empty(R, dtype=int), np.empty(N + 1, dtype=int)
         at_row, at_col = np.empty(R, dtype=int), np.empty(N + 1, dtype=int)
-        start, starts = 0, []
         for i, p in enumerate(self.parts):
             part_row[p.rows], at_row[p.rows] = i, np.arange(len(p.rows))
             part_col[p.cols], at_col[p.cols] = i, np.arange(len(p.cols))
-            starts.append(start)
-            start += len(p.rows) * len(p.cols)
         part_col[N], at_col[N] = -1, 0  # the world
-        places = []
+        ends = list(np.cumsum([len(p.rows) * len(p.cols) for p in self.parts]))
+        width = np.array([len(p.cols) for p in self.parts])
+        start = np.array(ends) - width * np.array([len(p.rows) for p in self.parts])
+        places, off = [], ends[-1]
         for grp, sc in zip(s.groups, ne.group_scale):
             n, k = grp.rows.shape
             member = grp.members[:, None, :, None]  # (n, 1, 2, 1)
-            col = np.where(member >= M, N, 6 * member + np.arange(6))  # (n, 1, 2, 6)
-            row = grp.rows[:, :, None, None]  # (n, k, 1, 1)
-            same = part_row[row] == part_col[col]
-            at = np.asarray(starts)[part_row[row]] + at_row[row] * np.array([len(p.cols) for p in self.parts])[part_row[row]] \
-                + at_col[col]
-            at = np.where(same, at, start)  # (n, k, 2, 6)
-            off = ~same & (col < N)
-            places.append((at.reshape(n, k * 12), np.broadcast_to(sc, (n, k, 2, 6)).reshape(n, k * 12),
-                           np.broadcast_to(off, (n, k, 2, 6)).reshape(n, k * 12)))
-        return places
+            col = np.broadcast_to(np.where(member >= M, N, 6 * member + np.arange(6)), (n, k, 2, 6))
+            row = np.broadcast_to(grp.rows[:, :, None, None], (n, k, 2, 6))
+            part = part_row[row]
+            at = np.where(part == part_col[col], start[part] + at_row[row] * width[part] + at_col[col], -1)
+            stray = (at < 0) & (col < N)
+            at[stray] = off + np.arange(int(stray.sum()))
+            off += int(stray.sum())
+            places.append(at)
+        ends.append(off)  # the dump follows
+        return [(np.where(at < 0, off, at).reshape(len(at), -1), np.broadcast_to(sc, at.shape).reshape(len(at), -1))
+                for at, sc in zip(places, ne.group_scale)], ends
 
     def _decouple(self, J: np.ndarray) -> bool:
         """Split :attr:`parts` (one block) by Jacobians J (B, R, N): the unknowns that no
@@ -311,75 +323,94 @@ class Waves:
         """Solve the steps k … stop − 1 given the accepted ones before k (positions (T, M, 3),
         quaternions (T, M, 4), real velocities (T, M, 6) of the run, converged from step
         ``first`` on, k − first ≥ :data:`START`): steps about :data:`STRIDE` apart (and the
-        last) first, in waves from the osculating polynomial through the poses before them, then
-        the steps between them at once from the one through the poses around them; then the
-        continuation's acceptance test."""
+        last) first, roughly (:meth:`correct`), in waves from the osculating polynomial through
+        the poses before them; then all of them at once, the steps between from the polynomial
+        through the poses around them; then the continuation's acceptance test."""
         col, M = self.solver.col, self.system.n_members
         t = self.table.t
-        solved: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+        coarse: list[np.ndarray] = []
+        rough: list[tuple[np.ndarray, np.ndarray]] = []
         prior = np.unique(np.clip(k - 1 - STRIDE * np.arange(NODES), first, None))
         node_t = list(t[prior])
         z, dz = flat(pos[prior], ori[prior], vel[prior])
         node_z, node_dz = list(z), list(dz)
-        real = lambda v: (v * col).reshape(len(v), M, 6)  # noqa: E731
         here, stride, width = k - 1, STRIDE, 1 if len(prior) < NODES else 4
         while here < stop - 1:
             ahead = np.unique(np.minimum(here + stride * np.arange(1, width + 1), stop - 1))
             P, Q = self.extrapolated(np.array(node_t[-NODES:]), np.array(node_z[-NODES:]),
                                      np.array(node_dz[-NODES:]), t[ahead])
-            P0, Q0 = P.copy(), Q.copy()
-            r, v, it, done = self.solve(P, Q, ahead, WAVE_ITERATIONS if len(ahead) > 1 else ITERATIONS)
-            n = int(np.argmin(done)) if not done.all() else len(ahead)
+            v, error, good = self.correct(P, Q, ahead)
+            n = int(np.argmin(good)) if not good.all() else len(ahead)
             if n == 0:
                 if len(ahead) == 1 and stride == 1:
                     break  # the block ends here
                 stride, width = max(1, stride // 2), 1
                 continue
-            solved += [(int(ahead[j]), P[j], Q[j], v[j], r[j], it[j]) for j in range(n)]
+            coarse.append(ahead[:n])
+            rough.append((P[:n], Q[:n]))
             node_t += list(t[ahead[:n]])
-            z, dz = flat(P[:n], Q[:n], real(v[:n]))
+            z, dz = flat(P[:n], Q[:n], (v[:n] * col).reshape(n, M, 6))
             node_z += list(z)
             node_dz += list(dz)
             here = int(ahead[n - 1])
-            # the spacing keeps the first prediction's error between 1e-9 and 1e-6 of the size
-            error = float(np.abs(self.displacement(P[:1], Q[:1], P0[:1], Q0[:1])).max())
-            if error > 1e-6:
+            # the spacing keeps the first prediction's error between LOW and HIGH (of the size)
+            if error > HIGH:
                 stride = max(1, stride // 2)
-            elif error < 1e-9:
+            elif error < LOW:
                 stride = min(2 * stride, WIDEST_STRIDE)
-            # as many steps as the extrapolation reaches within 1e-4 of the size (its error grows
-            # about as the fifth power of the distance); the ones after the first unsolved one
-            # start again from the poses now known
-            reach = (1e-4 / max(error, 1e-16)) ** 0.2 * (1 if error > 1e-6 else 0.5 if error < 1e-9 else 1)
+            # as many steps as the extrapolation reaches within REACH of the size (its error
+            # grows about as the fifth power of the distance)
+            reach = (REACH / max(error, 1e-16)) ** 0.2 * (1 if error > HIGH else 0.5 if error < LOW else 1)
             width = int(np.clip(reach, 1, WIDEST))
-        if not solved:
+        if not coarse:
             return Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
                           np.zeros((0, self.system.n_unknowns)), np.zeros((0, 2), dtype=np.int32), 0)
-        coarse = np.array([x[0] for x in solved])
-        cP, cQ, cV, cR = (np.array([x[j] for x in solved]) for j in (1, 2, 3, 4))
-        c_it = np.array([x[5] for x in solved], dtype=np.int32)
-        end = int(coarse[-1]) + 1
-        steps = np.arange(k, end)
+        at = np.concatenate(coarse) - k
+        steps = np.arange(k, k + int(at[-1]) + 1)
         B = steps.size
         P, Q = np.empty((B, M, 3)), np.empty((B, M, 4))
-        V, R = np.empty((B, self.system.n_unknowns)), np.empty((B, self.system.n_rows))
-        its = np.zeros((B, 2), dtype=np.int32)
-        ok = np.zeros(B, dtype=bool)
-        at = coarse - k
-        P[at], Q[at], V[at], R[at], its[at], ok[at] = cP, cQ, cV, cR, c_it, True
+        P[at], Q[at] = np.concatenate([x[0] for x in rough]), np.concatenate([x[1] for x in rough])
         fine = np.setdiff1d(np.arange(B), at)
         if fine.size:
-            # each from the osculating polynomial through the NODES solved poses around it
+            # each from the osculating polynomial through the NODES poses around it
             nt, nz, ndz = np.array(node_t), np.array(node_z), np.array(node_dz)
             right = np.searchsorted(nt, t[k + fine])  # the node after each fine step
-            lo = np.clip(right - NODES // 2, 0, max(len(nt) - NODES, 0))
-            around = lo[:, None] + np.arange(min(NODES, len(nt)))
-            fP, fQ = self.osculating(nt[around], nz[around], ndz[around], t[k + fine])
-            r, v, it, done = self.solve(fP, fQ, k + fine)
-            P[fine], Q[fine], V[fine], R[fine], its[fine], ok[fine] = fP, fQ, v, r, it, done
+            around = np.clip(right - NODES // 2, 0, max(len(nt) - NODES, 0))
+            P[fine], Q[fine] = self.osculating(nt, nz, ndz, around, t[k + fine])
+        R, V, work, ok = self.solve(P, Q, steps)
+        work[at] += CORRECTIONS  # the rough corrections: a linear solve and a factorization each
         before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
         n = self.accepted(P, Q, V, ok, steps, before, float(t[k - 1]))
-        return Solved(P, Q, R, V, its, n)
+        return Solved(P, Q, R, V, work, n)
+
+    def correct(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+        """Rough poses at the table's ``steps`` (B,) from predictions P (B, M, 3), Q (B, M, 4)
+        (moved in place), good enough to predict from: :data:`CORRECTIONS` Gauss–Newton steps
+        (the error after each about the square of the one before). Returns the scaled
+        velocities (B, N) at the last linearization (exact to about the size of the last
+        correction), the first pose's first correction (its prediction's error), and which
+        poses are good (B,): a sound factorization (:meth:`_factor`) and a last correction of at
+        most :data:`ROUGH`."""
+        row, parts = self.solver.row, self.parts
+        B, N = len(steps), self.system.n_unknowns
+        error = np.inf
+        for i in range(CORRECTIONS):
+            r, jacs = self.evaluate(P, Q, steps, True)
+            J = self.jacobian(jacs)
+            parts = self.parts
+            factors, sound = self._factor(J)
+            step = np.empty((B, N))
+            for p, x in zip(parts, self._solve(factors, self._gradient(J, r * row, parts))):
+                step[:, p.cols] = -x
+            size = np.abs(step).max(axis=1)
+            error = float(size[0]) if i == 0 else error
+            if i == CORRECTIONS - 1:
+                rt = self.time_derivative(Q, steps, jacs)
+            P[:], Q[:] = self.moved(P, Q, step)
+        velocity = np.empty((B, N))
+        for p, x in zip(parts, self._solve(factors, self._gradient(J, -rt * row, parts))):
+            velocity[:, p.cols] = x
+        return velocity, error, sound & (size <= ROUGH)
 
     # ---- poses ------------------------------------------------------------------------------
 
@@ -403,7 +434,9 @@ class Waves:
         that entry (no free or singular direction), and J zero off its blocks."""
         normal = [np.swapaxes(Jp, 1, 2) @ Jp for Jp in J.blocks]
         B = len(J.leaves)
-        top = np.maximum(np.max([np.diagonal(H, axis1=1, axis2=2).max(axis=1) for H in normal], axis=0), 1.0)
+        top = np.ones(len(J.leaves))
+        for H in normal:
+            np.maximum(top, np.diagonal(H, axis1=1, axis2=2).max(axis=1), out=top)
         factors = []
         sound = ~J.leaves
         for H in normal:
@@ -488,7 +521,9 @@ class Waves:
                 rt = self.time_derivative(_take(Q, lc), steps[lc], [_take(j, c) for j in jacs])
                 b = self._gradient(Jc, -rt * row, parts)
                 v = self._solve(Lc, b)
-                for _ in range(2):  # iterative refinement against this J
+                # iterative refinement against this J: once where the factorization is of a
+                # pose at most FRESH away, twice up to REFINE
+                for _ in range(1 if (since[lc] <= FRESH).all() else 2):
                     fix = self._solve(Lc, [bp - ((Jp @ vp[..., None])[..., 0][:, None, :] @ Jp)[:, 0]
                                            for bp, Jp, vp in zip(b, Jc.blocks, v)])
                     v = [vp + dp for vp, dp in zip(v, fix)]
@@ -528,33 +563,44 @@ class Waves:
 
     # ---- predictions ----------------------------------------------------------------------
 
-    def osculating(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
+    def osculating(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray, around: np.ndarray,
                    t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Positions (B, M, 3) and quaternions (B, M, 4) at times ``t`` (B,), each from the
-        osculating polynomial (degree 2k − 1) through its own k solved poses and their time
-        derivatives (B, k, 7M) (:func:`flat`) at ``t_nodes`` (B, k) (quaternions component-wise,
-        then normalized)."""
-        t0 = t_nodes[:, -1:]
-        span = np.maximum(np.ptp(t_nodes, axis=1), np.abs(t - t0[:, 0]))[:, None]
-        x = (t_nodes - t0) / span  # normalized times: well-conditioned systems
-        powers = np.arange(2 * t_nodes.shape[1])
-        A = np.concatenate([x[..., None] ** powers, powers * x[..., None] ** np.maximum(powers - 1, 0)], axis=1)
+        osculating polynomial (degree 2k − 1) through k consecutive ones of n solved poses
+        (the first of them ``around`` (B,)) and their time derivatives: times (n,), flat poses
+        and derivatives (n, 7M) (:func:`flat`; quaternions component-wise, then normalized)."""
+        k = min(NODES, len(t_nodes))
+        first, which = np.unique(around, return_inverse=True)
+        window = first[:, None] + np.arange(k)  # (W, k): the node sets in use
+        tw = t_nodes[window]
+        t0, span = tw[:, -1], np.maximum(np.ptp(tw, axis=1), np.finfo(float).tiny)
         # the interpolant's weights on the node values and rates: w A = (1, τ, τ², …) at τ
-        w = np.linalg.solve(np.swapaxes(A, 1, 2), (((t[:, None] - t0) / span) ** powers)[..., None])[..., 0]
-        k = t_nodes.shape[1]
-        Z = w[:, None, :k] @ nodes + (w[:, None, k:] * span[..., None]) @ rates
+        inverse = np.linalg.inv(_hermite((tw - t0[:, None]) / span[:, None]))[which]  # (B, 2k, 2k)
+        w = (((t - t0[which]) / span[which])[:, None] ** np.arange(2 * k))[:, None, :] @ inverse
+        idx = window[which]
+        Z = w[:, :, :k] @ nodes[idx] + (w[:, :, k:] * span[which][:, None, None]) @ rates[idx]
         return self._split(Z[:, 0])
 
     def extrapolated(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
                      t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """As :meth:`osculating`, every time from the same k poses (k,) / (k, 7M)."""
-        B = len(t)
-        return self.osculating(np.broadcast_to(t_nodes, (B,) + t_nodes.shape),
-                               np.broadcast_to(nodes, (B,) + nodes.shape), np.broadcast_to(rates, (B,) + rates.shape), t)
+        """As :meth:`osculating`, every time from the same k poses: times (k,), flat poses and
+        their time derivatives (k, 7M), normalized by the farthest time."""
+        t0, k = t_nodes[-1], len(t_nodes)
+        span = max(float(np.ptp(t_nodes)), float(np.abs(t - t0).max()))
+        A = _hermite((t_nodes - t0) / span)
+        w = np.linalg.solve(A.T, ((t - t0) / span) ** np.arange(2 * k)[:, None])  # (2k, B)
+        return self._split(w[:k].T @ nodes + (span * w[k:].T) @ rates)
 
     def _split(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         M = self.system.n_members
         return Z[:, :3 * M].reshape(-1, M, 3), quat.normalize(Z[:, 3 * M:].reshape(-1, M, 4))
+
+
+def _hermite(x: np.ndarray) -> np.ndarray:
+    """The osculating interpolation matrices (..., 2k, 2k) at normalized node times x (..., k):
+    rows the values then the derivatives of the monomials 1, x, …, x^(2k−1)."""
+    powers = np.arange(2 * x.shape[-1])
+    return np.concatenate([x[..., None] ** powers, powers * x[..., None] ** np.maximum(powers - 1, 0)], axis=-2)
 
 
 def flat(P: np.ndarray, Q: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
