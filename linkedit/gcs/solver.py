@@ -325,7 +325,7 @@ class Solver:
             r1 = self._residual(x1, table, step)
             self.iterations += 1
             rs1, err1, norm1 = self.scaled(r1)
-            if not norm1 < 0.5 * norm or not np.isfinite(norm1):
+            if not norm1 < 0.5 * norm or not math.isfinite(norm1):
                 return (x1, r1, False, total + e) if norm1 < norm else (x, r, False, total)
             x, r, rs, err, norm, total = x1, r1, rs1, err1, norm1, total + e
         return x, r, True, total
@@ -347,7 +347,7 @@ class Solver:
         self.iterations += 1
         scaled = self.scaled(ev.r)
         norm1 = scaled[2]
-        if not norm1 < 0.5 * norm or not np.isfinite(norm1):
+        if not norm1 < 0.5 * norm or not math.isfinite(norm1):
             return (x1, ev.r, False, None, e) if norm1 < norm else (x, r, False, None, 0.0 * e)
         linear = self.linearize(x1, table, step, ev)
         x, r, ok, more = self.chord(x1, ev.r, anchor, linear, table, step, scaled)
