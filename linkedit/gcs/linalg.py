@@ -55,7 +55,7 @@ class Factor:
         c, info = _potrf(H, lower=False, clean=False, overwrite_a=True)
         if info != 0:
             raise np.linalg.LinAlgError(f"the normal matrix is not positive definite (potrf info {info})")
-        return cls(lambda g: _potrs(c, g, lower=False)[0], lambda: np.diagonal(c) ** 2)
+        return cls(lambda g: _potrs(c, g, lower=False)[0], lambda: c.diagonal() ** 2)
 
     @classmethod
     def sparse(cls, H: scipy.sparse.csc_matrix, order: str) -> tuple["Factor", np.ndarray]:
