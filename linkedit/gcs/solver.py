@@ -583,7 +583,7 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
                 done = np.arange(k, k + n)
                 pos[done], ori[done], res[done] = wave.position[:n], wave.orientation[:n], wave.residual[:n]
                 vel[done] = (wave.velocity[:n] * solver.col).reshape(n, M, 6)
-                status[done], rank[done], batched[done] = CONVERGED, system.n_unknowns, True
+                status[done], rank[done], batched[done] = CONVERGED, system.n_unknowns - waves.free, True
                 iters[done], facts[done] = wave.work[:n, 0], wave.work[:n, 1]
                 wave_from = k if wave_from < 0 else wave_from
                 if progress is not None:
@@ -606,8 +606,12 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
                 pose = Pose(t[k], x, r, linear, solver.velocity(x, table, k, linear))
         elif good is None:
             x, r, st, pose = solver.first(rest, table, k)
-            if pose is not None and (pose.linear.null is not None or pose.linear.rank != system.n_unknowns):
-                waves = None  # free directions to keep still, or a rank the pivots cannot tell: step by step
+            if pose is not None and waves is not None:
+                null = pose.linear.null
+                if null is not None and null.shape[1] == 1 and pose.linear.rank == system.n_unknowns - 1:
+                    waves.free = 1  # one free direction (a passive degree of freedom), kept still
+                elif null is not None or pose.linear.rank != system.n_unknowns:
+                    waves = None  # more free directions, or a rank the pivots cannot tell: step by step
         else:
             pose, tried = None, not stuck
             if tried:

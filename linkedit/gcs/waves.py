@@ -31,8 +31,17 @@ of steps can be solved together:
    (sub-steps, Levenberg–Marquardt), after which blocks resume (:data:`SHORTEST` steps,
    doubling).
 
-Steps with an input outside its window, systems with custom constraints, a null space or the
-sparse factorization, and runs that ask for accelerations go step by step.
+**A free direction** (one passive degree of freedom: J has rank N − 1, such as an RSSR
+coupler's idle spin): the corrections are least norm (nothing along J's null vector, taken by
+inverse iteration as the continuation does), and the steps are moved along their null vectors
+so that each changes nothing along its own from the step before — the continuation's minimum
+change, step to step (:meth:`Waves.keep_still`: a prefix sum, converging quadratically over a
+few passes) — and the acceptance test adds the continuation's: that change at most
+``still_tol``. The steps' polynomials go through poses only there (their velocities, the
+instant still motion, differ from the step-to-step one by ~1e-6 of the size per step).
+
+Steps with an input outside its window, systems with custom constraints, more free
+directions or the sparse factorization, and runs that ask for accelerations go step by step.
 """
 
 from __future__ import annotations
@@ -44,7 +53,7 @@ import scipy.linalg
 
 from linkedit.gcs import constraints as kinds
 from linkedit.gcs import quaternions as quat
-from linkedit.gcs.solver import FREE_PIVOT, Solver
+from linkedit.gcs.solver import FREE_PIVOT, NULL_APART, NULL_CLEAN, Solver
 from linkedit.gcs.system import EVALUATE, Block, StepParameters, StepTable
 
 #: steps of a block after a rejected step (doubling after each block accepted whole); the
@@ -62,13 +71,23 @@ WIDEST = 16
 #: be predicted from
 CORRECTIONS = 2
 ROUGH = 1e-4
-#: the largest prediction error (scaled) a wave's width aims for
-REACH = 1e-4
-#: the first prediction error of a wave (scaled) below which the spacing doubles, and above
-#: which it halves
-LOW, HIGH = 1e-9, 1e-6
+#: passes keeping a free direction still (:meth:`Waves.keep_still`), the last one once the
+#: moves are at most STILL_DONE (the change along it then ~1e-16)
+STILL_PASSES = 4
+STILL_DONE = 1e-8
+#: the largest prediction error (scaled) a wave's width aims for, and the first prediction
+#: error of a wave below which the spacing doubles and above which it halves; where J has a
+#: free direction (predictions from poses only, two corrections whatever their error) the
+#: second ones
+REACH, LOW, HIGH = 1e-4, 1e-9, 1e-6
+REACH_FREE, LOW_FREE, HIGH_FREE = 1e-2, 1e-7, 1e-4
 #: solved poses (and their velocities) the polynomial extrapolation goes through
 NODES = 4
+#: ... where J has a free direction: poses only, for the polynomial through them (the
+#: step-by-step poses keep it still from step to step, their velocities at every instant: the
+#: two differ along it by ~1e-6 of the size per step, which the osculating polynomial would
+#: amplify)
+VALUES = 8
 #: converged steps a block starts from
 START = 2
 #: largest scaled move of a pose since its factorization for the factorization to serve its
@@ -119,6 +138,20 @@ class Jacobians:
 
 
 @dataclasses.dataclass
+class Factors:
+    """Factorizations of B poses' scaled JᵀJ + μI, block by block (B, Np, Np) each, whether
+    each is sound (B,), and J's unit null vectors (B, N) where it has a free direction."""
+
+    factors: list[np.ndarray]
+    sound: np.ndarray
+    null: np.ndarray | None
+
+    def take(self, idx: np.ndarray) -> "Factors":
+        return Factors([_take(L, idx) for L in self.factors], _take(self.sound, idx),
+                       None if self.null is None else _take(self.null, idx))
+
+
+@dataclasses.dataclass
 class _Layout:
     """An evaluation's fixed parts for B poses, member-major (member or vector i of pose b at
     i·B + b, so each kernel sees B times its constraints, constraint-major): the blocks with
@@ -150,6 +183,8 @@ class Waves:
         #: out-of-plane unknowns), one block until a batch of SPLIT_FROM poses was seen
         self.parts = [Part(np.arange(self.system.n_rows), np.arange(self.system.n_unknowns))]
         self.decided = False
+        #: free directions of J at every pose (0, or 1: a passive degree of freedom kept still)
+        self.free = 0
 
     @staticmethod
     def applies(solver: Solver) -> bool:
@@ -324,22 +359,32 @@ class Waves:
         quaternions (T, M, 4), real velocities (T, M, 6) of the run, converged from step
         ``first`` on, k − first ≥ :data:`START`): steps about :data:`STRIDE` apart (and the
         last) first, roughly (:meth:`correct`), in waves from the osculating polynomial through
-        the poses before them; then all of them at once, the steps between from the polynomial
-        through the poses around them; then the continuation's acceptance test."""
+        the poses before them (where J has a free direction, the polynomial through
+        :data:`VALUES` poses); then all of them at once, the steps between from the polynomial
+        through the poses around them, and where J has a free direction, passes keeping it
+        still from step to step (:meth:`keep_still`, converging quadratically: at most
+        :data:`STILL_PASSES`); then the continuation's acceptance test."""
         col, M = self.solver.col, self.system.n_members
         t = self.table.t
         coarse: list[np.ndarray] = []
         rough: list[tuple[np.ndarray, np.ndarray]] = []
-        prior = np.unique(np.clip(k - 1 - STRIDE * np.arange(NODES), first, None))
+        # where J has a free direction, the poses only: their velocities do not follow the
+        # step-by-step poses along it (which keep still from step to step, not at every instant)
+        count = VALUES if self.free else NODES
+        prior = np.unique(np.clip(k - 1 - STRIDE * np.arange(count), first, None))
         node_t = list(t[prior])
         z, dz = flat(pos[prior], ori[prior], vel[prior])
         node_z, node_dz = list(z), list(dz)
-        here, stride, width = k - 1, STRIDE, 1 if len(prior) < NODES else 4
+        reach, low, high = (REACH_FREE, LOW_FREE, HIGH_FREE) if self.free else (REACH, LOW, HIGH)
+        here, stride, width = k - 1, STRIDE, 1 if len(prior) < count else 4
         while here < stop - 1:
             ahead = np.unique(np.minimum(here + stride * np.arange(1, width + 1), stop - 1))
-            P, Q = self.extrapolated(np.array(node_t[-NODES:]), np.array(node_z[-NODES:]),
-                                     np.array(node_dz[-NODES:]), t[ahead])
-            v, error, good = self.correct(P, Q, ahead)
+            if self.free:
+                P, Q = self._split(lagrange(np.array(node_t[-count:]), np.array(node_z[-count:]), t[ahead]))
+            else:
+                P, Q = self.extrapolated(np.array(node_t[-count:]), np.array(node_z[-count:]),
+                                         np.array(node_dz[-count:]), t[ahead])
+            v, error, good = self.correct(P, Q, ahead, self._split(node_z[-1][None]))
             n = int(np.argmin(good)) if not good.all() else len(ahead)
             if n == 0:
                 if len(ahead) == 1 and stride == 1:
@@ -353,15 +398,15 @@ class Waves:
             node_z += list(z)
             node_dz += list(dz)
             here = int(ahead[n - 1])
-            # the spacing keeps the first prediction's error between LOW and HIGH (of the size)
-            if error > HIGH:
+            # the spacing keeps the first prediction's error between low and high (of the size)
+            if error > high:
                 stride = max(1, stride // 2)
-            elif error < LOW:
+            elif error < low:
                 stride = min(2 * stride, WIDEST_STRIDE)
-            # as many steps as the extrapolation reaches within REACH of the size (its error
+            # as many steps as the extrapolation reaches within ``reach`` of the size (its error
             # grows about as the fifth power of the distance)
-            reach = (REACH / max(error, 1e-16)) ** 0.2 * (1 if error > HIGH else 0.5 if error < LOW else 1)
-            width = int(np.clip(reach, 1, WIDEST))
+            far = (reach / max(error, 1e-16)) ** 0.2 * (1 if error > high else 0.5 if error < low else 1)
+            width = int(np.clip(far, 1, WIDEST))
         if not coarse:
             return Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
                           np.zeros((0, self.system.n_unknowns)), np.zeros((0, 2), dtype=np.int32), 0)
@@ -375,42 +420,89 @@ class Waves:
             # each from the osculating polynomial through the NODES poses around it
             nt, nz, ndz = np.array(node_t), np.array(node_z), np.array(node_dz)
             right = np.searchsorted(nt, t[k + fine])  # the node after each fine step
-            around = np.clip(right - NODES // 2, 0, max(len(nt) - NODES, 0))
-            P[fine], Q[fine] = self.osculating(nt, nz, ndz, around, t[k + fine])
-        R, V, work, ok = self.solve(P, Q, steps)
+            around = np.clip(right - count // 2, 0, max(len(nt) - count, 0))
+            if self.free:
+                P[fine], Q[fine] = self._split(lagrange_between(nt, nz, around, t[k + fine], count))
+            else:
+                P[fine], Q[fine] = self.osculating(nt, nz, ndz, around, t[k + fine])
+        R, V, work, ok, null = self.solve(P, Q, steps)
         work[at] += CORRECTIONS  # the rough corrections: a linear solve and a factorization each
+        for _ in range(STILL_PASSES if self.free else 0):
+            # the free direction kept still from step to step, then solved again there
+            moved = self.keep_still(P, Q, null, pos[k - 1], ori[k - 1])
+            R, V, again, ok, null = self.solve(P, Q, steps)
+            work += again
+            if moved <= STILL_DONE:
+                break
         before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
-        n = self.accepted(P, Q, V, ok, steps, before, float(t[k - 1]))
+        n = self.accepted(P, Q, V, ok, null, steps, before, float(t[k - 1]))
         return Solved(P, Q, R, V, work, n)
 
-    def correct(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+    def keep_still(self, P: np.ndarray, Q: np.ndarray, null: np.ndarray, P0: np.ndarray, Q0: np.ndarray,
+                   null0: np.ndarray | None = None) -> float:
+        """Move B consecutive solved poses (P (B, M, 3), Q (B, M, 4), in place) along their
+        unit null vectors n_k (B, N, oriented alike in place) so that none moves along its own
+        from the pose before (the first from P0 (M, 3), Q0 (M, 4)), to first order in the
+        moves α_k: with g_k = n_k · (x_k ⊖ x_{k−1}), a_k = ∂g_k/∂α_k and b_k = ∂g_k/∂α_{k−1}
+        (by differences), α_k = −(g_k + b_k α_{k−1}) / a_k (α before the first zero) — a
+        prefix product and sum. Given the null vector before the first (``null0``), the
+        change is measured along the mean of each two (n_{k−1} + n_k) instead: poses far apart
+        then follow the motion that keeps still at every instant (to second order in their
+        spacing) rather than at their own spacing. The constraints change to second order in
+        α. Returns the largest |α|."""
+        eps = 1e-7
+        if null0 is not None:
+            null[0] *= np.sign(null[0] @ null0)
+        turn = np.ones(len(null))  # one orientation all along (each is found up to its sign)
+        turn[1:] = np.sign((null[1:] * null[:-1]).sum(axis=1))
+        null *= np.cumprod(turn)[:, None]
+        along = null
+        if null0 is not None:
+            along = null + np.concatenate([null0[None], null[:-1]])
+            along /= np.sqrt((along * along).sum(axis=1))[:, None]
+        Pp, Qp = np.concatenate([P0[None], P[:-1]]), np.concatenate([Q0[None], Q[:-1]])
+        g = (along * self.displacement(P, Q, Pp, Qp)).sum(axis=1)
+        Pa, Qa = self.moved(P, Q, eps * null)
+        a = ((along * self.displacement(Pa, Qa, Pp, Qp)).sum(axis=1) - g) / eps
+        b = np.zeros(len(null))
+        if len(null) > 1:
+            Pb, Qb = self.moved(Pp[1:], Qp[1:], eps * null[:-1])
+            b[1:] = ((along[1:] * self.displacement(P[1:], Q[1:], Pb, Qb)).sum(axis=1) - g[1:]) / eps
+        m = -b / a
+        m[0] = 1.0
+        product = np.cumprod(m)
+        alpha = product * np.cumsum(-g / a / product)
+        P[:], Q[:] = self.moved(P, Q, alpha[:, None] * null)
+        return float(np.abs(alpha).max())
+
+    def correct(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
+                before: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, float, np.ndarray]:
         """Rough poses at the table's ``steps`` (B,) from predictions P (B, M, 3), Q (B, M, 4)
-        (moved in place), good enough to predict from: :data:`CORRECTIONS` Gauss–Newton steps
-        (the error after each about the square of the one before). Returns the scaled
-        velocities (B, N) at the last linearization (exact to about the size of the last
-        correction), the first pose's first correction (its prediction's error), and which
-        poses are good (B,): a sound factorization (:meth:`_factor`) and a last correction of at
-        most :data:`ROUGH`."""
-        row, parts = self.solver.row, self.parts
-        B, N = len(steps), self.system.n_unknowns
+        (moved in place), good enough to predict from: :data:`CORRECTIONS` least-norm
+        Gauss–Newton steps (the error after each about the square of the one before); where J
+        has a free direction, after the first the poses are moved along it so that it keeps
+        still from pose to pose, the first from the pose ``before`` (P (1, M, 3), Q (1, M, 4))
+        (:meth:`keep_still`: steps far apart then follow the still motion roughly, and the
+        prediction's error along it does not carry on). Returns the scaled velocities (B, N) at
+        the last linearization (exact to about the size of the last correction), the first
+        pose's first correction (its prediction's error), and which poses are good (B,): a
+        sound factorization (:meth:`_factor`) and a last correction of at most :data:`ROUGH`."""
+        row = self.solver.row
         error = np.inf
         for i in range(CORRECTIONS):
             r, jacs = self.evaluate(P, Q, steps, True)
             J = self.jacobian(jacs)
-            parts = self.parts
-            factors, sound = self._factor(J)
-            step = np.empty((B, N))
-            for p, x in zip(parts, self._solve(factors, self._gradient(J, r * row, parts))):
-                step[:, p.cols] = -x
+            F = self._factor(J)
+            step = -self.least_norm(F, self._gradient(J, r * row, self.parts))
             size = np.abs(step).max(axis=1)
             error = float(size[0]) if i == 0 else error
             if i == CORRECTIONS - 1:
                 rt = self.time_derivative(Q, steps, jacs)
             P[:], Q[:] = self.moved(P, Q, step)
-        velocity = np.empty((B, N))
-        for p, x in zip(parts, self._solve(factors, self._gradient(J, -rt * row, parts))):
-            velocity[:, p.cols] = x
-        return velocity, error, sound & (size <= ROUGH)
+            if F.null is not None and i == 0:  # the free direction kept still from pose to pose
+                self.keep_still(P, Q, F.null.copy(), before[0][0], before[1][0])
+        velocity = self.least_norm(F, self._gradient(J, -rt * row, self.parts))
+        return velocity, error, F.sound & (size <= ROUGH)
 
     # ---- poses ------------------------------------------------------------------------------
 
@@ -424,21 +516,22 @@ class Waves:
         """Scaled local coordinates (B, N) from poses 0 to poses (as :meth:`State.minus`)."""
         B, M = P.shape[:2]
         phi = quat.log(quat.multiply(Q.reshape(-1, 4), quat.conjugate(Q0.reshape(-1, 4)))).reshape(B, M, 3)
-        return np.concatenate([P - P0, phi], axis=2).reshape(B, -1) / self.solver.col
+        return np.concatenate([P - P0, phi], axis=2).reshape(B, 6 * M) / self.solver.col
 
-    @staticmethod
-    def _factor(J: Jacobians) -> tuple[list[np.ndarray], np.ndarray]:
+    def _factor(self, J: Jacobians) -> "Factors":
         """Cholesky factors (B, Np, Np) of the scaled JᵀJ + μI, block by block (μ as the
         continuation's: 1e-13 of the largest diagonal entry, at least 1e-13), and whether each
-        pose's is sound (B,): positive definite with every pivot above :data:`FREE_PIVOT` of
-        that entry (no free or singular direction), and J zero off its blocks."""
+        pose's is sound (B,): positive definite with exactly :attr:`free` pivots below
+        :data:`FREE_PIVOT` of that entry (no other free or singular direction), J zero off its
+        blocks and, where J has a free direction, its null vector (:meth:`_null`) clean."""
         normal = [np.swapaxes(Jp, 1, 2) @ Jp for Jp in J.blocks]
         B = len(J.leaves)
-        top = np.ones(len(J.leaves))
+        top = np.ones(B)
         for H in normal:
             np.maximum(top, np.diagonal(H, axis1=1, axis2=2).max(axis=1), out=top)
         factors = []
         sound = ~J.leaves
+        small = np.zeros(B, dtype=int)
         for H in normal:
             n = H.shape[1]
             H.reshape(B, n * n)[:, ::n + 1] += (1e-13 * top)[:, None]
@@ -452,8 +545,67 @@ class Waves:
                     except np.linalg.LinAlgError:
                         sound[i] = False
             factors.append(L)
-            sound &= (np.diagonal(L, axis1=1, axis2=2) ** 2 >= FREE_PIVOT * top[:, None]).all(axis=1)
-        return factors, sound
+            small += (np.diagonal(L, axis1=1, axis2=2) ** 2 < FREE_PIVOT * top[:, None]).sum(axis=1)
+        sound &= small == self.free
+        null = None
+        if self.free:
+            null, clean = self._null(factors, J, top)
+            sound &= clean
+            weak = np.flatnonzero(small == self.free + 1)  # a direction J sees weakly besides
+            if weak.size:
+                null[weak], clean = self._null_apart([L[weak] for L in factors], J.take(weak), top[weak])
+                sound[weak] = ~J.leaves[weak] & clean
+        return Factors(factors, sound, null)
+
+    def _null(self, factors: list[np.ndarray], J: Jacobians, top: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Unit null vectors (B, N) of J where it has one free direction, as the continuation
+        takes them: two inverse iterations with the factorization from a fixed random vector
+        (μ sets the null eigenvalue apart by FREE_PIVOT / 1e-13 at least); and whether each is
+        clean (B,): |J n| at most NULL_CLEAN of √(largest diagonal of JᵀJ)."""
+        B, N = len(top), self.system.n_unknowns
+        probe = np.random.default_rng(1).standard_normal(N)  # as the continuation's probes
+        y = self._assemble(self._solve(factors, [np.broadcast_to(probe[p.cols], (B, len(p.cols))) for p in self.parts]))
+        y = self._assemble(self._solve(factors, [y[:, p.cols] for p in self.parts]))
+        y /= np.sqrt((y * y).sum(axis=1))[:, None]
+        seen = sum(((Jp @ y[:, p.cols, None])[..., 0] ** 2).sum(axis=1) for p, Jp in zip(self.parts, J.blocks))
+        return y, np.sqrt(seen) <= NULL_CLEAN * np.sqrt(top)
+
+    def _null_apart(self, factors: list[np.ndarray], J: Jacobians, top: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """As :meth:`_null` where two pivots are small (a direction J sees weakly besides the
+        free one), as the continuation takes it: two inverse iterations from two fixed random
+        vectors span both; of the two directions of that span, the one J does not see is the
+        null vector, clean when J's two singular values there are at most NULL_CLEAN and at
+        least NULL_APART of √(largest diagonal of JᵀJ)."""
+        B, N = len(top), self.system.n_unknowns
+        probes = np.random.default_rng(2).standard_normal((N, 2))  # as the continuation's probes
+        Y = np.empty((B, N, 2))
+        for j in range(2):
+            y = self._assemble(self._solve(factors, [np.broadcast_to(probes[p.cols, j], (B, len(p.cols)))
+                                                     for p in self.parts]))
+            Y[:, :, j] = self._assemble(self._solve(factors, [y[:, p.cols] for p in self.parts]))
+        # an orthonormal basis of the span (Gram–Schmidt), J on it (B, R, 2) and its 2 × 2 Gram matrix
+        Y[:, :, 0] /= np.sqrt((Y[:, :, 0] ** 2).sum(axis=1))[:, None]
+        Y[:, :, 1] -= Y[:, :, 0] * (Y[:, :, 0] * Y[:, :, 1]).sum(axis=1)[:, None]
+        Y[:, :, 1] /= np.sqrt((Y[:, :, 1] ** 2).sum(axis=1))[:, None]
+        JY = np.concatenate([Jp @ Y[:, p.cols] for p, Jp in zip(self.parts, J.blocks)], axis=1)
+        values, vectors = np.linalg.eigh(np.swapaxes(JY, 1, 2) @ JY)  # ascending
+        scale = np.sqrt(top)
+        sv = np.sqrt(np.maximum(values, 0.0))
+        clean = (sv[:, 0] <= NULL_CLEAN * scale) & (sv[:, 1] >= NULL_APART * scale)
+        return (Y @ vectors[:, :, :1])[..., 0], clean
+
+    def _assemble(self, x: list[np.ndarray]) -> np.ndarray:
+        """One vector (B, N) from its blocks (B, Np) (:attr:`parts`)."""
+        out = np.empty((len(x[0]), self.system.n_unknowns))
+        for p, xp in zip(self.parts, x):
+            out[:, p.cols] = xp
+        return out
+
+    def least_norm(self, F: "Factors", b: list[np.ndarray]) -> np.ndarray:
+        """y (B, N) of (JᵀJ + μI) y = b (blocks (B, Np)) without its component along J's null
+        vector (there it is rounding amplified by 1/μ): the least-norm solution."""
+        y = self._assemble(self._solve(F.factors, b))
+        return y if F.null is None else y - F.null * (F.null * y).sum(axis=1)[:, None]
 
     @staticmethod
     def _solve(factors: list[np.ndarray], b: list[np.ndarray]) -> list[np.ndarray]:
@@ -467,26 +619,28 @@ class Waves:
         return [(r[:, p.rows][:, None, :] @ Jp)[:, 0] for p, Jp in zip(parts, J.blocks)]
 
     def solve(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
-              budget: int = ITERATIONS) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Gauss–Newton at the table's ``steps`` (B,) from poses P (B, M, 3), Q (B, M, 4)
-        (moved in place). A pose's JᵀJ + μI is factorized at its first iterate and again only
-        where a step reusing it (chord) contracted the residual less than tenfold; every step
-        contracts it twofold at least. The exact velocity at the solved pose (J v = −∂r/∂t,
-        J evaluated there) is solved with the kept factorization and refined twice against
-        that J (the factorization is at most :data:`REFINE` away, so the refinement contracts
-        the error by that much each time), or with a fresh one. Returns the residuals (B, R),
-        the scaled velocities (B, N), the linear solves and factorizations (B, 2) and whether
-        each step converged with a sound factorization (:meth:`_factor`) (B,), after at most
-        ``budget`` steps."""
+              budget: int = ITERATIONS) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Least-norm Gauss–Newton at the table's ``steps`` (B,) from poses P (B, M, 3),
+        Q (B, M, 4) (moved in place). A pose's JᵀJ + μI is factorized at its first iterate and
+        again only where a step reusing it (chord) contracted the residual less than tenfold;
+        every step contracts it twofold at least. The exact velocity at the solved pose
+        (J v = −∂r/∂t, least norm, J evaluated there) is solved with the kept factorization and
+        refined against that J — once where the factorization is of a pose at most
+        :data:`FRESH` away, else twice (it is at most :data:`REFINE` away, so each refinement
+        contracts the error by that much) — or with a fresh one. Returns the residuals
+        (B, R), the scaled velocities (B, N), the linear solves and factorizations (B, 2),
+        whether each step converged with a sound factorization (:meth:`_factor`) (B,), and J's
+        unit null vectors there (B, N) where it has a free direction (else zeros), after at
+        most ``budget`` steps."""
         solver, tol = self.solver, self.solver.options.tol
         row = solver.row
         B, N = len(steps), self.system.n_unknowns
         r = np.empty((B, self.system.n_rows))
         velocity = np.zeros((B, N))
+        null = np.zeros((B, N))
         work = np.zeros((B, 2), dtype=np.int32)  # linear solves, factorizations
         done = np.zeros(B, dtype=bool)
-        sound = np.zeros(B, dtype=bool)
-        factors: list[np.ndarray] | None = None  # per block (B, Np, Np), once the blocks are known
+        kept: Factors | None = None  # per pose, once the blocks are known
         have = np.zeros(B, dtype=bool)  # a factorization is kept
         since = np.zeros(B)  # largest scaled move since it was taken
         last = np.full(B, np.inf)  # residual norm before the last step
@@ -499,8 +653,9 @@ class Waves:
             norm = np.sqrt((rs * rs).sum(axis=1))
             J = self.jacobian(jacs)
             parts = self.parts
-            if factors is None:
-                factors = [np.zeros((B, len(p.cols), len(p.cols))) for p in parts]
+            if kept is None:
+                kept = Factors([np.zeros((B, len(p.cols), len(p.cols))) for p in parts], np.zeros(B, dtype=bool),
+                               null if self.free else None)
             converged = np.abs(rs).max(axis=1) <= tol
             slow = norm > 0.1 * last[live]
             # a Newton step must contract twofold; a chord step that did not is retried afresh
@@ -508,49 +663,47 @@ class Waves:
             fresh = going & (~have[live] | slow) | converged & (~have[live] | (since[live] > REFINE))
             if fresh.any():
                 f = np.flatnonzero(fresh)
-                new, sound[live[f]] = self._factor(J.take(f))
-                for L, Lf in zip(factors, new):
+                new = self._factor(J.take(f))
+                for L, Lf in zip(kept.factors, new.factors):
                     L[live[f]] = Lf
+                kept.sound[live[f]] = new.sound
+                if new.null is not None:
+                    null[live[f]] = new.null
                 have[live[f]], since[live[f]] = True, 0.0
                 work[live[f], 1] += 1
             newton[live] = fresh
             if converged.any():
                 c = np.flatnonzero(converged)
                 lc = live[c]
-                Jc, Lc = J.take(c), [_take(L, lc) for L in factors]
+                Jc, Fc = J.take(c), kept.take(lc)
                 rt = self.time_derivative(_take(Q, lc), steps[lc], [_take(j, c) for j in jacs])
                 b = self._gradient(Jc, -rt * row, parts)
-                v = self._solve(Lc, b)
-                # iterative refinement against this J: once where the factorization is of a
-                # pose at most FRESH away, twice up to REFINE
-                for _ in range(1 if (since[lc] <= FRESH).all() else 2):
-                    fix = self._solve(Lc, [bp - ((Jp @ vp[..., None])[..., 0][:, None, :] @ Jp)[:, 0]
-                                           for bp, Jp, vp in zip(b, Jc.blocks, v)])
-                    v = [vp + dp for vp, dp in zip(v, fix)]
-                for p, vp in zip(parts, v):
-                    velocity[lc[:, None], p.cols] = vp
-                done[lc] = sound[lc]
+                v = self.least_norm(Fc, b)
+                for _ in range(1 if (since[lc] <= FRESH).all() else 2):  # iterative refinement against this J
+                    v += self.least_norm(Fc, [bp - ((Jp @ v[:, p.cols, None])[..., 0][:, None, :] @ Jp)[:, 0]
+                                              for p, bp, Jp in zip(parts, b, Jc.blocks)])
+                velocity[lc] = v
+                done[lc] = kept.sound[lc]
                 work[lc, 0] += 1
             g = np.flatnonzero(going)
             if not g.size:
                 break
             lg = live[g]
-            step = np.empty((len(g), N))
-            for p, x in zip(parts, self._solve([_take(L, lg) for L in factors], self._gradient(J.take(g), _take(rs, g), parts))):
-                step[:, p.cols] = -x
+            step = -self.least_norm(kept.take(lg), self._gradient(J.take(g), _take(rs, g), parts))
             last[lg] = norm[g]
             since[lg] += np.abs(step).max(axis=1)
             work[lg, 0] += 1
             P[lg], Q[lg] = self.moved(_take(P, lg), _take(Q, lg), step)
             live = lg
-        return r, velocity, work, done
+        return r, velocity, work, done, null
 
-    def accepted(self, P: np.ndarray, Q: np.ndarray, velocity: np.ndarray, done: np.ndarray, steps: np.ndarray,
-                 before: tuple[np.ndarray, np.ndarray, np.ndarray], t_before: float) -> int:
+    def accepted(self, P: np.ndarray, Q: np.ndarray, velocity: np.ndarray, done: np.ndarray, null: np.ndarray,
+                 steps: np.ndarray, before: tuple[np.ndarray, np.ndarray, np.ndarray], t_before: float) -> int:
         """How many of the consecutive ``steps`` (B,), solved (P, Q, scaled velocities,
-        ``done``), pass the continuation's acceptance test, each from the step before it; the
-        first from ``before`` (position (M, 3), quaternions (M, 4), scaled velocity (N,)) at
-        ``t_before``."""
+        ``done``, J's unit null vectors (B, N) where it has a free direction), pass the
+        continuation's acceptance test, each from the step before it (where J has a free
+        direction, the change along it at most ``still_tol``); the first from ``before``
+        (position (M, 3), quaternions (M, 4), scaled velocity (N,)) at ``t_before``."""
         opt = self.solver.options
         P0 = np.concatenate([before[0][None], P[:-1]])
         Q0 = np.concatenate([before[1][None], Q[:-1]])
@@ -559,6 +712,8 @@ class Waves:
         moved = self.displacement(P, Q, P0, Q0)
         ok = done & (np.abs(moved - h[:, None] * v0).max(axis=1) <= opt.predictor_tol) \
             & (np.abs(v0).max(axis=1) * np.abs(h) <= opt.max_motion)
+        if self.free:
+            ok &= (np.abs((null * moved).sum(axis=1)[:, None] * null).max(axis=1) <= opt.still_tol)
         return int(np.argmin(ok)) if not ok.all() else len(steps)
 
     # ---- predictions ----------------------------------------------------------------------
@@ -594,6 +749,28 @@ class Waves:
     def _split(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         M = self.system.n_members
         return Z[:, :3 * M].reshape(-1, M, 3), quat.normalize(Z[:, 3 * M:].reshape(-1, M, 4))
+
+
+def lagrange(t_nodes: np.ndarray, nodes: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Flat poses (B, 7M) at times t (B,) from the polynomial (degree k − 1) through k flat
+    poses ``nodes`` (k, 7M) at ``t_nodes`` (k,) (times centred and scaled onto [−1, 1])."""
+    mid, half = 0.5 * (t_nodes[0] + t_nodes[-1]), max(0.5 * float(np.ptp(t_nodes)), np.finfo(float).tiny)
+    powers = np.arange(len(t_nodes))
+    A = ((t_nodes - mid) / half)[:, None] ** powers  # (k, k)
+    w = np.linalg.solve(A.T, (((t - mid) / half)[None, :] ** powers[:, None]))  # (k, B)
+    return w.T @ nodes
+
+
+def lagrange_between(t_nodes: np.ndarray, nodes: np.ndarray, around: np.ndarray, t: np.ndarray,
+                     k: int) -> np.ndarray:
+    """As :func:`lagrange`, each time t (B,) from its own k consecutive of n nodes (times (n,),
+    flat poses (n, 7M)), the first of them ``around`` (B,)."""
+    k = min(k, len(t_nodes))
+    out = np.empty((len(t), nodes.shape[1]))
+    for first in np.unique(around):
+        at = np.flatnonzero(around == first)
+        out[at] = lagrange(t_nodes[first:first + k], nodes[first:first + k], t[at])
+    return out
 
 
 def _hermite(x: np.ndarray) -> np.ndarray:
