@@ -85,7 +85,7 @@ def orientation(qa: np.ndarray, qb: np.ndarray | None, rel_inverse: np.ndarray, 
     (n, 3); ``qb`` None: every b is the world (qb = 1). J = J_l⁻¹(φ) for a, −J_l⁻¹(φ)ᵀ for b
     (:func:`~linkedit.gcs.quaternions.left_jacobian_inverse`)."""
     err = quat.multiply(qa, rel_inverse)
-    out[:] = quat.log(err if qb is None else quat.multiply(err, quat.conjugate(qb)))
+    out[:] = quat.log(err if qb is None else quat.relative(err, qb))
     if not jacobian:
         return None
     theta2 = quat.dot(out, out)
@@ -106,12 +106,13 @@ def axis(wa: np.ndarray, wb: np.ndarray, out: np.ndarray, jacobian: bool = False
     c = quat.cross(wa, wb)
     s = np.sqrt(quat.dot(c, c))
     d = quat.dot(wa, wb)
-    opposite = (s < 1e-12) & (d < 0.0)
-    if opposite.any():
-        # exactly anti-aligned: any axis ⊥ a turns b onto a; take a fixed one so r = π·n̂ stays
-        # finite (cost π²) and the Jacobian large but finite
-        c[opposite] = 1e-12 * _perpendicular(wa[opposite])
-        s[opposite] = 1e-12
+    if d.min(initial=0.0) < 0.0:  # a pair more than 90° apart (one test where all are near aligned)
+        opposite = (s < 1e-12) & (d < 0.0)
+        if opposite.any():
+            # exactly anti-aligned: any axis ⊥ a turns b onto a; take a fixed one so r = π·n̂
+            # stays finite (cost π²) and the Jacobian large but finite
+            c[opposite] = 1e-12 * _perpendicular(wa[opposite])
+            s[opposite] = 1e-12
     theta = np.arctan2(s, d)
     # θ / sin θ, whose limit 1 is exact to rounding below θ = 1e-8
     f = np.divide(theta, s, out=np.ones_like(s), where=theta > 1e-8)

@@ -29,11 +29,19 @@ if TYPE_CHECKING:
 #: unknowns above which the sparse factorization is used
 SPARSE_ABOVE = 120
 
-_potrf, _potrs = scipy.linalg.get_lapack_funcs(("potrf", "potrs"), dtype=np.float64)
+_potrf, _potrs, _geqrf, _orgqr = scipy.linalg.get_lapack_funcs(("potrf", "potrs", "geqrf", "orgqr"),
+                                                              dtype=np.float64)
+
+
+def orthonormal(Y: np.ndarray) -> np.ndarray:
+    """An orthonormal basis (N, f) of the columns of Y (N, f), N ≥ f: Householder QR by LAPACK
+    directly (``np.linalg.qr(Y)[0]`` without its checks)."""
+    qr, tau, _, _ = _geqrf(Y)
+    return _orgqr(qr, tau)[0]
 
 
 class Factor:
-    """A factorized damped normal matrix H (N, N); ``solve(g)`` returns H⁻¹ g (N,);
+    """A factorized damped normal matrix H (N, N); ``solve(g)`` returns H⁻¹ g (N,) or (N, k);
     ``pivots()`` the pivots (N,) of its elimination (Cholesky diagonal squared, LU's U diagonal),
     in elimination order: a direction H hardly sees shows as a pivot near the damping floor."""
 
@@ -47,7 +55,7 @@ class Factor:
         c, info = _potrf(H, lower=False, clean=False, overwrite_a=True)
         if info != 0:
             raise np.linalg.LinAlgError(f"the normal matrix is not positive definite (potrf info {info})")
-        return cls(lambda g: _potrs(c, g, lower=False)[0], lambda: np.diagonal(c) ** 2)
+        return cls(lambda g: _potrs(c, g, lower=False)[0], lambda: c.diagonal() ** 2)
 
     @classmethod
     def sparse(cls, H: scipy.sparse.csc_matrix, order: str) -> tuple["Factor", np.ndarray]:
@@ -65,7 +73,7 @@ class Factor:
         from scipy.sparse.linalg import splu
 
         lu = splu(B, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-        return cls(lambda g: lu.solve(g.take(p)).take(inverse), lu.U.diagonal)
+        return cls(lambda g: lu.solve(g.take(p, axis=0)).take(inverse, axis=0), lu.U.diagonal)
 
 
 @dataclass
@@ -191,7 +199,7 @@ class NormalEquations:
         """Factorize JᵀJ + damping·diag(JᵀJ) + floor·I (Levenberg–Marquardt), from ``Linearization.data``."""
         data = data.copy()
         d = data[self.diag_index]
-        data[self.diag_index] = d + damping * d + floor
+        data[self.diag_index] = (d + damping * d if damping else d) + floor
         if not self.sparse:
             return Factor.dense(data.reshape(self.N, self.N).T)  # symmetric: the Fortran-ordered view
         from scipy.sparse import csc_matrix

@@ -68,6 +68,8 @@ _MATRIX_UPPER = (_MATRIX + np.swapaxes(_MATRIX, 0, 1) * (1.0 - np.eye(4))[:, :, 
 _ONES = {3: np.ones(3), 4: np.ones(4)}
 _CONJUGATE = np.array([1.0, -1.0, -1.0, -1.0])
 _EYE = np.eye(3)
+#: a ⊗ b⁻¹ = outer(a, b).ravel() @ _PRODUCT_INVERSE (b's vector part negated in the table)
+_PRODUCT_INVERSE = (_PRODUCT.reshape(4, 4, 4) * _CONJUGATE[:, None]).reshape(16, 4)
 #: ½ (0, v) ⊗ q = outer(v, q) @ _HALF_PRODUCT_V
 _PV = np.divmod(np.arange(12), 4)
 _HALF_PRODUCT_V = 0.5 * _PRODUCT.reshape(4, 4, 4)[1:].reshape(12, 4)
@@ -83,6 +85,14 @@ def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     if a.shape != b.shape:
         a, b = np.broadcast_arrays(a, b)
     return _outer(a, b, _P4) @ _PRODUCT
+
+
+def relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a ⊗ b⁻¹ for unit quaternions, (..., 4): the world-frame turn from b to a (equal to
+    ``multiply(a, conjugate(b))``, one array operation fewer)."""
+    if a.shape != b.shape:
+        a, b = np.broadcast_arrays(a, b)
+    return _outer(a, b, _P4) @ _PRODUCT_INVERSE
 
 
 def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -21,7 +21,7 @@ Jacobians until d ⊥ null(J) to :attr:`Options.still_tol`. The rank of J read o
 factorization is kept per step (:attr:`Run.rank`) for the diagnostics.
 
 **Continuation.** From a solved pose x at time s, with its factorization and exact velocity v
-(J v = −∂r/∂t, least norm), a step of length h starts from the polynomial through the last ten
+(J v = −∂r/∂t, least norm), a step of length h starts from the polynomial through the last eight
 accepted poses (or, where that strays from it, from x ⊕ (h·v + ½h²·a), a the change of velocity
 since the pose before), and corrects it once with the factorization of x (one back-substitution);
 the Jacobian at the corrected pose is evaluated with its residual and factorized, and corrects
@@ -65,7 +65,7 @@ import numpy as np
 
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.acceleration import acceleration
-from linkedit.gcs.linalg import Factor, Linearization, NormalEquations
+from linkedit.gcs.linalg import Factor, Linearization, NormalEquations, orthonormal
 from linkedit.gcs.system import Evaluation, State, StepTable, System
 
 CONVERGED, INCONSISTENT, NOT_CONVERGED = 0, 1, 2
@@ -90,8 +90,9 @@ SUBSTEP_ITERATIONS = 20
 #: (velocity, null space, next step): the velocity is then exact to this relative order
 REUSE = 1e-10
 #: degree of the polynomial through the last accepted poses that starts a step when it agrees
-#: with the second-order tangent prediction
-PREDICT_ORDER = 9
+#: with the second-order tangent prediction (higher degrees amplify the poses' own errors, up to
+#: the tolerance, more than they follow the motion at a few hundred steps per cycle)
+PREDICT_ORDER = 7
 
 
 @dataclass
@@ -172,7 +173,7 @@ class Pose:
         """The next accepted pose of the continuation."""
         ts, Z = self.history or (np.array([self.t]), _flat(self.state)[None])
         keep = slice(-PREDICT_ORDER, None)
-        history = (np.append(ts[keep], t), np.concatenate([Z[keep], _flat(state)[None]]))
+        history = (np.concatenate([ts[keep], [t]]), np.concatenate([Z[keep], _flat(state)[None]]))
         return Pose(t, state, r, linear, velocity, (velocity - self.velocity) / (t - self.t), history)
 
     def extrapolated(self, t: float) -> State | None:
@@ -245,14 +246,15 @@ class Solver:
         J = lin.JT.T
         if f not in self._probes:
             self._probes[f] = np.random.default_rng(f).standard_normal((N, f))
-        Y = np.column_stack([factor.solve(factor.solve(b)) for b in self._probes[f].T])
-        scale = np.sqrt(top)
+        Y = factor.solve(factor.solve(self._probes[f]))
+        scale = math.sqrt(top)
         if f == 1:  # the usual case (one idle spin): no decomposition needed
-            span = Y / np.linalg.norm(Y)
-            if float(np.linalg.norm(J @ span)) <= NULL_CLEAN * scale:
+            span = Y / math.sqrt(Y[:, 0] @ Y[:, 0])
+            seen = J @ span[:, 0]
+            if math.sqrt(seen @ seen) <= NULL_CLEAN * scale:
                 return span, N - 1
         else:
-            span = np.linalg.qr(Y)[0]
+            span = orthonormal(Y)
             _, sv, Vt = np.linalg.svd(np.asarray(J @ span))
             sv = np.concatenate([sv, np.zeros(f - sv.size)])  # fewer rows than f: the rest are zero
             zero = sv <= NULL_CLEAN * scale
@@ -294,23 +296,28 @@ class Solver:
         rs = r * self.row
         return rs, float(np.abs(rs).max()) if rs.size else 0.0, math.sqrt(rs @ rs)
 
-    def correction(self, x: State, rs: np.ndarray, anchor: State, linear: Linear) -> np.ndarray:
+    def correction(self, x: State, rs: np.ndarray, anchor: State, linear: Linear,
+                   d: np.ndarray | None = None) -> np.ndarray:
         """The minimum-change correction (N,) at x for the scaled residual ``rs``: least norm
-        against it, and the change from the anchor along the null space of J taken back."""
-        e = -linear.least_norm(rs)
-        if linear.null is not None:
-            e -= linear.null @ (linear.null.T @ self.displacement(x, anchor))
-        return e
+        against it, and the change from the anchor along the null space of J taken back (``d``:
+        x's displacement from the anchor (N,), when known)."""
+        y = linear.factor.solve(linear.lin.gradient(rs))
+        if linear.null is None:
+            return -y
+        if d is None:
+            d = self.displacement(x, anchor)
+        return linear.null @ (linear.null.T @ (y - d)) - y  # −(y − P y) − P d, P the null projector
 
     # ---- one pose ---------------------------------------------------------------------------
 
-    def chord(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable,
-              step: int) -> tuple[State, np.ndarray, bool, np.ndarray]:
+    def chord(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable, step: int,
+              scaled: tuple[np.ndarray, float, float] | None = None) -> tuple[State, np.ndarray, bool, np.ndarray]:
         """Minimum-change simplified Newton with a kept factorization while it contracts the
-        residual at least twofold: the best (state, residual), whether it converged, and the
-        sum of the corrections that led to the state (N,)."""
+        residual at least twofold (``scaled``: :meth:`scaled` of r, when known): the best
+        (state, residual), whether it converged, and the sum of the corrections that led to the
+        state (N,)."""
         tol = self.options.tol
-        rs, err, norm = self.scaled(r)
+        rs, err, norm = scaled or self.scaled(r)
         total = np.zeros(self.system.n_unknowns)
         while err > tol:
             e = self.correction(x, rs, anchor, linear)
@@ -318,31 +325,32 @@ class Solver:
             r1 = self._residual(x1, table, step)
             self.iterations += 1
             rs1, err1, norm1 = self.scaled(r1)
-            if not norm1 < 0.5 * norm or not np.isfinite(norm1):
+            if not norm1 < 0.5 * norm or not math.isfinite(norm1):
                 return (x1, r1, False, total + e) if norm1 < norm else (x, r, False, total)
             x, r, rs, err, norm, total = x1, r1, rs1, err1, norm1, total + e
         return x, r, True, total
 
-    def newton(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable,
-               step: int) -> tuple[State, np.ndarray, bool, Linear | None, np.ndarray]:
-        """Minimum-change Newton from a predicted pose: one correction with ``linear`` (a nearby
-        pose's factorization), the Jacobian evaluated with the residual there and factorized,
-        then :meth:`chord` with it. Returns the best (state, residual), whether it converged,
-        the new linearization when the pose moved at most :data:`REUSE` since it (it then
-        serves the pose: velocity, null space, next step) else None, and the sum of the
-        corrections (N,)."""
+    def newton(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable, step: int,
+               d: np.ndarray | None = None) -> tuple[State, np.ndarray, bool, Linear | None, np.ndarray]:
+        """Minimum-change Newton from a predicted pose (``d``: its displacement from the anchor
+        (N,), when known): one correction with ``linear`` (a nearby pose's factorization), the
+        Jacobian evaluated with the residual there and factorized, then :meth:`chord` with it.
+        Returns the best (state, residual), whether it converged, the new linearization when
+        the pose moved at most :data:`REUSE` since it (it then serves the pose: velocity, null
+        space, next step) else None, and the sum of the corrections (N,)."""
         rs, err, norm = self.scaled(r)
         if err <= self.options.tol:
             return x, r, True, None, np.zeros(self.system.n_unknowns)
-        e = self.correction(x, rs, anchor, linear)
+        e = self.correction(x, rs, anchor, linear, d)
         x1 = self.moved(x, e)
         ev = self.system.evaluate(x1, table, step, jacobian=True)
         self.iterations += 1
-        norm1 = self.scaled(ev.r)[2]
-        if not norm1 < 0.5 * norm or not np.isfinite(norm1):
+        scaled = self.scaled(ev.r)
+        norm1 = scaled[2]
+        if not norm1 < 0.5 * norm or not math.isfinite(norm1):
             return (x1, ev.r, False, None, e) if norm1 < norm else (x, r, False, None, 0.0 * e)
         linear = self.linearize(x1, table, step, ev)
-        x, r, ok, more = self.chord(x1, ev.r, anchor, linear, table, step)
+        x, r, ok, more = self.chord(x1, ev.r, anchor, linear, table, step, scaled)
         return x, r, ok, linear if np.abs(more).max(initial=0.0) <= REUSE else None, e + more
 
     def levenberg_marquardt(self, x: State, r: np.ndarray, table: StepTable, step: int,
@@ -391,7 +399,7 @@ class Solver:
             if linear.null is None:
                 break
             d = self.displacement(x, anchor)
-            free = d - linear.still(d)
+            free = linear.null @ (linear.null.T @ d)
             if np.abs(free).max(initial=0.0) <= opt.still_tol:
                 break
             x1 = self.moved(x, -free - linear.least_norm(r * self.row))
@@ -405,15 +413,17 @@ class Solver:
         return x, r, linear
 
     def pose(self, start: State, anchor: State, table: StepTable, step: int, linear: Linear | None = None,
-             budget: int | None = None) -> tuple[State, np.ndarray, int, Linear | Evaluation | None, np.ndarray | None]:
+             budget: int | None = None, d: np.ndarray | None = None
+             ) -> tuple[State, np.ndarray, int, Linear | Evaluation | None, np.ndarray | None]:
         """Solve one time from ``start``, closest to ``anchor``: :meth:`newton` with ``linear``
-        if given, then Levenberg–Marquardt (``budget`` iterations). Returns (state, residual,
-        status, what is known of the state's linearization: a Linear, an Evaluation or None,
-        the sum of the corrections from ``start`` (N,) or None when Levenberg–Marquardt took it)."""
+        if given (``d``: the start's displacement from the anchor, when known), then
+        Levenberg–Marquardt (``budget`` iterations). Returns (state, residual, status, what is
+        known of the state's linearization: a Linear, an Evaluation or None, the sum of the
+        corrections from ``start`` (N,) or None when Levenberg–Marquardt took it)."""
         r = self._residual(start, table, step)
         x = start
         if linear is not None:
-            x, r, ok, known, total = self.newton(start, r, anchor, linear, table, step)
+            x, r, ok, known, total = self.newton(start, r, anchor, linear, table, step, d)
             if ok:
                 return x, r, CONVERGED, known, total
         if self.error(r) <= self.options.tol:
@@ -463,9 +473,11 @@ class Solver:
             guess, g = here.extrapolated(s), second
             if guess is not None:
                 g = self.displacement(guess, here.state)
+            exact = guess is not None and here is good  # g: the guess's displacement from the anchor
             if guess is None or np.abs(g - second).max() >= opt.predictor_tol:
-                guess, g = self.moved(here.state, second), second
-            x, r, status, known, total = self.pose(guess, anchor, tab, k, here.linear, budget=SUBSTEP_ITERATIONS)
+                guess, g, exact = self.moved(here.state, second), second, False
+            x, r, status, known, total = self.pose(guess, anchor, tab, k, here.linear, SUBSTEP_ITERATIONS,
+                                                   g if exact else None)
             # the pose's displacement from here: the prediction's and the corrections' (to first
             # order in the corrections, ample for the test), or taken afresh after LM
             moved = g + total if total is not None else self.displacement(x, here.state)
@@ -636,7 +648,9 @@ def lagrange_weights(nodes: np.ndarray, t: float) -> np.ndarray:
     """Weights (k,) of the Lagrange polynomial through distinct ``nodes`` (k,) at a time ``t``
     that is none of them: w_j = ∏_{i≠j} (t − t_i) / (t_j − t_i)."""
     d = t - nodes
-    return (np.prod(d) / d) / (nodes[:, None] - nodes + np.eye(len(nodes))).prod(axis=1)
+    between = nodes[:, None] - nodes  # t_j − t_i, 1 on the diagonal (i = j is left out)
+    between.flat[::len(nodes) + 1] = 1.0
+    return (d.prod() / d) / between.prod(axis=1)
 
 
 def solve_slsqp(solver: Solver, start: State, table: StepTable, step: int) -> tuple[State, np.ndarray, StepResult]:

@@ -178,7 +178,7 @@ class State:
     def minus(self, other: "State") -> np.ndarray:
         """Local coordinates (6M,) from ``other`` to this state: position differences and the
         world-frame rotation vectors log(q ⊗ q_other⁻¹)."""
-        phi = quat.log(quat.multiply(self.orientation, quat.conjugate(other.orientation)))
+        phi = quat.log(quat.relative(self.orientation, other.orientation))
         return np.concatenate([self.position - other.position, phi], axis=1).ravel()
 
 
