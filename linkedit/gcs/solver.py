@@ -104,8 +104,8 @@ class Options:
     its solution; ``max_motion``: largest motion of a sub-step; ``min_fraction``: smallest
     sub-step, as a fraction of a time step; ``still_tol``: largest component of a pose's change
     along free directions; ``accelerations``: compute them at every output step (two more
-    Jacobian evaluations per step, :mod:`linkedit.gcs.acceleration`; ``solve3d`` asks for them,
-    pose-only callers such as the planar numeric engine and the SolveSpace bench do not)."""
+    Jacobian evaluations per step, :mod:`linkedit.gcs.acceleration`; ``solve3d
+    --accelerations`` asks for them, step by step)."""
 
     tol: float = 1e-12
     max_iterations: int = 100
