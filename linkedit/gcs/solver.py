@@ -456,6 +456,8 @@ class Solver:
         opt = self.options
         t1 = float(table.t[step])
         span = t1 - good.t
+        if span == 0.0:  # the same time again: the same pose
+            return good.state, good.r, CONVERGED, good, t1
         here, anchor = good, good.state
         h = span
         best = (good.state, good.r, NOT_CONVERGED)
@@ -548,8 +550,11 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
     good: Pose | None = None
     stuck = False  # the continuation from ``good`` failed once: it would fail again at the same place
     rest = (start or system.rest).copy()
-    waves = Waves(solver, table) if options.waves and Waves.applies(solver) else None
+    # waves predict from the times of solved steps: they need them distinct, in one direction
+    monotone = bool((np.diff(t) > 0).all() or (np.diff(t) < 0).all())
+    waves = Waves(solver, table) if options.waves and Waves.applies(solver) and monotone else None
     batched = np.zeros(T, dtype=bool)
+    classified = False  # whether J's free directions at a pose with every input active were read
     streak = 0  #: the first of the converged steps just before k
     resting, pause = 0, SHORTEST  #: no wave before step ``resting``; the next pause after a wave accepted none
     width = T
@@ -569,7 +574,7 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
 
     k = 0
     while k < T:
-        if waves is not None and k - streak >= START and k >= resting and not table.partial[k] \
+        if waves is not None and classified and k - streak >= START and k >= resting and not table.partial[k] \
                 and abs(t[k] - t[k - 1]) * np.abs(vel[k - 1].ravel() / solver.col).max() <= options.max_motion:
             # many steps at once from the accepted ones before them (not where the first of them
             # would move too far for the acceptance test, nor for a while after a wave that
@@ -606,12 +611,6 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
                 pose = Pose(t[k], x, r, linear, solver.velocity(x, table, k, linear))
         elif good is None:
             x, r, st, pose = solver.first(rest, table, k)
-            if pose is not None and waves is not None:
-                null = pose.linear.null
-                if null is not None and null.shape[1] == 1 and pose.linear.rank == system.n_unknowns - 1:
-                    waves.free = 1  # one free direction (a passive degree of freedom), kept still
-                elif null is not None or pose.linear.rank != system.n_unknowns:
-                    waves = None  # more free directions, or a rank the pivots cannot tell: step by step
         else:
             pose, tried = None, not stuck
             if tried:
@@ -625,6 +624,13 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
                     x, r, st = x2, r2, st2
                 if pose is not None:
                     reached[k] = t[k]
+        if pose is not None and waves is not None and not classified and not table.partial[k]:
+            # what waves keep still is read at the first pose with every input active
+            classified, null = True, pose.linear.null
+            if null is not None and null.shape[1] == 1 and pose.linear.rank == system.n_unknowns - 1:
+                waves.free = 1  # one free direction (a passive degree of freedom), kept still
+            elif null is not None or pose.linear.rank != system.n_unknowns:
+                waves = None  # more free directions, or a rank the pivots cannot tell: step by step
         if pose is not None:
             good, stuck = pose, False
             vel[k] = (pose.velocity * solver.col).reshape(M, 6)

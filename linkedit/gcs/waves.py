@@ -439,36 +439,26 @@ class Waves:
         n = self.accepted(P, Q, V, ok, null, steps, before, float(t[k - 1]))
         return Solved(P, Q, R, V, work, n)
 
-    def keep_still(self, P: np.ndarray, Q: np.ndarray, null: np.ndarray, P0: np.ndarray, Q0: np.ndarray,
-                   null0: np.ndarray | None = None) -> float:
+    def keep_still(self, P: np.ndarray, Q: np.ndarray, null: np.ndarray, P0: np.ndarray, Q0: np.ndarray) -> float:
         """Move B consecutive solved poses (P (B, M, 3), Q (B, M, 4), in place) along their
         unit null vectors n_k (B, N, oriented alike in place) so that none moves along its own
         from the pose before (the first from P0 (M, 3), Q0 (M, 4)), to first order in the
         moves α_k: with g_k = n_k · (x_k ⊖ x_{k−1}), a_k = ∂g_k/∂α_k and b_k = ∂g_k/∂α_{k−1}
         (by differences), α_k = −(g_k + b_k α_{k−1}) / a_k (α before the first zero) — a
-        prefix product and sum. Given the null vector before the first (``null0``), the
-        change is measured along the mean of each two (n_{k−1} + n_k) instead: poses far apart
-        then follow the motion that keeps still at every instant (to second order in their
-        spacing) rather than at their own spacing. The constraints change to second order in
-        α. Returns the largest |α|."""
+        prefix product and sum. The constraints change to second order in α. Returns the
+        largest |α|."""
         eps = 1e-7
-        if null0 is not None:
-            null[0] *= np.sign(null[0] @ null0)
         turn = np.ones(len(null))  # one orientation all along (each is found up to its sign)
         turn[1:] = np.sign((null[1:] * null[:-1]).sum(axis=1))
         null *= np.cumprod(turn)[:, None]
-        along = null
-        if null0 is not None:
-            along = null + np.concatenate([null0[None], null[:-1]])
-            along /= np.sqrt((along * along).sum(axis=1))[:, None]
         Pp, Qp = np.concatenate([P0[None], P[:-1]]), np.concatenate([Q0[None], Q[:-1]])
-        g = (along * self.displacement(P, Q, Pp, Qp)).sum(axis=1)
+        g = (null * self.displacement(P, Q, Pp, Qp)).sum(axis=1)
         Pa, Qa = self.moved(P, Q, eps * null)
-        a = ((along * self.displacement(Pa, Qa, Pp, Qp)).sum(axis=1) - g) / eps
+        a = ((null * self.displacement(Pa, Qa, Pp, Qp)).sum(axis=1) - g) / eps
         b = np.zeros(len(null))
         if len(null) > 1:
             Pb, Qb = self.moved(Pp[1:], Qp[1:], eps * null[:-1])
-            b[1:] = ((along[1:] * self.displacement(P[1:], Q[1:], Pb, Qb)).sum(axis=1) - g[1:]) / eps
+            b[1:] = ((null[1:] * self.displacement(P[1:], Q[1:], Pb, Qb)).sum(axis=1) - g[1:]) / eps
         m = -b / a
         m[0] = 1.0
         product = np.cumprod(m)
