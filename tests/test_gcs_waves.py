@@ -126,6 +126,18 @@ def test_a_window_opening_after_the_start_lets_waves_in_once_every_input_is_acti
         assert on.batched.sum() > 250 and not on.batched[on.t < 0.1].any()
 
 
+@pytest.mark.parametrize("name", ["crank-rocker", "rssr"])
+def test_a_rocking_input_is_solved_in_waves_between_its_keyframes(name):
+    """The input's rate jumps at each keyframe (linear angles between them): waves stop there
+    and start again after it — the step-by-step poses, nearly all of them in waves."""
+    data = load_yaml(EXAMPLES / "3d" / f"{name}.yaml")[0]
+    data["inputs"][next(iter(data["inputs"]))]["rotation"]["angles_deg"] = [0, 90, 0, 90, 0]
+    system = compile_mechanism(validate(MechanismSpec, data, file="test"))[0]
+    on, off = _both(system, np.linspace(0.0, 1.0, 361))
+    _assert_same(on, off, system.length_scale)
+    assert on.batched.sum() > 340
+
+
 def test_a_repeated_time_repeats_its_pose_and_does_not_hang():
     """A time given twice (through the Python API) is the same pose twice, with or without
     waves; it used to halve the continuation's step forever."""

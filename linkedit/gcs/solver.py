@@ -573,16 +573,23 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
         return Pose(float(t[k]), x, res[k].copy(), linear, v, trend, (ts, Z))
 
     k = 0
+    # the inputs' keyframes inside their windows: their rates jump there, so the poses' motion
+    # is smooth only between them; waves neither predict nor interpolate across one
+    keys = np.unique([float(x) for blk in system.blocks for sc in blk.schedules for x in sc.times[1:-1]])
+    piece = np.searchsorted(keys, t, side="right")
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(piece)) + 1])
+    piece_start = starts[np.searchsorted(starts, np.arange(T), side="right") - 1]  # (T,) first step of each one's piece
     while k < T:
-        if waves is not None and classified and k - streak >= START and k >= resting and not table.partial[k] \
+        since = max(streak, int(piece_start[k]))  # the converged steps just before k on k's piece
+        if waves is not None and classified and k - since >= START and k >= resting and not table.partial[k] \
                 and abs(t[k] - t[k - 1]) * np.abs(vel[k - 1].ravel() / solver.col).max() <= options.max_motion:
             # many steps at once from the accepted ones before them (not where the first of them
             # would move too far for the acceptance test, nor for a while after a wave that
-            # accepted none)
+            # accepted none), up to the next keyframe or input window's edge
             stop = min(T, k + width)
-            partial = np.flatnonzero(table.partial[k:stop])
-            stop = k + int(partial[0]) if partial.size else stop
-            wave = waves.block(k, stop, pos, ori, vel, streak)
+            edge = np.flatnonzero(table.partial[k:stop] | (piece[k:stop] != piece[k]))
+            stop = k + int(edge[0]) if edge.size else stop
+            wave = waves.block(k, stop, pos, ori, vel, since)
             n = wave.accepted
             if n:
                 done = np.arange(k, k + n)
