@@ -33,10 +33,12 @@ fine one (the same branch), or fails at the time where the step fell below
 continued from: the next one starts again from the last good pose (continuation, then a direct
 solve from it).
 
-**Waves.** Where J has full column rank, :func:`solve_run` solves many steps at once
-(:mod:`linkedit.gcs.waves`) and keeps each only where the step-by-step acceptance test above,
-taken from the step before it, passes: the same poses (the same branch), far fewer Python
-calls. The first rejected step is solved by the continuation, which the waves then resume from.
+**Waves.** Where J has full column rank or one free direction, :func:`solve_run` solves many
+steps at once (:mod:`linkedit.gcs.waves`) and keeps each only where the step-by-step
+acceptance test above, taken from the step before it, passes: the same poses (the same branch),
+far fewer Python calls. The first rejected step is solved by the continuation, which the waves
+then resume from. Waves begin at the first pose with every input active (where J's free
+directions are read), and stop at every input keyframe (the input's rate jumps there).
 
 Each accepted pose is factorized once (at its first corrected iterate, when the later
 corrections moved it at most :data:`REUSE`, else afresh): that factorization gives its
