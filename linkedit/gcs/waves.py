@@ -380,7 +380,8 @@ class Waves:
         while here < stop - 1:
             ahead = np.unique(np.minimum(here + stride * np.arange(1, width + 1), stop - 1))
             if self.free:
-                P, Q = self._split(lagrange(np.array(node_t[-count:]), np.array(node_z[-count:]), t[ahead]))
+                P, Q = self._split(lagrange(np.array(node_t[-count:]), np.array(node_z[-count:]),
+                                            np.zeros(len(ahead), dtype=int), t[ahead], count))
             else:
                 P, Q = self.extrapolated(np.array(node_t[-count:]), np.array(node_z[-count:]),
                                          np.array(node_dz[-count:]), t[ahead])
@@ -422,7 +423,7 @@ class Waves:
             right = np.searchsorted(nt, t[k + fine])  # the node after each fine step
             around = np.clip(right - count // 2, 0, max(len(nt) - count, 0))
             if self.free:
-                P[fine], Q[fine] = self._split(lagrange_between(nt, nz, around, t[k + fine], count))
+                P[fine], Q[fine] = self._split(lagrange(nt, nz, around, t[k + fine], count))
             else:
                 P[fine], Q[fine] = self.osculating(nt, nz, ndz, around, t[k + fine])
         R, V, work, ok, null = self.solve(P, Q, steps, velocities=not self.free)
@@ -718,15 +719,10 @@ class Waves:
         (the first of them ``around`` (B,)) and their time derivatives: times (n,), flat poses
         and derivatives (n, 7M) (:func:`flat`; quaternions component-wise, then normalized)."""
         k = min(NODES, len(t_nodes))
-        first, which = np.unique(around, return_inverse=True)
-        window = first[:, None] + np.arange(k)  # (W, k): the node sets in use
-        tw = t_nodes[window]
-        t0, span = tw[:, -1], np.maximum(np.ptp(tw, axis=1), np.finfo(float).tiny)
+        x, which, idx, tau, half = _windows(t_nodes, around, t, k)
         # the interpolant's weights on the node values and rates: w A = (1, τ, τ², …) at τ
-        inverse = np.linalg.inv(_hermite((tw - t0[:, None]) / span[:, None]))[which]  # (B, 2k, 2k)
-        w = (((t - t0[which]) / span[which])[:, None] ** np.arange(2 * k))[:, None, :] @ inverse
-        idx = window[which]
-        Z = w[:, :, :k] @ nodes[idx] + (w[:, :, k:] * span[which][:, None, None]) @ rates[idx]
+        w = (tau[:, None] ** np.arange(2 * k))[:, None, :] @ np.linalg.inv(_hermite(x))[which]  # (B, 1, 2k)
+        Z = w[:, :, :k] @ nodes[idx] + (w[:, :, k:] * half[:, None, None]) @ rates[idx]
         return self._split(Z[:, 0])
 
     def extrapolated(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
@@ -744,26 +740,28 @@ class Waves:
         return Z[:, :3 * M].reshape(-1, M, 3), quat.normalize(Z[:, 3 * M:].reshape(-1, M, 4))
 
 
-def lagrange(t_nodes: np.ndarray, nodes: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Flat poses (B, 7M) at times t (B,) from the polynomial (degree k − 1) through k flat
-    poses ``nodes`` (k, 7M) at ``t_nodes`` (k,) (times centred and scaled onto [−1, 1])."""
-    mid, half = 0.5 * (t_nodes[0] + t_nodes[-1]), max(0.5 * float(np.ptp(t_nodes)), np.finfo(float).tiny)
-    powers = np.arange(len(t_nodes))
-    A = ((t_nodes - mid) / half)[:, None] ** powers  # (k, k)
-    w = np.linalg.solve(A.T, (((t - mid) / half)[None, :] ** powers[:, None]))  # (k, B)
-    return w.T @ nodes
-
-
-def lagrange_between(t_nodes: np.ndarray, nodes: np.ndarray, around: np.ndarray, t: np.ndarray,
-                     k: int) -> np.ndarray:
-    """As :func:`lagrange`, each time t (B,) from its own k consecutive of n nodes (times (n,),
-    flat poses (n, 7M)), the first of them ``around`` (B,)."""
+def lagrange(t_nodes: np.ndarray, nodes: np.ndarray, around: np.ndarray, t: np.ndarray, k: int) -> np.ndarray:
+    """Flat poses (B, 7M) at times t (B,), each from the polynomial (degree k − 1) through k
+    consecutive of n flat poses (times (n,), poses (n, 7M)), the first of them ``around`` (B,)."""
     k = min(k, len(t_nodes))
-    out = np.empty((len(t), nodes.shape[1]))
-    for first in np.unique(around):
-        at = np.flatnonzero(around == first)
-        out[at] = lagrange(t_nodes[first:first + k], nodes[first:first + k], t[at])
-    return out
+    x, which, idx, tau, _ = _windows(t_nodes, around, t, k)
+    # the weights on the node values: w A = (1, τ, τ², …) at τ, A the nodes' powers
+    w = (tau[:, None] ** np.arange(k))[:, None, :] @ np.linalg.inv(x[..., None] ** np.arange(k))[which]
+    return (w @ nodes[idx])[:, 0]
+
+
+def _windows(t_nodes: np.ndarray, around: np.ndarray, t: np.ndarray,
+             k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The windows of k consecutive nodes (times (n,)) that times t (B,) are predicted from,
+    the first of each ``around`` (B,), with each window's times centred and scaled onto
+    [−1, 1] (well-conditioned systems): the distinct windows' node times so scaled (W, k),
+    which window each time uses (B,), its node indices (B, k), the time so scaled (B,), and
+    the half width (B,) of its window."""
+    first, which = np.unique(around, return_inverse=True)
+    window = first[:, None] + np.arange(k)  # (W, k)
+    tw = t_nodes[window]
+    mid, half = 0.5 * (tw[:, 0] + tw[:, -1]), np.maximum(0.5 * np.ptp(tw, axis=1), np.finfo(float).tiny)
+    return (tw - mid[:, None]) / half[:, None], which, window[which], (t - mid[which]) / half[which], half[which]
 
 
 def _hermite(x: np.ndarray) -> np.ndarray:
