@@ -95,9 +95,12 @@ def acceleration(solver, state: State, table: StepTable, step: int, linear, velo
         tab = advanced(table, step, s)
         ev = system.evaluate(x, tab, 0, jacobian=True)
         terms.append(_first_order(solver, ev, x, tab, 0, real))
-        if linear.null is not None:
-            J = system.dense_jacobian(ev) * solver.row[:, None] * solver.col
-            nulls.append(np.linalg.svd(J)[2][-linear.null.shape[1]:].T)
+        if linear.null is not None:  # the null space there, from its factorization as at a pose
+            near = solver.linearize(x, tab, 0, ev).null
+            if near is None or near.shape[1] != linear.null.shape[1]:  # the pivots cannot tell: an SVD
+                J = system.dense_jacobian(ev) * solver.row[:, None] * solver.col
+                near = np.linalg.svd(J)[2][-linear.null.shape[1]:].T
+            nulls.append(near)
     a = linear.least_norm(-(terms[0] - terms[1]) / (2 * h))
     if nulls:
         Pv = [N @ (N.T @ velocity) for N in nulls]
