@@ -91,7 +91,7 @@ VALUES = 6
 #: converged steps a block starts from
 START = 2
 #: largest scaled move of a pose since its factorization for the factorization to serve its
-#: velocity (by two refinements: error ~REFINE³ relative)
+#: velocity (by two refinements: error ~REFINE³ relative); at most FRESH, one refinement
 REFINE = 1e-5
 FRESH = 1e-9
 #: J's diagonal blocks (:attr:`Waves.parts`) are found from the first batch of at least this
