@@ -184,3 +184,18 @@ def test_a_planar_linkage_solves_its_in_plane_and_out_of_plane_unknowns_apart():
     _, jacs = waves.evaluate(P, Q, steps[:SPLIT_FROM], True)
     sound = waves._factor(waves.jacobian(jacs)).sound
     assert not sound[0] and sound[1:].all()
+
+
+def test_a_second_run_reuses_what_the_first_compiled_and_gives_its_poses():
+    """The batched evaluation's parts (J's diagonal blocks, where its entries go, the layouts
+    per batch size) are built at the first run and kept on the system."""
+    system = _system("jansen")
+    t = np.arange(360) / 360
+    first = solve_run(system, t)
+    compiled = system.batched["waves"]
+    assert compiled.decided and [len(p.cols) for p in compiled.parts] == [21, 21]
+    layouts = dict(compiled.layouts)
+    again = solve_run(system, t)
+    assert system.batched["waves"] is compiled and all(compiled.layouts[B] is lay for B, lay in layouts.items())
+    assert again.batched.sum() >= 350
+    _assert_same(again, first, system.length_scale)

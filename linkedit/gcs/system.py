@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -228,6 +229,9 @@ class System:
     driven_rel: np.ndarray  #: (S',) the relative orientations driven by inputs (StepTable.rel_inverse)
     points: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)  #: member → point name → (3,)
     lines: dict[str, list[list[str]]] = field(default_factory=dict)  #: member → polylines of point names
+    #: what batched evaluation compiles for this system at its first run, kept for the later
+    #: ones (:class:`linkedit.gcs.waves.Compiled`)
+    batched: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_members(self) -> int:

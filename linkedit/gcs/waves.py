@@ -155,16 +155,30 @@ class Factors:
 class _Layout:
     """An evaluation's fixed parts for B poses, member-major (member or vector i of pose b at
     i·B + b, so each kernel sees B times its constraints, constraint-major): the blocks with
-    spread indices, the member of each member vector (K·B,), the member vectors (K, B, 9), the
-    inverse relative orientations (n, B, 4), and buffers for positions (M + 1, B, 3) and
-    quaternions (M + 1, B, 4), the world last."""
+    spread indices, the member of each member vector (K·B,), the member vectors (K, B, 9) and
+    the inverse relative orientations (n, B, 4)."""
 
     blocks: list[Block]
     member: np.ndarray
     vectors: np.ndarray
     rel_inverse: np.ndarray
-    position: np.ndarray
-    orientation: np.ndarray
+
+
+@dataclasses.dataclass
+class Compiled:
+    """What batched evaluation of one system needs beyond the system itself, built at first
+    use and kept on it (:attr:`System.batched`) for every later run, as the system is compiled
+    once: the diagonal blocks of J that solve apart (``parts``: a planar linkage's in-plane
+    and out-of-plane unknowns; one block until a batch of :data:`SPLIT_FROM` poses was seen,
+    ``decided``), per group where a pose's Jacobian entries go and their scales, and where the
+    blocks and the off-block slots end (``places``, ``ends``: :meth:`Waves._place`), and the
+    layouts per batch size."""
+
+    parts: list[Part]
+    decided: bool = False
+    places: list[tuple[np.ndarray, np.ndarray]] | None = None
+    ends: list[int] = dataclasses.field(default_factory=list)
+    layouts: dict[int, _Layout] = dataclasses.field(default_factory=dict)
 
 
 class Waves:
@@ -174,17 +188,16 @@ class Waves:
         self.solver = solver
         self.system = solver.system
         self.table = table
-        self._layouts: dict[int, _Layout] = {}
-        #: per group, where a pose's Jacobian entries go and their scales; where the blocks
-        #: and the off-block slots end (:meth:`_place`)
-        self._places: list[tuple[np.ndarray, np.ndarray]] | None = None
-        self._ends: list[int] = []
-        #: the diagonal blocks of J that solve apart (a planar linkage's in-plane and
-        #: out-of-plane unknowns), one block until a batch of SPLIT_FROM poses was seen
-        self.parts = [Part(np.arange(self.system.n_rows), np.arange(self.system.n_unknowns))]
-        self.decided = False
+        s = self.system
+        self.compiled: Compiled = s.batched.setdefault(
+            "waves", Compiled([Part(np.arange(s.n_rows), np.arange(s.n_unknowns))]))
         #: free directions of J at every pose (0, or 1: a passive degree of freedom kept still)
         self.free = 0
+
+    @property
+    def parts(self) -> list[Part]:
+        """The diagonal blocks of J that solve apart (:class:`Compiled`)."""
+        return self.compiled.parts
 
     @staticmethod
     def applies(solver: Solver) -> bool:
@@ -197,20 +210,18 @@ class Waves:
     # ---- batched evaluation ---------------------------------------------------------------
 
     def _layout(self, B: int) -> "_Layout":
-        """What an evaluation of B poses needs that does not change between calls (cached)."""
-        if B not in self._layouts:
+        """What an evaluation of B poses needs that does not change between calls (kept)."""
+        layouts = self.compiled.layouts
+        if B not in layouts:
             s = self.system
             lanes = np.arange(B)
             spread = lambda idx: (idx[:, None] * B + lanes).ravel()  # noqa: E731
             blocks = [dataclasses.replace(blk, a=spread(blk.a), b=spread(blk.b),
                                           vectors=tuple(slice(v.start * B, v.stop * B) for v in blk.vectors))
                       for blk in s.blocks]
-            P = np.zeros((s.n_members + 1, B, 3))
-            Q = np.zeros((s.n_members + 1, B, 4))
-            Q[-1, :, 0] = 1.0  # the world
-            self._layouts[B] = _Layout(blocks, spread(s.vector_member), np.repeat(s.vectors[:, None], B, axis=1),
-                                       np.repeat(s.rel_inverse[:, None], B, axis=1), P, Q)
-        return self._layouts[B]
+            layouts[B] = _Layout(blocks, spread(s.vector_member), np.repeat(s.vectors[:, None], B, axis=1),
+                                 np.repeat(s.rel_inverse[:, None], B, axis=1))
+        return layouts[B]
 
     def evaluate(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
                  jacobian: bool) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -220,9 +231,10 @@ class Waves:
         B, M = P.shape[0], s.n_members
         lay = self._layout(B)
         # member-major layouts (M + 1, B, ·), the world last
-        lay.position[:M] = np.swapaxes(P, 0, 1)
-        lay.orientation[:M] = np.swapaxes(Q, 0, 1)
-        Pm, Qm = lay.position.reshape(-1, 3), lay.orientation.reshape(-1, 4)
+        Pm, Qm = np.empty((M + 1, B, 3)), np.empty((M + 1, B, 4))
+        Pm[:M], Pm[M] = np.swapaxes(P, 0, 1), 0.0
+        Qm[:M], Qm[M] = np.swapaxes(Q, 0, 1), (1.0, 0.0, 0.0, 0.0)
+        Pm, Qm = Pm.reshape(-1, 3), Qm.reshape(-1, 4)
         V = lay.vectors
         if tab.vectors.shape[1]:
             V = V.copy()
@@ -275,21 +287,21 @@ class Waves:
         (B, n, k, 2, 6) as :meth:`evaluate` returns them (views of the kernels'
         constraint-major arrays, put in place as they lie; the blocks are found from the first
         call with at least :data:`SPLIT_FROM` poses)."""
-        B = jacs[0].shape[0]
-        if self._places is None:
-            self._places, self._ends = self._place()
+        B, c = jacs[0].shape[0], self.compiled
+        if c.places is None:
+            c.places, c.ends = self._place()
         # the blocks, then a slot for each entry off them, then a dump for the world's entries
-        flat = np.zeros((B, self._ends[-1] + 1))
-        for J, (at, scale) in zip(jacs, self._places):
+        ends = c.ends
+        flat = np.zeros((B, ends[-1] + 1))
+        for J, (at, scale) in zip(jacs, c.places):
             flat[:, at] = J.reshape((B,) + at.shape) * scale
-        ends = self._ends
         blocks = [flat[:, e - len(p.rows) * len(p.cols):e].reshape(B, len(p.rows), len(p.cols))
                   for p, e in zip(self.parts, ends)]
         leaves = np.asarray(flat[:, ends[-2]:ends[-1]].any(axis=1))
-        if not self.decided and B >= SPLIT_FROM:  # many poses: no accidental zeros
-            self.decided = True
+        if not c.decided and B >= SPLIT_FROM:  # many poses: no accidental zeros
+            c.decided = True
             if self._decouple(blocks[0]):
-                self._places = None
+                c.places = None
                 return self.jacobian(jacs)
         return Jacobians(blocks, leaves)
 
@@ -349,7 +361,7 @@ class Waves:
         if len(groups) == 1:
             return False
         row_label = np.array([label[np.flatnonzero(row)[0]] if row.any() else label[0] for row in pattern])
-        self.parts = [Part(np.flatnonzero(row_label == label[g[0]]), g) for g in groups]
+        self.compiled.parts = [Part(np.flatnonzero(row_label == label[g[0]]), g) for g in groups]
         return True
 
     # ---- a block of steps -----------------------------------------------------------------
