@@ -231,10 +231,10 @@ class Waves:
         B, M = P.shape[0], s.n_members
         lay = self._layout(B)
         # member-major layouts (M + 1, B, ·), the world last
-        Pm, Qm = np.empty((M + 1, B, 3)), np.empty((M + 1, B, 4))
-        Pm[:M], Pm[M] = np.swapaxes(P, 0, 1), 0.0
-        Qm[:M], Qm[M] = np.swapaxes(Q, 0, 1), (1.0, 0.0, 0.0, 0.0)
-        Pm, Qm = Pm.reshape(-1, 3), Qm.reshape(-1, 4)
+        members_p, members_q = np.empty((M + 1, B, 3)), np.empty((M + 1, B, 4))
+        members_p[:M], members_p[M] = np.swapaxes(P, 0, 1), 0.0
+        members_q[:M], members_q[M] = np.swapaxes(Q, 0, 1), (1.0, 0.0, 0.0, 0.0)
+        Pm, Qm = members_p.reshape(-1, 3), members_q.reshape(-1, 4)
         V = lay.vectors
         if tab.vectors.shape[1]:
             V = V.copy()
