@@ -199,3 +199,38 @@ def test_a_second_run_reuses_what_the_first_compiled_and_gives_its_poses():
     assert system.batched["waves"] is compiled and all(compiled.layouts[B] is lay for B, lay in layouts.items())
     assert again.batched.sum() >= 350
     _assert_same(again, first, system.length_scale)
+
+
+@pytest.mark.parametrize("name", ["crank-rocker", "six-bar", "spherical-four-bar", "klann"])
+def test_a_warm_system_leaves_what_stays_still_out_of_its_rough_steps_and_gives_the_step_by_step_poses(name):
+    """From the second run on, the rough steps leave out the parts that stayed still (a planar
+    linkage's out-of-plane unknowns, the spherical four-bar's positions) and the groups that
+    are theirs alone; the block's solve still checks every row and pivot."""
+    system = _system(name)
+    t = np.arange(360) / 360
+    solve_run(system, t)
+    compiled = system.batched["waves"]
+    assert compiled.quiet.any() and not compiled.quiet.all() and compiled.skip
+    on = solve_run(system, t)
+    off = solve_run(system, t, Options(waves=False))
+    assert on.batched.sum() >= 350
+    _assert_same(on, off, system.length_scale)
+
+
+def test_a_run_off_what_stayed_still_before_is_solved_as_step_by_step():
+    """A warm planar linkage started out of its plane (its J then has entries, ~1e-19, off the
+    blocks kept on the system): the first block finds its poses unsound, the later ones take J
+    whole, for this run only."""
+    system = _system("crank-rocker")
+    t = np.arange(360) / 360
+    solve_run(system, t)
+    compiled = system.batched["waves"]
+    assert compiled.skip and len(compiled.parts) == 2
+    start = system.rest.copy()
+    start.orientation[:] = quat.turned(start.orientation, np.tile([0.02, -0.01, 0.0], (system.n_members, 1)))
+    start.position[:, 2] += 0.01 * system.length_scale
+    on = solve_run(system, t, start=start)
+    off = solve_run(system, t, Options(waves=False), start=start)
+    assert (off.status == 0).all() and on.batched.sum() >= 330
+    assert system.batched["waves"] is compiled and len(compiled.parts) == 2
+    _assert_same(on, off, system.length_scale)

@@ -11,7 +11,11 @@ of steps can be solved together:
    by the osculating polynomial through the last :data:`NODES` such poses and their
    velocities (within ~1e-9 of the size one stride ahead), then :data:`CORRECTIONS`
    Gauss–Newton steps for all of them at once (the error after each about the square of the
-   one before: ~1e-10 of the size or better), and the velocity from the last linearization;
+   one before: ~1e-10 of the size or better), and the velocity from the last linearization —
+   leaving out the parts of J that stay still (:class:`Compiled`: a planar linkage's
+   out-of-plane unknowns, whose rows and time derivatives are exactly zero) and the
+   constraint groups that are theirs alone (a planar linkage's axis alignments): step 3
+   checks every row and pivot;
 2. then all the steps of the block at once: the rough ones from where they are, the ones
    between from the osculating polynomial through the rough poses around them (typically
    within 1e-10 of the size);
@@ -39,6 +43,12 @@ change, step to step (:meth:`Waves.keep_still`: a prefix sum, converging quadrat
 few passes) — and the acceptance test adds the continuation's: that change at most
 ``still_tol``. The steps' polynomials go through poses only there (their velocities, the
 instant still motion, differ from the step-to-step one by ~1e-6 of the size per step).
+
+What this needs beyond the system — J's diagonal blocks and the parts that stay still (found
+from the first batch of :data:`SPLIT_FROM` poses), where each Jacobian entry goes, the layouts
+per batch size — is built at a system's first run and kept on it for the later ones
+(:attr:`System.batched`), as the system itself is compiled once; a run whose poses leave those
+blocks (entries off them) takes J whole from its next block on, for itself only.
 
 Steps with an input outside its window, systems with custom constraints, more free
 directions or the sparse factorization, and runs that ask for accelerations go step by step.
@@ -127,28 +137,36 @@ class Part:
 
 @dataclasses.dataclass
 class Jacobians:
-    """Scaled Jacobians of B poses, block by block of :attr:`Waves.parts`: (B, Rp, Np) each,
-    and whether a pose's J has entries off the blocks (``leaves``, (B,))."""
+    """Scaled Jacobians of B poses, block by block of ``parts`` (:attr:`Waves.parts`, or some
+    of them): (B, Rp, Np) each, and whether a pose's J has entries off the blocks
+    (``leaves``, (B,))."""
 
     blocks: list[np.ndarray]
     leaves: np.ndarray
+    parts: list[Part]
 
     def take(self, idx: np.ndarray) -> "Jacobians":
-        return Jacobians([_take(J, idx) for J in self.blocks], _take(self.leaves, idx))
+        return Jacobians([_take(J, idx) for J in self.blocks], _take(self.leaves, idx), self.parts)
+
+    def only(self, which: list[int]) -> "Jacobians":
+        """The blocks ``which`` (indices into ``parts``)."""
+        return Jacobians([self.blocks[i] for i in which], self.leaves, [self.parts[i] for i in which])
 
 
 @dataclasses.dataclass
 class Factors:
-    """Factorizations of B poses' scaled JᵀJ + μI, block by block (B, Np, Np) each, whether
-    each is sound (B,), and J's unit null vectors (B, N) where it has a free direction."""
+    """Factorizations of B poses' scaled JᵀJ + μI, block by block of ``parts`` (B, Np, Np)
+    each (the other unknowns are not solved for: zero), whether each is sound (B,), and J's
+    unit null vectors (B, N) where it has a free direction."""
 
     factors: list[np.ndarray]
     sound: np.ndarray
     null: np.ndarray | None
+    parts: list[Part]
 
     def take(self, idx: np.ndarray) -> "Factors":
         return Factors([_take(L, idx) for L in self.factors], _take(self.sound, idx),
-                       None if self.null is None else _take(self.null, idx))
+                       None if self.null is None else _take(self.null, idx), self.parts)
 
 
 @dataclasses.dataclass
@@ -170,12 +188,17 @@ class Compiled:
     use and kept on it (:attr:`System.batched`) for every later run, as the system is compiled
     once: the diagonal blocks of J that solve apart (``parts``: a planar linkage's in-plane
     and out-of-plane unknowns; one block until a batch of :data:`SPLIT_FROM` poses was seen,
-    ``decided``), per group where a pose's Jacobian entries go and their scales, and where the
-    blocks and the off-block slots end (``places``, ``ends``: :meth:`Waves._place`), and the
-    layouts per batch size."""
+    ``decided``), the parts that stay still (``quiet``: their rows and time derivatives exactly
+    zero over the first batch of as many poses after they were decided, such as a planar
+    linkage's out-of-plane part) and the groups all of whose rows are theirs (``skip``), per
+    group where a pose's Jacobian entries go and their scales, and where the blocks and the
+    off-block slots end (``places``, ``ends``: :meth:`Waves._place`), and the layouts per batch
+    size."""
 
     parts: list[Part]
     decided: bool = False
+    quiet: np.ndarray | None = None
+    skip: tuple[int, ...] = ()
     places: list[tuple[np.ndarray, np.ndarray]] | None = None
     ends: list[int] = dataclasses.field(default_factory=list)
     layouts: dict[int, _Layout] = dataclasses.field(default_factory=dict)
@@ -189,10 +212,16 @@ class Waves:
         self.system = solver.system
         self.table = table
         s = self.system
-        self.compiled: Compiled = s.batched.setdefault(
-            "waves", Compiled([Part(np.arange(s.n_rows), np.arange(s.n_unknowns))]))
+        self.compiled: Compiled = s.batched.setdefault("waves", Compiled([self._whole()]))
+        #: a pose of this run had Jacobian entries off the kept blocks: the next block takes J
+        #: whole (decided afresh for this run only)
+        self.coupled = False
         #: free directions of J at every pose (0, or 1: a passive degree of freedom kept still)
         self.free = 0
+
+    def _whole(self) -> Part:
+        s = self.system
+        return Part(np.arange(s.n_rows), np.arange(s.n_unknowns))
 
     @property
     def parts(self) -> list[Part]:
@@ -223,10 +252,11 @@ class Waves:
                                  np.repeat(s.rel_inverse[:, None], B, axis=1))
         return layouts[B]
 
-    def evaluate(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
-                 jacobian: bool) -> tuple[np.ndarray, list[np.ndarray]]:
+    def evaluate(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray, jacobian: bool,
+                 skip: tuple[int, ...] = ()) -> tuple[np.ndarray, list[np.ndarray | None]]:
         """Residuals (B, R) at positions P (B, M, 3) and quaternions Q (B, M, 4) at the table's
-        ``steps`` (B,), and with ``jacobian`` the Jacobian per group (B, n, k, 2, 6)."""
+        ``steps`` (B,), and with ``jacobian`` the Jacobian per group (B, n, k, 2, 6); the groups
+        ``skip`` are not evaluated (rows zero, Jacobian None)."""
         s, tab = self.system, self.table
         B, M = P.shape[0], s.n_members
         lay = self._layout(B)
@@ -252,8 +282,12 @@ class Waves:
         par = StepParameters(0.0, np.zeros((0, 9)), rel.reshape(-1, 4), [None] * len(s.blocks),
                              np.zeros(0, dtype=int), values)
         r = np.empty((B, s.n_rows))
-        jacs: list[np.ndarray] = []
-        for blk, wide in zip(s.blocks, lay.blocks):
+        jacs: list[np.ndarray | None] = []
+        for i, (blk, wide) in enumerate(zip(s.blocks, lay.blocks)):
+            if i in skip:
+                r[:, blk.start:blk.stop] = 0.0
+                jacs.append(None)
+                continue
             n, k = blk.rows.shape
             out = np.empty((n * B, k))
             J = EVALUATE[blk.kind](wide, X, W, Qm, par, out, jacobian)
@@ -262,13 +296,13 @@ class Waves:
                 jacs.append(np.swapaxes(J.reshape((n, B) + J.shape[1:]), 0, 1))
         return r, jacs
 
-    def time_derivative(self, Q: np.ndarray, steps: np.ndarray, jacs: list[np.ndarray]) -> np.ndarray:
+    def time_derivative(self, Q: np.ndarray, steps: np.ndarray, jacs: list[np.ndarray | None]) -> np.ndarray:
         """∂r/∂t (B, R) at quaternions Q (B, M, 4) (as :meth:`System.time_derivative`, batched)."""
         s = self.system
         B = Q.shape[0]
         out = np.zeros((B, s.n_rows))
         for blk, jac, rate in zip(s.blocks, jacs, self.table.rates):
-            if rate is None:
+            if rate is None or jac is None:
                 continue
             sel = blk.scheduled
             if blk.kind in kinds.VALUE_KINDS:
@@ -282,19 +316,20 @@ class Waves:
             out[:, blk.rows[sel]] = (jac[:, sel][..., 1, :] * w[:, :, None, :]).sum(axis=3)
         return out
 
-    def jacobian(self, jacs: list[np.ndarray]) -> Jacobians:
+    def jacobian(self, jacs: list[np.ndarray | None]) -> Jacobians:
         """The scaled Jacobians, dense block by block of :attr:`parts`, from the groups'
         (B, n, k, 2, 6) as :meth:`evaluate` returns them (views of the kernels'
         constraint-major arrays, put in place as they lie; the blocks are found from the first
         call with at least :data:`SPLIT_FROM` poses)."""
-        B, c = jacs[0].shape[0], self.compiled
+        B, c = next(J for J in jacs if J is not None).shape[0], self.compiled
         if c.places is None:
             c.places, c.ends = self._place()
         # the blocks, then a slot for each entry off them, then a dump for the world's entries
         ends = c.ends
         flat = np.zeros((B, ends[-1] + 1))
         for J, (at, scale) in zip(jacs, c.places):
-            flat[:, at] = J.reshape((B,) + at.shape) * scale
+            if J is not None:
+                flat[:, at] = J.reshape((B,) + at.shape) * scale
         blocks = [flat[:, e - len(p.rows) * len(p.cols):e].reshape(B, len(p.rows), len(p.cols))
                   for p, e in zip(self.parts, ends)]
         leaves = np.asarray(flat[:, ends[-2]:ends[-1]].any(axis=1))
@@ -303,7 +338,8 @@ class Waves:
             if self._decouple(blocks[0]):
                 c.places = None
                 return self.jacobian(jacs)
-        return Jacobians(blocks, leaves)
+        self.coupled |= len(c.parts) > 1 and bool(leaves.any())
+        return Jacobians(blocks, leaves, self.parts)
 
     def _place(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int]]:
         """Per group: where a pose's Jacobian entries (n, k·12) go in its flat Jacobian — the
@@ -364,6 +400,19 @@ class Waves:
         self.compiled.parts = [Part(np.flatnonzero(row_label == label[g[0]]), g) for g in groups]
         return True
 
+    def _settle(self, r: np.ndarray, rt: np.ndarray, J: Jacobians) -> None:
+        """Find the quiet parts (:class:`Compiled`) from the residuals r, time derivatives rt
+        (B, R) and Jacobians J of a batch, and the groups all of whose rows are theirs or
+        empty (zero, with zero time derivatives and Jacobian rows, such as the component of an
+        axis constraint along the aligned axes)."""
+        c, s = self.compiled, self.system
+        zero = np.asarray(~(r.any(axis=0) | rt.any(axis=0)))  # (R,)
+        c.quiet = np.array([zero[p.rows].all() for p in c.parts])
+        still = np.zeros(s.n_rows, dtype=bool)
+        for p, q, Jp in zip(c.parts, c.quiet, J.blocks):
+            still[p.rows] = q | (zero[p.rows] & ~(Jp != 0.0).any(axis=(0, 2)))
+        c.skip = tuple(i for i, blk in enumerate(s.blocks) if still[blk.start:blk.stop].all())
+
     # ---- a block of steps -----------------------------------------------------------------
 
     def block(self, k: int, stop: int, pos: np.ndarray, ori: np.ndarray, vel: np.ndarray, first: int) -> Solved:
@@ -377,6 +426,8 @@ class Waves:
         still from step to step (:meth:`keep_still`, converging quadratically: at most
         :data:`STILL_PASSES`); then the continuation's acceptance test."""
         col, M = self.solver.col, self.system.n_members
+        if self.coupled:  # the blocks kept on the system do not hold in this run
+            self.compiled, self.coupled = Compiled([self._whole()]), False
         t = self.table.t
         coarse: list[np.ndarray] = []
         rough: list[tuple[np.ndarray, np.ndarray]] = []
@@ -491,13 +542,18 @@ class Waves:
         the last linearization (exact to about the size of the last correction), the first
         pose's first correction (its prediction's error), and which poses are good (B,): a
         sound factorization (:meth:`_factor`) and a last correction of at most :data:`ROUGH`."""
-        row = self.solver.row
+        row, c = self.solver.row, self.compiled
+        # rough poses need not move what stays still (the block's solve checks all of it)
+        quick = c.quiet is not None and not self.free
+        moving = [i for i, q in enumerate(c.quiet) if not q] if quick and c.quiet is not None else []
         error = np.inf
         for i in range(CORRECTIONS):
-            r, jacs = self.evaluate(P, Q, steps, True)
+            r, jacs = self.evaluate(P, Q, steps, True, c.skip if quick else ())
             J = self.jacobian(jacs)
+            if quick:
+                J = J.only(moving)
             F = self._factor(J)
-            step = -self.least_norm(F, self._gradient(J, r * row, self.parts))
+            step = -self.least_norm(F, self._gradient(J, r * row))
             size = np.abs(step).max(axis=1)
             error = float(size[0]) if i == 0 else error
             if i == CORRECTIONS - 1:
@@ -505,7 +561,7 @@ class Waves:
             P[:], Q[:] = self.moved(P, Q, step)
             if F.null is not None and i == 0:  # the free direction kept still from pose to pose
                 self.keep_still(P, Q, F.null.copy(), before[0][0], before[1][0])
-        velocity = self.least_norm(F, self._gradient(J, -rt * row, self.parts))
+        velocity = self.least_norm(F, self._gradient(J, -rt * row))
         return velocity, error, F.sound & (size <= ROUGH)
 
     # ---- poses ------------------------------------------------------------------------------
@@ -559,7 +615,7 @@ class Waves:
             if weak.size:
                 null[weak], clean = self._null_apart([L[weak] for L in factors], J.take(weak), top[weak])
                 sound[weak] = ~J.leaves[weak] & clean
-        return Factors(factors, sound, null)
+        return Factors(factors, sound, null, J.parts)
 
     def _null(self, factors: list[np.ndarray], J: Jacobians, top: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Unit null vectors (B, N) of J where it has one free direction, as the continuation
@@ -568,8 +624,9 @@ class Waves:
         clean (B,): |J n| at most NULL_CLEAN of √(largest diagonal of JᵀJ)."""
         B, N = len(top), self.system.n_unknowns
         probe = np.random.default_rng(1).standard_normal(N)  # as the continuation's probes
-        y = self._assemble(self._solve(factors, [np.broadcast_to(probe[p.cols], (B, len(p.cols))) for p in self.parts]))
-        y = self._assemble(self._solve(factors, [y[:, p.cols] for p in self.parts]))
+        parts = self.parts
+        y = self._assemble(self._solve(factors, [np.broadcast_to(probe[p.cols], (B, len(p.cols))) for p in parts]), parts)
+        y = self._assemble(self._solve(factors, [y[:, p.cols] for p in parts]), parts)
         y /= np.sqrt((y * y).sum(axis=1))[:, None]
         seen = sum(((Jp @ y[:, p.cols, None])[..., 0] ** 2).sum(axis=1) for p, Jp in zip(self.parts, J.blocks))
         return y, np.sqrt(seen) <= NULL_CLEAN * np.sqrt(top)
@@ -585,8 +642,8 @@ class Waves:
         Y = np.empty((B, N, 2))
         for j in range(2):
             y = self._assemble(self._solve(factors, [np.broadcast_to(probes[p.cols, j], (B, len(p.cols)))
-                                                     for p in self.parts]))
-            Y[:, :, j] = self._assemble(self._solve(factors, [y[:, p.cols] for p in self.parts]))
+                                                     for p in self.parts]), self.parts)
+            Y[:, :, j] = self._assemble(self._solve(factors, [y[:, p.cols] for p in self.parts]), self.parts)
         # an orthonormal basis of the span (Gram–Schmidt), J on it (B, R, 2) and its 2 × 2 Gram matrix
         Y[:, :, 0] /= np.sqrt((Y[:, :, 0] ** 2).sum(axis=1))[:, None]
         Y[:, :, 1] -= Y[:, :, 0] * (Y[:, :, 0] * Y[:, :, 1]).sum(axis=1)[:, None]
@@ -598,17 +655,18 @@ class Waves:
         clean = (sv[:, 0] <= NULL_CLEAN * scale) & (sv[:, 1] >= NULL_APART * scale)
         return (Y @ vectors[:, :, :1])[..., 0], clean
 
-    def _assemble(self, x: list[np.ndarray]) -> np.ndarray:
-        """One vector (B, N) from its blocks (B, Np) (:attr:`parts`)."""
-        out = np.empty((len(x[0]), self.system.n_unknowns))
-        for p, xp in zip(self.parts, x):
+    def _assemble(self, x: list[np.ndarray], parts: list[Part]) -> np.ndarray:
+        """One vector (B, N) from its blocks (B, Np) of ``parts`` (zero elsewhere)."""
+        full = len(parts) == len(self.parts)
+        out = (np.empty if full else np.zeros)((len(x[0]), self.system.n_unknowns))
+        for p, xp in zip(parts, x):
             out[:, p.cols] = xp
         return out
 
     def least_norm(self, F: "Factors", b: list[np.ndarray]) -> np.ndarray:
         """y (B, N) of (JᵀJ + μI) y = b (blocks (B, Np)) without its component along J's null
         vector (there it is rounding amplified by 1/μ): the least-norm solution."""
-        y = self._assemble(self._solve(F.factors, b))
+        y = self._assemble(self._solve(F.factors, b), F.parts)
         return y if F.null is None else y - F.null * (F.null * y).sum(axis=1)[:, None]
 
     @staticmethod
@@ -618,9 +676,9 @@ class Waves:
                 for L, bp in zip(factors, b)]                                 # part rarely is
 
     @staticmethod
-    def _gradient(J: Jacobians, r: np.ndarray, parts: list[Part]) -> list[np.ndarray]:
+    def _gradient(J: Jacobians, r: np.ndarray) -> list[np.ndarray]:
         """Jᵀ r block by block (B, Np) for residual rows r (B, R)."""
-        return [(r[:, p.rows][:, None, :] @ Jp)[:, 0] for p, Jp in zip(parts, J.blocks)]
+        return [(r[:, p.rows][:, None, :] @ Jp)[:, 0] for p, Jp in zip(J.parts, J.blocks)]
 
     def solve(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray, budget: int = ITERATIONS,
               velocities: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -656,10 +714,12 @@ class Waves:
             rs = rl * row
             norm = np.sqrt((rs * rs).sum(axis=1))
             J = self.jacobian(jacs)
-            parts = self.parts
+            parts, compiled = self.parts, self.compiled
+            if compiled.decided and compiled.quiet is None and len(live) >= SPLIT_FROM and not self.free:
+                self._settle(rl, self.time_derivative(_take(Q, live), _take(steps, live), jacs), J)
             if kept is None:
                 kept = Factors([np.zeros((B, len(p.cols), len(p.cols))) for p in parts], np.zeros(B, dtype=bool),
-                               null if self.free else None)
+                               null if self.free else None, parts)
             converged = np.abs(rs).max(axis=1) <= tol
             slow = norm > 0.1 * last[live]
             # a Newton step must contract twofold; a chord step that did not is retried afresh
@@ -682,8 +742,8 @@ class Waves:
                 c = np.flatnonzero(converged)
                 lc = live[c]
                 Jc, Fc = J.take(c), kept.take(lc)
-                rt = self.time_derivative(_take(Q, lc), steps[lc], [_take(j, c) for j in jacs])
-                b = self._gradient(Jc, -rt * row, parts)
+                rt = self.time_derivative(_take(Q, lc), steps[lc], [None if j is None else _take(j, c) for j in jacs])
+                b = self._gradient(Jc, -rt * row)
                 v = self.least_norm(Fc, b)
                 for _ in range(1 if (since[lc] <= FRESH).all() else 2):  # iterative refinement against this J
                     v += self.least_norm(Fc, [bp - ((Jp @ v[:, p.cols, None])[..., 0][:, None, :] @ Jp)[:, 0]
@@ -695,7 +755,7 @@ class Waves:
             if not g.size:
                 break
             lg = live[g]
-            step = -self.least_norm(kept.take(lg), self._gradient(J.take(g), _take(rs, g), parts))
+            step = -self.least_norm(kept.take(lg), self._gradient(J.take(g), _take(rs, g)))
             last[lg] = norm[g]
             since[lg] += np.abs(step).max(axis=1)
             work[lg, 0] += 1
