@@ -442,6 +442,8 @@ class Waves:
         here, stride, width = k - 1, STRIDE, 1 if len(prior) < count else 4
         while here < stop - 1:
             ahead = np.unique(np.minimum(here + stride * np.arange(1, width + 1), stop - 1))
+            if 0 < stop - 1 - ahead[-1] <= stride // 2:  # the block's last step, within half a stride: now
+                ahead = np.append(ahead, stop - 1)
             if self.free:
                 P, Q = self._split(lagrange(np.array(node_t[-count:]), np.array(node_z[-count:]),
                                             np.zeros(len(ahead), dtype=int), t[ahead], count))
