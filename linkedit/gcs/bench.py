@@ -15,7 +15,8 @@
    ground and the input's driven point set at each step from linkedit's own run — once with
    those held points dragged (the baseline the issue measured) and once fixed in an earlier
    group (SolveSpace's leanest form). Both run in this process and are timed in CPU time (a
-shared machine's waits left out). Printed: medians of interleaved runs of each, their
+shared machine's waits left out), linkedit after one untimed run of each system (which builds
+what waves keep on it, as SolveSpace's sketch is built before its timing). Printed: medians of interleaved runs of each, their
    ratio (target ≤ 1×, ≤ 2× with a passive DOF) and the largest difference of the compared
    points over the run, relative to the mechanism's size; and linkedit's time per step with the
    per-step diagnostics ``solve3d`` adds (status, degrees of freedom, redundant equations), and

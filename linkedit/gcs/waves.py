@@ -101,7 +101,8 @@ VALUES = 6
 #: converged steps a block starts from
 START = 2
 #: largest scaled move of a pose since its factorization for the factorization to serve its
-#: velocity (by two refinements: error ~REFINE³ relative); at most FRESH, one refinement
+#: velocity (by two refinements: error ~REFINE³ relative); at most FRESH, one refinement; none
+#: where the factorization is of the pose itself
 REFINE = 1e-5
 FRESH = 1e-9
 #: J's diagonal blocks (:attr:`Waves.parts`) are found from the first batch of at least this
@@ -688,10 +689,11 @@ class Waves:
         Q (B, M, 4) (moved in place). A pose's JᵀJ + μI is factorized at its first iterate and
         again only where a step reusing it (chord) contracted the residual less than tenfold;
         every step contracts it twofold at least. The exact velocity at the solved pose
-        (J v = −∂r/∂t, least norm, J evaluated there) is solved with the kept factorization and
-        refined against that J — once where the factorization is of a pose at most
-        :data:`FRESH` away, else twice (it is at most :data:`REFINE` away, so each refinement
-        contracts the error by that much) — or with a fresh one. Returns the residuals
+        (J v = −∂r/∂t, least norm, J evaluated there) is solved with the kept factorization —
+        as is where it is of that pose (as the continuation solves it), else refined against
+        that J: once where the factorization is of a pose at most :data:`FRESH` away, twice
+        otherwise (it is at most :data:`REFINE` away, so each refinement contracts the error by
+        that much), or with a fresh one. Returns the residuals
         (B, R), the scaled velocities (B, N), the linear solves and factorizations (B, 2),
         whether each step converged with a sound factorization (:meth:`_factor`) (B,), and J's
         unit null vectors there (B, N) where it has a free direction (else zeros), after at
@@ -747,7 +749,8 @@ class Waves:
                 rt = self.time_derivative(_take(Q, lc), steps[lc], [None if j is None else _take(j, c) for j in jacs])
                 b = self._gradient(Jc, -rt * row)
                 v = self.least_norm(Fc, b)
-                for _ in range(1 if (since[lc] <= FRESH).all() else 2):  # iterative refinement against this J
+                moved_since = since[lc].max()  # none where every factorization is of its own pose
+                for _ in range(0 if moved_since == 0.0 else 1 if moved_since <= FRESH else 2):  # refinement against this J
                     v += self.least_norm(Fc, [bp - ((Jp @ v[:, p.cols, None])[..., 0][:, None, :] @ Jp)[:, 0]
                                               for p, bp, Jp in zip(parts, b, Jc.blocks)])
                 velocity[lc] = v
