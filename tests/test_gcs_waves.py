@@ -203,9 +203,9 @@ def test_a_second_run_reuses_what_the_first_compiled_and_gives_its_poses():
 
 @pytest.mark.parametrize("name", ["crank-rocker", "six-bar", "spherical-four-bar", "klann"])
 def test_a_warm_system_leaves_what_stays_still_out_of_its_rough_steps_and_gives_the_step_by_step_poses(name):
-    """From the second run on, the rough steps leave out the parts that stayed still (a planar
-    linkage's out-of-plane unknowns, the spherical four-bar's positions) and the groups that
-    are theirs alone; the block's solve still checks every row and pivot."""
+    """The rough steps leave out the parts that stay still (a planar linkage's out-of-plane
+    unknowns, the spherical four-bar's positions) and the groups that are theirs alone, found at
+    the first run and kept; the block's solve still checks every row and pivot."""
     system = _system(name)
     t = np.arange(360) / 360
     solve_run(system, t)
@@ -233,4 +233,20 @@ def test_a_run_off_what_stayed_still_before_is_solved_as_step_by_step():
     off = solve_run(system, t, Options(waves=False), start=start)
     assert (off.status == 0).all() and on.batched.sum() >= 330
     assert system.batched["waves"] is compiled and len(compiled.parts) == 2
+    _assert_same(on, off, system.length_scale)
+
+
+def test_a_first_run_finds_the_blocks_before_its_first_wave():
+    """Too short a run for a batch of SPLIT_FROM poses: the blocks and the still parts come
+    from poses along the tangent of the last solved one, and the poses are step by step's."""
+    from linkedit.gcs.waves import SPLIT_FROM
+
+    system = _system("klann")
+    t = np.arange(SPLIT_FROM // 2) / 360
+    on = solve_run(system, t)
+    compiled = system.batched["waves"]
+    assert compiled.decided and [len(p.cols) for p in compiled.parts] == [15, 15]
+    assert list(compiled.quiet) == [False, True] and compiled.skip
+    off = solve_run(system, t, Options(waves=False))
+    assert on.batched.sum() >= len(t) - 2
     _assert_same(on, off, system.length_scale)

@@ -45,10 +45,11 @@ few passes) — and the acceptance test adds the continuation's: that change at 
 instant still motion, differ from the step-to-step one by ~1e-6 of the size per step).
 
 What this needs beyond the system — J's diagonal blocks and the parts that stay still (found
-from the first batch of :data:`SPLIT_FROM` poses), where each Jacobian entry goes, the layouts
-per batch size — is built at a system's first run and kept on it for the later ones
-(:attr:`System.batched`), as the system itself is compiled once; a run whose poses leave those
-blocks (entries off them) takes J whole from its next block on, for itself only.
+before the first wave from :data:`SPLIT_FROM` poses along the tangent of the last solved one,
+:meth:`Waves._survey`, or else from the first batch of as many), where each Jacobian entry
+goes, the layouts per batch size — is built at a system's first run and kept on it for the
+later ones (:attr:`System.batched`), as the system itself is compiled once; a run whose poses
+leave those blocks (entries off them) takes J whole from its next block on, for itself only.
 
 Steps with an input outside its window, systems with custom constraints, more free
 directions or the sparse factorization, and runs that ask for accelerations go step by step.
@@ -401,6 +402,25 @@ class Waves:
         self.compiled.parts = [Part(np.flatnonzero(row_label == label[g[0]]), g) for g in groups]
         return True
 
+    def _survey(self, P: np.ndarray, Q: np.ndarray, v: np.ndarray, step: int) -> None:
+        """Find J's diagonal blocks and the parts that stay still (:class:`Compiled`) before a
+        system's first wave, from :data:`SPLIT_FROM` poses along the tangent of a solved pose
+        (P (M, 3), Q (M, 4), scaled velocity v (N,), at the table's ``step``): x ⊕ s·v, s spread
+        over ±:data:`STRIDE` steps — off the motion by O(s²) but of its structure (a planar
+        linkage's stay planar), with no accidental zeros. A wrong guess costs time only: the
+        block's solve checks every row and pivot, and a run whose poses leave the blocks takes
+        J whole."""
+        t = self.table.t
+        h = abs(float(t[min(step + 1, len(t) - 1)] - t[max(step - 1, 0)])) / 2
+        s = np.linspace(-1.0, 1.0, SPLIT_FROM) * STRIDE * h
+        B = len(s)
+        Ps, Qs = self.moved(np.broadcast_to(P, (B,) + P.shape), np.broadcast_to(Q, (B,) + Q.shape), s[:, None] * v)
+        steps = np.full(B, step)
+        r, jacs = self.evaluate(Ps, Qs, steps, True)
+        J = self.jacobian(jacs)  # decides the blocks (B ≥ SPLIT_FROM)
+        if self.compiled.quiet is None:
+            self._settle(r, self.time_derivative(Qs, steps, jacs), J)
+
     def _settle(self, r: np.ndarray, rt: np.ndarray, J: Jacobians) -> None:
         """Find the quiet parts (:class:`Compiled`) from the residuals r, time derivatives rt
         (B, R) and Jacobians J of a batch, and the groups all of whose rows are theirs or
@@ -429,6 +449,8 @@ class Waves:
         col, M = self.solver.col, self.system.n_members
         if self.coupled:  # the blocks kept on the system do not hold in this run
             self.compiled, self.coupled = Compiled([self._whole()]), False
+        if not self.compiled.decided and not self.free and np.abs(vel[k - 1]).max() > 0.0:
+            self._survey(pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col, k - 1)
         t = self.table.t
         coarse: list[np.ndarray] = []
         rough: list[tuple[np.ndarray, np.ndarray]] = []
