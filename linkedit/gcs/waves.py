@@ -569,8 +569,8 @@ class Waves:
         sound factorization (:meth:`_factor`) and a last correction of at most :data:`ROUGH`."""
         row, c = self.solver.row, self.compiled
         # rough poses need not move what stays still (the block's solve checks all of it)
-        quick = c.quiet is not None and not self.free
-        moving = [i for i, q in enumerate(c.quiet) if not q] if quick and c.quiet is not None else []
+        moving = [] if c.quiet is None or self.free else [i for i, q in enumerate(c.quiet) if not q]
+        quick = bool(moving)  # (where nothing moves, every part is kept)
         error = np.inf
         for i in range(CORRECTIONS):
             r, jacs = self.evaluate(P, Q, steps, True, c.skip if quick else ())
