@@ -219,8 +219,8 @@ def test_a_warm_system_leaves_what_stays_still_out_of_its_rough_steps_and_gives_
 
 def test_a_run_off_what_stayed_still_before_is_solved_as_step_by_step():
     """A warm planar linkage started out of its plane (its J then has entries, ~1e-19, off the
-    blocks kept on the system): the first block finds its poses unsound, the later ones take J
-    whole, for this run only."""
+    blocks kept on the system): the first block finds its poses unsound, the later ones take
+    the blocks those entries tie merged — J whole, here, for this run and the later ones."""
     system = _system("crank-rocker")
     t = np.arange(360) / 360
     solve_run(system, t)
@@ -232,8 +232,40 @@ def test_a_run_off_what_stayed_still_before_is_solved_as_step_by_step():
     on = solve_run(system, t, start=start)
     off = solve_run(system, t, Options(waves=False), start=start)
     assert (off.status == 0).all() and on.batched.sum() >= 330
-    assert system.batched["waves"] is compiled and len(compiled.parts) == 2
+    assert system.batched["waves"] is compiled and len(compiled.parts) == 1 and not compiled.skip
     _assert_same(on, off, system.length_scale)
+    again = solve_run(system, t)
+    assert again.batched.sum() >= 350
+    _assert_same(again, solve_run(system, t, Options(waves=False)), system.length_scale)
+
+
+def test_an_input_held_then_moving_merges_the_blocks_it_ties_and_stirs_what_was_still():
+    """Two cranks on one pivot, the second held for half the run then turned: the blocks and
+    still parts found while it is held (its x and y turns apart, its z turn still) do not hold
+    once it turns; the first run finds out, and the later ones solve it all in waves."""
+    from linkedit.gcs.members import compile_mechanism
+
+    crank = {"points": {"pivot": [0, 0, 0], "tip": [1, 0, 0]}}
+    data = {"name": "two", "units": "m", "shapes": {"crank": crank},
+            "members": {m: {"position": [0, 0, 0], "shape": "crank"} for m in "ab"},
+            "constraints": {f"{m}_pivot": {"type": "pin", "member": m, "point": "pivot", "world": [0, 0, 0]}
+                            for m in "ab"},
+            "inputs": {"drive_a": {"type": "orientation", "member": "a",
+                                   "rotation": {"axis": [0, 0, 1], "angles_deg": [0, 360]}},
+                       "drive_b": {"type": "orientation", "member": "b",
+                                   "rotation": {"axis": [0, 0, 1], "angles_deg": [0, 0, 90]}}},
+            "outputs": {"steps": 361, "tracks": {"tip": {"member": "b", "point": "tip"}}}}
+    system = compile_mechanism(validate(MechanismSpec, data, file="test"))[0]
+    t = np.linspace(0.0, 1.0, 361)
+    off = solve_run(system, t, Options(waves=False))
+    first = solve_run(system, t)
+    compiled = system.batched["waves"]
+    b_turn = [i for i, p in enumerate(compiled.parts) if 6 + 5 in p.cols]  # b's turn about z
+    assert len(b_turn) == 1 and not compiled.quiet[b_turn[0]]
+    again = solve_run(system, t)
+    assert again.batched.sum() >= 355 > first.batched.sum()
+    _assert_same(first, off, system.length_scale)
+    _assert_same(again, off, system.length_scale)
 
 
 def test_a_first_run_finds_the_blocks_before_its_first_wave():

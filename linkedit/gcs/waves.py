@@ -48,8 +48,11 @@ What this needs beyond the system — J's diagonal blocks and the parts that sta
 before the first wave from :data:`SPLIT_FROM` poses along the tangent of the last solved one,
 :meth:`Waves._survey`, or else from the first batch of as many), where each Jacobian entry
 goes, the layouts per batch size — is built at a system's first run and kept on it for the
-later ones (:attr:`System.batched`), as the system itself is compiled once; a run whose poses
-leave those blocks (entries off them) takes J whole from its next block on, for itself only.
+later ones (:attr:`System.batched`), as the system itself is compiled once. They are guesses
+that cost time only when wrong (every solved step is checked on every row and pivot) and they
+correct themselves: blocks that a run's poses tie (entries off them: poses found unsound) are
+merged from its next block on, and still parts whose rows a block's poses do not satisfy
+exactly (an input held when they were found moves) are still no longer.
 
 Steps with an input outside its window, systems with custom constraints, more free
 directions or the sparse factorization, and runs that ask for accelerations go step by step.
@@ -192,17 +195,20 @@ class Compiled:
     and out-of-plane unknowns; one block until a batch of :data:`SPLIT_FROM` poses was seen,
     ``decided``), the parts that stay still (``quiet``: their rows and time derivatives exactly
     zero over the first batch of as many poses after they were decided, such as a planar
-    linkage's out-of-plane part) and the groups all of whose rows are theirs (``skip``), per
-    group where a pose's Jacobian entries go and their scales, and where the blocks and the
-    off-block slots end (``places``, ``ends``: :meth:`Waves._place`), and the layouts per batch
-    size."""
+    linkage's out-of-plane part), the rows that are theirs or empty (``still``, (R,)) and the
+    groups all of whose rows are (``skip``), per group where a pose's Jacobian entries go and
+    their scales, where the blocks and the off-block slots end and which blocks each off-block
+    slot ties (``places``, ``ends``, ``ties`` (S, 2): :meth:`Waves._place`), and the layouts
+    per batch size. Blocks a run's poses tie together are merged (:meth:`Waves._merge`)."""
 
     parts: list[Part]
     decided: bool = False
     quiet: np.ndarray | None = None
+    still: np.ndarray | None = None
     skip: tuple[int, ...] = ()
     places: list[tuple[np.ndarray, np.ndarray]] | None = None
     ends: list[int] = dataclasses.field(default_factory=list)
+    ties: np.ndarray | None = None
     layouts: dict[int, _Layout] = dataclasses.field(default_factory=dict)
 
 
@@ -215,9 +221,9 @@ class Waves:
         self.table = table
         s = self.system
         self.compiled: Compiled = s.batched.setdefault("waves", Compiled([self._whole()]))
-        #: a pose of this run had Jacobian entries off the kept blocks: the next block takes J
-        #: whole (decided afresh for this run only)
-        self.coupled = False
+        #: pairs of blocks (K, 2) that Jacobian entries of this run's poses tied: merged before
+        #: the next block
+        self.tied = np.zeros((0, 2), dtype=int)
         #: free directions of J at every pose (0, or 1: a passive degree of freedom kept still)
         self.free = 0
 
@@ -325,7 +331,7 @@ class Waves:
         call with at least :data:`SPLIT_FROM` poses)."""
         B, c = next(J for J in jacs if J is not None).shape[0], self.compiled
         if c.places is None:
-            c.places, c.ends = self._place()
+            c.places, c.ends, c.ties = self._place()
         # the blocks, then a slot for each entry off them, then a dump for the world's entries
         ends = c.ends
         flat = np.zeros((B, ends[-1] + 1))
@@ -340,14 +346,15 @@ class Waves:
             if self._decouple(blocks[0]):
                 c.places = None
                 return self.jacobian(jacs)
-        self.coupled |= len(c.parts) > 1 and bool(leaves.any())
+        if len(c.parts) > 1 and leaves.any() and c.ties is not None:
+            self.tied = np.concatenate([self.tied, c.ties[flat[:, ends[-2]:ends[-1]].any(axis=0)]])
         return Jacobians(blocks, leaves, self.parts)
 
-    def _place(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int]]:
+    def _place(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int], np.ndarray]:
         """Per group: where a pose's Jacobian entries (n, k·12) go in its flat Jacobian — the
         blocks of :attr:`parts` one after the other, then a slot for each entry off them, then
-        a dump for the world's — and their scales (n, k·12); and where the blocks and the
-        off-block slots end."""
+        a dump for the world's — and their scales (n, k·12); where the blocks and the off-block
+        slots end; and the blocks of each off-block slot's row and column (S, 2)."""
         s, ne = self.system, self.solver.normal
         R, N, M = s.n_rows, s.n_unknowns, s.n_members
         if ne.group_scale is None:
@@ -361,7 +368,7 @@ class Waves:
         ends = list(np.cumsum([len(p.rows) * len(p.cols) for p in self.parts]))
         width = np.array([len(p.cols) for p in self.parts])
         start = np.array(ends) - width * np.array([len(p.rows) for p in self.parts])
-        places, off = [], ends[-1]
+        places, off, ties = [], ends[-1], []
         for grp, sc in zip(s.groups, ne.group_scale):
             n, k = grp.rows.shape
             member = grp.members[:, None, :, None]  # (n, 1, 2, 1)
@@ -373,9 +380,10 @@ class Waves:
             at[stray] = off + np.arange(int(stray.sum()))
             off += int(stray.sum())
             places.append(at)
+            ties.append(np.column_stack([part[stray], part_col[col][stray]]))
         ends.append(off)  # the dump follows
-        return [(np.where(at < 0, off, at).reshape(len(at), -1), np.broadcast_to(sc, at.shape).reshape(len(at), -1))
-                for at, sc in zip(places, ne.group_scale)], ends
+        return ([(np.where(at < 0, off, at).reshape(len(at), -1), np.broadcast_to(sc, at.shape).reshape(len(at), -1))
+                 for at, sc in zip(places, ne.group_scale)], ends, np.concatenate(ties))
 
     def _decouple(self, J: np.ndarray) -> bool:
         """Split :attr:`parts` (one block) by Jacobians J (B, R, N): the unknowns that no
@@ -408,8 +416,8 @@ class Waves:
         (P (M, 3), Q (M, 4), scaled velocity v (N,), at the table's ``step``): x ⊕ s·v, s spread
         over ±:data:`STRIDE` steps — off the motion by O(s²) but of its structure (a planar
         linkage's stay planar), with no accidental zeros. A wrong guess costs time only: the
-        block's solve checks every row and pivot, and a run whose poses leave the blocks takes
-        J whole."""
+        block's solve checks every row and pivot, and the guess corrects itself (module
+        docstring)."""
         t = self.table.t
         h = abs(float(t[min(step + 1, len(t) - 1)] - t[max(step - 1, 0)])) / 2
         s = np.linspace(-1.0, 1.0, SPLIT_FROM) * STRIDE * h
@@ -421,6 +429,19 @@ class Waves:
         if self.compiled.quiet is None:
             self._settle(r, self.time_derivative(Qs, steps, jacs), J)
 
+    def _stir(self, r: np.ndarray) -> None:
+        """The still parts (:class:`Compiled`) whose rows are not all zero in residuals r (B, R)
+        (an input held when they were found moves) are still no longer."""
+        c = self.compiled
+        assert c.quiet is not None and c.still is not None
+        loud = [i for i, (p, q) in enumerate(zip(c.parts, c.quiet)) if q and r[:, p.rows].any()]
+        if not loud:
+            return
+        c.quiet[loud] = False
+        for i in loud:
+            c.still[c.parts[i].rows] &= ~r[:, c.parts[i].rows].any(axis=0)
+        self._skips()
+
     def _settle(self, r: np.ndarray, rt: np.ndarray, J: Jacobians) -> None:
         """Find the quiet parts (:class:`Compiled`) from the residuals r, time derivatives rt
         (B, R) and Jacobians J of a batch, and the groups all of whose rows are theirs or
@@ -429,10 +450,43 @@ class Waves:
         c, s = self.compiled, self.system
         zero = np.asarray(~(r.any(axis=0) | rt.any(axis=0)))  # (R,)
         c.quiet = np.array([zero[p.rows].all() for p in c.parts])
-        still = np.zeros(s.n_rows, dtype=bool)
+        c.still = np.zeros(s.n_rows, dtype=bool)
         for p, q, Jp in zip(c.parts, c.quiet, J.blocks):
-            still[p.rows] = q | (zero[p.rows] & ~(Jp != 0.0).any(axis=(0, 2)))
-        c.skip = tuple(i for i, blk in enumerate(s.blocks) if still[blk.start:blk.stop].all())
+            c.still[p.rows] = q | (zero[p.rows] & ~(Jp != 0.0).any(axis=(0, 2)))
+        self._skips()
+
+    def _skips(self) -> None:
+        """The groups all of whose rows are still (:class:`Compiled`)."""
+        c = self.compiled
+        assert c.still is not None
+        c.skip = tuple(i for i, blk in enumerate(self.system.blocks) if c.still[blk.start:blk.stop].all())
+
+    def _merge(self) -> None:
+        """Merge the blocks that this run's poses tied (:attr:`tied`) — for later runs too: a
+        merged block is still only if all its blocks were, and its rows are not taken as empty."""
+        c = self.compiled
+        root = list(range(len(c.parts)))
+
+        def find(i: int) -> int:
+            while root[i] != i:
+                i = root[i]
+            return i
+
+        for a, b in np.unique(self.tied, axis=0):
+            root[find(int(a))] = find(int(b))
+        self.tied = np.zeros((0, 2), dtype=int)
+        label = [find(i) for i in range(len(c.parts))]
+        merged = sorted(set(label))
+        parts = [Part(np.sort(np.concatenate([c.parts[i].rows for i in range(len(c.parts)) if label[i] == m])),
+                      np.sort(np.concatenate([c.parts[i].cols for i in range(len(c.parts)) if label[i] == m])))
+                 for m in merged]
+        if c.quiet is not None and c.still is not None:
+            c.quiet = np.array([all(c.quiet[i] for i in range(len(c.parts)) if label[i] == m) for m in merged])
+            for p, q in zip(parts, c.quiet):
+                c.still[p.rows] &= q
+        c.parts, c.places = parts, None
+        if c.still is not None:
+            self._skips()
 
     # ---- a block of steps -----------------------------------------------------------------
 
@@ -447,8 +501,8 @@ class Waves:
         still from step to step (:meth:`keep_still`, converging quadratically: at most
         :data:`STILL_PASSES`); then the continuation's acceptance test."""
         col, M = self.solver.col, self.system.n_members
-        if self.coupled:  # the blocks kept on the system do not hold in this run
-            self.compiled, self.coupled = Compiled([self._whole()]), False
+        if self.tied.size:  # the blocks kept on the system do not hold for this run's poses
+            self._merge()
         if not self.compiled.decided and not self.free and np.abs(vel[k - 1]).max() > 0.0:
             self._survey(pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col, k - 1)
         t = self.table.t
@@ -743,6 +797,8 @@ class Waves:
             parts, compiled = self.parts, self.compiled
             if compiled.decided and compiled.quiet is None and len(live) >= SPLIT_FROM and not self.free:
                 self._settle(rl, self.time_derivative(_take(Q, live), _take(steps, live), jacs), J)
+            elif kept is None and compiled.quiet is not None:
+                self._stir(rl)
             if kept is None:
                 kept = Factors([np.zeros((B, len(p.cols), len(p.cols))) for p in parts], np.zeros(B, dtype=bool),
                                null if self.free else None, parts)
