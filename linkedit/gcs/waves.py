@@ -64,6 +64,8 @@ import dataclasses
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
+import scipy.sparse.csgraph
 
 from linkedit.gcs import constraints as kinds
 from linkedit.gcs import quaternions as quat
@@ -387,27 +389,17 @@ class Waves:
 
     def _decouple(self, J: np.ndarray) -> bool:
         """Split :attr:`parts` (one block) by Jacobians J (B, R, N): the unknowns that no
-        residual row ties together solve apart; whether it split."""
-        pattern = (J != 0.0).any(axis=0)
-        R, N = pattern.shape
-        root = np.arange(N)
-
-        def find(i: int) -> int:
-            while root[i] != i:
-                root[i] = root[root[i]]
-                i = int(root[i])
-            return i
-
-        for row in pattern:
-            cols = np.flatnonzero(row)
-            for c in cols[1:]:
-                root[find(int(c))] = find(int(cols[0]))
-        label = np.array([find(i) for i in range(N)])
-        groups = [np.flatnonzero(label == g) for g in np.unique(label)]
+        residual row ties together solve apart (a row without entries goes with the first
+        unknown); whether it split."""
+        rows, cols = np.nonzero((J != 0.0).any(axis=0))
+        R, N = J.shape[1:]
+        label = _components(N + R, cols, N + rows)
+        col_label, row_label = label[:N], label[N:]
+        row_label[np.setdiff1d(np.arange(R), rows)] = col_label[0]
+        groups = np.unique(col_label)
         if len(groups) == 1:
             return False
-        row_label = np.array([label[np.flatnonzero(row)[0]] if row.any() else label[0] for row in pattern])
-        self.compiled.parts = [Part(np.flatnonzero(row_label == label[g[0]]), g) for g in groups]
+        self.compiled.parts = [Part(np.flatnonzero(row_label == g), np.flatnonzero(col_label == g)) for g in groups]
         return True
 
     def _survey(self, P: np.ndarray, Q: np.ndarray, v: np.ndarray, step: int) -> None:
@@ -465,23 +457,13 @@ class Waves:
         """Merge the blocks that this run's poses tied (:attr:`tied`) — for later runs too: a
         merged block is still only if all its blocks were, and its rows are not taken as empty."""
         c = self.compiled
-        root = list(range(len(c.parts)))
-
-        def find(i: int) -> int:
-            while root[i] != i:
-                i = root[i]
-            return i
-
-        for a, b in np.unique(self.tied, axis=0):
-            root[find(int(a))] = find(int(b))
+        label = _components(len(c.parts), self.tied[:, 0], self.tied[:, 1])
         self.tied = np.zeros((0, 2), dtype=int)
-        label = [find(i) for i in range(len(c.parts))]
-        merged = sorted(set(label))
-        parts = [Part(np.sort(np.concatenate([c.parts[i].rows for i in range(len(c.parts)) if label[i] == m])),
-                      np.sort(np.concatenate([c.parts[i].cols for i in range(len(c.parts)) if label[i] == m])))
-                 for m in merged]
+        merged = [np.flatnonzero(label == g) for g in np.unique(label)]
+        parts = [Part(np.sort(np.concatenate([c.parts[i].rows for i in m])),
+                      np.sort(np.concatenate([c.parts[i].cols for i in m]))) for m in merged]
         if c.quiet is not None and c.still is not None:
-            c.quiet = np.array([all(c.quiet[i] for i in range(len(c.parts)) if label[i] == m) for m in merged])
+            c.quiet = np.array([c.quiet[m].all() for m in merged])
             for p, q in zip(parts, c.quiet):
                 c.still[p.rows] &= q
         c.parts, c.places = parts, None
@@ -893,6 +875,12 @@ class Waves:
     def _split(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         M = self.system.n_members
         return Z[:, :3 * M].reshape(-1, M, 3), quat.normalize(Z[:, 3 * M:].reshape(-1, M, 4))
+
+
+def _components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The connected component (n,) of each of n nodes linked in pairs a[i], b[i]."""
+    graph = scipy.sparse.coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n))
+    return scipy.sparse.csgraph.connected_components(graph, directed=False)[1]
 
 
 def lagrange(t_nodes: np.ndarray, nodes: np.ndarray, around: np.ndarray, t: np.ndarray, k: int) -> np.ndarray:
