@@ -196,7 +196,9 @@ def test_a_second_run_reuses_what_the_first_compiled_and_gives_its_poses():
     assert compiled.decided and [len(p.cols) for p in compiled.parts] == [21, 21]
     layouts = dict(compiled.layouts)
     again = solve_run(system, t)
-    assert system.batched["waves"] is compiled and all(compiled.layouts[B] is lay for B, lay in layouts.items())
+    kept = system.batched["waves"]  # a copy of the run's own, after each block
+    assert kept.layouts is compiled.layouts and all(kept.layouts[B] is lay for B, lay in layouts.items())
+    assert [list(p.cols) for p in kept.parts] == [list(p.cols) for p in compiled.parts]
     assert again.batched.sum() >= 350
     _assert_same(again, first, system.length_scale)
 
@@ -232,7 +234,8 @@ def test_a_run_off_what_stayed_still_before_is_solved_as_step_by_step():
     on = solve_run(system, t, start=start)
     off = solve_run(system, t, Options(waves=False), start=start)
     assert (off.status == 0).all() and on.batched.sum() >= 330
-    assert system.batched["waves"] is compiled and len(compiled.parts) == 1 and not compiled.skip
+    kept = system.batched["waves"]
+    assert len(kept.parts) == 1 and not kept.skip
     _assert_same(on, off, system.length_scale)
     again = solve_run(system, t)
     assert again.batched.sum() >= 350

@@ -230,8 +230,8 @@ class System:
     points: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)  #: member → point name → (3,)
     lines: dict[str, list[list[str]]] = field(default_factory=dict)  #: member → polylines of point names
     #: what batched evaluation compiles for this system at its first run, kept for the later
-    #: ones (:class:`linkedit.gcs.waves.Compiled`)
-    batched: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    #: ones (:class:`linkedit.gcs.waves.Compiled`; a copy of the system starts without)
+    batched: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def n_members(self) -> int:

@@ -116,6 +116,9 @@ FRESH = 1e-9
 SPLIT_FROM = 64
 #: batches of at most this many poses solve their triangular systems pose by pose
 FEW = 24
+#: the layouts of this many batch sizes, of at most KEPT_POSES poses, are kept on the system
+#: for its later runs (the last built)
+KEPT_LAYOUTS, KEPT_POSES = 16, 1024
 
 _potrs = scipy.linalg.get_lapack_funcs("potrs", dtype=np.float64)
 
@@ -201,7 +204,10 @@ class Compiled:
     groups all of whose rows are (``skip``), per group where a pose's Jacobian entries go and
     their scales, where the blocks and the off-block slots end and which blocks each off-block
     slot ties (``places``, ``ends``, ``ties`` (S, 2): :meth:`Waves._place`), and the layouts
-    per batch size. Blocks a run's poses tie together are merged (:meth:`Waves._merge`)."""
+    per batch size (:meth:`Waves._layout`). Blocks a run's poses tie together are
+    merged (:meth:`Waves._merge`). A run changes a copy of its own and keeps a copy of that on
+    the system after each block, so that runs of one system in several threads do not see each
+    other's halfway changes."""
 
     parts: list[Part]
     decided: bool = False
@@ -213,6 +219,11 @@ class Compiled:
     ties: np.ndarray | None = None
     layouts: dict[int, _Layout] = dataclasses.field(default_factory=dict)
 
+    def copy(self) -> "Compiled":
+        """A copy to change (the layouts shared: they are only ever added to)."""
+        return dataclasses.replace(self, quiet=None if self.quiet is None else self.quiet.copy(),
+                                   still=None if self.still is None else self.still.copy())
+
 
 class Waves:
     """Batched evaluation and solution of one system over a step table (module docstring)."""
@@ -222,7 +233,10 @@ class Waves:
         self.system = solver.system
         self.table = table
         s = self.system
-        self.compiled: Compiled = s.batched.setdefault("waves", Compiled([self._whole()]))
+        kept = s.batched.get("waves")
+        self.compiled: Compiled = kept.copy() if kept is not None else Compiled([self._whole()])
+        #: layouts of more poses than are kept on the system, for this run
+        self._layouts: dict[int, _Layout] = {}
         #: pairs of blocks (K, 2) that Jacobian entries of this run's poses tied: merged before
         #: the next block
         self.tied = np.zeros((0, 2), dtype=int)
@@ -249,18 +263,23 @@ class Waves:
     # ---- batched evaluation ---------------------------------------------------------------
 
     def _layout(self, B: int) -> "_Layout":
-        """What an evaluation of B poses needs that does not change between calls (kept)."""
-        layouts = self.compiled.layouts
-        if B not in layouts:
+        """What an evaluation of B poses needs that does not change between calls: kept on the
+        system for the :data:`KEPT_LAYOUTS` batch sizes of at most :data:`KEPT_POSES` poses last
+        built (a few MB at most), else for this run."""
+        layouts = self.compiled.layouts if B <= KEPT_POSES else self._layouts
+        lay = layouts.get(B)
+        if lay is None:
             s = self.system
             lanes = np.arange(B)
             spread = lambda idx: (idx[:, None] * B + lanes).ravel()  # noqa: E731
             blocks = [dataclasses.replace(blk, a=spread(blk.a), b=spread(blk.b),
                                           vectors=tuple(slice(v.start * B, v.stop * B) for v in blk.vectors))
                       for blk in s.blocks]
-            layouts[B] = _Layout(blocks, spread(s.vector_member), np.repeat(s.vectors[:, None], B, axis=1),
-                                 np.repeat(s.rel_inverse[:, None], B, axis=1))
-        return layouts[B]
+            lay = layouts[B] = _Layout(blocks, spread(s.vector_member), np.repeat(s.vectors[:, None], B, axis=1),
+                                       np.repeat(s.rel_inverse[:, None], B, axis=1))
+            for old in list(layouts)[:-KEPT_LAYOUTS]:  # (a copy of the keys: other runs may add)
+                layouts.pop(old, None)
+        return lay
 
     def evaluate(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray, jacobian: bool,
                  skip: tuple[int, ...] = ()) -> tuple[np.ndarray, list[np.ndarray | None]]:
@@ -533,6 +552,7 @@ class Waves:
             far = (reach / max(error, 1e-16)) ** 0.2 * (1 if error > high else 0.5 if error < low else 1)
             width = int(np.clip(far, 1, WIDEST))
         if not coarse:
+            self.system.batched["waves"] = self.compiled.copy()
             return Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
                           np.zeros((0, self.system.n_unknowns)), np.zeros((0, 2), dtype=np.int32), 0)
         at = np.concatenate(coarse) - k
@@ -562,6 +582,7 @@ class Waves:
                 break
         before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
         n = self.accepted(P, Q, V, ok, null, steps, before, float(t[k - 1]))
+        self.system.batched["waves"] = self.compiled.copy()  # for later runs (Compiled)
         return Solved(P, Q, R, V, work, n)
 
     def keep_still(self, P: np.ndarray, Q: np.ndarray, null: np.ndarray, P0: np.ndarray, Q0: np.ndarray) -> float:
