@@ -17,12 +17,12 @@ SPECS = sorted(EXAMPLES.glob("*.yaml"))
 
 @pytest.mark.parametrize("path", SPECS, ids=[p.stem for p in SPECS])
 def test_numeric_agrees_with_symbolic(path):
-    from linkedit.gcs.planar_bridge import simulate_numeric
+    from linkedit.gcs.planar_bridge import UNSUPPORTED, simulate_numeric, supported
     from linkedit.planar.simulate import motor_angles
 
     spec = load_model(LinkageSpec, path)
-    if spec.sliders or spec.motor.linear:
-        pytest.skip("the numeric engine has no sliders (simulate --engine numeric refuses them)")
+    if not supported(spec):
+        pytest.skip(f"the numeric engine has no {UNSUPPORTED} (simulate --engine numeric refuses them)")
     samples = 90
     t, _ = motor_angles(spec, samples)
     try:

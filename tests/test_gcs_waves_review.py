@@ -248,3 +248,16 @@ def test_what_a_system_keeps_for_later_runs_is_bounded():
         solve_run(system, np.arange(steps) / steps)
     layouts = system.batched["waves"].layouts
     assert 0 < len(layouts) <= KEPT_LAYOUTS and max(layouts) <= KEPT_POSES
+
+
+def test_the_3d_system_of_a_planar_linkage_with_a_slider_is_refused_clearly():
+    """planar_model on a linkage with a slider motor raised StopIteration (review)."""
+    import pytest
+
+    from linkedit.gcs.planar_bridge import planar_model
+    from linkedit.spec.linkage import LinkageSpec
+    from linkedit.spec.yamlload import load_model
+    from tests.conftest import EXAMPLES
+
+    with pytest.raises(ValueError, match="sliders"):
+        planar_model(load_model(LinkageSpec, EXAMPLES / "lifting-arm.yaml"))

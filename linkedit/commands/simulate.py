@@ -69,10 +69,10 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
     try:
         plan = compile_plan(spec)
         if engine == "numeric":
-            from linkedit.gcs.planar_bridge import numeric_motion
+            from linkedit.gcs.planar_bridge import UNSUPPORTED, numeric_motion, supported
 
-            if spec.sliders or spec.motor.linear or spec.motor.oscillate_deg is not None:
-                raise InputError("--engine numeric does not support sliders, linear or oscillating inputs yet "
+            if not supported(spec):
+                raise InputError(f"--engine numeric does not support {UNSUPPORTED} yet "
                                  "(use the default symbolic engine)", file=str(spec_path), field="--engine")
             motion = numeric_motion(plan, samples)
         else:

@@ -64,8 +64,20 @@ class NumericMotion:
         return 1e3 * self.seconds / max(self.t.size, 1)
 
 
+#: what the 3D system of a planar linkage does not model yet
+UNSUPPORTED = "sliders, linear or oscillating inputs"
+
+
+def supported(spec: LinkageSpec) -> bool:
+    """Whether :func:`planar_model` models the linkage (no :data:`UNSUPPORTED`)."""
+    return not (spec.sliders or spec.motor.linear or spec.motor.oscillate_deg is not None)
+
+
 def planar_model(spec: LinkageSpec) -> PlanarModel:
-    """Build the 3D system of a planar linkage (see module docstring)."""
+    """Build the 3D system of a planar linkage (see module docstring); ValueError for what it
+    does not model (:data:`UNSUPPORTED`)."""
+    if not supported(spec):
+        raise ValueError(f"the 3D system of a planar linkage has no {UNSUPPORTED} yet")
     joints = list(spec.joints)
     jindex = {n: i for i, n in enumerate(joints)}
     rest = np.array([spec.joints[n] for n in joints], dtype=float)
