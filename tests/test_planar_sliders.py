@@ -322,6 +322,21 @@ def test_edit_moves_a_cylinders_driven_joint_along_its_slot(run_cli, tmp_path):
     assert np.allclose(moved, 2 * np.sin(u) * np.array([np.cos(u), np.sin(u)]), atol=0.05)
 
 
+def test_numeric_engine_writes_a_complex_loop(run_cli, tmp_path):
+    """Its motion has no per-step singularity distances: the file's minimum is over the dyads
+    (it raised IndexError while writing the result; found by helper-21)."""
+    import h5py
+
+    out, ref = tmp_path / "x.h5", tmp_path / "ref.h5"
+    r = run_cli("simulate", EXAMPLES / "complex-loop.yaml", "--engine", "numeric", "-o", out)
+    assert r.exit_code == 0, r.output
+    assert run_cli("simulate", EXAMPLES / "complex-loop.yaml", "-o", ref).exit_code == 0
+    with h5py.File(out) as f, h5py.File(ref) as g:
+        xy, expected = f["joints/position"][...], g["joints/position"][...]
+    size = np.ptp(expected.reshape(-1, 2), axis=0).max()
+    assert np.isfinite(xy).all() and np.abs(xy - expected).max() < 1e-8 * size
+
+
 def test_numeric_engine_refuses_sliders(run_cli, tmp_path):
     r = run_cli("simulate", EXAMPLES / "slider-crank.yaml", "--engine", "numeric", "-o", tmp_path / "x.h5")
     assert r.exit_code == 2 and "does not support sliders" in r.output

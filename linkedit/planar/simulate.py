@@ -61,7 +61,9 @@ class Motion:
         there: motor angle in degrees, or a linear input's stroke)."""
         plan = self.plan
         dyads = ~plan.rigid
-        watched = [n for n, st in enumerate(plan.steps) if st.kind in ("slider", "group", "rotate", "lines")]
+        # the steps' own are measured by the symbolic engine only (the numeric one's motion has none)
+        watched = [n for n, st in enumerate(plan.steps) if st.kind in ("slider", "group", "rotate", "lines")
+                   and self.step_singularity is not None]
         if not (dyads.any() or watched) or not self.assembled.any():
             return None
         steps = self.step_singularity if self.step_singularity is not None else np.ones((self.t.size, 0))
