@@ -49,10 +49,14 @@ before the first wave from :data:`SPLIT_FROM` poses along the tangent of the las
 :meth:`Waves._survey`, or else from the first batch of as many), where each Jacobian entry
 goes, the layouts per batch size — is built at a system's first run and kept on it for the
 later ones (:attr:`System.batched`), as the system itself is compiled once. They are guesses
-that cost time only when wrong (every solved step is checked on every row and pivot) and they
-correct themselves: blocks that a run's poses tie (entries off them: poses found unsound) are
-merged from its next block on, and still parts whose rows a block's poses do not satisfy
-exactly (an input held when they were found moves) are still no longer.
+that cost time only when wrong (every solved step is checked on every row and pivot, and on J
+zero off its blocks) and they correct themselves: blocks that a run's solved poses tie
+(entries off them beyond rounding, :data:`TIED`) are merged from its next block on, and still
+parts whose rows a block's poses do not satisfy (an input held when they were found moves)
+are still no longer. The rough steps' predictions hold the still parts where they are:
+extrapolation from the last pose keeps equal coordinates exact, and where the poses before
+differ there by rounding (steps solved step by step) they are held explicitly
+(:meth:`Waves._held`), or the extrapolation would amplify it wave after wave.
 
 Steps with an input outside its window, systems with custom constraints, more free
 directions or the sparse factorization, and runs that ask for accelerations go step by step.
@@ -61,6 +65,7 @@ directions or the sparse factorization, and runs that ask for accelerations go s
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 
 import numpy as np
 import scipy.linalg
@@ -116,6 +121,11 @@ FRESH = 1e-9
 SPLIT_FROM = 64
 #: batches of at most this many poses solve their triangular systems pose by pose
 FEW = 24
+#: scaled Jacobian entries (of order 1) at most this large tie no unknowns, and scaled
+#: residual rows stir no still part: the rounding of exact zeros (a planar linkage's poses off
+#: their plane by ~1e-30 after steps solved step by step); a block solve that leaves them out
+#: errs by as little
+TIED = 1e-15
 #: the layouts of this many batch sizes, of at most KEPT_POSES poses, are kept on the system
 #: for its later runs (the last built)
 KEPT_LAYOUTS, KEPT_POSES = 16, 1024
@@ -148,19 +158,24 @@ class Part:
 @dataclasses.dataclass
 class Jacobians:
     """Scaled Jacobians of B poses, block by block of ``parts`` (:attr:`Waves.parts`, or some
-    of them): (B, Rp, Np) each, and whether a pose's J has entries off the blocks
-    (``leaves``, (B,))."""
+    of them): (B, Rp, Np) each, and which of its entries off the blocks exceed :data:`TIED`
+    (``off``, (B, S), one per off-block slot of :meth:`Waves._place`)."""
 
     blocks: list[np.ndarray]
-    leaves: np.ndarray
+    off: np.ndarray
     parts: list[Part]
 
+    @property
+    def leaves(self) -> np.ndarray:
+        """Whether each pose's J has entries off the blocks (B,)."""
+        return np.asarray(self.off.any(axis=1))
+
     def take(self, idx: np.ndarray) -> "Jacobians":
-        return Jacobians([_take(J, idx) for J in self.blocks], _take(self.leaves, idx), self.parts)
+        return Jacobians([_take(J, idx) for J in self.blocks], _take(self.off, idx), self.parts)
 
     def only(self, which: list[int]) -> "Jacobians":
         """The blocks ``which`` (indices into ``parts``)."""
-        return Jacobians([self.blocks[i] for i in which], self.leaves, [self.parts[i] for i in which])
+        return Jacobians([self.blocks[i] for i in which], self.off, [self.parts[i] for i in which])
 
 
 @dataclasses.dataclass
@@ -204,12 +219,13 @@ class Compiled:
     groups all of whose rows are (``skip``), per group where a pose's Jacobian entries go and
     their scales, where the blocks and the off-block slots end and which blocks each off-block
     slot ties (``places``, ``ends``, ``ties`` (S, 2): :meth:`Waves._place`), and the layouts
-    per batch size (:meth:`Waves._layout`). Blocks a run's poses tie together are
-    merged (:meth:`Waves._merge`). A run changes a copy of its own and keeps a copy of that on
+    per batch size (:meth:`Waves._layout`); ``key``: a digest of what it was built from
+    (:meth:`Waves._key`). Blocks a run's poses tie together are merged (:meth:`Waves._merge`). A run changes a copy of its own and keeps a copy of that on
     the system after each block, so that runs of one system in several threads do not see each
     other's halfway changes."""
 
     parts: list[Part]
+    key: bytes = b""
     decided: bool = False
     quiet: np.ndarray | None = None
     still: np.ndarray | None = None
@@ -233,8 +249,9 @@ class Waves:
         self.system = solver.system
         self.table = table
         s = self.system
-        kept = s.batched.get("waves")
-        self.compiled: Compiled = kept.copy() if kept is not None else Compiled([self._whole()])
+        kept, key = s.batched.get("waves"), self._key()
+        # (a system copied or changed in place since keeps what its first run compiled: not used)
+        self.compiled: Compiled = kept.copy() if kept is not None and kept.key == key else Compiled([self._whole()], key)
         #: layouts of more poses than are kept on the system, for this run
         self._layouts: dict[int, _Layout] = {}
         #: pairs of blocks (K, 2) that Jacobian entries of this run's poses tied: merged before
@@ -242,6 +259,18 @@ class Waves:
         self.tied = np.zeros((0, 2), dtype=int)
         #: free directions of J at every pose (0, or 1: a passive degree of freedom kept still)
         self.free = 0
+
+    def _key(self) -> bytes:
+        """A digest of what :class:`Compiled` is built from: the constraint blocks' members,
+        rows and values, the member vectors, relative orientations and scales."""
+        s, h = self.system, hashlib.blake2b(digest_size=16)
+        for a in (s.vectors, s.rel_inverse, s.vector_member, s.row_scale, np.array([s.length_scale])):
+            h.update(np.ascontiguousarray(a).tobytes())
+        for blk in s.blocks:
+            h.update(blk.kind.encode())
+            for a in (blk.a, blk.b, blk.rows, blk.value):
+                h.update(np.ascontiguousarray(a).tobytes())
+        return h.digest()
 
     def _whole(self) -> Part:
         s = self.system
@@ -361,15 +390,13 @@ class Waves:
                 flat[:, at] = J.reshape((B,) + at.shape) * scale
         blocks = [flat[:, e - len(p.rows) * len(p.cols):e].reshape(B, len(p.rows), len(p.cols))
                   for p, e in zip(self.parts, ends)]
-        leaves = np.asarray(flat[:, ends[-2]:ends[-1]].any(axis=1))
+        off = np.abs(flat[:, ends[-2]:ends[-1]]) > TIED
         if not c.decided and B >= SPLIT_FROM:  # many poses: no accidental zeros
             c.decided = True
             if self._decouple(blocks[0]):
                 c.places = None
                 return self.jacobian(jacs)
-        if len(c.parts) > 1 and leaves.any() and c.ties is not None:
-            self.tied = np.concatenate([self.tied, c.ties[flat[:, ends[-2]:ends[-1]].any(axis=0)]])
-        return Jacobians(blocks, leaves, self.parts)
+        return Jacobians(blocks, off, self.parts)
 
     def _place(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int], np.ndarray]:
         """Per group: where a pose's Jacobian entries (n, k·12) go in its flat Jacobian — the
@@ -410,7 +437,7 @@ class Waves:
         """Split :attr:`parts` (one block) by Jacobians J (B, R, N): the unknowns that no
         residual row ties together solve apart (a row without entries goes with the first
         unknown); whether it split."""
-        rows, cols = np.nonzero((J != 0.0).any(axis=0))
+        rows, cols = np.nonzero((np.abs(J) > TIED).any(axis=0))
         R, N = J.shape[1:]
         label = _components(N + R, cols, N + rows)
         col_label, row_label = label[:N], label[N:]
@@ -440,31 +467,62 @@ class Waves:
         if self.compiled.quiet is None:
             self._settle(r, self.time_derivative(Qs, steps, jacs), J)
 
-    def _stir(self, r: np.ndarray) -> None:
-        """The still parts (:class:`Compiled`) whose rows are not all zero in residuals r (B, R)
-        (an input held when they were found moves) are still no longer."""
+    def _stir(self, rs: np.ndarray) -> None:
+        """The still parts (:class:`Compiled`) with rows above :data:`TIED` in scaled residuals
+        rs (B, R) (an input held when they were found moves; rounding does not count) are still
+        no longer."""
         c = self.compiled
         assert c.quiet is not None and c.still is not None
-        loud = [i for i, (p, q) in enumerate(zip(c.parts, c.quiet)) if q and r[:, p.rows].any()]
+        moving = (np.abs(rs) > TIED).any(axis=0)  # (R,)
+        loud = [i for i, (p, q) in enumerate(zip(c.parts, c.quiet)) if q and moving[p.rows].any()]
         if not loud:
             return
         c.quiet[loud] = False
         for i in loud:
-            c.still[c.parts[i].rows] &= ~r[:, c.parts[i].rows].any(axis=0)
+            c.still[c.parts[i].rows] &= ~moving[c.parts[i].rows]
         self._skips()
 
     def _settle(self, r: np.ndarray, rt: np.ndarray, J: Jacobians) -> None:
         """Find the quiet parts (:class:`Compiled`) from the residuals r, time derivatives rt
-        (B, R) and Jacobians J of a batch, and the groups all of whose rows are theirs or
-        empty (zero, with zero time derivatives and Jacobian rows, such as the component of an
-        axis constraint along the aligned axes)."""
+        (B, R) and Jacobians J of a batch (zero: at most :data:`TIED`, scaled), and the groups
+        all of whose rows are theirs or empty (zero, with zero time derivatives and Jacobian
+        rows, such as the component of an axis constraint along the aligned axes)."""
         c, s = self.compiled, self.system
-        zero = np.asarray(~(r.any(axis=0) | rt.any(axis=0)))  # (R,)
+        row = self.solver.row
+        zero = np.asarray(~((np.abs(r * row) > TIED) | (np.abs(rt * row) > TIED)).any(axis=0))  # (R,)
         c.quiet = np.array([zero[p.rows].all() for p in c.parts])
         c.still = np.zeros(s.n_rows, dtype=bool)
         for p, q, Jp in zip(c.parts, c.quiet, J.blocks):
-            c.still[p.rows] = q | (zero[p.rows] & ~(Jp != 0.0).any(axis=(0, 2)))
+            c.still[p.rows] = q | (zero[p.rows] & ~(np.abs(Jp) > TIED).any(axis=(0, 2)))
         self._skips()
+
+    def _held(self, P: np.ndarray, Q: np.ndarray, P0: np.ndarray, Q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Poses P (B, M, 3), Q (B, M, 4) with the still parts' coordinates (:class:`Compiled`)
+        those of the pose P0 (M, 3), Q0 (M, 4): the others' exact local coordinates from it
+        (rotation vectors by log and exp)."""
+        B, M = P.shape[:2]
+        d = self.displacement(P, Q, np.broadcast_to(P0, P.shape), np.broadcast_to(Q0, Q.shape))
+        d[:, self._still_cols()] = 0.0
+        e = (d * self.solver.col).reshape(B, M, 6)
+        turn = quat.exp(e[..., 3:].reshape(-1, 3))
+        return P0 + e[..., :3], quat.multiply(turn, np.broadcast_to(Q0, Q.shape).reshape(-1, 4)).reshape(B, M, 4)
+
+    def _still_cols(self) -> np.ndarray:
+        """The unknowns of the still parts (:class:`Compiled`)."""
+        return np.concatenate([p.cols for p, q in zip(self.parts, self._quiet()) if q])
+
+    def _quiet(self) -> np.ndarray:
+        quiet = self.compiled.quiet
+        assert quiet is not None
+        return quiet
+
+    def _moving(self) -> list[int]:
+        """The parts that the rough steps solve where some stay still (:class:`Compiled`), else
+        none (they solve them all: no still part known, a free direction, or nothing moves)."""
+        quiet = self.compiled.quiet
+        if quiet is None or self.free or quiet.all() or not quiet.any():
+            return []
+        return [i for i, q in enumerate(quiet) if not q]
 
     def _skips(self) -> None:
         """The groups all of whose rows are still (:class:`Compiled`)."""
@@ -514,7 +572,17 @@ class Waves:
         count = VALUES if self.free else NODES
         prior = np.unique(np.clip(k - 1 - STRIDE * np.arange(count), first, None))
         node_t = list(t[prior])
-        z, dz = flat(pos[prior], ori[prior], vel[prior])
+        v = vel[prior]
+        # the rough steps leave what stays still as predicted: predictions must not move it —
+        # by the rounding of the velocities before, or of the poses before (amplified by the
+        # extrapolation, wave after wave), where they are not exact (steps solved step by step)
+        hold = False
+        if self._moving():
+            newest = (np.broadcast_to(pos[prior[-1]], pos[prior].shape), np.broadcast_to(ori[prior[-1]], ori[prior].shape))
+            hold = bool(self.displacement(pos[prior], ori[prior], *newest)[:, self._still_cols()].any())
+            v = v.copy()
+            v.reshape(len(prior), -1)[:, self._still_cols()] = 0.0
+        z, dz = flat(pos[prior], ori[prior], v)
         node_z, node_dz = list(z), list(dz)
         reach, low, high = (REACH_FREE, LOW_FREE, HIGH_FREE) if self.free else (REACH, LOW, HIGH)
         here, stride, width = k - 1, STRIDE, 1 if len(prior) < count else 4
@@ -528,7 +596,10 @@ class Waves:
             else:
                 P, Q = self.extrapolated(np.array(node_t[-count:]), np.array(node_z[-count:]),
                                          np.array(node_dz[-count:]), t[ahead])
-            v, error, good = self.correct(P, Q, ahead, self._split(node_z[-1][None]))
+            anchor = self._split(node_z[-1][None])
+            if hold:
+                P, Q = self._held(P, Q, anchor[0][0], anchor[1][0])
+            v, error, good = self.correct(P, Q, ahead, anchor)
             n = int(np.argmin(good)) if not good.all() else len(ahead)
             if n == 0:
                 if len(ahead) == 1 and stride == 1:
@@ -626,8 +697,8 @@ class Waves:
         sound factorization (:meth:`_factor`) and a last correction of at most :data:`ROUGH`."""
         row, c = self.solver.row, self.compiled
         # rough poses need not move what stays still (the block's solve checks all of it)
-        moving = [] if c.quiet is None or self.free else [i for i, q in enumerate(c.quiet) if not q]
-        quick = bool(moving)  # (where nothing moves, every part is kept)
+        moving = self._moving()
+        quick = bool(moving)
         error = np.inf
         for i in range(CORRECTIONS):
             r, jacs = self.evaluate(P, Q, steps, True, c.skip if quick else ())
@@ -664,15 +735,16 @@ class Waves:
         """Cholesky factors (B, Np, Np) of the scaled JᵀJ + μI, block by block (μ as the
         continuation's: 1e-13 of the largest diagonal entry, at least 1e-13), and whether each
         pose's is sound (B,): positive definite with exactly :attr:`free` pivots below
-        :data:`FREE_PIVOT` of that entry (no other free or singular direction), J zero off its
-        blocks and, where J has a free direction, its null vector (:meth:`_null`) clean."""
+        :data:`FREE_PIVOT` of that entry (no other free or singular direction) and, where J has
+        a free direction, its null vector (:meth:`_null`) clean (J zero off its blocks is
+        checked at the solved pose: :meth:`_apart`)."""
         normal = [np.swapaxes(Jp, 1, 2) @ Jp for Jp in J.blocks]
         B = len(J.leaves)
         top = np.ones(B)
         for H in normal:
             np.maximum(top, np.diagonal(H, axis1=1, axis2=2).max(axis=1), out=top)
         factors = []
-        sound = ~J.leaves
+        sound = np.ones(B, dtype=bool)
         small = np.zeros(B, dtype=int)
         for H in normal:
             n = H.shape[1]
@@ -696,7 +768,7 @@ class Waves:
             weak = np.flatnonzero(small == self.free + 1)  # a direction J sees weakly besides
             if weak.size:
                 null[weak], clean = self._null_apart([L[weak] for L in factors], J.take(weak), top[weak])
-                sound[weak] = ~J.leaves[weak] & clean
+                sound[weak] = clean
         return Factors(factors, sound, null, J.parts)
 
     def _null(self, factors: list[np.ndarray], J: Jacobians, top: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -736,6 +808,15 @@ class Waves:
         sv = np.sqrt(np.maximum(values, 0.0))
         clean = (sv[:, 0] <= NULL_CLEAN * scale) & (sv[:, 1] >= NULL_APART * scale)
         return (Y @ vectors[:, :, :1])[..., 0], clean
+
+    def _apart(self, J: Jacobians, idx: np.ndarray) -> np.ndarray:
+        """Whether the solved poses ``idx`` of J have J zero off its blocks (to :data:`TIED`)
+        (B',); the blocks that the others' entries tie are merged before the next block."""
+        off = J.off[idx]
+        tied = off.any(axis=0)
+        if tied.any() and self.compiled.ties is not None:
+            self.tied = np.concatenate([self.tied, self.compiled.ties[tied]])
+        return np.asarray(~off.any(axis=1))
 
     def _assemble(self, x: list[np.ndarray], parts: list[Part]) -> np.ndarray:
         """One vector (B, N) from its blocks (B, Np) of ``parts`` (zero elsewhere)."""
@@ -801,7 +882,7 @@ class Waves:
             if compiled.decided and compiled.quiet is None and len(live) >= SPLIT_FROM and not self.free:
                 self._settle(rl, self.time_derivative(_take(Q, live), _take(steps, live), jacs), J)
             elif kept is None and compiled.quiet is not None:
-                self._stir(rl)
+                self._stir(rs)
             if kept is None:
                 kept = Factors([np.zeros((B, len(p.cols), len(p.cols))) for p in parts], np.zeros(B, dtype=bool),
                                null if self.free else None, parts)
@@ -822,7 +903,7 @@ class Waves:
                 work[live[f], 1] += 1
             newton[live] = fresh
             if converged.any() and not velocities:
-                done[live[converged]] = kept.sound[live[converged]]
+                done[live[converged]] = kept.sound[live[converged]] & self._apart(J, np.flatnonzero(converged))
             elif converged.any():
                 c = np.flatnonzero(converged)
                 lc = live[c]
@@ -835,7 +916,7 @@ class Waves:
                     v += self.least_norm(Fc, [bp - ((Jp @ v[:, p.cols, None])[..., 0][:, None, :] @ Jp)[:, 0]
                                               for p, bp, Jp in zip(parts, b, Jc.blocks)])
                 velocity[lc] = v
-                done[lc] = kept.sound[lc]
+                done[lc] = kept.sound[lc] & self._apart(J, c)
                 work[lc, 0] += 1
             g = np.flatnonzero(going)
             if not g.size:
@@ -880,7 +961,8 @@ class Waves:
         x, which, idx, tau, half = _windows(t_nodes, around, t, k)
         # the interpolant's weights on the node values and rates: w A = (1, τ, τ², …) at τ
         w = (tau[:, None] ** np.arange(2 * k))[:, None, :] @ np.linalg.inv(_hermite(x))[which]  # (B, 1, 2k)
-        Z = w[:, :, :k] @ nodes[idx] + (w[:, :, k:] * half[:, None, None]) @ rates[idx]
+        around = nodes[idx]  # (B, k, 7M), from the first: coordinates equal at every pose stay exactly so
+        Z = around[:, :1] + w[:, :, :k] @ (around - around[:, :1]) + (w[:, :, k:] * half[:, None, None]) @ rates[idx]
         return self._split(Z[:, 0])
 
     def extrapolated(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
@@ -891,7 +973,8 @@ class Waves:
         span = max(float(np.ptp(t_nodes)), float(np.abs(t - t0).max()))
         A = _hermite((t_nodes - t0) / span)
         w = np.linalg.solve(A.T, ((t - t0) / span) ** np.arange(2 * k)[:, None])  # (2k, B)
-        return self._split(w[:k].T @ nodes + (span * w[k:].T) @ rates)
+        # from the last pose: coordinates equal at every pose stay exactly so
+        return self._split(nodes[-1] + w[:k].T @ (nodes - nodes[-1]) + (span * w[k:].T) @ rates)
 
     def _split(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         M = self.system.n_members
