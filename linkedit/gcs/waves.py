@@ -25,10 +25,11 @@ of steps can be solved together:
    (B × rows × unknowns, one per diagonal block of J where it decouples, as a planar
    linkage's in-plane and out-of-plane unknowns do) and factorized by a batched Cholesky; a
    factorization is kept while it contracts the residual (chord) and serves the exact
-   velocity (J v = −∂r/∂t at the solved pose) by iterative refinement when the pose moved
-   little since;
+   velocity (J v = −∂r/∂t at the solved pose): as is where it is of that pose, by iterative
+   refinement where the pose moved little since;
 4. each step is put to the continuation's own acceptance test, taken from the step before it:
-   converged (largest scaled residual row ≤ ``tol``), no small pivot, within
+   converged (largest scaled residual row ≤ ``tol``), no small pivot, J zero off its blocks
+   (to :data:`TIED`) at the solved pose, within
    ``predictor_tol`` of the tangent prediction x_{k−1} ⊕ h·v_{k−1} and moving at most
    ``max_motion``. The accepted run of steps is kept — the poses the continuation accepts (the
    same branch, equal to rounding) — and the continuation solves the first rejected step
@@ -214,15 +215,15 @@ class Compiled:
     once: the diagonal blocks of J that solve apart (``parts``: a planar linkage's in-plane
     and out-of-plane unknowns; one block until a batch of :data:`SPLIT_FROM` poses was seen,
     ``decided``), the parts that stay still (``quiet``: their rows and time derivatives exactly
-    zero over the first batch of as many poses after they were decided, such as a planar
-    linkage's out-of-plane part), the rows that are theirs or empty (``still``, (R,)) and the
+    zero, to :data:`TIED`, over the batch that found them, such as a planar linkage's
+    out-of-plane part), the rows that are theirs or empty (``still``, (R,)) and the
     groups all of whose rows are (``skip``), per group where a pose's Jacobian entries go and
     their scales, where the blocks and the off-block slots end and which blocks each off-block
     slot ties (``places``, ``ends``, ``ties`` (S, 2): :meth:`Waves._place`), and the layouts
     per batch size (:meth:`Waves._layout`); ``key``: a digest of what it was built from
-    (:meth:`Waves._key`). Blocks a run's poses tie together are merged (:meth:`Waves._merge`). A run changes a copy of its own and keeps a copy of that on
-    the system after each block, so that runs of one system in several threads do not see each
-    other's halfway changes."""
+    (:meth:`Waves._key`). Blocks a run's poses tie together are merged (:meth:`Waves._merge`).
+    A run changes a copy of its own and keeps a copy of that on the system after each block,
+    so that runs of one system in several threads do not see each other's halfway changes."""
 
     parts: list[Part]
     key: bytes = b""
@@ -236,7 +237,7 @@ class Compiled:
     layouts: dict[int, _Layout] = dataclasses.field(default_factory=dict)
 
     def copy(self) -> "Compiled":
-        """A copy to change (the layouts shared: they are only ever added to)."""
+        """A copy to change (the layouts shared: each is never changed, only added or dropped)."""
         return dataclasses.replace(self, quiet=None if self.quiet is None else self.quiet.copy(),
                                    still=None if self.still is None else self.still.copy())
 
@@ -251,7 +252,9 @@ class Waves:
         s = self.system
         kept, key = s.batched.get("waves"), self._key()
         # (a system copied or changed in place since keeps what its first run compiled: not used)
-        self.compiled: Compiled = kept.copy() if kept is not None and kept.key == key else Compiled([self._whole()], key)
+        self.compiled: Compiled = Compiled([self._whole()], key)
+        if kept is not None and kept.key == key:
+            self.compiled = kept.copy()
         #: layouts of more poses than are kept on the system, for this run
         self._layouts: dict[int, _Layout] = {}
         #: pairs of blocks (K, 2) that Jacobian entries of this run's poses tied: merged before
@@ -578,8 +581,8 @@ class Waves:
         # extrapolation, wave after wave), where they are not exact (steps solved step by step)
         hold = False
         if self._moving():
-            newest = (np.broadcast_to(pos[prior[-1]], pos[prior].shape), np.broadcast_to(ori[prior[-1]], ori[prior].shape))
-            hold = bool(self.displacement(pos[prior], ori[prior], *newest)[:, self._still_cols()].any())
+            P0, Q0 = (np.broadcast_to(x[prior[-1]], x[prior].shape) for x in (pos, ori))
+            hold = bool(self.displacement(pos[prior], ori[prior], P0, Q0)[:, self._still_cols()].any())
             v = v.copy()
             v.reshape(len(prior), -1)[:, self._still_cols()] = 0.0
         z, dz = flat(pos[prior], ori[prior], v)
@@ -779,7 +782,8 @@ class Waves:
         B, N = len(top), self.system.n_unknowns
         probe = np.random.default_rng(1).standard_normal(N)  # as the continuation's probes
         parts = self.parts
-        y = self._assemble(self._solve(factors, [np.broadcast_to(probe[p.cols], (B, len(p.cols))) for p in parts]), parts)
+        y = self._assemble(self._solve(factors, [np.broadcast_to(probe[p.cols], (B, len(p.cols))) for p in parts]),
+                           parts)
         y = self._assemble(self._solve(factors, [y[:, p.cols] for p in parts]), parts)
         y /= np.sqrt((y * y).sum(axis=1))[:, None]
         seen = sum(((Jp @ y[:, p.cols, None])[..., 0] ** 2).sum(axis=1) for p, Jp in zip(self.parts, J.blocks))
@@ -912,7 +916,8 @@ class Waves:
                 b = self._gradient(Jc, -rt * row)
                 v = self.least_norm(Fc, b)
                 moved_since = since[lc].max()  # none where every factorization is of its own pose
-                for _ in range(0 if moved_since == 0.0 else 1 if moved_since <= FRESH else 2):  # refinement against this J
+                # refinement against this J
+                for _ in range(0 if moved_since == 0.0 else 1 if moved_since <= FRESH else 2):
                     v += self.least_norm(Fc, [bp - ((Jp @ v[:, p.cols, None])[..., 0][:, None, :] @ Jp)[:, 0]
                                               for p, bp, Jp in zip(parts, b, Jc.blocks)])
                 velocity[lc] = v
