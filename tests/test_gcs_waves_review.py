@@ -18,6 +18,13 @@ from linkedit.spec.yamlload import load_yaml, validate
 from tests.test_gcs_waves import _assert_same
 
 
+def _solved_as_step_by_step(system, t: np.ndarray) -> None:
+    """Waves give the step-by-step run's poses, every step converged."""
+    off = solve_run(system, t, Options(waves=False))
+    assert (off.status == 0).all()
+    _assert_same(solve_run(system, t), off, system.length_scale)
+
+
 def _four_bar_at_origin(angles_deg: list[float]):
     """A planar four-bar whose members all have their frames at the world origin, unturned (as
     when parts are drawn in world coordinates): at rest every residual is exactly zero. The
@@ -47,12 +54,7 @@ def test_a_dwell_at_an_exact_rest_then_motion_in_the_same_run():
     every residual and time derivative exactly zero, so every part is taken as quiet and every
     group skipped; the first wave after the keyframe then evaluates no group at all.
     Observed: StopIteration from Waves.jacobian (next(J for J in jacs if J is not None))."""
-    system = _four_bar_at_origin([0, 0, 60])
-    t = np.linspace(0.0, 1.0, 361)
-    off = solve_run(system, t, Options(waves=False))
-    assert (off.status == 0).all()
-    on = solve_run(system, t)
-    _assert_same(on, off, system.length_scale)
+    _solved_as_step_by_step(_four_bar_at_origin([0, 0, 60]), np.linspace(0.0, 1.0, 361))
 
 
 def test_a_run_inside_a_dwell_then_a_run_through_it_on_the_same_system():
@@ -120,12 +122,8 @@ def test_the_spherical_four_bar_example_with_a_dwell_first_solves_as_step_by_ste
         data["inputs"]["drive"]["rotation"]["angles_deg"] = angles
         if window:
             data["inputs"]["drive"]["window"] = window
-        system = compile_mechanism(validate(MechanismSpec, data, file="test"))[0]
-        t = np.linspace(0.0, 1.0, 361)
-        off = solve_run(system, t, Options(waves=False))
-        assert (off.status == 0).all()
-        on = solve_run(system, t)
-        _assert_same(on, off, system.length_scale)
+        _solved_as_step_by_step(compile_mechanism(validate(MechanismSpec, data, file="test"))[0],
+                                np.linspace(0.0, 1.0, 361))
 
 
 def test_a_sub_mechanism_that_dwells_at_an_exact_rest_does_not_make_waves_dearer_than_step_by_step():
