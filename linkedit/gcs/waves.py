@@ -13,7 +13,7 @@ of steps can be solved together:
    Gauss–Newton steps for all of them at once (the error after each about the square of the
    one before: ~1e-10 of the size or better), and the velocity from the last linearization —
    leaving out the parts of J that stay still (:class:`Compiled`: a planar linkage's
-   out-of-plane unknowns, whose rows and time derivatives are exactly zero) and the
+   out-of-plane unknowns, whose rows and time derivatives are zero to rounding) and the
    constraint groups that are theirs alone (a planar linkage's axis alignments): step 3
    checks every row and pivot;
 2. then all the steps of the block at once: the rough ones from where they are, the ones
@@ -581,10 +581,11 @@ class Waves:
         # extrapolation, wave after wave), where they are not exact (steps solved step by step)
         hold = False
         if self._moving():
+            still = self._still_cols()
             P0, Q0 = (np.broadcast_to(x[prior[-1]], x[prior].shape) for x in (pos, ori))
-            hold = bool(self.displacement(pos[prior], ori[prior], P0, Q0)[:, self._still_cols()].any())
+            hold = bool(self.displacement(pos[prior], ori[prior], P0, Q0)[:, still].any())
             v = v.copy()
-            v.reshape(len(prior), -1)[:, self._still_cols()] = 0.0
+            v.reshape(len(prior), -1)[:, still] = 0.0
         z, dz = flat(pos[prior], ori[prior], v)
         node_z, node_dz = list(z), list(dz)
         reach, low, high = (REACH_FREE, LOW_FREE, HIGH_FREE) if self.free else (REACH, LOW, HIGH)
