@@ -93,3 +93,15 @@ def test_turned_is_a_second_order_rotation_increment():
         assert np.allclose(np.linalg.norm(turned, axis=1), 1.0, atol=1e-15)
         errors.append(np.abs(turned - quat.multiply(quat.exp(v), q)).max())
     assert errors[0] < 1e-6 and errors[1] < errors[0] / 500  # third order: 1000× per decade
+
+
+def test_from_matrix_inverts_to_matrix_near_every_half_turn():
+    """Shepperd's method: exact to rounding for random rotations and for turns of π − 1e-9 and
+    π about each axis (where the trace is −1 and q's scalar part vanishes)."""
+    rng = np.random.default_rng(3)
+    q = quat.normalize(rng.standard_normal((500, 4)))
+    axes = np.repeat(np.eye(3), 2, axis=0)
+    q = np.concatenate([q, quat.from_axis_angle(axes, np.tile([np.pi - 1e-9, np.pi], 3))])
+    back = quat.from_matrix(quat.to_matrix(q))
+    assert np.abs(np.abs(quat.dot(back, q)) - 1.0).max() < 1e-15
+    assert np.abs(quat.dot(back, back) - 1.0).max() < 1e-15

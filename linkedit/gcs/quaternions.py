@@ -168,6 +168,36 @@ def to_matrix(q: np.ndarray) -> np.ndarray:
     return (_outer(q, q, _U4) @ _MATRIX_UPPER).reshape(q.shape[:-1] + (3, 3))
 
 
+def _from_matrix_tensor() -> tuple[np.ndarray, np.ndarray]:
+    """(9, 16) and (16,): the matrix K = 4 q qᵀ of a rotation matrix R is R.ravel() @ T + C
+    (its diagonal from the trace and diagonal of R, the rest from sums and differences of
+    symmetric entries)."""
+    T, C = np.zeros((3, 3, 4, 4)), np.zeros((4, 4))
+    C[:] = np.eye(4)
+    for k, signs in enumerate([(1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1)]):
+        for i, c in enumerate(signs):
+            T[i, i, k, k] = c
+    for (k, l), (i, j, c) in (((0, 1), (2, 1, 1)), ((0, 1), (1, 2, -1)), ((0, 2), (0, 2, 1)), ((0, 2), (2, 0, -1)),
+                              ((0, 3), (1, 0, 1)), ((0, 3), (0, 1, -1)), ((1, 2), (0, 1, 1)), ((1, 2), (1, 0, 1)),
+                              ((1, 3), (0, 2, 1)), ((1, 3), (2, 0, 1)), ((2, 3), (1, 2, 1)), ((2, 3), (2, 1, 1))):
+        T[i, j, k, l] = T[i, j, l, k] = c
+    return T.reshape(9, 16), C.ravel()
+
+
+_FROM_MATRIX, _FROM_MATRIX_CONSTANT = _from_matrix_tensor()
+
+
+def from_matrix(R: np.ndarray) -> np.ndarray:
+    """Unit quaternions (..., 4) of rotation matrices (..., 3, 3) (either sign): from the row of
+    4 q qᵀ with the largest diagonal entry (Shepperd's method: no division by a small number)."""
+    R = np.asarray(R, dtype=float)
+    K = (R.reshape(R.shape[:-2] + (9,)) @ _FROM_MATRIX + _FROM_MATRIX_CONSTANT).reshape(R.shape[:-2] + (4, 4))
+    diag = np.diagonal(K, axis1=-2, axis2=-1)
+    pick = np.argmax(diag, axis=-1)[..., None]
+    row = np.take_along_axis(K, pick[..., None], axis=-2)[..., 0, :]
+    return row / (2.0 * np.sqrt(np.take_along_axis(diag, pick, axis=-1)))
+
+
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors (..., 3) by unit quaternions (..., 4)."""
     return np.einsum("...ij,...j->...i", to_matrix(q), v)
