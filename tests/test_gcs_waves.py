@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from linkedit.gcs import quaternions as quat
+from linkedit.gcs.closed_form import ClosedForm
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.planar_bridge import planar_model
 from linkedit.gcs.solver import Options, solve_run
@@ -25,6 +26,21 @@ def _system(name: str, scale: float = 1.0):
         return planar_model(validate(LinkageSpec, data, file="test")).system
     data = load_yaml(EXAMPLES / "3d" / f"{name}.yaml")[0]
     return compile_mechanism(validate(MechanismSpec, oracle.scaled_spec(data, scale), file="test"))[0]
+
+
+@pytest.fixture
+def own_predictions(monkeypatch):
+    """Waves predicting from the poses they solved, as for a mechanism without a closed form
+    (linkedit.gcs.closed_form: the revolute chains here have one)."""
+    monkeypatch.setattr(ClosedForm, "compile", classmethod(lambda cls, system: None))
+
+
+@pytest.fixture(params=["closed form", "own"])
+def predictions(request):
+    """Either way waves predict (:func:`own_predictions`)."""
+    if request.param == "own":
+        request.getfixturevalue("own_predictions")
+    return request.param
 
 
 def _both(system, t):
@@ -45,7 +61,7 @@ def _assert_same(on, off, size):
 @pytest.mark.parametrize("name,scale", [("crank-rocker", 1.0), ("crank-rocker", 1e3), ("six-bar", 1e-3),
                                         ("spherical-four-bar", 1.0), ("jansen", 1.0), ("klann", 100.0),
                                         ("luffing-arm", 1.0), ("bennett", 1e-3), ("compound-crank-rocker", 1.0)])
-def test_waves_give_the_step_by_step_poses_and_velocities(name, scale):
+def test_waves_give_the_step_by_step_poses_and_velocities(name, scale, predictions):
     system = _system(name, scale)
     t = np.arange(360) / 360
     on, off = _both(system, t)
@@ -66,7 +82,7 @@ def test_waves_match_the_closed_form_crank_rocker():
     assert np.abs(res.tracks["P"].position - oracle.crank_rocker(2 * np.pi * res.t)).max() < 1e-9 * 10
 
 
-def test_coarse_steps_fall_back_step_by_step_and_stay_on_the_branch():
+def test_coarse_steps_fall_back_step_by_step_and_stay_on_the_branch(predictions):
     """19 steps of the Jansen leg: the acceptance test rejects the wide steps (the continuation
     sub-steps them), and the result is the fine run's."""
     system = _system("jansen")
@@ -204,7 +220,7 @@ def test_a_second_run_reuses_what_the_first_compiled_and_gives_its_poses():
 
 
 @pytest.mark.parametrize("name", ["crank-rocker", "six-bar", "spherical-four-bar", "klann"])
-def test_a_warm_system_leaves_what_stays_still_out_of_its_rough_steps_and_gives_the_step_by_step_poses(name):
+def test_a_warm_system_leaves_what_stays_still_out_of_its_rough_steps_and_gives_the_step_by_step_poses(name, own_predictions):
     """The rough steps leave out the parts that stay still (a planar linkage's out-of-plane
     unknowns, the spherical four-bar's positions) and the groups that are theirs alone, found at
     the first run and kept; the block's solve still checks every row and pivot."""
@@ -219,7 +235,7 @@ def test_a_warm_system_leaves_what_stays_still_out_of_its_rough_steps_and_gives_
     _assert_same(on, off, system.length_scale)
 
 
-def test_a_run_started_off_the_plane_is_solved_as_step_by_step():
+def test_a_run_started_off_the_plane_is_solved_as_step_by_step(own_predictions):
     """A warm planar linkage started out of its plane: the continuation brings the first pose
     back into it to the tolerance; the rough steps then hold what stays still where it is, and
     the poses keep J zero off its blocks (to TIED): all in waves, the blocks kept."""
@@ -237,7 +253,7 @@ def test_a_run_started_off_the_plane_is_solved_as_step_by_step():
     _assert_same(on, off, system.length_scale)
 
 
-def test_an_input_held_then_moving_merges_the_blocks_it_ties_and_stirs_what_was_still():
+def test_an_input_held_then_moving_merges_the_blocks_it_ties_and_stirs_what_was_still(own_predictions):
     """Two cranks on one pivot, the second held for half the run then turned: the blocks and
     still parts found while it is held (its x and y turns apart, its z turn still) do not hold
     once it turns; the run finds out (merged, stirred) and solves it all in waves."""
@@ -267,7 +283,7 @@ def test_an_input_held_then_moving_merges_the_blocks_it_ties_and_stirs_what_was_
     _assert_same(again, off, system.length_scale)
 
 
-def test_a_first_run_finds_the_blocks_before_its_first_wave():
+def test_a_first_run_finds_the_blocks_before_its_first_wave(own_predictions):
     """Too short a run for a batch of SPLIT_FROM poses: the blocks and the still parts come
     from poses along the tangent of the last solved one, and the poses are step by step's."""
     from linkedit.gcs.waves import SPLIT_FROM

@@ -36,6 +36,14 @@ of steps can be solved together:
    (sub-steps, Levenberg–Marquardt), after which blocks resume (:data:`SHORTEST` steps,
    doubling).
 
+**Closed-form predictions.** Where every member of the system is rebuilt in closed form from
+placed ones (:mod:`linkedit.gcs.closed_form`: a crank set by its input, revolute dyads about
+parallel axes — planar linkages, in any plane — and links pinned between placed members) and
+the rebuilt pose reproduces the solved one before the block (to :data:`REBUILT`), steps 1 and 2
+are replaced by the closed form's poses at every step of the block (exact to rounding: most
+converge at their first evaluation), up to the first it cannot rebuild (a dyad that cannot
+close); steps 3 and 4 are as above, so a closed form that misleads costs time, never a result.
+
 **A free direction** (one passive degree of freedom: J has rank N − 1, such as an RSSR
 coupler's idle spin): the corrections are least norm (nothing along J's null vector, taken by
 inverse iteration as the continuation does), and the steps are moved along their null vectors
@@ -75,6 +83,7 @@ import scipy.sparse.csgraph
 
 from linkedit.gcs import constraints as kinds
 from linkedit.gcs import quaternions as quat
+from linkedit.gcs.closed_form import ClosedForm
 from linkedit.gcs.solver import FREE_PIVOT, NULL_APART, NULL_CLEAN, Solver
 from linkedit.gcs.system import EVALUATE, Block, StepParameters, StepTable
 
@@ -127,6 +136,9 @@ FEW = 24
 #: their plane by ~1e-30 after steps solved step by step); a block solve that leaves them out
 #: errs by as little
 TIED = 1e-15
+#: the largest difference (scaled) of a closed form's pose from the solved one it is taken
+#: at for its rules to hold (a solved pose is exact to ~1e-12)
+REBUILT = 1e-8
 #: the layouts of this many batch sizes, of at most KEPT_POSES poses, are kept on the system
 #: for its later runs (the last built)
 KEPT_LAYOUTS, KEPT_POSES = 16, 1024
@@ -235,6 +247,7 @@ class Compiled:
     ends: list[int] = dataclasses.field(default_factory=list)
     ties: np.ndarray | None = None
     layouts: dict[int, _Layout] = dataclasses.field(default_factory=dict)
+    closed: ClosedForm | None = None
 
     def copy(self) -> "Compiled":
         """A copy to change (the layouts shared: each is never changed, only added or dropped)."""
@@ -252,9 +265,12 @@ class Waves:
         s = self.system
         kept, key = s.batched.get("waves"), self._key()
         # (a system copied or changed in place since keeps what its first run compiled: not used)
-        self.compiled: Compiled = Compiled([self._whole()], key)
         if kept is not None and kept.key == key:
             self.compiled = kept.copy()
+        else:
+            self.compiled = Compiled([self._whole()], key, closed=ClosedForm.compile(s))
+        #: the closed form predicting this run's poses (None: the waves' own predictions)
+        self.closed = self.compiled.closed
         #: layouts of more poses than are kept on the system, for this run
         self._layouts: dict[int, _Layout] = {}
         #: pairs of blocks (K, 2) that Jacobian entries of this run's poses tied: merged before
@@ -567,6 +583,10 @@ class Waves:
             self._merge()
         if not self.compiled.decided and not self.free and np.abs(vel[k - 1]).max() > 0.0:
             self._survey(pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col, k - 1)
+        if self.closed is not None and not self.free:
+            rebuilt = self.rebuilt(k, stop, pos, ori, vel)
+            if rebuilt is not None:
+                return rebuilt
         t = self.table.t
         coarse: list[np.ndarray] = []
         rough: list[tuple[np.ndarray, np.ndarray]] = []
@@ -659,6 +679,32 @@ class Waves:
         n = self.accepted(P, Q, V, ok, null, steps, before, float(t[k - 1]))
         self.system.batched["waves"] = self.compiled.copy()  # for later runs (Compiled)
         return Solved(P, Q, R, V, work, n)
+
+    def rebuilt(self, k: int, stop: int, pos: np.ndarray, ori: np.ndarray, vel: np.ndarray) -> Solved | None:
+        """Solve the steps k … stop − 1 as :meth:`block` does, from the closed form's poses
+        (:mod:`linkedit.gcs.closed_form`: exact to rounding, so most steps converge at once),
+        up to the first it cannot rebuild; None where it rebuilds none — or does not reproduce
+        the solved pose k − 1 (to :data:`REBUILT`): its rules do not hold for this mechanism
+        (this run's later blocks and the system's later runs go without it)."""
+        closed, col = self.closed, self.solver.col
+        assert closed is not None
+        signs = closed.signs(pos[k - 1], ori[k - 1], self.table, k - 1)
+        P, Q, valid = closed.poses(self.table, np.array([k - 1]), ori[k - 1], signs)
+        error = max(np.abs(P[0] - pos[k - 1]).max() / self.system.length_scale, np.abs(Q[0] - ori[k - 1]).max())
+        if not valid[0] or not error <= REBUILT:
+            self.closed = self.compiled.closed = None
+            return None
+        P, Q, valid = closed.poses(self.table, np.arange(k, stop), ori[k - 1], signs)
+        n = int(np.argmin(valid)) if not valid.all() else stop - k
+        if n == 0:
+            return None
+        steps = np.arange(k, k + n)
+        P, Q = P[:n], Q[:n]
+        R, V, work, ok, null = self.solve(P, Q, steps)
+        before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
+        accepted = self.accepted(P, Q, V, ok, null, steps, before, float(self.table.t[k - 1]))
+        self.system.batched["waves"] = self.compiled.copy()  # for later runs (Compiled)
+        return Solved(P, Q, R, V, work, accepted)
 
     def keep_still(self, P: np.ndarray, Q: np.ndarray, null: np.ndarray, P0: np.ndarray, Q0: np.ndarray) -> float:
         """Move B consecutive solved poses (P (B, M, 3), Q (B, M, 4), in place) along their

@@ -1,0 +1,309 @@
+"""Poses in closed form: members rebuilt from members already placed, as LinkEdit rebuilds
+joints from known ones.
+
+Where a system's members can be ordered so that each is rebuilt from placed ones (the world
+first) by one of three rules —
+
+* **driven**: an orientation constraint sets the member's orientation from a placed member's
+  (an input's crank) and a location constraint pins it to a placed one;
+* **hinged**: location constraints pin it at two points to placed members, and an axis
+  constraint aligns it with a placed member's axis: it turns about that axis (a link between
+  two known joints);
+* **dyad**: two members pinned to each other and each to a placed member, each aligned with a
+  placed member's axis, the two axes one direction n (a revolute dyad): their common joint is
+  rebuilt across the axes by the law of cosines (:func:`linkedit.planar.law_of_cosines.dyad`),
+  on the side of the line between the two placed joints that it is on at a solved pose —
+
+every member's pose at every step follows as array code over the steps. A member's rotation
+is the one taking its local axis and the perpendicular part of its local arm (from its placed
+joint to its other one) onto the world axis and arm; its position puts its joint on the placed one.
+
+:class:`linkedit.gcs.waves.Waves` takes these poses as its predictions where every member has
+a rule (:meth:`ClosedForm.compile`) and they reproduce a solved pose (:meth:`ClosedForm.poses`
+at it): each is then solved and put to the continuation's acceptance test as any prediction
+is, so a closed form that misleads (a dyad the continuation takes through its dead point onto
+the other side, a mechanism only planar at some poses) costs time, never changes a result.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from linkedit.gcs import quaternions as quat
+from linkedit.gcs.system import StepTable, System
+from linkedit.planar.law_of_cosines import dyad
+
+#: two placed axes are one direction where their cross product is at most this (radians), and
+#: a dyad's two placed joints lie in one plane across it within this fraction of its arms
+PARALLEL = 1e-9
+
+
+@dataclass(frozen=True)
+class End:
+    """A constraint of a block seen from ``member``: its index in the block, whether the member
+    is the constraint's side a (its vector ``sa``; else ``sb``), and the other member (M: the
+    world)."""
+
+    index: int
+    side_a: bool
+    other: int
+
+
+@dataclass(frozen=True)
+class Driven:
+    """``member`` oriented by the orientation constraint ``turn`` and pinned by the location
+    constraint ``pin`` to placed members."""
+
+    member: int
+    turn: End
+    pin: End
+
+
+@dataclass(frozen=True)
+class Hinged:
+    """``member`` pinned by the location constraints ``pins`` to placed members and aligned by
+    the axis constraint ``axis`` with a placed member's axis."""
+
+    member: int
+    pins: tuple[End, End]
+    axis: End
+
+
+@dataclass(frozen=True)
+class Dyad:
+    """Members u and w, each pinned to a placed member (``pins``) and aligned with a placed
+    member's axis (``axes``), and pinned to each other by ``joint`` (seen from u)."""
+
+    members: tuple[int, int]
+    pins: tuple[End, End]
+    axes: tuple[End, End]
+    joint: End
+
+
+Rule = Driven | Hinged | Dyad
+
+
+class ClosedForm:
+    """The rules placing every member of a system in order (module docstring)."""
+
+    def __init__(self, system: System, rules: list[Rule]) -> None:
+        self.system = system
+        self.rules = rules
+        self._blocks = {blk.kind: blk for blk in system.blocks}
+        #: the driven member vectors and relative orientations: their columns in the step table
+        self._driven = {int(g): j for j, g in enumerate(system.driven_vectors)}
+        self._driven_rel = {int(i): j for j, i in enumerate(system.driven_rel)}
+
+    @classmethod
+    def compile(cls, system: System) -> "ClosedForm | None":
+        """The rules in placing order, or None where some member has none (or the system has
+        custom constraints)."""
+        if system.customs:
+            return None
+        M = system.n_members
+        driven = set(system.driven_vectors.tolist())
+        ends: dict[str, dict[int, list[End]]] = {}
+        for blk in system.blocks:
+            per = ends.setdefault(blk.kind, {m: [] for m in range(M)})
+            own_b = len(blk.vectors) > 1  # b's vector, which an input may drive: not a member's own then
+            for i, (a, b) in enumerate(zip(blk.a, blk.b)):
+                if a != b:
+                    if a < M:
+                        per[int(a)].append(End(i, True, int(b)))
+                    if b < M and not (own_b and blk.vectors[1].start + i in driven):
+                        per[int(b)].append(End(i, False, int(a)))
+        none: dict[int, list[End]] = {m: [] for m in range(M)}
+        pins, axes, turns = (ends.get(k, none) for k in ("location", "axis", "orientation"))
+        form = cls(system, [])
+        placed = {M}
+
+        def first(found: list[End]) -> End | None:
+            return next((e for e in found if e.other in placed), None)
+
+        def rule_for(u: int) -> Rule | None:
+            """A driven or hinged rule for member u, or a dyad of u and an unplaced member."""
+            pin, turn, axis = first(pins[u]), first(turns[u]), first(axes[u])
+            if pin is not None and turn is not None:
+                return Driven(u, turn, pin)
+            if pin is None or axis is None:
+                return None
+            other = next((e for e in pins[u] if e.other in placed and form._apart(pin, e)), None)
+            if other is not None:
+                return Hinged(u, (pin, other), axis)
+            for joint in pins[u]:
+                w = joint.other
+                if w in placed or not form._apart(pin, joint):
+                    continue
+                back = End(joint.index, not joint.side_a, u)
+                pin_w, axis_w = first(pins[w]), first(axes[w])
+                if pin_w is not None and axis_w is not None and form._apart(pin_w, back):
+                    return Dyad((u, w), (pin, pin_w), (axis, axis_w), joint)
+            return None
+
+        while len(placed) <= M:
+            # the members placed directly first, then dyads
+            found = [rule_for(u) for u in range(M) if u not in placed]
+            rule = next((r for r in found if r is not None and not isinstance(r, Dyad)),
+                        next((r for r in found if r is not None), None))
+            if rule is None:
+                return None
+            form.rules.append(rule)
+            placed |= set(rule.members) if isinstance(rule, Dyad) else {rule.member}
+        return form
+
+    def _apart(self, a: End, b: End) -> bool:
+        """Whether a member's points of the location constraints a and b (seen from it) differ."""
+        return bool(np.any(self._mine("location", a) != self._mine("location", b)))
+
+    # ---- the constraints' vectors and points ----------------------------------------------
+
+    def _mine(self, kind: str, end: End) -> np.ndarray:
+        """The member's own vector of a constraint seen from it (a point or axis in its space,
+        (3,)): its ``sa``, or its ``sb`` (not driven: :meth:`compile` takes no such end)."""
+        blk = self._blocks[kind]
+        return blk.sa[end.index] if end.side_a else blk.sb[end.index]
+
+    def _theirs(self, kind: str, end: End, table: StepTable, steps: np.ndarray) -> np.ndarray:
+        """The other member's vector of a constraint seen from a member: (3,), or (B, 3) at the
+        table's ``steps`` where an input drives it."""
+        blk = self._blocks[kind]
+        if end.side_a:
+            j = self._driven.get(blk.vectors[1].start + end.index)
+            return blk.sb[end.index] if j is None else table.vectors[steps, j, :3]
+        return blk.sa[end.index]
+
+    def _point(self, P: np.ndarray, R: np.ndarray, end: End, table: StepTable, steps: np.ndarray) -> np.ndarray:
+        """The other member's point of a location constraint in the world (B, 3), from the
+        positions P (B, M+1, 3) and rotations R (B, M+1, 3, 3) placed."""
+        return P[:, end.other] + _turn(R[:, end.other], self._theirs("location", end, table, steps))
+
+    def _axis(self, R: np.ndarray, end: End, table: StepTable, steps: np.ndarray) -> np.ndarray:
+        """The other member's axis of an axis constraint in the world, unit (B, 3)."""
+        n = _turn(R[:, end.other], self._theirs("axis", end, table, steps))
+        return n / np.sqrt(quat.dot(n, n))[:, None]
+
+    def _rel(self, end: End, table: StepTable, steps: np.ndarray) -> np.ndarray:
+        """The relative orientation of an orientation constraint at ``steps`` (B, 4)."""
+        j = self._driven_rel.get(end.index)
+        if j is None:
+            return np.broadcast_to(self._blocks["orientation"].rel[end.index], (len(steps), 4))
+        return quat.conjugate(table.rel_inverse[steps, j])
+
+    # ---- poses ----------------------------------------------------------------------------
+
+    def poses(self, table: StepTable, steps: np.ndarray, anchor: np.ndarray,
+              signs: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions (B, M, 3), quaternions (B, M, 4) (each of the sign nearest the step
+        before it, the first nearest the quaternions ``anchor`` (M, 4)) and whether each pose
+        could be rebuilt (B,), at the table's ``steps`` (B,), the dyads on the sides ``signs``
+        (:meth:`signs`)."""
+        B, M = len(steps), self.system.n_members
+        P, R = np.zeros((B, M + 1, 3)), np.zeros((B, M + 1, 3, 3))
+        Q = np.empty((B, M + 1, 4))
+        R[:, M], Q[:, M] = np.eye(3), (1.0, 0.0, 0.0, 0.0)
+        valid = np.ones(B, dtype=bool)
+        side = iter(signs)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            for rule in self.rules:
+                if isinstance(rule, Driven):
+                    u, e = rule.member, rule.turn
+                    rel = self._rel(e, table, steps)
+                    Q[:, u] = quat.multiply(Q[:, e.other], rel if e.side_a else quat.conjugate(rel))
+                    R[:, u] = quat.to_matrix(Q[:, u])
+                    P[:, u] = self._point(P, R, rule.pin, table, steps) - R[:, u] @ self._mine("location", rule.pin)
+                elif isinstance(rule, Hinged):
+                    u, (one, two) = rule.member, rule.pins
+                    n = self._axis(R, rule.axis, table, steps)
+                    X1, X2 = self._point(P, R, one, table, steps), self._point(P, R, two, table, steps)
+                    axis = _unit(self._mine("axis", rule.axis))
+                    arm = self._mine("location", two) - self._mine("location", one)
+                    height = float(arm @ axis)
+                    R[:, u] = _rotation(axis, arm - height * axis, n, X2 - X1 - height * n)
+                    P[:, u] = X1 - R[:, u] @ self._mine("location", one)
+                    Q[:, u] = quat.from_matrix(R[:, u])
+                else:
+                    valid &= self._dyad(rule, P, R, table, steps, next(side))
+                    Q[:, list(rule.members)] = quat.from_matrix(R[:, list(rule.members)])
+        Q = Q[:, :M]
+        flip = np.sign(quat.dot(Q, np.concatenate([anchor[None], Q[:-1]])))
+        Q *= np.cumprod(np.where(flip == 0.0, 1.0, flip), axis=0)[..., None]
+        return P[:, :M], Q, valid & np.isfinite(P).all(axis=(1, 2)) & np.isfinite(Q).all(axis=(1, 2))
+
+    def _dyad(self, rule: Dyad, P: np.ndarray, R: np.ndarray, table: StepTable, steps: np.ndarray,
+              sign: float) -> np.ndarray:
+        """Place a dyad's members (into P (B, M+1, 3), R (B, M+1, 3, 3)) with their common
+        joint on the side ``sign``; whether each step could (B,) (:meth:`_triangle`; the
+        triangle closed: else NaN)."""
+        X, A, n, arms, ok = self._triangle(rule, P, R, table, steps)
+        e = A[1] - A[0]
+        e -= quat.dot(e, n)[:, None] * n
+        d = np.sqrt(quat.dot(e, e))
+        e1 = e / d[:, None]
+        lu, lw = (float(np.sqrt(a @ a)) for a in arms)
+        z, _ = dyad(np.zeros((1, len(d)), dtype=complex), d[None] + 0j, np.array([[0.5 * (lu * lu - lw * lw)]]),
+                    np.array([[lu * lu]]), np.array([[sign]]))
+        J = A[0] + z.real.T * e1 + z.imag.T * quat.cross(n, e1)  # the common joint
+        for m, pin, axis, arm, Xm, Am in zip(rule.members, rule.pins, rule.axes, arms, X, A):
+            R[:, m] = _rotation(_unit(self._mine("axis", axis)), arm, n, J - Am)
+            P[:, m] = Xm - R[:, m] @ self._mine("location", pin)
+        return ok
+
+    def _triangle(self, rule: Dyad, P: np.ndarray, R: np.ndarray, table: StepTable,
+                  steps: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray, list[np.ndarray], np.ndarray]:
+        """A dyad's placed joints X (B, 3) each, the same moved along the axis n by its
+        member's offset to the common joint (A: in the common joint's plane across n), n
+        (B, 3), the members' arms to the common joint across their axes (3,) each (in their
+        spaces), and whether the placed axes are one direction and A's in one plane across it
+        (B,) (to :data:`PARALLEL`)."""
+        u = rule.members[0]
+        n = self._axis(R, rule.axes[0], table, steps)
+        nw = self._axis(R, rule.axes[1], table, steps)
+        X, A, arms = [], [], []
+        for pin, axis_end, tip in zip(rule.pins, rule.axes, (rule.joint, End(rule.joint.index, not rule.joint.side_a, u))):
+            axis = _unit(self._mine("axis", axis_end))
+            arm = self._mine("location", tip) - self._mine("location", pin)
+            h = float(arm @ axis)
+            X.append(self._point(P, R, pin, table, steps))
+            A.append(X[-1] + h * n)
+            arms.append(arm - h * axis)
+        reach = sum(float(np.sqrt(a @ a)) for a in arms)
+        c = quat.cross(n, nw)
+        ok = (np.sqrt(quat.dot(c, c)) <= PARALLEL) & (quat.dot(n, nw) > 0.0) & \
+            (np.abs(quat.dot(A[1] - A[0], n)) <= PARALLEL * reach)
+        return X, A, n, arms, ok
+
+    def signs(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int) -> list[float]:
+        """The side (±1) of each dyad's common joint from the line between its placed joints,
+        about n, at a solved pose (positions (M, 3), quaternions (M, 4)) at the table's
+        ``step``."""
+        P = np.concatenate([position, np.zeros((1, 3))])[None]
+        R = np.concatenate([quat.to_matrix(orientation), np.eye(3)[None]])[None]
+        steps = np.array([step])
+        out = []
+        for rule in self.rules:
+            if isinstance(rule, Dyad):
+                _, A, n, _, _ = self._triangle(rule, P, R, table, steps)
+                J = self._point(P, R, rule.joint, table, steps)  # w's point of the common joint
+                out.append(1.0 if float(quat.dot(quat.cross(A[1] - A[0], J - A[0]), n)[0]) >= 0.0 else -1.0)
+        return out
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.sqrt(v @ v)
+
+
+def _turn(R: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """R v for rotations R (B, 3, 3) and vectors v (3,) or (B, 3): (B, 3)."""
+    return R @ v if v.ndim == 1 else (R @ v[:, :, None])[:, :, 0]
+
+
+def _rotation(axis: np.ndarray, arm: np.ndarray, n: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """The rotations (B, 3, 3) taking a member's unit ``axis`` (3,) onto the unit n (B, 3) and
+    its ``arm`` across it (3,) onto the direction of j across n (B, 3)."""
+    p = arm / np.sqrt(arm @ arm)
+    local = np.stack([axis, p, np.cross(axis, p)], axis=1)  # columns
+    jh = j / np.sqrt(quat.dot(j, j))[:, None]
+    world = np.stack([n, jh, quat.cross(n, jh)], axis=2)
+    return world @ local.T
