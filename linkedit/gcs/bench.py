@@ -19,8 +19,9 @@ shared machine's waits left out), linkedit after one untimed run of each system 
 what waves keep on it, as SolveSpace's sketch is built before its timing). Printed: medians of interleaved runs of each, their
    ratio (target ≤ 1×, ≤ 2× with a passive DOF) and the largest difference of the compared
    points over the run, relative to the mechanism's size; and linkedit's time per step with the
-   per-step diagnostics ``solve3d`` adds (status, degrees of freedom, redundant equations), and
-   how many steps it solved in waves (:mod:`linkedit.gcs.waves`).
+   per-step diagnostics ``solve3d`` adds (status, degrees of freedom, redundant equations), how
+   many steps it solved in waves (:mod:`linkedit.gcs.waves`), and whether they were predicted in
+   closed form (:mod:`linkedit.gcs.closed_form`) or by extrapolation.
 """
 
 from __future__ import annotations
@@ -285,7 +286,7 @@ def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
          "interleaved runs; "
          "SolveSpace holds the ground and the driven point dragged (the target's baseline) or fixed (an earlier group)")
     echo(f"{'mechanism':<26}{'unknowns':>9}  {'linkedit':>9}  {'SolveSpace':>11}  {'ratio':>6}  {'target':>7}  "
-         f"{'SolveSpace':>11}  {'ratio':>6}  {'max |Δp| / size':>16}  {'+ diagnostics':>14}  {'in waves':>8}")
+         f"{'SolveSpace':>11}  {'ratio':>6}  {'max |Δp| / size':>16}  {'+ diagnostics':>14}  {'in waves':>8}  predicted")
     echo(f"{'':<26}{'':>9}  {'ms/step':>9}  {'dragged':>11}  {'':>6}  {'':>7}  {'fixed':>11}  {'':>6}  {'':>16}  "
          f"{'ms/step':>14}")
     for name, system, model, world in _linkedit_cases(steps):
@@ -313,8 +314,15 @@ def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
                  f"{ms['fixed']:>11.3f}  {ms['ours'] / ms['fixed']:>5.2f}×" if got["fixed"] else f"{'failed':>11}  {'':>6}"]
         echo(f"{name:<26}{system.n_unknowns:>9}  {ms['ours']:>9.3f}  {cells[0]}  {'≤ ' + format(target, 'g') + '×':>7}  "
              f"{cells[1]}  {max(diffs, default=float('nan')):>16.1e}  {ms['solve3d']:>14.3f}  "
-             f"{f'{int(run.batched.sum())}/{steps}':>8}"
-             f"{'  (passive DOF)' if model.passive else ''}")
+             f"{f'{int(run.batched.sum())}/{steps}':>8}  "
+             f"{_predicted(system)}"
+             f"{' (passive DOF)' if model.passive else ''}")
+
+
+def _predicted(system: "System") -> str:
+    """How the waves predicted a system's steps (after its runs)."""
+    kept = system.batched.get("waves")
+    return "—" if kept is None else "extrapolated" if kept.closed is None else "closed form"
 
 
 def run(echo: Callable[[str], None], quick: bool = False) -> None:
