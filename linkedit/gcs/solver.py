@@ -630,7 +630,10 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
             if pose is None:  # continuation failed: solve directly from the last good pose
                 x2, r2, st2, pose = solver.first(good.state, table, k)
                 if pose is not None or not tried or r2 @ r2 < r @ r:
-                    x, r, st = x2, r2, st2
+                    x, r = x2, r2
+                # why it fails is told from the last good pose directly, whatever way the
+                # sub-steps went there (a run through waves reaches it by another one)
+                st = st2
                 if pose is not None:
                     reached[k] = t[k]
         if pose is not None and waves is not None and not classified and not table.partial[k]:
