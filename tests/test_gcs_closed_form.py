@@ -201,3 +201,43 @@ def test_a_redundant_link_between_placed_members_turns_about_its_axis():
     on = solve_run(system, t)
     assert on.batched.sum() >= len(t) - 2
     _assert_same(on.position, on.orientation, off, system.length_scale)
+
+
+def test_a_large_linkage_is_verified_in_waves_pose_by_pose_as_step_by_step():
+    """The 3-pair Strandbeest (222 unknowns: the sparse factorization, no batched one): its
+    closed-form poses are evaluated together, then each factorized as the continuation does —
+    the same poses, velocities, statuses and ranks, one factorization per step."""
+    from linkedit.planar import catalog
+
+    system = planar_model(catalog.strandbeest(3)).system
+    t = np.arange(360) / 360
+    on, off = solve_run(system, t), solve_run(system, t, Options(waves=False))
+    assert system.n_unknowns > 120 and (off.status == 0).all()
+    assert on.batched.sum() >= 355 and on.factorizations[2:].mean() == 1.0
+    assert (on.status == off.status).all() and (on.rank == off.rank).all()
+    _assert_same(on.position, on.orientation, off, system.length_scale)
+    assert np.abs(on.velocity - off.velocity).max() <= 1e-8 * np.abs(off.velocity).max()
+
+
+def test_a_pin_whose_axis_points_the_other_way_is_rebuilt_too():
+    """The crank-rocker written with revolute joints, the rocker's ground pivot axis given as −z
+    (the crank's +z): a pin's axis is a line either way, so the closed form holds (the review's
+    four-bar)."""
+    z = [0.0, 0.0, 1.0]
+    data = {"name": "four-bar", "units": "m",
+            "members": {"crank": {"position": [-2.7, 2.8, 0.1]}, "coupler": {"position": [-1.7, 2.8, 0.1]},
+                        "rocker": {"position": [2.3, -3.2, 0.1]}},
+            "joints": {"jA": {"type": "revolute", "members": ["crank", "world"], "at": [-3.0, 3.0, 0.0], "axis": z},
+                       "jB": {"type": "revolute", "members": ["coupler", "crank"], "at": [-2.0, 3.0, 0.0], "axis": z},
+                       "jC": {"type": "revolute", "members": ["rocker", "coupler"],
+                              "at": [2.9887215945130663, 2.664356063008711, 0.0], "axis": z},
+                       "jD": {"type": "revolute", "members": ["rocker", "world"], "at": [2.0, -3.0, 0.0],
+                              "axis": [0.0, 0.0, -1.0]}},
+            "inputs": {"drive": {"type": "orientation", "member": "crank", "rotation": {"axis": z, "angles_deg": [0, 360]}}},
+            "outputs": {"steps": 361}}
+    system = compile_mechanism(validate(MechanismSpec, data, file="test"))[0]
+    t = np.arange(360) / 360
+    on, off = solve_run(system, t), solve_run(system, t, Options(waves=False))
+    assert system.batched["waves"].closed is not None and on.iterations[2:].mean() <= 1.05
+    assert (on.status == off.status).all() and (off.status == 0).all()
+    _assert_same(on.position, on.orientation, off, system.length_scale)

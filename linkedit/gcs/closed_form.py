@@ -10,7 +10,7 @@ first) by one of three rules —
   constraint aligns it with a placed member's axis: it turns about that axis (a link between
   two known joints);
 * **dyad**: two members pinned to each other and each to a placed member, each aligned with a
-  placed member's axis, the two axes one direction n (a revolute dyad): their common joint is
+  placed member's axis, the two axes along one line n (a revolute dyad): their common joint is
   rebuilt across the axes by the law of cosines (:func:`linkedit.planar.law_of_cosines.dyad`),
   on the side of the line between the two placed joints that it is on at a solved pose —
 
@@ -35,7 +35,10 @@ from linkedit.gcs import quaternions as quat
 from linkedit.gcs.system import StepTable, System
 from linkedit.planar.law_of_cosines import dyad
 
-#: two placed axes are one direction where their cross product is at most this (radians), and
+#: the largest difference (scaled) of the closed form's pose from a solved one for its rules to
+#: hold there (a solved pose is exact to ~1e-12)
+REBUILT = 1e-8
+#: two placed axes are along one line where their cross product is at most this (radians), and
 #: a dyad's two placed joints lie in one plane across it within this fraction of its arms
 PARALLEL = 1e-9
 
@@ -85,6 +88,17 @@ class Dyad:
 Rule = Driven | Hinged | Dyad
 
 
+@dataclass
+class Guesses:
+    """The closed form's poses of the steps ``first`` … of a run, from a solved pose's sides:
+    positions (T', M, 3), quaternions (T', M, 4), and whether each could be rebuilt (T',)."""
+
+    first: int
+    position: np.ndarray
+    orientation: np.ndarray
+    valid: np.ndarray
+
+
 class ClosedForm:
     """The rules placing every member of a system in order (module docstring)."""
 
@@ -95,6 +109,15 @@ class ClosedForm:
         #: the driven member vectors and relative orientations: their columns in the step table
         self._driven = {int(g): j for j, g in enumerate(system.driven_vectors)}
         self._driven_rel = {int(i): j for j, i in enumerate(system.driven_rel)}
+
+    @classmethod
+    def of(cls, system: System) -> "ClosedForm | None":
+        """:meth:`compile`, kept on the system for its later runs (:attr:`System.batched`)."""
+        key = system.digest()
+        kept = system.batched.get("closed form")
+        if kept is None or kept[0] != key:
+            kept = system.batched["closed form"] = (key, cls.compile(system))
+        return kept[1]
 
     @classmethod
     def compile(cls, system: System) -> "ClosedForm | None":
@@ -138,7 +161,7 @@ class ClosedForm:
                     continue
                 back = End(joint.index, not joint.side_a, u)
                 pin_w, axis_w = first(pins[w]), first(axes[w])
-                if pin_w is not None and axis_w is not None and form._apart(pin_w, back):
+                if back in pins[w] and pin_w is not None and axis_w is not None and form._apart(pin_w, back):
                     return Dyad((u, w), (pin, pin_w), (axis, axis_w), joint)
             return None
 
@@ -236,7 +259,8 @@ class ClosedForm:
         """Place a dyad's members (into P (B, M+1, 3), R (B, M+1, 3, 3)) with their common
         joint on the side ``sign``; whether each step could (B,) (:meth:`_triangle`; the
         triangle closed: else NaN)."""
-        X, A, n, arms, ok = self._triangle(rule, P, R, table, steps)
+        X, A, axes, arms, ok = self._triangle(rule, P, R, table, steps)
+        n = axes[0]
         e = A[1] - A[0]
         e -= quat.dot(e, n)[:, None] * n
         d = np.sqrt(quat.dot(e, e))
@@ -245,23 +269,25 @@ class ClosedForm:
         z, _ = dyad(np.zeros((1, len(d)), dtype=complex), d[None] + 0j, np.array([[0.5 * (lu * lu - lw * lw)]]),
                     np.array([[lu * lu]]), np.array([[sign]]))
         J = A[0] + z.real.T * e1 + z.imag.T * quat.cross(n, e1)  # the common joint
-        for m, pin, axis, arm, Xm, Am in zip(rule.members, rule.pins, rule.axes, arms, X, A):
-            R[:, m] = _rotation(_unit(self._mine("axis", axis)), arm, n, J - Am)
+        for m, pin, axis, arm, Xm, Am, nm in zip(rule.members, rule.pins, rule.axes, arms, X, A, axes):
+            R[:, m] = _rotation(_unit(self._mine("axis", axis)), arm, nm, J - Am)
             P[:, m] = Xm - R[:, m] @ self._mine("location", pin)
         return ok
 
     def _triangle(self, rule: Dyad, P: np.ndarray, R: np.ndarray, table: StepTable,
-                  steps: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray, list[np.ndarray], np.ndarray]:
-        """A dyad's placed joints X (B, 3) each, the same moved along the axis n by its
-        member's offset to the common joint (A: in the common joint's plane across n), n
-        (B, 3), the members' arms to the common joint across their axes (3,) each (in their
-        spaces), and whether the placed axes are one direction and A's in one plane across it
-        (B,) (to :data:`PARALLEL`)."""
+                  steps: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray], list[np.ndarray],
+                                              np.ndarray]:
+        """A dyad's placed joints X (B, 3) each; the same moved along its member's placed axis
+        by the member's offset to the common joint (A: in the common joint's plane across the
+        axes); the placed axes (B, 3) each, the members' axes turned onto them (the two either
+        way along one line: a pin may give its axis either way); the members' arms to the
+        common joint across their axes (3,) each (in their spaces); and whether the placed axes
+        are one line and the A's in one plane across it (B,) (to :data:`PARALLEL`)."""
         u = rule.members[0]
-        n = self._axis(R, rule.axes[0], table, steps)
-        nw = self._axis(R, rule.axes[1], table, steps)
+        axes = [self._axis(R, end, table, steps) for end in rule.axes]
         X, A, arms = [], [], []
-        for pin, axis_end, tip in zip(rule.pins, rule.axes, (rule.joint, End(rule.joint.index, not rule.joint.side_a, u))):
+        for pin, axis_end, tip, n in zip(rule.pins, rule.axes, (rule.joint, End(rule.joint.index, not rule.joint.side_a, u)),
+                                         axes):
             axis = _unit(self._mine("axis", axis_end))
             arm = self._mine("location", tip) - self._mine("location", pin)
             h = float(arm @ axis)
@@ -269,10 +295,33 @@ class ClosedForm:
             A.append(X[-1] + h * n)
             arms.append(arm - h * axis)
         reach = sum(float(np.sqrt(a @ a)) for a in arms)
-        c = quat.cross(n, nw)
-        ok = (np.sqrt(quat.dot(c, c)) <= PARALLEL) & (quat.dot(n, nw) > 0.0) & \
-            (np.abs(quat.dot(A[1] - A[0], n)) <= PARALLEL * reach)
-        return X, A, n, arms, ok
+        c = quat.cross(*axes)
+        ok = (np.sqrt(quat.dot(c, c)) <= PARALLEL) & (np.abs(quat.dot(A[1] - A[0], axes[0])) <= PARALLEL * reach)
+        return X, A, axes, arms, ok
+
+    def sides(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int) -> list[float] | None:
+        """The dyads' sides (:meth:`signs`) at a solved pose (positions (M, 3), quaternions
+        (M, 4)) at the table's ``step``, or None where the closed form rebuilds another pose
+        there (by more than :data:`REBUILT`) or finds a dyad's axes not along one line: its
+        rules do not hold for the mechanism. (A dyad that cannot close there by rounding, at its
+        dead point, tells nothing.)"""
+        signs = self.signs(position, orientation, table, step)
+        P, Q, valid = self.poses(table, np.array([step]), orientation, signs)
+        if not valid[0]:
+            return signs if np.isnan(P[0]).any() else None
+        error = max(np.abs(P[0] - position).max() / self.system.length_scale, np.abs(Q[0] - orientation).max())
+        return signs if error <= REBUILT else None
+
+    def guesses(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int,
+                count: int) -> Guesses | None:
+        """The poses of the ``count`` steps after a solved one (positions (M, 3), quaternions
+        (M, 4), at the table's ``step``) on its sides, or None where the closed form rebuilds
+        another pose there (:meth:`sides`)."""
+        signs = self.sides(position, orientation, table, step)
+        if signs is None:
+            return None
+        steps = np.arange(step + 1, min(step + 1 + count, len(table.t)))
+        return Guesses(step + 1, *self.poses(table, steps, orientation, signs))
 
     def signs(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int) -> list[float]:
         """The side (±1) of each dyad's common joint from the line between its placed joints,
@@ -284,9 +333,9 @@ class ClosedForm:
         out = []
         for rule in self.rules:
             if isinstance(rule, Dyad):
-                _, A, n, _, _ = self._triangle(rule, P, R, table, steps)
+                _, A, axes, _, _ = self._triangle(rule, P, R, table, steps)
                 J = self._point(P, R, rule.joint, table, steps)  # w's point of the common joint
-                out.append(1.0 if float(quat.dot(quat.cross(A[1] - A[0], J - A[0]), n)[0]) >= 0.0 else -1.0)
+                out.append(1.0 if float(quat.dot(quat.cross(A[1] - A[0], J - A[0]), axes[0])[0]) >= 0.0 else -1.0)
         return out
 
 

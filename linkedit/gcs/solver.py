@@ -597,7 +597,8 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
                 done = np.arange(k, k + n)
                 pos[done], ori[done], res[done] = wave.position[:n], wave.orientation[:n], wave.residual[:n]
                 vel[done] = (wave.velocity[:n] * solver.col).reshape(n, M, 6)
-                status[done], rank[done], batched[done] = CONVERGED, system.n_unknowns - waves.free, True
+                status[done], batched[done] = CONVERGED, True
+                rank[done] = system.n_unknowns - waves.free if wave.rank is None else wave.rank[:n]
                 iters[done], facts[done] = wave.work[:n, 0], wave.work[:n, 1]
                 wave_from = k if wave_from < 0 else wave_from
                 if progress is not None:
@@ -641,8 +642,10 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
             classified, null = True, pose.linear.null
             if null is not None and null.shape[1] == 1 and pose.linear.rank == system.n_unknowns - 1:
                 waves.free = 1  # one free direction (a passive degree of freedom), kept still
-            elif null is not None or pose.linear.rank != system.n_unknowns:
-                waves = None  # more free directions, or a rank the pivots cannot tell: step by step
+            elif null is not None or pose.linear.rank != system.n_unknowns and not solver.normal.sparse:
+                # more free directions, or a rank the pivots cannot tell: step by step (a sparse
+                # system's waves read it pose by pose, as the continuation does)
+                waves = None
         if pose is not None:
             good, stuck = pose, False
             vel[k] = (pose.velocity * solver.col).reshape(M, 6)

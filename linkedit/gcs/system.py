@@ -25,6 +25,7 @@ matrix JᵀJ and the gradient Jᵀr are assembled from the groups with precomput
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -236,6 +237,19 @@ class System:
     @property
     def n_members(self) -> int:
         return len(self.member_names)
+
+    def digest(self) -> bytes:
+        """A digest of what :attr:`batched` is compiled from: the constraint blocks' members,
+        rows and values, the member vectors, relative orientations and scales (a system
+        copied or changed in place since does not use what was compiled for it before)."""
+        h = hashlib.blake2b(digest_size=16)
+        for a in (self.vectors, self.rel_inverse, self.vector_member, self.row_scale, np.array([self.length_scale])):
+            h.update(np.ascontiguousarray(a).tobytes())
+        for blk in self.blocks:
+            h.update(blk.kind.encode())
+            for a in (blk.a, blk.b, blk.rows, blk.value):
+                h.update(np.ascontiguousarray(a).tobytes())
+        return h.digest()
 
     @property
     def n_unknowns(self) -> int:

@@ -39,7 +39,7 @@ of steps can be solved together:
 **Closed-form predictions.** Where every member of the system is rebuilt in closed form from
 placed ones (:mod:`linkedit.gcs.closed_form`: a crank set by its input, revolute dyads about
 parallel axes — planar linkages, in any plane — and links pinned between placed members) and
-the rebuilt pose reproduces the solved one before the block (to :data:`REBUILT`), steps 1 and 2
+the rebuilt pose reproduces the solved one before the block (:meth:`ClosedForm.sides`), steps 1 and 2
 are replaced by the closed form's poses at every step of the block (exact to rounding: most
 converge at their first evaluation), up to the first it cannot rebuild (a dyad that cannot
 close); steps 3 and 4 are as above, so a closed form that misleads costs time, never a result.
@@ -68,13 +68,15 @@ differ there by rounding (steps solved step by step) they are held explicitly
 (:meth:`Waves._held`), or the extrapolation would amplify it wave after wave.
 
 Steps with an input outside its window, systems with custom constraints, more free
-directions or the sparse factorization, and runs that ask for accelerations go step by step.
+directions, and runs that ask for accelerations go step by step; so do systems with the sparse
+factorization (above 120 unknowns) unless the closed form rebuilds them: their rebuilt poses
+are then evaluated together and each factorized as the continuation's step is
+(:meth:`Waves.verify`), instead of step 3.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 
 import numpy as np
 import scipy.linalg
@@ -85,7 +87,7 @@ from linkedit.gcs import constraints as kinds
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.closed_form import ClosedForm
 from linkedit.gcs.solver import FREE_PIVOT, NULL_APART, NULL_CLEAN, Solver
-from linkedit.gcs.system import EVALUATE, Block, StepParameters, StepTable
+from linkedit.gcs.system import EVALUATE, Block, Evaluation, State, StepParameters, StepTable
 
 #: steps of a block after a rejected step (doubling after each block accepted whole); the
 #: first block is the whole run
@@ -136,9 +138,6 @@ FEW = 24
 #: their plane by ~1e-30 after steps solved step by step); a block solve that leaves them out
 #: errs by as little
 TIED = 1e-15
-#: the largest difference (scaled) of a closed form's pose from the solved one it is taken
-#: at for its rules to hold (a solved pose is exact to ~1e-12)
-REBUILT = 1e-8
 #: the layouts of this many batch sizes, of at most KEPT_POSES poses, are kept on the system
 #: for its later runs (the last built)
 KEPT_LAYOUTS, KEPT_POSES = 16, 1024
@@ -158,6 +157,9 @@ class Solved:
     velocity: np.ndarray
     work: np.ndarray
     accepted: int
+    #: the rank of J at each step where it was read pose by pose (:meth:`Waves.verify`), else
+    #: None (full column rank less the free directions)
+    rank: np.ndarray | None = None
 
 
 @dataclasses.dataclass
@@ -233,7 +235,7 @@ class Compiled:
     their scales, where the blocks and the off-block slots end and which blocks each off-block
     slot ties (``places``, ``ends``, ``ties`` (S, 2): :meth:`Waves._place`), and the layouts
     per batch size (:meth:`Waves._layout`); ``key``: a digest of what it was built from
-    (:meth:`Waves._key`). Blocks a run's poses tie together are merged (:meth:`Waves._merge`).
+    (:meth:`System.digest`). Blocks a run's poses tie together are merged (:meth:`Waves._merge`).
     A run changes a copy of its own and keeps a copy of that on the system after each block,
     so that runs of one system in several threads do not see each other's halfway changes."""
 
@@ -263,12 +265,12 @@ class Waves:
         self.system = solver.system
         self.table = table
         s = self.system
-        kept, key = s.batched.get("waves"), self._key()
+        kept, key = s.batched.get("waves"), s.digest()
         # (a system copied or changed in place since keeps what its first run compiled: not used)
         if kept is not None and kept.key == key:
             self.compiled = kept.copy()
         else:
-            self.compiled = Compiled([self._whole()], key, closed=ClosedForm.compile(s))
+            self.compiled = Compiled([self._whole()], key, closed=ClosedForm.of(s))
         #: the closed form predicting this run's poses (None: the waves' own predictions)
         self.closed = self.compiled.closed
         #: layouts of more poses than are kept on the system, for this run
@@ -278,18 +280,6 @@ class Waves:
         self.tied = np.zeros((0, 2), dtype=int)
         #: free directions of J at every pose (0, or 1: a passive degree of freedom kept still)
         self.free = 0
-
-    def _key(self) -> bytes:
-        """A digest of what :class:`Compiled` is built from: the constraint blocks' members,
-        rows and values, the member vectors, relative orientations and scales."""
-        s, h = self.system, hashlib.blake2b(digest_size=16)
-        for a in (s.vectors, s.rel_inverse, s.vector_member, s.row_scale, np.array([s.length_scale])):
-            h.update(np.ascontiguousarray(a).tobytes())
-        for blk in s.blocks:
-            h.update(blk.kind.encode())
-            for a in (blk.a, blk.b, blk.rows, blk.value):
-                h.update(np.ascontiguousarray(a).tobytes())
-        return h.digest()
 
     def _whole(self) -> Part:
         s = self.system
@@ -304,9 +294,9 @@ class Waves:
     def applies(solver: Solver) -> bool:
         """Whether the system's structure allows waves (see the module docstring; the rank is
         checked at the first pose by the caller)."""
-        o, s = solver.options, solver.system
-        return (o.solver == "lm" and not o.accelerations and not s.customs and not solver.normal.sparse
-                and solver.normal.unique_entries)
+        o, s, normal = solver.options, solver.system, solver.normal
+        return (o.solver == "lm" and not o.accelerations and not s.customs
+                and (normal.unique_entries if not normal.sparse else ClosedForm.of(s) is not None))
 
     # ---- batched evaluation ---------------------------------------------------------------
 
@@ -579,6 +569,10 @@ class Waves:
         still from step to step (:meth:`keep_still`, converging quadratically: at most
         :data:`STILL_PASSES`); then the continuation's acceptance test."""
         col, M = self.solver.col, self.system.n_members
+        if self.solver.normal.sparse:  # the closed form's poses, or none
+            rebuilt = self.rebuilt(k, stop, pos, ori, vel) if self.closed is not None else None
+            return rebuilt or Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
+                                     np.zeros((0, self.system.n_unknowns)), np.zeros((0, 2), dtype=np.int32), 0)
         if self.tied.size:  # the blocks kept on the system do not hold for this run's poses
             self._merge()
         if not self.compiled.decided and not self.free and np.abs(vel[k - 1]).max() > 0.0:
@@ -684,27 +678,55 @@ class Waves:
         """Solve the steps k … stop − 1 as :meth:`block` does, from the closed form's poses
         (:mod:`linkedit.gcs.closed_form`: exact to rounding, so most steps converge at once),
         up to the first it cannot rebuild; None where it rebuilds none — or does not reproduce
-        the solved pose k − 1 (to :data:`REBUILT`): its rules do not hold for this mechanism
+        the solved pose k − 1 (:meth:`ClosedForm.sides`): its rules do not hold for this mechanism
         (this run's later blocks and the system's later runs go without it)."""
         closed, col = self.closed, self.solver.col
         assert closed is not None
-        signs = closed.signs(pos[k - 1], ori[k - 1], self.table, k - 1)
-        P, Q, valid = closed.poses(self.table, np.array([k - 1]), ori[k - 1], signs)
-        error = max(np.abs(P[0] - pos[k - 1]).max() / self.system.length_scale, np.abs(Q[0] - ori[k - 1]).max())
-        if not valid[0] or not error <= REBUILT:
+        guesses = closed.guesses(pos[k - 1], ori[k - 1], self.table, k - 1, stop - k)
+        if guesses is None:
             self.closed = self.compiled.closed = None
             return None
-        P, Q, valid = closed.poses(self.table, np.arange(k, stop), ori[k - 1], signs)
+        P, Q, valid = guesses.position, guesses.orientation, guesses.valid
         n = int(np.argmin(valid)) if not valid.all() else stop - k
         if n == 0:
             return None
         steps = np.arange(k, k + n)
         P, Q = P[:n], Q[:n]
-        R, V, work, ok, null = self.solve(P, Q, steps)
+        rank = None
+        if self.solver.normal.sparse:
+            R, V, work, ok, rank = self.verify(P, Q, steps)
+            null = np.zeros_like(V)
+        else:
+            R, V, work, ok, null = self.solve(P, Q, steps)
         before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
         accepted = self.accepted(P, Q, V, ok, null, steps, before, float(self.table.t[k - 1]))
         self.system.batched["waves"] = self.compiled.copy()  # for later runs (Compiled)
-        return Solved(P, Q, R, V, work, accepted)
+        return Solved(P, Q, R, V, work, accepted, rank)
+
+    def verify(self, P: np.ndarray, Q: np.ndarray,
+               steps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The closed form's poses P (B, M, 3), Q (B, M, 4) at the table's ``steps`` (B,) of a
+        system with the sparse factorization: residuals and Jacobians evaluated for all at
+        once, then each pose that converged as it is (largest scaled residual row ≤ ``tol``)
+        linearized, factorized and given its exact velocity as the continuation's step does
+        (:meth:`Solver.linearize`: the same pivots, null space and rank). Returns the residuals
+        (B, R), scaled velocities (B, N), linear solves and factorizations (B, 2), whether each
+        is solved with no free direction (B,), and J's rank (B,) (−1 where the pivots cannot
+        tell, as for the continuation's steps)."""
+        solver, B = self.solver, len(steps)
+        r, jacs = self.evaluate(P, Q, steps, True)
+        rt = self.time_derivative(Q, steps, jacs)
+        velocity = np.zeros((B, self.system.n_unknowns))
+        work = np.zeros((B, 2), dtype=np.int32)
+        ok = np.abs(r * solver.row).max(axis=1) <= solver.options.tol
+        rank = np.full(B, -1)
+        for b in np.flatnonzero(ok):
+            ev = Evaluation(r[b], [np.ascontiguousarray(J[b]) for J in jacs if J is not None])
+            linear = solver.linearize(State(P[b], Q[b]), self.table, int(steps[b]), ev)
+            velocity[b] = linear.least_norm(-rt[b] * solver.row)
+            ok[b], rank[b] = linear.null is None, linear.rank
+            work[b] = 1
+        return r, velocity, work, ok, rank
 
     def keep_still(self, P: np.ndarray, Q: np.ndarray, null: np.ndarray, P0: np.ndarray, Q0: np.ndarray) -> float:
         """Move B consecutive solved poses (P (B, M, 3), Q (B, M, 4), in place) along their
