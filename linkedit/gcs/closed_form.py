@@ -90,10 +90,9 @@ Rule = Driven | Hinged | Dyad
 
 @dataclass
 class Guesses:
-    """The closed form's poses of the steps ``first`` … of a run, from a solved pose's sides:
-    positions (T', M, 3), quaternions (T', M, 4), and whether each could be rebuilt (T',)."""
+    """The closed form's poses of the steps after a solved one, on its sides: positions
+    (T', M, 3), quaternions (T', M, 4), and whether each could be rebuilt (T',)."""
 
-    first: int
     position: np.ndarray
     orientation: np.ndarray
     valid: np.ndarray
@@ -321,7 +320,7 @@ class ClosedForm:
         if signs is None:
             return None
         steps = np.arange(step + 1, min(step + 1 + count, len(table.t)))
-        return Guesses(step + 1, *self.poses(table, steps, orientation, signs))
+        return Guesses(*self.poses(table, steps, orientation, signs))
 
     def signs(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int) -> list[float]:
         """The side (±1) of each dyad's common joint from the line between its placed joints,
