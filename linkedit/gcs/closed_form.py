@@ -36,8 +36,9 @@ from linkedit.gcs.system import StepTable, System
 from linkedit.planar.law_of_cosines import dyad
 
 #: the largest difference (scaled) of the closed form's pose from a solved one for its rules to
-#: hold there (a solved pose is exact to ~1e-12)
-REBUILT = 1e-8
+#: hold there: √tol (a pose solved to the tolerance, 1e-12, is determined to about that even at
+#: a singular pose, where J does not see one direction; rules that do not hold miss by far more)
+REBUILT = 1e-6
 #: two placed axes are along one line where their cross product is at most this (radians), and
 #: a dyad's two placed joints lie in one plane across it within this fraction of its arms
 PARALLEL = 1e-9
@@ -55,6 +56,29 @@ class End:
 
 
 @dataclass(frozen=True)
+class Arm:
+    """A member's arm from one of its points to another, across its axis (in its space): the
+    unit axis (3,), the offset along it, the part across it (3,) and that part's length, and
+    the member's frame — the axis, the arm across it and their cross product — as rows (3, 3)."""
+
+    axis: np.ndarray
+    height: float
+    across: np.ndarray
+    length: float
+    frame: np.ndarray
+
+    @classmethod
+    def of(cls, axis: np.ndarray, start: np.ndarray, end: np.ndarray) -> "Arm":
+        a = axis / np.sqrt(axis @ axis)
+        arm = end - start
+        height = float(arm @ a)
+        across = arm - height * a
+        length = float(np.sqrt(across @ across))
+        p = across / length if length > 0.0 else across
+        return cls(a, height, across, length, np.stack([a, p, np.cross(a, p)]))
+
+
+@dataclass(frozen=True)
 class Driven:
     """``member`` oriented by the orientation constraint ``turn`` and pinned by the location
     constraint ``pin`` to placed members."""
@@ -67,35 +91,29 @@ class Driven:
 @dataclass(frozen=True)
 class Hinged:
     """``member`` pinned by the location constraints ``pins`` to placed members and aligned by
-    the axis constraint ``axis`` with a placed member's axis."""
+    the axis constraint ``axis`` with a placed member's axis; its ``arm`` from the first pin to
+    the second."""
 
     member: int
     pins: tuple[End, End]
     axis: End
+    arm: Arm
 
 
 @dataclass(frozen=True)
 class Dyad:
     """Members u and w, each pinned to a placed member (``pins``) and aligned with a placed
-    member's axis (``axes``), and pinned to each other by ``joint`` (seen from u)."""
+    member's axis (``axes``), and pinned to each other by ``joint`` (seen from u); their
+    ``arms`` from their pins to the common joint."""
 
     members: tuple[int, int]
     pins: tuple[End, End]
     axes: tuple[End, End]
     joint: End
+    arms: tuple[Arm, Arm]
 
 
 Rule = Driven | Hinged | Dyad
-
-
-@dataclass
-class Guesses:
-    """The closed form's poses of the steps after a solved one, on its sides: positions
-    (T', M, 3), quaternions (T', M, 4), and whether each could be rebuilt (T',)."""
-
-    position: np.ndarray
-    orientation: np.ndarray
-    valid: np.ndarray
 
 
 class ClosedForm:
@@ -144,16 +162,22 @@ class ClosedForm:
         def first(found: list[End]) -> End | None:
             return next((e for e in found if e.other in placed), None)
 
-        def rule_for(u: int) -> Rule | None:
-            """A driven or hinged rule for member u, or a dyad of u and an unplaced member."""
-            pin, turn, axis = first(pins[u]), first(turns[u]), first(axes[u])
+        def direct(u: int) -> Rule | None:
+            """A driven or hinged rule for member u."""
+            pin, turn = first(pins[u]), first(turns[u])
             if pin is not None and turn is not None:
                 return Driven(u, turn, pin)
+            axis = first(axes[u])
             if pin is None or axis is None:
                 return None
             other = next((e for e in pins[u] if e.other in placed and form._apart(pin, e)), None)
-            if other is not None:
-                return Hinged(u, (pin, other), axis)
+            return None if other is None else Hinged(u, (pin, other), axis, form._arm(axis, pin, other))
+
+        def dyad_of(u: int) -> Rule | None:
+            """A dyad of member u and an unplaced member."""
+            pin, axis = first(pins[u]), first(axes[u])
+            if pin is None or axis is None:
+                return None
             for joint in pins[u]:
                 w = joint.other
                 if w in placed or not form._apart(pin, joint):
@@ -161,23 +185,31 @@ class ClosedForm:
                 back = End(joint.index, not joint.side_a, u)
                 pin_w, axis_w = first(pins[w]), first(axes[w])
                 if back in pins[w] and pin_w is not None and axis_w is not None and form._apart(pin_w, back):
-                    return Dyad((u, w), (pin, pin_w), (axis, axis_w), joint)
+                    return Dyad((u, w), (pin, pin_w), (axis, axis_w), joint,
+                                (form._arm(axis, pin, joint), form._arm(axis_w, pin_w, back)))
             return None
 
         while len(placed) <= M:
             # the members placed directly first, then dyads
-            found = [rule_for(u) for u in range(M) if u not in placed]
-            rule = next((r for r in found if r is not None and not isinstance(r, Dyad)),
-                        next((r for r in found if r is not None), None))
+            rule = next((r for u in range(M) if u not in placed for r in (direct(u),) if r is not None), None) \
+                or next((r for u in range(M) if u not in placed for r in (dyad_of(u),) if r is not None), None)
             if rule is None:
                 return None
             form.rules.append(rule)
             placed |= set(rule.members) if isinstance(rule, Dyad) else {rule.member}
         return form
 
+    def _arm(self, axis: End, start: End, end: End) -> Arm:
+        """A member's arm from its point of the location constraint ``start`` to that of
+        ``end`` across its axis of the axis constraint ``axis`` (all seen from it)."""
+        return Arm.of(self._mine("axis", axis), self._mine("location", start), self._mine("location", end))
+
     def _apart(self, a: End, b: End) -> bool:
         """Whether a member's points of the location constraints a and b (seen from it) differ."""
-        return bool(np.any(self._mine("location", a) != self._mine("location", b)))
+        blk = self._blocks["location"]
+        pa = blk.sa[a.index] if a.side_a else blk.sb[a.index]
+        pb = blk.sa[b.index] if b.side_a else blk.sb[b.index]
+        return pa.tolist() != pb.tolist()
 
     # ---- the constraints' vectors and points ----------------------------------------------
 
@@ -236,13 +268,10 @@ class ClosedForm:
                     R[:, u] = quat.to_matrix(Q[:, u])
                     P[:, u] = self._point(P, R, rule.pin, table, steps) - R[:, u] @ self._mine("location", rule.pin)
                 elif isinstance(rule, Hinged):
-                    u, (one, two) = rule.member, rule.pins
+                    u, (one, two), arm = rule.member, rule.pins, rule.arm
                     n = self._axis(R, rule.axis, table, steps)
                     X1, X2 = self._point(P, R, one, table, steps), self._point(P, R, two, table, steps)
-                    axis = _unit(self._mine("axis", rule.axis))
-                    arm = self._mine("location", two) - self._mine("location", one)
-                    height = float(arm @ axis)
-                    R[:, u] = _rotation(axis, arm - height * axis, n, X2 - X1 - height * n)
+                    R[:, u] = _rotation(arm.frame, n, X2 - X1 - arm.height * n)
                     P[:, u] = X1 - R[:, u] @ self._mine("location", one)
                     Q[:, u] = quat.from_matrix(R[:, u])
                 else:
@@ -258,45 +287,35 @@ class ClosedForm:
         """Place a dyad's members (into P (B, M+1, 3), R (B, M+1, 3, 3)) with their common
         joint on the side ``sign``; whether each step could (B,) (:meth:`_triangle`; the
         triangle closed: else NaN)."""
-        X, A, axes, arms, ok = self._triangle(rule, P, R, table, steps)
+        X, A, axes, ok = self._triangle(rule, P, R, table, steps)
         n = axes[0]
         e = A[1] - A[0]
         e -= quat.dot(e, n)[:, None] * n
         d = np.sqrt(quat.dot(e, e))
         e1 = e / d[:, None]
-        lu, lw = (float(np.sqrt(a @ a)) for a in arms)
+        lu, lw = (arm.length for arm in rule.arms)
         z, _ = dyad(np.zeros((1, len(d)), dtype=complex), d[None] + 0j, np.array([[0.5 * (lu * lu - lw * lw)]]),
                     np.array([[lu * lu]]), np.array([[sign]]))
         J = A[0] + z.real.T * e1 + z.imag.T * quat.cross(n, e1)  # the common joint
-        for m, pin, axis, arm, Xm, Am, nm in zip(rule.members, rule.pins, rule.axes, arms, X, A, axes):
-            R[:, m] = _rotation(_unit(self._mine("axis", axis)), arm, nm, J - Am)
+        for m, pin, arm, Xm, Am, nm in zip(rule.members, rule.pins, rule.arms, X, A, axes):
+            R[:, m] = _rotation(arm.frame, nm, J - Am)
             P[:, m] = Xm - R[:, m] @ self._mine("location", pin)
         return ok
 
     def _triangle(self, rule: Dyad, P: np.ndarray, R: np.ndarray, table: StepTable,
-                  steps: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray], list[np.ndarray],
-                                              np.ndarray]:
+                  steps: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray], np.ndarray]:
         """A dyad's placed joints X (B, 3) each; the same moved along its member's placed axis
         by the member's offset to the common joint (A: in the common joint's plane across the
         axes); the placed axes (B, 3) each, the members' axes turned onto them (the two either
-        way along one line: a pin may give its axis either way); the members' arms to the
-        common joint across their axes (3,) each (in their spaces); and whether the placed axes
+        way along one line: a pin may give its axis either way); and whether the placed axes
         are one line and the A's in one plane across it (B,) (to :data:`PARALLEL`)."""
-        u = rule.members[0]
         axes = [self._axis(R, end, table, steps) for end in rule.axes]
-        X, A, arms = [], [], []
-        for pin, axis_end, tip, n in zip(rule.pins, rule.axes, (rule.joint, End(rule.joint.index, not rule.joint.side_a, u)),
-                                         axes):
-            axis = _unit(self._mine("axis", axis_end))
-            arm = self._mine("location", tip) - self._mine("location", pin)
-            h = float(arm @ axis)
-            X.append(self._point(P, R, pin, table, steps))
-            A.append(X[-1] + h * n)
-            arms.append(arm - h * axis)
-        reach = sum(float(np.sqrt(a @ a)) for a in arms)
+        X = [self._point(P, R, pin, table, steps) for pin in rule.pins]
+        A = [x + arm.height * n for x, arm, n in zip(X, rule.arms, axes)]
         c = quat.cross(*axes)
+        reach = rule.arms[0].length + rule.arms[1].length
         ok = (np.sqrt(quat.dot(c, c)) <= PARALLEL) & (np.abs(quat.dot(A[1] - A[0], axes[0])) <= PARALLEL * reach)
-        return X, A, axes, arms, ok
+        return X, A, axes, ok
 
     def sides(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int) -> list[float] | None:
         """The dyads' sides (:meth:`signs`) at a solved pose (positions (M, 3), quaternions
@@ -311,17 +330,6 @@ class ClosedForm:
         error = max(np.abs(P[0] - position).max() / self.system.length_scale, np.abs(Q[0] - orientation).max())
         return signs if error <= REBUILT else None
 
-    def guesses(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int,
-                count: int) -> Guesses | None:
-        """The poses of the ``count`` steps after a solved one (positions (M, 3), quaternions
-        (M, 4), at the table's ``step``) on its sides, or None where the closed form rebuilds
-        another pose there (:meth:`sides`)."""
-        signs = self.sides(position, orientation, table, step)
-        if signs is None:
-            return None
-        steps = np.arange(step + 1, min(step + 1 + count, len(table.t)))
-        return Guesses(*self.poses(table, steps, orientation, signs))
-
     def signs(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int) -> list[float]:
         """The side (±1) of each dyad's common joint from the line between its placed joints,
         about n, at a solved pose (positions (M, 3), quaternions (M, 4)) at the table's
@@ -332,14 +340,10 @@ class ClosedForm:
         out = []
         for rule in self.rules:
             if isinstance(rule, Dyad):
-                _, A, axes, _, _ = self._triangle(rule, P, R, table, steps)
+                _, A, axes, _ = self._triangle(rule, P, R, table, steps)
                 J = self._point(P, R, rule.joint, table, steps)  # w's point of the common joint
                 out.append(1.0 if float(quat.dot(quat.cross(A[1] - A[0], J - A[0]), axes[0])[0]) >= 0.0 else -1.0)
         return out
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.sqrt(v @ v)
 
 
 def _turn(R: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -347,11 +351,11 @@ def _turn(R: np.ndarray, v: np.ndarray) -> np.ndarray:
     return R @ v if v.ndim == 1 else (R @ v[:, :, None])[:, :, 0]
 
 
-def _rotation(axis: np.ndarray, arm: np.ndarray, n: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """The rotations (B, 3, 3) taking a member's unit ``axis`` (3,) onto the unit n (B, 3) and
-    its ``arm`` across it (3,) onto the direction of j across n (B, 3)."""
-    p = arm / np.sqrt(arm @ arm)
-    local = np.stack([axis, p, np.cross(axis, p)], axis=1)  # columns
-    jh = j / np.sqrt(quat.dot(j, j))[:, None]
-    world = np.stack([n, jh, quat.cross(n, jh)], axis=2)
-    return world @ local.T
+def _rotation(frame: np.ndarray, n: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """The rotations (B, 3, 3) taking a member's frame (:class:`Arm`: its axis and arm across
+    it, rows (3, 3)) onto the unit axis n (B, 3) and the direction of j across n (B, 3)."""
+    world = np.empty(n.shape + (3,))
+    world[:, :, 0] = n
+    world[:, :, 1] = j / np.sqrt(quat.dot(j, j))[:, None]
+    world[:, :, 2] = quat.cross(n, world[:, :, 1])
+    return world @ frame

@@ -191,11 +191,11 @@ def from_matrix(R: np.ndarray) -> np.ndarray:
     """Unit quaternions (..., 4) of rotation matrices (..., 3, 3) (either sign): from the row of
     4 q qᵀ with the largest diagonal entry (Shepperd's method: no division by a small number)."""
     R = np.asarray(R, dtype=float)
-    K = (R.reshape(R.shape[:-2] + (9,)) @ _FROM_MATRIX + _FROM_MATRIX_CONSTANT).reshape(R.shape[:-2] + (4, 4))
-    diag = np.diagonal(K, axis1=-2, axis2=-1)
-    pick = np.argmax(diag, axis=-1)[..., None]
-    row = np.take_along_axis(K, pick[..., None], axis=-2)[..., 0, :]
-    return row / (2.0 * np.sqrt(np.take_along_axis(diag, pick, axis=-1)))
+    K = (R.reshape(-1, 9) @ _FROM_MATRIX + _FROM_MATRIX_CONSTANT).reshape(-1, 4, 4)
+    lanes = np.arange(len(K))
+    pick = np.argmax(K.reshape(-1, 16)[:, ::5], axis=1)
+    q = K[lanes, pick] / (2.0 * np.sqrt(K[lanes, pick, pick]))[:, None]
+    return q.reshape(R.shape[:-2] + (4,))
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -38,7 +38,9 @@ steps at once (:mod:`linkedit.gcs.waves`) and keeps each only where the step-by-
 acceptance test above, taken from the step before it, passes: the same poses (the same branch),
 far fewer Python calls. The first rejected step is solved by the continuation, which the waves
 then resume from. Waves begin at the first pose with every input active (where J's free
-directions are read), and stop at every input keyframe (the input's rate jumps there).
+directions are read), and stop at every input keyframe (the input's rate jumps there); none
+starts where the last two velocities show that the next step's second-order move takes half
+the acceptance test's bound (steps that coarse are sub-stepped by the continuation).
 
 Each accepted pose is factorized once (at its first corrected iterate, when the later
 corrections moved it at most :data:`REUSE`, else afresh): that factorization gives its
@@ -497,6 +499,17 @@ class Solver:
             h *= 2.0
 
 
+def _curving(t: np.ndarray, vel: np.ndarray, k: int, col: np.ndarray) -> float:
+    """The second-order part of the move from step k − 1 to k (scaled), ½ h² |a|, with the
+    acceleration from the velocities (T, M, 6) of the two steps before: where it exceeds
+    ``predictor_tol`` the acceptance test would reject that step (the continuation sub-steps
+    it), and where it exceeds half of it the steps after likely some: a wave starting there
+    would keep little."""
+    h, before = float(t[k] - t[k - 1]), float(t[k - 1] - t[k - 2])
+    change = np.abs((vel[k - 1] - vel[k - 2]).ravel() / col).max()
+    return 0.5 * h * h / abs(before) * float(change)
+
+
 @dataclass
 class Run:
     """Member states, velocities and per-step diagnostics over T steps."""
@@ -584,9 +597,10 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
     while k < T:
         since = max(streak, int(piece_start[k]))  # the converged steps just before k on k's piece
         if waves is not None and classified and k - since >= START and k >= resting and not table.partial[k] \
-                and abs(t[k] - t[k - 1]) * np.abs(vel[k - 1].ravel() / solver.col).max() <= options.max_motion:
+                and abs(t[k] - t[k - 1]) * np.abs(vel[k - 1].ravel() / solver.col).max() <= options.max_motion \
+                and _curving(t, vel, k, solver.col) <= 0.5 * options.predictor_tol:
             # many steps at once from the accepted ones before them (not where the first of them
-            # would move too far for the acceptance test, nor for a while after a wave that
+            # would move or turn too far for the acceptance test, nor for a while after a wave that
             # accepted none), up to the next keyframe or input window's edge
             stop = min(T, k + width)
             edge = np.flatnonzero(table.partial[k:stop] | (piece[k:stop] != piece[k]))

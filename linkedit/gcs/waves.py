@@ -39,10 +39,12 @@ of steps can be solved together:
 **Closed-form predictions.** Where every member of the system is rebuilt in closed form from
 placed ones (:mod:`linkedit.gcs.closed_form`: a crank set by its input, revolute dyads about
 parallel axes — planar linkages, in any plane — and links pinned between placed members) and
-the rebuilt pose reproduces the solved one before the block (:meth:`ClosedForm.sides`), steps 1 and 2
-are replaced by the closed form's poses at every step of the block (exact to rounding: most
-converge at their first evaluation), up to the first it cannot rebuild (a dyad that cannot
-close); steps 3 and 4 are as above, so a closed form that misleads costs time, never a result.
+the rebuilt pose reproduces the solved one before the block (:meth:`ClosedForm.sides`), steps 1
+and 2 are replaced by the closed form's poses (exact to rounding: most converge at their first
+evaluation), in chunks, each up to the first step it cannot rebuild (a dyad that cannot close)
+or that the poses show would fail the acceptance test (:meth:`Waves._screened`: left to the
+continuation, not solved in vain); steps 3 and 4 are as above, so a closed form that misleads
+costs time, never a result.
 
 **A free direction** (one passive degree of freedom: J has rank N − 1, such as an RSSR
 coupler's idle spin): the corrections are least norm (nothing along J's null vector, taken by
@@ -131,6 +133,9 @@ FRESH = 1e-9
 #: J's diagonal blocks (:attr:`Waves.parts`) are found from the first batch of at least this
 #: many poses (no accidental zeros)
 SPLIT_FROM = 64
+#: the first and largest chunks of a sparse system's closed-form poses (:meth:`Waves.rebuilt`):
+#: its evaluation's arrays take ~0.3 MB per pose for 726 unknowns
+CHUNK, LARGEST_CHUNK = 64, 256
 #: batches of at most this many poses solve their triangular systems pose by pose
 FEW = 24
 #: scaled Jacobian entries (of order 1) at most this large tie no unknowns, and scaled
@@ -676,32 +681,72 @@ class Waves:
 
     def rebuilt(self, k: int, stop: int, pos: np.ndarray, ori: np.ndarray, vel: np.ndarray) -> Solved | None:
         """Solve the steps k … stop − 1 as :meth:`block` does, from the closed form's poses
-        (:mod:`linkedit.gcs.closed_form`: exact to rounding, so most steps converge at once),
-        up to the first it cannot rebuild; None where it rebuilds none — or does not reproduce
-        the solved pose k − 1 (:meth:`ClosedForm.sides`): its rules do not hold for this mechanism
-        (this run's later blocks and the system's later runs go without it)."""
-        closed, col = self.closed, self.solver.col
+        (:mod:`linkedit.gcs.closed_form`: exact to rounding, so most steps converge at once), in
+        chunks (a dense system's of up to :data:`KEPT_POSES` steps; a sparse one's, each pose
+        factorized, of :data:`CHUNK` steps doubling up to :data:`LARGEST_CHUNK` while all pass)
+        up to the first step it cannot rebuild, that fails the acceptance test, or that clearly
+        would (:meth:`_screened`: no pose is solved in vain); None where it solves none — or
+        does not reproduce the solved pose k − 1 (:meth:`ClosedForm.sides`): its rules do not
+        hold for this mechanism (this run's later blocks and the system's later runs go
+        without it)."""
+        closed, col, t = self.closed, self.solver.col, self.table.t
         assert closed is not None
-        guesses = closed.guesses(pos[k - 1], ori[k - 1], self.table, k - 1, stop - k)
-        if guesses is None:
+        signs = closed.sides(pos[k - 1], ori[k - 1], self.table, k - 1)
+        if signs is None:
             self.closed = self.compiled.closed = None
             return None
-        P, Q, valid = guesses.position, guesses.orientation, guesses.valid
-        n = int(np.argmin(valid)) if not valid.all() else stop - k
-        if n == 0:
-            return None
-        steps = np.arange(k, k + n)
-        P, Q = P[:n], Q[:n]
-        rank = None
-        if self.solver.normal.sparse:
-            R, V, work, ok, rank = self.verify(P, Q, steps)
-            null = np.zeros_like(V)
-        else:
-            R, V, work, ok, null = self.solve(P, Q, steps)
+        sparse = self.solver.normal.sparse
         before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
-        accepted = self.accepted(P, Q, V, ok, null, steps, before, float(self.table.t[k - 1]))
+        t_before = float(t[k - 1])
+        chunk, here = CHUNK if sparse else KEPT_POSES, k
+        kept: list[tuple[np.ndarray, ...]] = []
+        ranks: list[np.ndarray] = []
+        while here < stop:
+            steps = np.arange(here, min(stop, here + chunk))
+            P, Q, valid = closed.poses(self.table, steps, before[1], signs)
+            n = self._screened(P, Q, valid, steps, before, t_before)
+            if n == 0:
+                break
+            steps, P, Q = steps[:n], P[:n], Q[:n]
+            if sparse:
+                R, V, work, ok, rank = self.verify(P, Q, steps)
+                null = np.zeros_like(V)
+            else:
+                R, V, work, ok, null = self.solve(P, Q, steps)
+            a = self.accepted(P, Q, V, ok, null, steps, before, t_before)
+            kept.append((P[:a], Q[:a], R[:a], V[:a], work[:a]))
+            if sparse:
+                ranks.append(rank[:a])
+            if a < len(valid):
+                break
+            before, t_before, here = (P[-1], Q[-1], V[-1]), float(t[steps[-1]]), int(steps[-1]) + 1
+            chunk = min(2 * chunk, LARGEST_CHUNK if sparse else KEPT_POSES)
+        if not kept:
+            return None
         self.system.batched["waves"] = self.compiled.copy()  # for later runs (Compiled)
-        return Solved(P, Q, R, V, work, accepted, rank)
+        P, Q, R, V, work = (np.concatenate([part[i] for part in kept]) for i in range(5))
+        return Solved(P, Q, R, V, work, len(P), np.concatenate(ranks) if sparse else None)
+
+    def _screened(self, P: np.ndarray, Q: np.ndarray, valid: np.ndarray, steps: np.ndarray,
+                  before: tuple[np.ndarray, np.ndarray, np.ndarray], t_before: float) -> int:
+        """How many of the closed form's consecutive poses P (B, M, 3), Q (B, M, 4) at the
+        table's ``steps`` (B,), after the solved pose ``before`` (position, quaternions, scaled
+        velocity) at ``t_before``, are rebuilt (``valid`` (B,)) and pass the acceptance test
+        (:meth:`accepted`) with the velocity before each taken from the poses around it
+        (secant over two steps; the first's exact): a step that fails it so is left to the
+        continuation, not factorized first (the test proper comes after the solve)."""
+        opt = self.solver.options
+        n = int(np.argmin(valid)) if not valid.all() else len(valid)
+        P0 = np.concatenate([before[0][None], P[:n - 1]])
+        Q0 = np.concatenate([before[1][None], Q[:n - 1]])
+        moved = self.displacement(P[:n], Q[:n], P0, Q0)  # (n, N)
+        h = np.diff(np.concatenate([[t_before], self.table.t[steps[:n]]]))
+        v = np.empty_like(moved)
+        v[0] = before[2]
+        v[1:] = (moved[:-1] + moved[1:]) / (h[:-1] + h[1:])[:, None]
+        ok = (np.abs(moved - h[:, None] * v).max(axis=1) <= opt.predictor_tol) \
+            & (np.abs(v).max(axis=1) * np.abs(h) <= opt.max_motion)
+        return int(np.argmin(ok)) if not ok.all() else n
 
     def verify(self, P: np.ndarray, Q: np.ndarray,
                steps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
