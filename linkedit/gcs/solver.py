@@ -271,7 +271,7 @@ class Solver:
     def _free(self, table: StepTable, step: int, lin: Linearization) -> bool:
         """Whether J has a null space for the inputs active at this step: its rank is taken
         (block by block) the first time each set of active inputs is met, and kept."""
-        key = table.at(step).inactive_rows.tobytes()
+        key = table.at(step).inactive_rows.tobytes() if table.partial[step] else b""
         if key not in self.structure:
             from linkedit.gcs.diagnostics import jacobian_rank
 

@@ -133,9 +133,9 @@ FRESH = 1e-9
 #: J's diagonal blocks (:attr:`Waves.parts`) are found from the first batch of at least this
 #: many poses (no accidental zeros)
 SPLIT_FROM = 64
-#: the first and largest chunks of a sparse system's closed-form poses (:meth:`Waves.rebuilt`):
-#: its evaluation's arrays take ~0.3 MB per pose for 726 unknowns
-CHUNK, LARGEST_CHUNK = 64, 256
+#: the chunks of a sparse system's closed-form poses (:meth:`Waves.rebuilt`): its evaluation's
+#: arrays take ~0.3 MB per pose for 726 unknowns
+CHUNK = 256
 #: batches of at most this many poses solve their triangular systems pose by pose
 FEW = 24
 #: scaled Jacobian entries (of order 1) at most this large tie no unknowns, and scaled
@@ -682,8 +682,8 @@ class Waves:
     def rebuilt(self, k: int, stop: int, pos: np.ndarray, ori: np.ndarray, vel: np.ndarray) -> Solved | None:
         """Solve the steps k … stop − 1 as :meth:`block` does, from the closed form's poses
         (:mod:`linkedit.gcs.closed_form`: exact to rounding, so most steps converge at once), in
-        chunks (a dense system's of up to :data:`KEPT_POSES` steps; a sparse one's, each pose
-        factorized, of :data:`CHUNK` steps doubling up to :data:`LARGEST_CHUNK` while all pass)
+        chunks (a dense system's of :data:`KEPT_POSES` steps; a sparse one's, each pose
+        factorized, of :data:`CHUNK`)
         up to the first step it cannot rebuild, that fails the acceptance test, or that clearly
         would (:meth:`_screened`: no pose is solved in vain); None where it solves none — or
         does not reproduce the solved pose k − 1 (:meth:`ClosedForm.sides`): its rules do not
@@ -720,7 +720,6 @@ class Waves:
             if a < len(valid):
                 break
             before, t_before, here = (P[-1], Q[-1], V[-1]), float(t[steps[-1]]), int(steps[-1]) + 1
-            chunk = min(2 * chunk, LARGEST_CHUNK if sparse else KEPT_POSES)
         if not kept:
             return None
         self.system.batched["waves"] = self.compiled.copy()  # for later runs (Compiled)
@@ -766,7 +765,7 @@ class Waves:
         ok = np.abs(r * solver.row).max(axis=1) <= solver.options.tol
         rank = np.full(B, -1)
         for b in np.flatnonzero(ok):
-            ev = Evaluation(r[b], [np.ascontiguousarray(J[b]) for J in jacs if J is not None])
+            ev = Evaluation(r[b], [J[b] for J in jacs if J is not None])
             linear = solver.linearize(State(P[b], Q[b]), self.table, int(steps[b]), ev)
             velocity[b] = linear.least_norm(-rt[b] * solver.row)
             ok[b], rank[b] = linear.null is None, linear.rank
