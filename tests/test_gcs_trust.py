@@ -239,3 +239,33 @@ def test_partial_restarts_from_the_last_good_pose_on_the_same_branch(run_cli, tm
     both = status[mirror] == 0
     P = res.tracks["P"].position
     assert np.abs(P[ok[both]] - P[mirror[both]]).max() < 1e-9 * 10
+
+
+@pytest.mark.parametrize("waves", [True, False])
+def test_a_failed_step_reports_its_own_times_pose_and_gap(waves):
+    """A 3-pair Strandbeest whose crank (22 mm instead of 15) locks a leg: the step that fails
+    keeps a pose of its own time — the least-squares one there, not a sub-step's at an earlier
+    time just before the lock — so its residual is the constraints' at that pose, and the
+    message gives the real gap (~0.09 mm, not the 3e-10 of a sub-step's pose)."""
+    from linkedit.errors import MechanismError
+    from linkedit.gcs.planar_bridge import planar_model, simulate_numeric
+    from linkedit.gcs.solver import Options, solve_run
+    from linkedit.gcs.system import State
+    from linkedit.planar import catalog
+    from linkedit.planar.simulate import motor_angles
+
+    spec = catalog.strandbeest(3)
+    joints = {n: (22.0 * np.cos(np.arctan2(y, x)), 22.0 * np.sin(np.arctan2(y, x))) if n.startswith("A_") else (x, y)
+              for n, (x, y) in spec.joints.items()}
+    spec = spec.model_copy(update={"joints": joints})
+    t = motor_angles(spec, 360)[0][:37]  # 0 … 36°: the lock at 29°
+    system = planar_model(spec).system
+    table = system.step_table(t)
+    run = solve_run(system, t, Options(waves=waves), table=table)
+    bad = np.flatnonzero(run.status != 0)
+    assert bad.size
+    for k in bad[:5]:
+        again = system.evaluate(State(run.position[k], run.orientation[k]), table, k).r
+        assert np.abs(again - run.residual[k]).max() <= 1e-12 * system.length_scale
+    with pytest.raises(MechanismError, match="off by 0.09"):
+        simulate_numeric(spec, t, Options(waves=waves))

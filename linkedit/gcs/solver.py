@@ -456,7 +456,9 @@ class Solver:
 
     def advance(self, good: Pose, table: StepTable, step: int) -> tuple[State, np.ndarray, int, Pose | None, float]:
         """Continue from a solved pose to step ``step`` of ``table`` by accepted sub-steps
-        (module docstring): (state, residual, status, pose if converged, time reached)."""
+        (module docstring): (state, residual, status, pose if converged, time reached); where
+        it fails, the best try at the step's own time (an infinite residual where the
+        sub-steps never got to try it)."""
         opt = self.options
         t1 = float(table.t[step])
         span = t1 - good.t
@@ -464,7 +466,8 @@ class Solver:
             return good.state, good.r, CONVERGED, good, t1
         here, anchor = good, good.state
         h = span
-        best = (good.state, good.r, NOT_CONVERGED)
+        # the best try at the step's own time (none yet: an infinite residual)
+        best = (good.state, np.full_like(good.r, np.inf), NOT_CONVERGED)
         while True:
             h = min(h, t1 - here.t)
             speed = float(np.abs(here.velocity).max(initial=0.0))
@@ -489,7 +492,8 @@ class Solver:
             moved = g + total if total is not None else self.displacement(x, here.state)
             near = status == CONVERGED and np.abs(moved - tangent).max() <= opt.predictor_tol
             if not near:
-                best = (x, r, status if status != CONVERGED else NOT_CONVERGED)
+                if s == t1 and np.sum(r * r) < np.sum(best[1] * best[1]):
+                    best = (x, r, status if status != CONVERGED else NOT_CONVERGED)
                 h *= 0.5
                 continue
             x, r, linear = self.settle(x, r, anchor, tab, k, known)
