@@ -269,3 +269,31 @@ def test_a_failed_step_reports_its_own_times_pose_and_gap(waves):
         assert np.abs(again - run.residual[k]).max() <= 1e-12 * system.length_scale
     with pytest.raises(MechanismError, match="off by 0.09"):
         simulate_numeric(spec, t, Options(waves=waves))
+
+
+def test_time_run_backwards_is_continued_step_by_step_to_the_forward_poses():
+    """The crank-rocker over a descending cycle, step by step: the continuation goes backwards
+    as it goes forwards (it used to stop at once — its step's sign was lost — and every other
+    step was found by a direct solve instead, which a lock-up between steps would have sent to
+    another branch); the poses are the ascending run's."""
+    from linkedit.gcs.members import compile_mechanism
+    from linkedit.gcs.solver import Options, Solver, solve_run
+
+    system = compile_mechanism(validate(MechanismSpec, load_yaml(EXAMPLES / "3d" / "crank-rocker.yaml")[0], file="t"))[0]
+    t = np.linspace(0.0, 1.0, 121)
+    up = solve_run(system, t, Options(waves=False))
+    calls = []
+    advance = Solver.advance
+
+    def counted(self, good, table, step):
+        out = advance(self, good, table, step)
+        calls.append(out[3] is not None)
+        return out
+
+    Solver.advance = counted
+    try:
+        down = solve_run(system, t[::-1], Options(waves=False))
+    finally:
+        Solver.advance = advance
+    assert (down.status == 0).all() and len(calls) == len(t) - 1 and all(calls)
+    assert np.abs(down.position[::-1] - up.position).max() < 1e-9 * system.length_scale

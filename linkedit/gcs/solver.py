@@ -93,6 +93,10 @@ SUBSTEP_ITERATIONS = 20
 #: largest scaled move of a pose after its Jacobian was taken for that Jacobian to serve it
 #: (velocity, null space, next step): the velocity is then exact to this relative order
 REUSE = 1e-10
+#: a continuation that failed within this fraction of its step from the step's time arrived
+#: there (the direct solve from the last good pose then finishes it); short of it, something
+#: (a lock-up, a singular pose) stopped it, and a pose found directly is not on its branch
+ARRIVED = 1e-6
 #: degree of the polynomial through the last accepted poses that starts a step when it agrees
 #: with the second-order tangent prediction (higher degrees amplify the poses' own errors, up to
 #: the tolerance, more than they follow the motion at a few hundred steps per cycle)
@@ -468,14 +472,15 @@ class Solver:
         h = span
         # the best try at the step's own time (none yet: an infinite residual)
         best = (good.state, np.full_like(good.r, np.inf), NOT_CONVERGED)
-        while True:
-            h = min(h, t1 - here.t)
+        while True:  # h has the sign of the span: time may run either way
+            if abs(h) > abs(t1 - here.t):
+                h = t1 - here.t
             speed = float(np.abs(here.velocity).max(initial=0.0))
-            if speed * h > opt.max_motion:
-                h = opt.max_motion / speed
-            if h < opt.min_fraction * abs(span):
+            if speed * abs(h) > opt.max_motion:
+                h = math.copysign(opt.max_motion / speed, span)
+            if abs(h) < opt.min_fraction * abs(span):
                 return (*best, None, here.t)
-            s = t1 if h >= t1 - here.t else here.t + h
+            s = t1 if abs(h) >= abs(t1 - here.t) else here.t + h
             tab, k = (table, step) if s == t1 else (self.system.step_table(np.array([s])), 0)
             tangent = h * here.velocity
             second = tangent if here.trend is None else tangent + 0.5 * h * h * here.trend
@@ -653,7 +658,12 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
                 # why it fails is told from the last good pose directly, whatever way the
                 # sub-steps went there (a run through waves reaches it by another one)
                 st = st2
-                if pose is not None:
+                if pose is not None and tried and abs(t[k] - reached[k]) > ARRIVED * abs(t[k] - good.t):
+                    # a pose, but the continuation stopped short of it from the step before (a
+                    # lock-up or a singular pose between them): not that step's assembly branch
+                    # (after a failed step, the next one restarts from the last good pose)
+                    st, pose = NOT_CONVERGED, None
+                elif pose is not None:
                     reached[k] = t[k]
         if pose is not None and waves is not None and not classified and not table.partial[k]:
             # what waves keep still is read at the first pose with every input active
