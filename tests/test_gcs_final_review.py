@@ -67,3 +67,57 @@ def test_a_coarse_run_does_not_jump_over_a_lock_up(waves):
     system = compile_mechanism(spec)[0]
     run = solve_run(system, np.linspace(0, 1, 19), Options(waves=waves))
     assert (run.status != 0).any(), "the coarse run crossed the lock-up and reports every step converged"
+
+
+def test_a_failure_names_the_same_constraints_in_m_and_km():
+    """A locking four-bar in m and in km (every length ×1e-3): the solve is scale-free, but the
+    failure message's worst-first constraints compared the spec's lengths with the input's
+    radians: in m it named jC.point first, in km `drive`. Now worst first by the scaled cost:
+    the same constraint first in any unit. (The residual written stays the spec's own
+    √Σ costs, lengths in its unit with radians: documented.)"""
+    msgs = []
+    for scale, units in [(1.0, "m"), (1e-3, "km")]:
+        res = solve_spec(_spec(_four_bar(2, 2, 2, 3, angles=(0, 280), scale=scale, units=units)), steps=281)
+        k = int(np.flatnonzero(res.diagnostics.status != 0)[0])
+        msgs.append(res.diagnostics.unsatisfied[k][0])
+    assert msgs[0] == msgs[1] and msgs[0] != "drive"
+
+
+def _jansen_with_crank(length: float, scale: float, units: str):
+    """examples/jansen.yaml with its crank pin A at (length, 0) at rest (every link follows its
+    rest-pose joints), every coordinate × ``scale``."""
+    import yaml
+
+    from linkedit.spec.linkage import LinkageSpec
+
+    data = yaml.safe_load(open("examples/jansen.yaml"))
+    data["joints"]["A"] = [length, 0.0]
+    data["joints"] = {k: [v[0] * scale, v[1] * scale] for k, v in data["joints"].items()}
+    data["units"] = units
+    return validate(LinkageSpec, data, file="test")
+
+
+@pytest.mark.parametrize("scale,units", [(1.0, "mm"), (1e-3, "m")])
+def test_a_locking_leg_names_a_pin_off_by_the_same_length_in_any_unit(scale, units):
+    """Jansen's leg with a 22 mm crank locks at 146.4°: at 147.0° (the first failing sample of
+    360) joint F cannot close — a gap of 1.69 mm (independent circle intersections).
+    `simulate --engine numeric` said "constraint 'pin O (crank–ground)' is off by 0.061" in mm
+    and "constraint 'motor A about O' is off by 8.6e-05" in m: the worst-first choice compared
+    the drive's radians with lengths in the spec's unit. Now a pin in either unit, off by the
+    same length. (What it is off by is the least-squares pose's residual, the gap spread over
+    the loop, not the gap itself: documented, not changed.)"""
+    import re
+
+    from linkedit.gcs.planar_bridge import simulate_numeric
+    from linkedit.planar.simulate import motor_angles
+
+    spec = _jansen_with_crank(22.0, scale, units)
+    t = motor_angles(spec, 360)[0][:148]  # 0° … 147°
+    with pytest.raises(MechanismError) as err:
+        simulate_numeric(spec, t)
+    msg = str(err.value)
+    assert "147.0°" in msg
+    off = float(re.search(r"off by ([0-9.e+-]+)", msg).group(1)) / scale
+    worst = re.search(r"constraint '([^']+)'", msg).group(1)
+    assert worst.startswith("pin"), msg  # a pin, in both units
+    assert 0.01 < off < 1.687, msg  # mm, the same in both units

@@ -53,7 +53,7 @@ class Diagnostics:
     dof: np.ndarray
     redundant: np.ndarray
     costs: np.ndarray  #: (T, C) per named constraint
-    unsatisfied: list[list[str]]  #: per step, worst (largest cost) first
+    unsatisfied: list[list[str]]  #: per step, worst first (largest scaled cost: the same in any unit)
     #: (T,) bool: dof and redundant were evaluated at this step (otherwise carried from the last
     #: evaluated step); all False when the rank was not asked for (dof = redundant = −1)
     dof_evaluated: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
@@ -154,11 +154,12 @@ def run_diagnostics(system: System, run: Run, table: StepTable, rank: bool = Tru
 def _run_diagnostics(system: System, run: Run, table: StepTable, rank: bool, unsatisfied_tol: float) -> Diagnostics:
     T = run.t.size
     costs = system.costs(run.residual)
+    scaled = system.costs(run.residual * system.row_scale)  # lengths over the mechanism's size, angles
     bad = np.abs(run.residual) * system.row_scale > unsatisfied_tol
     unsatisfied: list[list[str]] = [[] for _ in range(T)]
     for k in np.flatnonzero(bad.any(axis=1)):
         owners = np.unique(system.row_owner[bad[k]])
-        worst_first = owners[np.argsort(-costs[k, owners], kind="stable")]
+        worst_first = owners[np.argsort(-scaled[k, owners], kind="stable")]
         unsatisfied[k] = [system.constraint_names[c] for c in worst_first]
     if rank:
         evaluated = rank_steps(system, run, table)

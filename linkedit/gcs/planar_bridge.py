@@ -217,10 +217,12 @@ def simulate_numeric(spec: LinkageSpec, t: np.ndarray, options: Options | None =
     if bad.size:
         k = int(bad[0])
         costs = system.costs(run.residual[k])
-        worst = system.constraint_names[int(np.argmax(costs))]
+        # the worst by its scaled cost (lengths over the linkage's size, angles): the same in any unit
+        worst_index = int(np.argmax(system.costs(run.residual[k] * system.row_scale)))
+        worst = system.constraint_names[worst_index]
         raise MechanismError(
             f"{spec.name}: the linkage cannot be assembled at motor angle {np.degrees(angle[k]):.1f}° "
-            f"({STATUS_NAMES[run.status[k]]}): constraint '{worst}' is off by {np.sqrt(costs.max()):.3g}")
+            f"({STATUS_NAMES[run.status[k]]}): constraint '{worst}' is off by {np.sqrt(costs[worst_index]):.3g}")
     xyz = point_positions(model.joint_member, model.joint_point, run.position, run.orientation)
     tracks = point_positions(model.track_member, model.track_point, run.position, run.orientation)
     return NumericMotion(
