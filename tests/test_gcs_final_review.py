@@ -121,3 +121,25 @@ def test_a_locking_leg_names_a_pin_off_by_the_same_length_in_any_unit(scale, uni
     worst = re.search(r"constraint '([^']+)'", msg).group(1)
     assert worst.startswith("pin"), msg  # a pin, in both units
     assert 0.01 < off < 1.687, msg  # mm, the same in both units
+
+
+def _crank_deg(res) -> np.ndarray:
+    """The crank's angle (degrees, unwrapped) from its tracked tip."""
+    B = res.tracks["B"].position
+    return np.rad2deg(np.unwrap(np.arctan2(B[:, 1], B[:, 0])))
+
+
+@pytest.mark.parametrize("steps", [19, 2000])
+def test_a_crank_whose_window_closed_stays_where_its_input_ended(steps):
+    """A crank-rocker whose crank turns 0° → 360° over the window [0.2, 0.8]. After the window
+    it "holds its last pose": the 361-step run (a step at t = 0.8) holds it at 360°, where its
+    input left it, but a run without a step at t = 0.8 holds it at its last *sampled* angle —
+    346.7° with 19 steps, 359.94° with 2000 — so every pose after the window depended on
+    ``--steps`` (0.4 of the size between the 19- and 361-step runs, both exit 0), against the
+    spec's "--steps 19 solves the same poses as --steps 361 … or fails naming the step". Now
+    the window's edge is solved too (not returned)."""
+    spec = _spec(_four_bar(1, 5, 5.75, 5.2, window=(0.2, 0.8)))
+    res = solve_spec(spec, steps=steps)
+    check_solved(res)
+    after = res.t > 0.8
+    assert np.abs(_crank_deg(res)[after] - 360.0).max() < 1e-6

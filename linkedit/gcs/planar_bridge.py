@@ -205,9 +205,7 @@ def simulate_numeric(spec: LinkageSpec, t: np.ndarray, options: Options | None =
     start = time.perf_counter()
     run = solve_run(system, fine, options)
     seconds = time.perf_counter() - start
-    run = Run(t=t, position=run.position[keep], orientation=run.orientation[keep], velocity=run.velocity[keep],
-              acceleration=None, residual=run.residual[keep], status=run.status[keep], iterations=run.iterations[keep],
-              factorizations=run.factorizations[keep], reached=run.reached[keep], rank=run.rank[keep])
+    run = run.take(keep)
     if model.range_rad is None:
         angle = model.motor_rest_angle + model.direction * 2.0 * np.pi * t
     else:

@@ -543,6 +543,15 @@ class Run:
     def state(self, step: int) -> State:
         return State(self.position[step], self.orientation[step])
 
+    def take(self, steps: np.ndarray) -> "Run":
+        """The run at some of its steps (indices (T',))."""
+        return Run(t=self.t[steps], position=self.position[steps], orientation=self.orientation[steps],
+                   velocity=self.velocity[steps],
+                   acceleration=None if self.acceleration is None else self.acceleration[steps],
+                   residual=self.residual[steps], status=self.status[steps], iterations=self.iterations[steps],
+                   factorizations=self.factorizations[steps], reached=self.reached[steps], rank=self.rank[steps],
+                   batched=self.batched[steps])
+
 
 def solve_run(system: System, t: np.ndarray, options: Options | None = None, start: State | None = None,
               table: StepTable | None = None, progress: Callable[[int, int], None] | None = None) -> Run:
@@ -551,8 +560,22 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
     thread (:mod:`linkedit.blas`); ``progress(k, T)`` is called after each step."""
     from linkedit.blas import single_threaded
 
+    t = np.asarray(t, dtype=float)
+    # an input's window ending between two steps is solved at its edge too (not returned): the
+    # member it leaves holds the input's last value there, whatever the steps
+    edges = np.unique([e for blk in system.blocks for sc in blk.schedules for e in sc.window
+                       if t.size and min(t[0], t[-1]) < e < max(t[0], t[-1])])
+    edges = edges[~np.isin(edges, t)]
+    if edges.size == 0 or not ((np.diff(t) > 0).all() or (np.diff(t) < 0).all()):
+        with single_threaded():
+            return _solve_run(system, t, options, start, table, progress)
+    full = np.sort(np.concatenate([t, edges]))
+    full = full if t[-1] > t[0] else full[::-1]
+    keep = np.flatnonzero(np.isin(full, t))
+    where = {int(k): i for i, k in enumerate(keep)}
+    told = None if progress is None else (lambda k, T: progress(where[k], t.size) if k in where else None)
     with single_threaded():
-        return _solve_run(system, t, options, start, table, progress)
+        return _solve_run(system, full, options, start, None, told).take(keep)
 
 
 def _solve_run(system: System, t: np.ndarray, options: Options | None, start: State | None,
