@@ -241,3 +241,22 @@ def test_a_pin_whose_axis_points_the_other_way_is_rebuilt_too():
     assert system.batched["waves"].closed is not None and on.iterations[2:].mean() <= 1.05
     assert (on.status == off.status).all() and (off.status == 0).all()
     _assert_same(on.position, on.orientation, off, system.length_scale)
+
+
+def test_a_block_whose_first_step_cannot_be_rebuilt_is_left_to_the_continuation():
+    """The crank-rocker's rocker driven past its reach: a block starting where the crank–coupler
+    dyad cannot close has no pose to screen or solve (none is rebuilt); the waves say so and the
+    continuation takes the step."""
+    from linkedit.gcs.solver import Solver
+    from linkedit.gcs.waves import Waves
+
+    data = _data("crank-rocker")
+    data["inputs"]["drive"] = {"type": "orientation", "member": "rocker",
+                               "rotation": {"axis": [0, 0, 1], "angles_deg": [0, 30, 0]}}
+    system = compile_mechanism(validate(MechanismSpec, data, file="test"))[0]
+    t = np.linspace(0.0, 1.0, 241)
+    off = solve_run(system, t, Options(waves=False))
+    k = int(np.flatnonzero(off.status != 0)[0])  # the first step past the reach
+    waves = Waves(Solver(system), system.step_table(t))
+    vel = off.velocity.copy()
+    assert waves.rebuilt(k, k + 16, off.position, off.orientation, vel) is None

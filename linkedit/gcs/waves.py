@@ -736,6 +736,8 @@ class Waves:
         continuation, not factorized first (the test proper comes after the solve)."""
         opt = self.solver.options
         n = int(np.argmin(valid)) if not valid.all() else len(valid)
+        if n == 0:
+            return 0
         P0 = np.concatenate([before[0][None], P[:n - 1]])
         Q0 = np.concatenate([before[1][None], Q[:n - 1]])
         moved = self.displacement(P[:n], Q[:n], P0, Q0)  # (n, N)
