@@ -206,10 +206,7 @@ class ClosedForm:
 
     def _apart(self, a: End, b: End) -> bool:
         """Whether a member's points of the location constraints a and b (seen from it) differ."""
-        blk = self._blocks["location"]
-        pa = blk.sa[a.index] if a.side_a else blk.sb[a.index]
-        pb = blk.sa[b.index] if b.side_a else blk.sb[b.index]
-        return pa.tolist() != pb.tolist()
+        return self._mine("location", a).tolist() != self._mine("location", b).tolist()
 
     # ---- the constraints' vectors and points ----------------------------------------------
 
