@@ -159,7 +159,7 @@ def test_complex_loop_polish_rejects_a_wrong_prediction_and_continues_sequential
     """The batched polish accepts a sample only when Newton converges close to its predictor on the
     rest pose's side of every singular position: predictions thrown far off (towards the group's
     other assembly) are rejected and those samples continued one by one from the sample before."""
-    from linkedit.planar import steps
+    from linkedit.planar.rules import group as steps
 
     plan = compile_plan(catalog.complex_loop())
     good = simulate(plan, 360)

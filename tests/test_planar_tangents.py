@@ -8,7 +8,7 @@ import pytest
 from linkedit.planar import catalog, simulate
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import order_joints
-from linkedit.planar.steps import compile_steps, rest_tangent
+from linkedit.planar.rules import compile_steps
 from linkedit.spec.linkage import LinkageSpec
 from tests.test_planar_sliders import piston_driven
 
@@ -42,6 +42,6 @@ def test_rest_tangent_of_every_new_rule_matches_central_differences(build):
     z = complex_positions(spec, samples)
     dz = (complex_positions(moved(spec, drest, h), samples) - complex_positions(moved(spec, drest, -h), samples)) / (2 * h)
     for step in steps:
-        got = rest_tangent(graph, step, z, dz, drest)
+        got = step.rest_tangent(graph, z, dz, drest)
         want = dz[step.joints]
         assert np.abs(got - want).max() <= 1e-5 * np.abs(want).max(), (step.kind, step.name)

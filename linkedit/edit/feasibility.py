@@ -63,9 +63,7 @@ def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray,
         rest_deg = np.degrees(np.angle(rest[g.motor] - rest[g.pivot]))
         angle = f"motor angle {(rest_deg + turn_deg[t] + 180.0) % 360.0 - 180.0:.1f}°"
     if rule >= len(plan.rules):
-        step = plan.steps[rule - len(plan.rules)]
-        what = {"group": f"numeric group {step.name}", "lines": f"sliders {step.name}"}.get(step.kind, f"slider {step.name}")
-        return f"{what} cannot be assembled at {angle}"
+        return f"{plan.steps[rule - len(plan.rules)].label()} cannot be assembled at {angle}"
     return f"joint {names[plan.rules[rule, 2]]} cannot be assembled at {angle}"
 
 

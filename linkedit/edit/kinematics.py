@@ -192,11 +192,11 @@ class RestPoseKinematics:
         its d_s in row ``r`` of ``ds`` (and ∂ln d_s when guarded)."""
         rows = self.plan.row_of[: self.J]
         zj = z[rows]
-        out, ds[r] = es.place(step, zj, rest, self.stroke)
+        out, ds[r] = step.place(zj, self.stroke, rest)
         z[rows[step.joints]] = zj[step.joints] = out
         if dz is None:
             return
         dzj = dz[rows]
         dz[rows[step.joints]] = dzj[step.joints] = es.tangents(graph, step, zj, dzj, D)
-        if step.kind in es.GUARDED and dlnds is not None:
-            dlnds[r] = es.dlnds(graph, step, zj, dzj, D)
+        if step.guarded and dlnds is not None:
+            dlnds[r] = step.dlnds(graph, zj, dzj, D)

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from linkedit.planar import law_of_cosines as loc
-from linkedit.planar import steps as st
 from linkedit.planar.diagnostics import TOGGLE
 from linkedit.planar.plan import Geometry, Plan
+from linkedit.planar.rules import Step
 
 #: largest input change between two samples a numeric group is continued across: motor
 #: degrees, or a fraction of the characteristic length for a linear input
@@ -165,22 +165,19 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int) -> Stat
     return State(z=z, dz=dz, ddz=ddz, ds=ds, step_ds=step_ds)
 
 
-def _step(plan: Plan, geom: Geometry, step: st.Step, value: np.ndarray, z: np.ndarray,
+def _step(plan: Plan, geom: Geometry, step: Step, value: np.ndarray, z: np.ndarray,
           dz: np.ndarray | None, ddz: np.ndarray | None) -> np.ndarray:
     """Evaluate one step in place (rows of ``z``, ``dz``, ``ddz``); returns its d_s (T,)."""
     joints = plan.row_of[: plan.n_joints]
     rows = joints[step.joints]
     s = value if plan.linear else np.zeros_like(value)
     zj = z[joints]
-    if step.kind == "group":
-        out, ds, _ = st.solve_group(step, zj, s, geom.rest[step.joints])
-    else:
-        out, ds = st.positions(step, zj, s)
+    out, ds = step.place(zj, s, geom.rest)
     z[rows] = out
     zj[step.joints] = out
     if dz is not None:
         dzj = dz[joints]
-        dz[rows] = dzj[step.joints] = st.velocity(step, zj, dzj, 1.0 if plan.linear else 0.0)
+        dz[rows] = dzj[step.joints] = step.velocity(zj, dzj, 1.0 if plan.linear else 0.0)
         if ddz is not None:
-            ddz[rows] = st.acceleration(step, zj, dzj, ddz[joints])
+            ddz[rows] = step.acceleration(zj, dzj, ddz[joints])
     return ds

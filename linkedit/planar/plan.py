@@ -21,7 +21,7 @@ import numpy as np
 from linkedit.errors import MechanismError
 from linkedit.planar.graph import LinkageGraph, Mobility, mobility
 from linkedit.planar.ordering import order_joints
-from linkedit.planar.steps import Step, compile_steps
+from linkedit.planar.rules import Group, Step, compile_steps
 from linkedit.spec.linkage import JointTrack, LinkageSpec, LinkTrack
 
 
@@ -76,7 +76,7 @@ class Plan:
 
     @property
     def has_groups(self) -> bool:
-        return any(st.kind == "group" for st in self.steps)
+        return any(isinstance(st, Group) for st in self.steps)
 
     def normalized_points(self, points: np.ndarray | None = None) -> np.ndarray:
         """Rest points (P, 2) moved to the normalized frame: (p − origin)/scale."""

@@ -16,6 +16,7 @@ from linkedit.errors import MechanismError
 from linkedit.planar.diagnostics import TOGGLE, LockUp, lockups, transmission_angle, triangle_orientation
 from linkedit.planar.kinematics import State, evaluate
 from linkedit.planar.plan import Geometry, Plan, compile_plan
+from linkedit.planar.rules import Group
 from linkedit.spec.linkage import LinkageSpec, Motor
 
 DEFAULT_SAMPLES = 360
@@ -62,8 +63,7 @@ class Motion:
         plan = self.plan
         dyads = ~plan.rigid
         # the steps' own are measured by the symbolic engine only (the numeric one's motion has none)
-        watched = [n for n, st in enumerate(plan.steps) if st.kind in ("slider", "group", "rotate", "lines")
-                   and self.step_singularity is not None]
+        watched = [n for n, st in enumerate(plan.steps) if st.watched and self.step_singularity is not None]
         if not (dyads.any() or watched) or not self.assembled.any():
             return None
         steps = self.step_singularity if self.step_singularity is not None else np.ones((self.t.size, 0))
@@ -197,25 +197,7 @@ def _explain(plan: Plan, d: np.ndarray, lik: np.ndarray, ljk: np.ndarray, ds: np
                         f"{names[i]} and {names[j]} (d_s = 0, its velocity is undefined there)")
             return names[k], (names[i], names[j]), far, what
         step = plan.steps[r - R]
-        k = names[step.joints[0]]
-        if abs(sds[t, r - R]) <= TOGGLE and step.kind == "slider":
-            what = (f"slider {step.name} reaches a toggle position: the rod {names[step.i]}–{k} stands "
-                    "perpendicular to the slot line (d_s = 0)")
-        elif step.kind == "lines":
-            what = (f"sliders {step.name}: the two slots of joint {k} are parallel (d_s = 0): "
-                    "they do not cross at one point")
-        elif step.kind == "slider":
-            what = (f"slider {step.name} cannot place joint {k}: the rod {names[step.i]}–{k} does not reach "
-                    "the slot line")
-        elif step.kind == "rotate":
-            what = (f"slider {step.name}: the slot of the link carrying {k} cannot reach the pin "
-                    f"{names[step.pin]} as it turns about {names[step.i]}")
-        elif step.kind == "group":
-            what = (f"the numeric group {step.name} cannot be assembled on its rest-pose branch "
-                    "(it reaches a singular position: its links cannot follow)")
-        else:
-            what = f"slider {step.name} cannot place joint {k}"
-        return k, ("", ""), False, what
+        return names[step.joints[0]], ("", ""), False, step.lockup(names, abs(sds[t, r - R]) <= TOGGLE)
 
     return explain
 
@@ -349,7 +331,7 @@ def _find_lockups(plan: Plan, pn: np.ndarray, ds: np.ndarray, sds: np.ndarray, s
 def _check_closure(plan: Plan, state: State) -> None:
     """After one full cycle a numeric group must be back where it started (same branch)."""
     for step in plan.steps:
-        if step.kind != "group":
+        if not isinstance(step, Group):
             continue
         z = state.z[plan.row_of[step.joints]]
         if not (np.isfinite(z[:, -1]).all() and np.isfinite(z[:, 0]).all()):

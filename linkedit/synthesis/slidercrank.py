@@ -3,7 +3,7 @@
 Family frame (rod length 1): crank axle O = 0, crank pin A = a·e^{iθ} turning
 counter-clockwise (θ = 2π t, t = 0 the rest pose), slider pin B on the slot line y = e
 (direction +x) at distance 1 from A, on the side ``branch`` = ±1 (B_x − A_x = branch·sqrt(1 − p²),
-p = e − A_y: :mod:`linkedit.planar.steps`' ``slider`` rule), coupler point P = A + (u + iv)(B − A).
+p = e − A_y: :mod:`linkedit.planar.rules.slider`), coupler point P = A + (u + iv)(B − A).
 
 Parameters per linkage, columns of a (K, 5) array: a, e, u, v, branch.
 

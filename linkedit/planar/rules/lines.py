@@ -1,0 +1,67 @@
+"""A joint in two known slots: their crossing, in closed form, one solution and no branch.
+
+With the lines (P₁, D₁), (P₂, D₂): z_k = P₁ + D₁·Im(D̄₂(P₂ − P₁))/Im(D̄₂D₁). d_s = sin² of the
+angle between the lines: 0 where they are parallel (no single crossing: a lock-up naming both
+sliders).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from linkedit.planar.constraints import Rows, linkage_rows_tangent
+from linkedit.planar.graph import LinkageGraph
+from linkedit.planar.ordering import StepRule
+from linkedit.planar.rules.base import Step, labelled, slot_line
+
+
+@dataclass(frozen=True)
+class Lines(Step):
+    """Joint ``joints[0]`` where its two slots cross."""
+
+    kind = "lines"
+    watched = True
+    guarded = True
+
+    @classmethod
+    def compile(cls, graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set[int]) -> "Lines":
+        """Joint ``rule.joints[0]`` in the slots of sliders ``rule.slider`` and ``rule.i``."""
+        a, b = graph.sliders[rule.slider].name, graph.sliders[rule.i].name
+        source = labelled(all_rows, f"slider {a}") + labelled(all_rows, f"slider {b}")
+        rows = all_rows.take(np.array(source))
+        k = rule.joints[0]
+        inputs = np.array(sorted(set().union(*rows.joints) - {k}), dtype=int)
+        return cls(rule.level, np.array(rule.joints, dtype=int), inputs, f"{a} and {b}", rows, np.array(source))
+
+    def what(self) -> str:
+        return f"two slots, sliders {self.name}"
+
+    def label(self) -> str:
+        return f"sliders {self.name}"
+
+    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        k = self.joints[0]
+        (p1, d1), (p2, d2) = slot_line(self.rows, 0, k, z), slot_line(self.rows, 1, k, z)
+        cross = (np.conj(d2) * d1).imag
+        with np.errstate(invalid="ignore", divide="ignore"):
+            at = (np.conj(d2) * (p2 - p1)).imag / cross
+        return (p1 + d1 * at)[None], cross * cross / ((d1 * np.conj(d1)).real * (d2 * np.conj(d2)).real)
+
+    def lockup(self, names: list[str], toggle: bool) -> str:
+        return (f"sliders {self.name}: the two slots of joint {names[self.joints[0]]} are parallel (d_s = 0): "
+                "they do not cross at one point")
+
+    def dlnds(self, graph: LinkageGraph, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray) -> np.ndarray:
+        """d_s = Im(D̄₂D₁)² / (|D₁|²|D₂|²), D_r = dc_r·z + d0_r of its two slot rows."""
+        rows = self.rows
+        d = [rows.dc[r] @ zj + rows.d0[r] for r in (0, 1)]
+        dd = [np.einsum("j,jct->ct", rows.dc[r], dzj) for r in (0, 1)]
+        for c in range(drest.shape[1]):
+            slots = linkage_rows_tangent(graph, drest[:, c]).take(self.source)
+            for r in (0, 1):
+                dd[r][c] += slots.dc[r] @ zj + slots.d0[r]
+        cross = (np.conj(d[1]) * d[0]).imag
+        dcross = (np.conj(dd[1]) * d[0] + np.conj(d[1]) * dd[0]).imag
+        return 2.0 * dcross / cross - sum(2.0 * (np.conj(d[r]) * dd[r]).real / np.abs(d[r]) ** 2 for r in (0, 1))

@@ -1,0 +1,104 @@
+"""A pin in a slot at a fixed distance from a known joint: circle–line, in closed form.
+
+Joint k lies on a known slot line (point P, unit direction D) at the fixed distance l from the
+known joint i: with q = z_i − P, a = Re(D̄q), p = Im(D̄q), z_k = P + D·(a + σ·sqrt(l² − p²));
+σ = ±1 is the side taken at rest, never changed. l² < p² is a lock-up (the rod cannot reach the
+line); d_s = (l² − p²)/l² is 0 where the rod stands perpendicular to the line.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from linkedit.errors import MechanismError
+from linkedit.planar.constraints import Rows, _Builder, linkage_rows_tangent
+from linkedit.planar.graph import LinkageGraph
+from linkedit.planar.ordering import StepRule
+from linkedit.planar.rules.base import Step, concat, labelled, slot_line
+
+
+@dataclass(frozen=True)
+class Slider(Step):
+    """Joint ``joints[0]`` in its slot at the rod length sqrt(``l2``) from joint ``i``, on side ``sign``."""
+
+    kind = "slider"
+    watched = True
+    guarded = True
+
+    i: int = -1  # the joint at a fixed distance
+    l2: float = 0.0  # the rod's squared length
+    sign: float = 1.0  # which of the two crossings, taken at rest
+
+    @classmethod
+    def compile(cls, graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set[int]) -> "Slider":
+        """Joint ``rule.joints[0]`` on its slot at its rest distance from ``rule.i``."""
+        z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
+        name = graph.sliders[rule.slider].name
+        source = labelled(all_rows, f"slider {name}")
+        slot = all_rows.take(np.array(source))
+        k, i, level = rule.joints[0], rule.i, rule.level
+        l2 = abs(z[k] - z[i]) ** 2
+        b = _Builder(graph.n_joints)
+        b.add(False, {k: 1, i: -1}, 0j, {k: 1, i: -1}, 0j, f"slider {name} rod", rhs=l2)
+        rows = concat(slot, b.build())
+        p, d = slot_line(rows, 0, k, z[:, None])
+        foot = (np.conj(d) * (z[i] - p)).real
+        side = (np.conj(d) * (z[k] - p)).real - foot
+        if abs(side[0]) <= 1e-9 * np.sqrt(l2):
+            names = graph.joint_names
+            raise MechanismError(
+                f"joint {names[k]} of slider {name}: the rod {names[i]}–{names[k]} stands perpendicular to "
+                "the slot at the rest pose: which side it takes is undefined; move it off the perpendicular")
+        inputs = sorted(set().union(*rows.joints) - {k})
+        return cls(level, np.array([k]), np.array(inputs, dtype=int), name, rows, np.array(source + [-1]),
+                   i=i, l2=float(l2), sign=float(np.sign(side[0])))
+
+    def what(self) -> str:
+        return f"slider {self.name}"
+
+    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        p, d = slot_line(self.rows, 0, self.joints[0], z)
+        d = d / np.abs(d)
+        q = np.conj(d) * (z[self.i] - p)
+        h2 = self.l2 - q.imag * q.imag
+        with np.errstate(invalid="ignore"):
+            x = q.real + self.sign * np.sqrt(h2)
+        return (p + d * x)[None], h2 / self.l2
+
+    def lockup(self, names: list[str], toggle: bool) -> str:
+        k = names[self.joints[0]]
+        if toggle:
+            return (f"slider {self.name} reaches a toggle position: the rod {names[self.i]}–{k} stands "
+                    "perpendicular to the slot line (d_s = 0)")
+        return f"slider {self.name} cannot place joint {k}: the rod {names[self.i]}–{k} does not reach the slot line"
+
+    def branch_change(self, new: Step, names: list[str]) -> str | None:
+        if isinstance(new, Slider) and new.sign != self.sign:
+            return (f"slider {self.name} changes branch: joint {names[self.joints[0]]} crossed to the other side "
+                    "of the rest pose's")
+        return None
+
+    def rows_tangent(self, graph: LinkageGraph, drest: np.ndarray) -> Rows:
+        """The slot row's tangent, then the rod's: d/dε of its squared length."""
+        z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
+        k, i = int(self.joints[0]), self.i
+        b = _Builder(graph.n_joints)
+        b.add(False, {}, 0j, {}, 0j, "rod", rhs=2.0 * float((np.conj(z[k] - z[i]) * (drest[k] - drest[i])).real))
+        return concat(super().rows_tangent(graph, drest), b.build())
+
+    def dlnds(self, graph: LinkageGraph, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray) -> np.ndarray:
+        """d_s = Re(D̄w)² / (|D|²|w|²), w = z_k − z_i, D = dc·z + d0 (0: the rod perpendicular to the slot)."""
+        k, i = self.joints[0], self.i
+        rows, source = self.rows, self.source
+        d = rows.dc[0] @ zj + rows.d0[0]
+        w, dw = zj[k] - zj[i], dzj[k] - dzj[i]
+        dd = np.einsum("j,jct->ct", rows.dc[0], dzj)
+        for c in range(drest.shape[1]):
+            if source[0] >= 0:
+                slot = linkage_rows_tangent(graph, drest[:, c]).take(np.array([source[0]]))
+                dd[c] += slot.dc[0] @ zj + slot.d0[0]
+        a = (np.conj(d) * w).real
+        da = (np.conj(dd) * w + np.conj(d) * dw).real
+        return 2.0 * da / a - 2.0 * (np.conj(d) * dd).real / np.abs(d) ** 2 - 2.0 * (np.conj(w) * dw).real / np.abs(w) ** 2

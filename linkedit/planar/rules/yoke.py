@@ -1,0 +1,56 @@
+"""A slotted link translating along the frame until its slot meets a known pin (a Scotch yoke).
+
+It slides by λ·g, λ = Im(ū̄·(z_pin − z̄_pin)) / Im(ū̄·g) (u the slot's direction, g the direction
+it translates in); d_s = Im(ū̄·g)², constant: 0 where the slot is parallel to g.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from linkedit.errors import MechanismError
+from linkedit.planar.graph import LinkageGraph
+from linkedit.planar.constraints import Rows
+from linkedit.planar.ordering import StepRule
+from linkedit.planar.rules.base import Step, loop_rows
+
+
+@dataclass(frozen=True)
+class Yoke(Step):
+    """The joints of a translating slotted link keeping pin ``pin`` in its slot."""
+
+    kind = "yoke"
+
+    cross: float = 0.0  # Im(ū̄·g)
+    offsets: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))  # (n,) rest positions z̄_n
+    slider: int = -1  # index into graph.sliders
+    pin: int = -1  # the known joint in the link's slot
+    u: complex = 0j  # the slot's direction at rest
+    g: complex = 0j  # the direction the link translates in
+    at: complex = 0j  # the pin's rest position
+
+    @classmethod
+    def compile(cls, graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set[int]) -> "Yoke":
+        """The link of ``rule.joints`` translating along slider ``rule.i``, slider ``rule.slider``'s slot on it."""
+        rows, source, inputs = loop_rows(all_rows, known, rule.joints)
+        z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
+        joints, guide, slider, level = np.array(rule.joints, dtype=int), rule.i, rule.slider, rule.level
+        name = graph.sliders[slider].name
+        k = graph.sliders[slider].joint
+        u = np.exp(1j * graph.sliders[slider].angle)
+        g = np.exp(1j * graph.sliders[guide].angle)
+        cross = float((np.conj(u) * g).imag)
+        if abs(cross) <= 1e-9:
+            raise MechanismError(f"slider {name}: the slot is parallel to the direction its link translates in: "
+                                 "the pin cannot move it")
+        return cls(level, joints, inputs, name, rows, source, cross=cross, offsets=z[joints], slider=slider,
+                   pin=k, u=complex(u), g=complex(g), at=complex(z[k]))
+
+    def what(self) -> str:
+        return f"slotted link translating (yoke), slider {self.name}"
+
+    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        along = (np.conj(self.u) * (z[self.pin] - self.at)).imag / self.cross
+        return self.offsets[:, None] + along * self.g, np.full(z.shape[1], self.cross * self.cross)
