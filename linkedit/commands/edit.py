@@ -13,13 +13,13 @@ from linkedit.errors import InputError, MechanismError
 
 
 def _load(spec_path: Path | None, script_path: Path):
+    from linkedit.edit.script import read_script
     from linkedit.planar import compile_plan, simulate
-    from linkedit.spec.edit_script import EditScript, check_against
     from linkedit.spec.linkage import LinkageSpec
-    from linkedit.spec.yamlload import load_model, load_yaml, validate
+    from linkedit.spec.yamlload import load_model
 
-    data, lines = load_yaml(script_path)
-    script = validate(EditScript, data, file=str(script_path), lines=lines)
+    read = read_script(script_path)
+    script = read.script
     if spec_path is None:
         if script.linkage is None:
             raise InputError("no linkage: give SPEC on the command line or `linkage:` in the script",
@@ -27,15 +27,11 @@ def _load(spec_path: Path | None, script_path: Path):
         spec_path = (script_path.parent / script.linkage)
         if not spec_path.is_file():
             raise InputError(f"linkage file not found: {spec_path}", file=str(script_path),
-                             line=lines.line_of(("linkage",)), field="linkage")
+                             line=read.lines.line_of(("linkage",)), field="linkage")
     elif script.linkage is not None:
         say(f"note: {script_path} names linkage {script.linkage}; editing {spec_path} as given", err=True)
     linkage = load_model(LinkageSpec, spec_path)
-    try:
-        check_against(script, linkage)
-    except InputError as exc:
-        exc.file, exc.line = str(script_path), lines.line_of(exc.field)
-        raise
+    read.check(linkage)
     try:  # an edit starts from a working linkage (the barrier keeps it working)
         simulate(compile_plan(linkage), script.samples)
     except MechanismError as exc:
