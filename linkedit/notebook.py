@@ -8,6 +8,7 @@ Jupyter: a :class:`Motion` draws its motion plot (``_repr_svg_``) and converts t
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -112,17 +113,21 @@ def load(path: str | Path) -> Motion:
                       transmission=d["transmission_angle"][()], assembled=np.asarray(d["assembled"][()], dtype=bool))
 
 
-def edit(spec: SpecLike, script: str | Path | Any) -> Any:
-    """Apply an edit script (YAML path or :class:`~linkedit.spec.edit_script.EditScript`) to a linkage.
+def edit(spec: SpecLike, script: str | Path | Mapping[str, Any] | Any) -> Any:
+    """Apply an edit script (YAML path, dict or :class:`~linkedit.spec.edit_script.EditScript`) to a linkage.
 
-    Returns the :class:`~linkedit.edit.runner.EditResult` (``edited`` spec, ``before``/``after`` motions).
+    Returns the :class:`~linkedit.edit.runner.EditResult` (``edited`` spec, ``before``/``after``
+    motions, ``goals_met``, ``warnings``: every goal not met is one, as ``linkedit edit
+    --best-effort`` gives them). A name the linkage lacks is the CLI's
+    :class:`~linkedit.errors.InputError`; a result that does not work raises ``EditFailed``.
     """
     from linkedit.edit.runner import run_script
-    from linkedit.spec.edit_script import EditScript
-    from linkedit.spec.yamlload import load_model
+    from linkedit.edit.script import read_script
 
-    parsed = script if isinstance(script, EditScript) else load_model(EditScript, script)
-    return run_script(load_spec(spec), parsed)
+    linkage = load_spec(spec)
+    read = read_script(script)
+    read.check(linkage)
+    return run_script(linkage, read.script)
 
 
 def solve3d(spec: str | Path | Any, *, steps: int | None = None, solver: str = "lm") -> Any:

@@ -75,8 +75,8 @@ def test_jansen_envelope_edit(run_cli, tmp_path):
 
 
 def test_toggle_pull_keeps_a_working_linkage(run_cli, tmp_path):
-    r, out, stem = run_edit(run_cli, tmp_path, "jansen-toggle.yaml")
-    assert r.exit_code == 0, r.output
+    r, out, stem = run_edit(run_cli, tmp_path, "jansen-toggle.yaml", "--best-effort")
+    assert r.exit_code == 0, r.output  # exit 1 without --best-effort: a goal is not met
     ops, before, after, angle = report(out, stem)
     assert ops[0]["min d_s"] > 1e-3
     assert ops[0]["displace D error"] < ops[0]["_before"]["displace D error"]
@@ -94,7 +94,7 @@ def test_toggle_pull_without_barrier_goes_to_the_toggle_and_says_so(run_cli, tmp
     tmp = tmp_path / "edits"
     tmp.mkdir()
     (tmp / "s.yaml").write_text(script.replace("../jansen.yaml", str(EXAMPLES / "jansen.yaml")))
-    r = run_cli("edit", tmp / "s.yaml", "-o", tmp_path / "out")
+    r = run_cli("edit", tmp / "s.yaml", "-o", tmp_path / "out", "--best-effort")
     if r.exit_code == 0:  # works at every sample of the final check, but only just
         assert "warning: joint D comes within" in r.output and "toggle" in r.output
     else:
@@ -116,8 +116,10 @@ def test_klann_curve_editing(run_cli, tmp_path):
 
 
 def test_strandbeest_scaling_keeps_gait(run_cli, tmp_path):
-    r, out, stem = run_edit(run_cli, tmp_path, "strandbeest-scale.yaml")
+    # 80 % of the size and the same gait cannot both be had: the scaling is a soft goal, not met
+    r, out, stem = run_edit(run_cli, tmp_path, "strandbeest-scale.yaml", "--best-effort")
     assert r.exit_code == 0, r.output
+    assert "goal not met: transform" in r.output
     ops, before, after, angle = report(out, stem)
     for name in before:
         assert change_of(before, after, name) < 0.01, name

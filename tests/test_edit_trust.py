@@ -118,12 +118,17 @@ class Edited:
         return after
 
 
+#: example edits whose goals are out of reach by design (the barrier; a size the gait forbids)
+BEST_EFFORT = {"jansen-toggle.yaml", "strandbeest-scale.yaml"}
+
+
 @pytest.mark.parametrize("script", sorted(p.name for p in EDITS.glob("*.yaml")))
 def test_every_example_edit_resimulates_exactly(run_cli, tmp_path, script):
     data = yaml.safe_load((EDITS / script).read_text())
     preserved = [p if isinstance(p, str) else p["track"] for op in data["operations"] for p in op.get("preserve", [])]
-    e = Edited(run_cli, tmp_path, None, EDITS / script)
+    e = Edited(run_cli, tmp_path, None, EDITS / script, *(["--best-effort"] if script in BEST_EFFORT else []))
     e.check(run_cli, preserved=preserved)
+    assert all(op["goals_met"] for op in e.report["operations"]) is (script not in BEST_EFFORT)
 
 
 def test_move_knee_keeps_the_motor_rest_angle_and_the_gait_at_the_same_sample(run_cli, tmp_path):
@@ -201,8 +206,8 @@ def test_a_range_deg_rocker_can_be_edited(run_cli, tmp_path):
     spec = cr.model_copy(update={"motor": cr.motor.model_copy(update={"range_deg": (0.0, 120.0)})})
     p = linkage_file(tmp_path, spec)
     e = Edited(run_cli, tmp_path, p, write(tmp_path, "s.yaml", {"samples": 60, "lock": ["O", "D"], "operations": [
-        {"preserve": ["coupler_point"], "displace": {"joint": "B", "to": [60, 62]}}]}))
-    e.check(run_cli, preserved=["coupler_point"], preserve_tol=0.05)
+        {"preserve": ["coupler_point"], "displace": {"joint": "B", "to": [60, 62]}}]}), "--best-effort")
+    e.check(run_cli, preserved=["coupler_point"], preserve_tol=0.05)  # B cannot go far and keep the curve
 
 
 def test_a_30_degree_retarget_rotation_of_a_coupler_curve_is_reached_exactly(run_cli, tmp_path):
@@ -236,18 +241,18 @@ def test_a_goal_that_is_not_met_is_reported(run_cli, tmp_path):
     b = np.add(jansen.joints["B"], (-8.0, -3.0))
     e = Edited(run_cli, tmp_path, p, write(tmp_path, "s.yaml", {"samples": 120, "lock": ["O"], "operations": [
         {"preserve": ["foot"], "displace": {"joint": "B", "to": b.tolist()}, "terms": {"preserve": 1e6}}]}))
-    assert e.result.exit_code == 0, e.output
+    assert e.result.exit_code == 1, e.output
     op = e.report["operations"][0]
-    if term(op, "displace B error")["after"] > 0.5 * term(op, "displace B error")["before"]:
-        assert op["goals_met"] is False
-        assert any("displace B" in g for g in op["unmet"])
-        assert "not met" in run_cli("edit", p, tmp_path / "s.yaml", "-o", tmp_path / "o2").output
+    assert term(op, "displace B error")["after"] > 0.01 * 123.0  # more than 1 % of the leg's size away
+    assert op["goals_met"] is False
+    assert any("displace B" in g for g in op["unmet"])
+    assert "goal not met: operation 1: displace B" in run_cli("edit", p, tmp_path / "s.yaml", "-o", tmp_path / "o2").output
 
 
 def test_a_near_toggle_result_is_reported(run_cli, tmp_path):
     script = (EDITS / "jansen-toggle.yaml").read_text().replace("../jansen.yaml", str(EXAMPLES / "jansen.yaml"))
     s = write(tmp_path, "s.yaml", script + "weights: {singularity: 0}\n")
-    r = run_cli("edit", s, "-o", tmp_path / "out")
+    r = run_cli("edit", s, "-o", tmp_path / "out", "--best-effort")
     assert r.exit_code in (0, 1), r.output
     assert "Traceback" not in r.output
     if r.exit_code == 0:
@@ -297,7 +302,7 @@ def test_symmetric_edit_keeps_mirrored_legs_mirrored(run_cli, tmp_path):
 def test_the_crank_keeps_its_rest_angle_even_when_a_goal_pulls_it_across_the_pivot(run_cli, tmp_path):
     p = linkage_file(tmp_path, catalog.crank_rocker())
     e = Edited(run_cli, tmp_path, p, write(tmp_path, "s.yaml", {"samples": 60, "lock": ["O"], "operations": [
-        {"displace": {"joint": "A", "to": [-25, 0]}}]}))
+        {"displace": {"joint": "A", "to": [-25, 0]}}]}), "--best-effort")
     e.check(run_cli)
     assert e.edited.joints["A"][0] > 0
     assert e.report["operations"][0]["goals_met"] is False
@@ -324,7 +329,7 @@ def test_a_curve_goal_that_achieves_nothing_is_not_met(run_cli, tmp_path):
     lock = [n for n in beest.joints if not n.endswith("_1_L")]
     e = Edited(run_cli, tmp_path, p, write(tmp_path, "s.yaml", {"samples": 60, "lock": lock, "operations": [
         {"drag": {"track": "foot_0_L", "at": 0.5, "by": [0, 8], "radius": 0.15}}]}))
-    assert e.result.exit_code == 0, e.output
+    assert e.result.exit_code == 1, e.output
     assert e.report["operations"][0]["goals_met"] is False
     assert "goal not met: drag foot_0_L" in run_cli("edit", p, tmp_path / "s.yaml", "-o", tmp_path / "o2").output
 

@@ -13,13 +13,13 @@ from linkedit.errors import InputError, MechanismError
 
 
 def _load(spec_path: Path | None, script_path: Path):
+    from linkedit.edit.script import read_script
     from linkedit.planar import compile_plan, simulate
-    from linkedit.spec.edit_script import EditScript, check_against
     from linkedit.spec.linkage import LinkageSpec
-    from linkedit.spec.yamlload import load_model, load_yaml, validate
+    from linkedit.spec.yamlload import load_model
 
-    data, lines = load_yaml(script_path)
-    script = validate(EditScript, data, file=str(script_path), lines=lines)
+    read = read_script(script_path)
+    script = read.script
     if spec_path is None:
         if script.linkage is None:
             raise InputError("no linkage: give SPEC on the command line or `linkage:` in the script",
@@ -27,15 +27,11 @@ def _load(spec_path: Path | None, script_path: Path):
         spec_path = (script_path.parent / script.linkage)
         if not spec_path.is_file():
             raise InputError(f"linkage file not found: {spec_path}", file=str(script_path),
-                             line=lines.line_of(("linkage",)), field="linkage")
+                             line=read.lines.line_of(("linkage",)), field="linkage")
     elif script.linkage is not None:
         say(f"note: {script_path} names linkage {script.linkage}; editing {spec_path} as given", err=True)
     linkage = load_model(LinkageSpec, spec_path)
-    try:
-        check_against(script, linkage)
-    except InputError as exc:
-        exc.file, exc.line = str(script_path), lines.line_of(exc.field)
-        raise
+    read.check(linkage)
     try:  # an edit starts from a working linkage (the barrier keeps it working)
         simulate(compile_plan(linkage), script.samples)
     except MechanismError as exc:
@@ -43,10 +39,11 @@ def _load(spec_path: Path | None, script_path: Path):
     return spec_path, linkage, script
 
 
-def _report_lines(result: Any) -> list[str]:
+def _report_lines(result: Any, script: Any) -> list[str]:
     out = []
     for op in result.operations:
-        status = (" (stalled: slow progress, along the barrier's edge)" if op.stalled
+        status = ((" (stalled: slow progress, along the barrier's edge)" if op.barrier_active
+                   else " (stalled: slow progress)") if op.stalled
                   else " (iteration limit)" if not op.converged else "")
         status += " — DISCARDED: its result does not work (see below)" if op.discarded else ""
         out.append(f"{op.name}: {op.iterations} iterations, {op.seconds * 1e3:.0f} ms{status}")
@@ -54,18 +51,31 @@ def _report_lines(result: Any) -> list[str]:
             if key.startswith("energy"):
                 continue
             out.append(f"  {key}: {op.before[key]:.4g} → {op.after[key]:.4g}")
-        for goal in op.unmet:
-            out.append(f"  goal not met: {goal}")
-    out += [f"warning: {w}" for w in result.warnings]
+        if op.regularization < script.weights.regularization:
+            out.append(f"  regularization relaxed from {script.weights.regularization:.3g} to "
+                       f"{op.regularization:.3g}: it held a goal back")
     return out
 
 
 def _report_json(op: Any) -> dict:
     return {"name": op.name, "iterations": op.iterations, "evaluations": op.evaluations,
             "rejected_steps": op.rejected_steps, "seconds": op.seconds, "converged": op.converged,
-            "stalled": op.stalled,
+            "stalled": op.stalled, "barrier_active": op.barrier_active,
             "discarded": op.discarded, "goals_met": op.goals_met, "unmet": op.unmet,
+            "goals": [{"goal": g.name, "measure": g.measure, "before": g.before, "error": g.error,
+                       "tolerance": g.tolerance, "met": g.met, "held_back_by": g.held_back_by} for g in op.goals],
+            "regularization": op.regularization,
             "terms": [{"term": k, "before": v, "after": op.after.get(k)} for k, v in op.before.items()]}
+
+
+def _unmet_error(result: Any) -> MechanismError | None:
+    """The run's error when a goal of an operation kept is not met (exit 1), else None."""
+    unmet = [f"{op.name}: {text}" for op in result.operations if not op.discarded for text in op.unmet]
+    if not unmet:
+        return None
+    more = f" (and {len(unmet) - 1} more: see the warnings)" if len(unmet) > 1 else ""
+    return MechanismError(f"goal not met: {unmet[0]}{more}; the result is written all the same "
+                          "(--best-effort accepts it: exit 0)")
 
 
 def register(app: typer.Typer) -> None:
@@ -75,10 +85,13 @@ def register(app: typer.Typer) -> None:
         spec: Path = typer.Argument(..., help="Linkage spec YAML (or the edit script, when it names its linkage)."),
         script: Path = typer.Argument(None, help="Edit script YAML."),
         out_dir: Path = typer.Option(Path("out"), "--output", "-o", help="Folder for the edited spec, HDF5 and SVG."),
+        best_effort: bool = typer.Option(False, "--best-effort",
+                                         help="Exit 0 even when a goal is not met (each one is still a warning)."),
         as_json: bool = JSON,
         quiet: bool = QUIET,
     ) -> None:
         """Edit a linkage: displace joints, preserve or reshape track curves, fit a box — keeping it working."""
+        from linkedit.commands.simulate import transmission_warnings
         from linkedit.edit.runner import EditFailed, run_script
         from linkedit.io.atomic import commit, write_text
         from linkedit.io.edit_hdf5 import write_edit
@@ -92,23 +105,26 @@ def register(app: typer.Typer) -> None:
         h5 = out_dir / f"{stem}-edit.h5"
         svg = out_dir / f"{stem}-edit.svg"
         check_outputs([("--output", edited_yaml), ("--output", h5), ("--output", svg)], [spec_path, script_path])
-        failure = None
+        failure: MechanismError | None = None
         with _Progress(live=not quiet) as progress:
             try:
                 result = run_script(linkage, parsed, progress=progress.update)
             except EditFailed as exc:
                 result, failure = exc.result, exc
+        if failure is None and not best_effort:
+            failure = _unmet_error(result)
+        warnings = result.warnings + transmission_warnings(result.after, before=result.before)
         edited_text = dump_linkage(result.edited)
         write_text(edited_yaml, edited_text)
         write_edit(h5, result, script_text=read_text(script_path),
                    linkage_text=read_text(spec_path), edited_text=edited_text,
-                   options={"spec": str(spec_path), "script": str(script_path)})
+                   options={"spec": str(spec_path), "script": str(script_path), "best_effort": best_effort})
         _overlay(svg, result, parsed)
         report({"spec": str(spec_path), "script": str(script_path), "edited": str(edited_yaml),
                 "output": str(h5), "svg": str(svg), "operations": [_report_json(o) for o in result.operations]},
                exit_code=0 if failure is None else failure.exit_code,
-               errors=[] if failure is None else [error_json(failure)], warnings=result.warnings)
-        for line in _report_lines(result):
+               errors=[] if failure is None else [error_json(failure)], warnings=warnings)
+        for line in _report_lines(result, parsed) + [f"warning: {w}" for w in warnings]:
             say(line)
         say(f"→ {edited_yaml}, {h5}, {svg}")
         if failure is not None:

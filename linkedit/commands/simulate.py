@@ -222,22 +222,33 @@ def register(app: typer.Typer) -> None:
             raise typer.Exit(worst)
 
 
-def transmission_warnings(motion: Any) -> list[str]:
-    """One line per dyad whose transmission angle leaves 40°–140° (its worst angle and where)."""
-    import numpy as np
-
+def transmission_warnings(motion: Any, before: Any = None) -> list[str]:
+    """One line per dyad whose transmission angle leaves 40°–140° (its worst angle and where).
+    With ``before`` (the same linkage before an edit): only the dyads the edit took out of the
+    band or further out, with their worst angle before."""
     from linkedit.io.kinematics_plot import GOOD_TRANSMISSION
 
     lo, hi = GOOD_TRANSMISSION
+    was = dict(_worst_transmission(before)) if before is not None else {}
+    out = []
+    for joint, (angle, where) in _worst_transmission(motion):
+        if (angle < lo or angle > hi) and not (joint in was and abs(angle - 90) <= abs(was[joint][0] - 90) + 0.05):
+            note = f" ({was[joint][0]:.1f}° before the edit)" if joint in was else ""
+            out.append(f"transmission angle at joint {joint} leaves {lo:g}°–{hi:g}°: "
+                       f"{angle:.1f}° at motor angle {where:.1f}°{note}")
+    return out
+
+
+def _worst_transmission(motion: Any) -> list[tuple[str, tuple[float, float]]]:
+    """(rebuilt joint, (its transmission angle furthest from 90°, motor angle there)) per dyad, degrees."""
+    import numpy as np
+
     plan = motion.plan
     out = []
     for r in np.flatnonzero(~plan.rigid):
-        a = np.degrees(motion.transmission[:, r])
-        a = np.where(motion.assembled, a, 90.0)
+        a = np.where(motion.assembled, np.degrees(motion.transmission[:, r]), 90.0)
         t = int(np.argmax(np.abs(a - 90.0)))
-        if a[t] < lo or a[t] > hi:
-            out.append(f"transmission angle at joint {plan.joint_names[plan.rules[r, 2]]} leaves {lo:g}°–{hi:g}°: "
-                       f"{a[t]:.1f}° at motor angle {np.degrees(motion.motor_angle[t]):.1f}°")
+        out.append((plan.joint_names[plan.rules[r, 2]], (float(a[t]), float(np.degrees(motion.motor_angle[t])))))
     return out
 
 

@@ -173,19 +173,42 @@ class Problem:
     def evaluate(self, v: np.ndarray, tangents: bool = False) -> Evaluation:
         return self.kin.evaluate(self.var.rest(v), tangents)
 
-    def blocks(self, ev: Evaluation) -> dict[str, list[Block]]:
-        """Residual blocks by energy term: ``edit``, ``singularity``, ``regularization``."""
+    def labelled(self, ev: Evaluation) -> list[tuple[str, str, Block]]:
+        """(energy term, what it is, residual block) of every block: the terms are ``edit``,
+        ``singularity`` and ``regularization``; an edit block is named by its goal's label (a
+        transform's joints together as ``transform``) or ``symmetry``."""
         scale = 1.0 / self.size
         cols = self.point_cols
-        edit = [t.block(ev, cols, scale) for t in self.tracking]
-        edit += [d.block(ev, cols, scale) for d in self.displacements]
+        out = [("edit", t.label, t.block(ev, cols, scale)) for t in self.tracking]
+        out += [("edit", "transform" if d.label.startswith("transform") else d.label, d.block(ev, cols, scale))
+                for d in self.displacements]
         if self.envelope is not None:
-            edit.append(self.envelope.block(ev, cols, scale, self.samples))
+            out.append(("edit", "envelope", self.envelope.block(ev, cols, scale, self.samples)))
         if self.mirrored.size:
-            edit.append(self._symmetry(ev))
+            out.append(("edit", "symmetry", self._symmetry(ev)))
         if self.mirror_ground.size:
-            edit.append(self._mirror_ground(ev))
-        return {"edit": edit, "singularity": [self._barrier(ev)], "regularization": [self._regularization(ev)]}
+            out.append(("edit", "symmetry", self._mirror_ground(ev)))
+        out.append(("singularity", "singularity barrier", self._barrier(ev)))
+        out.append(("regularization", "regularization", self._regularization(ev)))
+        return out
+
+    def blocks(self, ev: Evaluation) -> dict[str, list[Block]]:
+        """Residual blocks by energy term: ``edit``, ``singularity``, ``regularization``."""
+        out: dict[str, list[Block]] = {"edit": [], "singularity": [], "regularization": []}
+        for term, _, block in self.labelled(ev):
+            out[term].append(block)
+        return out
+
+    def gradients(self, v: np.ndarray) -> dict[str, np.ndarray]:
+        """∂E/∂v (n,) of each part of the energy at ``v``, by the names of :meth:`labelled`."""
+        ev = self.evaluate(v, tangents=True)
+        out: dict[str, np.ndarray] = {}
+        for _, label, (r, D, cols) in self.labelled(ev):
+            assert D is not None  # evaluated with tangents
+            keep = cols >= 0
+            g = np.bincount(cols[keep], weights=(D * r[:, None])[keep], minlength=self.var.n)
+            out[label] = out.get(label, 0.0) + g
+        return out
 
     def _symmetry(self, ev: Evaluation) -> Block:
         s = np.sqrt(1e6 * self.weights[0]) / self.size

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from linkedit.edit import bfgs, gauss_newton
+from linkedit.edit.bfgs import BfgsResult as SolverResult
 from linkedit.edit.feasibility import failure
 from linkedit.edit.steps import check as check_steps
 from linkedit.edit.objectives import Problem, build_problem
@@ -25,6 +26,43 @@ from linkedit.planar.plan import Plan, compile_plan
 from linkedit.planar.simulate import DEFAULT_SAMPLES, Motion, motor_input, motor_phases, motor_turn, simulate
 from linkedit.spec.edit_script import EditScript, Operation
 from linkedit.spec.linkage import LinkageSpec, LinkTrack
+
+
+#: A goal is met when its error is at most this fraction of the linkage's size L (the largest
+#: extent of its rest pose): a displaced point's distance to its target, a transform's RMS over
+#: its joints, a curve's RMS from its target (preserve, retarget, drag, follow), an envelope's
+#: largest excess.
+GOAL_TOLERANCE = 0.01
+
+#: Fractions of the script's regularization weight tried in turn, each from the last result,
+#: while a goal is not met: the regularization must not hold back a goal that can be reached.
+RELAXED = (1e-2, 1e-4, 0.0)
+
+
+@dataclass
+class Goal:
+    """One goal of an operation: its error (spec units) before and after, against ``tolerance``."""
+
+    name: str  # its label: ``displace C``, ``preserve foot``, ``transform``, ``envelope``
+    measure: str  # what the error is: ``from its target``, ``RMS from its target``, ``outside the box``
+    before: float
+    error: float
+    tolerance: float
+    units: str
+    held_back_by: str | None = None  # the part of the energy that holds it back, where one does
+
+    @property
+    def met(self) -> bool:
+        return self.error <= self.tolerance
+
+    def describe(self) -> str:
+        u = self.units
+        text = (f"{self.name}: {self.error:.3g} {u} {self.measure} (from {self.before:.3g} {u}; tolerance "
+                f"{self.tolerance:.3g} {u}, {GOAL_TOLERANCE:.0%} of the linkage's size)")
+        if self.held_back_by is not None:
+            the = "the " if self.held_back_by in ("singularity barrier", "regularization", "symmetry") else ""
+            text += f", held back by {the}{self.held_back_by}"
+        return text
 
 
 @dataclass
@@ -40,14 +78,25 @@ class OperationReport:
     energy: list[float]
     before: dict[str, float]
     after: dict[str, float]
-    unmet: list[str] = field(default_factory=list)  # goals the result does not meet, readable
+    goals: list[Goal] = field(default_factory=list)
+    regularization: float = 0.0  # μ_r of the result kept: the script's, or relaxed (:data:`RELAXED`)
     targets: dict[str, np.ndarray] = field(default_factory=dict)  # label → (T, 2) target curve
     discarded: bool = False  # its result did not pass the final check
     stalled: bool = False  # the solver stopped for slow progress, not converged
 
     @property
+    def unmet(self) -> list[str]:
+        """The goals the result does not meet, readable."""
+        return [g.describe() for g in self.goals if not g.met]
+
+    @property
     def goals_met(self) -> bool:
-        return not self.unmet
+        return all(g.met for g in self.goals)
+
+    @property
+    def barrier_active(self) -> bool:
+        """Whether the result lies in some triangle's barrier band."""
+        return self.after.get("energy singularity", 0.0) > 0.0
 
 
 @dataclass
@@ -57,7 +106,12 @@ class EditResult:
     operations: list[OperationReport]
     before: Motion  # the original, as ``simulate`` gives it
     after: Motion  # the edited spec, as ``simulate`` gives it
-    warnings: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)  # unmet goals first, then a near-toggle result
+
+    @property
+    def goals_met(self) -> bool:
+        """Every goal of every operation kept is met (:data:`GOAL_TOLERANCE`)."""
+        return all(op.goals_met for op in self.operations if not op.discarded)
 
 
 class EditFailed(MechanismError):
@@ -96,34 +150,39 @@ def _probes(linkage: LinkageSpec, script: EditScript) -> tuple[LinkageSpec, list
     return (linkage.model_copy(update={"tracks": tracks}) if len(tracks) > len(linkage.tracks) else linkage), names
 
 
-def _unmet(op: Operation, problem: Problem, before: dict[str, float], after: dict[str, float]) -> list[str]:
-    """Goals the result misses: a displacement not even half-way there, a target curve left
-    further than 10 % of its size, an envelope excess not halved."""
-    out = []
-    tiny = 1e-9 * problem.size
-    for d in problem.displacements:
-        key = f"{d.label} error"
-        if d.label.startswith("transform") or before[key] <= tiny:
-            continue
-        if after[key] > 0.5 * before[key] and after[key] > tiny:
-            out.append(f"{d.label}: moved less than half-way (still {after[key]:.4g} of {before[key]:.4g} away)")
-    moved = [d for d in problem.displacements if d.label.startswith("transform")]
+def _goals(problem: Problem, before: dict[str, float], after: dict[str, float], units: str) -> list[Goal]:
+    """Every goal of the operation with its error before and after (see :data:`GOAL_TOLERANCE`)."""
+    tol = GOAL_TOLERANCE * problem.size
+    out = [Goal(tr.label, "RMS from its target", before[f"{tr.label} RMS"], after[f"{tr.label} RMS"], tol, units)
+           for tr in problem.tracking]
+    out += [Goal(d.label, "from its target", before[f"{d.label} error"], after[f"{d.label} error"], tol, units)
+            for d in problem.displacements if not d.label.startswith("transform")]
+    moved = [f"{d.label} error" for d in problem.displacements if d.label.startswith("transform")]
     if moved:
-        rms = [float(np.sqrt(np.mean([e[f"{d.label} error"] ** 2 for d in moved]))) for e in (before, after)]
-        if rms[1] > 0.5 * rms[0] and rms[1] > tiny:
-            out.append(f"transform: its joints moved less than half-way (RMS {rms[1]:.4g} of {rms[0]:.4g} away)")
-    for tr in problem.tracking:
-        key = f"{tr.label} RMS"
-        if tr.label.startswith("preserve") or before[key] <= tiny:
-            continue
-        if after[key] > 0.1 * tr.size:
-            out.append(f"{tr.label}: {after[key]:.4g} RMS from its target, more than 10 % of the curve's size {tr.size:.4g}")
-        elif after[key] > 0.5 * before[key] and after[key] > tiny:
-            out.append(f"{tr.label}: less than half-way to its target (RMS {after[key]:.4g} from {before[key]:.4g})")
+        rms = [float(np.sqrt(np.mean([e[k] ** 2 for k in moved]))) for e in (before, after)]
+        out.append(Goal("transform", "RMS from their targets (its joints)", rms[0], rms[1], tol, units))
     key = "envelope max excess"
-    if key in after and after[key] > 0.5 * before[key] and after[key] > tiny:
-        out.append(f"envelope: still {after[key]:.4g} outside (from {before[key]:.4g})")
+    if key in after:
+        out.append(Goal("envelope", "outside the box", before[key], after[key], tol, units))
     return out
+
+
+def _hold_back(problem: Problem, v: np.ndarray, goals: list[Goal]) -> None:
+    """Name, for every unmet goal, the part of the energy that pulls against it the most, when
+    that part balances at least half of the goal's own gradient at ``v``."""
+    unmet = [g for g in goals if not g.met]
+    if not unmet:
+        return
+    grads = problem.gradients(v)
+    for g in unmet:
+        own = grads[g.name]
+        norm2 = float(own @ own)
+        if norm2 <= 0.0:
+            continue
+        shares = {k: -float(h @ own) / norm2 for k, h in grads.items() if k != g.name}
+        name = max(shares, key=lambda k: shares[k], default=None)
+        if name is not None and shares[name] >= 0.5:
+            g.held_back_by = name
 
 
 def _check(plan: Plan, spec: LinkageSpec, samples: int, arm: complex | None) -> tuple[Motion | None, str | None]:
@@ -150,16 +209,19 @@ def replan(plan: Plan, spec: LinkageSpec) -> Plan:
     return compile_plan(spec) if plan.steps else plan.rebased(spec)
 
 
-def _warnings(motion: Motion, eps: float) -> list[str]:
+def _warnings(operations: list[OperationReport], motion: Motion, eps: float) -> list[str]:
+    """Every unmet goal of the operations kept, then a result within ``eps``/10 of a toggle
+    (``motion``: the final check's)."""
+    out = [f"{op.name}: goal not met: {text}" for op in operations if not op.discarded for text in op.unmet]
     worst = motion.min_singularity()
     if worst is not None and worst[0] < eps / 10:
-        return [f"joint {worst[1]} comes within d_s = {worst[0]:.3g} of its toggle position at motor angle "
-                f"{worst[2]:.1f}° (below singularity_epsilon/10 = {eps / 10:.3g}): it works, but only just"]
-    return []
+        out.append(f"joint {worst[1]} comes within d_s = {worst[0]:.3g} of its toggle position at motor angle "
+                   f"{worst[2]:.1f}° (below singularity_epsilon/10 = {eps / 10:.3g}): it works, but only just")
+    return out
 
 
-def _solve(script: EditScript, problem: Problem, op: Operation, tick: Callable[[int, float], None]):
-    v0 = np.zeros(problem.var.n)
+def _solve(script: EditScript, problem: Problem, op: Operation, tick: Callable[[int, float], None],
+           v0: np.ndarray):
     if script.solver == "bfgs":  # in units of the mechanism's size, so that it is unit-free too
         L = problem.size
 
@@ -167,10 +229,55 @@ def _solve(script: EditScript, problem: Problem, op: Operation, tick: Callable[[
             e, g, ev = problem.energy(L * u)
             return e, (None if g is None else L * g), ev
 
-        result = bfgs.minimize(energy, v0, max_iterations=op.max_iterations, max_step=0.1, callback=tick)
+        result = bfgs.minimize(energy, v0 / L, max_iterations=op.max_iterations, max_step=0.1, callback=tick)
         result.x = L * result.x
         return result
     return gauss_newton.minimize(problem, v0, max_iterations=op.max_iterations, callback=tick)
+
+
+def _relaxed(script: EditScript, problem: Problem, op: Operation, tick: Callable[[int, float], None],
+             before: dict[str, float], units: str) -> tuple[SolverResult, float, list[Goal], tuple[int, int, int]]:
+    """Solve ``problem`` with the script's regularization μ_r. Where the regularization is what
+    holds a goal back (:func:`_hold_back`), solve again from there with μ_r relaxed in steps
+    (:data:`RELAXED`) and keep the most relaxed result that meets every goal; else the first.
+    ``before``: :meth:`Problem.errors` at the start. Returns (result, its μ_r, its goals,
+    (iterations, evaluations, rejected steps) of every solve)."""
+    me, ms, mu = problem.weights
+    result = best = _solve(script, problem, op, tick, np.zeros(problem.var.n))
+    spent = np.array([result.iterations, result.evaluations, result.rejected])
+    goals = _goals(problem, before, problem.errors(result.x), units)
+    _hold_back(problem, result.x, goals)
+    best_mu, best_goals = mu, goals
+    if mu > 0.0 and any(g.held_back_by == "regularization" for g in goals if not g.met):
+        for factor in RELAXED:
+            problem.weights = (me, ms, factor * mu)
+            trial = _solve(script, problem, op, tick, result.x)
+            spent += (trial.iterations, trial.evaluations, trial.rejected)
+            trial.history = result.history + trial.history
+            now = _goals(problem, before, problem.errors(trial.x), units)
+            if all(g.met for g in now):
+                best, best_mu, best_goals = trial, factor * mu, now
+            elif not any(n.error < 0.99 * g.error for g, n in zip(goals, now) if not g.met):
+                break  # relaxing it further does not bring the goals closer
+            result, goals = trial, now
+    problem.weights = (me, ms, best_mu)
+    return best, best_mu, best_goals, (int(spent[0]), int(spent[1]), int(spent[2]))
+
+
+def _fine_min_ds(reports: list[OperationReport], kept: int, motion: Motion, earlier: list[LinkageSpec],
+                 plan: Plan, fine: int) -> None:
+    """Report min d_s as the final check measures it (``fine`` samples): ``motion`` is the kept
+    result's (after operation ``kept``), ``earlier`` the rest poses before it (the original first)."""
+    def least(m: Motion) -> float:
+        worst = m.min_singularity()
+        return 1.0 if worst is None else worst[0]
+
+    ds = [least(simulate(replan(plan, spec), fine, partial=True)) for spec in earlier] + [least(motion)]
+    for n, report in enumerate(reports[:kept + 1]):
+        if "min d_s" in report.before:
+            report.before["min d_s"] = ds[n]
+            if n < kept:
+                report.after["min d_s"] = ds[n + 1]
 
 
 def run_script(linkage: LinkageSpec, script: EditScript,
@@ -207,18 +314,17 @@ def run_script(linkage: LinkageSpec, script: EditScript,
             if progress is not None:
                 progress(label, it, e)
 
-        result = _solve(script, problem, op, tick)
+        solved, mu, goals, spent = _relaxed(script, problem, op, tick, before, linkage.units)
         seconds = time.perf_counter() - start
-        x = var.rest(result.x)
+        x = var.rest(solved.x)
         accepted.append(x.copy())
-        after = problem.errors(result.x)
+        after = problem.errors(solved.x)
         targets = {tr.label: np.column_stack([tr.target.real, tr.target.imag]) for tr in problem.tracking
                    if not tr.label.startswith("preserve")}
-        reports.append(OperationReport(name=name, iterations=result.iterations, evaluations=result.evaluations,
-                                       rejected_steps=result.rejected, seconds=seconds, converged=result.converged,
-                                       stalled=result.stalled,
-                                       energy=result.history, before=before, after=after,
-                                       unmet=_unmet(op, problem, before, after), targets=targets))
+        reports.append(OperationReport(name=name, iterations=spent[0], evaluations=spent[1], rejected_steps=spent[2],
+                                       seconds=seconds, converged=solved.converged, stalled=solved.stalled,
+                                       energy=solved.history, before=before, after=after, goals=goals,
+                                       regularization=mu, targets=targets))
 
     fine = 4 * T
     g = out_plan.graph
@@ -228,15 +334,17 @@ def run_script(linkage: LinkageSpec, script: EditScript,
     for k in range(len(accepted) - 1, -1, -1):
         edited = with_rest_pose(linkage, out_plan, accepted[k], note)
         motion, why = _check(out_plan, edited, fine, arm)
-        if why is None:
+        if motion is not None and why is None:
+            _fine_min_ds(reports, k, motion, [with_rest_pose(linkage, out_plan, a, note) for a in accepted[:k]],
+                         out_plan, fine)
+            for report in reports[k:]:
+                report.discarded = True
             after_motion = simulate(replan(out_plan, edited), linkage.samples or DEFAULT_SAMPLES)
             result = EditResult(original=linkage, edited=edited if k else linkage, operations=reports,
                                 before=before_motion, after=after_motion,
-                                warnings=_warnings(after_motion, script.singularity_epsilon))
+                                warnings=_warnings(reports, motion, script.singularity_epsilon))
             if k == len(accepted) - 1:
                 return result
-            for report in reports[k:]:
-                report.discarded = True
             kept = f"kept the linkage as it was after operation {reports[k - 1].name!r}" if k else \
                 "kept the original linkage unchanged"
             raise EditFailed(f"the result of operation {reports[-1].name!r} does not work at {fine} samples "

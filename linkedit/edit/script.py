@@ -1,0 +1,45 @@
+"""An edit script read and checked against its linkage, from a file, a dict or a model.
+
+The CLI and the Python API (``le.edit``) read scripts through :func:`read_script` and check
+them with :meth:`Script.check`, so both raise the same :class:`~linkedit.errors.InputError`
+(``file:line: field: what is wrong``) for a name the linkage does not have.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from linkedit.errors import InputError
+from linkedit.spec.edit_script import EditScript, check_against
+from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.yamlload import LineMap, load_yaml, validate
+
+
+@dataclass
+class Script:
+    """A validated script, the file it came from ('' for a dict or a model) and its lines."""
+
+    script: EditScript
+    file: str = ""
+    lines: LineMap = field(default_factory=LineMap)
+
+    def check(self, linkage: LinkageSpec) -> None:
+        """Every name against ``linkage`` (:func:`check_against`); the error located in the file."""
+        try:
+            check_against(self.script, linkage)
+        except InputError as exc:
+            exc.file, exc.line = (self.file or None), (self.lines.line_of(exc.field) if self.file else None)
+            raise
+
+
+def read_script(source: str | Path | Mapping[str, Any] | EditScript) -> Script:
+    """A script from a YAML path, a dict (as the YAML would load) or an :class:`EditScript`."""
+    if isinstance(source, EditScript):
+        return Script(source)
+    if isinstance(source, Mapping):
+        return Script(validate(EditScript, dict(source), file=""))
+    data, lines = load_yaml(source)
+    return Script(validate(EditScript, data, file=str(source), lines=lines), str(source), lines)

@@ -1,0 +1,69 @@
+"""What an edit's report says about the edited linkage: the transmission angle as ``validate``
+checks it, the smallest d_s as the final check (4× the samples) measures it, and a stall blamed
+on the barrier only where the barrier acts."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from linkedit.planar import catalog
+from tests.test_edit_trust import EDITS, Edited, linkage_file, term, write
+
+
+def test_an_edit_that_pushes_a_transmission_angle_out_of_band_warns_as_validate_does(run_cli, tmp_path):
+    cr = catalog.crank_rocker()  # transmission 44°…100° at B
+    p = linkage_file(tmp_path, cr)
+    e = Edited(run_cli, tmp_path, p, write(tmp_path, "s.yaml", {"samples": 60, "lock": ["O", "D"], "operations": [
+        {"displace": {"joint": "B", "to": [110, 20]}}]}))
+    assert e.result.exit_code == 0, e.output
+    # the worst angle at B of the edited linkage, from its re-simulated joints (angle A-B-D)
+    joints = e.resimulated(run_cli, 360)["joints"]
+    names = list(cr.joints)
+    a, b, d = (joints[:, names.index(n)] for n in "ABD")
+    u, w = a - b, d - b
+    angle = np.degrees(np.arccos(np.sum(u * w, axis=1) / np.linalg.norm(u, axis=1) / np.linalg.norm(w, axis=1)))
+    assert angle.min() < 20.0
+    validate = json.loads(run_cli("validate", e.yaml, "--json").stdout)["result"][0]["warnings"]
+    (mine,) = [w for w in json.loads(e.output)["warnings"] if "transmission" in w]
+    assert mine.startswith(validate[0]) and "44.4° before the edit" in mine
+    assert f"{angle.min():.1f}°" in mine
+
+
+def test_the_reported_min_ds_is_the_final_checks(run_cli, tmp_path):
+    jansen = catalog.jansen_leg()
+    p = linkage_file(tmp_path, jansen)
+    e = Edited(run_cli, tmp_path, p, write(tmp_path, "s.yaml", {"samples": 24, "lock": ["O"], "operations": [
+        {"preserve": ["foot"], "displace": {"joint": "C", "to": [-20, 36]}}]}))
+    assert e.result.exit_code == 0, e.output
+    sim = run_cli("simulate", e.yaml, "-o", tmp_path / "fine.h5", "--samples", "96", "--json")
+    fine = json.loads(sim.stdout)["result"][0]["min_singularity"]["value"]
+    reported = term(e.report["operations"][0], "min d_s")
+    assert abs(reported["after"] - fine) <= 1e-9
+    before = json.loads(run_cli("simulate", p, "-o", tmp_path / "b.h5", "--samples", "96", "--json").stdout)
+    assert abs(reported["before"] - before["result"][0]["min_singularity"]["value"]) <= 1e-9
+
+
+def test_a_stall_names_the_barrier_only_where_it_acts(run_cli, tmp_path):
+    # Hoekens retargeted with its pivots locked: the goal cannot be reached, the solver creeps
+    # on with the barrier far away (every d_s above ε)
+    p = linkage_file(tmp_path, catalog.hoekens())
+    s = write(tmp_path, "s.yaml", {"samples": 120, "lock": ["O"], "weights": {"regularization": 0}, "operations": [
+        {"retarget": {"track": "tracer", "scale": [1.3, 1.3]}}]})
+    e = Edited(run_cli, tmp_path, p, s, "--best-effort")
+    op = e.report["operations"][0]
+    assert op["stalled"], e.output
+    assert term(op, "energy singularity")["after"] == 0.0
+    status = run_cli("edit", p, s, "-o", tmp_path / "o2", "--best-effort").output.splitlines()[0]
+    assert "stalled" in status and "barrier" not in status
+
+
+
+def test_a_stall_at_the_barrier_names_it(run_cli, tmp_path):
+    e = Edited(run_cli, tmp_path, None, EDITS / "jansen-toggle.yaml", "--best-effort")
+    op = e.report["operations"][0]
+    assert op["stalled"] and term(op, "energy singularity")["after"] > 0.0
+    human = run_cli("edit", EDITS / "jansen-toggle.yaml", "-o", tmp_path / "o2", "--best-effort").output
+    assert "stalled: slow progress, along the barrier's edge" in human
+    assert "warning: pull D towards the toggle: goal not met: displace D" in human
