@@ -118,18 +118,35 @@ ATTACKS = {"external link to a FIFO": (external_fifo, "external link"),
            "sparse 10^10 rows": (sparse, "/tracks/foot/position")}
 
 
-@pytest.mark.parametrize("attack", ATTACKS, ids=list(ATTACKS))
-@pytest.mark.parametrize("command", ["plot", "features", "compare-curves", "synthesize"])
-def test_a_linked_or_sparse_track_is_refused_in_one_line(planar, tmp_path, attack, command):
-    change, words = ATTACKS[attack]
-    bad = mutated(planar, tmp_path, change)
-    args = {"plot": ["plot", bad, "-o", tmp_path / "p.svg"],
+def reading(command: str, bad: Path, tmp_path: Path) -> list:
+    return {"plot": ["plot", bad, "-o", tmp_path / "p.svg"],
             "features": ["features", f"{bad}:foot", "-o", tmp_path / "f.csv"],
             "compare-curves": ["compare-curves", "--query", f"{bad}:foot", "--library",
                                EXAMPLES / "curves" / "foot-paths.yaml", "-o", tmp_path / "r.csv"],
             "synthesize": ["synthesize", f"{bad}:foot", "--atlas", tmp_path / "none.h5", "-o", tmp_path / "syn"]}[command]
-    r = run(*args)
-    one_line(r, bad, words)
+
+
+COMMANDS = ["plot", "features", "compare-curves", "synthesize"]
+
+
+@pytest.mark.parametrize("attack", ["external link to a FIFO", "virtual dataset from a FIFO"])
+@pytest.mark.parametrize("command", COMMANDS)
+def test_a_track_behind_a_fifo_is_refused_without_waiting_for_it(planar, tmp_path, attack, command):
+    change, words = ATTACKS[attack]
+    bad = mutated(planar, tmp_path, change)
+    one_line(run(*reading(command, bad, tmp_path)), bad, words)
+    assert not (tmp_path / "p.svg").exists() and not (tmp_path / "f.csv").exists()
+
+
+@pytest.mark.parametrize("attack", [a for a in ATTACKS if "FIFO" not in a])
+@pytest.mark.parametrize("command", COMMANDS)
+def test_a_linked_or_sparse_track_is_refused_in_one_line(run_cli, planar, tmp_path, attack, command):
+    change, words = ATTACKS[attack]
+    bad = mutated(planar, tmp_path, change)
+    r = run_cli(*reading(command, bad, tmp_path))
+    assert r.exit_code == 2 and "Traceback" not in r.output, r.output
+    line = [ln for ln in r.output.splitlines() if str(bad) in ln]
+    assert len(line) == 1 and words in line[0], r.output
     assert not (tmp_path / "p.svg").exists() and not (tmp_path / "f.csv").exists()
 
 
