@@ -94,7 +94,7 @@ def load(path: str | Path) -> Motion:
 
     The spec stored in the file is compiled again; the arrays are the file's, sample for sample.
     """
-    from linkedit.io.hdf5 import open_result
+    from linkedit.io.h5read import open_result
     from linkedit.planar.plan import compile_plan
     from linkedit.planar.simulate import Track
     from linkedit.spec.yamlload import validate
@@ -102,15 +102,20 @@ def load(path: str | Path) -> Motion:
     with open_result(path, kind="planar") as f:
         import yaml
 
-        spec = validate(LinkageSpec, yaml.safe_load(f.attrs["spec"]), file=f"{path}:/spec")
+        spec = validate(LinkageSpec, yaml.safe_load(f.attr("spec")), file=f"{path}:/spec")
         plan = compile_plan(spec)
-        tracks = {n: Track(position=g["position"][()], velocity=g["velocity"][()], acceleration=g["acceleration"][()])
-                  for n, g in f["tracks"].items()}
-        d = f["diagnostics"]
-        return Motion(plan=plan, t=f["t"][()], motor_angle=f["motor_angle"][()], positions=f["joints/position"][()],
-                      velocity=f["joints/velocity"][()], acceleration=f["joints/acceleration"][()], tracks=tracks,
-                      singularity=d["singularity"][()], orientation=d["orientation"][()],
-                      transmission=d["transmission_angle"][()], assembled=np.asarray(d["assembled"][()], dtype=bool))
+        t = f.array("t", shape=(None,))
+        T, J, R = t.size, plan.n_joints, len(plan.rules)
+        tracks = {n: Track(*(f.array(f"tracks/{n}/{q}", shape=(T, 2)) for q in ("position", "velocity", "acceleration")))
+                  for n in f.names("tracks")}
+        joints = [f.array(f"joints/{q}", shape=(T, J, 2)) for q in ("position", "velocity", "acceleration")]
+        d = "diagnostics"
+        return Motion(plan=plan, t=t, motor_angle=f.array("stroke" if plan.linear else "motor_angle", shape=(T,)),
+                      positions=joints[0], velocity=joints[1], acceleration=joints[2], tracks=tracks,
+                      singularity=f.array(f"{d}/singularity", shape=(T, R)),
+                      orientation=f.array(f"{d}/orientation", shape=(T, R), kinds="iu"),
+                      transmission=f.array(f"{d}/transmission_angle", shape=(T, R)),
+                      assembled=f.array(f"{d}/assembled", shape=(T,), kinds="biu").astype(bool))
 
 
 def edit(spec: SpecLike, script: str | Path | Mapping[str, Any] | Any) -> Any:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import typer
@@ -30,6 +31,8 @@ def register(app: typer.Typer) -> None:
 
         if track is not None and joint is not None:
             raise InputError("give --track or --joint, not both", field="--joint")
+        if rpm is not None and not (math.isfinite(rpm) and rpm > 0.0):
+            raise InputError(f"must be a finite speed above 0, got {rpm:g}", field="--rpm")
         if per_second != (rpm is not None):
             raise InputError("--per-second and --rpm go together (derivatives per second at that speed)", field="--rpm")
         out = output if output is not None else result.with_name(f"{result.stem}-plot.svg")

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from linkedit.errors import InputError
-from linkedit.spec.yamlload import read_text, require_regular_file
+from linkedit.spec.yamlload import read_text
 
 HDF5_SUFFIXES = (".h5", ".hdf5")
 YAML_SUFFIXES = (".yaml", ".yml")
@@ -123,22 +123,20 @@ def _split_track(text: str) -> tuple[Path, str | None]:
 
 
 def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = None) -> list[Curve]:
-    """Tracks of a result file; ``names=None`` reads all of them (of an edit result: before and after)."""
-    import h5py
+    """Tracks of a result file; ``names=None`` reads all of them (of an edit result: before and after).
+    Read guarded (:mod:`linkedit.io.h5read`): no links followed, sizes checked before reading."""
+    from linkedit.io.h5read import open_result
 
-    require_regular_file(path)
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise InputError(f"cannot open as HDF5: {exc}", file=str(path)) from None
-    with f:
-        edit = f.attrs.get("kind") == "edit" or "tracks" not in f and all(s in f for s in EDIT_STAGES)
-        groups = {s: f.get(f"{s}/tracks") for s in EDIT_STAGES} if edit else {"": f.get("tracks")}
+    with open_result(path, ours=False) as f:
+        edit = f.attr("kind", default=None) == "edit" or not f.has("tracks") and all(f.has(s) for s in EDIT_STAGES)
+        stages = EDIT_STAGES if edit else ("",)
         expected = "/before/tracks/<name>/position and /after/..." if edit else "/tracks/<name>/position"
-        if not all(isinstance(g, h5py.Group) and len(g) for g in groups.values()):
+        groups = {s: f"{s}/tracks" if s else "tracks" for s in stages}
+        if not all(f.has(g) and f.names(g) for g in groups.values()):
             raise InputError(f"no tracks in this file (expected {expected})", file=str(path))
-        available = sorted(next(iter(groups.values())))
-        units = f.attrs.get("units")
+        available = sorted(f.names(groups[stages[0]]))
+        units = f.attr("units", default=None)
+        linear = f.attr("input", default=None) == "linear"
         if names is None:
             chosen = [f"{s}/{n}" for s in EDIT_STAGES for n in available] if edit else available
         else:
@@ -150,27 +148,28 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
                 raise InputError(f"{key!r}: " + (f"unknown stage {stage!r} (use before/ or after/)" if edit else
                                                   "before/ and after/ select a stage of an edit result; this file "
                                                   "is not one"), file=str(path))
-            group = groups[stage]
             base = (stage, "tracks", name) if stage else ("tracks", name)
-            if name not in group:
+            if name not in f.names(groups[stage]):
                 raise InputError(f"unknown track {name!r}; the file has: {', '.join(available)}", file=str(path),
                                  field=base)
             field = base + ("position",)
-            data = group[name].get("position")
-            if (not isinstance(data, h5py.Dataset) or data.ndim != 2 or data.shape[1] not in (2, 3)
-                    or data.dtype.kind not in "fiu"):
+            where = "/".join(field)
+            data = f.dataset(where)
+            if data.ndim != 2 or data.shape[1] not in (2, 3) or data.dtype.kind not in "fiu":
                 raise InputError("expected a (T, 2) or (T, 3) dataset of real numbers", file=str(path), field=field)
-            points = np.asarray(data[()], dtype=float)
+            points = np.asarray(f.array(where), dtype=float)
             bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
             if bad.size:
                 raise InputError(f"{bad.size} samples are not finite (first at sample {bad[0]}; did the "
                                  f"mechanism lock up?)", file=str(path), field=field)
-            phase = f.get(f"{stage}/t" if stage else "t")
+            phase = f"{stage}/t" if stage else "t"
             times = None
-            if isinstance(phase, h5py.Dataset) and phase.shape == (len(points),) and f.attrs.get("input") != "linear":
-                times = np.asarray(phase[()], dtype=float)  # fractions of a revolution: one cycle takes 1
+            if not linear and f.has(phase):
+                ds = f.dataset(phase)
+                if ds.shape == (len(points),) and ds.dtype.kind in "fiu":
+                    times = np.asarray(f.array(phase), dtype=float)  # fractions of a revolution: one cycle takes 1
             out.append(make_curve(f"{path.stem}:{key}", points, closed=closed, origin=f"{path}:{key}",
-                                  file=str(path), field=field, units=None if units is None else str(units),
+                                  file=str(path), field=field, units=units,
                                   times=times, period=1.0 if times is not None else None))
     return out
 

@@ -208,42 +208,48 @@ def datasets(res: GcsResult) -> list[Entry]:
 
 
 def read_result(path: str | Path) -> GcsResult:
-    """Read a kind="gcs" result file."""
-    from linkedit.io.hdf5 import open_result, strings
+    """Read a kind="gcs" result file, guarded (:mod:`linkedit.io.h5read`)."""
+    from linkedit.io.h5read import open_result
 
     with open_result(path, kind=KIND) as f:
+        names = f.strings("member") if f.has("member") else f.strings("members/names")  # format 2, 1
         try:
-            names = strings(f["member"] if "member" in f else f["members/names"])  # format 2, 1
             points, lines = {}, {}
             for name in names:
-                g = f[f"members/shapes/{name}"]
-                pts = g["points"][()]
-                points[name] = dict(zip(json.loads(g["points"].attrs["names"]), pts))
-                lines[name] = json.loads(g.attrs["lines"])
-            d = f["diagnostics"]
-            diag = Diagnostics(status=d["status"][()], residual=d["residual"][()], dof=d["dof"][()],
-                               redundant=d["redundant"][()], costs=f["constraints/cost"][()],
-                               unsatisfied=[[x for x in s.split(", ") if x] for s in strings(d["unsatisfied"])],
-                               dof_evaluated=d["dof_evaluated"][()].astype(bool),
-                               redundant_names=json.loads(d.attrs.get("redundant_constraints", "[]")))
+                where = f"members/shapes/{name}"
+                pts = f.array(f"{where}/points", shape=(None, 3))
+                points[name] = dict(zip(json.loads(f.attr("names", f"{where}/points")), pts))
+                lines[name] = json.loads(f.attr("lines", where))
+            d = "diagnostics"
+            diag = Diagnostics(status=f.array(f"{d}/status", kinds="iu"),
+                               residual=f.array(f"{d}/residual"), dof=f.array(f"{d}/dof", kinds="iu"),
+                               redundant=f.array(f"{d}/redundant", kinds="iu"),
+                               costs=f.array("constraints/cost"),
+                               unsatisfied=[[x for x in s.split(", ") if x] for s in f.strings(f"{d}/unsatisfied")],
+                               dof_evaluated=f.array(f"{d}/dof_evaluated", kinds="biu").astype(bool),
+                               redundant_names=json.loads(f.attr("redundant_constraints", d, default="[]")))
             tracks = {}
-            for name, g in f["tracks"].items():
-                tracks[name] = Track3D(member=str(g.attrs["member"]), point=np.asarray(g.attrs["point"]),
-                                       position=g["position"][()], velocity=g["velocity"][()],
-                                       cyclic=bool(g.attrs["cyclic"]))
-            options = json.loads(f.attrs["options"])
+            for name in f.names("tracks"):
+                g = f"tracks/{name}"
+                tracks[name] = Track3D(member=f.attr("member", g),
+                                       point=np.asarray(f.group(g).attrs["point"], dtype=float),
+                                       position=f.array(f"{g}/position"), velocity=f.array(f"{g}/velocity"),
+                                       cyclic=f.attr("cyclic", g, kind=bool))
+            options = json.loads(f.attr("options"))
             rule = options.get("velocity", "exact") if isinstance(options, dict) else "exact"
+            accel = f.has("members/acceleration")
             res = GcsResult(
-                name=str(f.attrs["name"]), units=str(f.attrs["units"]), t=f["t"][()], member_names=names,
-                position=f["members/position"][()], orientation=f["members/orientation"][()],
-                velocity=np.concatenate([f["members/velocity"][()], f["members/angular_velocity"][()]], axis=-1),
-                acceleration=np.concatenate([f["members/acceleration"][()], f["members/angular_acceleration"][()]],
-                                            axis=-1) if "acceleration" in f["members"] else None,
+                name=f.attr("name"), units=f.attr("units"), t=f.array("t", shape=(None,)), member_names=names,
+                position=f.array("members/position"), orientation=f.array("members/orientation"),
+                velocity=np.concatenate([f.array("members/velocity"), f.array("members/angular_velocity")], axis=-1),
+                acceleration=np.concatenate([f.array("members/acceleration"), f.array("members/angular_acceleration")],
+                                            axis=-1) if accel else None,
                 velocity_rule=str(rule),
-                periodic=bool(f["members"].attrs["periodic"]),
-                constraint_names=strings(f["constraint"] if "constraint" in f else f["constraints/names"]), constraint_inputs=f["constraints/is_input"][()],
-                diagnostics=diag, iterations=d["iterations"][()], points=points, lines=lines, tracks=tracks,
-                spec_text=str(f.attrs["spec"]), options=options)
+                periodic=f.attr("periodic", "members", kind=bool),
+                constraint_names=f.strings("constraint") if f.has("constraint") else f.strings("constraints/names"),
+                constraint_inputs=f.array("constraints/is_input", kinds="biu"),
+                diagnostics=diag, iterations=f.array(f"{d}/iterations", kinds="iu"), points=points,
+                lines=lines, tracks=tracks, spec_text=f.attr("spec"), options=options)
         except KeyError as exc:
             raise InputError(f"not a complete gcs result: missing {exc}", file=str(path)) from None
         except (ValueError, TypeError, AttributeError) as exc:  # e.g. options or lines that are not JSON

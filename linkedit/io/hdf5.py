@@ -1,4 +1,6 @@
-"""HDF5 conventions shared by every result kind: root attributes, atomic writing, strings."""
+"""HDF5 conventions shared by every result kind: root attributes, atomic writing, named dimensions.
+
+Reading is :mod:`linkedit.io.h5read` (guarded: no links followed, sizes checked first)."""
 
 from __future__ import annotations
 
@@ -13,9 +15,7 @@ import h5py
 import numpy as np
 
 from linkedit import __version__
-from linkedit.errors import InputError
 from linkedit.io.atomic import atomic_path
-from linkedit.spec.yamlload import require_regular_file
 
 FORMAT_VERSION = "1"
 
@@ -88,25 +88,3 @@ def write_entries(f: h5py.File, entries: Iterable[Entry]) -> None:
     for e in entries:
         extra = dict(e.attrs) | ({"units": e.units} if e.units is not None else {})
         put(f, e.path, e.data, dims=e.dims, description=e.description, **extra)
-
-
-def open_result(path: str | Path, kind: str | None = None) -> h5py.File:
-    """Open a linkedit result for reading; InputError if it is not one (or not of ``kind``)."""
-    require_regular_file(path)
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise InputError(f"cannot open as HDF5: {exc}", file=str(path)) from None
-    if "format_version" not in f.attrs:
-        f.close()
-        raise InputError("not a linkedit result file (no format_version attribute)", file=str(path))
-    if kind is not None and f.attrs.get("kind") != kind:
-        found = f.attrs.get("kind")
-        f.close()
-        raise InputError(f"expected a {kind!r} result, found {found!r}", file=str(path))
-    return f
-
-
-def strings(dataset: h5py.Dataset) -> list[str]:
-    """Read a string dataset as a list of str."""
-    return [s.decode() if isinstance(s, bytes) else str(s) for s in dataset[()]]

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from linkedit.errors import InputError
-from linkedit.io.hdf5 import open_result, strings
+from linkedit.io.h5read import open_result
 from linkedit.io.svg_chart import Panel, chart
 
 #: the transmission angle a designer wants to stay in, degrees
@@ -26,12 +26,12 @@ GOOD_TRANSMISSION = (40.0, 140.0)
 
 @dataclass(frozen=True)
 class Kinematics:
-    """What the plot shows, read from a planar result: (T,) crank angle, (T, 2) arrays, (T, D) dyads."""
+    """What the plot shows, read from a planar result: (T,) input from rest, (T, 2) arrays, (T, D) dyads."""
 
     name: str
     units: str
     point: str
-    crank_deg: np.ndarray
+    crank_deg: np.ndarray  #: (T,) crank angle from rest, degrees; a linear input's stroke, ``units``
     position: np.ndarray
     velocity: np.ndarray
     acceleration: np.ndarray
@@ -39,37 +39,62 @@ class Kinematics:
     dyad_joints: list[str]
     transmission_deg: np.ndarray
     singularity: np.ndarray
+    linear: bool = False  #: a linear input (a cylinder): derivatives per unit of stroke
+
+    @property
+    def input_label(self) -> str:
+        return f"stroke from rest ({self.units})" if self.linear else "crank angle from rest (°)"
 
 
 def read_kinematics(path: str | Path, *, track: str | None = None, joint: str | None = None) -> Kinematics:
     """Read a planar result (``specs/planar-hdf5.md``); the point is ``track`` or ``joint``
-    (default: the first track, else the motor joint)."""
+    (default: the first track, else the motor joint). Every dataset is checked against the
+    layout before it is read (:mod:`linkedit.io.h5read`)."""
     with open_result(path, kind="planar") as f:
-        names = strings(f["joint"] if "joint" in f else f["joints/names"])
-        tracks = list(f["tracks"])
+        t = f.array("t", shape=(None,))
+        T = t.size
+        if T == 0:
+            raise f.error("t", "no samples")
+        names = f.strings("joint") if f.has("joint") else f.strings("joints/names")
+        J = len(names)
+        tracks = f.names("tracks") if f.has("tracks") else []
         if track is not None and track not in tracks:
             raise InputError(f"no track {track!r} (tracks: {', '.join(tracks) or 'none'})", file=str(path), field="--track")
         if joint is not None and joint not in names:
             raise InputError(f"no joint {joint!r} (joints: {', '.join(names)})", file=str(path), field="--joint")
+        linear = f.attr("input", default="rotary") == "linear"
         if joint is None and track is None:
             track = tracks[0] if tracks else None
-            joint = None if track else names[int(f["joints"].attrs["motor"])]
+            if track is None:
+                motor = f.attr("motor", "joints", kind=int)
+                if not 0 <= motor < J:
+                    raise f.error("joints", f"attribute 'motor': joint {motor} of {J}")
+                joint = names[motor]
         if track is not None:
-            g = f[f"tracks/{track}"]
-            pos, vel, acc = g["position"][()], g["velocity"][()], g["acceleration"][()]
+            pos, vel, acc = (f.array(f"tracks/{track}/{q}", shape=(T, 2)) for q in ("position", "velocity", "acceleration"))
         else:
             k = names.index(str(joint))
-            pos, vel, acc = (f[f"joints/{q}"][:, k] for q in ("position", "velocity", "acceleration"))
-        angle = f["motor_angle"][()]
-        dyads = ~f["rules/rigid"][()]
-        rebuilt = [names[k] for k in f["rules/joints"][:, 2]]
-        alpha = f["diagnostics/transmission_angle"][()][:, dyads]
-        ds = f["diagnostics/singularity"][()][:, dyads]
-        ok = f["diagnostics/assembled"][()]
-        cyclic = bool(f["t"][-1] < 1.0) and angle.size > 2  # a full turn samples t = n/T; a sweep ends at 1
-        units, name = str(f.attrs["units"]), str(f.attrs.get("name", Path(path).stem))
-    crank = np.degrees(np.abs(np.unwrap(angle) - angle[0]))
-    step = float(np.abs(np.diff(np.unwrap(angle))).mean()) if angle.size > 1 else 1.0
+            pos, vel, acc = (f.array(f"joints/{q}", shape=(T, J, 2))[:, k] for q in ("position", "velocity", "acceleration"))
+        angle = f.array("stroke" if linear else "motor_angle", shape=(T,))
+        rigid = f.array("rules/rigid", shape=(None,), kinds="b")
+        R = rigid.size
+        ijk = f.array("rules/joints", shape=(R, 3), kinds="iu").astype(np.int64)
+        if R and not ((ijk >= 0) & (ijk < J)).all():
+            raise f.error("rules/joints", f"joint indices outside 0…{J - 1}")
+        dyads = ~rigid
+        rebuilt = [names[k] for k in ijk[:, 2]]
+        alpha = f.array("diagnostics/transmission_angle", shape=(T, R))[:, dyads]
+        ds = f.array("diagnostics/singularity", shape=(T, R))[:, dyads]
+        ok = f.array("diagnostics/assembled", shape=(T,), kinds="biu").astype(bool)
+        cyclic = bool(t[-1] < 1.0) and T > 2  # a full turn samples t = n/T; a sweep ends at 1
+        units, name = f.attr("units"), f.attr("name", default=Path(path).stem)
+    if linear:
+        crank = np.abs(angle - angle[0])
+        step = float(np.abs(np.diff(angle)).mean()) if T > 1 else 1.0
+    else:
+        crank = np.degrees(np.abs(np.unwrap(angle) - angle[0]))
+        step = float(np.abs(np.diff(np.unwrap(angle))).mean()) if T > 1 else 1.0
+    step = step if step > 0.0 else 1.0
     if cyclic and ok.all():
         jerk = (np.roll(acc, -1, axis=0) - np.roll(acc, 1, axis=0)) / (2.0 * step)
     else:
@@ -78,7 +103,7 @@ def read_kinematics(path: str | Path, *, track: str | None = None, joint: str | 
     return Kinematics(name=name, units=units, point=str(track or joint), crank_deg=crank, position=pos,
                       velocity=vel, acceleration=acc, jerk=jerk,
                       dyad_joints=[n for n, d in zip(rebuilt, dyads) if d], transmission_deg=alpha,
-                      singularity=np.where(ok[:, None], ds, np.nan))
+                      singularity=np.where(ok[:, None], ds, np.nan), linear=linear)
 
 
 def worst_transmission(k: Kinematics) -> list[tuple[str, float, float]]:
@@ -99,11 +124,13 @@ def worst_transmission(k: Kinematics) -> list[tuple[str, float, float]]:
 def kinematics_svg(k: Kinematics, *, rpm: float | None = None) -> str:
     """The plot (see module docstring); with ``rpm`` the derivatives are per second."""
     u = k.units
+    if rpm is not None and k.linear:
+        raise InputError("a linear input has no rpm: its derivatives are per unit of stroke", field="--rpm")
     if rpm is not None:
         w = rpm * 2.0 * math.pi / 60.0
         scales, per = (w, w ** 2, w ** 3), ("/s", "/s²", "/s³")
     else:
-        scales, per = (1.0, 1.0, 1.0), ("/rad", "/rad²", "/rad³")
+        scales, per = (1.0, 1.0, 1.0), (f"/{u}", f"/{u}²", f"/{u}³") if k.linear else ("/rad", "/rad²", "/rad³")
     panels = [Panel(f"position ({u})", name="position")]
     panels[0].line(f"{k.point} x", k.position[:, 0])
     panels[0].line(f"{k.point} y", k.position[:, 1])
@@ -122,4 +149,4 @@ def kinematics_svg(k: Kinematics, *, rpm: float | None = None) -> str:
         tp.marks = [(x, a, f"{j} {a:.1f}°") for j, a, x in worst_transmission(k)]
         panels += [tp, ds]
     speed = f", {rpm:g} rpm" if rpm is not None else ""
-    return chart(k.crank_deg, panels, xlabel="crank angle from rest (°)", title=f"{k.name}: {k.point}{speed}")
+    return chart(k.crank_deg, panels, xlabel=k.input_label, title=f"{k.name}: {k.point}{speed}")
