@@ -22,11 +22,11 @@ demo: $(VENV)/.installed
 	@echo "linkedit is installed in $(VENV)/: run 'source $(VENV)/bin/activate' (or call $(BIN)/linkedit), then e.g. 'linkedit validate examples/klann.yaml'"
 
 test: $(VENV)/.installed-test
-	$(BIN)/python -m mypy linkedit
+	$(BIN)/python -m mypy linkedit tests/notebook_types.py
 	$(BIN)/python -m pytest -q
 
 test-all: $(VENV)/.installed-test
-	$(BIN)/python -m mypy linkedit
+	$(BIN)/python -m mypy linkedit tests/notebook_types.py
 	$(BIN)/python -m pytest -q -m ''
 
 bench: $(VENV)/.installed

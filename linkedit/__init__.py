@@ -17,7 +17,7 @@ In a notebook::
 """
 
 import types
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
@@ -35,9 +35,12 @@ class _EditPackage(types.ModuleType):
         return run(spec, script)
 
 
-from linkedit import edit  # noqa: E402  (its __init__ imports nothing: stays light)
+if TYPE_CHECKING:  # what a type checker sees: the notebook functions, typed (imported lazily at run time)
+    from linkedit.notebook import Motion, edit, features, load, load_spec, simulate, solve3d  # noqa: F401
+else:
+    from linkedit import edit  # its __init__ imports nothing: stays light
 
-edit.__class__ = _EditPackage
+    edit.__class__ = _EditPackage
 
 
 def __getattr__(name: str) -> Any:

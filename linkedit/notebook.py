@@ -14,8 +14,12 @@ from typing import Any
 
 import numpy as np
 
+from linkedit.edit.runner import EditResult
+from linkedit.gcs.result import GcsResult
 from linkedit.planar.simulate import Motion as _Motion
+from linkedit.spec.edit_script import EditScript
 from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.mechanism3d import MechanismSpec
 
 SpecLike = str | Path | LinkageSpec
 
@@ -63,6 +67,27 @@ class Motion(_Motion):
                   "rule": [plan.joint_names[k] for k in plan.rules[:, 2]]}
         return xr.Dataset({k: xr.Variable(*v) for k, v in data.items()}, coords=coords,
                           attrs={"name": plan.spec.name, "units": plan.spec.units})
+
+
+class Edit(EditResult):
+    """An edit's result (:class:`linkedit.edit.runner.EditResult`) that shows its overlay in a
+    notebook: before faint, after solid, targets dashed (the picture ``linkedit edit`` writes)."""
+
+    script: EditScript | None = None
+
+    def _repr_svg_(self) -> str:
+        from linkedit.io.edit_picture import edit_picture
+
+        return edit_picture(None, self, self.script)
+
+
+class Solution(GcsResult):
+    """A solved 3D run (:class:`linkedit.gcs.result.GcsResult`) that shows its picture in a notebook."""
+
+    def _repr_svg_(self) -> str:
+        from linkedit.io.gcs_svg import draw
+
+        return draw(None, self)
 
 
 def _notebook(m: _Motion) -> Motion:
@@ -118,7 +143,7 @@ def load(path: str | Path) -> Motion:
                       assembled=f.array(f"{d}/assembled", shape=(T,), kinds="biu").astype(bool))
 
 
-def edit(spec: SpecLike, script: str | Path | Mapping[str, Any] | Any) -> Any:
+def edit(spec: SpecLike, script: str | Path | Mapping[str, Any] | EditScript) -> Edit:
     """Apply an edit script (YAML path, dict or :class:`~linkedit.spec.edit_script.EditScript`) to a linkage.
 
     Returns the :class:`~linkedit.edit.runner.EditResult` (``edited`` spec, ``before``/``after``
@@ -132,20 +157,23 @@ def edit(spec: SpecLike, script: str | Path | Mapping[str, Any] | Any) -> Any:
     linkage = load_spec(spec)
     read = read_script(script)
     read.check(linkage)
-    return run_script(linkage, read.script)
+    result = run_script(linkage, read.script)
+    out = Edit(**{f.name: getattr(result, f.name) for f in dataclasses.fields(result)})
+    out.script = read.script
+    return out
 
 
-def solve3d(spec: str | Path | Any, *, steps: int | None = None, solver: str = "lm") -> Any:
+def solve3d(spec: str | Path | MechanismSpec, *, steps: int | None = None, solver: str = "lm") -> Solution:
     """Solve a 3D mechanism (YAML path or :class:`~linkedit.spec.mechanism3d.MechanismSpec`) at every step.
 
-    Returns the :class:`~linkedit.gcs.result.GcsResult`.
+    Returns a :class:`Solution` (a :class:`~linkedit.gcs.result.GcsResult` that draws itself).
     """
     from linkedit.gcs import solve_spec
-    from linkedit.spec.mechanism3d import MechanismSpec
     from linkedit.spec.yamlload import load_model
 
     model = spec if isinstance(spec, MechanismSpec) else load_model(MechanismSpec, spec)
-    return solve_spec(model, steps=steps, solver=solver)
+    res = solve_spec(model, steps=steps, solver=solver)
+    return Solution(**{f.name: getattr(res, f.name) for f in dataclasses.fields(res)})
 
 
 def features(*curves: str, samples: int | None = None, harmonics: int | None = None) -> Any:

@@ -54,6 +54,25 @@ def test_features_edit_and_solve3d(tmp_path, run_cli):
     assert result.position.shape[0] == 8
 
 
+def svg_root(text: str) -> ET.Element:
+    root = ET.fromstring(text.split("?>", 1)[-1])
+    assert root.tag.endswith("svg")
+    return root
+
+
+def test_results_print_one_line_and_draw_themselves():
+    """A cell showing a result prints a summary line (it printed 134 KB for an edit, 28 KB for a 3D
+    run), and Jupyter draws the picture the CLI writes (``_repr_svg_``)."""
+    m = le.simulate(EXAMPLES / "jansen.yaml", 72)
+    e = le.edit(EXAMPLES / "jansen.yaml", EXAMPLES / "edits" / "jansen-move-knee.yaml")
+    s = le.solve3d(EXAMPLES / "3d" / "crank-rocker.yaml", steps=19)
+    for result, words in ((m, ("jansen-leg", "72 samples")), (e, ("operation", "goal")), (s, ("19 steps", "converged 19"))):
+        text = repr(result)
+        assert len(text) < 200 and "\n" not in text and "array" not in text, text
+        assert all(w in text for w in words), text
+        assert svg_root(result._repr_svg_()).findall(".//{http://www.w3.org/2000/svg}path"), type(result)
+
+
 def test_edit_from_a_notebook(run_cli, tmp_path):
     import yaml
 

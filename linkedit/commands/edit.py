@@ -95,6 +95,7 @@ def register(app: typer.Typer) -> None:
         from linkedit.edit.runner import EditFailed, run_script
         from linkedit.io.atomic import commit, write_text
         from linkedit.io.edit_hdf5 import write_edit
+        from linkedit.io.edit_picture import edit_picture
         from linkedit.spec.linkage_yaml import dump_linkage
         from linkedit.spec.yamlload import read_text
 
@@ -119,7 +120,7 @@ def register(app: typer.Typer) -> None:
         write_edit(h5, result, script_text=read_text(script_path),
                    linkage_text=read_text(spec_path), edited_text=edited_text,
                    options={"spec": str(spec_path), "script": str(script_path), "best_effort": best_effort})
-        _overlay(svg, result, parsed)
+        edit_picture(svg, result, parsed)
         report({"spec": str(spec_path), "script": str(script_path), "edited": str(edited_yaml),
                 "output": str(h5), "svg": str(svg), "operations": [_report_json(o) for o in result.operations]},
                exit_code=0 if failure is None else failure.exit_code,
@@ -130,37 +131,6 @@ def register(app: typer.Typer) -> None:
         if failure is not None:
             commit()  # the last working linkage is a result too: keep it for inspection
             raise failure
-
-
-def _overlay(path: Path, result: Any, script: Any) -> None:
-    """Before faint, after solid, target curves dashed, the (last) envelope box drawn."""
-    from linkedit.io.planar_svg import drawing
-    from linkedit.io.svg import edit_overlay
-
-    targets = {label: curve for op in result.operations for label, curve in op.targets.items()}
-    boxes = [op.envelope for op in script.operations if op.envelope is not None]
-    envelope = (boxes[-1].xmin, boxes[-1].xmax, boxes[-1].ymin, boxes[-1].ymax) if boxes else None
-    edit_overlay(path, before=drawing(result.before), after=drawing(result.after), targets=targets,
-                 envelope=envelope, units=result.original.units, title=f"{result.original.name}: edit",
-                 displacements=_displacements(result, script))
-
-
-def _displacements(result: Any, script: Any) -> list[tuple[str, Any, Any]]:
-    """(label, where the point was, its target) of every displace goal of the script."""
-    before = result.before
-    names = before.plan.joint_names
-    out = []
-    for op in script.operations:
-        for d in op.listed("displace"):
-            when = d.when
-            if d.joint is not None:
-                j = names.index(d.joint)
-                old = (result.original.joints[d.joint] if when is None
-                       else before.positions[int(round(when * before.t.size)) % before.t.size, j])
-            else:
-                old = d.at if when is None else None
-            out.append((d.label, old, d.to))
-    return out
 
 
 class _Progress:

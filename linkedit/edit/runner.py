@@ -99,8 +99,10 @@ class OperationReport:
         return self.after.get("energy singularity", 0.0) > 0.0
 
 
-@dataclass
+@dataclass(repr=False)
 class EditResult:
+    """An edit: the spec before and after, a report per operation, and the motions of both."""
+
     original: LinkageSpec
     edited: LinkageSpec
     operations: list[OperationReport]
@@ -112,6 +114,11 @@ class EditResult:
     def goals_met(self) -> bool:
         """Every goal of every operation kept is met (:data:`GOAL_TOLERANCE`)."""
         return all(op.goals_met for op in self.operations if not op.discarded)
+
+    def __repr__(self) -> str:
+        goals = "every goal met" if self.goals_met else "goals NOT met"
+        return (f"<{type(self).__name__} {self.original.name!r}: {len(self.operations)} operation(s), {goals}, "
+                f"{len(self.warnings)} warning(s)>")
 
 
 class EditFailed(MechanismError):

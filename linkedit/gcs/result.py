@@ -36,7 +36,7 @@ class Track3D:
     cyclic: bool
 
 
-@dataclass
+@dataclass(repr=False)
 class GcsResult:
     """Member states, tracks and diagnostics of a solved run (T steps, M members, C constraints)."""
 
@@ -80,6 +80,12 @@ class GcsResult:
         track = Track3D(member=member, point=np.asarray(point, dtype=float), position=p, velocity=v, cyclic=closed)
         self.tracks[name] = track
         return track
+
+    def __repr__(self) -> str:
+        s = self.summary()
+        status = ", ".join(f"{n.replace('_', ' ')} {c}" for n, c in s["status"].items() if c)
+        return (f"<{type(self).__name__} {self.name!r}: {s['steps']} steps, {s['members']} members, "
+                f"{s['constraints']} constraints; {status}>")
 
     def summary(self) -> dict[str, Any]:
         """Counts and ranges for ``--json``; a non-finite number is None (JSON has no NaN or inf)."""

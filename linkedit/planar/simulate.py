@@ -33,7 +33,7 @@ class Track:
     acceleration: np.ndarray
 
 
-@dataclass
+@dataclass(repr=False)
 class Motion:
     """A simulated cycle. T samples, J joints, R rules (see ``plan.rules``)."""
 
@@ -76,6 +76,14 @@ class Motion:
             joint = plan.joint_names[plan.steps[watched[r - n_dyads]].joints[0]]
         where = self.motor_angle[t] if plan.linear else np.degrees(self.motor_angle[t])
         return float(ds[t, r]), joint, float(where)
+
+    def __repr__(self) -> str:
+        s = self.summary()
+        worst = s.get("min_singularity")
+        ds = f", min d_s {worst['value']:.3g} at {worst['joint']}" if worst else ""
+        locks = f", {len(self.lockups)} lock-up(s)" if self.lockups else ""
+        return (f"<{type(self).__name__} {s['name']!r}: {s['samples']} samples, {s['joints']} joints, "
+                f"{s['rules']} rules{ds}{locks}>")
 
     def summary(self) -> dict:
         """Key figures for printing or JSON."""
