@@ -476,3 +476,36 @@ def test_an_unreadable_spec_is_one_line_for_a_user_without_override():
         assert r.returncode == 2, r.stderr
         assert "not readable" in r.stderr and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
         assert not (Path(folder) / "o.h5").exists()
+
+
+@pytest.mark.parametrize("command, example, old, new, where", [
+    ("validate", "jansen.yaml", "joints:", "jionts:", "jionts: unknown field (not part of this format); did you mean 'joints'?"),
+    ("validate", "invalid/locking-slider-crank.yaml", "{joint: A, pivot: O}", "{joint: A, pviot: O}",
+     "motor.pviot: unknown field (not part of this format); did you mean 'pivot'?"),
+    ("validate", "invalid/locking-slider-crank.yaml", "piston: {joint: B}", "piston: {jiont: B}",  # a union member's field
+     "tracks.piston.jiont: unknown field (not part of this format); did you mean 'joint'?"),
+    ("validate", "lengths/jansen.yaml", "length: 15}", "lenght: 15}",
+     "links.crank.lenght: unknown field (not part of this format); did you mean 'length'?"),
+    ("edit", "edits/jansen-move-knee.yaml", "displace: {joint: C,", "displace: {jont: C,",
+     "operations[0].displace.jont: unknown field (not part of this format); did you mean 'joint'?"),
+    ("solve3d", "3d/crank-rocker.yaml", "other_point: a}", "othr_point: a}",  # tagged by its type: pin
+     "constraints.crank_coupler.othr_point: unknown field (not part of this format); did you mean 'other_point'?"),
+    ("solve3d", "3d/crank-rocker.yaml", "angles_deg: [0, 360]", "angle_deg: [0, 360]",
+     "inputs.drive.rotation.angle_deg: unknown field (not part of this format); did you mean 'angles_deg'?"),
+    ("validate", "jansen.yaml", "units: mm", "units: mm\ncolour: red",  # nothing close: no guess
+     "colour: unknown field (not part of this format)"),
+    ("validate", "jansen.yaml", "tracks:", "tracks:\n  ankle: {joint: F, jiont: G}",  # 'joint' is given already
+     "tracks.ankle.jiont: unknown field (not part of this format)"),
+])
+def test_a_misspelt_key_gets_a_did_you_mean(run_cli, tmp_path, command, example, old, new, where):
+    text = (EXAMPLES / example).read_text()
+    assert old in text
+    path = tmp_path / Path(example).name
+    path.write_text(text.replace(old, new, 1))
+    if example.startswith("edits/"):
+        shutil.copy(EXAMPLES / "jansen.yaml", tmp_path / "jansen.yaml")
+        path.write_text(path.read_text().replace("../jansen.yaml", "jansen.yaml"))
+    line = 1 + path.read_text().splitlines().index(next(ln for ln in path.read_text().splitlines()
+                                                        if new.splitlines()[-1] in ln))
+    assert _one_line(run_cli(command, path, "-o", tmp_path / "out") if command != "validate"
+                     else run_cli(command, path), 2) == f"linkedit: error: {path}:{line}: {where}"
