@@ -101,3 +101,16 @@ def test_quiet_prints_the_errors_and_nothing_else(run_cli, tmp_path):
                  ("simulate", EXAMPLES / "crank-rocker.yaml", "-n", "12", "-o", tmp_path / "c.h5")]:
         r = run_cli(*args, "-q")
         assert (r.exit_code, r.output) == (0, ""), args
+
+
+def test_the_readme_option_error_is_what_the_cli_says(run_cli, monkeypatch):
+    """The errors table's example of a bad option is the CLI's own line (it went stale once: ``≥ 8``)."""
+    import shlex
+
+    from tests.conftest import ROOT
+
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    command, message = re.search(r"an option: `linkedit ([^`]+)` says `([^`]+)`", readme).groups()
+    monkeypatch.chdir(ROOT)
+    r = run_cli(*shlex.split(command))
+    assert (r.exit_code, r.stderr) == (2, f"linkedit: error: {message}\n")
