@@ -12,6 +12,7 @@ import pytest
 
 from linkedit import __version__
 from linkedit.cli import app
+from tests.conftest import EXAMPLES
 
 
 def _commands() -> list[str]:
@@ -75,3 +76,41 @@ def test_json_keys_have_no_spaces(run_cli, tmp_path):
         r = run_cli(*args, "--json")
         assert r.exit_code == 0, r.output
         assert [k for k in _keys(json.loads(r.stdout)) if " " in k.rsplit("/", 1)[1]] == [], args[0]
+
+
+def test_quiet_prints_the_errors_and_nothing_else(run_cli, tmp_path):
+    """-q: nothing on stdout, and each failure still one ``linkedit: error:`` line on stderr that names it."""
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\njoints: [\n")
+    locking = EXAMPLES / "invalid" / "locking-slider-crank.yaml"
+    failures = [
+        (("validate", locking), 1, "locking-slider-crank.yaml: locks up: the linkage cannot be assembled for motor "
+                                   "angles 221.0°…319.0°: slider piston cannot place joint B"),
+        (("validate", EXAMPLES / "crank-rocker.yaml", bad), 2, "bad.yaml:3: malformed YAML"),
+        (("simulate", locking, "-o", tmp_path / "l.h5"), 1, "slider piston cannot place joint B"),
+        (("simulate", EXAMPLES / "crank-rocker.yaml", "--samples", "0"), 2, "--samples: must be ≥ 1"),
+        (("features", EXAMPLES / "curves" / "foot-paths.yaml", bad), 2, "bad.yaml:3: malformed YAML"),
+        (("atlas", "build", "--family", "nosuch", "-n", "10", "-o", tmp_path / "a.h5"), 2, "unknown family 'nosuch'"),
+    ]
+    for args, code, message in failures:
+        r = run_cli(*args, "-q")
+        assert (r.exit_code, r.stdout) == (code, ""), (args, r.output)
+        lines = r.stderr.splitlines()
+        assert len(lines) == 1 and lines[0].startswith("linkedit: error: ") and message in lines[0], (args, lines)
+    for args in [("validate", EXAMPLES / "crank-rocker.yaml", "-n", "12"),
+                 ("simulate", EXAMPLES / "crank-rocker.yaml", "-n", "12", "-o", tmp_path / "c.h5")]:
+        r = run_cli(*args, "-q")
+        assert (r.exit_code, r.output) == (0, ""), args
+
+
+def test_the_readme_option_error_is_what_the_cli_says(run_cli, monkeypatch):
+    """The errors table's example of a bad option is the CLI's own line (it went stale once: ``≥ 8``)."""
+    import shlex
+
+    from tests.conftest import ROOT
+
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    command, message = re.search(r"an option: `linkedit ([^`]+)` says `([^`]+)`", readme).groups()
+    monkeypatch.chdir(ROOT)
+    r = run_cli(*shlex.split(command))
+    assert (r.exit_code, r.stderr) == (2, f"linkedit: error: {message}\n")

@@ -243,6 +243,7 @@ def test_a_pin_whose_axis_points_the_other_way_is_rebuilt_too():
     _assert_same(on.position, on.orientation, off, system.length_scale)
 
 
+@pytest.mark.slow  # ~25 s: pins what the waves' rebuild returns (the poses: test_a_dyad_driven_past_its_reach…)
 def test_a_block_whose_first_step_cannot_be_rebuilt_is_left_to_the_continuation():
     """The crank-rocker's rocker driven past its reach: a block starting where the crank–coupler
     dyad cannot close has no pose to screen or solve (none is rebuilt); the waves say so and the

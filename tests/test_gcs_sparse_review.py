@@ -53,7 +53,7 @@ def _factorizations(monkeypatch) -> list[int]:
     return count
 
 
-@pytest.mark.parametrize("pairs", [3, 10])
+@pytest.mark.parametrize("pairs", [3, pytest.param(10, marks=pytest.mark.slow)])  # 10 pairs: ~20 s, a count of factorizations
 def test_a_coarse_strandbeest_in_waves_factorizes_no_more_than_step_by_step(pairs, monkeypatch):
     """181 steps (2° each): many steps fail the acceptance test whole (the continuation
     sub-steps them); the waves factorize no pose in vain (it was 179 factorizations to keep 2
@@ -71,6 +71,7 @@ def test_a_coarse_strandbeest_in_waves_factorizes_no_more_than_step_by_step(pair
     assert np.abs(on.position - off.position).max() < 1e-9 * system.length_scale
 
 
+@pytest.mark.slow  # ~60 s: pins the solver's memory, not a result
 def test_a_long_sparse_run_in_waves_needs_memory_for_its_results_only():
     """The 3-pair Strandbeest: the traced peak memory (numpy's arrays included) of a run in
     waves grew by ~260 kB per step (the first block evaluated the whole run at once: 258 MB

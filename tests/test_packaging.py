@@ -45,3 +45,20 @@ def test_planar_simulate_does_not_import_scipy(tmp_path):
             f" '--svg', {str(tmp_path / 'j.svg')!r}]); print(r.exit_code, 'scipy' in sys.modules)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert r.stdout.split() == ["0", "False"]
+
+
+def test_no_private_typer_module_is_imported():
+    """typer's private modules come and go (``typer._click`` appeared in 0.26): importing one ties
+    linkedit to a narrower typer than pyproject.toml declares (with typer 0.15 ``linkedit --version``
+    raised ModuleNotFoundError)."""
+    import ast
+
+    private = []
+    for path in sorted((ROOT / "linkedit").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [f"{node.module}.{a.name}" for a in node.names]  # from typer import _click
+                     if isinstance(node, ast.ImportFrom) and node.module and not node.level else [])
+            private += [f"{path.relative_to(ROOT)}:{node.lineno}: {n}" for n in names
+                        if n.split(".")[0] == "typer" and any(p.startswith("_") for p in n.split(".")[1:])]
+    assert private == []

@@ -191,18 +191,26 @@ def test_atlas_build_cli(run_cli, tmp_path):
     assert other_seed.exit_code == 2 and "--seed 4" in other_seed.output
 
 
-def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path, monkeypatch):
-    """The same seed on a LocalCluster of 2 worker processes (through --scheduler) and in-process:
-    33 chunks, the last one partial, built two per Dask task."""
+@pytest.fixture(scope="module")
+def cluster():
+    """One local Dask cluster for this module's Dask tests (a cluster takes about 10 s to start)."""
     pytest.importorskip("dask.distributed")
+    with atlas.local_cluster(2) as cluster:  # what --workers 2 starts
+        yield cluster
+
+
+def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path, monkeypatch, cluster):
+    """The same seed on a LocalCluster of 2 worker processes (through --scheduler) and in-process:
+    33 chunks, the last one partial, built two per Dask task (chunks of 1,000: a chunk is a pure
+    function of its index and size, which the client sends; 10,000 took 30 s here)."""
+    monkeypatch.setattr(atlas, "CHUNK", 1000)
     count = str(32 * atlas.CHUNK + atlas.CHUNK // 2)
     assert [len(task) for task in atlas.dask_tasks(atlas.chunk_sizes(int(count)), 2)] == [2] * 16 + [1]
-    with atlas.local_cluster(2) as cluster:  # what --workers 2 starts
-        result = run_cli("atlas", "build", "--family", "four-bar", "-n", count, "-o",
-                         tmp_path / "dask.h5", "--seed", "8", "--scheduler", cluster.scheduler_address)
-        # workers the client cannot reach: their results come through the scheduler, the same
-        monkeypatch.setattr(atlas, "reaches", lambda client, address: False)
-        relayed = dict(atlas.run_chunks("four-bar", 8, atlas.chunk_sizes(2500), scheduler=cluster.scheduler_address))
+    result = run_cli("atlas", "build", "--family", "four-bar", "-n", count, "-o",
+                     tmp_path / "dask.h5", "--seed", "8", "--scheduler", cluster.scheduler_address)
+    # workers the client cannot reach: their results come through the scheduler, the same
+    monkeypatch.setattr(atlas, "reaches", lambda client, address: False)
+    relayed = dict(atlas.run_chunks("four-bar", 8, [(0, 2500)], scheduler=cluster.scheduler_address))
     assert result.exit_code == 0, result.output
     local = run_cli("atlas", "build", "--family", "four-bar", "-n", count, "-o", tmp_path / "local.h5", "--seed", "8")
     assert local.exit_code == 0, local.output
@@ -213,11 +221,10 @@ def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path, monkeypatc
         np.testing.assert_array_equal(getattr(relayed[0], key), getattr(atlas.build_chunk("four-bar", 8, 0, 2500), key))
 
 
-def test_a_dask_server_is_reached_or_not():
-    pytest.importorskip("dask.distributed")
+def test_a_dask_server_is_reached_or_not(cluster):
     from dask.distributed import Client
 
-    with atlas.local_cluster(1) as cluster, Client(cluster) as client:
+    with Client(cluster) as client:
         assert atlas.reaches(client, next(iter(client.nthreads())))
         assert not atlas.reaches(client, "tcp://127.0.0.1:1", timeout=0.5)  # nothing listens there
 

@@ -17,7 +17,6 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 import typer
-from typer._click import exceptions as usage  # typer's own copy of click's exceptions
 from typer.core import TyperGroup
 
 from linkedit.errors import InputError, LinkeditError
@@ -39,6 +38,18 @@ class _Mode:
 
 
 _MODE: ContextVar[_Mode] = ContextVar("linkedit_output_mode", default=_Mode())
+#: the running command's name as typed (``simulate``, ``atlas build``), set by :class:`OneLineErrors`
+_COMMAND: ContextVar[str] = ContextVar("linkedit_command", default="")
+
+#: click's usage-error classes, reached through typer's public ``BadParameter``: typer ≥ 0.26 runs on
+#: its own copy of click (a private module), older typers on click itself, so naming either module
+#: ties linkedit to one range of typer versions.
+_CLICK_EXCEPTION: Any = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+
+
+def _is(exc: BaseException, name: str) -> bool:
+    """Whether ``exc`` is (a subclass of) click's class ``name`` (by name: see ``_CLICK_EXCEPTION``)."""
+    return any(c.__name__ == name for c in type(exc).__mro__)
 
 
 def say(text: str = "", err: bool = False) -> None:
@@ -116,7 +127,7 @@ def guard(fn: F) -> F:
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        mode = _Mode(json=bool(kwargs.get("as_json")), quiet=bool(kwargs.get("quiet")), command=_command_path())
+        mode = _Mode(json=bool(kwargs.get("as_json")), quiet=bool(kwargs.get("quiet")), command=_COMMAND.get())
         token = _MODE.set(mode)
         try:
             return _run(*args, **kwargs)
@@ -157,14 +168,6 @@ def guard(fn: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
-def _command_path() -> str:
-    """The running command's name as typed: ``simulate``, ``atlas build``."""
-    from typer._click.globals import get_current_context  # typer's own copy of click
-
-    ctx = get_current_context(silent=True)
-    return " ".join(ctx.command_path.split()[1:]) if ctx is not None else ""
-
-
 def _quiet_stdout() -> None:
     """After the reader of stdout went away: send the rest (and the final flush) nowhere."""
     try:
@@ -202,50 +205,65 @@ def check_outputs(outputs: Iterable[tuple[str, Path | None]], inputs: Iterable[P
 
 class OneLineErrors(TyperGroup):
     """The command group: usage errors (unknown command or option, bad option value) are one line
-    ``linkedit: error: --samples: must be ≥ 8`` with exit 2, like every other input error."""
+    ``linkedit: error: --samples: must be ≥ 1`` with exit 2, like every other input error."""
 
     def main(self, args: Sequence[str] | None = None, prog_name: str | None = None, complete_var: str | None = None,
              standalone_mode: bool = True, windows_expand_args: bool = True, **extra: Any) -> Any:
+        words = list(sys.argv[1:] if args is None else args)
+        token = _COMMAND.set(self._command_in(words))
         try:
             code = super().main(args, prog_name, complete_var, standalone_mode=False,
                                 windows_expand_args=windows_expand_args, **extra)
-        except usage.NoArgsIsHelpError as exc:
-            exc.show()
-            code = exc.exit_code
-        except usage.ClickException as exc:
-            message = usage_message(exc)
-            typer.echo(f"linkedit: error: {message}", err=True)
-            code = exc.exit_code
-            words = list(sys.argv[1:] if args is None else args)
-            if "--json" in words and not {"--quiet", "-q"} & set(words):
-                first = next((w for w in words if not w.startswith("-")), "")
-                sub = getattr(self.commands.get(first), "commands", None)  # a group (atlas): add its command
-                rest = words[words.index(first) + 1:] if first else []
-                command = first + (f" {rest[0]}" if sub and rest and rest[0] in sub else "")
-                _print_report(command, None, code, [error_entry(message, code)])
+        except _CLICK_EXCEPTION as exc:
+            if _is(exc, "NoArgsIsHelpError"):  # click ≥ 8.2: a group without its command shows its help
+                exc.show()
+                code = exc.exit_code
+            else:
+                message = usage_message(exc)
+                typer.echo(f"linkedit: error: {message}", err=True)
+                code = exc.exit_code
+                if "--json" in words and not {"--quiet", "-q"} & set(words):
+                    _print_report(_COMMAND.get(), None, code, [error_entry(message, code)])
         except typer.Abort:
             typer.echo("linkedit: error: interrupted", err=True)
             code = 130
+        finally:
+            _COMMAND.reset(token)
         if not standalone_mode:
             return code
         sys.exit(code if isinstance(code, int) else 0)
 
 
-def usage_message(exc: usage.ClickException) -> str:
-    """One line for a click usage error: ``--samples: must be ≥ 8``, ``No such option: --x``."""
+    def _command_in(self, words: Sequence[str]) -> str:
+        """The command named in the command line's ``words``: ``simulate``, ``atlas build``."""
+        names = [w for w in words if not w.startswith("-")]
+        sub = getattr(self.commands.get(names[0]), "commands", None) if names else None  # a group (atlas)
+        return " ".join(names[:2] if sub and len(names) > 1 and names[1] in sub else names[:1])
+
+
+def usage_message(exc: Any) -> str:
+    """One line for a click usage error: ``--samples: must be ≥ 1``, ``No such option: --x``."""
     param = getattr(exc, "param", None)
-    if not isinstance(exc, usage.BadParameter) or isinstance(exc, usage.MissingParameter) \
-            or param is None or not param.opts:
+    if not isinstance(exc, typer.BadParameter) or _is(exc, "MissingParameter") or param is None or not param.opts:
         return " ".join(exc.format_message().split())
     name = sorted(param.opts, key=lambda o: (not o.startswith("--"), -len(o)))[0]
-    message = " ".join(exc.message.split())
-    for words, sign in _BOUNDS:
+    return f"{name}: {_bounds(' '.join(exc.message.split()))}"
+
+
+def _bounds(message: str) -> str:
+    """``must be ≥ 8`` for typer's words of a bound: pydantic's ``Input should be greater than or equal
+    to 8`` (typer ≥ 0.26) or click's ``7 is not in the range 8<=x<=4096.`` (older typers)."""
+    for words, sign in _WORDS:
         message = re.sub(rf"^Input should be {words} (\S+)$", rf"must be {sign} \1", message)
-    return f"{name}: {message}"
+    m = re.fullmatch(r"\S+ is not in the range (?:(\S+?)(<=|<))?x(?:(<=|<|>=|>)(\S+?))?\.?", message)
+    if m:
+        sides = ([f"{_SIGN[m[2].replace('<', '>')]} {m[1]}"] if m[1] else []) + ([f"{_SIGN[m[3]]} {m[4]}"] if m[3] else [])
+        message = "must be " + " and ".join(sides)
+    return message
 
 
-_BOUNDS = [("greater than or equal to", "≥"), ("less than or equal to", "≤"), ("greater than", ">"),
-           ("less than", "<")]
+_WORDS = [("greater than or equal to", "≥"), ("less than or equal to", "≤"), ("greater than", ">"), ("less than", "<")]
+_SIGN = {">=": "≥", "<=": "≤", ">": ">", "<": "<"}
 
 
 def print_json(data: Any) -> None:

@@ -198,9 +198,11 @@ def register(app: typer.Typer) -> None:
             reports.append({"spec": str(path)} | motion.summary() | {"grubler": plan.mobility.grubler,
                             "redundant": plan.mobility.redundant, "levels": levels,
                             "warnings": transmission_warnings(motion)})
-        for r in reports:  # a linkage that locks up is a mechanism failure (exit 1), named in the report
-            errors += [error_entry(f"locks up: {lk}", 1, file=r["spec"], source=r["spec"]) for lk in r.get("lockups", [])]
-            worst = max(worst, 1) if r.get("lockups") else worst
+        for r in reports:  # a linkage that locks up is a mechanism failure (exit 1): an error line, --quiet too
+            for lk in r.get("lockups", []):
+                typer.echo(f"linkedit: error: {r['spec']}: locks up: {lk}", err=True)
+                errors.append(error_entry(f"locks up: {lk}", 1, file=r["spec"], source=r["spec"]))
+                worst = max(worst, 1)
         report(reports, exit_code=worst, errors=errors)
         if not (as_json or quiet):
             for r in reports:

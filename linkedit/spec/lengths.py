@@ -27,6 +27,7 @@ import pydantic
 
 from linkedit.errors import InputError
 from linkedit.spec.common import Finite, Name, SpecModel, Vec2
+from linkedit.spec.yamlload import first_problem
 
 #: A positive finite length; ``true`` is not 1 (strict).
 Length = Annotated[Finite, pydantic.Field(gt=0)]
@@ -95,11 +96,7 @@ def _model(cls: type[SpecModel], value: Any, field: tuple[str | int, ...]) -> An
     try:
         return cls.model_validate(value)
     except pydantic.ValidationError as exc:
-        err = exc.errors(include_url=False)[0]
-        msg = err["msg"].removeprefix("Value error, ")
-        if err["type"] == "extra_forbidden":
-            msg = "unknown field (not part of this format)"
-        loc = tuple(p for p in err["loc"] if isinstance(p, (str, int)))
+        loc, msg = first_problem(cls, exc, value)
         raise InputError(msg, field=field + loc) from None
 
 

@@ -10,9 +10,12 @@ with a pydantic model and turns the first problem into one :class:`InputError` l
 
 from __future__ import annotations
 
+import difflib
 import os
 import re
 import stat
+import types
+import typing
 from pathlib import Path
 from typing import Any, TypeVar, cast
 
@@ -189,19 +192,76 @@ def _data_path(data: Any, loc: tuple) -> Path_:
     return tuple(out)
 
 
-def _first_problem(exc: pydantic.ValidationError, data: Any) -> tuple[Path_, str]:
-    err = exc.errors(include_url=False)[0]
+def first_problem(model: type[pydantic.BaseModel], exc: pydantic.ValidationError, data: Any) -> tuple[Path_, str]:
+    """The problem to report of ``exc`` (``model`` validating ``data``): its field path in the data and
+    what is wrong. A misspelt key (an unknown field close to one of its model's) comes first, with
+    ``did you mean 'joints'?``: the field it hides is reported missing too."""
+    errors = exc.errors(include_url=False)
+    typos = [(err, hint) for err in errors if err["type"] == "extra_forbidden"
+             for hint in [_hint(model, tuple(err["loc"]), data)] if hint]
+    err, hint = typos[0] if typos else (errors[0], "")
     loc = _data_path(data, tuple(err["loc"]))
     if err["type"] in ("missing", "extra_forbidden") and err["loc"]:
         loc = loc + (err["loc"][-1],) if loc[-1:] != (err["loc"][-1],) else loc
     msg = err["msg"]
     if err["type"] == "extra_forbidden":
-        msg = "unknown field (not part of this format)"
+        msg = "unknown field (not part of this format)" + hint
     elif err["type"] == "missing":
         msg = "required field is missing"
     elif msg.startswith("Value error, "):
         msg = msg[len("Value error, "):]
     return loc, msg
+
+
+def _hint(model: type[pydantic.BaseModel], loc: tuple, data: Any) -> str:
+    """``; did you mean 'joints'?`` for the unknown key at the end of ``loc``: the closest field of the
+    model(s) there that the data does not give already ("" if none is close)."""
+    given = data
+    for part in _data_path(data, loc[:-1]):
+        given = given[part]
+    types: list[Any] = [model]
+    for part in loc[:-1]:
+        types = [inner for t in types for inner in _inside(t, part)]
+    fields = {name for t in types for m in _members(t) if isinstance(m, type) and issubclass(m, pydantic.BaseModel)
+              for name in m.model_fields if not (isinstance(given, dict) and name in given)}
+    close = difflib.get_close_matches(str(loc[-1]), sorted(fields), n=1)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
+def _inside(typ: Any, part: str | int) -> list[Any]:
+    """The types inside ``typ`` that one step ``part`` of a pydantic error location leads to."""
+    members = _members(typ)
+    if isinstance(part, str) and "[" in part:  # a union member's tag such as 'list[float]'
+        return members
+    tagged = [m for m in members if isinstance(part, str) and _tagged(m, part)]
+    if tagged:  # a union member's tag: its class name, or its discriminator's value ('pin')
+        return tagged
+    out: list[Any] = []
+    for m in members:
+        if isinstance(m, type) and issubclass(m, pydantic.BaseModel) and part in m.model_fields:
+            out.append(m.model_fields[str(part)].annotation)
+        elif typing.get_origin(m) in (list, tuple) and isinstance(part, int):
+            out += [a for a in typing.get_args(m) if a is not Ellipsis]
+        elif typing.get_origin(m) is dict:
+            out.append(typing.get_args(m)[1])
+    return out
+
+
+def _tagged(typ: Any, tag: str) -> bool:
+    """Whether ``tag`` names the model ``typ`` in a union: its class name, or a ``Literal`` field's value."""
+    return isinstance(typ, type) and issubclass(typ, pydantic.BaseModel) and (typ.__name__ == tag or any(
+        typing.get_origin(f.annotation) is typing.Literal and tag in typing.get_args(f.annotation)
+        for f in typ.model_fields.values()))
+
+
+def _members(typ: Any) -> list[Any]:
+    """``typ`` without ``Annotated`` and ``Optional``, a union as its members."""
+    origin = typing.get_origin(typ)
+    if origin is typing.Annotated:
+        return _members(typing.get_args(typ)[0])
+    if origin in (typing.Union, types.UnionType):
+        return [m for a in typing.get_args(typ) for m in _members(a)]
+    return [typ]
 
 
 def validate(model: type[M], data: Any, *, file: str, lines: LineMap | None = None,
@@ -211,7 +271,7 @@ def validate(model: type[M], data: Any, *, file: str, lines: LineMap | None = No
     try:
         return model.model_validate(data, context=context)
     except pydantic.ValidationError as exc:
-        loc, msg = _first_problem(exc, data)
+        loc, msg = first_problem(model, exc, data)
         raise InputError(msg, file=file, line=lines.line_of(loc), field=loc) from None
     except InputError as exc:
         # semantic checks raise InputError(field=...) from inside validators
