@@ -76,14 +76,9 @@ def _write_features(out: Path, curves: list, desc: Any, options: dict[str, Any])
     if fmt == "json":
         write_out(out, json.dumps(rows, indent=2, allow_nan=False) + "\n")
     elif fmt == "csv":
-        import csv
-        import io
+        from linkedit.io.csv_table import csv_text
 
-        buf = io.StringIO()
-        writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
-        writer.writeheader()
-        writer.writerows(rows)
-        write_out(out, buf.getvalue())
+        write_out(out, csv_text(list(rows[0]), [list(r.values()) for r in rows]))
     else:
         _write_features_h5(out, curves, desc, options)
 
@@ -270,15 +265,9 @@ def _write_table(output: Path, kind: str, names: list[str], columns: list[str], 
     fmt = output_format(output, TABLE_FORMATS, stdout="csv")
     values = np.asarray(values, dtype=float)
     if fmt == "csv":
-        import csv
-        import io
+        from linkedit.io.csv_table import csv_text
 
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        w.writerow(["curve", *columns])
-        for name, row in zip(names, values):
-            w.writerow([name, *(repr(float(v)) for v in row)])
-        write_out(output, buf.getvalue())
+        write_out(output, csv_text(["curve", *columns], [[name, *row] for name, row in zip(names, values.tolist())]))
     elif fmt == "json":
         write_out(output, json.dumps({"curves": names, "columns": columns, "values": values.tolist()} | extra,
                                      indent=2, allow_nan=False) + "\n")
