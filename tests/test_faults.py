@@ -63,6 +63,8 @@ def test_a_killed_run_leaves_the_older_result_and_no_stray_file(tmp_path, older,
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=300)
     assert _samples(out) in (old, new), f"seed {seed}"
+    if sig != signal.SIGKILL:  # 128 + the signal, unless the run had finished (its new result in place)
+        assert proc.returncode == 128 + sig or (proc.returncode == 0 and _samples(out) == new), (seed, err)
     leftovers = sorted(p.name for p in tmp_path.iterdir() if p.name != "r.h5")
     if sig != signal.SIGKILL:
         assert leftovers == [], f"seed {seed}, delay {delay:.2f}s: {leftovers}; {err}"
@@ -70,3 +72,44 @@ def test_a_killed_run_leaves_the_older_result_and_no_stray_file(tmp_path, older,
     # the temporary file a killed run left is removed by the next run writing there
     subprocess.run(_linkedit(*args, old, "-o", out), check=True, capture_output=True, timeout=300)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.h5"]
+
+
+FINALIZER = """
+import os, signal, sys
+import linkedit.io.hdf5 as hdf5
+from linkedit.cli import main
+
+class Finalizer:  # like an h5py object freed while the signal arrives: its exception is "ignored"
+    def __del__(self):
+        os.kill(os.getpid(), signal.{sig})
+        for _ in range(100000):
+            pass
+
+put, fired = hdf5.put, []
+
+def put_once_interrupted(*args, **kwargs):
+    if not fired:
+        fired.append(True)
+        Finalizer()  # made and freed at once: the handler runs inside __del__
+    return put(*args, **kwargs)
+
+hdf5.put = put_once_interrupted
+sys.argv = ["linkedit", *sys.argv[1:]]
+main()
+"""
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=lambda s: s.name)
+def test_a_signal_landing_in_a_finalizer_still_interrupts_the_run(tmp_path, sig):
+    """A SIGINT/SIGTERM whose KeyboardInterrupt a finalizer swallows ("Exception ignored") still ends the
+    run with 128 + the signal, and the result is not written (it exited 0 with the file written)."""
+    out = tmp_path / "r.h5"
+    out.write_bytes(b"the older result")
+    r = subprocess.run([sys.executable, "-c", FINALIZER.format(sig=sig.name), "simulate",
+                        str(EXAMPLES / "crank-rocker.yaml"), "-n", "36", "-o", str(out)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 128 + sig, r.stderr
+    assert r.stderr.strip().splitlines()[-1] == "linkedit: error: interrupted"
+    assert out.read_bytes() == b"the older result"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.h5"]
+

@@ -8,6 +8,7 @@ import json
 import math
 import os
 import re
+import signal
 import sys
 import warnings
 from collections.abc import Callable, Iterable, Sequence
@@ -104,7 +105,8 @@ def guard(fn: F) -> F:
     """Run a command body: user errors become one line on stderr and an exit code, no traceback.
 
     * :class:`~linkedit.errors.InputError` → 2, :class:`~linkedit.errors.MechanismError` → 1;
-    * an unwritable output path (OSError) → 2; Ctrl-C or SIGTERM → 130;
+    * an unwritable output path (OSError) → 2; Ctrl-C → 130, SIGTERM → 143 (even when a finalizer
+      swallowed the KeyboardInterrupt: :func:`linkedit.io.atomic.check_interrupt`);
     * a closed pipe on stdout (``| head``) → a quiet exit 0;
     * with ``--json`` (a parameter ``as_json``) the error is also the run's JSON report on stdout,
       and ``--quiet`` (``quiet``) silences :func:`say` (see ``specs/cli-json.md``).
@@ -129,16 +131,20 @@ def guard(fn: F) -> F:
             _MODE.reset(token)
 
     def _run(*args: Any, **kwargs: Any) -> Any:
-        from linkedit.io.atomic import terminate_as_interrupt, together
+        from linkedit.io.atomic import check_interrupt, interruptible, together
 
         try:
-            with terminate_as_interrupt(), warnings.catch_warnings(), together():
+            with interruptible(), warnings.catch_warnings(), together():
                 warnings.simplefilter("ignore", RuntimeWarning)
+                chosen: typer.Exit | None = None
                 try:
-                    return fn(*args, **kwargs)
+                    result = fn(*args, **kwargs)
                 except typer.Exit as exc:  # an exit code the command chose (a batch where some failed)
                     chosen = exc          # after writing what succeeded: keep that
-            raise chosen
+                check_interrupt()  # a signal whose KeyboardInterrupt a finalizer swallowed
+            if chosen is not None:
+                raise chosen
+            return result
         except BrokenPipeError:
             _quiet_stdout()
             raise typer.Exit(0) from None
@@ -151,8 +157,8 @@ def guard(fn: F) -> F:
             filename = getattr(exc, "filename", None)
             report(None, exit_code=2, errors=[error_entry(message, 2, file=None if filename is None else str(filename))])
             raise fail(message, 2) from None
-        except KeyboardInterrupt:
-            raise fail("interrupted", 130) from None
+        except KeyboardInterrupt as exc:
+            raise fail("interrupted", 128 + getattr(exc, "signum", signal.SIGINT)) from None
 
     return wrapper  # type: ignore[return-value]
 

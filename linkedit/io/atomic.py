@@ -1,7 +1,7 @@
 """Atomic file writes: write to a temporary file beside the target, then rename.
 
 An interrupted or failed run never leaves a half-written result in place, and never a stray
-temporary file after an error, Ctrl-C or SIGTERM (see :func:`terminate_as_interrupt`). Inside
+temporary file after an error, Ctrl-C or SIGTERM (see :func:`interruptible`). Inside
 :func:`together`, the renames wait until the whole block succeeds, so the outputs of one run
 appear together or not at all. Only regular files (or new paths) are ever replaced: a device
 node, a FIFO or a folder at the target is an error, not something to rename over.
@@ -66,11 +66,7 @@ def together() -> Iterator[None]:
     if outer is not None:
         outer.extend(pending)
         return
-    try:
-        for tmp, target in pending:
-            _replace(tmp, target)
-    finally:
-        _discard(pending)
+    _commit(pending)
 
 
 def commit() -> None:
@@ -78,12 +74,20 @@ def commit() -> None:
     writing results it wants kept, e.g. an edit that stops at its last working linkage)."""
     pending = _PENDING.get()
     if pending:
-        try:
+        _commit(pending)
+
+
+def _commit(pending: list[tuple[Path, Path]]) -> None:
+    """Rename every pending write, none if the run was interrupted first; a signal during the renames
+    is raised after them (the outputs still appear together)."""
+    try:
+        check_interrupt()
+        with deferred_interrupts():
             for tmp, target in pending:
                 _replace(tmp, target)
-        finally:
-            _discard(pending)
-            pending.clear()
+    finally:
+        _discard(pending)
+        pending.clear()
 
 
 @contextlib.contextmanager
@@ -121,23 +125,64 @@ def write_text(target: str | Path, text: str) -> None:
         tmp.write_text(text, encoding="utf-8")
 
 
+class Interrupted(KeyboardInterrupt):
+    """The run was interrupted by ``signum`` (SIGINT: Ctrl-C, or SIGTERM); exit code 128 + signum."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+class _Signals:
+    """SIGINT/SIGTERM received inside :func:`interruptible`, and how deep :func:`deferred_interrupts` holds them."""
+
+    received: list[int] = []
+    held = 0
+
+
 @contextlib.contextmanager
-def terminate_as_interrupt() -> Iterator[None]:
-    """Inside the block SIGTERM raises KeyboardInterrupt (as Ctrl-C does), so temporary files are
-    cleaned up; the previous handler is restored after it."""
+def interruptible() -> Iterator[None]:
+    """Inside the block SIGINT and SIGTERM raise :class:`Interrupted` (a KeyboardInterrupt), so temporary
+    files are cleaned up, and are remembered: one whose exception a finalizer swallowed ("Exception
+    ignored", e.g. while h5py frees an object) is raised again by :func:`check_interrupt`. The previous
+    handlers are restored after the block."""
 
     def handler(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt
+        _Signals.received.append(signum)
+        if not _Signals.held:
+            raise Interrupted(signum)
 
     try:
-        previous = signal.signal(signal.SIGTERM, handler)
+        previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
     except ValueError:  # not the main thread: leave signals alone
         yield
         return
+    _Signals.received.clear()
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
+def check_interrupt() -> None:
+    """Raise :class:`Interrupted` if a signal arrived inside :func:`interruptible` (even one whose
+    exception was swallowed); a run calls it before it reports success."""
+    if _Signals.received:
+        raise Interrupted(_Signals.received[0])
+
+
+@contextlib.contextmanager
+def deferred_interrupts() -> Iterator[None]:
+    """Signals arriving inside the block are only recorded, and raised when it ends: for code that must not
+    be cut short (HDF5 writing and closing a file, the renames of :func:`together`)."""
+    _Signals.held += 1
+    try:
+        yield
+    finally:
+        _Signals.held -= 1
+    if not _Signals.held:
+        check_interrupt()
 
 
 def _replace(tmp: Path, target: Path) -> None:
