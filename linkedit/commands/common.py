@@ -105,7 +105,8 @@ def guard(fn: F) -> F:
     """Run a command body: user errors become one line on stderr and an exit code, no traceback.
 
     * :class:`~linkedit.errors.InputError` → 2, :class:`~linkedit.errors.MechanismError` → 1;
-    * an unwritable output path (OSError) → 2; Ctrl-C → 130, SIGTERM → 143 (even when a finalizer
+    * an unwritable output path (OSError) → 2; a full disk (ENOSPC, EFBIG) → 1, ``no space left writing
+      FILE``; Ctrl-C → 130, SIGTERM → 143 (even when a finalizer
       swallowed the KeyboardInterrupt: :func:`linkedit.io.atomic.check_interrupt`);
     * a closed pipe on stdout (``| head``) → a quiet exit 0;
     * with ``--json`` (a parameter ``as_json``) the error is also the run's JSON report on stdout,
@@ -131,7 +132,7 @@ def guard(fn: F) -> F:
             _MODE.reset(token)
 
     def _run(*args: Any, **kwargs: Any) -> Any:
-        from linkedit.io.atomic import check_interrupt, interruptible, together
+        from linkedit.io.atomic import DISK_FULL, check_interrupt, interruptible, together
 
         try:
             with interruptible(), warnings.catch_warnings(), together():
@@ -152,11 +153,13 @@ def guard(fn: F) -> F:
             report(None, exit_code=exc.exit_code, errors=[error_json(exc)])
             raise fail(str(exc), exc.exit_code) from None
         except OSError as exc:
-            where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-            message = f"{where}{exc.strerror or exc}"
             filename = getattr(exc, "filename", None)
-            report(None, exit_code=2, errors=[error_entry(message, 2, file=None if filename is None else str(filename))])
-            raise fail(message, 2) from None
+            if exc.errno in DISK_FULL:  # the run was right; the disk could not take its output
+                message, code = f"{DISK_FULL[exc.errno]} writing {filename or 'standard output'}", 1
+            else:
+                message, code = (f"{filename}: " if filename else "") + f"{exc.strerror or exc}", 2
+            report(None, exit_code=code, errors=[error_entry(message, code, file=None if filename is None else str(filename))])
+            raise fail(message, code) from None
         except KeyboardInterrupt as exc:
             raise fail("interrupted", 128 + getattr(exc, "signum", signal.SIGINT)) from None
 

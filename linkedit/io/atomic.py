@@ -7,19 +7,24 @@ appear together or not at all. Only regular files (or new paths) are ever replac
 node, a FIFO or a folder at the target is an error, not something to rename over.
 
 Temporary files are named ``.<name>.<pid>.<random>.part``; one whose process is gone (SIGKILL,
-power loss) is removed by the next write to the same target.
+power loss) is removed by the next write to the same target. A write that fails (a full disk: ENOSPC,
+EFBIG past the file size limit) raises an OSError naming the target, not its temporary file.
 """
 
 from __future__ import annotations
 
 import contextlib
 import contextvars
+import errno
 import os
 import signal
 import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+
+#: errno of a write that failed for want of room → what the one-line error says ("… writing FILE")
+DISK_FULL = {errno.ENOSPC: "no space left", errno.EFBIG: "file size limit reached", errno.EDQUOT: "disk quota exceeded"}
 
 #: (temporary, target) renames waiting for the innermost :func:`together` block to succeed.
 _PENDING: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar("pending", default=None)
@@ -114,6 +119,10 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
             pending.append((tmp, target))
             return
         _replace(tmp, target)
+    except OSError as exc:
+        if exc.errno is not None and (exc.errno in DISK_FULL or exc.filename is None or str(exc.filename) == str(tmp)):
+            raise OSError(exc.errno, exc.strerror, str(target)) from None
+        raise
     finally:
         if pending is None or (tmp, target) not in pending:
             _discard([(tmp, target)])
