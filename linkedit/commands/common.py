@@ -183,9 +183,11 @@ def _quiet_stdout() -> None:
 
 
 def check_outputs(outputs: Iterable[tuple[str, Path | None]], inputs: Iterable[Path | str]) -> None:
-    """Before anything is written: InputError (exit 2) if an output is an input, two outputs are
-    the same file, or an output cannot be written as a regular file (a device node, a folder, a
-    read-only folder). ``outputs`` are (option, path) pairs; ``None`` and ``-`` (stdout) are skipped."""
+    """Before anything is written: InputError (exit 2) if an output is an input, lies in a folder given
+    as an input (whose files the run reads, and the next run would read it), two outputs are the same
+    file, or an output cannot be written as a regular file (a device node, a folder, a read-only
+    folder). ``outputs`` are (option, path) pairs; ``None`` and ``-`` (stdout) are skipped; ``inputs``
+    are every file and folder the run reads (a curve set's sources included)."""
     from linkedit.io.atomic import check_target
 
     def key(path: Path | str) -> tuple:
@@ -195,13 +197,19 @@ def check_outputs(outputs: Iterable[tuple[str, Path | None]], inputs: Iterable[P
         except OSError:
             return (os.path.realpath(path),)
 
+    inputs = list(inputs)
     taken = {key(p): f"the input {p}" for p in inputs}
+    folders = {key(p): p for p in inputs if os.path.isdir(p)}
     for option, path in outputs:
         if path is None or str(path) == "-":  # none, or standard output
             continue
         k = key(path)
         if k in taken:
             raise InputError(f"{path}: would overwrite {taken[k]}", field=option)
+        folder = folders.get(key(os.path.dirname(os.path.abspath(path))))
+        if folder is not None:
+            raise InputError(f"{path}: is in the input folder {folder}, whose files this run reads; "
+                             "write it elsewhere", field=option)
         try:
             check_target(path)
         except OSError as exc:

@@ -165,12 +165,11 @@ def _resolve(desc: Any, weights: _Weights) -> dict[str, float]:
 
 
 def _input_paths(texts: list[Any]) -> list[Path]:
-    """The files named by curve inputs (``result.h5:foot`` names ``result.h5``), for the output checks."""
-    paths = []
-    for text in map(str, texts):
-        if text:
-            paths += [Path(text), Path(text.rpartition(":")[0] or text)]
-    return paths
+    """Every file and folder curve inputs read (``result.h5:foot`` reads ``result.h5``, a set its sources),
+    for the output checks; None and empty entries are skipped."""
+    from linkedit.curves.sources import input_files
+
+    return input_files([t for t in texts if t is not None and str(t)])
 
 
 def register(app: typer.Typer) -> None:
@@ -236,7 +235,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Distances between motion curves, each one's nearest neighbour, or a library ranked against a query."""
         check_outputs([("--output", output), ("--svg", svg)],
-                      _input_paths([*(inputs or []), query or "", *(library or []), weights_file or "", learn_pairs or ""]))
+                      _input_paths([*(inputs or []), *(query or []), *(library or []), weights_file, learn_pairs]))
         refuse_json_with_stdout(output, svg)
         if learn_pairs is not None:
             if inputs or query or library:
