@@ -153,16 +153,17 @@ class _Signals:
 def interruptible() -> Iterator[None]:
     """Inside the block SIGINT and SIGTERM raise :class:`Interrupted` (a KeyboardInterrupt), so temporary
     files are cleaned up, and are remembered: one whose exception a finalizer swallowed ("Exception
-    ignored", e.g. while h5py frees an object) is raised again by :func:`check_interrupt`. The previous
-    handlers are restored after the block."""
+    ignored", e.g. while h5py frees an object) is raised again by :func:`check_interrupt`. A signal
+    ignored when the block starts stays ignored; the previous handlers are restored after the block."""
 
     def handler(signum: int, frame: object) -> None:
         _Signals.received.append(signum)
         if not _Signals.held:
             raise Interrupted(signum)
 
-    try:
-        previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:  # a signal ignored by whoever started us (`nohup`, a shell's background job) stays ignored
+        previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)
+                    if signal.getsignal(sig) != signal.SIG_IGN}
     except ValueError:  # not the main thread: leave signals alone
         yield
         return
