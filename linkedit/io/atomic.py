@@ -173,6 +173,7 @@ def interruptible() -> Iterator[None]:
     finally:
         for sig, old in previous.items():
             signal.signal(sig, old)
+        _Signals.received.clear()  # handled by now (the Interrupted exception carries the signal)
 
 
 def check_interrupt() -> None:
