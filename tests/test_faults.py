@@ -63,6 +63,9 @@ def test_a_killed_run_leaves_the_older_result_and_no_stray_file(tmp_path, older,
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=300)
     assert _samples(out) in (old, new), f"seed {seed}"
+    if sig != signal.SIGKILL:  # 128 + the signal (killed by it: during start-up, before linkedit's handlers),
+        finished = proc.returncode == 0 and _samples(out) == new  # unless the run had finished
+        assert proc.returncode in (128 + sig, -sig) or finished, (seed, delay, proc.returncode, err)
     leftovers = sorted(p.name for p in tmp_path.iterdir() if p.name != "r.h5")
     if sig != signal.SIGKILL:
         assert leftovers == [], f"seed {seed}, delay {delay:.2f}s: {leftovers}; {err}"
@@ -70,3 +73,107 @@ def test_a_killed_run_leaves_the_older_result_and_no_stray_file(tmp_path, older,
     # the temporary file a killed run left is removed by the next run writing there
     subprocess.run(_linkedit(*args, old, "-o", out), check=True, capture_output=True, timeout=300)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.h5"]
+
+
+FINALIZER = """
+import os, signal, sys
+import linkedit.io.hdf5 as hdf5
+from linkedit.cli import main
+
+class Finalizer:  # like an h5py object freed while the signal arrives: its exception is "ignored"
+    def __del__(self):
+        os.kill(os.getpid(), signal.{sig})
+        for _ in range(100000):
+            pass
+
+put, fired = hdf5.put, []
+
+def put_once_interrupted(*args, **kwargs):
+    if not fired:
+        fired.append(True)
+        Finalizer()  # made and freed at once: the handler runs inside __del__
+    return put(*args, **kwargs)
+
+hdf5.put = put_once_interrupted
+sys.argv = ["linkedit", *sys.argv[1:]]
+main()
+"""
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=lambda s: s.name)
+def test_a_signal_landing_in_a_finalizer_still_interrupts_the_run(tmp_path, sig):
+    """A SIGINT/SIGTERM whose KeyboardInterrupt a finalizer swallows ("Exception ignored") still ends the
+    run with 128 + the signal, and the result is not written (it exited 0 with the file written)."""
+    out = tmp_path / "r.h5"
+    out.write_bytes(b"the older result")
+    r = subprocess.run([sys.executable, "-c", FINALIZER.format(sig=sig.name), "simulate",
+                        str(EXAMPLES / "crank-rocker.yaml"), "-n", "36", "-o", str(out)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 128 + sig, r.stderr
+    assert r.stderr.strip().splitlines()[-1] == "linkedit: error: interrupted"
+    assert out.read_bytes() == b"the older result"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.h5"]
+
+
+def _limited(max_bytes: int):
+    """A ``preexec_fn``: the child may write files up to ``max_bytes`` (RLIMIT_FSIZE, as a full quota)."""
+    import resource
+
+    return lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (max_bytes, max_bytes))
+
+
+#: (command, output file, file size limit): each writes well past the limit
+FULL = {
+    "simulate-h5": (["simulate", EXAMPLES / "jansen.yaml", "-n", "2000", "-o"], "r.h5", 200_000),
+    "simulate-csv": (["simulate", EXAMPLES / "jansen.yaml", "-n", "2000", "-o"], "r.csv", 200_000),
+    "solve3d": (["solve3d", EXAMPLES / "3d" / "six-bar.yaml", "-o"], "r.h5", 100_000),
+    "features": (["features", EXAMPLES / "curves" / "foot-paths.yaml", "-o"], "r.h5", 16_000),
+    "compare-curves": (["compare-curves", EXAMPLES / "curves" / "foot-paths.yaml", "-o"], "r.h5", 4_000),
+    "atlas": (["atlas", "build", "--family", "four-bar", "-n", "10000", "-o"], "r.h5", 1_000_000),
+}
+SLOW = {"atlas"}  # 5 s: one chunk of 10,000 linkages
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.slow) if c in SLOW else c for c in sorted(FULL)])
+def test_a_full_disk_is_one_line_exit_1_and_leaves_the_older_file(tmp_path, case):
+    """A write that hits the file size limit (EFBIG, as a full disk's ENOSPC): exit 1, one line naming the
+    output, no traceback, no temporary file, the older file untouched (they were RuntimeError tracebacks,
+    and the atlas a segfault leaving its .part behind)."""
+    args, name, limit = FULL[case]
+    out = tmp_path / name
+    if case != "atlas":  # an existing atlas is grown, not replaced
+        out.write_bytes(b"the older result")
+    r = subprocess.run(_linkedit(*args, out), capture_output=True, text=True, timeout=300, preexec_fn=_limited(limit))
+    assert r.returncode == 1, r.stderr
+    assert r.stderr.strip().splitlines() == [f"linkedit: error: file size limit reached writing {out}"], r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ([name] if case != "atlas" else [])
+    if case != "atlas":
+        assert out.read_bytes() == b"the older result"
+
+
+@pytest.mark.parametrize("device", ["limit", "/dev/full"])
+def test_a_full_standard_output_is_exit_1(tmp_path, device):
+    """`simulate -o - > file` on a full disk: exit 1 naming standard output (it exited 0, the CSV cut mid-row)."""
+    target = tmp_path / "j.csv" if device == "limit" else device
+    with open(target, "wb") as stdout:
+        r = subprocess.run(_linkedit("simulate", EXAMPLES / "jansen.yaml", "-n", "2000", "-o", "-"), stdout=stdout,
+                           stderr=subprocess.PIPE, text=True, timeout=300,
+                           preexec_fn=_limited(200_000) if device == "limit" else None)
+    what = "file size limit reached" if device == "limit" else "no space left"
+    assert r.returncode == 1, r.stderr
+    assert r.stderr.strip().splitlines()[-1] == f"linkedit: error: {what} writing standard output", r.stderr
+    assert "Traceback" not in r.stderr
+
+
+@pytest.mark.slow
+def test_synthesize_on_a_full_disk_is_one_line_exit_1(tmp_path):
+    """`synthesize` whose result.h5 hits the file size limit (it segfaulted, exit 139)."""
+    atlas, out = tmp_path / "a.h5", tmp_path / "out"
+    subprocess.run(_linkedit("atlas", "build", "--family", "four-bar", "-n", "10000", "-o", atlas), check=True,
+                   capture_output=True, timeout=300)
+    target = EXAMPLES / "curves" / "foot-paths.yaml"
+    r = subprocess.run(_linkedit("synthesize", f"{target}:ellipse", "--atlas", atlas, "-o", out, "--top", "1"),
+                       capture_output=True, text=True, timeout=300, preexec_fn=_limited(60_000))
+    assert r.returncode == 1, r.stderr
+    assert r.stderr.strip().splitlines() == [f"linkedit: error: file size limit reached writing {out / 'result.h5'}"]
+    assert not [p for p in tmp_path.rglob("*") if p.is_file() and p != atlas]

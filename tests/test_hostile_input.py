@@ -509,3 +509,40 @@ def test_a_misspelt_key_gets_a_did_you_mean(run_cli, tmp_path, command, example,
                                                         if new.splitlines()[-1] in ln))
     assert _one_line(run_cli(command, path, "-o", tmp_path / "out") if command != "validate"
                      else run_cli(command, path), 2) == f"linkedit: error: {path}:{line}: {where}"
+
+
+def _square(path) -> None:
+    path.write_text("x,y\n0,0\n1,0\n1,1\n0,1\n")
+
+
+def _listing(folder) -> dict:
+    return {p.relative_to(folder): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_an_output_that_a_run_reads_through_a_folder_or_a_curve_set_is_refused(run_cli, tmp_path):
+    """Outputs matched by an input folder, named as a curve set's source, or given as a --query are inputs
+    too: exit 2 before anything is written (they were overwritten, or read back by the next run)."""
+    d = tmp_path / "d"
+    d.mkdir()
+    _square(d / "a.csv")
+    _square(d / "c.csv")
+    (tmp_path / "s.yaml").write_text("curves:\n  - name: c\n    source: d/c.csv\n  - name: a\n    source: d/a.csv\n")
+    before = _listing(tmp_path)
+    for args in [("features", d, "-o", d / "c.csv"),                    # inside the input folder, read from it
+                 ("features", d, "-o", d / "new.csv"),                  # would be read by the next run
+                 ("features", tmp_path / "s.yaml", "-o", d / "c.csv"),  # a source the set names
+                 ("compare-curves", "--query", d / "a.csv", "--library", d / "c.csv", "-o", d / "a.csv"),
+                 ("compare-curves", "--query", tmp_path / "s.yaml:c", "--library", d, "-o", d / "x.csv")]:
+        line = _one_line(run_cli(*args), 2)
+        assert "would overwrite" in line or "input folder" in line, (args, line)
+        assert _listing(tmp_path) == before, args
+
+
+def test_synthesize_never_writes_into_its_atlas_folder(run_cli, tmp_path):
+    atlases = tmp_path / "atlases"
+    atlases.mkdir()
+    (atlases / "a.h5").write_bytes(b"an atlas")
+    _square(tmp_path / "target.csv")
+    line = _one_line(run_cli("synthesize", tmp_path / "target.csv", "--atlas", atlases, "-o", atlases), 2)
+    assert "input folder" in line and str(atlases) in line
+    assert _listing(atlases) == {Path("a.h5"): b"an atlas"}

@@ -15,10 +15,31 @@ JANSEN = EXAMPLES / "jansen.yaml"
 
 
 def _read_csv(text: str) -> tuple[list[str], np.ndarray]:
-    lines = [ln for ln in text.splitlines() if not ln.startswith("#")]
-    header = lines[0].split(",")
-    rows = [[float(v) if v else np.nan for v in ln.split(",")] for ln in lines[1:]]
-    return header, np.array(rows)
+    """Header and (T, C) numbers of a CSV result, read as a spreadsheet would (quoted cells, empty = NaN)."""
+    import csv
+
+    rows = list(csv.reader(io.StringIO(text)))
+    rows = [r for r in rows if not r[0].startswith("#")]
+    assert {len(r) for r in rows} == {len(rows[0])}, "every row as wide as the header"
+    return rows[0], np.array([[float(v) if v else np.nan for v in r] for r in rows[1:]])
+
+
+def _h5_columns(h5) -> dict[str, np.ndarray]:
+    """What each CSV column must hold, read from the HDF5 result (plain joint and track names)."""
+    with h5py.File(h5) as f:
+        units = f.attrs["units"]
+        cols = {"t": f["t"][()]}
+        if f.attrs["input"] == "linear":
+            cols[f"stroke_{units}"] = f["stroke"][()]
+        else:
+            cols["motor_angle_deg"] = np.degrees(f["motor_angle"][()])
+        points = {n: (f["joints/position"][:, j], f["joints/velocity"][:, j]) for j, n in enumerate(f["joint"].asstr()[()])}
+        points |= {n: (f[f"tracks/{n}/position"][()], f[f"tracks/{n}/velocity"][()]) for n in f["tracks"]}
+    for name, (pos, vel) in points.items():
+        cols |= {f"{name}_x": pos[:, 0], f"{name}_y": pos[:, 1]}
+    for name, (pos, vel) in points.items():
+        cols |= {f"{name}_vx": vel[:, 0], f"{name}_vy": vel[:, 1]}
+    return cols
 
 
 def test_csv_equals_hdf5_to_full_precision(run_cli, tmp_path):
@@ -74,6 +95,67 @@ def test_stdout_csv_and_summary_on_stderr(tmp_path):
     assert r.returncode == 0, r.stderr
     header, table = _read_csv(r.stdout)
     assert table.shape == (8, len(header)) and "→ -" in r.stderr
+
+
+def test_linear_input_csv_has_the_stroke_in_spec_units_and_equals_its_hdf5(run_cli, tmp_path):
+    """A cylinder-driven linkage: the input column is the stroke in mm (not mm × 180/π labelled degrees)."""
+    spec = EXAMPLES / "lifting-arm.yaml"
+    h5, csv = tmp_path / "l.h5", tmp_path / "l.csv"
+    assert run_cli("simulate", spec, "-o", h5, "-n", "11").exit_code == 0
+    r = run_cli("simulate", spec, "-o", csv, "-n", "11")
+    assert r.exit_code == 0, r.output
+    text = csv.read_text()
+    header, table = _read_csv(text)
+    assert header[:2] == ["t", "stroke_mm"]
+    assert np.allclose(table[:, 1], np.linspace(0, 25, 11), rtol=0, atol=1e-12)  # the spec's stroke: [0, 25]
+    expected = _h5_columns(h5)
+    assert header == list(expected)
+    for k, name in enumerate(header):
+        assert (table[:, k] == expected[name]).all(), name
+    first = text.splitlines()[0]
+    assert "stroke_mm in mm" in first and "velocities in mm/mm" in first and "degrees" not in first
+
+
+ODD_NAMES = """\
+name: odd names
+units: mm
+joints:
+  O: [0, 0]
+  "A,x": [1, 0]
+  B: [2.2, 2.1]
+  D: [3, 0]
+  B_track: [2.6, 3.0]
+  "=C": [1.5, 2.5]
+ground: [O, D]
+links:
+  crank: [O, "A,x"]
+  coupler: ["A,x", B, B_track, "=C"]
+  rocker: [D, B]
+motor: {joint: "A,x", pivot: O}
+tracks:
+  "@tip": {joint: "=C"}
+  B: {joint: B_track}
+"""
+
+
+def test_csv_quotes_commas_neutralizes_formulas_and_keeps_names_apart(run_cli, tmp_path):
+    """A joint named ``A,x`` is one quoted cell; ``=C``/``@tip`` cannot run as spreadsheet formulas
+    (written ``'=C_x``); the track B, named like a joint, whose ``B_track`` is a joint too, gets its own columns."""
+    spec, h5, out = tmp_path / "odd.yaml", tmp_path / "odd.h5", tmp_path / "odd.csv"
+    spec.write_text(ODD_NAMES)
+    assert run_cli("simulate", spec, "-o", h5, "-n", "9").exit_code == 0
+    assert run_cli("simulate", spec, "-o", out, "-n", "9").exit_code == 0
+    header, table = _read_csv(out.read_text())
+    joints = ["O", "A,x", "B", "D", "B_track", "=C"]
+    shown = joints[:5] + ["'=C", "'@tip", "B_track_track"]
+    assert header == ["t", "motor_angle_deg"] + [f"{p}_{c}" for p in shown for c in ("x", "y")] \
+        + [f"{p}_{c}" for p in shown for c in ("vx", "vy")]
+    with h5py.File(h5) as f:
+        assert list(f["joint"].asstr()[()]) == joints
+        sources = [f["joints/position"][:, j] for j in range(6)] + [f["tracks/@tip/position"][()], f["tracks/B/position"][()]]
+        sources += [f["joints/velocity"][:, j] for j in range(6)] + [f["tracks/@tip/velocity"][()], f["tracks/B/velocity"][()]]
+        want = np.column_stack([f["t"][()], np.degrees(f["motor_angle"][()])] + sources)
+    assert (table == want).all()
 
 
 @pytest.mark.parametrize("option, name", [("-o", "x.png"), ("-o", "x.txt"), ("--svg", "x.png")])
@@ -152,3 +234,30 @@ def test_missing_optional_package_is_one_clear_line(run_cli, tmp_path, monkeypat
     assert r.exit_code == 2 and re.search(pattern, r.output), r.output
     assert len(r.output.strip().splitlines()) == 1
     assert list(tmp_path.iterdir()) == []  # found before anything was written
+
+
+def _ellipse_csv(path, aspect: float) -> None:
+    s = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    path.write_text("x,y\n" + "".join(f"{np.cos(a)},{aspect * np.sin(a)}\n" for a in s))
+
+
+def test_curve_tables_neutralize_formulas_and_keep_columns_apart(run_cli, tmp_path):
+    """``features`` and ``compare-curves`` tables: a curve named ``=cmd`` is the text ``'=cmd`` (no formula), a
+    curve named ``curve`` does not take the row-name column's place."""
+    import csv
+
+    for name, aspect in (("=cmd", 0.2), ("curve", 0.5), ("plain", 0.8)):
+        _ellipse_csv(tmp_path / f"{name}.csv", aspect)
+    inputs = [tmp_path / f"{n}.csv" for n in ("=cmd", "curve", "plain")]
+    r = run_cli("features", *inputs, "-o", tmp_path / "f.csv")
+    assert r.exit_code == 0, r.output
+    rows = list(csv.reader((tmp_path / "f.csv").open()))
+    assert [row[0] for row in rows] == ["name", "'=cmd", "curve", "plain"]
+    assert {len(row) for row in rows} == {len(rows[0])}
+    r = run_cli("compare-curves", *inputs, "-o", tmp_path / "m.csv")
+    assert r.exit_code == 0, r.output
+    rows = list(csv.reader((tmp_path / "m.csv").open()))
+    assert rows[0] == ["curve", "'=cmd", "curve#2", "plain"]
+    assert [row[0] for row in rows[1:]] == ["'=cmd", "curve", "plain"]
+    dist = np.array([[float(v) for v in row[1:]] for row in rows[1:]])
+    assert (np.diag(dist) < 1e-6).all() and (dist + np.eye(3) > 0.1).all()  # rows and columns agree

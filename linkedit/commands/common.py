@@ -8,6 +8,7 @@ import json
 import math
 import os
 import re
+import signal
 import sys
 import warnings
 from collections.abc import Callable, Iterable, Sequence
@@ -115,7 +116,9 @@ def guard(fn: F) -> F:
     """Run a command body: user errors become one line on stderr and an exit code, no traceback.
 
     * :class:`~linkedit.errors.InputError` → 2, :class:`~linkedit.errors.MechanismError` → 1;
-    * an unwritable output path (OSError) → 2; Ctrl-C or SIGTERM → 130;
+    * an unwritable output path (OSError) → 2; a full disk (ENOSPC, EFBIG) → 1, ``no space left writing
+      FILE``; Ctrl-C → 130, SIGTERM → 143 (even when a finalizer
+      swallowed the KeyboardInterrupt: :func:`linkedit.io.atomic.check_interrupt`);
     * a closed pipe on stdout (``| head``) → a quiet exit 0;
     * with ``--json`` (a parameter ``as_json``) the error is also the run's JSON report on stdout,
       and ``--quiet`` (``quiet``) silences :func:`say` (see ``specs/cli-json.md``).
@@ -140,16 +143,20 @@ def guard(fn: F) -> F:
             _MODE.reset(token)
 
     def _run(*args: Any, **kwargs: Any) -> Any:
-        from linkedit.io.atomic import terminate_as_interrupt, together
+        from linkedit.io.atomic import DISK_FULL, check_interrupt, interruptible, together
 
         try:
-            with terminate_as_interrupt(), warnings.catch_warnings(), together():
+            with interruptible(), warnings.catch_warnings(), together():
                 warnings.simplefilter("ignore", RuntimeWarning)
+                chosen: typer.Exit | None = None
                 try:
-                    return fn(*args, **kwargs)
+                    result = fn(*args, **kwargs)
                 except typer.Exit as exc:  # an exit code the command chose (a batch where some failed)
                     chosen = exc          # after writing what succeeded: keep that
-            raise chosen
+                check_interrupt()  # a signal whose KeyboardInterrupt a finalizer swallowed
+            if chosen is not None:
+                raise chosen
+            return result
         except BrokenPipeError:
             _quiet_stdout()
             raise typer.Exit(0) from None
@@ -157,13 +164,15 @@ def guard(fn: F) -> F:
             report(None, exit_code=exc.exit_code, errors=[error_json(exc)])
             raise fail(str(exc), exc.exit_code) from None
         except OSError as exc:
-            where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-            message = f"{where}{exc.strerror or exc}"
             filename = getattr(exc, "filename", None)
-            report(None, exit_code=2, errors=[error_entry(message, 2, file=None if filename is None else str(filename))])
-            raise fail(message, 2) from None
-        except KeyboardInterrupt:
-            raise fail("interrupted", 130) from None
+            if exc.errno in DISK_FULL:  # the run was right; the disk could not take its output
+                message, code = f"{DISK_FULL[exc.errno]} writing {filename or 'standard output'}", 1
+            else:
+                message, code = (f"{filename}: " if filename else "") + f"{exc.strerror or exc}", 2
+            report(None, exit_code=code, errors=[error_entry(message, code, file=None if filename is None else str(filename))])
+            raise fail(message, code) from None
+        except KeyboardInterrupt as exc:
+            raise fail("interrupted", 128 + getattr(exc, "signum", signal.SIGINT)) from None
 
     return wrapper  # type: ignore[return-value]
 
@@ -177,9 +186,11 @@ def _quiet_stdout() -> None:
 
 
 def check_outputs(outputs: Iterable[tuple[str, Path | None]], inputs: Iterable[Path | str]) -> None:
-    """Before anything is written: InputError (exit 2) if an output is an input, two outputs are
-    the same file, or an output cannot be written as a regular file (a device node, a folder, a
-    read-only folder). ``outputs`` are (option, path) pairs; ``None`` and ``-`` (stdout) are skipped."""
+    """Before anything is written: InputError (exit 2) if an output is an input, lies in a folder given
+    as an input (whose files the run reads, and the next run would read it), two outputs are the same
+    file, or an output cannot be written as a regular file (a device node, a folder, a read-only
+    folder). ``outputs`` are (option, path) pairs; ``None`` and ``-`` (stdout) are skipped; ``inputs``
+    are every file and folder the run reads (a curve set's sources included)."""
     from linkedit.io.atomic import check_target
 
     def key(path: Path | str) -> tuple:
@@ -189,13 +200,19 @@ def check_outputs(outputs: Iterable[tuple[str, Path | None]], inputs: Iterable[P
         except OSError:
             return (os.path.realpath(path),)
 
+    inputs = list(inputs)
     taken = {key(p): f"the input {p}" for p in inputs}
+    folders = {key(p): p for p in inputs if os.path.isdir(p)}
     for option, path in outputs:
         if path is None or str(path) == "-":  # none, or standard output
             continue
         k = key(path)
         if k in taken:
             raise InputError(f"{path}: would overwrite {taken[k]}", field=option)
+        folder = folders.get(key(os.path.dirname(os.path.abspath(path))))
+        if folder is not None:
+            raise InputError(f"{path}: is in the input folder {folder}, whose files this run reads; "
+                             "write it elsewhere", field=option)
         try:
             check_target(path)
         except OSError as exc:

@@ -76,14 +76,9 @@ def _write_features(out: Path, curves: list, desc: Any, options: dict[str, Any])
     if fmt == "json":
         write_out(out, json.dumps(rows, indent=2, allow_nan=False) + "\n")
     elif fmt == "csv":
-        import csv
-        import io
+        from linkedit.io.csv_table import csv_text
 
-        buf = io.StringIO()
-        writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
-        writer.writeheader()
-        writer.writerows(rows)
-        write_out(out, buf.getvalue())
+        write_out(out, csv_text(list(rows[0]), [list(r.values()) for r in rows]))
     else:
         _write_features_h5(out, curves, desc, options)
 
@@ -170,12 +165,11 @@ def _resolve(desc: Any, weights: _Weights) -> dict[str, float]:
 
 
 def _input_paths(texts: list[Any]) -> list[Path]:
-    """The files named by curve inputs (``result.h5:foot`` names ``result.h5``), for the output checks."""
-    paths = []
-    for text in map(str, texts):
-        if text:
-            paths += [Path(text), Path(text.rpartition(":")[0] or text)]
-    return paths
+    """Every file and folder curve inputs read (``result.h5:foot`` reads ``result.h5``, a set its sources),
+    for the output checks; None and empty entries are skipped."""
+    from linkedit.curves.sources import input_files
+
+    return input_files([t for t in texts if t is not None and str(t)])
 
 
 def register(app: typer.Typer) -> None:
@@ -241,7 +235,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Distances between motion curves, each one's nearest neighbour, or a library ranked against a query."""
         check_outputs([("--output", output), ("--svg", svg)],
-                      _input_paths([*(inputs or []), query or "", *(library or []), weights_file or "", learn_pairs or ""]))
+                      _input_paths([*(inputs or []), *(query or []), *(library or []), weights_file, learn_pairs]))
         refuse_json_with_stdout(output, svg)
         if learn_pairs is not None:
             if inputs or query or library:
@@ -270,15 +264,9 @@ def _write_table(output: Path, kind: str, names: list[str], columns: list[str], 
     fmt = output_format(output, TABLE_FORMATS, stdout="csv")
     values = np.asarray(values, dtype=float)
     if fmt == "csv":
-        import csv
-        import io
+        from linkedit.io.csv_table import csv_text
 
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        w.writerow(["curve", *columns])
-        for name, row in zip(names, values):
-            w.writerow([name, *(repr(float(v)) for v in row)])
-        write_out(output, buf.getvalue())
+        write_out(output, csv_text(["curve", *columns], [[name, *row] for name, row in zip(names, values.tolist())]))
     elif fmt == "json":
         write_out(output, json.dumps({"curves": names, "columns": columns, "values": values.tolist()} | extra,
                                      indent=2, allow_nan=False) + "\n")

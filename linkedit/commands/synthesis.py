@@ -93,13 +93,12 @@ def register(app: typer.Typer) -> None:
         quiet: bool = QUIET,
     ) -> None:
         """Find the linkage whose tracked point draws the target curve: atlas search, placement, refinement."""
-        from linkedit.curves.sources import load_inputs
+        from linkedit.curves.sources import input_files, load_inputs
         from linkedit.synthesis.atlas import load
         from linkedit.synthesis.outputs import FILES, write_all
         from linkedit.synthesis.synthesize import synthesize as run
 
-        check_outputs([("--output", output / name) for name in FILES],
-                      [Path(target), Path(target.rpartition(":")[0] or target), atlas])
+        check_outputs([("--output", output / name) for name in FILES], [*input_files([target]), atlas])
         curves = load_inputs([target], closed=closed)
         if len(curves) != 1:
             raise InputError(f"the target holds {len(curves)} curves; name one (set.yaml:name, result.h5:track)",

@@ -23,8 +23,9 @@ from __future__ import annotations
 import contextvars
 import csv
 import io
+import os
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -70,6 +71,40 @@ def load_inputs(inputs: list[str], *, closed: bool | None = None,
     for text in inputs:
         curves += _guarded(lambda: _load_one(str(text), closed, skip), skip)
     return _unique_names(curves)
+
+
+def input_files(inputs: Iterable[str | Path]) -> list[Path]:
+    """Every file and folder the curve inputs read: the inputs, a folder's curve files and a curve set's
+    sources, recursively (for the checks that no output overwrites one). A set that cannot be read adds
+    nothing here; loading it reports why."""
+    from linkedit.spec.curveset import CurveSet
+    from linkedit.spec.yamlload import load_yaml, validate
+
+    found: list[Path] = []
+    seen: set[str] = set()
+
+    def visit(path: Path) -> None:
+        if os.path.realpath(path) in seen:
+            return
+        seen.add(os.path.realpath(path))
+        found.append(path)
+        if path.is_dir():
+            for child in sorted(path.iterdir()):
+                if child.suffix.lower() in HDF5_SUFFIXES + YAML_SUFFIXES + (".csv",):
+                    visit(child)
+        elif path.suffix.lower() in YAML_SUFFIXES and path.is_file():
+            try:
+                data, lines = load_yaml(path)
+                spec = validate(CurveSet, data, file=str(path), lines=lines)
+            except InputError:
+                return
+            for entry in spec.curves:
+                if entry.source is not None:
+                    visit(_split_track(str(path.parent / entry.source))[0])
+
+    for text in inputs:
+        visit(_split_track(str(text))[0])
+    return found
 
 
 def _guarded(load: Callable[[], list[Curve]], skip: Callable[[InputError], None] | None) -> list[Curve]:

@@ -1,25 +1,30 @@
 """Atomic file writes: write to a temporary file beside the target, then rename.
 
 An interrupted or failed run never leaves a half-written result in place, and never a stray
-temporary file after an error, Ctrl-C or SIGTERM (see :func:`terminate_as_interrupt`). Inside
+temporary file after an error, Ctrl-C or SIGTERM (see :func:`interruptible`). Inside
 :func:`together`, the renames wait until the whole block succeeds, so the outputs of one run
 appear together or not at all. Only regular files (or new paths) are ever replaced: a device
 node, a FIFO or a folder at the target is an error, not something to rename over.
 
 Temporary files are named ``.<name>.<pid>.<random>.part``; one whose process is gone (SIGKILL,
-power loss) is removed by the next write to the same target.
+power loss) is removed by the next write to the same target. A write that fails (a full disk: ENOSPC,
+EFBIG past the file size limit) raises an OSError naming the target, not its temporary file.
 """
 
 from __future__ import annotations
 
 import contextlib
 import contextvars
+import errno
 import os
 import signal
 import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+
+#: errno of a write that failed for want of room → what the one-line error says ("… writing FILE")
+DISK_FULL = {errno.ENOSPC: "no space left", errno.EFBIG: "file size limit reached", errno.EDQUOT: "disk quota exceeded"}
 
 #: (temporary, target) renames waiting for the innermost :func:`together` block to succeed.
 _PENDING: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar("pending", default=None)
@@ -66,11 +71,7 @@ def together() -> Iterator[None]:
     if outer is not None:
         outer.extend(pending)
         return
-    try:
-        for tmp, target in pending:
-            _replace(tmp, target)
-    finally:
-        _discard(pending)
+    _commit(pending)
 
 
 def commit() -> None:
@@ -78,12 +79,20 @@ def commit() -> None:
     writing results it wants kept, e.g. an edit that stops at its last working linkage)."""
     pending = _PENDING.get()
     if pending:
-        try:
+        _commit(pending)
+
+
+def _commit(pending: list[tuple[Path, Path]]) -> None:
+    """Rename every pending write, none if the run was interrupted first; a signal during the renames
+    is raised after them (the outputs still appear together)."""
+    try:
+        check_interrupt()
+        with deferred_interrupts():
             for tmp, target in pending:
                 _replace(tmp, target)
-        finally:
-            _discard(pending)
-            pending.clear()
+    finally:
+        _discard(pending)
+        pending.clear()
 
 
 @contextlib.contextmanager
@@ -110,6 +119,10 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
             pending.append((tmp, target))
             return
         _replace(tmp, target)
+    except OSError as exc:
+        if exc.errno is not None and (exc.errno in DISK_FULL or exc.filename is None or str(exc.filename) == str(tmp)):
+            raise OSError(exc.errno, exc.strerror, str(target)) from None
+        raise
     finally:
         if pending is None or (tmp, target) not in pending:
             _discard([(tmp, target)])
@@ -121,23 +134,66 @@ def write_text(target: str | Path, text: str) -> None:
         tmp.write_text(text, encoding="utf-8")
 
 
+class Interrupted(KeyboardInterrupt):
+    """The run was interrupted by ``signum`` (SIGINT: Ctrl-C, or SIGTERM); exit code 128 + signum."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+class _Signals:
+    """SIGINT/SIGTERM received inside :func:`interruptible`, and how deep :func:`deferred_interrupts` holds them."""
+
+    received: list[int] = []
+    held = 0
+
+
 @contextlib.contextmanager
-def terminate_as_interrupt() -> Iterator[None]:
-    """Inside the block SIGTERM raises KeyboardInterrupt (as Ctrl-C does), so temporary files are
-    cleaned up; the previous handler is restored after it."""
+def interruptible() -> Iterator[None]:
+    """Inside the block SIGINT and SIGTERM raise :class:`Interrupted` (a KeyboardInterrupt), so temporary
+    files are cleaned up, and are remembered: one whose exception a finalizer swallowed ("Exception
+    ignored", e.g. while h5py frees an object) is raised again by :func:`check_interrupt`. A signal
+    ignored when the block starts stays ignored; the previous handlers are restored after the block."""
 
     def handler(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt
+        _Signals.received.append(signum)
+        if not _Signals.held:
+            raise Interrupted(signum)
 
-    try:
-        previous = signal.signal(signal.SIGTERM, handler)
+    try:  # a signal ignored by whoever started us (`nohup`, a shell's background job) stays ignored
+        previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)
+                    if signal.getsignal(sig) != signal.SIG_IGN}
     except ValueError:  # not the main thread: leave signals alone
         yield
         return
+    _Signals.received.clear()
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+        _Signals.received.clear()  # handled by now (the Interrupted exception carries the signal)
+
+
+def check_interrupt() -> None:
+    """Raise :class:`Interrupted` if a signal arrived inside :func:`interruptible` (even one whose
+    exception was swallowed); a run calls it before it reports success."""
+    if _Signals.received:
+        raise Interrupted(_Signals.received[0])
+
+
+@contextlib.contextmanager
+def deferred_interrupts() -> Iterator[None]:
+    """Signals arriving inside the block are only recorded, and raised when it ends: for code that must not
+    be cut short (HDF5 writing and closing a file, the renames of :func:`together`)."""
+    _Signals.held += 1
+    try:
+        yield
+    finally:
+        _Signals.held -= 1
+    if not _Signals.held:
+        check_interrupt()
 
 
 def _replace(tmp: Path, target: Path) -> None:

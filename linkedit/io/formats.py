@@ -7,6 +7,7 @@ input error (exit 2) naming the option and the formats it accepts.
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -60,9 +61,26 @@ def require(kind: str, path: str | Path) -> None:
 
 
 def write_out(path: str | Path, text: str) -> None:
-    """Write text to ``path`` atomically, or to standard output for ``-``."""
-    if is_stdout(path):
+    """Write text to ``path`` atomically, or to standard output for ``-`` (UTF-8).
+
+    Every byte must reach standard output: a failed write (a full disk behind ``> file``) is an
+    OSError naming ``standard output`` (Python's buffered stdout dropped a short write's rest silently).
+    """
+    if not is_stdout(path):
+        write_text(path, text)
+        return
+    sys.stdout.flush()
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, ValueError, OSError):  # not a file (a test's captured stdout)
         sys.stdout.write(text)
         sys.stdout.flush()
-    else:
-        write_text(path, text)
+        return
+    data = memoryview(text.encode("utf-8"))
+    try:
+        while data:
+            data = data[os.write(fd, data):]
+    except BrokenPipeError:
+        raise
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, "standard output") from None

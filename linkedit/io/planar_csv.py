@@ -1,35 +1,52 @@
 """A planar result as CSV: one row per sample, for spreadsheets and pandas.
 
-Columns: ``t``, ``motor_angle_deg``, then ``<joint>_x, <joint>_y`` for every joint (spec
-order) and ``<track>_x, <track>_y`` for every track, then the velocities ``<name>_vx,
-<name>_vy`` (per radian of motor angle) in the same order. A first comment line (``#``) states
-the units; numbers are written with 17 significant digits (they read back as the same doubles).
-Samples where the linkage does not assemble (``--partial``) have empty cells, never NaN.
-``pandas.read_csv(path, comment="#")`` reads it.
+Columns: ``t``, the input (``motor_angle_deg`` in degrees, or a linear input's ``stroke_<units>`` in
+the spec's units, as the HDF5's ``/motor_angle`` or ``/stroke``), then ``<joint>_x, <joint>_y`` for
+every joint (spec order) and ``<track>_x, <track>_y`` for every track (a track named like a joint:
+``<track>_track``, with ``_track`` added until the name is free), then the velocities ``<name>_vx,
+<name>_vy`` (per radian of motor angle, or per unit of stroke) in the same order. A first comment
+line (``#``) states the units. Cells follow :mod:`linkedit.io.csv_table` (quoted where needed, formula
+prefixes neutralized, 17 significant digits); samples where the linkage does not assemble
+(``--partial``) have empty cells, never NaN. ``pandas.read_csv(path, comment="#")`` reads it.
 """
 
 from __future__ import annotations
 
-import io
-
 import numpy as np
 
 from linkedit import __version__
+from linkedit.io.csv_table import csv_text
 from linkedit.planar.simulate import Motion
+
+
+def input_column(motion: Motion) -> tuple[str, np.ndarray]:
+    """The input's column: (``motor_angle_deg``, degrees) or (``stroke_<units>``, spec units)."""
+    if motion.plan.linear:
+        return f"stroke_{motion.plan.spec.units}", motion.motor_angle
+    return "motor_angle_deg", np.degrees(motion.motor_angle)
+
+
+def point_names(motion: Motion) -> list[str]:
+    """The joints, then the tracks, each a name no other point has (see the module docstring)."""
+    names = list(motion.plan.joint_names)
+    for track in motion.tracks:
+        while track in names:
+            track = f"{track}_track"
+        names.append(track)
+    return names
 
 
 def columns(motion: Motion) -> tuple[list[str], np.ndarray]:
     """Column names and the (T, C) table of ``motion``."""
-    plan = motion.plan
-    joints = plan.joint_names
-    points = list(joints) + [n if n not in joints else f"{n}_track" for n in motion.tracks]
+    points = point_names(motion)
     pos = np.concatenate([motion.positions] + [tr.position[:, None] for tr in motion.tracks.values()], axis=1)
     vel = np.concatenate([motion.velocity] + [tr.velocity[:, None] for tr in motion.tracks.values()], axis=1)
-    names = ["t", "motor_angle_deg"]
+    name, value = input_column(motion)
+    names = ["t", name]
     names += [f"{p}_{c}" for p in points for c in ("x", "y")]
     names += [f"{p}_{c}" for p in points for c in ("vx", "vy")]
     T = motion.t.size
-    table = np.column_stack([motion.t, np.degrees(motion.motor_angle), pos.reshape(T, -1), vel.reshape(T, -1)])
+    table = np.column_stack([motion.t, value, pos.reshape(T, -1), vel.reshape(T, -1)])
     return names, table
 
 
@@ -37,10 +54,10 @@ def motion_csv(motion: Motion) -> str:
     """The CSV text of ``motion`` (see module docstring)."""
     units = motion.plan.spec.units
     names, table = columns(motion)
-    out = io.StringIO()
-    out.write(f"# linkedit {__version__} planar result {motion.plan.spec.name}: t in revolutions (0..1), "
-              f"motor_angle_deg in degrees, positions in {units}, velocities in {units}/rad\n")
-    out.write(",".join(names) + "\n")
-    for row in table:
-        out.write(",".join(repr(float(v)) if np.isfinite(v) else "" for v in row) + "\n")
-    return out.getvalue()
+    if motion.plan.linear:
+        what = f"t the fraction of the stroke (0..1), {names[1]} in {units}"
+    else:
+        what = "t the motor phase (0..1: a revolution, or the sweep), motor_angle_deg in degrees"
+    per = units if motion.plan.linear else "rad"
+    what += f", positions in {units}, velocities in {units}/{per}"
+    return csv_text(names, table, comment=f"linkedit {__version__} planar result {motion.plan.spec.name}: {what}")

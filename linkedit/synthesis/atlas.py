@@ -26,7 +26,8 @@ import numpy as np
 from linkedit import __version__
 from linkedit.curves.efd import polyline_efd
 from linkedit.errors import InputError
-from linkedit.io.atomic import atomic_path
+from linkedit.io.atomic import atomic_path, deferred_interrupts
+from linkedit.io.hdf5 import writing
 from linkedit.synthesis.families import family
 
 FORMAT_VERSION = "1"
@@ -196,18 +197,21 @@ def build(path: str | Path, names: list[str], count: int, *, seed: int = 1, sche
             mode = "r+"
         else:
             mode = "w"
-        with h5py.File(tmp, mode) as f:
+        with writing(tmp, mode) as f:
             if mode == "w":
                 f.attrs.update({"format_version": FORMAT_VERSION, "kind": "atlas", "generator": f"linkedit {__version__}",
                                 "seed": seed, "samples": SAMPLES, "coarse_samples": SAMPLES // COARSE_STEP,
                                 "harmonics": HARMONICS, "chunk": CHUNK})
             for name in names:
-                group = _family_group(f, name)
+                with deferred_interrupts():
+                    group = _family_group(f, name)
                 first = int(group.attrs["chunks"])
                 jobs = chunk_sizes(count, first)
                 for index, chunk in run_chunks(name, seed, jobs, scheduler=scheduler, workers=workers):
-                    _append(group, chunk)
-                    group.attrs["chunks"] = index + 1
+                    with deferred_interrupts():  # HDF5 is not cut short: a signal is raised after the chunk
+                        _append(group, chunk)
+                        group.attrs["chunks"] = index + 1
+                    f.check()  # a full disk stops the build here, not after every chunk
                     done += len(chunk.params)
                     if progress is not None:
                         progress(done, total, time.perf_counter() - start)
