@@ -93,9 +93,9 @@ class CatalogFamily:
     def min_singularity(self, params: np.ndarray, margin: float | None = None) -> np.ndarray:
         """The lowest d_s over the cycle (K,): :func:`linkedit.planar.feasibility.lowest` of the dyads
         at ``CHECK_SAMPLES`` crank samples, −1 where a joint cannot be placed. With ``margin``, a
-        linkage already below it at every ``SCREEN``-th sample gets that sample's value (an upper
-        bound, below the margin all the same: the verdict :func:`~linkedit.planar.feasibility.works`
-        gives is that of the dense check)."""
+        linkage already below it at one of every ``SCREEN``-th sample gets the smallest of those
+        (an upper bound, below the margin all the same: the verdict of
+        :func:`~linkedit.planar.feasibility.works` is that of the dense check)."""
         out = np.empty(len(params))
         dense = np.ones(len(params), dtype=bool)
         if margin is not None:

@@ -10,8 +10,8 @@ one-sided (every linkage sample to the target polyline).
 
 The polished linkage is kept only if the edit finishes with a working linkage, it works with the
 family's margin by the one planar predicate (:mod:`linkedit.planar.feasibility`: its lowest d_s
-over the cycle, at the dense samples and between them, at or above the margin), and its error (measured like the
-refinement's: both ways for a shape, at the times with ``--timing``) is lower; otherwise the
+over the cycle, at the dense samples and between them, at or above the margin), and its error
+(measured like the refinement's: both ways for a shape, at the times with ``--timing``) is lower; otherwise the
 refined linkage stands and the report says why. Open targets (part of a cycle) are not polished:
 a one-sided distance from the whole cycle to part of it would fold the cycle onto the part.
 """

@@ -28,7 +28,6 @@ from linkedit.curves.smooth import smooth as smooth_curve
 from linkedit.curves.sources import Curve
 from linkedit.errors import InputError, MechanismError
 from linkedit.planar import compile_plan, feasibility, simulate
-from linkedit.planar.feasibility import works
 from linkedit.planar.simulate import Motion
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.synthesis.atlas import Atlas
@@ -170,7 +169,7 @@ def within(hits: list[Hit], atlas: Atlas, margin: float, margin_deg: float) -> l
     for fam_name in dict.fromkeys(h.family for h in hits):
         mine = [h for h in hits if h.family == fam_name]
         ds = family(fam_name).min_singularity(atlas.families[fam_name]["params"][[h.row for h in mine]], margin)
-        kept += [h for h, ok in zip(mine, works(ds, margin)) if ok]
+        kept += [h for h, ok in zip(mine, feasibility.works(ds, margin)) if ok]
     if not kept:
         raise MechanismError(f"none of the {len(hits)} nearest atlas linkages turns the full cycle with the "
                              f"transmission angle within [{margin_deg:g}°, {180 - margin_deg:g}°] (--margin "
