@@ -1,20 +1,23 @@
-"""The one predicate that decides whether an edited linkage works.
+"""Whether an edited linkage works: the planar predicate plus what an edit can break.
 
 A linkage works when every dyad triangle (i) has, at the rest pose, the orientation the plan
 was compiled with (so phase 0 rebuilds exactly the rest pose: no branch change), and (ii) can
-be closed at every sample (d_s > 0); every slider rule and numeric group can be placed at every
-sample on the side (determinant sign) it had at rest (:mod:`linkedit.edit.steps`). The input
-must keep working: a crank its length (and its rest direction unless freed), a linear input's
-guide link its length. Rigid placements are exact by construction and are never checked: a joint collinear with its link's two reference joints (Hoekens' tracer) or a mirrored
+be closed at every sample; every slider rule and numeric group can be placed at every sample on
+the side (determinant sign) it had at rest (:mod:`linkedit.edit.steps`). "Closed" is the one
+planar predicate, :func:`linkedit.planar.feasibility.assembles` (d_s above the toggle rounding,
+as ``simulate`` has it). The input must keep working: a crank its length (and its rest direction
+unless freed), a linear input's guide link its length. Rigid placements are exact by construction and are never checked: a joint collinear with its link's two reference joints (Hoekens' tracer) or a mirrored
 plate is a working linkage.
 
-The line search, the final re-check at 4× the samples and the report all call :func:`failure`.
+The line search, the final re-check at 4× the samples (a ``simulate``, which checks lock-ups at
+:data:`~linkedit.planar.feasibility.CHECK_SAMPLES` too) and the report all call :func:`failure`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from linkedit.planar.feasibility import assembles
 from linkedit.planar.plan import Plan
 
 
@@ -36,8 +39,9 @@ def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray,
 
     ``rest`` (J,) complex; ``ds`` (R, T) singularity distance per rule (rigid rows ignored),
     NaN where not computed, optionally followed by one row per step of ``plan.steps`` (a slider
-    rule or a numeric group that cannot be placed: ≤ 0 or NaN); ``turn_deg`` (T,) motor rotation of
-    each sample from the rest pose, degrees (a linear input: its stroke, spec units);
+    rule or a numeric group that cannot be placed: ≤ 0 or NaN); a row fails where it does not
+    :func:`~linkedit.planar.feasibility.assembles`. ``turn_deg`` (T,) motor rotation of each sample
+    from the rest pose, degrees (a linear input: its stroke, spec units);
     ``arm`` the direction the crank must keep at rest (its rest angle is fixed), or None (and for a
     linear input, whose guide link must keep a length instead).
     """
@@ -52,7 +56,7 @@ def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray,
         return (f"joint {names[k]} changes branch: triangle {names[i]}-{names[j]}-{names[k]} "
                 "of the rest pose flipped")
     dyad = np.concatenate([~plan.rigid, np.ones(ds.shape[0] - len(plan.rules), dtype=bool)])
-    closed = ds[dyad] > 0.0
+    closed = assembles(ds[dyad])
     if closed.all():
         return None
     r, t = np.argwhere(~closed)[0]

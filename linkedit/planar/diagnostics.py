@@ -1,7 +1,8 @@
 """What can go wrong during a cycle, and how close it comes: lock-up, singularity, transmission.
 
 * **Lock-up**: a dyad's triangle cannot be closed (its two links are too short or too long
-  for the distance between the known joints); d_s < 0 there.
+  for the distance between the known joints); d_s < 0 there (what counts as assembled:
+  :mod:`linkedit.planar.feasibility`).
 * **Singularity distance** d_s = sin²α (LinkEdit Eq. 6), α the angle at the rebuilt joint:
   0 at a toggle position, 1 when the two links are perpendicular.
 * **Transmission angle**: α itself, in radians; designers want it near 90°.
@@ -13,10 +14,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-
-
-#: d_s at or below this (rounding of sin² at a toggle) counts as a toggle: not assembled
-TOGGLE = 1e-12
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from linkedit.planar import law_of_cosines as loc
-from linkedit.planar.diagnostics import TOGGLE
+from linkedit.planar.feasibility import assembles
 from linkedit.planar.plan import Geometry, Plan
 from linkedit.planar.rules import Step
 
@@ -117,7 +117,7 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> S
     def pick(a: np.ndarray | None) -> np.ndarray | None:
         return None if a is None else a[:, keep]
 
-    between_ok = bool(np.isfinite(full.z).all() and (full.ds > TOGGLE).all() and (full.step_ds > TOGGLE).all())
+    between_ok = bool(np.isfinite(full.z).all() and assembles(full.ds).all() and assembles(full.step_ds).all())
     return State(z=full.z[:, keep], dz=pick(full.dz), ddz=pick(full.ddz), ds=full.ds[:, keep],
                  step_ds=full.step_ds[:, keep], between_ok=between_ok)
 

@@ -13,15 +13,14 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from linkedit.errors import MechanismError
-from linkedit.planar.diagnostics import TOGGLE, LockUp, lockups, transmission_angle, triangle_orientation
+from linkedit.planar.diagnostics import LockUp, lockups, transmission_angle, triangle_orientation
+from linkedit.planar.feasibility import CHECK_SAMPLES, TOGGLE, assembles, lowest
 from linkedit.planar.kinematics import State, evaluate
 from linkedit.planar.plan import Geometry, Plan, compile_plan
 from linkedit.planar.rules import Group
 from linkedit.spec.linkage import LinkageSpec, Motor
 
 DEFAULT_SAMPLES = 360
-#: fewer samples than this per cycle: the cycle is also checked at this many (lock-ups between samples)
-DENSE_SAMPLES = 1440
 
 
 @dataclass(frozen=True)
@@ -57,25 +56,47 @@ class Motion:
     def cyclic(self) -> bool:
         return self.plan.spec.motor.cyclic
 
-    def min_singularity(self) -> tuple[float, str, float] | None:
-        """(min d_s over dyad, slider and group rules and assembled samples, its joint, the input
-        there: motor angle in degrees, or a linear input's stroke)."""
+    def _watched(self) -> tuple[np.ndarray, list[str]] | None:
+        """d_s (T, W) of the dyad, slider and group rules (NaN where not assembled) and the joint
+        each one places; None without any."""
         plan = self.plan
         dyads = ~plan.rigid
         # the steps' own are measured by the symbolic engine only (the numeric one's motion has none)
         watched = [n for n, st in enumerate(plan.steps) if st.watched and self.step_singularity is not None]
-        if not (dyads.any() or watched) or not self.assembled.any():
+        if not (dyads.any() or watched):
             return None
         steps = self.step_singularity if self.step_singularity is not None else np.ones((self.t.size, 0))
-        ds = np.where(self.assembled[:, None], np.hstack([self.singularity[:, dyads], steps[:, watched]]), np.inf)
+        joints = [plan.joint_names[k] for k in plan.rules[dyads, 2]]
+        joints += [plan.joint_names[plan.steps[n].joints[0]] for n in watched]
+        return np.hstack([self.singularity[:, dyads], steps[:, watched]]), joints
+
+    def _where(self, t: int) -> float:
+        """The input at sample ``t``: motor angle in degrees, or a linear input's stroke."""
+        return float(self.motor_angle[t] if self.plan.linear else np.degrees(self.motor_angle[t]))
+
+    def min_singularity(self) -> tuple[float, str, float] | None:
+        """(min d_s over dyad, slider and group rules and assembled samples, its joint, the input
+        there: motor angle in degrees, or a linear input's stroke)."""
+        found = self._watched()
+        if found is None or not self.assembled.any():
+            return None
+        ds = np.where(self.assembled[:, None], found[0], np.inf)
         t, r = np.unravel_index(np.argmin(ds), ds.shape)
-        n_dyads = int(dyads.sum())
-        if r < n_dyads:
-            joint = plan.joint_names[plan.rules[np.flatnonzero(dyads)[r], 2]]
-        else:
-            joint = plan.joint_names[plan.steps[watched[r - n_dyads]].joints[0]]
-        where = self.motor_angle[t] if plan.linear else np.degrees(self.motor_angle[t])
-        return float(ds[t, r]), joint, float(where)
+        return float(ds[t, r]), found[1][r], self._where(int(t))
+
+    def lowest_singularity(self) -> tuple[float, str, float] | None:
+        """(the lower bound of d_s over the cycle, between samples too, its joint, the input at the
+        sample it comes from), as :func:`linkedit.planar.feasibility.lowest` takes it from these
+        samples (−1 where the linkage does not assemble); None without dyad, slider or group rules.
+        Evenly spaced samples: ``simulate(plan, CHECK_SAMPLES)`` gives the density every command checks."""
+        found = self._watched()
+        if found is None:
+            return None
+        ds = found[0].T  # (W, T)
+        low = lowest(ds, self.cyclic)
+        r = int(np.argmin(low))
+        t = int(np.argmin(np.nan_to_num(ds[r], nan=-np.inf)))
+        return float(low[r]), found[1][r], self._where(t)
 
     def __repr__(self) -> str:
         s = self.summary()
@@ -249,13 +270,13 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
     rules = plan.rules
     ds = state.ds.T.copy()
     sds = state.step_ds.T.copy()
-    ok = np.isfinite(pn).all(axis=(1, 2)) & (ds > TOGGLE).all(axis=1) & (sds > TOGGLE).all(axis=1)
+    ok = _assembled(pn, ds, sds)
     found: list[LockUp] = []
     if not ok.all():
         found = _find_lockups(plan, pn, ds, sds, shown, unit)
         if not partial or not ok.any():
             raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
-    elif samples < DENSE_SAMPLES and (not plan.has_groups or not state.between_ok):
+    elif samples < CHECK_SAMPLES and (not plan.has_groups or not state.between_ok):
         found = _lockups_between(plan, geom, scale)
         if found and not partial:
             raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
@@ -294,16 +315,21 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
                   step_singularity=np.where(ok[:, None], sds, np.nan))
 
 
+def _assembled(pn: np.ndarray, ds: np.ndarray, sds: np.ndarray) -> np.ndarray:
+    """(T,) whether every joint is placed at each sample: positions (T, J, 2), d_s of the rules
+    (T, R) and steps (T, X) (:func:`linkedit.planar.feasibility.assembles`)."""
+    return np.isfinite(pn).all(axis=(1, 2)) & assembles(ds).all(axis=1) & assembles(sds).all(axis=1)
+
+
 def _lockups_between(plan: Plan, geom: Geometry, scale: float) -> list[LockUp]:
-    """Lock-ups the requested samples step over: the cycle is checked again at DENSE_SAMPLES
+    """Lock-ups the requested samples step over: the cycle is checked again at CHECK_SAMPLES
     (positions only, batched); what fails there is reported as found between the samples."""
     spec = plan.spec
-    t, value = motor_angles(spec, DENSE_SAMPLES)
+    t, value = motor_angles(spec, CHECK_SAMPLES)
     state = evaluate(plan, geom, value / scale if plan.linear else value, order=0)
     pn = _joint_order(plan, state.z)
     ds, sds = state.ds.T, state.step_ds.T
-    ok = np.isfinite(pn).all(axis=(1, 2)) & (ds > TOGGLE).all(axis=1) & (sds > TOGGLE).all(axis=1)
-    if ok.all():
+    if _assembled(pn, ds, sds).all():
         return []
     shown = value if plan.linear else np.degrees(value)
     found = _find_lockups(plan, pn, ds, sds, shown, _unit(plan))
@@ -321,9 +347,9 @@ def _find_lockups(plan: Plan, pn: np.ndarray, ds: np.ndarray, sds: np.ndarray, s
     lik = np.linalg.norm(rest[rules[:, 2]] - rest[rules[:, 0]], axis=-1)
     ljk = np.linalg.norm(rest[rules[:, 2]] - rest[rules[:, 1]], axis=-1)
     finite = np.isfinite(pn).all(axis=2)  # (T, J)
-    bad_rules = ~(ds > TOGGLE)
+    bad_rules = ~assembles(ds)
     own_rules = (ds <= TOGGLE) | (bad_rules & np.isfinite(d))
-    bad_steps = ~(sds > TOGGLE)
+    bad_steps = ~assembles(sds)
     inputs_ok = np.stack([finite[:, st.inputs].all(axis=1) for st in plan.steps], axis=1) if plan.steps \
         else np.zeros((samples, 0), dtype=bool)
     own_steps = (sds <= TOGGLE) | (bad_steps & inputs_ok)

@@ -3,7 +3,7 @@
 An atlas is built in chunks of ``CHUNK`` linkages. A chunk is a pure function of (family,
 seed, chunk index): its generator is seeded with ``[seed, family ID, index]``, it draws
 parameter rows from the family's distribution until ``size`` of them turn the full cycle with
-the singularity margin, evaluates all of them in one array evaluation per block (over
+the singularity margin (the one planar predicate, :mod:`linkedit.planar.feasibility`), evaluates all of them in one array evaluation per block (over
 linkages and samples), and describes each coupler curve. Chunks therefore give the same bytes
 in-process or on a Dask worker, in any order, and an atlas grown by appending chunks k, k+1, …
 equals one built at once. Layout: ``specs/atlas-hdf5.md``.
@@ -28,6 +28,7 @@ from linkedit.curves.efd import polyline_efd
 from linkedit.errors import InputError
 from linkedit.io.atomic import atomic_path, deferred_interrupts
 from linkedit.io.hdf5 import writing
+from linkedit.planar.feasibility import works
 from linkedit.synthesis.families import family
 
 FORMAT_VERSION = "1"
@@ -64,13 +65,17 @@ def build_chunk(name: str, seed: int, index: int, size: int = CHUNK) -> Chunk:
     """Chunk ``index`` of family ``name``'s atlas from ``seed`` (a pure function)."""
     fam = family(name)
     rng = np.random.default_rng([seed, fam.ID, index])
+    margin = fam.margin()
     kept: list[np.ndarray] = []
+    kept_ds: list[np.ndarray] = []
     have = 0
     while have < size:
         draw = fam.sample(rng, 2 * (size - have) + 16)
-        draw = draw[fam.min_singularity(draw) >= fam.margin()]
-        kept.append(draw)
-        have += len(draw)
+        ds = fam.min_singularity(draw, margin)
+        keep = works(ds, margin)
+        kept.append(draw[keep])
+        kept_ds.append(ds[keep])
+        have += int(keep.sum())
     params = np.concatenate(kept)[:size]
     desc = np.empty((size, 4 * HARMONICS - 3), dtype=np.float32)
     coarse = np.empty((size, SAMPLES // COARSE_STEP, 2), dtype=np.float32)
@@ -80,7 +85,7 @@ def build_chunk(name: str, seed: int, index: int, size: int = CHUNK) -> Chunk:
         part = z[:, ::COARSE_STEP]
         coarse[start:start + BLOCK, :, 0] = part.real
         coarse[start:start + BLOCK, :, 1] = part.imag
-    return Chunk(params, fam.min_singularity(params), desc, coarse)
+    return Chunk(params, np.concatenate(kept_ds)[:size], desc, coarse)
 
 
 def chunk_sizes(count: int, first: int = 0) -> list[tuple[int, int]]:

@@ -1,8 +1,11 @@
 """The families an atlas can hold: name → module with the family interface.
 
-A family (a module, or a :class:`~linkedit.synthesis.legs.CatalogFamily`) provides ``NAME``, ``PARAMETERS``, ``ID`` (a small integer mixed into chunk
-seeds), ``margin()``, ``sample(rng, count)``, ``min_singularity(params)``,
-``curves(params, samples, phase)`` (K, T) complex in the family frame, and ``to_spec(...)``.
+A family (a module, or a :class:`~linkedit.synthesis.legs.CatalogFamily`) provides ``NAME``,
+``PARAMETERS``, ``ID`` (a small integer mixed into chunk seeds), ``margin()``, ``sample(rng, count)``,
+``min_singularity(params, margin=None)`` (the lowest d_s over the cycle, which the one planar
+predicate :func:`linkedit.planar.feasibility.works` holds to a margin: exact in closed form, or
+:func:`~linkedit.planar.feasibility.lowest` at its samples), ``curves(params, samples, phase)``
+(K, T) complex in the family frame, and ``to_spec(...)``.
 """
 
 from __future__ import annotations

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from linkedit.planar.feasibility import margin_of
 from linkedit.planar.law_of_cosines import dyad
 from linkedit.spec.linkage import LinkageSpec
 
@@ -32,11 +33,12 @@ SEEDS = np.array([[25 / 75, 70 / 75, 60 / 75, 0.2926414, 0.5, 1.0],
 
 def margin() -> float:
     """The singularity margin min d_s = sin² MU_MIN of an atlas linkage."""
-    return float(np.sin(np.radians(MU_MIN_DEG)) ** 2)
+    return margin_of(MU_MIN_DEG)
 
 
-def min_singularity(params: np.ndarray) -> np.ndarray:
-    """min over the cycle of d_s = sin²μ at B, (K,); −1 where the crank cannot turn fully."""
+def min_singularity(params: np.ndarray, margin: float | None = None) -> np.ndarray:
+    """min over the continuous cycle of d_s = sin²μ at B, (K,), exact (so ``margin``, which lets a
+    sampled family skip work, is not needed); −1 where the crank cannot turn fully."""
     a, b, c = params[:, 0], params[:, 1], params[:, 2]
     out = np.full(len(params), np.inf)
     for d in (np.abs(1.0 - a), 1.0 + a):

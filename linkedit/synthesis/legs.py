@@ -7,8 +7,10 @@ moves every other joint by N(0, s²) per coordinate, s log-uniform in [0.005, 0.
 
 Evaluation follows the linkage's compiled plan (:mod:`linkedit.planar.plan`: the same rules in
 the same order), with each linkage's lengths, rigid coefficients and triangle orientations as
-(K, 1) arrays: every rule is one array operation over linkages and samples. A linkage is kept
-when it assembles at every one of ``CHECK_SAMPLES`` crank samples with min d_s ≥ sin² 20°.
+(K, 1) arrays: every rule is one array operation over linkages and samples. A linkage works
+by the one planar predicate (:mod:`linkedit.planar.feasibility`): it assembles at every one of
+its ``CHECK_SAMPLES`` crank samples, and the lower bound of d_s between them stays at or above
+the margin (sin² 20° in an atlas).
 """
 
 from __future__ import annotations
@@ -18,12 +20,16 @@ from collections.abc import Callable
 import numpy as np
 
 from linkedit.planar import catalog, compile_plan
-from linkedit.planar.law_of_cosines import dyad
+from linkedit.planar.feasibility import CHECK_SAMPLES, assembles, lowest, margin_of, works
+from linkedit.planar.law_of_cosines import dyad, singularity_distance
 from linkedit.spec.linkage import JointTrack, LinkageSpec
 
-#: Crank samples at which a linkage must assemble with the margin.
-CHECK_SAMPLES = 64
 MU_MIN_DEG = 20.0
+#: With a margin, every SCREEN-th of the CHECK_SAMPLES is evaluated first: a linkage already below the
+#: margin there fails it (those samples are among the dense ones), and only the others are evaluated densely.
+SCREEN = 32
+#: Linkages evaluated together at the dense samples (their working arrays stay in the CPU cache).
+BLOCK = 64
 
 
 class CatalogFamily:
@@ -49,7 +55,7 @@ class CatalogFamily:
         self.PARAMETERS = tuple(f"{n}_{axis}" for n in names for axis in "xy")
 
     def margin(self) -> float:
-        return float(np.sin(np.radians(MU_MIN_DEG)) ** 2)
+        return margin_of(MU_MIN_DEG)
 
     def sample(self, rng: np.random.Generator, count: int) -> np.ndarray:
         """Rest poses around the catalog design: every coordinate but the motor pivot's moved by
@@ -60,7 +66,8 @@ class CatalogFamily:
         return rows
 
     def _evaluate(self, params: np.ndarray, samples: int, phase: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
-        """Joint positions (K, J, T) complex and min d_s (K,) (−1 where a joint cannot be placed)."""
+        """Joint positions (K, J, T) complex and d_s (K, D, T) of the D dyad rules (NaN or < 0 where
+        a joint cannot be placed)."""
         count = len(params)
         rest = params.reshape(count, -1, 2)
         rest = rest[..., 0] + 1j * rest[..., 1]  # (K, J)
@@ -70,7 +77,7 @@ class CatalogFamily:
         angle = 2.0 * np.pi * (np.asarray(phase, dtype=float).reshape(-1, 1) + np.arange(samples)[None, :] / samples)
         pivot = rest[:, self.pivot, None]
         z[:, self.motor, :] = pivot + (rest[:, self.motor, None] - pivot) * np.exp(1j * self.direction * angle)
-        worst = np.full(count, np.inf)
+        ds = []
         with np.errstate(invalid="ignore", divide="ignore"):
             for (i, j, k), rigid in zip(self.plan.rules, self.plan.rigid):
                 ri, rj, rk = rest[:, i, None], rest[:, j, None], rest[:, k, None]
@@ -80,15 +87,28 @@ class CatalogFamily:
                 lik2, ljk2 = np.abs(rk - ri) ** 2, np.abs(rk - rj) ** 2
                 sign = np.sign(((rj - ri).conjugate() * (rk - ri)).imag)
                 z[:, k, :], terms = dyad(z[:, i, :], z[:, j, :], 0.5 * (lik2 - ljk2), lik2, sign)
-                d2 = 1.0 / terms.u
-                cos_k = (lik2 + ljk2 - d2) / (2.0 * np.sqrt(lik2 * ljk2))
-                ds = np.where(terms.bsq >= 0.0, 1.0 - cos_k * cos_k, -1.0)
-                worst = np.minimum(worst, np.nan_to_num(ds, nan=-1.0).min(axis=1))
-        return z, worst
+                ds.append(singularity_distance(terms, lik2, ljk2))
+        return z, np.stack(ds, axis=1) if ds else np.ones((count, 0, samples))
 
-    def min_singularity(self, params: np.ndarray) -> np.ndarray:
-        """min d_s over ``CHECK_SAMPLES`` crank samples (K,); −1 where the linkage does not assemble."""
-        return self._evaluate(params, CHECK_SAMPLES, 0.0)[1]
+    def min_singularity(self, params: np.ndarray, margin: float | None = None) -> np.ndarray:
+        """The lowest d_s over the cycle (K,): :func:`linkedit.planar.feasibility.lowest` of the dyads
+        at ``CHECK_SAMPLES`` crank samples, −1 where a joint cannot be placed. With ``margin``, a
+        linkage already below it at one of every ``SCREEN``-th sample gets the smallest of those
+        (an upper bound, below the margin all the same: the verdict of
+        :func:`~linkedit.planar.feasibility.works` is that of the dense check)."""
+        out = np.empty(len(params))
+        dense = np.ones(len(params), dtype=bool)
+        if margin is not None:
+            coarse = self._evaluate(params, CHECK_SAMPLES // SCREEN, 0.0)[1]
+            with np.errstate(invalid="ignore"):
+                sampled = np.where(assembles(coarse).all(axis=(1, 2)), coarse.min(axis=(1, 2), initial=np.inf), -1.0)
+            dense = works(sampled, margin)
+            out[~dense] = sampled[~dense]
+        rows = np.flatnonzero(dense)
+        for start in range(0, rows.size, BLOCK):
+            block = rows[start:start + BLOCK]
+            out[block] = lowest(self._evaluate(params[block], CHECK_SAMPLES, 0.0)[1]).min(axis=1, initial=np.inf)
+        return out
 
     def curves(self, params: np.ndarray, samples: int, phase: np.ndarray | float = 0.0) -> np.ndarray:
         """The tracked joint's curves (K, T) complex, family frame."""

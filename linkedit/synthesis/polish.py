@@ -8,9 +8,10 @@ rest pose itself, so it reaches what the family's parameters do not (a four-bar'
 and crank direction at once) but not the coupler point's place on its link; its shape distance is
 one-sided (every linkage sample to the target polyline).
 
-The polished linkage is kept only if the edit finishes with a working linkage, its smallest
-d_s over the cycle stays at or above the family's margin, and its error (measured like the
-refinement's: both ways for a shape, at the times with ``--timing``) is lower; otherwise the
+The polished linkage is kept only if the edit finishes with a working linkage, it works with the
+family's margin by the one planar predicate (:mod:`linkedit.planar.feasibility`: its lowest d_s
+over the cycle, at the dense samples and between them, at or above the margin), and its error
+(measured like the refinement's: both ways for a shape, at the times with ``--timing``) is lower; otherwise the
 refined linkage stands and the report says why. Open targets (part of a cycle) are not polished:
 a one-sided distance from the whole cycle to part of it would fold the cycle onto the part.
 """
@@ -23,6 +24,7 @@ import numpy as np
 
 from linkedit.errors import MechanismError
 from linkedit.planar import compile_plan, simulate
+from linkedit.planar.feasibility import CHECK_SAMPLES, works
 from linkedit.planar.simulate import Motion
 from linkedit.spec.edit_script import EditScript
 from linkedit.spec.linkage import LinkageSpec
@@ -78,9 +80,9 @@ def polish(spec: LinkageSpec, target: np.ndarray, size: float, error: tuple[floa
         return Polish(False, f"the edit did not finish with a working linkage ({exc})")
     edited = edited.model_copy(update={"description": spec.description})
     polished, motion = measure(edited, target, size, samples, timed)
-    worst = motion.min_singularity()
+    worst = simulate(motion.plan, CHECK_SAMPLES).lowest_singularity()
     ds = worst[0] if worst is not None else 1.0
-    if ds < margin:
+    if not works(ds, margin):
         return Polish(False, f"the edit crossed the singularity margin (min d_s {ds:.3g} < {margin:.3g})", polished, ds)
     if polished[0] >= error[0]:
         return Polish(False, f"the edit did not lower the error ({100 * polished[0]:.3g} % ≥ {100 * error[0]:.3g} %)",

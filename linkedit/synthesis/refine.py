@@ -7,9 +7,10 @@ distance to the candidate's curve and every candidate point's distance to the ta
 target's size; with timing (:mod:`linkedit.synthesis.timed`), the position and velocity gaps
 at the target's times instead, the start phase free too. scipy's trust-region least squares
 minimizes them. The refinement keeps the linkage working, as LinkEdit's barrier does: an
-iterate whose linkage does not turn the full cycle with more than the singularity margin m
-(sin² of the transmission band's edge, the family's 20° unless asked otherwise) is never kept (its residuals are a wall, and only the best working iterate is
-returned), and within BAND·m above the margin one more residual, BARRIER·ln(BAND·m/(d_s − m)),
+iterate whose linkage does not work with the singularity margin m (sin² of the transmission
+band's edge, the family's 20° unless asked otherwise; the one planar predicate,
+:mod:`linkedit.planar.feasibility`) is never kept (its residuals are a wall, and only the best
+working iterate is returned), and within BAND·m above the margin one more residual, BARRIER·ln(BAND·m/(d_s − m)),
 turns the wall into a slope the trust region slides along (a design whose best fit lies on the
 margin — a figure-eight — reaches the margin's constrained optimum instead of stopping at the
 first iterate that hits it).
@@ -27,6 +28,7 @@ from types import ModuleType
 import numpy as np
 from scipy.optimize import least_squares
 
+from linkedit.planar.feasibility import works
 from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
 from linkedit.synthesis.timed import VELOCITY_WEIGHT, TimedTarget, central, timed_sequence
 
@@ -138,7 +140,7 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
            size: float, *, margin: float, timed: TimedTarget | None = None, iterations: int = ITERATIONS) -> Refined:
     """Refine one candidate (``params`` (P,), the branch fixed) against ``target`` (M,) complex:
     by shape (point-to-curve distances), or with ``timed`` by positions and velocities at the
-    target's times (the start phase free too); every kept iterate has min d_s > ``margin``.
+    target's times (the start phase free too); every kept iterate works with ``margin``.
 
     The finite-difference Jacobian evaluates all perturbed linkages in one batched call.
     """
@@ -158,7 +160,7 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
     def distances(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Parameter rows (K, P), min d_s (K,) and residuals (K, R): point-to-curve distances."""
         p, factor, shift = unpack(x)
-        ds = fam.min_singularity(p)
+        ds = fam.min_singularity(p, margin)
         z = fam.curves(p, SAMPLES)
         curve = shift[:, None] + factor[:, None] * (np.conj(z) if placement.mirrored else z)
         with np.errstate(invalid="ignore"):
@@ -176,16 +178,16 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
         z = timed_sequence(fam.curves(p, TIMED_SAMPLES, x[:, -1]), placement.reversed)
         curve = shift[:, None] + factor[:, None] * (np.conj(z) if placement.mirrored else z)
         gap = np.concatenate([timed.points - curve, VELOCITY_WEIGHT * (timed.velocities - central(curve))], axis=1)
-        return p, fam.min_singularity(p), np.concatenate([gap.real, gap.imag], axis=1) * np.sqrt(2.0)
+        return p, fam.min_singularity(p, margin), np.concatenate([gap.real, gap.imag], axis=1) * np.sqrt(2.0)
 
     def residuals(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Parameter rows (K, P), working mask (K,) and residuals (K, R + 1) of x (K, n): the
         distances over the target's size and √R, then the barrier (R: the distance count)."""
         p, ds, r = (distances if timed is None else timed_residuals)(x)
-        ok = (ds > margin) & np.isfinite(r).all(axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
             wall = BAND * margin / (ds - margin)
             barrier = BARRIER * np.log(np.maximum(wall, 1.0))
+        ok = works(ds, margin) & np.isfinite(barrier) & np.isfinite(r).all(axis=1)  # on the margin: the wall
         r = np.concatenate([r / (size * np.sqrt(r.shape[1])), barrier[:, None]], axis=1)
         return p, ok, np.where(ok[:, None], r, WALL)
 

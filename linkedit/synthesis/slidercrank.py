@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from linkedit.planar.feasibility import margin_of
 from linkedit.spec.linkage import LinkageSpec
 
 NAME = "slider-crank"
@@ -29,11 +30,12 @@ SEEDS = np.array([[20 / 70, 12 / 70, 0.5, 0.3, 1.0]])
 
 def margin() -> float:
     """The singularity margin min d_s = sin² MU_MIN of an atlas linkage."""
-    return float(np.sin(np.radians(MU_MIN_DEG)) ** 2)
+    return margin_of(MU_MIN_DEG)
 
 
-def min_singularity(params: np.ndarray) -> np.ndarray:
-    """min over the cycle of d_s = 1 − p² at the slider, (K,); −1 where the rod cannot reach the line."""
+def min_singularity(params: np.ndarray, margin: float | None = None) -> np.ndarray:
+    """min over the continuous cycle of d_s = 1 − p² at the slider, (K,), exact (``margin`` is not
+    needed); −1 where the rod cannot reach the line."""
     reach = np.abs(params[:, 1]) + params[:, 0]
     return np.where(reach <= 1.0, 1.0 - reach * reach, -1.0)
 

@@ -27,7 +27,7 @@ from linkedit.curves.distance import COARSE, partial_placement, partial_rms, ter
 from linkedit.curves.smooth import smooth as smooth_curve
 from linkedit.curves.sources import Curve
 from linkedit.errors import InputError, MechanismError
-from linkedit.planar import compile_plan, simulate
+from linkedit.planar import compile_plan, feasibility, simulate
 from linkedit.planar.simulate import Motion
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.synthesis.atlas import Atlas
@@ -103,7 +103,7 @@ def margin_of(margin_deg: float) -> float:
     if not 0.0 < margin_deg < 90.0:
         raise InputError(f"the transmission band's edge must lie between 0° and 90° (got {margin_deg:g}°)",
                          field="--margin")
-    return float(np.sin(np.radians(margin_deg)) ** 2)
+    return feasibility.margin_of(margin_deg)
 
 
 def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: int = 5, smooth: float = 0.0,
@@ -162,13 +162,14 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
 
 
 def within(hits: list[Hit], atlas: Atlas, margin: float, margin_deg: float) -> list[Hit]:
-    """The hits whose linkage turns the full cycle with min d_s ≥ ``margin`` (the family's closed form);
+    """The hits whose linkage turns the full cycle with its lowest d_s ≥ ``margin`` (the family's, by the
+    one planar predicate: the atlas may have been built by a version that checked fewer samples);
     MechanismError if none does (a band narrower than the atlas's, or an atlas edited by hand)."""
     kept = []
     for fam_name in dict.fromkeys(h.family for h in hits):
         mine = [h for h in hits if h.family == fam_name]
-        ds = family(fam_name).min_singularity(atlas.families[fam_name]["params"][[h.row for h in mine]])
-        kept += [h for h, d in zip(mine, ds) if d >= margin]
+        ds = family(fam_name).min_singularity(atlas.families[fam_name]["params"][[h.row for h in mine]], margin)
+        kept += [h for h, ok in zip(mine, feasibility.works(ds, margin)) if ok]
     if not kept:
         raise MechanismError(f"none of the {len(hits)} nearest atlas linkages turns the full cycle with the "
                              f"transmission angle within [{margin_deg:g}°, {180 - margin_deg:g}°] (--margin "
