@@ -25,7 +25,10 @@ factorization is kept per step (:attr:`Run.rank`) for the diagnostics.
 accepted poses (or, where that strays from it, from x ⊕ (h·v + ½h²·a), a the change of velocity
 since the pose before), and corrects it once with the factorization of x (one back-substitution);
 the Jacobian at the corrected pose is evaluated with its residual and factorized, and corrects
-the rest (simplified Newton); falling back to Levenberg–Marquardt with fresh Jacobians. A (sub-)step is accepted when it converges to a
+the rest (simplified Newton); falling back to Levenberg–Marquardt with fresh Jacobians. At a
+singular pose (small pivots where J has no null space for its inputs: a change point, where
+assembly branches cross) the velocity is the one nearest the velocity the motion arrived with
+(:meth:`Solver.velocity`), so the next step follows the branch whose tangent continues it. A (sub-)step is accepted when it converges to a
 pose within :attr:`Options.predictor_tol` of its tangent prediction x ⊕ h·v and moves at most
 :attr:`Options.max_motion`; otherwise it is halved. So a coarse run solves the same poses as a
 fine one (the same branch), or fails at the time where the step fell below
@@ -151,6 +154,9 @@ class Linear:
     #: rank of J read from the factorization (N minus the null space), −1 where it cannot
     #: tell (small pivots that are not a clean null space: the diagnostics take an SVD)
     rank: int = -1
+    #: small pivots where J has no null space for these inputs: a singular pose (a change
+    #: point, a lock-up), where J alone leaves the velocity undetermined along a direction
+    singular: bool = False
 
     def least_norm(self, b: np.ndarray) -> np.ndarray:
         """The least-norm y (N,) of J y = b (R,): the normal equations' solution (regularized
@@ -240,7 +246,7 @@ class Solver:
         if not small.any():
             return Linear(ev, lin, factor, None, self.system.n_unknowns)
         if not self._free(table, step, lin):
-            return Linear(ev, lin, factor, None)
+            return Linear(ev, lin, factor, None, singular=True)
         return Linear(ev, lin, factor, *self._null_space(lin, factor, int(small.sum()), top))
 
     def _null_space(self, lin: Linearization, factor: Factor, f: int, top: float) -> tuple[np.ndarray | None, int]:
@@ -291,10 +297,18 @@ class Solver:
         """Scaled local coordinates (N,) from the anchor to x."""
         return x.minus(anchor) / self.col
 
-    def velocity(self, x: State, table: StepTable, step: int, linear: Linear) -> np.ndarray:
-        """The least-norm scaled velocity v (N,) of J v = −∂r/∂t."""
+    def velocity(self, x: State, table: StepTable, step: int, linear: Linear,
+                 incoming: np.ndarray | None = None) -> np.ndarray:
+        """The least-norm scaled velocity v (N,) of J v = −∂r/∂t. At a singular pose (a
+        change point, where branches cross and J cannot tell their tangents apart) with the
+        ``incoming`` velocity (N,) the motion arrived with: the one nearest it, v = w + J⁺(b − J w)
+        (J⁺ damped: along the directions J hardly sees, w is kept), so the continuation keeps
+        the branch whose tangent continues the motion."""
         rt = self.system.time_derivative(x, table, step, linear.ev)
-        return linear.least_norm(-rt * self.row)
+        b = -rt * self.row
+        if incoming is None or not linear.singular:
+            return linear.least_norm(b)
+        return incoming + linear.least_norm(b - linear.lin.JT.T @ incoming)
 
     def _residual(self, x: State, table: StepTable, step: int) -> np.ndarray:
         return self.system.evaluate(x, table, step).r
@@ -502,7 +516,8 @@ class Solver:
                 h *= 0.5
                 continue
             x, r, linear = self.settle(x, r, anchor, tab, k, known)
-            here = here.followed_by(s, x, r, linear, self.velocity(x, tab, k, linear))
+            incoming = here.velocity if here.trend is None else here.velocity + h * here.trend
+            here = here.followed_by(s, x, r, linear, self.velocity(x, tab, k, linear, incoming))
             if s == t1:
                 return x, r, CONVERGED, here, s
             h *= 2.0
