@@ -161,6 +161,7 @@ def register(app: typer.Typer) -> None:
             model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
             res = solve_spec(model, steps=steps, solver=solver.value if solver else "lm", allow_python=allow_python,
                              spec_text=text, velocity=velocity.value, accelerations=accelerations,
+                             stop_at_failure=not partial,
                              progress=None if quiet else Progress(model.name))
             out = output or Path("out") / f"{spec.stem}.h5"
             if not partial:

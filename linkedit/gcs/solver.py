@@ -51,7 +51,8 @@ velocity, its null space and rank, the first correction of the next step and, wi
 ``Options.accelerations``, its acceleration (:mod:`linkedit.gcs.acceleration`).
 
 Status per step: **converged** (largest scaled residual row ≤ tol), **inconsistent** (the
-least-squares cost stopped decreasing above tol: the constraints contradict each other) or
+least-squares cost stopped decreasing above tol, or creeps where its gradient is small: the
+constraints contradict each other) or
 **did not converge** (iteration budget, or the step shrank below the smallest sub-step).
 
 The alternative ``slsqp-fd`` is the paper's method: SciPy SLSQP on the summed scaled cost with
@@ -91,6 +92,11 @@ NULL_SINGULAR = 1e-8
 NULL_CLEAN = 1e-9
 #: ... and the other directions of its span are seen by J when above this fraction
 NULL_APART = 1e-6
+#: a Levenberg–Marquardt iterate is near a stationary point of the cost when |Jᵀr| is at most
+#: this fraction of √(largest diagonal of JᵀJ)·|r| (scaled); there, a cost decreasing by less than
+#: CREEP of itself per iteration (three in a row) is a least-squares minimum: inconsistent
+STATIONARY = 1e-2
+CREEP = 1e-3
 #: Levenberg–Marquardt iterations a continuation (sub-)step may take before it is halved
 SUBSTEP_ITERATIONS = 20
 #: largest scaled move of a pose after its Jacobian was taken for that Jacobian to serve it
@@ -128,6 +134,8 @@ class Options:
     accelerations: bool = False
     #: solve many steps at once where that gives the continuation's poses (:mod:`linkedit.gcs.waves`)
     waves: bool = True
+    #: end the run at its first step that fails (the run returned holds the steps up to it)
+    stop_at_failure: bool = False
 
     @property
     def satisfied_tol(self) -> float:
@@ -379,7 +387,8 @@ class Solver:
                             budget: int | None = None) -> tuple[State, np.ndarray, int, Evaluation]:
         """Levenberg–Marquardt with fresh Jacobians from x: (state, residual, status, evaluation
         with the Jacobian at the state). Damping λ·diag(JᵀJ) is raised on failure and lowered on
-        success; the cost stalling above tol is INCONSISTENT, the iteration ``budget`` (default
+        success; the cost stalling above tol (or creeping near a stationary point:
+        :data:`STATIONARY`) is INCONSISTENT, the iteration ``budget`` (default
         ``max_iterations``) running out NOT_CONVERGED."""
         opt = self.options
         lam, stalls, f = 1e-10, 0, float(np.sum((r * self.row) ** 2))
@@ -388,11 +397,14 @@ class Solver:
         while self.iterations < budget:
             lin = self.normal.linearize(ev.jacobians(), scaled=True)
             diagonal = self.normal.diagonal(lin.data)
-            floor = 1e-13 * max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
+            top = max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
+            floor = 1e-13 * top
+            g = lin.gradient(r * self.row)
+            flat = math.sqrt(g @ g) <= STATIONARY * math.sqrt(top * f)
             while True:
                 factor = self.normal.factor(lin.data, lam, floor)
                 self.factorizations += 1
-                x1 = self.moved(x, -factor.solve(lin.gradient(r * self.row)))
+                x1 = self.moved(x, -factor.solve(g))
                 ev1 = self.system.evaluate(x1, table, step, jacobian=True)
                 self.iterations += 1
                 f1 = float(np.sum((ev1.r * self.row) ** 2))
@@ -401,7 +413,9 @@ class Solver:
                 lam *= 10.0
                 if lam > 1e10 or self.iterations >= budget:
                     return x, r, INCONSISTENT if lam > 1e10 else NOT_CONVERGED, ev
-            stalls = stalls + 1 if f - f1 <= 1e-9 * f else 0
+            # the cost stops decreasing above tol (or creeps, |Jᵀr| ≪ |J||r|: a least-squares
+            # minimum where J is singular, such as a loop stretched straight that cannot close)
+            stalls = stalls + 1 if f - f1 <= (CREEP if flat else 1e-9) * f else 0
             x, r, f, ev = x1, ev1.r, f1, ev1
             lam = max(lam / 10.0, 1e-12)
             if self.error(r) <= opt.tol:
@@ -590,7 +604,8 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
     where = {int(k): i for i, k in enumerate(keep)}
     told = None if progress is None else (lambda k, T: progress(where[k], t.size) if k in where else None)
     with single_threaded():
-        return _solve_run(system, full, options, start, None, told).take(keep)
+        run = _solve_run(system, full, options, start, None, told)
+    return run.take(keep[keep < run.t.size])
 
 
 def _solve_run(system: System, t: np.ndarray, options: Options | None, start: State | None,
@@ -726,9 +741,12 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
         if progress is not None:
             progress(k, T)
         k += 1
-    return Run(t=t, position=pos, orientation=ori, velocity=vel,
-               acceleration=acc if options.accelerations else None, residual=res, status=status,
-               iterations=iters, factorizations=facts, reached=reached, rank=rank, batched=batched)
+        if st != CONVERGED and options.stop_at_failure:
+            break
+    run = Run(t=t, position=pos, orientation=ori, velocity=vel,
+              acceleration=acc if options.accelerations else None, residual=res, status=status,
+              iterations=iters, factorizations=facts, reached=reached, rank=rank, batched=batched)
+    return run if k == T else run.take(np.arange(k))
 
 
 def lagrange_weights(nodes: np.ndarray, t: float) -> np.ndarray:
