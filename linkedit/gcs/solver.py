@@ -171,6 +171,15 @@ class Linear:
         by μ) without its component along the null space (there it is rounding amplified by 1/μ)."""
         return self.still(self.factor.solve(self.lin.gradient(b)))
 
+    def continued(self, b: np.ndarray, incoming: np.ndarray | None) -> np.ndarray:
+        """The least-norm y (N,) of J y = b (R,); at a singular pose (a change point, where
+        branches cross and J cannot tell their tangents apart) with the ``incoming`` velocity
+        (N,) the motion arrived with, the one nearest it, y = w + J⁺(b − J w) (J⁺ damped: along
+        the directions J hardly sees, w is kept), so the motion keeps the branch it was on."""
+        if incoming is None or not self.singular:
+            return self.least_norm(b)
+        return incoming + self.least_norm(b - self.lin.JT.T @ incoming)
+
     def still(self, d: np.ndarray) -> np.ndarray:
         """d (N,) without its component along the null space of J."""
         return d if self.null is None else d - self.null @ (self.null.T @ d)
@@ -307,16 +316,11 @@ class Solver:
 
     def velocity(self, x: State, table: StepTable, step: int, linear: Linear,
                  incoming: np.ndarray | None = None) -> np.ndarray:
-        """The least-norm scaled velocity v (N,) of J v = −∂r/∂t. At a singular pose (a
-        change point, where branches cross and J cannot tell their tangents apart) with the
-        ``incoming`` velocity (N,) the motion arrived with: the one nearest it, v = w + J⁺(b − J w)
-        (J⁺ damped: along the directions J hardly sees, w is kept), so the continuation keeps
-        the branch whose tangent continues the motion."""
+        """The least-norm scaled velocity v (N,) of J v = −∂r/∂t; at a singular pose, the one
+        nearest the ``incoming`` velocity (N,) when given (:meth:`Linear.continued`), so the
+        continuation keeps the branch whose tangent continues the motion."""
         rt = self.system.time_derivative(x, table, step, linear.ev)
-        b = -rt * self.row
-        if incoming is None or not linear.singular:
-            return linear.least_norm(b)
-        return incoming + linear.least_norm(b - linear.lin.JT.T @ incoming)
+        return linear.continued(-rt * self.row, incoming)
 
     def _residual(self, x: State, table: StepTable, step: int) -> np.ndarray:
         return self.system.evaluate(x, table, step).r
