@@ -186,6 +186,10 @@ def test_rocking_input_end_velocities_are_the_analytic_ones():
     assert np.abs(tr.velocity[0] - rate * dP).max() < 1e-7 * np.abs(rate * dP).max()
     assert np.abs(tr.velocity[-1] + rate * dP).max() < 1e-7 * np.abs(rate * dP).max()
     assert np.linalg.norm(tr.velocity[0]) > 1.0
+    # at the keyframe between (t = 0.5, crank at 90°, where the rate jumps) the outgoing one
+    # (specs/gcs-hdf5.md)
+    dP = (oracle.crank_rocker(np.array([np.pi / 2 + h])) - oracle.crank_rocker(np.array([np.pi / 2 - h])))[0] / (2 * h)
+    assert res.t[90] == 0.5 and np.abs(tr.velocity[90] + rate * dP).max() < 1e-7 * np.abs(rate * dP).max()
 
 
 def test_full_turn_input_is_cyclic_and_parabola_rule_is_an_option():
@@ -213,6 +217,11 @@ def test_half_turn_keyframes_are_refused_with_the_line(run_cli, tmp_path, keyfra
     assert r.exit_code == 2, r.output
     line = r.output.strip()
     assert "\n" not in line and "half a turn" in line and "inputs.drive.keyframes" in line.replace("/", ".")
+    # issue 22, 5: the only exit-2 message without file:line; the line of the second keyframe
+    text = spec.read_text().splitlines()
+    at = 1 + next(i for i, row in enumerate(text) if row.strip() == "keyframes:") + 2
+    assert text[at - 1].strip() == f"- {keyframes[1]}".replace("'", ""), text[at - 1]
+    assert f"{spec}:{at}: inputs.drive.keyframes[1]: " in line, line
     assert not (tmp_path / "half.h5").exists()
 
 

@@ -139,7 +139,7 @@ def register(app: typer.Typer) -> None:
         """Solve a 3D mechanism (members, constraints, inputs) at every time step."""
         from linkedit.gcs import check_solved, read_result, solve_spec, write_result
         from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
-        from linkedit.spec.yamlload import load_model, read_text
+        from linkedit.spec.yamlload import load_yaml, located, read_text, validate
 
         if steps is not None and not 2 <= steps <= MAX_STEPS:
             raise InputError(f"needs between 2 and {MAX_STEPS:,} steps, not {steps:,}", field="--steps")
@@ -158,10 +158,15 @@ def register(app: typer.Typer) -> None:
             if spec is None:
                 raise InputError("missing SPEC (or --from RESULT.h5)", field="spec")
             text = read_text(spec)
-            model = load_model(MechanismSpec, spec, text, context={"allow_python": allow_python})
-            res = solve_spec(model, steps=steps, solver=solver.value if solver else "lm", allow_python=allow_python,
-                             spec_text=text, velocity=velocity.value, accelerations=accelerations,
-                             progress=None if quiet else Progress(model.name))
+            data, lines = load_yaml(spec, text)
+            model = validate(MechanismSpec, data, file=str(spec), lines=lines, context={"allow_python": allow_python})
+            try:
+                res = solve_spec(model, steps=steps, solver=solver.value if solver else "lm",
+                                 allow_python=allow_python, spec_text=text, velocity=velocity.value,
+                                 accelerations=accelerations, stop_at_failure=not partial,
+                                 progress=None if quiet else Progress(model.name))
+            except InputError as exc:  # found compiling the spec (half-turn keyframes): its field's line
+                raise located(exc, str(spec), lines) from None
             out = output or Path("out") / f"{spec.stem}.h5"
             if not partial:
                 check_solved(res)

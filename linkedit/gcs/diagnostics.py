@@ -24,13 +24,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from linkedit.gcs.solver import CONVERGED, Run
+from linkedit.gcs.solver import CONVERGED, Options, Run
 from linkedit.gcs.system import State, StepTable, System
 
 #: singular values below this fraction of the largest count as zero
 RANK_TOL = 1e-9
-#: a named constraint is reported unsatisfied when a residual row exceeds this (scaled) value
-UNSATISFIED_TOL = 1e-9
 #: name redundant constraints (a small SVD per constraint) only up to this many constraints
 MAX_NAMED_CHECKS = 200
 #: a constraint is redundant when the left null space of J restricted to its rows has full
@@ -54,6 +52,9 @@ class Diagnostics:
     redundant: np.ndarray
     costs: np.ndarray  #: (T, C) per named constraint
     unsatisfied: list[list[str]]  #: per step, worst first (largest scaled cost: the same in any unit)
+    #: per step, how far each unsatisfied constraint is off: (length in the spec's unit, angle
+    #: in radians), the norms of its length and angle residual rows (empty when read from a file)
+    offsets: list[list[tuple[float, float]]] = field(default_factory=list)
     #: (T,) bool: dof and redundant were evaluated at this step (otherwise carried from the last
     #: evaluated step); all False when the rank was not asked for (dof = redundant = −1)
     dof_evaluated: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
@@ -141,10 +142,11 @@ def rank_steps(system: System, run: Run, table: StepTable) -> np.ndarray:
 
 
 def run_diagnostics(system: System, run: Run, table: StepTable, rank: bool = True,
-                    unsatisfied_tol: float = UNSATISFIED_TOL) -> Diagnostics:
-    """Diagnostics of every step of a run: a residual row above ``unsatisfied_tol`` (scaled)
-    names its constraint unsatisfied; the rank is evaluated at :func:`rank_steps` (small SVDs:
-    BLAS on one thread, :mod:`linkedit.blas`)."""
+                    unsatisfied_tol: float = Options.tol) -> Diagnostics:
+    """Diagnostics of every step of a run: a residual row above ``unsatisfied_tol`` (scaled:
+    the tolerance the steps were solved to, so a step that failed names what it could not
+    satisfy) names its constraint unsatisfied; the rank is evaluated at :func:`rank_steps`
+    (small SVDs: BLAS on one thread, :mod:`linkedit.blas`)."""
     from linkedit.blas import single_threaded
 
     with single_threaded():
@@ -157,10 +159,15 @@ def _run_diagnostics(system: System, run: Run, table: StepTable, rank: bool, uns
     scaled = system.costs(run.residual * system.row_scale)  # lengths over the mechanism's size, angles
     bad = np.abs(run.residual) * system.row_scale > unsatisfied_tol
     unsatisfied: list[list[str]] = [[] for _ in range(T)]
+    offsets: list[list[tuple[float, float]]] = [[] for _ in range(T)]
+    length = length_rows(system)
     for k in np.flatnonzero(bad.any(axis=1)):
         owners = np.unique(system.row_owner[bad[k]])
         worst_first = owners[np.argsort(-scaled[k, owners], kind="stable")]
         unsatisfied[k] = [system.constraint_names[c] for c in worst_first]
+        r2 = run.residual[k] ** 2
+        offsets[k] = [(math.sqrt(float(r2[mine & length].sum())), math.sqrt(float(r2[mine & ~length].sum())))
+                      for mine in (system.row_owner == c for c in worst_first)]
     if rank:
         evaluated = rank_steps(system, run, table)
         steps = np.flatnonzero(evaluated)
@@ -182,7 +189,18 @@ def _run_diagnostics(system: System, run: Run, table: StepTable, rank: bool, uns
         names = redundant_constraints(system, run.state(0), table, 0)
     return Diagnostics(status=run.status.copy(), residual=np.sqrt(costs.sum(axis=1)), dof=dof,
                        redundant=redundant, costs=costs, unsatisfied=unsatisfied, dof_evaluated=evaluated,
-                       redundant_names=names)
+                       redundant_names=names, offsets=offsets)
+
+
+def length_rows(system: System) -> np.ndarray:
+    """Whether each residual row (R,) is a length (in the spec's unit; otherwise an angle in
+    radians, or a custom constraint's own value)."""
+    from linkedit.gcs.constraints import LENGTH_KINDS
+
+    out = np.zeros(system.n_rows, dtype=bool)
+    for blk in system.blocks:
+        out[blk.rows] = blk.kind in LENGTH_KINDS
+    return out
 
 
 def redundant_constraints(system: System, state: State, table: StepTable, step: int) -> list[str]:

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 
 import numpy as np
 
 from linkedit.errors import InputError, MechanismError
-from linkedit.gcs.diagnostics import UNSATISFIED_TOL, run_diagnostics
+from linkedit.gcs.diagnostics import run_diagnostics
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.result import GcsResult
 from linkedit.gcs.solver import CONVERGED, STATUS_NAMES, Options, Run, solve_run
@@ -18,12 +19,14 @@ from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
 
 def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "lm",
                allow_python: bool = False, spec_text: str = "", rank: bool = True,
-               velocity: str = "exact", accelerations: bool = False,
+               velocity: str = "exact", accelerations: bool = False, stop_at_failure: bool = False,
                progress: Callable[[int, int], None] | None = None) -> GcsResult:
     """Solve every step t = linspace(0, 1, steps) (default: the spec's ``outputs.steps``).
     ``velocity``: "exact" (from J v = −∂r/∂t at each pose) or "parabola" (the paper's
     three-point rule on the positions); ``accelerations``: also the exact member accelerations
-    (:mod:`linkedit.gcs.acceleration`); ``progress(k, T)`` is called after each step.
+    (:mod:`linkedit.gcs.acceleration`); ``stop_at_failure``: end at the first step that fails
+    (the result holds the steps up to it, for :func:`check_solved`); ``progress(k, T)`` is
+    called after each step.
 
     Raises :class:`MechanismError` when a step's state or residual is not finite (overflow):
     a result never holds NaN or inf."""
@@ -33,14 +36,15 @@ def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "
     system, tracks = compile_mechanism(spec, allow_python=allow_python)
     t = np.linspace(0.0, 1.0, steps)
     table = system.step_table(t)
-    options = Options(solver=solver, accelerations=accelerations)
+    options = Options(solver=solver, accelerations=accelerations, stop_at_failure=stop_at_failure)
     with np.errstate(all="ignore"):  # overflow is checked (check_run_finite), not warned about
         start = time.perf_counter()
         run = solve_run(system, t, options, table=table, progress=progress)
         seconds = time.perf_counter() - start
+        if run.t.size < t.size:  # stopped at a failed step
+            t, table = run.t, system.step_table(run.t)
         check_run_finite(spec.name, system, run)
-        diag = run_diagnostics(system, run, table, rank=rank,
-                               unsatisfied_tol=max(UNSATISFIED_TOL, options.satisfied_tol))
+        diag = run_diagnostics(system, run, table, rank=rank, unsatisfied_tol=options.satisfied_tol)
     res = GcsResult(
         name=spec.name, units=spec.units, t=t, member_names=system.member_names, position=run.position,
         orientation=run.orientation, velocity=run.velocity, acceleration=run.acceleration,
@@ -104,5 +108,17 @@ def check_solved(res: GcsResult) -> None:
     if not d.unsatisfied[k]:  # a pose was found, but not on the branch of the step before
         raise MechanismError(head + "no pose on the previous step's assembly branch (the step could not be cut "
                              "small enough: a lock-up or a singular pose before this time)")
-    raise MechanismError(head + f"constraints not satisfied: {', '.join(d.unsatisfied[k])}; "
-                         f"residual {d.residual[k]:.3g}")
+    off = d.offsets[k] if len(d.offsets) > k else []
+    named = ", ".join(f"{n} off by {_offset(o, res.units)}" for n, o in zip(d.unsatisfied[k], off)) \
+        or ", ".join(d.unsatisfied[k])
+    if k == 0:  # no pose to continue from: the constraints themselves contradict each other
+        raise MechanismError(head + "over-constrained: the constraints contradict each other at the start (no pose "
+                             f"satisfies them all); least squares leaves {named}")
+    raise MechanismError(head + f"constraints not satisfied: {named}; residual {d.residual[k]:.3g}")
+
+
+def _offset(off: tuple[float, float], units: str) -> str:
+    """How far a constraint is off, (length, angle in radians): "2e-09 m", "0.5°" or both."""
+    length, angle = off
+    parts = ([f"{length:.3g} {units}"] if length or not angle else []) + ([f"{math.degrees(angle):.3g}°"] if angle else [])
+    return " and ".join(parts)

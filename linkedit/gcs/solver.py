@@ -25,7 +25,10 @@ factorization is kept per step (:attr:`Run.rank`) for the diagnostics.
 accepted poses (or, where that strays from it, from x ⊕ (h·v + ½h²·a), a the change of velocity
 since the pose before), and corrects it once with the factorization of x (one back-substitution);
 the Jacobian at the corrected pose is evaluated with its residual and factorized, and corrects
-the rest (simplified Newton); falling back to Levenberg–Marquardt with fresh Jacobians. A (sub-)step is accepted when it converges to a
+the rest (simplified Newton); falling back to Levenberg–Marquardt with fresh Jacobians. At a
+singular pose (small pivots where J has no null space for its inputs: a change point, where
+assembly branches cross) the velocity is the one nearest the velocity the motion arrived with
+(:meth:`Solver.velocity`), so the next step follows the branch whose tangent continues it. A (sub-)step is accepted when it converges to a
 pose within :attr:`Options.predictor_tol` of its tangent prediction x ⊕ h·v and moves at most
 :attr:`Options.max_motion`; otherwise it is halved. So a coarse run solves the same poses as a
 fine one (the same branch), or fails at the time where the step fell below
@@ -48,7 +51,8 @@ velocity, its null space and rank, the first correction of the next step and, wi
 ``Options.accelerations``, its acceleration (:mod:`linkedit.gcs.acceleration`).
 
 Status per step: **converged** (largest scaled residual row ≤ tol), **inconsistent** (the
-least-squares cost stopped decreasing above tol: the constraints contradict each other) or
+least-squares cost stopped decreasing above tol, or creeps where its gradient is small: the
+constraints contradict each other) or
 **did not converge** (iteration budget, or the step shrank below the smallest sub-step).
 
 The alternative ``slsqp-fd`` is the paper's method: SciPy SLSQP on the summed scaled cost with
@@ -88,6 +92,11 @@ NULL_SINGULAR = 1e-8
 NULL_CLEAN = 1e-9
 #: ... and the other directions of its span are seen by J when above this fraction
 NULL_APART = 1e-6
+#: a Levenberg–Marquardt iterate is near a stationary point of the cost when |Jᵀr| is at most
+#: this fraction of √(largest diagonal of JᵀJ)·|r| (scaled); there, a cost decreasing by less than
+#: CREEP of itself per iteration (three in a row) is a least-squares minimum: inconsistent
+STATIONARY = 1e-2
+CREEP = 1e-3
 #: Levenberg–Marquardt iterations a continuation (sub-)step may take before it is halved
 SUBSTEP_ITERATIONS = 20
 #: largest scaled move of a pose after its Jacobian was taken for that Jacobian to serve it
@@ -125,6 +134,8 @@ class Options:
     accelerations: bool = False
     #: solve many steps at once where that gives the continuation's poses (:mod:`linkedit.gcs.waves`)
     waves: bool = True
+    #: end the run at its first step that fails (the run returned holds the steps up to it)
+    stop_at_failure: bool = False
 
     @property
     def satisfied_tol(self) -> float:
@@ -151,11 +162,23 @@ class Linear:
     #: rank of J read from the factorization (N minus the null space), −1 where it cannot
     #: tell (small pivots that are not a clean null space: the diagnostics take an SVD)
     rank: int = -1
+    #: small pivots where J has no null space for these inputs: a singular pose (a change
+    #: point, a lock-up), where J alone leaves the velocity undetermined along a direction
+    singular: bool = False
 
     def least_norm(self, b: np.ndarray) -> np.ndarray:
         """The least-norm y (N,) of J y = b (R,): the normal equations' solution (regularized
         by μ) without its component along the null space (there it is rounding amplified by 1/μ)."""
         return self.still(self.factor.solve(self.lin.gradient(b)))
+
+    def continued(self, b: np.ndarray, incoming: np.ndarray | None) -> np.ndarray:
+        """The least-norm y (N,) of J y = b (R,); at a singular pose (a change point, where
+        branches cross and J cannot tell their tangents apart) with the ``incoming`` velocity
+        (N,) the motion arrived with, the one nearest it, y = w + J⁺(b − J w) (J⁺ damped: along
+        the directions J hardly sees, w is kept), so the motion keeps the branch it was on."""
+        if incoming is None or not self.singular:
+            return self.least_norm(b)
+        return incoming + self.least_norm(b - self.lin.JT.T @ incoming)
 
     def still(self, d: np.ndarray) -> np.ndarray:
         """d (N,) without its component along the null space of J."""
@@ -240,7 +263,7 @@ class Solver:
         if not small.any():
             return Linear(ev, lin, factor, None, self.system.n_unknowns)
         if not self._free(table, step, lin):
-            return Linear(ev, lin, factor, None)
+            return Linear(ev, lin, factor, None, singular=True)
         return Linear(ev, lin, factor, *self._null_space(lin, factor, int(small.sum()), top))
 
     def _null_space(self, lin: Linearization, factor: Factor, f: int, top: float) -> tuple[np.ndarray | None, int]:
@@ -291,10 +314,13 @@ class Solver:
         """Scaled local coordinates (N,) from the anchor to x."""
         return x.minus(anchor) / self.col
 
-    def velocity(self, x: State, table: StepTable, step: int, linear: Linear) -> np.ndarray:
-        """The least-norm scaled velocity v (N,) of J v = −∂r/∂t."""
+    def velocity(self, x: State, table: StepTable, step: int, linear: Linear,
+                 incoming: np.ndarray | None = None) -> np.ndarray:
+        """The least-norm scaled velocity v (N,) of J v = −∂r/∂t; at a singular pose, the one
+        nearest the ``incoming`` velocity (N,) when given (:meth:`Linear.continued`), so the
+        continuation keeps the branch whose tangent continues the motion."""
         rt = self.system.time_derivative(x, table, step, linear.ev)
-        return linear.least_norm(-rt * self.row)
+        return linear.continued(-rt * self.row, incoming)
 
     def _residual(self, x: State, table: StepTable, step: int) -> np.ndarray:
         return self.system.evaluate(x, table, step).r
@@ -365,7 +391,8 @@ class Solver:
                             budget: int | None = None) -> tuple[State, np.ndarray, int, Evaluation]:
         """Levenberg–Marquardt with fresh Jacobians from x: (state, residual, status, evaluation
         with the Jacobian at the state). Damping λ·diag(JᵀJ) is raised on failure and lowered on
-        success; the cost stalling above tol is INCONSISTENT, the iteration ``budget`` (default
+        success; the cost stalling above tol (or creeping near a stationary point:
+        :data:`STATIONARY`) is INCONSISTENT, the iteration ``budget`` (default
         ``max_iterations``) running out NOT_CONVERGED."""
         opt = self.options
         lam, stalls, f = 1e-10, 0, float(np.sum((r * self.row) ** 2))
@@ -374,11 +401,14 @@ class Solver:
         while self.iterations < budget:
             lin = self.normal.linearize(ev.jacobians(), scaled=True)
             diagonal = self.normal.diagonal(lin.data)
-            floor = 1e-13 * max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
+            top = max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
+            floor = 1e-13 * top
+            g = lin.gradient(r * self.row)
+            flat = math.sqrt(g @ g) <= STATIONARY * math.sqrt(top * f)
             while True:
                 factor = self.normal.factor(lin.data, lam, floor)
                 self.factorizations += 1
-                x1 = self.moved(x, -factor.solve(lin.gradient(r * self.row)))
+                x1 = self.moved(x, -factor.solve(g))
                 ev1 = self.system.evaluate(x1, table, step, jacobian=True)
                 self.iterations += 1
                 f1 = float(np.sum((ev1.r * self.row) ** 2))
@@ -387,7 +417,9 @@ class Solver:
                 lam *= 10.0
                 if lam > 1e10 or self.iterations >= budget:
                     return x, r, INCONSISTENT if lam > 1e10 else NOT_CONVERGED, ev
-            stalls = stalls + 1 if f - f1 <= 1e-9 * f else 0
+            # the cost stops decreasing above tol (or creeps, |Jᵀr| ≪ |J||r|: a least-squares
+            # minimum where J is singular, such as a loop stretched straight that cannot close)
+            stalls = stalls + 1 if f - f1 <= (CREEP if flat else 1e-9) * f else 0
             x, r, f, ev = x1, ev1.r, f1, ev1
             lam = max(lam / 10.0, 1e-12)
             if self.error(r) <= opt.tol:
@@ -502,7 +534,8 @@ class Solver:
                 h *= 0.5
                 continue
             x, r, linear = self.settle(x, r, anchor, tab, k, known)
-            here = here.followed_by(s, x, r, linear, self.velocity(x, tab, k, linear))
+            incoming = here.velocity if here.trend is None else here.velocity + h * here.trend
+            here = here.followed_by(s, x, r, linear, self.velocity(x, tab, k, linear, incoming))
             if s == t1:
                 return x, r, CONVERGED, here, s
             h *= 2.0
@@ -575,7 +608,8 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
     where = {int(k): i for i, k in enumerate(keep)}
     told = None if progress is None else (lambda k, T: progress(where[k], t.size) if k in where else None)
     with single_threaded():
-        return _solve_run(system, full, options, start, None, told).take(keep)
+        run = _solve_run(system, full, options, start, None, told)
+    return run.take(keep[keep < run.t.size])
 
 
 def _solve_run(system: System, t: np.ndarray, options: Options | None, start: State | None,
@@ -711,9 +745,12 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
         if progress is not None:
             progress(k, T)
         k += 1
-    return Run(t=t, position=pos, orientation=ori, velocity=vel,
-               acceleration=acc if options.accelerations else None, residual=res, status=status,
-               iterations=iters, factorizations=facts, reached=reached, rank=rank, batched=batched)
+        if st != CONVERGED and options.stop_at_failure:
+            break
+    run = Run(t=t, position=pos, orientation=ori, velocity=vel,
+              acceleration=acc if options.accelerations else None, residual=res, status=status,
+              iterations=iters, factorizations=facts, reached=reached, rank=rank, batched=batched)
+    return run if k == T else run.take(np.arange(k))
 
 
 def lagrange_weights(nodes: np.ndarray, t: float) -> np.ndarray:

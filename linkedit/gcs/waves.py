@@ -709,7 +709,7 @@ class Waves:
                 break
             steps, P, Q = steps[:n], P[:n], Q[:n]
             if sparse:
-                R, V, work, ok, rank = self.verify(P, Q, steps)
+                R, V, work, ok, rank = self.verify(P, Q, steps, before[2])
                 null = np.zeros_like(V)
             else:
                 R, V, work, ok, null = self.solve(P, Q, steps)
@@ -749,8 +749,8 @@ class Waves:
             & (np.abs(v).max(axis=1) * np.abs(h) <= opt.max_motion)
         return int(np.argmin(ok)) if not ok.all() else n
 
-    def verify(self, P: np.ndarray, Q: np.ndarray,
-               steps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def verify(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
+               incoming: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The closed form's poses P (B, M, 3), Q (B, M, 4) at the table's ``steps`` (B,) of a
         system with the sparse factorization: residuals and Jacobians evaluated for all at
         once, then each pose that converged as it is (largest scaled residual row ≤ ``tol``)
@@ -758,7 +758,9 @@ class Waves:
         (:meth:`Solver.linearize`: the same pivots, null space and rank). Returns the residuals
         (B, R), scaled velocities (B, N), linear solves and factorizations (B, 2), whether each
         is solved with no free direction (B,), and J's rank (B,) (−1 where the pivots cannot
-        tell, as for the continuation's steps)."""
+        tell, as for the continuation's steps). At a singular pose (a change point) the velocity
+        is the one nearest the step's before (``incoming``, scaled (N,): the solved pose's
+        before the first), as the continuation's (:meth:`Linear.continued`)."""
         solver, B = self.solver, len(steps)
         r, jacs = self.evaluate(P, Q, steps, True)
         rt = self.time_derivative(Q, steps, jacs)
@@ -769,7 +771,7 @@ class Waves:
         for b in np.flatnonzero(ok):
             ev = Evaluation(r[b], [J[b] for J in jacs if J is not None])
             linear = solver.linearize(State(P[b], Q[b]), self.table, int(steps[b]), ev)
-            velocity[b] = linear.least_norm(-rt[b] * solver.row)
+            velocity[b] = incoming = linear.continued(-rt[b] * solver.row, incoming)
             ok[b], rank[b] = linear.null is None, linear.rank
             work[b] = 1
         return r, velocity, work, ok, rank

@@ -275,10 +275,16 @@ def validate(model: type[M], data: Any, *, file: str, lines: LineMap | None = No
         raise InputError(msg, file=file, line=lines.line_of(loc), field=loc) from None
     except InputError as exc:
         # semantic checks raise InputError(field=...) from inside validators
-        exc.file = exc.file or file
-        if exc.line is None:
-            exc.line = lines.line_of(exc.field)
-        raise exc from None
+        raise located(exc, file, lines) from None
+
+
+def located(exc: InputError, file: str, lines: LineMap) -> InputError:
+    """``exc`` with the file and the line of its field filled in where missing (a check of a
+    validated document that names a field of it, e.g. when a spec is compiled)."""
+    exc.file = exc.file or file
+    if exc.line is None:
+        exc.line = lines.line_of(exc.field)
+    return exc
 
 
 def load_model(model: type[M], source: str | Path, text: str | None = None,
