@@ -358,16 +358,15 @@ class Figure:
         self._add(c, draw)
 
     def arrow(self, start: Sequence[float], end: Sequence[float], stroke: Stroke = Stroke(), *, cls: str = "arrow",
-              name: str | None = None, min_px: float = 0.0) -> None:
-        """A straight arrow from world ``start`` to ``end`` (2,), its head (px-sized) at ``end``; an
-        arrow shorter than ``min_px`` on the drawing is left out (it would hide what it points from)."""
+              name: str | None = None) -> None:
+        """A straight arrow from world ``start`` to ``end`` (2,), its head (px-sized) at ``end``."""
         p = finite(name or cls, np.array([start, end], dtype=float), (2, 2))
 
         def draw(v: View) -> list[Mark]:
             a, b = v.px(p)
             d = b - a
             length = float(np.hypot(*d))
-            if length < max(min_px, 1e-9):
+            if length < 1e-9:
                 return []
             u = d / length
             n = np.array([-u[1], u[0]])
