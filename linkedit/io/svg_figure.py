@@ -328,8 +328,7 @@ class Figure:
             q = np.stack([q[:, 0] - grow * u, q[:, 1] + grow * u], axis=1)
             body = _bar(q, stroke=color, stroke_width=f"{BLOCK_PX[1] + 5:g}", stroke_linecap="round",
                         stroke_opacity=0.85)
-            opening = _bar(q, stroke="#ffffff", stroke_width=f"{BLOCK_PX[1] + 1:g}", stroke_linecap="round",
-                           stroke_opacity=0.75)  # what passes under the slot shows through faintly
+            opening = _bar(q, stroke="#ffffff", stroke_width=f"{BLOCK_PX[1] + 1:g}", stroke_linecap="round")
             return mark("g", cls=cls, data_name=name, kids=[body, opening])
 
         self._add(e.reshape(-1, 2), draw)
