@@ -97,3 +97,18 @@ def test_bad_view_is_an_input_error(run_cli, solved, tmp_path):
     r = run_cli("solve3d", "--from", solved / "crank-rocker.h5", "-o", tmp_path / "x.h5", "--svg", tmp_path / "x.svg",
                 "--view", "top")
     assert r.exit_code == 2 and "--view" in r.output and not (tmp_path / "x.svg").exists()
+
+
+def test_iso_picture_has_units_labels_apart_and_arrows_under_the_tracks(run_cli, solved, tmp_path):
+    from tests.test_svg import overlapping, text_boxes
+
+    root = _picture(run_cli, solved, tmp_path, "compound-crank-rocker", "--arrows")
+    assert not find(root, "unit")  # no axes in an isometric view: the units are on the ground plane
+    words = [t.text for t in root.iter("{http://www.w3.org/2000/svg}text") if t.text]
+    assert any(w.startswith("ground plane z = ") and w.endswith(" m)") for w in words)
+    ticks = [t.text for t in find(root, "ground-tick")]
+    assert sum(w.endswith(" m") for w in ticks) == 2  # the first of each row of grid values
+    boxes = text_boxes(root, ("member-label", "ground-tick"))
+    assert len(boxes) > 10 and not overlapping(boxes)
+    order = [el.get("class") for el in root.iter() if el.get("class") in ("velocity", "track")]
+    assert order.index("track") > max(i for i, c in enumerate(order) if c == "velocity")  # curves drawn last

@@ -113,3 +113,30 @@ def test_validate_warns_outside_40_140(run_cli):
     warnings = [ln for ln in r.output.splitlines() if "warning:" in ln]
     assert len(warnings) == 3  # C, D, F of Jansen; the crank-rocker stays within (worst 44.4°)
     assert "joint D leaves 40°–140°: 8.6° at motor angle 192.0°" in r.output
+
+
+def test_toggle_spikes_of_a_partial_result_are_clipped_and_marked(run_cli, tmp_path):
+    from tests.planar_specs import LOCKING
+
+    spec = tmp_path / "lock.yaml"
+    spec.write_text(LOCKING)
+    h5, out = tmp_path / "lock.h5", tmp_path / "plot.svg"
+    assert run_cli("simulate", spec, "--partial", "-o", h5).exit_code == 0
+    assert run_cli("plot", h5, "-o", out).exit_code == 0
+    with h5py.File(h5) as f:
+        ok = f["diagnostics/assembled"][()]
+        acc = f["tracks/coupler_point/acceleration"][()][ok]
+    panel = _panel(ET.parse(out).getroot(), "acceleration")
+    ticks = [float(t.text) for t in panel.iterfind(".//s:text[@class='tick']", NS) if t.get("text-anchor") == "end"]
+    peak = np.abs(acc).max()
+    assert max(np.abs(ticks)) < 0.2 * peak  # the spikes near the toggles do not set the scale
+    frame = panel.find(".//s:rect", NS)
+    top, bottom = float(frame.get("y")), float(frame.get("y")) + float(frame.get("height"))
+    for name in ("x", "y", "magnitude"):
+        line = _series(panel, name)
+        assert top - 0.01 <= line[:, 1].min() and line[:, 1].max() <= bottom + 0.01  # cut at the panel's edge
+    marks = [float(m.get("data-y")) for m in panel.iterfind(".//s:polygon[@class='clipped']", NS)]
+    assert len(marks) >= 4 and max(np.abs(marks)) == pytest.approx(np.hypot(acc[:, 0], acc[:, 1]).max(), rel=1e-5)
+    assert "spikes clipped" in "".join(panel.itertext())
+    # a panel without spikes is not clipped
+    assert not _panel(ET.parse(out).getroot(), "position").findall(".//s:polygon[@class='clipped']", NS)

@@ -520,3 +520,40 @@ def test_edit_overlay_draws_displace_targets_at_the_edited_rest_pose(run_cli, tm
     original = yaml.safe_load((ROOT / "examples" / "jansen.yaml").read_text())["joints"]["C"]
     assert (float(line.get("x1")), float(line.get("y1"))) == pytest.approx(
         (ax + sx * original[0], ay + sy * original[1]), abs=0.02)
+
+
+# -- labels placed apart (issue 25, item 3) --------------------------------------------------------
+
+
+def text_boxes(root, classes_):
+    """(words, pixel box) of the texts of ``classes_``: width 0.5 em a character (narrower than any
+    sans-serif's average), 0.7 em tall above the baseline."""
+    out = []
+    for t in root.iter(NS + "text"):
+        if t.get("class") in classes_ and t.get("x") is not None:
+            x, y, size = float(t.get("x")), float(t.get("y")), float(t.get("font-size") or 10)
+            w = 0.5 * size * len(t.text or "")
+            x0 = x - {"start": 0.0, "middle": w / 2, "end": w}[t.get("text-anchor", "start")]
+            out.append((t.text, (x0, y - 0.7 * size, x0 + w, y)))
+    return out
+
+
+def overlapping(boxes):
+    return [(a, b) for n, (a, p) in enumerate(boxes) for b, q in boxes[n + 1:]
+            if p[0] < q[2] and q[0] < p[2] and p[1] < q[3] and q[1] < p[3]]
+
+
+def test_lockup_labels_at_neighbouring_samples_do_not_overlap():
+    kw = crank_rocker(90)
+    notes = [(40, "locks at 160.0° (C)"), (40, "free again after 161.0°"), (41, "locks at 164.0° (C)")]
+    root = parse(motion_plot(None, **kw, notes=notes))
+    boxes = text_boxes(root, ("lockup-label", "joint-label"))
+    assert len(boxes) == 3 + 5 and not overlapping(boxes)
+    # a label moved off its place has a leader line from its marker
+    px = joint_pixels(root)
+    ax, sx, ay, sy = fit_map(kw["positions"][0], np.array([px[n] for n in kw["joint_names"]]))
+    starts = np.array([(float(ln.get("x1")), float(ln.get("y1"))) for ln in find(root, "leader")])
+    tracer = kw["tracks"]["tracer"][[40, 41]]
+    anchors = np.vstack([np.column_stack([ax + sx * tracer[:, 0], ay + sy * tracer[:, 1]]), list(px.values())])
+    assert len(starts) >= 1
+    assert all(np.hypot(*(anchors - q).T).min() < 0.05 for q in starts)

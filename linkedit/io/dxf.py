@@ -2,7 +2,8 @@
 
 Layers: ``FRAME`` (the ground joints and the links between them), ``LINK-<name>`` (one per
 moving link: its centre lines, a closed outline for a plate of 3 or more joints, and a pin
-hole circle per joint), ``TRACK-<name>`` (each track's curve as a polyline, closed for a full
+hole circle per joint; a slider's slot outline, as wide as a pin hole, over the stretch its joint
+travels, is on its guide link's layer, or on ``FRAME`` for a guide on the frame), ``TRACK-<name>`` (each track's curve as a polyline, closed for a full
 cycle, broken where the linkage does not assemble). Coordinates are the rest pose in the
 spec's units, moved so the first ground joint is the origin; ``$INSUNITS`` says the unit.
 """
@@ -14,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from linkedit.io import slides
 from linkedit.io.atomic import atomic_path
 from linkedit.io.formats import require
 from linkedit.planar.simulate import Motion
@@ -58,6 +60,11 @@ def write_motion_dxf(path: str | Path, motion: Motion) -> None:
             msp.add_circle(p, hole, dxfattribs={"layer": layer})
     for g in graph.ground:
         msp.add_circle(tuple(rest[g]), hole, dxfattribs={"layer": "FRAME"})
+    moved = motion.positions[motion.assembled] - origin
+    for s, pair in zip(slides.from_graph(graph, moved[0]), graph.sliders):
+        layer = "FRAME" if s.guide is None else layer_name("LINK", graph.link_names[pair.guide])
+        msp.add_lwpolyline(_slot_outline(slides.slot(s, moved), hole), format="xyb", close=True,
+                           dxfattribs={"layer": layer})
     closed = motion.cyclic and bool(motion.assembled.all())
     for color, (name, track) in enumerate(motion.tracks.items(), start=1):
         layer = layer_name("TRACK", name)
@@ -67,6 +74,16 @@ def write_motion_dxf(path: str | Path, motion: Motion) -> None:
                 msp.add_lwpolyline([tuple(p) for p in piece], close=closed, dxfattribs={"layer": layer})
     with atomic_path(path) as tmp:
         doc.saveas(tmp)
+
+
+def _slot_outline(ends: np.ndarray, half: float) -> list[tuple[float, float, float]]:
+    """A slot around the segment ``ends`` (2, 2), ``half`` its half width: (x, y, bulge) corners of a
+    closed polyline (two straight sides, two half circles)."""
+    a, b = ends
+    d = b - a
+    u = d / (float(np.hypot(*d)) or 1.0)
+    n = np.array([-u[1], u[0]]) * half
+    return [(*(a + n), 0.0), (*(b + n), -1.0), (*(b - n), 0.0), (*(a - n), -1.0)]
 
 
 def _assembled_runs(points: np.ndarray, ok: np.ndarray) -> list[np.ndarray]:

@@ -65,7 +65,7 @@ def draw(path: str | Path | None, res: GcsResult, view: str | None = None, veloc
     world = _world_points(res)
     size = float(np.ptp(project(world, view), axis=0).max()) if world.size else 1.0
     if view == "iso" and world.size:
-        _ground_plane(fig, world)
+        _ground_plane(fig, world, res.units)
     for k in frames[::-1]:  # faint poses under the first, solid one
         first = k == frames[0]
         for name, lines in _member_lines(res, int(k)).items():
@@ -82,21 +82,19 @@ def draw(path: str | Path | None, res: GcsResult, view: str | None = None, veloc
                 else:
                     for a, b in zip(xy[:-1], xy[1:]):
                         fig.link(np.array([a, b]), **style)  # type: ignore[arg-type]
+    gain = _arrows(fig, res, view, size) if velocity else None  # under the curves: a short track stays visible
     for n, (name, tr) in enumerate(res.tracks.items()):
         color = PALETTE[n % len(PALETTE)]
         stroke = Stroke(color, 2.2, "dashed" if n >= len(PALETTE) else "solid")
         fig.polyline(project(tr.position, view), stroke, closed=tr.cyclic, cls="track", name=name, label=name)
         fig.joints(project(tr.position[:1], view), names=[name], fill=color, stroke=Stroke(color, 1.0),
                    cls="track-point")
-    if velocity:
-        _arrows(fig, res, view, size)
-    placed: list[np.ndarray] = []
-    for name, lines in _member_lines(res, 0).items():
+    if gain is not None:
+        fig.legend(f"velocity d/dt × {gain:.3g} (t in [0, 1]{f'; {res.units} per unit t' if res.units else ''})",
+                   Stroke(INK, 1.2))
+    for name, lines in _member_lines(res, 0).items():  # the figure places the labels apart
         corners = np.vstack(lines) if lines else res.position[0, [res.member_names.index(name)]]
-        at = project(corners.mean(axis=0), view)
-        below = sum(float(np.hypot(*(at - q))) < 0.03 * size for q in placed)  # stack labels that would overlap
-        placed.append(at)
-        fig.annotate(at.tolist(), name, cls="member-label", offset_px=(5.0, -5.0 + 13.0 * below))
+        fig.annotate(project(corners.mean(axis=0), view).tolist(), name, cls="member-label")
     R = quat.to_matrix(res.orientation[0])
     for m, name in enumerate(res.member_names):
         pts = res.points.get(name, {})
@@ -135,8 +133,9 @@ def _world_points(res: GcsResult) -> np.ndarray:
     return np.vstack(parts) if parts else np.zeros((0, 3))
 
 
-def _ground_plane(fig: Figure, world: np.ndarray) -> None:
-    """A grid on the plane z = lowest z under the mechanism, at round world steps, with tick values."""
+def _ground_plane(fig: Figure, world: np.ndarray, units: str) -> None:
+    """A grid on the plane z = lowest z under the mechanism, at round world steps, with tick values
+    (the first of each row with ``units``)."""
     lo, hi = world.min(axis=0), world.max(axis=0)
     span = float(max((hi - lo)[:2].max(), 1e-12 * max(1.0, float(np.abs(world).max()))))
     lo2, hi2 = lo[:2] - 0.1 * span, hi[:2] + 0.1 * span
@@ -145,23 +144,25 @@ def _ground_plane(fig: Figure, world: np.ndarray) -> None:
     ys = np.arange(np.floor(lo2[1] / step), np.ceil(hi2[1] / step) + 1) * step
     z = lo[2]
     grid = Stroke("#a0aec0", 0.8)
-    for x in xs:
+    unit = f" {units}" if units else ""
+    for n, x in enumerate(xs):
         fig.polyline(project(np.array([[x, ys[0], z], [x, ys[-1], z]]), "iso"), grid, cls="ground-plane")
-        fig.annotate(project(np.array([x, ys[0], z]), "iso").tolist(), tick_label(float(x), step), size=9,
-                     offset_px=(-10.0, 16.0), cls="ground-tick")
-    for y in ys:
+        fig.annotate(project(np.array([x, ys[0], z]), "iso").tolist(), f"x {tick_label(float(x), step)}{unit}" if n == 0
+                     else tick_label(float(x), step), size=9, offset_px=(-10.0, 16.0), cls="ground-tick")
+    for n, y in enumerate(ys):
         fig.polyline(project(np.array([[xs[0], y, z], [xs[-1], y, z]]), "iso"), grid, cls="ground-plane")
-        fig.annotate(project(np.array([xs[-1], y, z]), "iso").tolist(), tick_label(float(y), step), size=9,
-                     offset_px=(6.0, 10.0), cls="ground-tick")
-    fig.legend(f"ground plane z = {tick_label(float(z), step)} (grid {tick_label(step, step)})", grid)
+        fig.annotate(project(np.array([xs[-1], y, z]), "iso").tolist(), f"y {tick_label(float(y), step)}{unit}" if n == 0
+                     else tick_label(float(y), step), size=9, offset_px=(6.0, 10.0), cls="ground-tick")
+    fig.legend(f"ground plane z = {tick_label(float(z), step)}{unit} (grid {tick_label(step, step)}{unit})", grid)
 
 
-def _arrows(fig: Figure, res: GcsResult, view: str, size: float) -> None:
-    """Velocity arrows at evenly spaced steps of every track, the longest ``ARROW_FRACTION`` of ``size``."""
+def _arrows(fig: Figure, res: GcsResult, view: str, size: float) -> float | None:
+    """Velocity arrows at evenly spaced steps of every track, the longest ``ARROW_FRACTION`` of ``size``;
+    returns their scale (None: nothing moves)."""
     v2 = {n: project(tr.velocity, view) for n, tr in res.tracks.items()}  # projections are linear
     vmax = max((float(np.linalg.norm(v, axis=1).max()) for v in v2.values()), default=0.0)
     if not vmax > 0:
-        return
+        return None
     gain = ARROW_FRACTION * size / vmax
     T = res.t.size
     ks = np.unique(np.linspace(0, T - 1, ARROWS_PER_TRACK, endpoint=False).round().astype(int))
@@ -169,4 +170,4 @@ def _arrows(fig: Figure, res: GcsResult, view: str, size: float) -> None:
         p, color = project(tr.position, view), PALETTE[n % len(PALETTE)]
         for k in ks:
             fig.arrow(p[k], p[k] + gain * v2[name][k], Stroke(color, 1.2), cls="velocity", name=name)
-    fig.legend(f"velocity d/dt × {gain:.3g} (t in [0, 1])", Stroke(INK, 1.2))
+    return gain

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from linkedit.io import slides
 from linkedit.io.svg import animated_motion, motion_plot
 from linkedit.planar.simulate import Motion
 from linkedit.spec.linkage import LinkTrack
@@ -16,7 +17,7 @@ def drawing(motion: Motion) -> dict[str, Any]:
     """The keyword arguments of :func:`linkedit.io.svg.motion_plot` for the assembled samples.
 
     A point tracked on a link is drawn as part of its link (an extra corner of the link's
-    plate); where the linkage is locked (``--partial``) the curves break and the lock-up
+    plate); sliders are drawn as rails, slots and blocks; where the linkage is locked (``--partial``) the curves break and the lock-up
     angles are marked.
     """
     plan = motion.plan
@@ -50,6 +51,7 @@ def drawing(motion: Motion) -> dict[str, Any]:
         ground=list(plan.graph.ground), motor=None if plan.linear else (plan.graph.motor, plan.graph.pivot),
         tracks={n: tr.position[ok] for n, tr in motion.tracks.items()},
         units=plan.spec.units, title=f"{plan.spec.name} ({int(np.sum(ok))} samples)", breaks=breaks, notes=notes,
+        sliders=slides.from_graph(plan.graph, positions[0]),
     )
 
 

@@ -6,8 +6,10 @@ finite (NaN, inf) raise ValueError: nothing non-finite is ever written into a pi
 
 The drawn elements carry classes and names so programs (and tests) can find them:
 ``class="link"`` / ``"track"`` / ``"joint"`` / ``"joint-path"`` / ``"ground"`` / ``"motor"`` /
-``"target"`` / ``"envelope"``, with ``data-name`` = the link, track or joint name; the edit
-overlay adds ``before`` or ``after`` to the class list.
+``"target"`` / ``"envelope"``, with ``data-name`` = the link, track or joint name; sliders:
+``"rail"`` (a guide on the frame), ``"slot"`` (a slot in a moving link, ``"slot-arm"`` joining it
+to its link's body) and ``"block"`` (the sliding joint), with ``data-name`` = the slider's name;
+the edit overlay adds ``before`` or ``after`` to the class list.
 """
 
 from __future__ import annotations
@@ -15,10 +17,13 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from linkedit.io import slides
 from linkedit.io.atomic import write_text
+from linkedit.io.slides import Slide
 from linkedit.io.svg_figure import ENVELOPE_GREEN, INK, PALETTE, PATH_GREY, Figure, Stroke, finite
 
 MAX_FRAMES = 120          # animation frames per cycle at most (file size)
@@ -36,11 +41,12 @@ class Drawing:
     motor: tuple[int, int] | None
     tracks: dict[str, np.ndarray]
     breaks: tuple[int, ...] = ()  #: sample indices that start a new piece of every curve
+    sliders: tuple[Slide, ...] = ()
 
     @classmethod
     def check(cls, joint_names: Sequence[str], positions: np.ndarray, links: Mapping[str, Sequence[int]],
               ground: Sequence[int], motor: tuple[int, int] | None,
-              tracks: Mapping[str, np.ndarray], breaks: Sequence[int] = ()) -> Drawing:
+              tracks: Mapping[str, np.ndarray], breaks: Sequence[int] = (), sliders: Sequence[Slide] = ()) -> Drawing:
         """Validate shapes, indices and finiteness (ValueError naming the offending input)."""
         names = [str(n) for n in joint_names]
         pos = finite("positions", positions, (None, len(names), 2))
@@ -63,7 +69,12 @@ class Drawing:
         cuts = tuple(sorted({int(b) for b in breaks}))
         if any(not 0 < b < pos.shape[0] for b in cuts):
             raise ValueError(f"breaks: sample indices must be in 1..{pos.shape[0] - 1}, got {list(cuts)}")
-        return cls(names, pos, body, [index("ground", i) for i in ground], pair, paths, cuts)
+        for s in sliders:
+            for i in (s.joint, *(s.guide or ()), *s.link):
+                index(f"slider {s.name}", i)
+            if not np.isfinite(s.angle):
+                raise ValueError(f"slider {s.name}: angle is not finite")
+        return cls(names, pos, body, [index("ground", i) for i in ground], pair, paths, cuts, tuple(sliders))
 
     def pieces(self, curve: np.ndarray) -> list[np.ndarray]:
         """``curve`` (T, ...) cut at the breaks."""
@@ -81,7 +92,8 @@ class Drawing:
 def motion_plot(path: str | Path | None, *, joint_names: Sequence[str], positions: np.ndarray,
                 links: Mapping[str, Sequence[int]], ground: Sequence[int], motor: tuple[int, int] | None,
                 tracks: Mapping[str, np.ndarray], units: str = "", title: str = "", cyclic: bool = True,
-                breaks: Sequence[int] = (), notes: Sequence[tuple[int, str]] = ()) -> str:
+                breaks: Sequence[int] = (), notes: Sequence[tuple[int, str]] = (),
+                sliders: Sequence[Slide] = ()) -> str:
     """A static motion plot; returns the SVG text and writes it to ``path`` (atomically) if given.
 
     ``positions`` (T, J, 2): joint positions over the cycle in ``units``, sample 0 = rest pose;
@@ -92,14 +104,16 @@ def motion_plot(path: str | Path | None, *, joint_names: Sequence[str], position
     paths faint, axes in ``units``. ``cyclic``: the samples are one full cycle (curves closed).
     ``breaks``: sample indices where a curve is broken (samples before and after are not
     neighbours: the linkage was locked in between); ``notes``: (sample, text) marked on the
-    first track's curve (or the motor joint's path), e.g. the lock-up angles.
+    first track's curve (or the motor joint's path), e.g. the lock-up angles. ``sliders``: the
+    prismatic pairs (:class:`~linkedit.io.slides.Slide`), drawn as a rail on the frame or a slot in
+    their guide link over the stretch their joint travels, and a block at the joint.
     """
-    d = Drawing.check(joint_names, positions, links, ground, motor, tracks, breaks)
+    d = Drawing.check(joint_names, positions, links, ground, motor, tracks, breaks, sliders)
     fig = Figure(title=title, units=units, cyclic=cyclic)
     colors = _colors(d.tracks)
     _joint_paths(fig, d)
     _tracks(fig, d, colors, closed=cyclic)
-    _mechanism(fig, d, d.positions[0])
+    _mechanism(fig, d)
     marked = next(iter(d.tracks.values()), None)
     if marked is None and d.motor is not None:
         marked = d.positions[:, d.motor[0]]
@@ -116,21 +130,30 @@ def motion_plot(path: str | Path | None, *, joint_names: Sequence[str], position
     return _finish(path, fig)
 
 
-def animated_motion(path: str | Path | None, *, joint_names: Sequence[str], positions: np.ndarray,
-                    links: Mapping[str, Sequence[int]], ground: Sequence[int], motor: tuple[int, int] | None,
-                    tracks: Mapping[str, np.ndarray], units: str = "", title: str = "", duration_s: float = 4.0,
-                    cyclic: bool = True, breaks: Sequence[int] = (), notes: Sequence[tuple[int, str]] = ()) -> str:
+def animated_motion(path: str | Path | None, *, duration_s: float = 4.0, **drawing: Any) -> str:
     """An animated motion plot (SMIL, plays in a browser); returns the SVG text, writes ``path`` if given.
 
-    Same inputs as :func:`motion_plot` (``notes`` are not drawn). The cycle plays in ``duration_s`` seconds, forever; the
-    T samples are thinned evenly to at most ``MAX_FRAMES`` frames (every element's
-    ``<animate values=...>`` has one value per frame, plus frame 0 again at the end when
-    ``cyclic``). Links, joints and track points move; track curves, joint paths, ground and
-    motor symbols are drawn still underneath.
+    Same inputs as :func:`motion_plot` (``notes`` are not drawn); see :func:`animation`.
+    """
+    return _finish(path, animation(duration_s=duration_s, **drawing))
+
+
+def animation(*, joint_names: Sequence[str], positions: np.ndarray, links: Mapping[str, Sequence[int]],
+              ground: Sequence[int], motor: tuple[int, int] | None, tracks: Mapping[str, np.ndarray],
+              units: str = "", title: str = "", duration_s: float = 4.0, cyclic: bool = True,
+              breaks: Sequence[int] = (), notes: Sequence[tuple[int, str]] = (),
+              sliders: Sequence[Slide] = ()) -> Figure:
+    """The figure of an animated motion plot (written as SVG by :func:`animated_motion`, as GIF by
+    :func:`linkedit.io.gif.write_gif`).
+
+    The cycle plays in ``duration_s`` seconds, forever; the T samples are thinned evenly to at
+    most ``MAX_FRAMES`` frames (every element's ``<animate values=...>`` has one value per frame,
+    plus frame 0 again at the end when ``cyclic``). Links, joints, sliders and track points move;
+    track curves, joint paths, ground and motor symbols and rails are drawn still underneath.
     """
     if not (np.isfinite(duration_s) and duration_s > 0):
         raise ValueError(f"duration_s must be a positive number of seconds, got {duration_s}")
-    d = Drawing.check(joint_names, positions, links, ground, motor, tracks, breaks)
+    d = Drawing.check(joint_names, positions, links, ground, motor, tracks, breaks, sliders)
     samples = d.positions.shape[0]
     frames = np.arange(samples) if samples <= MAX_FRAMES else (
         np.round(np.linspace(0, samples, MAX_FRAMES, endpoint=False)).astype(int))
@@ -138,7 +161,7 @@ def animated_motion(path: str | Path | None, *, joint_names: Sequence[str], posi
     colors = _colors(d.tracks)
     _joint_paths(fig, d)
     _tracks(fig, d, colors, closed=cyclic)
-    _mechanism(fig, d, d.positions[frames])
+    _mechanism(fig, d, frames)
     for name, curve in d.tracks.items():
         fig.joints(curve[frames][:, None], names=[name], fill=colors[name], stroke=Stroke(colors[name], 1.0),
                    cls="track-point")
@@ -148,7 +171,7 @@ def animated_motion(path: str | Path | None, *, joint_names: Sequence[str], posi
         r = d.positions[frames, d.motor[0]] - d.positions[frames, d.motor[1]]
         turn = np.degrees(np.unwrap(np.arctan2(r[:, 1], r[:, 0])))
         fig.frame_caption([f"crank {abs(a - turn[0]):.0f}°" for a in turn])
-    return _finish(path, fig)
+    return fig
 
 
 def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after: Mapping[str, object],
@@ -187,7 +210,7 @@ def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after
         fig.polyline(finite(f"target {label}", curve, (None, 2)), Stroke(color, 1.6, "dashed"), closed=True,
                      cls="target", name=str(label))
     _tracks(fig, new, colors, closed=True, cls="track after")
-    _mechanism(fig, new, new.positions[0], cls="after")
+    _mechanism(fig, new, cls="after")
     for label, old_at, target in displacements:
         if old_at is not None:
             fig.arrow(old_at, target, Stroke(PALETTE[1], 1.6, "dashed"), cls="displace", name=label)
@@ -207,12 +230,13 @@ def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after
 
 def _drawing(which: str, kw: Mapping[str, object]) -> Drawing:
     fields = ("joint_names", "positions", "links", "ground", "motor", "tracks")
-    unknown = set(kw) - set(fields) - {"units", "title", "breaks", "notes"}
+    unknown = set(kw) - set(fields) - {"units", "title", "breaks", "notes", "sliders"}
     missing = set(fields) - set(kw)
     if unknown or missing:
         raise ValueError(f"{which}: unknown keys {sorted(unknown)}, missing keys {sorted(missing)}")
     try:
-        return Drawing.check(**{k: kw[k] for k in fields}, breaks=kw.get("breaks", ()))  # type: ignore[arg-type]
+        return Drawing.check(**{k: kw[k] for k in fields}, breaks=kw.get("breaks", ()),  # type: ignore[arg-type]
+                             sliders=kw.get("sliders", ()))  # type: ignore[arg-type]
     except ValueError as exc:
         raise ValueError(f"{which}: {exc}") from None
 
@@ -245,17 +269,49 @@ def _tracks(fig: Figure, d: Drawing, colors: Mapping[str, str], *, closed: bool,
                          label=name if k == 0 else None)
 
 
-def _mechanism(fig: Figure, d: Drawing, pose: np.ndarray, cls: str = "") -> None:
-    """Ground and motor symbols, links and joints at ``pose`` (J, 2) or frames (F, J, 2)."""
-    rest = pose if pose.ndim == 2 else pose[0]
+def _mechanism(fig: Figure, d: Drawing, frames: np.ndarray | None = None, cls: str = "") -> None:
+    """Ground and motor symbols, slider guides, links, blocks and joints at sample 0, or moving over
+    the sample indices ``frames``."""
+    pose = d.positions[0] if frames is None else d.positions[frames]
+    rest = d.positions[0]
     for g in d.ground:
         fig.ground(rest[g], name=d.joint_names[g])
     if d.motor is not None:
         fig.motor(rest[d.motor[1]], ccw=d.motor_turns_ccw(), name=d.joint_names[d.motor[0]])
     extra = f" {cls}" if cls else ""
+    at = [0] if frames is None else frames
+    for s in d.sliders:
+        if s.guide is None:
+            fig.rail(slides.slot(s, d.positions), _rail_side(s, rest), name=s.name, cls="rail" + extra)
     for name, members in d.links.items():
         fig.link(pose[..., members, :], name=name, cls="link" + extra)
+    for s in d.sliders:
+        if s.guide is None:
+            continue
+        reach = slides.arm(s, d.positions)
+        if reach is not None:
+            fig.link(_frames(slides.carry(s, d.positions, reach)[at]), name=s.name, cls="slot-arm" + extra)
+        fig.slot(_frames(slides.carry(s, d.positions, slides.slot(s, d.positions))[at]), name=s.name,
+                 cls="slot" + extra)
+    for s in d.sliders:
+        p0 = d.positions[0, s.joint]
+        unit = slides.carry(s, d.positions, np.array([p0, p0 + [np.cos(s.angle), np.sin(s.angle)]]))[at]
+        fig.block(_frames(d.positions[at, s.joint]), _frames(unit[:, 1] - unit[:, 0]), name=s.name,
+                  cls="block" + extra)
     fig.joints(pose, names=d.joint_names, cls="joint" + extra)
+
+
+def _frames(a: np.ndarray) -> np.ndarray:
+    """One frame ``(1, ...)`` as the still ``(...)``; more frames kept."""
+    return a[0] if a.shape[0] == 1 else a
+
+
+def _rail_side(s: Slide, rest: np.ndarray) -> np.ndarray:
+    """The side of a frame rail its hatching goes: below it, or for a steep rail away from the mechanism."""
+    n = np.array([np.sin(s.angle), -np.cos(s.angle)])
+    if abs(np.cos(s.angle)) < 0.3:
+        return n if float(n @ (rest[s.joint] - rest.mean(axis=0))) >= 0 else -n
+    return n if n[1] < 0 else -n
 
 
 def _finish(path: str | Path | None, fig: Figure) -> str:

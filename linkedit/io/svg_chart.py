@@ -3,7 +3,11 @@
 Unlike :class:`~linkedit.io.svg_figure.Figure` (equal aspect, world coordinates) each panel
 has its own y scale. Ticks, labels, colours and the ``class``/``data-name`` attributes are the
 figure module's (:mod:`linkedit.io.svg_figure`). Non-finite samples break a line (never drawn
-across); a value band (``band``) shades a range of y and marks (``marks``) point at samples.
+across); a value band (``band``) shades a range of y and marks (``marks``) point at samples, their
+labels placed apart (:func:`~linkedit.io.svg_figure.place_labels`). Spikes (a toggle's velocity,
+acceleration, jerk) do not set the y range: where the values reach :data:`SPIKE` times further
+than the 2nd–98th percentiles, the range is those percentiles (plus a margin), lines are cut at
+the panel's edge and each clipped run is marked there (class ``clipped``, ``data-y`` its peak).
 """
 
 from __future__ import annotations
@@ -12,9 +16,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from linkedit.io.svg_figure import FONT, INK, PALETTE, SVG_NS, attr, attrs, nice_ticks, points_text, text, tick_label
+from linkedit.io.svg_figure import (FONT, INK, PALETTE, SVG_NS, attr, attrs, nice_ticks, place_labels, points_text, text,
+                                    text_box, tick_label)
 
 PANEL_W, PANEL_H, LEFT, GAP = 620.0, 150.0, 78.0, 46.0
+SPIKE = 4.0  #: a panel's values spanning this many times their 2nd–98th percentile range are clipped
 
 
 @dataclass
@@ -62,15 +68,27 @@ def chart(x: np.ndarray, panels: list[Panel], *, xlabel: str, title: str = "") -
             f" viewBox=\"0 0 {width:.0f} {height:.0f}\">\n<title>{text(title)}</title>\n" + "\n".join(out) + "\n</svg>\n")
 
 
-def _panel(x: np.ndarray, xr: tuple[float, float], p: Panel, top: float, xlabel: str) -> str:
-    ys = [s.y[np.isfinite(s.y)] for s in p.series] + [np.array(p.band or (), dtype=float)]
-    ys += [np.array([m[1] for m in p.marks])]
-    allv = np.concatenate(ys) if ys else np.zeros(0)
+def _y_range(p: Panel) -> tuple[float, float, bool]:
+    """The panel's y range (lo, hi) and whether spikes are clipped (see module docstring)."""
+    values = np.concatenate([s.y[np.isfinite(s.y)] for s in p.series] + [np.zeros(0)])
+    others = np.concatenate([np.array(p.band or (), dtype=float), np.array([m[1] for m in p.marks], dtype=float)])
+    allv = np.concatenate([values, others])
     lo, hi = (float(allv.min()), float(allv.max())) if allv.size else (0.0, 1.0)
+    clipped = False
+    if values.size >= 20:
+        q0, q1 = np.percentile(values, [2.0, 98.0])
+        if q1 > q0 and hi - lo > SPIKE * (q1 - q0):
+            margin = 0.5 * (q1 - q0)
+            lo, hi = min([q0 - margin, *others]), max([q1 + margin, *others])
+            clipped = bool(values.min() < lo or values.max() > hi)
     if hi - lo <= 1e-12 * max(1.0, abs(hi)):
         lo, hi = lo - 1.0, hi + 1.0
     pad = 0.05 * (hi - lo)
-    lo, hi = lo - pad, hi + pad
+    return lo - pad, hi + pad, clipped
+
+
+def _panel(x: np.ndarray, xr: tuple[float, float], p: Panel, top: float, xlabel: str) -> str:
+    lo, hi, clipped = _y_range(p)
     left, bottom = LEFT, top + PANEL_H
 
     def px(xv: np.ndarray, yv: np.ndarray) -> np.ndarray:
@@ -107,20 +125,31 @@ def _panel(x: np.ndarray, xr: tuple[float, float], p: Panel, top: float, xlabel:
         ok = np.isfinite(s.y) & np.isfinite(x)
         edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(int), [0]])))
         for a, b in zip(edges[::2], edges[1::2]):
-            q = px(x[a:b], s.y[a:b])
+            q = px(x[a:b], np.clip(s.y[a:b], lo, hi))
             dash = " stroke-dasharray=\"6 4\"" if s.dashed else ""
             parts.append(f"<polyline{attrs(cls='series', data_name=s.name)} points={attr(points_text(q))}"
                          f" fill=\"none\" stroke=\"{s.color}\" stroke-width=\"1.6\"{dash} stroke-linejoin=\"round\"/>")
-    placed: list[float] = []  # label baselines, kept 12 px apart so near marks stay readable
-    for mx, my, label in sorted(p.marks, key=lambda m: -m[1]):
-        X, Y = px(np.array(mx), np.array(my))
-        ly = float(Y) + 4
-        while any(abs(ly - q) < 12 for q in placed):
-            ly -= 12
-        placed.append(ly)
-        parts.append(f"<g class=\"toggle\" data-x=\"{mx:.6g}\" data-y=\"{my:.6g}\"><circle cx=\"{X:.2f}\" cy=\"{Y:.2f}\""
+            if clipped:
+                parts += _clip_marks(x[a:b], s, a, b, lo, hi, px)
+    if clipped:
+        peak = max(float(np.nanmax(np.abs(s.y))) for s in p.series if np.isfinite(s.y).any())
+        parts.append(f"<text class=\"clip-note\" x=\"{left + 6:.2f}\" y=\"{top + 13:.2f}\" font-size=\"10\""
+                     f" fill=\"{INK}\" stroke=\"#ffffff\" stroke-width=\"3\" paint-order=\"stroke\" {FONT}>"
+                     f"spikes clipped at the edge (▲▼), up to {peak:.3g}</text>")
+    pins = sorted(p.marks, key=lambda m: -m[1])
+    at = np.array([px(np.array(mx), np.array(my)) for mx, my, _ in pins]).reshape(-1, 2)
+    boxes = np.array([text_box(X + 8, Y + 4, label, 10.0) for (X, Y), (_, _, label) in zip(at, pins)]).reshape(-1, 4)
+    shifts, moved = place_labels(at, boxes, (left, top, left + PANEL_W, bottom), at)
+    for (mx, my, label), (X, Y), s, m in zip(pins, at, shifts, moved):
+        tx, ty = X + 8 + s[0], Y + 4 + s[1]
+        leader = ""
+        if m:
+            near = np.clip([X, Y], *np.split(text_box(tx, ty, label, 10.0), 2))
+            leader = (f"<line class=\"leader\" x1=\"{X:.2f}\" y1=\"{Y:.2f}\" x2=\"{near[0]:.2f}\" y2=\"{near[1]:.2f}\""
+                      f" stroke=\"{PALETTE[1]}\" stroke-width=\"0.8\"/>")
+        parts.append(f"<g class=\"toggle\" data-x=\"{mx:.6g}\" data-y=\"{my:.6g}\">{leader}<circle cx=\"{X:.2f}\" cy=\"{Y:.2f}\""
                      f" r=\"4\" fill=\"#ffffff\" stroke=\"{PALETTE[1]}\" stroke-width=\"1.6\"/>"
-                     f"<text x=\"{X + 8:.2f}\" y=\"{ly:.2f}\" font-size=\"10\" fill=\"{PALETTE[1]}\""
+                     f"<text x=\"{tx:.2f}\" y=\"{ty:.2f}\" font-size=\"10\" fill=\"{PALETTE[1]}\""
                      f" stroke=\"#ffffff\" stroke-width=\"3\" paint-order=\"stroke\" {FONT}>{text(label)}</text></g>")
     rows = []
     for n, s in enumerate(p.series):
@@ -131,3 +160,18 @@ def _panel(x: np.ndarray, xr: tuple[float, float], p: Panel, top: float, xlabel:
                     f" y=\"{y + 4:.2f}\" fill={attr(INK)}>{text(s.name)}</text>")
     parts.append(f"<g class=\"legend\" font-size=\"11\" {FONT}>{''.join(rows)}</g></g>")
     return "".join(parts)
+
+
+def _clip_marks(x: np.ndarray, s: Series, a: int, b: int, lo: float, hi: float, px) -> list[str]:
+    """A triangle at the panel's edge for each run of ``s.y[a:b]`` beyond [lo, hi], at its peak."""
+    y = s.y[a:b]
+    out = []
+    for beyond, edge, tip in ((y > hi, hi, -1.0), (y < lo, lo, 1.0)):
+        runs = np.flatnonzero(np.diff(np.concatenate([[0], beyond.astype(int), [0]])))
+        for r0, r1 in zip(runs[::2], runs[1::2]):
+            k = r0 + int(np.argmax(np.abs(y[r0:r1])))
+            X, Y = px(np.array(x[k]), np.array(edge))
+            tri = points_text([(X, Y + 7 * tip), (X - 4, Y - tip), (X + 4, Y - tip)])
+            out.append(f"<polygon{attrs(cls='clipped', data_name=s.name)} data-x=\"{x[k]:.6g}\" data-y=\"{y[k]:.6g}\""
+                       f" points={attr(tri)} fill=\"{s.color}\" stroke=\"#ffffff\" stroke-width=\"0.8\"/>")
+    return out

@@ -1,70 +1,53 @@
-"""A small SVG figure builder for mechanism pictures.
+"""The figure model of every mechanism picture: drawn to SVG, and frame by frame to raster (GIF).
 
-World coordinates (x right, y up, in the drawing's units) are mapped to SVG pixels (y down)
-with one scale for both axes (equal aspect ratio). Everything drawn is recorded first; the
-bounds, the scale, the axes (ticks at round numbers, unit label), the title and the legend
-are laid out when :meth:`Figure.render` is called. Symbol sizes (joint circles, ground and
-motor markers, bar widths) are in pixels and do not scale with the drawing.
+World coordinates (x right, y up, in the drawing's units) are mapped to pixels (y down) with
+one scale for both axes (equal aspect ratio). Everything drawn is recorded first; the bounds,
+the scale, the axes (ticks at round numbers, unit label), the title, the legend and the
+placement of labels (so they do not overlap) are laid out when the figure's marks
+(:mod:`linkedit.io.marks`) are made: :meth:`Figure.render` writes them as SVG,
+:func:`linkedit.io.raster.frames` paints them. Symbol sizes (joint circles, ground, motor and
+slider symbols, bar widths) are in pixels and do not scale with the drawing.
 
-A primitive given one pose (``(k, 2)`` points) is static; given frames (``(F, k, 2)``) it is
-animated with SMIL ``<animate>`` elements (``calcMode="linear"``, ``repeatCount="indefinite"``),
+A primitive given one pose (``(k, 2)`` points) is still; given frames (``(F, k, 2)``) it moves:
+in SVG with SMIL ``<animate>`` elements (``calcMode="linear"``, ``repeatCount="indefinite"``),
 which needs ``Figure(duration_s=...)``.
 """
 
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
 from dataclasses import dataclass, field
-from xml.sax.saxutils import escape, quoteattr
 
 import numpy as np
+
+from linkedit.io.marks import Mark, attr, attrs, mark, path, points_text, still, svg, text
+
+__all__ = ["Figure", "Stroke", "View", "attr", "attrs", "points_text", "text", "place_labels", "nice_ticks",
+           "tick_label", "finite"]
 
 SVG_NS = "http://www.w3.org/2000/svg"
 PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
            "#bcbd22", "#7f7f7f")
 INK = "#2d3748"
 LINK_FILL = "#8fa8d0"
+FRAME_FILL = "#e2e8f0"
 PATH_GREY = "#8a939e"
 ENVELOPE_GREEN = "#276749"
 FAINT_OPACITY = 0.3
 DASH = "6 4"
 FONT = "font-family=\"Helvetica, Arial, sans-serif\""
+_FONT = {"font-family": "Helvetica, Arial, sans-serif"}
 #: a white outline under label text, so labels stay readable over links and symbols
 HALO = " stroke=\"#ffffff\" stroke-width=\"3\" stroke-opacity=\"0.85\" paint-order=\"stroke\" stroke-linejoin=\"round\""
+_HALO = {"stroke": "#ffffff", "stroke-width": "3", "stroke-opacity": "0.85", "paint-order": "stroke",
+         "stroke-linejoin": "round"}
+#: a slider's block (length along its guide, height across) and its guide's opening, px
+BLOCK_PX = (20.0, 10.0)
 
-_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
 _PAD_PX = 18.0          # room inside the plot area for symbols drawn around points
 _MIN_PLOT_PX = 160.0    # smallest plot side, so ticks and labels fit
-
-
-def text(value: object) -> str:
-    """``value`` as XML character data (escaped; characters XML 1.0 forbids become U+FFFD)."""
-    return escape(_NOT_XML.sub("\ufffd", str(value)))
-
-
-def attr(value: object) -> str:
-    """``value`` as a quoted XML attribute value."""
-    return quoteattr(_NOT_XML.sub("\ufffd", str(value)))
-
-
-def attrs(**kw: object) -> str:
-    """``' name="value"'`` pairs; ``cls`` → ``class``, ``_`` → ``-``; ``None`` values are left out."""
-    out = []
-    for k, v in kw.items():
-        if v is None:
-            continue
-        name = "class" if k == "cls" else k.replace("_", "-")
-        out.append(f" {name}={attr(f'{v:.2f}' if isinstance(v, float) else v)}")
-    return "".join(out)
-
-
-def points_text(p: Any, decimals: int = 2) -> str:
-    """``(k, 2)`` pixel points (an array or pairs) as an SVG ``points`` list ``"x,y x,y ..."``."""
-    f = f"%.{decimals}f,%.{decimals}f"
-    return " ".join(f % (x, y) for x, y in np.asarray(p, dtype=float).tolist())
+_CHAR_EM = 0.6          # width of a character of the label font, in font sizes (generous)
 
 
 def finite(name: str, a: object, shape: tuple[int | None, ...]) -> np.ndarray:
@@ -104,6 +87,44 @@ def tick_label(value: float, step: float) -> str:
     return "0" if float(out) == 0 else out
 
 
+def text_box(x: float, y: float, words: str, size: float, anchor: str = "start") -> np.ndarray:
+    """Pixel box ``(x0, y0, x1, y1)`` a label of ``size`` px with its baseline at ``(x, y)`` covers (an
+    upper bound of its width: :data:`_CHAR_EM` per character)."""
+    w = _CHAR_EM * size * len(words)
+    x0 = x - {"start": 0.0, "middle": w / 2, "end": w}[anchor]
+    return np.array([x0, y - 0.8 * size, x0 + w, y + 0.25 * size])
+
+
+def place_labels(anchors: np.ndarray, boxes: np.ndarray, area: Sequence[float],
+                 avoid: np.ndarray = np.zeros((0, 2))) -> tuple[np.ndarray, np.ndarray]:
+    """Greedy label placement, in pixels: label n's ``boxes[n]`` (x0, y0, x1, y1) at its preferred
+    place, or the first place on rings around ``anchors[n]`` (2,) where it overlaps no label placed
+    before it, covers no point of ``avoid`` (m, 2) and stays inside ``area`` (x0, y0, x1, y1).
+
+    Returns the shift of each box (n, 2) and whether it moved off its preferred place (n,): such a
+    label gets a leader line to its anchor. A label with no free place keeps its preferred one.
+    """
+    placed: list[np.ndarray] = []
+    shifts, moved = np.zeros((len(anchors), 2)), np.zeros(len(anchors), dtype=bool)
+    angles = np.radians([45, 0, 90, 135, 180, 270, 315, 225, 22.5, 67.5, 112.5, 157.5, 202.5, 247.5, 292.5, 337.5])
+    for n, (a, box) in enumerate(zip(np.asarray(anchors, float), np.asarray(boxes, float))):
+        half = (box[2:] - box[:2]) / 2
+        centre = (box[:2] + box[2:]) / 2
+        tries = [np.zeros(2)] + [a + np.array([math.cos(t) * (half[0] + r), -math.sin(t) * (half[1] + r)]) - centre
+                                 for r in (4.0, 12.0, 22.0, 34.0, 48.0, 64.0) for t in angles]
+        for k, s in enumerate(tries):
+            b = box + np.r_[s, s]
+            inside = b[0] >= area[0] and b[1] >= area[1] and b[2] <= area[2] and b[3] <= area[3]
+            free = not any(b[0] < q[2] + 1 and q[0] < b[2] + 1 and b[1] < q[3] + 1 and q[1] < b[3] + 1 for q in placed)
+            clear = not np.any((avoid[:, 0] > b[0] - 2) & (avoid[:, 0] < b[2] + 2)
+                               & (avoid[:, 1] > b[1] - 2) & (avoid[:, 1] < b[3] + 2)) if len(avoid) else True
+            if inside and free and clear:
+                shifts[n], moved[n] = s, k > 0
+                break
+        placed.append(box + np.r_[shifts[n], shifts[n]])
+    return shifts, moved
+
+
 @dataclass(frozen=True)
 class Stroke:
     """Line style: ``color``, ``width`` in px, ``style`` solid | faint (translucent) | dashed."""
@@ -117,9 +138,13 @@ class Stroke:
             raise ValueError(f"stroke style must be solid, faint or dashed, got {self.style!r}")
 
     def svg(self) -> str:
-        return attrs(stroke=self.color, stroke_width=float(self.width),
-                     stroke_dasharray=DASH if self.style == "dashed" else None,
-                     stroke_opacity=FAINT_OPACITY if self.style == "faint" else None)
+        return attrs(**self.kw())
+
+    def kw(self) -> dict[str, object]:
+        """The stroke's presentation attributes, as :func:`~linkedit.io.marks.mark` keywords."""
+        return dict(stroke=self.color, stroke_width=float(self.width),
+                    stroke_dasharray=DASH if self.style == "dashed" else None,
+                    stroke_opacity=FAINT_OPACITY if self.style == "faint" else None)
 
 
 @dataclass(frozen=True)
@@ -146,12 +171,29 @@ class View:
         """World ``(xmin, xmax, ymin, ymax)`` of the plot area."""
         return (self.x0, self.x0 + self.width / self.scale, self.y0, self.y0 + self.height / self.scale)
 
+    @property
+    def area(self) -> tuple[float, float, float, float]:
+        """Pixel ``(x0, y0, x1, y1)`` of the plot area."""
+        return (self.left, self.top, self.left + self.width, self.top + self.height)
+
 
 @dataclass
 class _Item:
     xs: np.ndarray
     ys: np.ndarray
-    draw: Callable[[View], str]
+    draw: Callable[[View], Mark | list[Mark]]
+    #: world points (k, 2) of still symbols that labels should not cover
+    marks_at: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+
+
+@dataclass
+class _Label:
+    point: np.ndarray
+    words: str
+    size: float
+    color: str
+    offset_px: tuple[float, float]
+    cls: str
 
 
 @dataclass(frozen=True)
@@ -163,7 +205,7 @@ class _Entry:
 
 @dataclass
 class Figure:
-    """Collects primitives in world coordinates and renders one SVG document.
+    """Collects primitives in world coordinates; renders one SVG document or raster frames.
 
     ``size_px``: length of the longer side of the plot area; ``duration_s``: cycle time of the
     animated primitives; ``cyclic``: the last animation frame returns to the first;
@@ -181,6 +223,8 @@ class Figure:
     _items: list[_Item] = field(default_factory=list, repr=False)
     _legend: list[_Entry] = field(default_factory=list, repr=False)
     _captions: tuple[list[str], str] | None = field(default=None, repr=False)
+    _labels: list[_Label] = field(default_factory=list, repr=False)
+    _placed: dict[int, tuple[float, float, bool]] = field(default_factory=dict, repr=False)
 
     # -- primitives ------------------------------------------------------------------------
 
@@ -188,11 +232,10 @@ class Figure:
                  cls: str = "curve", name: str | None = None, label: str | None = None) -> None:
         """A curve through world ``points`` ``(k, 2)``; ``closed`` joins the last point to the first."""
         p = finite(name or cls, points, (None, 2))
-        tag = "polygon" if closed else "polyline"
 
-        def draw(v: View) -> str:
-            return (f"<{tag}{attrs(cls=cls, data_name=name)} points={attr(points_text(v.px(p)))}"
-                    f" fill=\"none\"{stroke.svg()} stroke-linejoin=\"round\" stroke-linecap=\"round\"/>")
+        def draw(v: View) -> Mark:
+            return still("polygon" if closed else "polyline", {"points": v.px(p)}, cls=cls, data_name=name,
+                         fill="none", **stroke.kw(), stroke_linejoin="round", stroke_linecap="round")
 
         self._add(p, draw)
         self._label(label, stroke, "line")
@@ -205,15 +248,16 @@ class Figure:
         if len(labels) != p.shape[1]:
             raise ValueError(f"{len(labels)} joint names for {p.shape[1]} points")
 
-        def draw(v: View) -> str:
+        def draw(v: View) -> list[Mark]:
             q = v.px(p)
             out = []
             for n, name in enumerate(labels):
-                head = f"<circle{attrs(cls=cls, data_name=name)} r=\"{radius:g}\" fill={attr(fill)}{stroke.svg()}"
-                out.append(head + self._animated(q[:, n], ("cx", "cy"), "circle"))
-            return "\n".join(out)
+                m = mark("circle", cls=cls, data_name=name, r=f"{radius:g}", fill=fill, **stroke.kw())
+                m.geom = {"cx": q[:, n, 0], "cy": q[:, n, 1]}
+                out.append(m)
+            return out
 
-        self._add(p, draw)
+        self._add(p, draw, p[0] if p.shape[0] == 1 else None)
 
     def link(self, points: np.ndarray, *, name: str | None = None, style: str = "solid", width: float = 7.0,
              color: str = INK, fill: str = LINK_FILL, cls: str = "link") -> None:
@@ -235,41 +279,100 @@ class Figure:
             along = first @ vt[0]
             ends = p if p.shape[1] == 2 else p[:, [int(np.argmin(along)), int(np.argmax(along))]]
 
-            def draw(v: View) -> str:
-                q = v.px(ends)
-                head = (f"<line{attrs(cls=cls, data_name=name)} stroke={attr(color)} stroke-width=\"{width:g}\""
-                        f" stroke-linecap=\"round\"{attrs(stroke_opacity=opacity or 0.85)}")
-                return head + self._animated(q, ("x1", "y1", "x2", "y2"), "line")
+            def draw(v: View) -> Mark:
+                return _bar(v.px(ends), cls=cls, data_name=name, stroke=color, stroke_width=f"{width:g}",
+                            stroke_linecap="round", stroke_opacity=opacity or 0.85)
         else:
             order = np.argsort(np.arctan2(first[:, 1], first[:, 0]))
             ring = p[:, order]
 
-            def draw(v: View) -> str:
-                head = (f"<polygon{attrs(cls=cls, data_name=name)} fill={attr(fill)}"
-                        f"{attrs(fill_opacity=0.15 if opacity else 0.55)} stroke={attr(color)}"
-                        f" stroke-width=\"2.5\" stroke-linejoin=\"round\"{attrs(stroke_opacity=opacity)}")
-                return head + self._animated(v.px(ring), ("points",), "polygon")
+            def draw(v: View) -> Mark:
+                m = mark("polygon", cls=cls, data_name=name, fill=fill, fill_opacity=0.15 if opacity else 0.55,
+                         stroke=color, stroke_width="2.5", stroke_linejoin="round", stroke_opacity=opacity)
+                m.geom = {"points": v.px(ring)}
+                return m
 
         self._add(p, draw)
+
+    def rail(self, ends: np.ndarray, side: Sequence[float] | np.ndarray, *, name: str | None = None, cls: str = "rail") -> None:
+        """A guide fixed to the frame: a hatched rail along world ``ends`` ``(2, 2)``, drawn half a
+        block (:data:`BLOCK_PX`) to the ``side`` (2,) of the line, hatched beyond it, reaching a
+        block length past each end."""
+        e = finite(f"rail {name}" if name else "rail", ends, (2, 2))
+        s = finite("rail side", side, (2,))
+
+        def draw(v: View) -> Mark:
+            a, b, u, n = _frame_px(v, e, s)
+            a, b = a - u * BLOCK_PX[0] / 2 - 4 * u, b + u * BLOCK_PX[0] / 2 + 4 * u
+            a, b = a + n * BLOCK_PX[1] / 2, b + n * BLOCK_PX[1] / 2
+            count = max(2, int(np.hypot(*(b - a)) // 7))
+            hatch = [np.array([a + (b - a) * k / count, a + (b - a) * k / count + 6 * n - 5 * u]) for k in range(count + 1)]
+            return path([np.array([a, b])] + hatch, cls=cls, data_name=name, fill="none", stroke=INK,
+                        stroke_width="1.3", stroke_linecap="round")
+
+        self._add(e, draw)
+
+    def slot(self, ends: np.ndarray, *, name: str | None = None, color: str = INK, cls: str = "slot") -> None:
+        """A slot in a moving link: an opening a block (:data:`BLOCK_PX`) wide with rounded ends, a
+        block length past the world ``ends`` ``(2, 2)`` or frames ``(F, 2, 2)`` of the travel, outlined
+        in the link's colour."""
+        e = self._pose(f"slot {name}" if name else "slot", ends)
+        if e.shape[1] != 2:
+            raise ValueError(f"slot {name}: expected 2 ends, got {e.shape[1]}")
+
+        def draw(v: View) -> Mark:
+            q = v.px(e)
+            d = q[:, 1] - q[:, 0]
+            u = d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
+            grow = (BLOCK_PX[0] - BLOCK_PX[1]) / 2 + 2
+            q = np.stack([q[:, 0] - grow * u, q[:, 1] + grow * u], axis=1)
+            body = _bar(q, stroke=color, stroke_width=f"{BLOCK_PX[1] + 5:g}", stroke_linecap="round",
+                        stroke_opacity=0.85)
+            opening = _bar(q, stroke="#ffffff", stroke_width=f"{BLOCK_PX[1] + 1:g}", stroke_linecap="round")
+            return mark("g", cls=cls, data_name=name, kids=[body, opening])
+
+        self._add(e.reshape(-1, 2), draw)
+
+    def block(self, centre: np.ndarray, direction: np.ndarray, *, name: str | None = None,
+              cls: str = "block") -> None:
+        """A slider's block, :data:`BLOCK_PX` in size, at world ``centre`` ``(2,)`` or frames ``(F, 2)``,
+        its length along ``direction`` (same shape; any length)."""
+        c = self._pose(f"block {name}" if name else "block", np.asarray(centre, dtype=float)[..., None, :])[:, 0]
+        d = finite(f"block {name} direction", direction, c.shape if np.ndim(direction) == 2 else (2,))
+        d = np.broadcast_to(d, c.shape)
+        if np.any(np.hypot(d[:, 0], d[:, 1]) == 0):
+            raise ValueError(f"block {name}: zero direction")
+
+        def draw(v: View) -> Mark:
+            q = v.px(c)
+            u = d * [1.0, -1.0] / np.hypot(d[:, 0], d[:, 1])[:, None]
+            n = np.stack([-u[:, 1], u[:, 0]], axis=1)
+            hl, hw = BLOCK_PX[0] / 2, BLOCK_PX[1] / 2
+            corners = np.stack([q - hl * u - hw * n, q + hl * u - hw * n, q + hl * u + hw * n, q - hl * u + hw * n], 1)
+            m = mark("polygon", cls=cls, data_name=name, fill=FRAME_FILL, stroke=INK, stroke_width="1.3",
+                     stroke_linejoin="round")
+            m.geom = {"points": corners}
+            return m
+
+        self._add(c, draw)
 
     def arrow(self, start: Sequence[float], end: Sequence[float], stroke: Stroke = Stroke(), *, cls: str = "arrow",
               name: str | None = None) -> None:
         """A straight arrow from world ``start`` to ``end`` (2,), its head (px-sized) at ``end``."""
         p = finite(name or cls, np.array([start, end], dtype=float), (2, 2))
 
-        def draw(v: View) -> str:
+        def draw(v: View) -> list[Mark]:
             a, b = v.px(p)
             d = b - a
             length = float(np.hypot(*d))
             if length < 1e-9:
-                return ""
+                return []
             u = d / length
             n = np.array([-u[1], u[0]])
-            head = points_text([b, b - 9 * u + 4 * n, b - 9 * u - 4 * n])
-            tip = b - 8 * u
-            return (f"<g{attrs(cls=cls, data_name=name)}><line x1=\"{a[0]:.2f}\" y1=\"{a[1]:.2f}\" x2=\"{tip[0]:.2f}\""
-                    f" y2=\"{tip[1]:.2f}\" fill=\"none\"{stroke.svg()}/>"
-                    f"<polygon points={attr(head)} fill={attr(stroke.color)} stroke=\"none\"/></g>")
+            shaft = still("line", dict(zip(("x1", "y1", "x2", "y2"), [*a, *(b - 8 * u)])), fill="none", **stroke.kw())
+            head = still("polygon", {"points": [b, b - 9 * u + 4 * n, b - 9 * u - 4 * n]}, fill=stroke.color,
+                         stroke="none")
+            return [mark("g", cls=cls, data_name=name, kids=[shaft, head])]
 
         self._add(p, draw)
 
@@ -277,40 +380,40 @@ class Figure:
         """The ground (frame) symbol under world ``point`` ``(2,)``: hatched base with a support triangle."""
         p = finite(f"ground {name}" if name else "ground", point, (2,))
 
-        def draw(v: View) -> str:
+        def draw(v: View) -> Mark:
             x, y = v.px(p)
-            tri = points_text([(x, y), (x - 8, y + 12), (x + 8, y + 12)])
-            hatch = " ".join(f"M{x - 11 + 5 * i:.2f},{y + 12:.2f} l-5,6" for i in range(5))
-            return (f"<g{attrs(cls='ground', data_name=name)} stroke={attr(INK)} stroke-width=\"1.3\">"
-                    f"<polygon points={attr(tri)} fill=\"#e2e8f0\"/>"
-                    f"<path d=\"M{x - 14:.2f},{y + 12:.2f} h28 {hatch}\" fill=\"none\"/></g>")
+            tri = still("polygon", {"points": [(x, y), (x - 8, y + 12), (x + 8, y + 12)]}, fill=FRAME_FILL)
+            hatch = [np.array([(x - 11 + 5 * i, y + 12), (x - 16 + 5 * i, y + 18)]) for i in range(5)]
+            base = path([np.array([(x - 14, y + 12), (x + 14, y + 12)])] + hatch, fill="none")
+            return mark("g", cls="ground", data_name=name, stroke=INK, stroke_width="1.3", kids=[tri, base])
 
-        self._add(p[None], draw)
+        self._add(p[None], draw, p[None])
 
     def motor(self, pivot: Sequence[float], *, ccw: bool = True, name: str | None = None) -> None:
         """The motor symbol at world ``pivot`` ``(2,)``: a circle with an arc arrow turning ``ccw`` or cw."""
         p = finite("motor pivot", pivot, (2,))
 
-        def draw(v: View) -> str:
+        def draw(v: View) -> Mark:
             c = v.px(p)
             r, turn = 14.0, 1.0 if ccw else -1.0
             a0 = math.radians(-60.0)
             a1 = a0 + turn * math.radians(280.0)
 
-            def at(a: float, rad: float = r) -> np.ndarray:  # visual angle, counter-clockwise on screen
-                return c + rad * np.array([math.cos(a), -math.sin(a)])
+            def at(a: float | np.ndarray) -> np.ndarray:  # visual angle, counter-clockwise on screen
+                return c + r * np.stack([np.cos(a), -np.sin(a)], axis=-1)
 
             s, e = at(a0), at(a1)
             tangent = turn * np.array([-math.sin(a1), -math.cos(a1)])
             radial = np.array([math.cos(a1), -math.sin(a1)])
-            head = points_text([e + 5 * tangent, e - 2 * tangent + 4 * radial, e - 2 * tangent - 4 * radial])
             sweep = 0 if ccw else 1
-            return (f"<g{attrs(cls='motor', data_name=name)} stroke={attr(PALETTE[1])} stroke-width=\"1.6\">"
-                    f"<circle cx=\"{c[0]:.2f}\" cy=\"{c[1]:.2f}\" r=\"{r - 6:g}\" fill=\"none\"/>"
-                    f"<path d=\"M{s[0]:.2f},{s[1]:.2f} A{r:g},{r:g} 0 1 {sweep} {e[0]:.2f},{e[1]:.2f}\" fill=\"none\"/>"
-                    f"<polygon points={attr(head)} fill={attr(PALETTE[1])} stroke=\"none\"/></g>")
+            arc = path([at(np.linspace(a0, a1, 40))], d=f"M{s[0]:.2f},{s[1]:.2f} A{r:g},{r:g} 0 1 {sweep} {e[0]:.2f},{e[1]:.2f}",
+                       fill="none")
+            head = still("polygon", {"points": [e + 5 * tangent, e - 2 * tangent + 4 * radial, e - 2 * tangent - 4 * radial]},
+                         fill=PALETTE[1], stroke="none")
+            hub = still("circle", {"cx": c[0], "cy": c[1]}, r=f"{r - 6:g}", fill="none")
+            return mark("g", cls="motor", data_name=name, stroke=PALETTE[1], stroke_width="1.6", kids=[hub, arc, head])
 
-        self._add(p[None], draw)
+        self._add(p[None], draw, p[None])
 
     def box(self, xmin: float | None, xmax: float | None, ymin: float | None, ymax: float | None, *,
             stroke: Stroke = Stroke(ENVELOPE_GREEN, 1.8, "dashed"), fill: str = ENVELOPE_GREEN, cls: str = "envelope",
@@ -330,7 +433,7 @@ class Figure:
         xs = np.array([s for s in (xmin, xmax) if s is not None], dtype=float)
         ys = np.array([s for s in (ymin, ymax) if s is not None], dtype=float)
 
-        def draw(v: View) -> str:
+        def draw(v: View) -> Mark:
             wx0, wx1, wy0, wy1 = v.window
             x0, x1 = (wx0 if xmin is None else xmin), (wx1 if xmax is None else xmax)
             y0, y1 = (wy0 if ymin is None else ymin), (wy1 if ymax is None else ymax)
@@ -341,25 +444,35 @@ class Figure:
             for k, s in sides.items():
                 if s is not None:
                     (p, q), (r, t) = v.px(np.array(edges[k]))
-                    lines.append(f"<line data-side=\"{k}\" x1=\"{p:.2f}\" y1=\"{q:.2f}\""
-                                 f" x2=\"{r:.2f}\" y2=\"{t:.2f}\"/>")
-            return (f"<g{attrs(cls=cls)}><rect x=\"{a:.2f}\" y=\"{b:.2f}\""
-                    f" width=\"{c - a:.2f}\" height=\"{d - b:.2f}\""
-                    f" fill={attr(fill)} fill-opacity=\"0.07\" stroke=\"none\"/>"
-                    f"<g fill=\"none\"{stroke.svg()}>{''.join(lines)}</g></g>")
+                    lines.append(still("line", {"x1": p, "y1": q, "x2": r, "y2": t}, data_side=k))
+            shade = still("rect", {"x": a, "y": b, "width": c - a, "height": d - b}, fill=fill, fill_opacity="0.07",
+                          stroke="none")
+            return mark("g", cls=cls, kids=[shade, mark("g", fill="none", **stroke.kw(), kids=lines)])
 
         self._items.append(_Item(xs, ys, draw))
         self._label(label, stroke, "box")
 
     def annotate(self, point: Sequence[float], words: str, *, size: float = 10.0, color: str = "#4a5568",
-              offset_px: tuple[float, float] = (5.0, -5.0), cls: str = "label") -> None:
-        """Text ``words`` at world ``point`` ``(2,)``, shifted by ``offset_px`` (pixels, y down)."""
+                 offset_px: tuple[float, float] = (5.0, -5.0), cls: str = "label") -> None:
+        """Text ``words`` at world ``point`` ``(2,)``, its baseline start shifted by ``offset_px``
+        (pixels, y down) — or, where that would overlap another label or cover a symbol, the
+        nearest free place around the point, with a leader line to it (see :func:`place_labels`)."""
         p = finite("label position", point, (2,))
+        label = _Label(p, str(words), float(size), color, (float(offset_px[0]), float(offset_px[1])), cls)
+        self._labels.append(label)
 
-        def draw(v: View) -> str:
-            x, y = v.px(p) + np.asarray(offset_px)
-            return (f"<text{attrs(cls=cls)} x=\"{x:.2f}\" y=\"{y:.2f}\" font-size=\"{size:g}\" fill={attr(color)}"
-                    f"{HALO} {FONT}>{text(words)}</text>")
+        def draw(v: View) -> list[Mark]:
+            x, y, moved = self._placed[id(label)]
+            out = []
+            if moved:
+                a = v.px(p)
+                box = text_box(x, y, label.words, size)
+                near = np.clip(a, box[:2], box[2:])
+                out.append(still("line", dict(zip(("x1", "y1", "x2", "y2"), [*a, *near])), cls="leader",
+                                 stroke=color, stroke_width="0.8", stroke_opacity="0.7"))
+            t = still("text", {"x": x, "y": y}, cls=cls, font_size=f"{size:g}", fill=color, **_HALO, **_FONT)
+            t.words = label.words
+            return out + [t]
 
         self._add(p[None], draw)
 
@@ -370,15 +483,14 @@ class Figure:
         if len(words) != p.shape[1]:
             raise ValueError(f"{len(words)} labels for {p.shape[1]} points")
 
-        def draw(v: View) -> str:
+        def draw(v: View) -> list[Mark]:
             q = v.px(p) + np.asarray(offset_px)
             out = []
             for n, w in enumerate(words):
-                rest = self._animated(q[:, n], ("x", "y"), "text")  # attributes, then "/>" or ">…</text>"
-                rest = rest[:-2] + ">" if rest.endswith("/>") else rest[: -len("</text>")]
-                out.append(f"<text{attrs(cls=cls, data_name=w)} font-size=\"{size:g}\" fill={attr(color)}{HALO}"
-                           f" {FONT}{rest}{text(w)}</text>")
-            return "\n".join(out)
+                t = mark("text", cls=cls, data_name=w, font_size=f"{size:g}", fill=color, **_HALO, **_FONT)
+                t.geom, t.words = {"x": q[:, n, 0], "y": q[:, n, 1]}, str(w)
+                out.append(t)
+            return out
 
         self._add(p, draw)
 
@@ -395,26 +507,28 @@ class Figure:
         drawn as a dot)."""
         dirs = {str(n): finite(f"triad {n}", d, (2,)) for n, d in directions.items()}
 
-        def draw(v: View) -> str:
+        def draw(v: View) -> Mark:
             c = np.array([v.left + 14.0 + length_px, v.top + v.height - 14.0 - length_px])
             out = []
             for n, d in dirs.items():
                 tip = c + length_px * np.array([d[0], -d[1]])
                 if float(np.hypot(*d)) < 0.05:  # seen end-on: a dot in a ring
-                    out.append(f"<g{attrs(data_name=n)}><circle cx=\"{c[0]:.2f}\" cy=\"{c[1]:.2f}\" r=\"4\" fill=\"none\"/>"
-                               f"<circle cx=\"{c[0]:.2f}\" cy=\"{c[1]:.2f}\" r=\"1.2\"/>"
-                               f"<text x=\"{c[0] + 6:.2f}\" y=\"{c[1] + 12:.2f}\"{HALO}>{text(n)}</text></g>")
+                    word = still("text", {"x": c[0] + 6, "y": c[1] + 12}, **_HALO)
+                    word.words = n
+                    out.append(mark("g", data_name=n, kids=[
+                        still("circle", {"cx": c[0], "cy": c[1]}, r="4", fill="none"),
+                        still("circle", {"cx": c[0], "cy": c[1]}, r="1.2"), word]))
                     continue
                 u = (tip - c) / float(np.hypot(*(tip - c)))
                 nrm = np.array([-u[1], u[0]])
-                head = points_text([tip, tip - 7 * u + 3 * nrm, tip - 7 * u - 3 * nrm])
                 at = tip + 9 * u
-                out.append(f"<g{attrs(data_name=n)}><line x1=\"{c[0]:.2f}\" y1=\"{c[1]:.2f}\" x2=\"{tip[0]:.2f}\""
-                           f" y2=\"{tip[1]:.2f}\"/><polygon points={attr(head)} stroke=\"none\"/>"
-                           f"<text x=\"{at[0]:.2f}\" y=\"{at[1] + 4:.2f}\" text-anchor=\"middle\""
-                           f"{HALO}>{text(n)}</text></g>")
-            return (f"<g{attrs(cls=cls)} font-size=\"11\" fill={attr(INK)} stroke={attr(INK)} stroke-width=\"1.4\""
-                    f" {FONT}>{''.join(out)}</g>")
+                word = still("text", {"x": at[0], "y": at[1] + 4}, text_anchor="middle", **_HALO)
+                word.words = n
+                out.append(mark("g", data_name=n, kids=[
+                    still("line", dict(zip(("x1", "y1", "x2", "y2"), [*c, *tip]))),
+                    still("polygon", {"points": [tip, tip - 7 * u + 3 * nrm, tip - 7 * u - 3 * nrm]}, stroke="none"),
+                    word]))
+            return mark("g", cls=cls, font_size="11", fill=INK, stroke=INK, stroke_width="1.4", **_FONT, kids=out)
 
         self._items.append(_Item(np.zeros(0), np.zeros(0), draw))
 
@@ -428,19 +542,41 @@ class Figure:
 
     def render(self) -> str:
         """The SVG document (UTF-8 XML text)."""
-        view, width, height = self._layout()
-        body = [self._axes(view)] + [it.draw(view) for it in self._items]
-        if self._legend:
-            body.append(self._legend_svg(view.left + view.width + 20.0, view.top))
-        if self._captions:
-            body.append(self._captions_svg(view.left + 6.0, view.top + 16.0))
-        if self.title:
-            body.append(f"<text class=\"title\" x=\"{view.left + view.width / 2:.2f}\" y=\"22\" text-anchor=\"middle\""
-                        f" font-size=\"15\" font-weight=\"bold\" fill={attr(INK)} {FONT}>{text(self.title)}</text>")
+        width, height, marks = self.marks()
+        body = "\n".join(svg(m, self.duration_s, self.cyclic) for m in marks)
         return ("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
                 f"<svg xmlns=\"{SVG_NS}\" version=\"1.1\" width=\"{width:.0f}\" height=\"{height:.0f}\""
                 f" viewBox=\"0 0 {width:.0f} {height:.0f}\">\n<title>{text(self.title)}</title>\n"
-                f"<rect width=\"100%\" height=\"100%\" fill=\"#ffffff\"/>\n" + "\n".join(body) + "\n</svg>\n")
+                f"<rect width=\"100%\" height=\"100%\" fill=\"#ffffff\"/>\n{body}\n</svg>\n")
+
+    def marks(self) -> tuple[float, float, list[Mark]]:
+        """The picture's width and height (px) and its marks, bottom first (see :mod:`linkedit.io.marks`)."""
+        view, width, height = self._layout()
+        self._place(view)
+        out = [self._axes(view)]
+        for it in self._items:
+            drawn = it.draw(view)
+            out += drawn if isinstance(drawn, list) else [drawn]
+        if self._legend:
+            out.append(self._legend_marks(view.left + view.width + 20.0, view.top))
+        if self._captions:
+            out.append(self._caption_marks(view.left + 6.0, view.top + 16.0))
+        if self.title:
+            t = still("text", {"x": view.left + view.width / 2, "y": 22.0}, cls="title", text_anchor="middle",
+                      font_size="15", font_weight="bold", fill=INK, **_FONT)
+            t.words = self.title
+            out.append(t)
+        return width, height, out
+
+    def _place(self, v: View) -> None:
+        """Where each :meth:`annotate` label goes: baseline start (x, y) and whether it moved (px)."""
+        anchors = np.array([v.px(lb.point) for lb in self._labels]).reshape(-1, 2)
+        boxes = np.array([text_box(float(a[0] + lb.offset_px[0]), float(a[1] + lb.offset_px[1]), lb.words, lb.size)
+                          for a, lb in zip(anchors, self._labels)])
+        avoid = np.concatenate([v.px(it.marks_at) for it in self._items] + [anchors, np.zeros((0, 2))])
+        shifts, moved = place_labels(anchors, boxes.reshape(-1, 4), v.area, avoid)
+        self._placed = {id(lb): (float(a[0] + lb.offset_px[0] + s[0]), float(a[1] + lb.offset_px[1] + s[1]), bool(m))
+                        for lb, a, s, m in zip(self._labels, anchors, shifts, moved)}
 
     def _layout(self) -> tuple[View, float, float]:
         xs = np.concatenate([it.xs for it in self._items] + [np.zeros(0)])
@@ -465,76 +601,72 @@ class Figure:
         height = max(top + size[1] + 48.0, top + 20.0 * len(self._legend) + 16.0)
         return view, float(math.ceil(width)), float(math.ceil(height))
 
-    def _axes(self, v: View) -> str:
+    def _axes(self, v: View) -> Mark:
         x0, x1, y0, y1 = v.window
         right, bottom = v.left + v.width, v.top + v.height
+        frame = still("rect", {"x": v.left, "y": v.top, "width": v.width, "height": v.height}, fill="none",
+                      stroke_width="1")
         if self.axis_names is None:
-            return (f"<g class=\"axes\" stroke=\"#4a5568\"><rect x=\"{v.left:.2f}\" y=\"{v.top:.2f}\""
-                    f" width=\"{v.width:.2f}\" height=\"{v.height:.2f}\" fill=\"none\" stroke-width=\"1\"/></g>")
+            return mark("g", cls="axes", stroke="#4a5568", kids=[frame])
         hname, vname = self.axis_names
-        grid, marks = [], []
+        grid: list[np.ndarray] = []
+        marks = [frame]
         for axis, (lo, hi), extent in ((0, (x0, x1), v.width), (1, (y0, y1), v.height)):
             step, ticks = axis_ticks(lo, hi, extent)
             for t in ticks:
-                word = text(tick_label(float(t), step))
                 if axis == 0:
                     x = float(v.px(np.array([t, y0]))[0])
-                    grid.append(f"M{x:.2f},{v.top:.2f}V{bottom:.2f}")
-                    marks.append(f"<line x1=\"{x:.2f}\" y1=\"{bottom:.2f}\" x2=\"{x:.2f}\" y2=\"{bottom + 5:.2f}\"/>"
-                                 f"<text class=\"tick\" x=\"{x:.2f}\" y=\"{bottom + 18:.2f}\" text-anchor=\"middle\""
-                                 f" stroke=\"none\">{word}</text>")
+                    grid.append(np.array([(x, v.top), (x, bottom)]))
+                    line, at, anchor = [x, bottom, x, bottom + 5], (x, bottom + 18), "middle"
                 else:
                     y = float(v.px(np.array([x0, t]))[1])
-                    grid.append(f"M{v.left:.2f},{y:.2f}H{right:.2f}")
-                    marks.append(f"<line x1=\"{v.left - 5:.2f}\" y1=\"{y:.2f}\" x2=\"{v.left:.2f}\" y2=\"{y:.2f}\"/>"
-                                 f"<text class=\"tick\" x=\"{v.left - 8:.2f}\" y=\"{y + 4:.2f}\" text-anchor=\"end\""
-                                 f" stroke=\"none\">{word}</text>")
+                    grid.append(np.array([(v.left, y), (right, y)]))
+                    line, at, anchor = [v.left - 5, y, v.left, y], (v.left - 8, y + 4), "end"
+                word = still("text", {"x": at[0], "y": at[1]}, cls="tick", text_anchor=anchor, stroke="none")
+                word.words = tick_label(float(t), step)
+                marks += [still("line", dict(zip(("x1", "y1", "x2", "y2"), line))), word]
         unit = f" ({self.units})" if self.units else ""
         mid_x, mid_y = v.left + v.width / 2, v.top + v.height / 2
-        return (f"<g class=\"axes\" font-size=\"11\" fill=\"#4a5568\" stroke=\"#4a5568\" {FONT}>"
-                f"<path class=\"grid\" d=\"{' '.join(grid)}\" stroke=\"#edf2f7\" stroke-width=\"1\" fill=\"none\"/>"
-                f"<rect x=\"{v.left:.2f}\" y=\"{v.top:.2f}\" width=\"{v.width:.2f}\" height=\"{v.height:.2f}\""
-                f" fill=\"none\" stroke-width=\"1\"/>{''.join(marks)}"
-                f"<text class=\"unit\" x=\"{mid_x:.2f}\" y=\"{bottom + 36:.2f}\" text-anchor=\"middle\""
-                f" stroke=\"none\">{text(hname + unit)}</text>"
-                f"<text class=\"unit\" x=\"16\" y=\"{mid_y:.2f}\" text-anchor=\"middle\" stroke=\"none\""
-                f" transform=\"rotate(-90 16 {mid_y:.2f})\">{text(vname + unit)}</text></g>")
+        h = still("text", {"x": mid_x, "y": bottom + 36}, cls="unit", text_anchor="middle", stroke="none")
+        vt = still("text", {"x": 16.0, "y": mid_y}, cls="unit", text_anchor="middle", stroke="none",
+                   transform=f"rotate(-90 16 {mid_y:.2f})")
+        h.words, vt.words = hname + unit, vname + unit
+        return mark("g", cls="axes", font_size="11", fill="#4a5568", stroke="#4a5568", **_FONT,
+                    kids=[path(grid, cls="grid", stroke="#edf2f7", stroke_width="1", fill="none")] + marks + [h, vt])
 
-    def _legend_svg(self, x: float, y: float) -> str:
+    def _legend_marks(self, x: float, y: float) -> Mark:
         rows = []
         for n, e in enumerate(self._legend):
             cy = y + 10 + 20 * n
             if e.kind == "line":
-                mark = f"<line x1=\"{x:.2f}\" y1=\"{cy:.2f}\" x2=\"{x + 26:.2f}\" y2=\"{cy:.2f}\"{e.stroke.svg()}/>"
+                rows.append(still("line", {"x1": x, "y1": cy, "x2": x + 26, "y2": cy}, **e.stroke.kw()))
             elif e.kind == "box":
-                mark = (f"<rect x=\"{x + 3:.2f}\" y=\"{cy - 6:.2f}\" width=\"20\" height=\"12\""
-                        f" fill={attr(e.stroke.color)} fill-opacity=\"0.07\"{e.stroke.svg()}/>")
+                rows.append(still("rect", {"x": x + 3, "y": cy - 6, "width": 20.0, "height": 12.0},
+                                  fill=e.stroke.color, fill_opacity="0.07", **e.stroke.kw()))
             else:
-                mark = f"<circle cx=\"{x + 13:.2f}\" cy=\"{cy:.2f}\" r=\"3.5\" fill=\"#ffffff\"{e.stroke.svg()}/>"
-            rows.append(f"{mark}<text x=\"{x + 34:.2f}\" y=\"{cy + 4:.2f}\" fill={attr(INK)}>{text(e.label)}</text>")
-        return f"<g class=\"legend\" font-size=\"12\" {FONT}>{''.join(rows)}</g>"
+                rows.append(still("circle", {"cx": x + 13, "cy": cy}, r="3.5", fill="#ffffff", **e.stroke.kw()))
+            word = still("text", {"x": x + 34, "y": cy + 4}, fill=INK)
+            word.words = e.label
+            rows.append(word)
+        return mark("g", cls="legend", font_size="12", **_FONT, kids=rows)
 
-    def _captions_svg(self, x: float, y: float) -> str:
-        """One ``<text>`` per frame, each shown only during its frame (discrete ``display`` animation)."""
+    def _caption_marks(self, x: float, y: float) -> Mark:
+        """One text per frame, each shown only during its frame."""
         words, cls = self._captions or ([], "")
-        n = len(words)
         out = []
         for k, w in enumerate(words):
-            a, b = k / n, (k + 1) / n
-            if k == 0:
-                values, times = "inline;none", f"0;{b:.6g}"
-            else:
-                values, times = "none;inline;none", f"0;{a:.6g};{b:.6g}"
-            out.append(f"<text x=\"{x:.2f}\" y=\"{y:.2f}\" display=\"{'inline' if k == 0 else 'none'}\">{text(w)}"
-                       f"<animate attributeName=\"display\" values=\"{values}\" keyTimes=\"{times}\" calcMode=\"discrete\""
-                       f" dur=\"{self.duration_s:g}s\" repeatCount=\"indefinite\"/></text>")
-        return (f"<g{attrs(cls=cls)} font-size=\"12\" fill={attr(INK)}{HALO} {FONT}>" + "".join(out) + "</g>")
+            t = still("text", {"x": x, "y": y})
+            t.words, t.frame, t.frames = w, k, len(words)
+            out.append(t)
+        return mark("g", cls=cls, font_size="12", fill=INK, **_HALO, **_FONT, kids=out)
 
     # -- helpers -------------------------------------------------------------------------------
 
-    def _add(self, world: np.ndarray, draw: Callable[[View], str]) -> None:
+    def _add(self, world: np.ndarray, draw: Callable[[View], Mark | list[Mark]],
+             marks_at: np.ndarray | None = None) -> None:
         flat = np.asarray(world, dtype=float).reshape(-1, 2)
-        self._items.append(_Item(flat[:, 0], flat[:, 1], draw))
+        self._items.append(_Item(flat[:, 0], flat[:, 1], draw,
+                                 np.zeros((0, 2)) if marks_at is None else np.asarray(marks_at, float).reshape(-1, 2)))
 
     def _label(self, label: str | None, stroke: Stroke, kind: str) -> None:
         if label is not None:
@@ -552,23 +684,20 @@ class Figure:
             raise ValueError(f"{name}: frames given but the figure has no duration_s (not animated)")
         return p
 
-    def _animated(self, q: np.ndarray, names: tuple[str, ...], tag: str) -> str:
-        """Close an element whose pixel geometry is ``q`` ``(F, ...)``: attributes from frame 0 and
-        one ``<animate>`` per attribute that changes between frames (one value per frame)."""
-        if names == ("points",):
-            start = [points_text(q[0])]
-            series = [[points_text(f, 1) for f in q]]
-        else:
-            flat = q.reshape(q.shape[0], -1)
-            start = [f"{c:.2f}" for c in flat[0]]
-            series = [[f"{c:.1f}" for c in flat[:, n].tolist()] for n in range(flat.shape[1])]
-        head = "".join(f" {n}=\"{s}\"" for n, s in zip(names, start))
-        kids = []
-        for n, values in zip(names, series):
-            if len(set(values)) == 1:
-                continue
-            if self.cyclic:
-                values = values + values[:1]
-            kids.append(f"<animate attributeName=\"{n}\" dur=\"{self.duration_s:g}s\" repeatCount=\"indefinite\""
-                        f" calcMode=\"linear\" values=\"{';'.join(values)}\"/>")
-        return head + (">" + "".join(kids) + f"</{tag}>" if kids else "/>")
+
+def _bar(q: np.ndarray, **style: object) -> Mark:
+    """A straight ``line`` mark between pixel ends ``q`` ``(F, 2, 2)``."""
+    m = mark("line", **style)
+    m.geom = {"x1": q[:, 0, 0], "y1": q[:, 0, 1], "x2": q[:, 1, 0], "y2": q[:, 1, 1]}
+    return m
+
+
+def _frame_px(v: View, ends: np.ndarray, side: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Pixel ends of a world segment, its unit direction and its unit normal towards world ``side``."""
+    a, b = v.px(ends)
+    d = b - a
+    u = d / max(float(np.hypot(*d)), 1e-9)
+    n = np.array([-u[1], u[0]])
+    if float(n @ (side * [1.0, -1.0])) < 0:
+        n = -n
+    return a, b, u, n
