@@ -103,6 +103,31 @@ def test_compare_matrix_nearest_and_svg(run_cli, tmp_path):
     assert "ellipse → ellipse-moved" in text
 
 
+def test_the_overlay_does_not_depend_on_the_order_of_the_curves(run_cli, tmp_path):
+    """Each curve is drawn aligned to the medoid (the curve nearest all the others), whatever the
+    order they are given in: with a circle first, a D-shape and its near copy were drawn 90° apart."""
+    import yaml
+
+    curves = {c["name"]: c for c in yaml.safe_load((CURVES / "foot-paths.yaml").read_text())["curves"]}
+    d = np.array(curves["d-shape"]["points"])
+    turn = np.exp(1j * 0.7) * (d[:, 0] + 1j * d[:, 1]) * 1.5 + (40 + 3j)
+    copy = np.column_stack([turn.real, turn.imag]) + 0.02 * np.sin(np.arange(len(d)))[:, None]
+    sets = {"circle-first": ["circle", "d-shape", "near-copy"], "circle-last": ["near-copy", "d-shape", "circle"]}
+    curves["near-copy"] = {"name": "near-copy", "points": copy.round(4).tolist()}
+    drawn = {}
+    for label, order in sets.items():
+        path = tmp_path / f"{label}.yaml"
+        path.write_text(yaml.safe_dump({"name": label, "units": "mm", "curves": [curves[n] for n in order]}))
+        svg = tmp_path / f"{label}.svg"
+        assert run_cli("compare-curves", path, "--svg", svg).exit_code == 0
+        root = ET.parse(svg).getroot()
+        drawn[label] = {e.get("data-name"): e.get("points") for e in root.iter() if "curve" in (e.get("class") or "")}
+        assert "aligned to d-shape" in svg.read_text() or "aligned to near-copy" in svg.read_text()
+    assert drawn["circle-first"].keys() == set(sets["circle-first"])
+    for name in ("d-shape", "near-copy"):
+        assert drawn["circle-first"][name] == drawn["circle-last"][name], name
+
+
 def test_ranking_a_library_against_a_query(run_cli, tmp_path):
     """The library holds the query's shape (moved, resampled, reversed) among others: it ranks first."""
     lib = tmp_path / "lib"

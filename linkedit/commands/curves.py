@@ -281,6 +281,8 @@ def _write_table(output: Path, kind: str, names: list[str], columns: list[str], 
 
 def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, smooth, mirror, partial,
             output=None) -> None:
+    import numpy as np
+
     from linkedit.curves.compare import distances
     from linkedit.curves.distance import nearest
 
@@ -297,7 +299,8 @@ def _matrix(inputs, weights, samples, harmonics, closed, anchor, svg, smooth, mi
     names = [c.name for c in curves]
     rows = [{"curve": names[i], "nearest": names[j], "distance": float(dist[i, j])} for i, j in enumerate(near)]
     if svg is not None:
-        _overlay(svg, names, desc, 0, "curves aligned to " + names[0], mirror=mirror)
+        medoid = int(np.argmin(dist.sum(axis=1)))  # the curve nearest all others: the picture's frame
+        _overlay(svg, names, desc, medoid, f"curves aligned to {names[medoid]} (the medoid)", mirror=mirror)
     if output is not None:
         _write_table(output, "curve-distances", names, names, dist, {"weights": w})
         if str(output) != "-":
