@@ -103,14 +103,15 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> S
     """Positions and up to ``order`` (0, 1, 2) derivatives, plus singularity distances.
 
     ``angle`` (T,): absolute motor angles, radians (for a linear input: displacements along the
-    slot in the normalized frame). A plan with slider steps needs a geometry in the normalized
+    slot in the normalized frame); (K, T) or (T,) with a geometry of K linkages (then every array
+    has a linkage axis after its row, see :func:`_evaluate`). A plan with slider steps needs a geometry in the normalized
     frame (``Geometry.of(plan, plan.normalized_points())``). A numeric group is continued from
     the rest pose through every sample in order, at most GROUP_STEP_DEG (GROUP_STEP_LENGTH)
     apart: intermediate inputs are evaluated and dropped.
     """
     if not plan.has_groups:
         return _evaluate(plan, geom, angle, order)
-    start, step = (0.0, GROUP_STEP_LENGTH) if plan.linear else (geom.rest_angle, np.radians(GROUP_STEP_DEG))
+    start, step = (0.0, GROUP_STEP_LENGTH) if plan.linear else (float(geom.rest_angle), np.radians(GROUP_STEP_DEG))
     fine, keep = continuation_grid(start, np.asarray(angle, dtype=float), step)
     full = _evaluate(plan, geom, fine, order)
 
@@ -123,12 +124,18 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> S
 
 
 def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int) -> State:
-    T = angle.shape[0]
+    """The one evaluation of a plan: every level's batches, then its steps, in order. With a
+    geometry of K linkages (:attr:`Geometry.linkages`), arrays carry a linkage axis after the
+    row: (P, K, T), and ``angle`` may be (K, T) (dyad and rigid rules only)."""
+    lead = geom.linkages
+    if lead and plan.steps:
+        raise ValueError("sliders and numeric groups are evaluated one linkage at a time")
+    T = angle.shape[-1]
     P = plan.n_points
-    z = np.zeros((P, T), dtype=complex)  # zeros: step rows multiply not-yet-known joints by 0
-    dz = np.zeros((P, T), dtype=complex) if order >= 1 else None
-    ddz = np.zeros((P, T), dtype=complex) if order >= 2 else None
-    ds = np.ones((len(plan.rules), T))
+    z = np.zeros((P, *lead, T), dtype=complex)  # zeros: step rows multiply not-yet-known joints by 0
+    dz = np.zeros((P, *lead, T), dtype=complex) if order >= 1 else None
+    ddz = np.zeros((P, *lead, T), dtype=complex) if order >= 2 else None
+    ds = np.ones((len(plan.rules), *lead, T))
     step_ds = np.ones((len(plan.steps), T))
     z[plan.ground_rows] = geom.ground
     if not plan.linear:
@@ -155,7 +162,8 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int) -> Stat
                     ddz[out] = loc.rigid(ddz[b.i], ddz[b.j], c)
                 continue
             half, lik2 = geom.half_diff[n], geom.lik2[n]
-            z[out], terms = loc.dyad(z[b.i], z[b.j], half, lik2, b.sign)
+            sign = geom.sign[n] if geom.sign else b.sign
+            z[out], terms = loc.dyad(z[b.i], z[b.j], half, lik2, sign)
             public = b.rule >= 0
             ds[b.rule[public]] = loc.singularity_distance(terms, lik2, geom.ljk2[n])[public]
             if dz is not None:

@@ -145,48 +145,71 @@ class Plan:
 
 @dataclass(frozen=True)
 class Geometry:
-    """Constants of a plan at one rest pose. Per batch: rigid ``coef`` or dyad lengths, (R, 1)."""
+    """Constants of a plan at one rest pose — or at K rest poses of one topology (a leading
+    linkage axis: the atlas, a synthesis family). Per batch: rigid ``coef`` or dyad lengths,
+    (R, 1) for one linkage, (R, K, 1) for K."""
 
-    rest: np.ndarray  # (P,) complex rest positions of all points
-    pivot: complex
-    arm: complex  # motor joint − pivot at rest
-    rest_angle: float  # motor angle at rest, radians
-    ground: np.ndarray  # (G, 1) complex
+    rest: np.ndarray  # (P,) complex rest positions of all points; (P, K) for K linkages
+    pivot: complex | np.ndarray  # (K, 1) for K linkages
+    arm: complex | np.ndarray  # motor joint − pivot at rest; (K, 1) for K linkages
+    rest_angle: float | np.ndarray  # motor angle at rest, radians; (K, 1) for K linkages
+    ground: np.ndarray  # (G, 1) complex; (G, K, 1) for K linkages
     # per batch; a batch of the other kind (rigid or dyad) has an empty (0, 1) entry
     coef: tuple[np.ndarray, ...]  # rigid batches: (R, 1) complex
     lik2: tuple[np.ndarray, ...]  # dyad batches: l_ik², (R, 1)
     ljk2: tuple[np.ndarray, ...]
     half_diff: tuple[np.ndarray, ...]  # (l_ik² − l_jk²)/2
+    #: K linkages: each dyad's triangle orientation at its own rest pose, (R, K, 1) (its branch);
+    #: empty for one linkage, which takes the plan's (``Batch.sign``)
+    sign: tuple[np.ndarray, ...] = ()
+
+    @property
+    def linkages(self) -> tuple[int, ...]:
+        """() for one linkage, (K,) for K: the axes between a row and the samples."""
+        return self.ground.shape[1:-1]
 
     @classmethod
     def of(cls, plan: Plan, points: np.ndarray) -> "Geometry":
-        z = points[:, 0] + 1j * points[:, 1]
+        """The constants of ``plan`` at rest points (P, 2) — or (K, P, 2) for K linkages."""
+        many = points.ndim == 3
+        pts = points if many else points[None]
+        z = (pts[..., 0] + 1j * pts[..., 1]).T  # (P, K)
         g = plan.graph
         coef: list[np.ndarray] = []
         lik2: list[np.ndarray] = []
         ljk2: list[np.ndarray] = []
         half: list[np.ndarray] = []
-        none = np.empty((0, 1))
+        sign: list[np.ndarray] = []
+        none = np.empty((0,) + (1,) * (1 + many))
+
+        def shaped(a: np.ndarray) -> np.ndarray:  # (R, K, 1), or (R, 1) for one linkage
+            return a if many else a[:, 0]
+
         for b in plan.batches:
-            zi, zj, zk = z[b.i_point, None], z[b.j_point, None], z[b.k_point, None]
+            zi, zj, zk = z[b.i_point, :, None], z[b.j_point, :, None], z[b.k_point, :, None]
             if b.rigid:
-                coef.append((zk - zi) / (zj - zi))
+                coef.append(shaped((zk - zi) / (zj - zi)))
+                sign.append(none)
                 lik2.append(none)
                 ljk2.append(none)
                 half.append(none)
             else:
                 a, c = np.abs(zk - zi) ** 2, np.abs(zk - zj) ** 2
                 coef.append(none)
-                lik2.append(a)
-                ljk2.append(c)
-                half.append(0.5 * (a - c))
-        pivot = complex(z[g.pivot]) if g.pivot >= 0 else 0j
-        arm = complex(z[g.motor] - z[g.pivot]) if g.pivot >= 0 else 1.0 + 0j
-        return cls(
-            rest=z, pivot=pivot, arm=arm, rest_angle=float(np.angle(arm)),
-            ground=z[list(g.ground), None], coef=tuple(coef), lik2=tuple(lik2),
-            ljk2=tuple(ljk2), half_diff=tuple(half),
-        )
+                sign.append(np.sign(((zj - zi).conjugate() * (zk - zi)).imag))
+                lik2.append(shaped(a))
+                ljk2.append(shaped(c))
+                half.append(shaped(0.5 * (a - c)))
+        if g.pivot >= 0:
+            pivot, arm = z[g.pivot, :, None], z[g.motor, :, None] - z[g.pivot, :, None]
+        else:
+            pivot, arm = np.zeros((z.shape[1], 1), dtype=complex), np.ones((z.shape[1], 1), dtype=complex)
+        if not many:
+            return cls(rest=z[:, 0], pivot=complex(pivot[0, 0]), arm=complex(arm[0, 0]),
+                       rest_angle=float(np.angle(arm[0, 0])), ground=z[list(g.ground), 0, None],
+                       coef=tuple(coef), lik2=tuple(lik2), ljk2=tuple(ljk2), half_diff=tuple(half))
+        return cls(rest=z, pivot=pivot, arm=arm, rest_angle=np.angle(arm), ground=z[list(g.ground), :, None],
+                   coef=tuple(coef), lik2=tuple(lik2), ljk2=tuple(ljk2), half_diff=tuple(half), sign=tuple(sign))
 
 
 def _link_point(track: JointTrack | LinkTrack) -> tuple[float, float]:

@@ -5,9 +5,10 @@ catalog spec's joint order), in a family frame: the catalog linkage moved so its
 at the origin and scaled to a largest extent of 1. The distribution keeps the motor pivot and
 moves every other joint by N(0, s²) per coordinate, s log-uniform in [0.005, 0.08] per linkage.
 
-Evaluation follows the linkage's compiled plan (:mod:`linkedit.planar.plan`: the same rules in
-the same order), with each linkage's lengths, rigid coefficients and triangle orientations as
-(K, 1) arrays: every rule is one array operation over linkages and samples. A linkage works
+Evaluation is the planar engine's own (:func:`linkedit.planar.kinematics.evaluate` with a
+:class:`~linkedit.planar.plan.Geometry` of K linkages): every batch of the compiled plan is one
+array operation over linkages and samples; each linkage keeps the catalog design's triangle
+orientations (its branch). A linkage works
 by the one planar predicate (:mod:`linkedit.planar.feasibility`): it assembles at every one of
 its ``CHECK_SAMPLES`` crank samples, and the lower bound of d_s between them stays at or above
 the margin (sin² 20° in an atlas).
@@ -21,7 +22,8 @@ import numpy as np
 
 from linkedit.planar import catalog, compile_plan
 from linkedit.planar.feasibility import CHECK_SAMPLES, assembles, lowest, margin_of, works
-from linkedit.planar.law_of_cosines import dyad, singularity_distance
+from linkedit.planar.kinematics import _evaluate
+from linkedit.planar.plan import Geometry
 from linkedit.spec.linkage import JointTrack, LinkageSpec
 
 MU_MIN_DEG = 20.0
@@ -67,28 +69,14 @@ class CatalogFamily:
 
     def _evaluate(self, params: np.ndarray, samples: int, phase: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """Joint positions (K, J, T) complex and d_s (K, D, T) of the D dyad rules (NaN or < 0 where
-        a joint cannot be placed)."""
+        a joint cannot be placed): the planar engine's one evaluation with a linkage axis."""
         count = len(params)
         rest = params.reshape(count, -1, 2)
-        rest = rest[..., 0] + 1j * rest[..., 1]  # (K, J)
-        z = np.empty((count, rest.shape[1], samples), dtype=complex)
-        for g in self.ground:
-            z[:, g, :] = rest[:, g, None]
-        angle = 2.0 * np.pi * (np.asarray(phase, dtype=float).reshape(-1, 1) + np.arange(samples)[None, :] / samples)
-        pivot = rest[:, self.pivot, None]
-        z[:, self.motor, :] = pivot + (rest[:, self.motor, None] - pivot) * np.exp(1j * self.direction * angle)
-        ds = []
-        with np.errstate(invalid="ignore", divide="ignore"):
-            for (i, j, k), rigid in zip(self.plan.rules, self.plan.rigid):
-                ri, rj, rk = rest[:, i, None], rest[:, j, None], rest[:, k, None]
-                if rigid:
-                    z[:, k, :] = z[:, i, :] + (rk - ri) / (rj - ri) * (z[:, j, :] - z[:, i, :])
-                    continue
-                lik2, ljk2 = np.abs(rk - ri) ** 2, np.abs(rk - rj) ** 2
-                sign = np.sign(((rj - ri).conjugate() * (rk - ri)).imag)
-                z[:, k, :], terms = dyad(z[:, i, :], z[:, j, :], 0.5 * (lik2 - ljk2), lik2, sign)
-                ds.append(singularity_distance(terms, lik2, ljk2))
-        return z, np.stack(ds, axis=1) if ds else np.ones((count, 0, samples))
+        geom = Geometry.of(self.plan, rest)
+        turn = 2.0 * np.pi * (np.asarray(phase, dtype=float).reshape(-1, 1) + np.arange(samples)[None, :] / samples)
+        state = _evaluate(self.plan, geom, geom.rest_angle + self.direction * turn, order=0)
+        z = state.z[self.plan.row_of[: self.plan.n_joints]]  # (J, K, T)
+        return z.transpose(1, 0, 2), state.ds[~self.plan.rigid].transpose(1, 0, 2)
 
     def min_singularity(self, params: np.ndarray, margin: float | None = None) -> np.ndarray:
         """The lowest d_s over the cycle (K,): :func:`linkedit.planar.feasibility.lowest` of the dyads
