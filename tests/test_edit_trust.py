@@ -22,7 +22,7 @@ from linkedit.planar.simulate import motor_input
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.linkage_yaml import dump_linkage
 from linkedit.spec.yamlload import load_model
-from tests.conftest import EXAMPLES
+from tests.conftest import EXAMPLES, report_of
 
 EDITS = EXAMPLES / "edits"
 
@@ -270,6 +270,34 @@ def test_edit_of_a_linkage_that_locks_up_is_one_line(run_cli, tmp_path):
     r = run_cli("edit", p, s, "-o", tmp_path / "out")
     assert r.exit_code in (1, 2)
     assert "Traceback" not in r.output and len(r.output.strip().splitlines()) == 1
+
+
+def test_a_symmetric_edit_of_ten_leg_pairs_converges_like_an_unsymmetric_one(run_cli, tmp_path):
+    """Mirrored legs share their variables: the symmetric edit of a 10-pair Strandbeest converges
+    (it crept along the 10⁶ symmetry penalty and stalled after 95–99 iterations, against 12
+    without ``symmetric``), and the edited spec keeps every mirrored length equal to rounding."""
+    beest = catalog.strandbeest(10)
+    p = linkage_file(tmp_path, beest)
+    c = np.add(beest.joints["C_0_L"], (3.0, 2.0)).tolist()
+    runs = {}
+    for name, extra in (("plain", {}), ("symmetric", {"symmetric": [["_L", "_R"]]})):
+        script = write(tmp_path, f"{name}.yaml", {"samples": 40, "lock": ["O"], **extra, "operations": [
+            {"preserve": ["foot_0_L", "foot_1_L"], "displace": {"joint": "C_0_L", "to": c}}]})
+        r = run_cli("edit", p, script, "-o", tmp_path / name, "--json")
+        assert r.exit_code == 0, r.output
+        runs[name] = report_of(r)["operations"][0]
+    plain, sym = runs["plain"], runs["symmetric"]
+    assert sym["converged"] and not sym["stalled"], sym
+    assert sym["iterations"] <= 2 * plain["iterations"] + 5, (sym["iterations"], plain["iterations"])
+    edited = yaml.safe_load(next((tmp_path / "symmetric").glob("*-edited.yaml")).read_text())["joints"]
+    def at(n: str, k: int, side: str) -> list[float]:  # the crank pin A_k is shared; B_L, B_R are the frame's
+        return edited[f"A_{k}" if n == "A" else f"B_{side}" if n == "B" else f"{n}_{k}_{side}"]
+
+    for k in range(10):  # every link of leg k: its lengths on the left equal those on the right
+        for a, b in [("C", "E"), ("E", "F"), ("D", "F"), ("D", "G"), ("F", "G"), ("A", "C"), ("A", "D"), ("B", "C"),
+                     ("B", "D")]:
+            left, right = (np.hypot(*np.subtract(at(a, k, side), at(b, k, side))) for side in "LR")
+            assert abs(left - right) <= 1e-9 * 200, (a, b, k, left, right)
 
 
 def test_symmetric_edit_keeps_mirrored_legs_mirrored(run_cli, tmp_path):

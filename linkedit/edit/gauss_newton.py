@@ -2,7 +2,9 @@
 which the linkage stops working.
 
 Each iteration solves (JᵀJ + λ·diag(JᵀJ)) δ = −Jᵀr with the Jacobian from forward-mode
-derivatives, evaluates the trial v + δ once (residuals and Jacobian together) and accepts it
+derivatives (with ``symmetric``, in the directions that keep mirrored parts mirrored, δ = N·y,
+then projected back onto the symmetry exactly: mirrored legs share their variables instead of
+being tied by a stiff penalty alone), evaluates the trial v + δ once (residuals and Jacobian together) and accepts it
 when the linkage works there and E decreases. λ follows Nielsen's gain-ratio rule; a trial at
 which the linkage does not work counts as a rejected step and raises λ. A step is shortened
 where, to first order, it would take a triangle deep into its barrier band in one go
@@ -47,13 +49,18 @@ def minimize(problem: Problem, v0: np.ndarray, *, max_iterations: int = 200, rto
             break
         A = (J.T @ J).toarray()
         g = J.T @ r
+        basis = problem.symmetric_basis(v)  # mirrored parts: a step in the variables they share
+        if basis is not None:
+            A, g = basis.T @ A @ basis, basis.T @ g
         d = np.maximum(np.diag(A), 1e-12 * max(float(np.diag(A).max(initial=0.0)), 1e-300))
         try:
-            step = cho_solve(cho_factor(A + lam * np.diag(d)), -g)
+            y = cho_solve(cho_factor(A + lam * np.diag(d)), -g)
         except np.linalg.LinAlgError:
             lam, nu = lam * nu, 2 * nu
             continue
-        step *= problem.barrier_step(ev, step)
+        fraction = problem.barrier_step(ev, y if basis is None else basis @ y)
+        y *= fraction
+        step = y if basis is None else problem.keep_symmetric(v, basis @ y)
         trial, r_new, J_new = problem.residuals(v + step, jacobian=True)
         evaluations += 1
         if not trial.works:
@@ -65,7 +72,7 @@ def minimize(problem: Problem, v0: np.ndarray, *, max_iterations: int = 200, rto
             continue
         assert J_new is not None  # asked for with jacobian=True
         e_new = 0.5 * float(r_new @ r_new)
-        predicted = 0.5 * float(step @ (lam * d * step - g))
+        predicted = 0.5 * float(y @ (lam * d * y - g))
         if e_new < e and predicted > 0:
             rho = (e - e_new) / predicted
             lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import sparse
+from scipy.linalg import null_space
 
 from linkedit.edit.kinematics import Evaluation, RestPoseKinematics
 from linkedit.edit.steps import dependencies as step_dependencies
@@ -184,10 +185,7 @@ class Problem:
                 for d in self.displacements]
         if self.envelope is not None:
             out.append(("edit", "envelope", self.envelope.block(ev, cols, scale, self.samples)))
-        if self.mirrored.size:
-            out.append(("edit", "symmetry", self._symmetry(ev)))
-        if self.mirror_ground.size:
-            out.append(("edit", "symmetry", self._mirror_ground(ev)))
+        out += [("edit", "symmetry", b) for b in self._symmetric(ev.rest, ev.dz is not None)]
         out.append(("singularity", "singularity barrier", self._barrier(ev)))
         out.append(("regularization", "regularization", self._regularization(ev)))
         return out
@@ -210,32 +208,72 @@ class Problem:
             out[label] = out.get(label, 0.0) + g
         return out
 
-    def _symmetry(self, ev: Evaluation) -> Block:
+    def _symmetric(self, rest: np.ndarray, tangents: bool) -> list[Block]:
+        """The symmetry blocks at rest joints ``rest`` (J,) complex (with ∂ when ``tangents``):
+        mirrored lengths equal, mirrored ground joints mirrored; weighted √(10⁶·μ_e)/L."""
         s = np.sqrt(1e6 * self.weights[0]) / self.size
-        r, D = [], []
-        for sign, q in ((1.0, self.mirrored[:, 0]), (-1.0, self.mirrored[:, 1])):
-            a, b = self.pairs[q].T
-            d = ev.rest[b] - ev.rest[a]
-            r.append(sign * np.abs(d))
-            if ev.dz is not None:
-                drest = self.kin.drest
-                D.append(sign * ((d / np.abs(d)).conj()[:, None] * (drest[b] - drest[a])).real)
-        assert self.mirror_cols is not None  # built with the mirrored pairs
-        return s * (r[0] + r[1]), (None if ev.dz is None else s * (D[0] + D[1])), self.mirror_cols
-
-    def _mirror_ground(self, ev: Evaluation) -> Block:
-        s = np.sqrt(1e6 * self.weights[0]) / self.size
-        g, h = self.mirror_ground.T
-        joint, fixed = self.mirror_centre
-        c = ev.rest[joint] if joint is not None else fixed
-        u2 = self.mirror_axis
-        r = s * _split(c + u2 * np.conj(ev.rest[g] - c) - ev.rest[h])
-        D = None
-        if ev.dz is not None:
-            drest = self.kin.drest
+        drest = self.kin.drest
+        out: list[Block] = []
+        if self.mirrored.size:
+            r, D = [], []
+            for sign, q in ((1.0, self.mirrored[:, 0]), (-1.0, self.mirrored[:, 1])):
+                a, b = self.pairs[q].T
+                d = rest[b] - rest[a]
+                r.append(sign * np.abs(d))
+                if tangents:
+                    D.append(sign * ((d / np.abs(d)).conj()[:, None] * (drest[b] - drest[a])).real)
+            assert self.mirror_cols is not None  # built with the mirrored pairs
+            out.append((s * (r[0] + r[1]), s * (D[0] + D[1]) if tangents else None, self.mirror_cols))
+        if self.mirror_ground.size:
+            assert self.mirror_ground_cols is not None  # built with the mirrored ground joints
+            g, h = self.mirror_ground.T
+            joint, fixed = self.mirror_centre
+            c = rest[joint] if joint is not None else fixed
+            u2 = self.mirror_axis
             dc = drest[joint][None, :] if joint is not None else 0.0
-            D = s * _split(dc + u2 * np.conj(drest[g] - dc) - drest[h])
-        return r, D, np.concatenate([self.mirror_ground_cols, self.mirror_ground_cols])
+            out.append((s * _split(c + u2 * np.conj(rest[g] - c) - rest[h]),
+                        s * _split(dc + u2 * np.conj(drest[g] - dc) - drest[h]) if tangents else None,
+                        np.concatenate([self.mirror_ground_cols, self.mirror_ground_cols])))
+        return out
+
+    def symmetry(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """The symmetry constraints at ``v``: (c (m,), ∂c/∂v (m, n) dense), or None without
+        ``symmetric``. They depend on the rest pose alone (no kinematics)."""
+        if not (self.mirrored.size or self.mirror_ground.size):
+            return None
+        blocks = self._symmetric(self.rest_joints(v), True)
+        c = np.concatenate([b[0] for b in blocks])
+        D = np.concatenate([b[1] for b in blocks if b[1] is not None])
+        cols = np.concatenate([b[2] for b in blocks])
+        keep = cols >= 0
+        rows = np.broadcast_to(np.arange(c.size)[:, None], cols.shape)[keep]
+        C = np.zeros((c.size, self.var.n))
+        np.add.at(C, (rows, cols[keep]), D[keep])
+        return c, C
+
+    def symmetric_basis(self, v: np.ndarray) -> np.ndarray | None:
+        """(n, k) orthonormal directions that keep the mirrored parts mirrored to first order (the
+        null space of the symmetry constraints' Jacobian): mirrored legs share these variables.
+        None without ``symmetric``."""
+        found = self.symmetry(v)
+        return None if found is None else null_space(found[1], rcond=1e-10)
+
+    def keep_symmetric(self, v: np.ndarray, step: np.ndarray) -> np.ndarray:
+        """``step`` corrected so that v + step keeps the mirrored parts mirrored exactly (to
+        rounding): Newton's least-norm projection onto the symmetry constraints. A step in
+        :meth:`symmetric_basis` keeps them to first order only."""
+        w = v + step
+        for _ in range(4):
+            found = self.symmetry(w)
+            if found is None or np.abs(found[0]).max(initial=0.0) <= 1e-12:
+                break
+            w = w - np.linalg.lstsq(found[1], found[0], rcond=None)[0]
+        return w - v
+
+    def rest_joints(self, v: np.ndarray) -> np.ndarray:
+        """The rest joints (J,) complex of variables ``v``."""
+        x = self.var.rest(v)
+        return x[:, 0] + 1j * x[:, 1]
 
     def _barrier(self, ev: Evaluation) -> Block:
         T = self.samples
