@@ -3,9 +3,13 @@
 Each link becomes a member (origin at its first joint, identity orientation, its joints as
 shape points at z = 0). A joint shared by links becomes pins (location + axis z) from the
 first link holding it to each other one; a ground joint pins every link holding it to the
-world. The motor is an orientation input on the crank: a turn about z from the rest pose,
-one revolution over t ∈ [0, 1) (or the spec's ``range_deg`` sweep). Each step is solved from
-the previous ones (:func:`linkedit.gcs.solver.solve_run`).
+world. A pin in a slot is a ``line`` constraint (the joint on the line of its guide: a link's
+member or the world), a translating link a ``line`` for its first joint and an ``orientation``
+against its guide (it does not turn relative to it). The motor is an orientation input on the
+crank: a turn about z from the rest pose, one revolution over t ∈ [0, 1) (or the spec's
+``range_deg`` sweep); a linear input is a ``plane`` input: the driven joint on the plane across
+its slot at the stroke s(t) from its rest position. Each step is solved from the previous ones
+(:func:`linkedit.gcs.solver.solve_run`).
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from linkedit.gcs import quaternions as quat
 from linkedit.gcs.inputs import Schedule
 from linkedit.gcs.solver import CONVERGED, STATUS_NAMES, Options, Run, solve_run
 from linkedit.gcs.system import WORLD, Elementary, State, System
+from linkedit.planar.simulate import motor_input
 from linkedit.spec.linkage import JointTrack, LinkageSpec
 
 if TYPE_CHECKING:
@@ -35,9 +40,7 @@ class PlanarModel:
     joint_names: list[str]
     joint_member: np.ndarray  #: (J,) member carrying each joint, −1 for a ground joint
     joint_point: np.ndarray  #: (J, 3) member-space point (world point for ground joints)
-    motor_rest_angle: float
-    direction: float
-    range_rad: tuple[float, float] | None
+    motor_rest_angle: float  #: radians (0 for a linear input)
     track_names: list[str]
     track_member: np.ndarray  #: (K,) member carrying each tracked point, −1 on the ground
     track_point: np.ndarray  #: (K, 3)
@@ -65,12 +68,12 @@ class NumericMotion:
 
 
 #: what the 3D system of a planar linkage does not model yet
-UNSUPPORTED = "sliders, linear or oscillating inputs"
+UNSUPPORTED = "oscillating inputs"
 
 
 def supported(spec: LinkageSpec) -> bool:
     """Whether :func:`planar_model` models the linkage (no :data:`UNSUPPORTED`)."""
-    return not (spec.sliders or spec.motor.linear or spec.motor.oscillate_deg is not None)
+    return spec.motor.oscillate_deg is None
 
 
 def planar_model(spec: LinkageSpec) -> PlanarModel:
@@ -85,8 +88,6 @@ def planar_model(spec: LinkageSpec) -> PlanarModel:
     links = [(name, members) for name, members in spec.links.items() if not all(j in ground for j in members)]
     names = [name for name, _ in links]
     origin = np.array([rest[jindex[members[0]]] for _, members in links]).reshape(-1, 2)
-    P0 = np.column_stack([origin, np.zeros(len(links))])
-    Q0 = np.tile([1.0, 0.0, 0.0, 0.0], (len(links), 1))
 
     def local(li: int, joint: str) -> tuple[float, float, float]:
         x, y = rest[jindex[joint]] - origin[li]
@@ -122,18 +123,66 @@ def planar_model(spec: LinkageSpec) -> PlanarModel:
     for g in spec.ground:
         joint_point[jindex[g]] = (*rest[jindex[g]], 0.0)
 
-    crank = next(li for li, (_, m) in enumerate(links) if spec.motor.joint in m and spec.motor.pivot in m)
+    def member(link: str) -> int:  # the guide's member, WORLD for the frame (or a link of ground joints)
+        return names.index(link) if link in names else WORLD
+
+    def on(b: int, point: np.ndarray) -> tuple[float, float, float]:  # a world point at rest in b's space
+        x, y = point - (origin[b] if b != WORLD else 0.0)
+        return (float(x), float(y), 0.0)
+
+    slots: dict[str, tuple[int, int, tuple[float, float, float], np.ndarray]] = {}
+    for name, slider in spec.sliders.items():
+        u = (float(np.cos(np.radians(slider.angle_deg))), float(np.sin(np.radians(slider.angle_deg))), 0.0)
+        b = member(slider.guide)
+        if slider.joint is not None and slider.joint not in holders:  # a ground joint in a moving slot
+            # a sleeve: a block pinned at the joint, turning with the guide, its centre on the guide's line
+            k = jindex[slider.joint]
+            a = len(names)
+            names.append(f"sleeve {name}")
+            origin = np.vstack([origin, rest[k]])
+            cnames.append(f"sleeve {name} ({slider.joint} on the ground)")
+            elems.append(Elementary("location", len(cnames) - 1, a, WORLD, sa=(0.0, 0.0, 0.0), sb=(*rest[k], 0.0)))
+            elems.append(Elementary("orientation", len(cnames) - 1, a, b))
+            cnames.append(f"slider {name} ({slider.joint} in {slider.guide})")
+            elems.append(Elementary("line", len(cnames) - 1, a, b, sa=(0.0, 0.0, 0.0), sb=on(b, rest[k]), nb=u))
+            slots[name] = (a, b, u, rest[k])
+        elif slider.joint is not None:  # a pin in a slot: the joint on the guide's line
+            k = jindex[slider.joint]
+            a = holders[slider.joint][0]
+            cnames.append(f"slider {name} ({slider.joint} in {slider.guide})")
+            elems.append(Elementary("line", len(cnames) - 1, a, b, sa=local(a, slider.joint), sb=on(b, rest[k]), nb=u))
+            slots[name] = (a, b, u, rest[k])
+        else:  # a translating link: its first joint on the line, no turn against the guide
+            a = names.index(str(slider.link))
+            first_joint = spec.links[str(slider.link)][0]
+            cnames.append(f"slider {name} ({slider.link} along {slider.guide})")
+            owner = len(cnames) - 1
+            elems.append(Elementary("line", owner, a, b, sa=local(a, first_joint), sb=on(b, rest[jindex[first_joint]]),
+                                    nb=u))
+            elems.append(Elementary("orientation", owner, a, b))
+
     sign = 1.0 if spec.motor.direction == "ccw" else -1.0
-    if spec.motor.range_deg is None:
-        window_angles = (0.0, 2.0 * np.pi)
+    window_angles: tuple[float, float] = (0.0, 2.0 * np.pi)
+    if spec.motor.linear:  # the driven joint on the plane across its slot at the stroke from rest
+        drive = str(spec.motor.slider)
+        a, b, u, at = slots[drive]
+        s0, s1 = (float(v) for v in spec.motor.stroke or (0.0, 0.0))
+        ends = np.array([on(b, at + s * np.asarray(u[:2])) for s in (s0, s1)])
+        cnames.append(f"linear input {drive}")
+        schedule = Schedule(mode="vector", window=(0.0, 1.0), times=np.array([0.0, 1.0]), values=ends)
+        elems.append(Elementary("plane", len(cnames) - 1, a, b, sa=local(a, str(spec.sliders[drive].joint)),
+                                sb=tuple(ends[0]), nb=u, schedule=schedule))
+        arm = np.array([1.0, 0.0])  # no rest angle
     else:
-        window_angles = tuple(np.radians(spec.motor.range_deg))
-    cnames.append(f"motor {spec.motor.joint} about {spec.motor.pivot}")
-    schedule = Schedule(mode="rotation", window=(0.0, 1.0), times=np.array([0.0, 1.0]),
-                        values=sign * np.array(window_angles), axis=np.array(z), base=Q0[crank])
-    first = schedule.evaluate(np.zeros(1))[0]
-    elems.append(Elementary("orientation", len(cnames) - 1, crank, WORLD, rel=tuple(first), schedule=schedule))
-    arm = rest[jindex[str(spec.motor.joint)]] - rest[jindex[str(spec.motor.pivot)]]
+        crank = next(li for li, (_, m) in enumerate(links) if spec.motor.joint in m and spec.motor.pivot in m)
+        if spec.motor.range_deg is not None:
+            window_angles = (float(np.radians(spec.motor.range_deg[0])), float(np.radians(spec.motor.range_deg[1])))
+        cnames.append(f"motor {spec.motor.joint} about {spec.motor.pivot}")
+        schedule = Schedule(mode="rotation", window=(0.0, 1.0), times=np.array([0.0, 1.0]),
+                            values=sign * np.array(window_angles), axis=np.array(z), base=np.array([1.0, 0.0, 0.0, 0.0]))
+        first = schedule.evaluate(np.zeros(1))[0]
+        elems.append(Elementary("orientation", len(cnames) - 1, crank, WORLD, rel=tuple(first), schedule=schedule))
+        arm = rest[jindex[str(spec.motor.joint)]] - rest[jindex[str(spec.motor.pivot)]]
     track_member, track_point = [], []
     for track in spec.tracks.values():
         if isinstance(track, JointTrack):
@@ -146,11 +195,12 @@ def planar_model(spec: LinkageSpec) -> PlanarModel:
         else:  # a point on the ground link
             track_member.append(-1)
             track_point.append((*track.at, 0.0))
+    P0 = np.column_stack([origin, np.zeros(len(origin))])
+    Q0 = np.tile([1.0, 0.0, 0.0, 0.0], (len(origin), 1))
     system = System.build(names, State(P0, Q0), cnames, elems,
                           constraint_inputs=[False] * (len(cnames) - 1) + [True])
     return PlanarModel(system=system, joint_names=joints, joint_member=joint_member, joint_point=joint_point,
-                       motor_rest_angle=float(np.arctan2(arm[1], arm[0])), direction=sign,
-                       range_rad=None if spec.motor.range_deg is None else window_angles,
+                       motor_rest_angle=float(np.arctan2(arm[1], arm[0])),
                        track_names=list(spec.tracks), track_member=np.array(track_member, dtype=int),
                        track_point=np.array(track_point, dtype=float).reshape(-1, 3))
 
@@ -170,6 +220,8 @@ def point_positions(member: np.ndarray, point: np.ndarray, position: np.ndarray,
 #: largest motor rotation between two solved steps: continuation from the previous steps
 #: stays on the rest pose's branch only if the steps are small (15° steps can jump branches)
 MAX_STEP_DEG = 1.0
+#: a linear input's largest stroke between two solved steps, in linkage sizes
+MAX_STEP_LENGTH = 0.005
 
 
 def refined_phases(t: np.ndarray, sweep_deg: float) -> tuple[np.ndarray, np.ndarray]:
@@ -200,17 +252,20 @@ def simulate_numeric(spec: LinkageSpec, t: np.ndarray, options: Options | None =
     model = model or planar_model(spec)
     t = np.asarray(t, dtype=float)
     system = model.system
-    sweep = 360.0 if model.range_rad is None else abs(np.degrees(model.range_rad[1] - model.range_rad[0]))
+    motor = spec.motor
+    if motor.linear:  # MAX_STEP_LENGTH of the linkage's size a step, counted like degrees
+        s0, s1 = motor.stroke or (0.0, 0.0)
+        size = float(np.ptp(np.array(list(spec.joints.values()), dtype=float), axis=0).max())
+        sweep = MAX_STEP_DEG * abs(s1 - s0) / (MAX_STEP_LENGTH * size)
+    else:
+        sweep = 360.0 if motor.range_deg is None else abs(motor.range_deg[1] - motor.range_deg[0])
     fine, keep = refined_phases(t, sweep)
     start = time.perf_counter()
     run = solve_run(system, fine, options)
     seconds = time.perf_counter() - start
     run = run.take(keep)
-    if model.range_rad is None:
-        angle = model.motor_rest_angle + model.direction * 2.0 * np.pi * t
-    else:
-        a, b = model.range_rad
-        angle = model.motor_rest_angle + model.direction * (a + (b - a) * t)
+    value = motor_input(motor, t)  # the motor's turn from rest (radians) or the stroke (spec units)
+    angle = value if motor.linear else model.motor_rest_angle + value
     bad = np.flatnonzero(run.status != CONVERGED)
     if bad.size:
         k = int(bad[0])
@@ -218,8 +273,10 @@ def simulate_numeric(spec: LinkageSpec, t: np.ndarray, options: Options | None =
         # the worst by its scaled cost (lengths over the linkage's size, angles): the same in any unit
         worst_index = int(np.argmax(system.costs(run.residual[k] * system.row_scale)))
         worst = system.constraint_names[worst_index]
+        where = (f"stroke {angle[k]:.6g} {spec.units}" if motor.linear else
+                 f"motor angle {np.degrees(angle[k]):.1f}°")
         raise MechanismError(
-            f"{spec.name}: the linkage cannot be assembled at motor angle {np.degrees(angle[k]):.1f}° "
+            f"{spec.name}: the linkage cannot be assembled at {where} "
             f"({STATUS_NAMES[run.status[k]]}): constraint '{worst}' is off by {np.sqrt(costs[worst_index]):.3g}")
     xyz = point_positions(model.joint_member, model.joint_point, run.position, run.orientation)
     tracks = point_positions(model.track_member, model.track_point, run.position, run.orientation)
