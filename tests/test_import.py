@@ -205,11 +205,12 @@ PYLINKAGE = ROOT / "tests" / "data" / "pylinkage"
 
 
 @pytest.mark.parametrize("name, form", [(n, f) for n in ("fourbar", "slider-crank", "six-bar") for f in ("mechanism", "graph")]
-                         + [("fourbar-midrun", "mechanism")])
+                         + [("fourbar-midrun", "mechanism"), ("arc-fourbar", "mechanism")])
 def test_pylinkage_files_simulate_to_pylinkages_own_trajectories(run_cli, tmp_path, name, form):
     """``mechanism_to_json`` and ``graph_to_json`` (+ its Dimensions) files, imported and simulated with the
     samples the import sets (one per pylinkage step of a turn): sample k is pylinkage's step k, to 1e-9 of
-    the linkage's size. ``fourbar-midrun`` was saved after 10 steps, away from its initial angle."""
+    the linkage's size. ``fourbar-midrun`` was saved after 10 steps, away from its initial angle;
+    ``arc-fourbar``'s crank swings 30° → 110° (an arc_driver): its forward sweep, both ends sampled."""
     extra = ["--dimensions", PYLINKAGE / f"{name}.dimensions.json"] if form == "graph" else []
     spec = tmp_path / "imported.yaml"
     r = run_cli("import", PYLINKAGE / f"{name}.{form}.json", *extra, "-o", spec)
@@ -222,8 +223,8 @@ def test_pylinkage_files_simulate_to_pylinkages_own_trajectories(run_cli, tmp_pa
     with h5py.File(out) as f:
         joints = list(f["joint"].asstr()[()])
         position = f["joints/position"][()]
-    assert position.shape[0] == steps
-    got = np.roll(position, -1, axis=0)[:, [joints.index(j) for j in reference["joint"]]]  # step k ↔ sample k mod steps
+    assert position.shape[0] == steps + (name == "arc-fourbar")
+    got = np.roll(position, -1, axis=0)[:steps, [joints.index(j) for j in reference["joint"]]]  # step k ↔ sample k mod steps
     size = np.ptp(reference["position"].reshape(-1, 2), axis=0).max()
     assert np.abs(got - reference["position"]).max() <= 1e-9 * size
 
@@ -231,6 +232,9 @@ def test_pylinkage_files_simulate_to_pylinkages_own_trajectories(run_cli, tmp_pa
 def test_pylinkage_graph_needs_its_dimensions(run_cli, tmp_path):
     r = run_cli("import", PYLINKAGE / "fourbar.graph.json", "-o", tmp_path / "x.yaml")
     assert r.exit_code == 2 and "give its Dimensions" in r.output and "--dimensions" in r.output, r.output
+    r = run_cli("import", PYLINKAGE / "fourbar.mechanism.json", "--dimensions", PYLINKAGE / "fourbar.dimensions.json",
+                "-o", tmp_path / "x.yaml")
+    assert r.exit_code == 2 and "--dimensions: --dimensions goes with a pylinkage graph" in r.output, r.output
     dims = json.loads((PYLINKAGE / "six-bar.dimensions.json").read_text())
     dims["edge_distances"]["edge_8"] = 3.5  # the rod: 3 long in the positions
     (tmp_path / "dims.json").write_text(json.dumps(dims, indent=2))
@@ -331,7 +335,8 @@ def test_malformed_sources_one_line_exit_2(run_cli, tmp_path, file, text, line, 
 
 
 def test_the_expression_reader_takes_time_linear_in_its_length():
-    """32,000 joints (1.7 MB) were minutes of tokenizing (a quadratic scan) and 16 MiB never ended."""
+    """32,000 joints (1.7 MB) were minutes of tokenizing (a quadratic scan) and 16 MiB never ended; now about
+    1.5 s on an idle core (the bound leaves room for a loaded CI machine, far below the quadratic scan's time)."""
     from linkedit.interop.pyslvs import parse_expression
 
     parts = ["J[R, color[Green], P[0.0, 0.0], L[ground, L0]]"]
@@ -339,4 +344,4 @@ def test_the_expression_reader_takes_time_linear_in_its_length():
     start = time.perf_counter()
     joints = parse_expression("M[" + ",\n".join(parts) + "]")
     assert len(joints) == 32_000 and joints[-1].position == (31_999 * 1.5, 31_999 % 7 * 0.25)
-    assert time.perf_counter() - start < 10
+    assert time.perf_counter() - start < 30

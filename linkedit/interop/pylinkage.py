@@ -11,7 +11,8 @@ Three forms, told apart by their keys:
   where it was saved. A prismatic joint slides on the frame line through ``line_point`` along
   ``axis``; a tracker (a point at ``distance`` and ``angle`` from ``ref_joint1``, measured from
   the direction to ``ref_joint2``) becomes a track on the link carrying both references. An
-  ``arc_driver`` sweeps once from ``arc_start`` to ``arc_end`` (``motor.range_deg``).
+  ``arc_driver`` sweeps once from ``arc_start`` to ``arc_end`` (``motor.range_deg``; pylinkage's
+  forward half-cycle, sample k its step k).
 * **graph** (pylinkage ≥ 1.0, ``graph_to_json`` of a hypergraph or an Assur graph): ``nodes``
   (``id``, ``role`` GROUND, DRIVER or DRIVEN, ``joint_type``), ``edges`` (``source``, ``target``,
   optional ``body_id``: edges of one body are one rigid link) and ``hyperedges`` (rigid links of
@@ -161,14 +162,15 @@ def _driver(file: JsonFile, n: int, link: tuple[str, list[str], dict[str, Any]],
         if not start < end <= start + math.tau:
             raise file.error(lk, f"arc_start {start} .. arc_end {end}: not a sweep of at most one turn", at)
         motor.update(direction="ccw", range_deg=[math.degrees(start - initial), math.degrees(end - initial)])
-        return crank, motor, initial, None
+        steps = _steps(omega, end - start)
+        return crank, motor, initial, steps + 1 if steps else None  # a sweep samples both its ends
     return crank, motor, file.number(lk, "initial_angle", at, 0.0), _steps(omega)
 
 
-def _steps(omega: float) -> int | None:
-    """The whole number of steps of ``omega`` radians in a turn, if it is one."""
-    turn = math.tau / abs(omega)
-    return round(turn) if 1 <= round(turn) <= 1_000_000 and abs(turn - round(turn)) <= 1e-9 * turn else None
+def _steps(omega: float, sweep: float = math.tau) -> int | None:
+    """The whole number of steps of ``omega`` radians in ``sweep`` radians, if it is one."""
+    count = sweep / abs(omega)
+    return round(count) if 1 <= round(count) <= 1_000_000 and abs(count - round(count)) <= 1e-9 * count else None
 
 
 def _slide_line(file: JsonFile, obj: dict[str, Any], at: tuple[str | int, ...], jid: str, xy: list[float],
