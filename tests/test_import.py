@@ -307,6 +307,10 @@ MALFORMED = [
     ("old.json", '{"joints":\n' + "[" * 100000 + "]" * 100000 + "}", 2, r"nested more than 64 levels deep"),
     ("old.json", _legacy(3, "x", 1.0).replace('"x": 1.0', '"x": 1.0, "x": 2.0'), 5, r"duplicate key 'x'"),
     ("old.json", '{"joints": [\n{"type": "Static",\n"x": 0.0 "y": 1}]}', 3, r"malformed JSON: Expecting ',' delimiter"),
+    ("old.json", _legacy(2, "x", 1e200), 4, r"joints\[2\]\.x: beyond 1e\+150: too large to assemble from lengths"),
+    ("new.json", _mechanism(lambda d: next(j for j in d["joints"] if j["id"] == "crank.motor_ground.A").update(
+        position=[1e308, 0.0])), 1,  # the crank's pivot, far away
+     r"saved away from its initial_angle, with coordinates beyond 1e\+150"),
     ("new.json", _mechanism(lambda d: d["joints"][1].update(position=["0.9", 0.3])), 12,
      r"joints\[1\]\.position\[0\]: expected a finite number, got \"0.9\""),
     ("new.json", _mechanism(lambda d: d["links"][1].update(joints=["crank.motor_ground.A", "nowhere"])), 46,

@@ -41,7 +41,8 @@ from linkedit.interop.document import JsonFile, default_tracks
 _SAME_ANGLE = 1e-9
 #: Relative disagreement allowed between a graph's distances and its positions (and a slider off its line).
 _AGREE = 1e-9
-_FIELD: tuple[str | int, ...] = ()
+#: Largest coordinate or length given to linkedit's assembly from lengths (squares of larger ones overflow).
+_REACH = 1e150
 
 
 def to_document(text: str, *, source: str, units: str, name: str | None = None,
@@ -127,6 +128,9 @@ def _mechanism(file: JsonFile) -> dict[str, Any]:
         if sliders or tracks:
             raise file.error(data, "saved at a crank angle other than its initial_angle: linkedit re-poses revolute "
                                    "joints only; save it at its initial angle (mechanism.reset())")
+        if max(abs(c) for p in xy.values() for c in p) > _REACH:
+            raise file.error(data, f"saved away from its initial_angle, with coordinates beyond {_REACH:g}: too large "
+                                   "to re-pose from lengths")
         doc["joints"], doc["links"] = _reposed(xy, bodies, ground, crank, motor["pivot"], math.degrees(initial))
     if sliders:
         doc["sliders"] = sliders
@@ -369,6 +373,10 @@ def _legacy(file: JsonFile) -> dict[str, Any]:
                              (*at, "type"))
     if motor is None:
         raise file.error(data, "no Crank joint: nothing drives the linkage", ("joints",))
+    for e in entries:
+        for key in ("x", "y", "distance", "distance0", "distance1"):
+            if isinstance(e["obj"].get(key), (int, float)) and abs(e["obj"][key]) > _REACH:
+                raise file.error(e["obj"], f"beyond {_REACH:g}: too large to assemble from lengths", (*e["at"], key))
     return {"joints": joints, "ground": ground, "links": links, "motor": motor, "tracks": tracks}
 
 
