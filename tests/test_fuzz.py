@@ -1,9 +1,10 @@
-"""Fuzz: mutated example specs, edit scripts, 3D specs and curve sets through the CLI.
+"""Fuzz: mutated example specs, edit scripts, 3D specs, curve sets and other tools' files through the CLI.
 
 Mutations: delete a key, swap a value's type, perturb a number across 1e-300…1e300, repeat a
-value (an alias in the YAML text), rename a key to odd unicode. For every run: exit code in
-{0, 1, 2}; no traceback; on exit ≠ 0 no output written; on exit 0 every number of the outputs
-finite, and a planar result keeps its link lengths to 1e-9 relative.
+value (an alias in the YAML text), rename a key to odd unicode; in a pyslvs expression, cut,
+repeat or insert a piece of text. For every run: exit code in {0, 1, 2}; no traceback; on exit ≠ 0
+no output written; on exit 0 every number of the outputs finite, and a planar result keeps its
+link lengths to 1e-9 relative. An imported file (``examples/import/``) that imports is simulated.
 
 The default profile runs ``FUZZ_EXAMPLES`` (40) inputs; ``LINKEDIT_FUZZ_EXAMPLES=2000 pytest
 tests/test_fuzz.py -m slow`` runs the long one. ``LINKEDIT_FUZZ_REPORT=path.json`` writes the
@@ -41,7 +42,10 @@ SEEDS = {
     "edit": sorted((EXAMPLES / "edits").glob("*.yaml")),
     "mechanism3d": sorted((EXAMPLES / "3d").glob("*.yaml")),
     "curve-set": [EXAMPLES / "curves" / "foot-paths.yaml"],
+    "import": sorted(p for p in (EXAMPLES / "import").iterdir() if not p.name.endswith(".dimensions.json")),
 }
+EXPRESSION_PIECES = [",", "[", "]", "(", ")", "A[", "P[1, 2]", "L[]", "J[R, P[0, 0], L[ground, L1]]", "1e999",
+                     "9" * 400, "-", "#", "\n", "ground", "é"]
 ODD_NAMES = ["ß", "名前", "a b", "\u200b", "é\u0301", "x" * 300, "-", "1e5", "true", "~", "\U0001F600"]
 ODD_VALUES = [True, False, None, "x", "", [], {}, [1, 2], {"a": 1}, 0, -1, 1e308, -1e308, 5e-324, 10**30]
 
@@ -96,7 +100,23 @@ def mutated(draw):
             parent[draw(st.sampled_from(ODD_NAMES))] = parent.pop(key)
     if kind == "edit" and isinstance(data, dict):
         _bounded_edit(data)
+    if kind == "import" and isinstance(data, dict) and isinstance(data.get("mechanism"), str) and draw(st.booleans()):
+        data["mechanism"] = _mutated_text(draw, data["mechanism"])
+    if seed.suffix == ".json":
+        return kind, seed, json.dumps(data, ensure_ascii=False)
     return kind, seed, yaml.safe_dump(data, allow_unicode=True, sort_keys=False)
+
+
+def _mutated_text(draw, text: str) -> str:
+    """A pyslvs expression with a piece cut out, repeated, or a piece of syntax put in."""
+    a = draw(st.integers(0, len(text)))
+    b = draw(st.integers(a, min(len(text), a + 40)))
+    how = draw(st.sampled_from(["cut", "repeat", "insert"]))
+    if how == "cut":
+        return text[:a] + text[b:]
+    if how == "repeat":
+        return text[:b] + text[a:b] * draw(st.integers(1, 3)) + text[b:]
+    return text[:a] + draw(st.sampled_from(EXPRESSION_PIECES)) + text[a:]
 
 
 def _is_prefix(a, b):
@@ -113,8 +133,12 @@ def _bounded_edit(data: dict) -> None:
             op["max_iterations"] = 15
 
 
-def _command(kind: str, spec: Path, work: Path) -> list[str]:
+def _command(kind: str, spec: Path, work: Path, seed: Path) -> list[str]:
     out = work / "out"
+    if kind == "import":
+        dimensions = work / "in" / seed.name.replace(".graph.json", ".dimensions.json")
+        return ["import", str(spec), "-o", str(out / "s.yaml")] + (
+            ["--dimensions", str(dimensions)] if seed.name.endswith(".graph.json") else [])
     if kind == "linkage":
         return ["simulate", str(spec), "-o", str(out / "r.h5"), "--svg", str(out / "r.svg"), "--samples", "48"]
     if kind == "edit":
@@ -170,7 +194,13 @@ def _run(kind: str, seed: Path, text: str, work: Path) -> int:
             shutil.copy(linkage, work / linkage.name)
     spec = work / "in" / f"fuzzed{seed.suffix}"
     spec.write_text(text, encoding="utf-8")
-    r = CliRunner().invoke(app, _command(kind, spec, work), catch_exceptions=False)
+    r = CliRunner().invoke(app, _command(kind, spec, work, seed), catch_exceptions=False)
+    if kind == "import" and r.exit_code == 0:  # the user's next step: simulate what was imported
+        COUNTS[(kind, 0)] += 1
+        assert (work / "out" / "s.yaml").exists(), r.output
+        shutil.move(work / "out" / "s.yaml", work / "in" / "imported.yaml")
+        kind, r = "linkage", CliRunner().invoke(app, _command("linkage", work / "in" / "imported.yaml", work, seed),
+                                                catch_exceptions=False)
     COUNTS[(kind, r.exit_code)] += 1
     assert r.exit_code in (0, 1, 2), r.output
     assert "Traceback" not in r.output, r.output

@@ -6,13 +6,14 @@ from __future__ import annotations
 import json
 import math
 import re
+import time
 
 import h5py
 import numpy as np
 import pytest
 import yaml
 
-from tests.conftest import EXAMPLES
+from tests.conftest import EXAMPLES, ROOT
 
 
 def _circles(p, rp, q, rq, previous):
@@ -196,3 +197,155 @@ def test_pyslvs_inverted_slider_crank_follows_the_closed_form(run_cli, tmp_path)
     turn = (q - a) / np.abs(q - a) / u0  # the arm points from A through Q: its rotation from rest
     assert np.abs(got["P1"] - a).max() < 1e-9 * 75
     assert np.abs(got["P3"] - (a + (x0 - a0) * turn)).max() < 1e-9 * 75
+
+
+# --- pylinkage ≥ 1.0 files, written by pylinkage 1.3.0 itself (tests/data/pylinkage/, with its trajectories) ---
+
+PYLINKAGE = ROOT / "tests" / "data" / "pylinkage"
+
+
+@pytest.mark.parametrize("name, form", [(n, f) for n in ("fourbar", "slider-crank", "six-bar") for f in ("mechanism", "graph")]
+                         + [("fourbar-midrun", "mechanism"), ("arc-fourbar", "mechanism")])
+def test_pylinkage_files_simulate_to_pylinkages_own_trajectories(run_cli, tmp_path, name, form):
+    """``mechanism_to_json`` and ``graph_to_json`` (+ its Dimensions) files, imported and simulated with the
+    samples the import sets (one per pylinkage step of a turn): sample k is pylinkage's step k, to 1e-9 of
+    the linkage's size. ``fourbar-midrun`` was saved after 10 steps, away from its initial angle;
+    ``arc-fourbar``'s crank swings 30° → 110° (an arc_driver): its forward sweep, both ends sampled."""
+    extra = ["--dimensions", PYLINKAGE / f"{name}.dimensions.json"] if form == "graph" else []
+    spec = tmp_path / "imported.yaml"
+    r = run_cli("import", PYLINKAGE / f"{name}.{form}.json", *extra, "-o", spec)
+    assert r.exit_code == 0, r.output
+    reference = np.load(PYLINKAGE / f"{name}.trajectory.npz")
+    steps = reference["position"].shape[0]
+    out = tmp_path / "sim.h5"
+    r = run_cli("simulate", spec, "-o", out)
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        joints = list(f["joint"].asstr()[()])
+        position = f["joints/position"][()]
+    assert position.shape[0] == steps + (name == "arc-fourbar")
+    got = np.roll(position, -1, axis=0)[:steps, [joints.index(j) for j in reference["joint"]]]  # step k ↔ sample k mod steps
+    size = np.ptp(reference["position"].reshape(-1, 2), axis=0).max()
+    assert np.abs(got - reference["position"]).max() <= 1e-9 * size
+
+
+def test_pylinkage_graph_needs_its_dimensions(run_cli, tmp_path):
+    r = run_cli("import", PYLINKAGE / "fourbar.graph.json", "-o", tmp_path / "x.yaml")
+    assert r.exit_code == 2 and "give its Dimensions" in r.output and "--dimensions" in r.output, r.output
+    r = run_cli("import", PYLINKAGE / "fourbar.mechanism.json", "--dimensions", PYLINKAGE / "fourbar.dimensions.json",
+                "-o", tmp_path / "x.yaml")
+    assert r.exit_code == 2 and "--dimensions: --dimensions goes with a pylinkage graph" in r.output, r.output
+    dims = json.loads((PYLINKAGE / "six-bar.dimensions.json").read_text())
+    dims["edge_distances"]["edge_8"] = 3.5  # the rod: 3 long in the positions
+    (tmp_path / "dims.json").write_text(json.dumps(dims, indent=2))
+    r = run_cli("import", PYLINKAGE / "six-bar.graph.json", "--dimensions", tmp_path / "dims.json", "-o", tmp_path / "x.yaml")
+    line = next(n for n, text in enumerate((tmp_path / "dims.json").read_text().splitlines(), 1) if '"edge_8"' in text)
+    assert r.exit_code == 2 and f"dims.json:{line - 9}: edge_distances.edge_8: 3.5 but the positions" in r.output, r.output
+    assert not (tmp_path / "x.yaml").exists()
+
+
+# --- malformed inputs: one line naming the file and line (or the expression's column), exit 2, nothing written ---
+
+FOURBAR_JOINTS = [
+    {"type": "Static", "name": "A", "x": 0.0, "y": 0.0},
+    {"type": "Crank", "name": "B", "x": 0.0, "y": 1.0, "joint0": {"ref": "A"}, "distance": 1.0, "angle": 0.31},
+    {"type": "Static", "name": "D", "x": 3.0, "y": 0.0},
+    {"type": "Revolute", "name": "C", "x": 3.0, "y": 2.0, "joint0": {"ref": "B"}, "joint1": {"ref": "D"},
+     "distance0": 2.5, "distance1": 2.0}]
+
+
+def _legacy(joint: int, key: str, value=...) -> str:
+    """The 0.x four-bar, one joint per line, with one field changed (``...``: removed)."""
+    joints = [dict(j) for j in FOURBAR_JOINTS]
+    if value is ...:
+        del joints[joint][key]
+    else:
+        joints[joint][key] = value
+    return '{"joints": [\n' + ",\n".join(json.dumps(j) for j in joints) + "\n]}"
+
+
+def _mechanism(change) -> str:
+    data = json.loads((PYLINKAGE / "fourbar.mechanism.json").read_text())
+    change(data)
+    return json.dumps(data, indent=2)
+
+
+PROJECT = "pyslvs_ver: 21.12.0\nmechanism: 'M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]]]'\n"
+MALFORMED = [
+    # (file name or None for an expression on the command line, its text, the line, the message)
+    (None, "M[J[P, A[], P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]]]", 1,
+     r"column 8: joint P0: A\[degrees\] takes one number, got 0 values"),
+    (None, "M[J[P, A[x], P[0, 0], L[ground, L1]]]", 1, r"column 10: joint P0: A\[degrees\] takes one number, got the name 'x'"),
+    (None, "M[J[R, P[(0, 1), 0], L[ground, L1]]]", 1, r"column 10: joint P0: P\[x, y\] takes two numbers, got \(…\)"),
+    (None, "M[J[(R), P[0, 0], L[ground, L1]]]", 1, r"column 5: joint P0: the joint type is R, P or RP"),
+    (None, "M[J[R, P[0, 0], L[ground, (L1)]]]", 1, r"column 27: joint P0: L\[…\] lists link names, got \(…\)"),
+    (None, "M[J[R, P[0, 1e999], L[ground, L1]]]", 1, r"column 13: joint P0: P\[x, y\] takes two numbers, got a number out of range"),
+    (None, "M[" + "(" * 5000 + ")" * 5000 + "]", 1, r"column 18: nested more than 16 levels deep"),
+    (None, "M[" + "A[" * 5000 + "]" * 5000 + "]", 1, r"column 34: nested more than 16 levels deep"),
+    (None, "M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0 L[L1]]]", 1, r"column 45: expected ',' or '\]'"),
+    (None, "M[J[R, P[0, 0], L[ground, L1]]] x", 1, r"column 33: text after the end of M\[…\]"),
+    (None, "M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]], J[R, P[1, 0], L[L2, ground]]", 1,
+     r"column 87: the expression ends before its closing '\]'"),
+    ("m.expr", "M[\n  J[R, P[0, 0], L[ground, L1]],\n  J[R, P[1, 0], L[L1, L2]] ;\n]", 3, r"column 28: unexpected character ';'"),
+    ("p.pyslvs", PROJECT.replace("[1, 0]", "[1, (0)]"), 2, r"mechanism: character 43 of the expression: joint P1: P\[x, y\]"),
+    ("p.pyslvs", PROJECT + "input: abc\n", 3, r"input: must be a list of \[pivot, joint\] point index pairs"),
+    ("p.pyslvs", PROJECT + "input: 5\n", 3, r"input: must be a list"),
+    ("p.pyslvs", PROJECT + "input: {a: 1}\n", 3, r"input: must be a list"),
+    ("p.pyslvs", PROJECT + "input:\n- [[0, 1]]\n", 4, r"input\[0\]: an input is \[pivot, joint\], two point indices"),
+    ("p.pyslvs", PROJECT + "input:\n- [0]\n", 4, r"input\[0\]: an input is \[pivot, joint\]"),
+    ("p.pyslvs", PROJECT + "input:\n- [0, true]\n", 4, r"input\[0\]: an input is \[pivot, joint\]"),
+    ("p.pyslvs", PROJECT + "input: &a [*a]\n", 3, r"an alias refers to itself"),
+    ("p.pyslvs", PROJECT + "input: " + "[" * 100 + "]" * 100 + "\n", 3, r"nested more than 64 levels deep"),
+    ("old.json", _legacy(1, "distance"), 3, r"joints\[1\]\.distance: required field is missing"),
+    ("old.json", _legacy(3, "distance0"), 5, r"joints\[3\]\.distance0: required field is missing"),
+    ("old.json", _legacy(3, "distance1", "2.0"), 5, r"joints\[3\]\.distance1: expected a finite number, got \"2.0\""),
+    ("old.json", _legacy(3, "x", [1, 2]), 5, r"joints\[3\]\.x: expected a finite number, got \[1, 2\]"),
+    ("old.json", _legacy(1, "angle", True), 3, r"joints\[1\]\.angle: expected a finite number, got true"),
+    ("old.json", _legacy(3, "joint1", {"ref": "Q"}), 5, r"joints\[3\]\.joint1: joint 'C' \(Revolute\) needs joint1"),
+    ("old.json", _legacy(0, "name", [1]), 2, r"joints\[0\]\.name: expected a name"),
+    ("old.json", _legacy(3, "distance0", 7).replace(": 7", ": " + "9" * 5000), 5, r"a number of more than 4300 digits"),
+    ("old.json", '{"joints":\n' + "[" * 100000 + "]" * 100000 + "}", 2, r"nested more than 64 levels deep"),
+    ("old.json", _legacy(3, "x", 1.0).replace('"x": 1.0', '"x": 1.0, "x": 2.0'), 5, r"duplicate key 'x'"),
+    ("old.json", '{"joints": [\n{"type": "Static",\n"x": 0.0 "y": 1}]}', 3, r"malformed JSON: Expecting ',' delimiter"),
+    ("old.json", _legacy(2, "x", 1e200), 4, r"joints\[2\]\.x: beyond 1e\+150: too large to assemble from lengths"),
+    ("new.json", _mechanism(lambda d: next(j for j in d["joints"] if j["id"] == "crank.motor_ground.A").update(
+        position=[1e308, 0.0])), 1,  # the crank's pivot, far away
+     r"saved away from its initial_angle, with coordinates beyond 1e\+150"),
+    ("new.json", _mechanism(lambda d: d["joints"][1].update(position=["0.9", 0.3])), 12,
+     r"joints\[1\]\.position\[0\]: expected a finite number, got \"0.9\""),
+    ("new.json", _mechanism(lambda d: d["links"][1].update(joints=["crank.motor_ground.A", "nowhere"])), 46,
+     r"links\[1\]\.joints: unknown joint 'nowhere'"),
+    ("new.json", _mechanism(lambda d: d["links"][1].update(angular_velocity=0)), 46, r"angular_velocity is 0"),
+    ("new.json", _mechanism(lambda d: d["links"][1].update(type="link")), 1, r"links: 0 driver links"),
+    ("new.json", _mechanism(lambda d: d["joints"].append({"id": "T", "type": "tracker", "position": [0, 0],
+                                                           "ref_joint1_id": "crank.motor_ground.A",
+                                                           "ref_joint2_id": "ground.D_rocker.1"})), 36,
+     r"joints\[4\]: tracker 'T': no link carries both"),
+]
+
+
+@pytest.mark.parametrize("file, text, line, message", MALFORMED, ids=[f"{n}-{c[0] or 'expression'}" for n, c in enumerate(MALFORMED)])
+def test_malformed_sources_one_line_exit_2(run_cli, tmp_path, file, text, line, message):
+    source = text if file is None else tmp_path / file
+    if file is not None:
+        source.write_text(text)
+    r = run_cli("import", source, "-o", tmp_path / "x.yaml")
+    assert r.exit_code == 2 and "Traceback" not in r.output, r.output
+    assert len(r.output.strip().splitlines()) == 1, r.output
+    where = "<expression>" if file is None else str(source)
+    located = re.escape(where) + (f":{line}: " if line else ": ")
+    assert re.search(located + ".*" + message, r.output), r.output
+    assert not (tmp_path / "x.yaml").exists()
+
+
+def test_the_expression_reader_takes_time_linear_in_its_length():
+    """32,000 joints (1.7 MB) were minutes of tokenizing (a quadratic scan) and 16 MiB never ended; now about
+    1.5 s on an idle core (the bound leaves room for a loaded CI machine, far below the quadratic scan's time)."""
+    from linkedit.interop.pyslvs import parse_expression
+
+    parts = ["J[R, color[Green], P[0.0, 0.0], L[ground, L0]]"]
+    parts += [f"J[R, color[Green], P[{i * 1.5}, {i % 7 * 0.25}], L[L{i - 1}, L{i}]]" for i in range(1, 32_000)]
+    start = time.perf_counter()
+    joints = parse_expression("M[" + ",\n".join(parts) + "]")
+    assert len(joints) == 32_000 and joints[-1].position == (31_999 * 1.5, 31_999 % 7 * 0.25)
+    assert time.perf_counter() - start < 30

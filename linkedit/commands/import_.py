@@ -37,6 +37,8 @@ def register(app: typer.Typer) -> None:
                                     show_default="- (stdout)"),
         motor: str = typer.Option(None, "--input", help="pyslvs: the motor as point indices PIVOT,JOINT "
                                                         "[default: the project's first input, else the first revolute pair on a ground link]."),
+        dimensions: Path = typer.Option(None, "--dimensions", help="pylinkage graph (graph_to_json): its Dimensions "
+                                                                  "(Dimensions.to_dict() saved as JSON)."),
         units: str = typer.Option("mm", "--units", help="Length unit of the source's numbers."),
         name: str = typer.Option(None, "--name", help="The linkage's name [default: the file's stem]."),
         as_json: bool = JSON,
@@ -50,10 +52,11 @@ def register(app: typer.Typer) -> None:
         from linkedit.io.formats import output_format, write_out
 
         output_format(output, ("yaml",), stdout="yaml")
-        check_outputs([("--output", output)], [source])
+        check_outputs([("--output", output)], [source] + ([str(dimensions)] if dimensions else []))
         refuse_json_with_stdout(output)
         which = tool.value if tool else guess_tool(source)
-        spec = import_spec(source, which, units=units, name=name, motor=_pair(motor))  # type: ignore[arg-type]
+        spec = import_spec(source, which, units=units, name=name, motor=_pair(motor),  # type: ignore[arg-type]
+                           dimensions=str(dimensions) if dimensions else None)
         write_out(output, import_yaml(spec, source, which))
         report({"source": source, "from": which, "output": str(output), "name": spec.name,
                 "joints": list(spec.joints), "links": list(spec.links), "sliders": list(spec.sliders)})

@@ -19,15 +19,18 @@ def guess_tool(source: str) -> Tool:
 
 
 def import_spec(source: str, tool: Tool | None = None, *, units: str = "mm", name: str | None = None,
-                motor: tuple[int, int] | None = None) -> LinkageSpec:
+                motor: tuple[int, int] | None = None, dimensions: str | None = None) -> LinkageSpec:
     """The linkage in ``source`` (a file path, or a pyslvs expression ``M[…]``) as a spec.
 
     ``motor`` (pyslvs only): (pivot, driven joint) point indices; default the project's first
-    input pair, else the first revolute pair on a ground link.
+    input pair, else the first revolute pair on a ground link. ``dimensions`` (pylinkage graphs
+    only): the file of the graph's ``Dimensions``.
     """
     from linkedit.interop import pylinkage, pyslvs
 
     tool = tool or guess_tool(source)
+    if dimensions is not None and tool != "pylinkage":
+        raise InputError("--dimensions goes with a pylinkage graph", field="--dimensions")
     is_expression = source.lstrip().startswith("M[")
     text = source if is_expression else read_text(source)
     where = "<expression>" if is_expression else source
@@ -35,12 +38,14 @@ def import_spec(source: str, tool: Tool | None = None, *, units: str = "mm", nam
     if tool == "pylinkage":
         if is_expression:
             raise InputError("pylinkage input is a JSON file, not an expression", field="--from")
-        doc = pylinkage.to_document(text, source=where, units=units, name=name)
+        sizes = (read_text(dimensions), dimensions) if dimensions is not None else None
+        doc = pylinkage.to_document(text, source=where, units=units, name=name, dimensions=sizes)
     else:
         pairs: list[tuple[int, int]] = []
+        line = None
         if not text.lstrip().startswith("M["):
-            text, pairs = pyslvs.read_project(text, where)
-        joints = pyslvs.parse_expression(text, where)
+            text, line, pairs = pyslvs.read_project(text, where)
+        joints = pyslvs.parse_expression(text, where, line)
         doc = pyslvs.to_document(joints, name=_name(stem), units=units, motor=motor or (pairs[0] if pairs else None),
                                  source=where)
     return validate(LinkageSpec, doc, file=where)

@@ -19,16 +19,23 @@ from __future__ import annotations
 
 import math
 import re
+from collections import Counter
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import yaml
 
 from linkedit.errors import InputError
+from linkedit.spec.yamlload import load_yaml
 
 FRAME = "ground"
-_TOKEN = re.compile(r"\s*(?:(?P<num>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)|(?P<name>[A-Za-z_][\w-]*)|(?P<sym>[\[\](),]))")
+#: Deepest nesting of ``NAME[…]`` and ``(…)`` read (``M[J[P[x, y]]]`` needs 3; colours a few more).
+MAX_DEPTH = 16
+_LEX = re.compile(r"\s*(?:(?P<num>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)|(?P<name>[A-Za-z_][\w-]*)"
+                  r"|(?P<sym>[\[\](),])|(?P<bad>\S))")
+_Token = tuple[str, str, int]  # kind (num, name, sym, bad or end), text, offset in the expression
+_Term = tuple[str, _Token, tuple[Any, ...]]  # kind (call, tuple, num or name), its first token, items
 
 
 @dataclass(frozen=True)
@@ -41,107 +48,152 @@ class Joint:
     links: tuple[str, ...]
 
 
+def _what(term: _Term) -> str:
+    kind, (_, text, _), _ = term
+    return {"call": f"{text}[…]", "tuple": "(…)", "num": "a number"}.get(kind, f"the name {text!r}")
+
+
 def _strip_comments(text: str) -> str:
     return "\n".join(line.split("#", 1)[0] for line in text.splitlines())
 
 
-def _tokens(text: str, source: str) -> list[tuple[str, str, int]]:
-    out, pos, body = [], 0, _strip_comments(text)
-    while pos < len(body):
-        if body[pos:].strip() == "":
-            break
-        m = _TOKEN.match(body, pos)
-        if not m:
-            line = body.count("\n", 0, pos) + 1
-            raise InputError(f"cannot read the expression at {body[pos:pos + 12].strip()!r}", file=source, line=line)
-        kind = m.lastgroup or "sym"
-        out.append((kind, m.group(kind), body.count("\n", 0, m.start(kind)) + 1))
-        pos = m.end()
-    return out
+def _tokens(body: str) -> Iterator[_Token]:
+    """The tokens of an expression in one regular-expression pass (time linear in its length), then ``end``."""
+    for m in _LEX.finditer(body):
+        kind = m.lastgroup or "bad"
+        yield kind, m.group(kind), m.start(kind)
+    yield "end", "", len(body.rstrip())
 
 
-def _parse(tokens: list[tuple[str, str, int]], source: str) -> Any:
-    """Terms: ``NAME[term, …]`` → (NAME, [terms]); a number; a bare name; ``(a, b, …)`` → tuple."""
-    at = 0
+class _Parser:
+    """Recursive descent over the token stream, one token of look-ahead, at most MAX_DEPTH levels deep."""
 
-    def fail(msg: str) -> InputError:
-        line = tokens[min(at, len(tokens) - 1)][2] if tokens else 1
-        return InputError(msg, file=source, line=line)
+    def __init__(self, text: str, source: str, line: int | None) -> None:
+        self.source, self.line = source, line
+        self.body = _strip_comments(text)
+        self.stream = _tokens(self.body)
+        self.next: _Token = ("start", "", 0)
+        self.take()
 
-    def term() -> Any:
-        nonlocal at
-        if at >= len(tokens):
-            raise fail("the expression ends too early")
-        kind, value, _ = tokens[at]
-        at += 1
-        if kind == "num":
-            return float(value)
+    def take(self) -> _Token:
+        """The look-ahead token, moving on to the next one."""
+        token, self.next = self.next, next(self.stream)
+        if self.next[0] == "bad":
+            raise self.fail(self.next, f"unexpected character {self.next[1]!r}")
+        return token
+
+    def fail(self, token: _Token, message: str) -> InputError:
+        """A located error: line and column in an expression, or character and the project's line of it."""
+        offset = token[2]
+        if self.line is None:
+            line = self.body.count("\n", 0, offset) + 1
+            column = offset - self.body.rfind("\n", 0, offset)
+            return InputError(f"column {column}: {message}", file=self.source, line=line)
+        return InputError(f"character {offset + 1} of the expression: {message}", file=self.source,
+                          line=self.line, field="mechanism")
+
+    def term(self, depth: int) -> _Term:
+        token = self.take()
+        kind, text, _ = token
+        if kind == "num" or (kind == "name" and self.next[1] != "["):
+            return kind, token, ()
         if kind == "name":
-            if at < len(tokens) and tokens[at][1] == "[":
-                at += 1
-                return (value, items("]"))
-            return value
-        if value == "(":
-            return tuple(items(")"))
-        raise fail(f"unexpected {value!r}")
+            return "call", token, self.items(self.take(), "]", depth + 1)
+        if text == "(":
+            return "tuple", token, self.items(token, ")", depth + 1)
+        raise self.fail(token, "the expression ends too early" if kind == "end" else f"unexpected {text!r}")
 
-    def items(close: str) -> list[Any]:
-        nonlocal at
-        out: list[Any] = []
-        while True:
-            if at < len(tokens) and tokens[at][1] == close:
-                at += 1
-                return out
-            out.append(term())
-            if at < len(tokens) and tokens[at][1] == ",":
-                at += 1
-            elif not (at < len(tokens) and tokens[at][1] == close):
-                raise fail(f"expected ',' or {close!r}")
+    def items(self, opening: _Token, close: str, depth: int) -> tuple[_Term, ...]:
+        if depth > MAX_DEPTH:
+            raise self.fail(opening, f"nested more than {MAX_DEPTH} levels deep")
+        out: list[_Term] = []
+        while self.next[1] != close:
+            out.append(self.term(depth))
+            if self.next[1] == ",":
+                self.take()
+            elif self.next[0] == "end":
+                raise self.fail(self.next, f"the expression ends before its closing {close!r}")
+            elif self.next[1] != close:
+                raise self.fail(self.next, f"expected ',' or {close!r}")
+        self.take()
+        return tuple(out)
 
-    result = term()
-    if at != len(tokens):
-        raise fail("text after the end of M[…]")
-    return result
+    def whole(self) -> _Term:
+        tree = self.term(0)
+        if self.next[0] != "end":
+            raise self.fail(self.next, "text after the end of M[…]")
+        return tree
 
 
-def parse_expression(text: str, source: str = "<expression>") -> list[Joint]:
-    """The joints of a pyslvs / PMKS expression ``M[J[…], …]``."""
-    tree = _parse(_tokens(text, source), source)
-    if not (isinstance(tree, tuple) and tree[0] == "M"):
-        raise InputError("a pyslvs expression starts with M[", file=source)
-    joints = []
-    for n, j in enumerate(tree[1]):
-        if not (isinstance(j, tuple) and j[0] == "J" and j[1]):
-            raise InputError(f"joint {n}: expected J[type, …, P[x, y], L[…]]", file=source)
-        kind, fields = str(j[1][0]), j[1][1:]
-        angle = position = links = None
-        for f in fields:
-            if isinstance(f, tuple) and f[0] == "A":
-                angle = float(f[1][0])
-            elif isinstance(f, tuple) and f[0] == "P" and len(f[1]) == 2:
-                position = (float(f[1][0]), float(f[1][1]))
-            elif isinstance(f, tuple) and f[0] == "L":
-                links = tuple(str(x) for x in f[1])
-        if kind not in ("R", "P", "RP"):
-            raise InputError(f"joint P{n}: unknown joint type {kind!r} (R, P or RP)", file=source)
-        if position is None or not links:
-            raise InputError(f"joint P{n}: needs P[x, y] and L[…]", file=source)
-        joints.append(Joint(kind, angle, position, links))
+def parse_expression(text: str, source: str = "<expression>", line: int | None = None) -> list[Joint]:
+    """The joints of a pyslvs / PMKS expression ``M[J[…], …]``; InputError (line, column) for anything else.
+
+    ``line``: the line of a project's ``mechanism`` field, the expression's text being its value.
+    """
+    parser = _Parser(text, source, line)
+    tree = parser.whole()
+    if tree[0] != "call" or tree[1][1] != "M":
+        raise parser.fail(tree[1], "a pyslvs expression starts with M[")
+    joints = [_joint(j, n, parser) for n, j in enumerate(tree[2])]
     if not joints:
-        raise InputError("the expression has no joints", file=source)
+        raise parser.fail(tree[1], "the expression has no joints")
     return joints
 
 
-def read_project(text: str, source: str) -> tuple[str, list[tuple[int, int]]]:
-    """A pyslvs YAML project's ``mechanism`` expression and ``input`` pairs."""
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise InputError(f"malformed YAML: {exc}", file=source) from None
+def _joint(term: _Term, n: int, parser: _Parser) -> Joint:
+    """One ``J[type, A[angle]?, P[x, y], L[link, …], …]`` (other fields, such as colours, ignored)."""
+    where = f"joint P{n}"
+    kind, at, items = term
+    if kind != "call" or at[1] != "J" or not items:
+        raise parser.fail(at, f"{where}: expected J[type, …, P[x, y], L[…]], got {_what(term)}")
+    if items[0][0] != "name" or items[0][1][1] not in ("R", "P", "RP"):
+        raise parser.fail(items[0][1], f"{where}: the joint type is R, P or RP, not {_what(items[0])}")
+    fields: dict[str, _Term] = {}
+    for f in items[1:]:
+        if f[0] == "call" and f[1][1] in ("A", "P", "L"):
+            if f[1][1] in fields:
+                raise parser.fail(f[1], f"{where}: {f[1][1]}[…] given twice")
+            fields[f[1][1]] = f
+    if "P" not in fields or "L" not in fields or not fields["L"][2]:
+        raise parser.fail(at, f"{where}: needs P[x, y] and L[…]")
+    x, y = _numbers(fields["P"], 2, f"{where}: P[x, y] takes two numbers", parser)
+    angle = _numbers(fields["A"], 1, f"{where}: A[degrees] takes one number", parser)[0] if "A" in fields else None
+    for link in fields["L"][2]:
+        if link[0] != "name":
+            raise parser.fail(link[1], f"{where}: L[…] lists link names, got {_what(link)}")
+    return Joint(items[0][1][1], angle, (x, y), tuple(link[1][1] for link in fields["L"][2]))
+
+
+def _numbers(term: _Term, count: int, message: str, parser: _Parser) -> list[float]:
+    """The ``count`` finite numbers of ``NAME[…]``."""
+    items = term[2]
+    bad = next((x for x in items if x[0] != "num" or not math.isfinite(float(x[1][1]))), None)
+    if bad is not None or len(items) != count:
+        got = f"{len(items)} values" if bad is None else "a number out of range" if bad[0] == "num" else _what(bad)
+        raise parser.fail(term[1] if bad is None else bad[1], f"{message}, got {got}")
+    return [float(x[1][1]) for x in items]
+
+
+def read_project(text: str, source: str) -> tuple[str, int | None, list[tuple[int, int]]]:
+    """A pyslvs YAML project's ``mechanism`` expression, its line, and the ``input`` pairs (PIVOT, JOINT point indices)."""
+    data, lines = load_yaml(source, text)
     if not isinstance(data, dict) or not isinstance(data.get("mechanism"), str):
-        raise InputError("not a pyslvs project (no 'mechanism' expression)", file=source)
-    pairs = [(int(p[0]), int(p[1])) for p in data.get("input") or []]
-    return data["mechanism"], pairs
+        raise InputError("not a pyslvs project (no 'mechanism' expression)", file=source, line=lines.line_of(("mechanism",)))
+    inputs = data.get("input") or []
+    if not isinstance(inputs, list):
+        raise InputError("must be a list of [pivot, joint] point index pairs", file=source,
+                         line=lines.line_of(("input",)), field="input")
+    pairs = []
+    for n, pair in enumerate(inputs):
+        if not (isinstance(pair, list) and len(pair) >= 2 and all(_index(i) for i in pair[:2])):
+            raise InputError(f"an input is [pivot, joint], two point indices, not {str(pair)[:40]}", file=source,
+                             line=lines.line_of(("input", n)), field=("input", n))
+        pairs.append((pair[0], pair[1]))
+    return data["mechanism"], lines.line_of(("mechanism",)), pairs
+
+
+def _index(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 2**31
 
 
 def to_document(joints: list[Joint], *, name: str, units: str, motor: tuple[int, int] | None,
@@ -158,13 +210,15 @@ def to_document(joints: list[Joint], *, name: str, units: str, motor: tuple[int,
     positions = {n: list(j.position) for n, j in zip(names, joints)}
     sliders = _sliders(joints, names, links, positions, source)
     if motor is None:
-        motor = _default_motor(joints)
+        motor = _default_motor(joints, source)
     pivot, driven = motor
     for i in motor:
         if not 0 <= i < len(joints):
             raise InputError(f"input point {i} does not exist (P0..P{len(joints) - 1})", file=source, field="--input")
-    moving = [n for n in positions if n not in ground]
-    on_one = [n for n in moving if sum(n in members for members in links.values()) == 1]
+    fixed = set(ground)
+    moving = [n for n in positions if n not in fixed]
+    count = Counter(n for members in links.values() for n in members)
+    on_one = [n for n in moving if count[n] == 1]
     tracks = {n: {"joint": n} for n in on_one} or ({moving[-1]: {"joint": moving[-1]}} if moving else {})
     doc = {
         "name": name, "units": units,
@@ -208,12 +262,16 @@ def _sliders(joints: list[Joint], names: list[str], links: dict[str, list[str]],
     return out
 
 
-def _default_motor(joints: list[Joint]) -> tuple[int, int]:
+def _default_motor(joints: list[Joint], source: str) -> tuple[int, int]:
     """The first revolute ground joint and the first other revolute joint on a link with it (pyslvs' usual input)."""
+    moving: dict[str, list[int]] = {}  # link → its moving revolute joints, in order
+    for d, other in enumerate(joints):
+        if other.kind == "R" and FRAME not in other.links:
+            for link in other.links:
+                moving.setdefault(link, []).append(d)
     for b, base in enumerate(joints):
-        if base.kind != "R" or FRAME not in base.links:
-            continue
-        for d, other in enumerate(joints):
-            if d != b and other.kind == "R" and FRAME not in other.links and set(base.links) & set(other.links) - {FRAME}:
-                return b, d
-    raise InputError("no revolute pair on a ground link to drive: give --input PIVOT,JOINT")
+        if base.kind == "R" and FRAME in base.links:
+            candidates = [d for link in base.links if link != FRAME for d in moving.get(link, [])[:1]]
+            if candidates:
+                return b, min(candidates)
+    raise InputError("no revolute pair on a ground link to drive: give --input PIVOT,JOINT", file=source)
