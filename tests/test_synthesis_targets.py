@@ -13,6 +13,7 @@ import h5py
 import numpy as np
 import pytest
 
+from linkedit.curves.efd import polyline_efd
 from linkedit.curves.sources import is_closed
 from linkedit.synthesis import atlas, fourbar
 
@@ -80,6 +81,38 @@ def one_line_exit_2(result, *words: str) -> str:
 # --- units --------------------------------------------------------------------------------------------------------
 
 
+def test_units_from_the_csv_header_reach_every_result_file(run_cli, small_atlas, coupler_curve, tmp_path):
+    """`x (m),y (m)`: result.yaml, result.h5 and report.json say m (the numbers are not rescaled)."""
+    target = coupler_curve[::160] / 1000
+    write_csv(tmp_path / "m.csv", target, "x (m),y (m)")
+    out = tmp_path / "out"
+    result = run_cli("synthesize", tmp_path / "m.csv", "--atlas", small_atlas, "-o", out, "--top", "1")
+    assert result.exit_code == 0, result.output
+    assert re.search(r"^units: m$", (out / "result.yaml").read_text(), re.M)
+    with h5py.File(out / "result.h5") as f:
+        assert f.attrs["units"] == "m"
+    report = json.loads((out / "report.json").read_text())
+    diagonal = np.hypot(np.ptp(target.real), np.ptp(target.imag))  # the size (major extent) is at most that
+    assert report["target"]["units"] == "m" and 0.5 * diagonal < report["target"]["size"] <= diagonal
+    assert resimulated_error(run_cli, out, target, True, tmp_path) == pytest.approx(report["error"]["after"]["rms"],
+                                                                                     rel=0.02)
+
+
+def test_units_option(run_cli, small_atlas, coupler_curve, tmp_path):
+    """--units names the units of a bare header; one that contradicts the file's is exit 2."""
+    write_csv(tmp_path / "bare.csv", coupler_curve[::160])
+    out = tmp_path / "out"
+    result = run_cli("synthesize", tmp_path / "bare.csv", "--atlas", small_atlas, "-o", out, "--top", "1",
+                     "--units", "in")
+    assert result.exit_code == 0, result.output
+    assert re.search(r"^units: in$", (out / "result.yaml").read_text(), re.M)
+    assert json.loads((out / "report.json").read_text())["target"]["units"] == "in"
+    write_csv(tmp_path / "m.csv", coupler_curve[::160], "x (m),y (m)")
+    clash = run_cli("synthesize", tmp_path / "m.csv", "--atlas", small_atlas, "-o", tmp_path / "o2", "--units", "mm")
+    one_line_exit_2(clash, "--units", "mm", "m.csv")
+    assert not (tmp_path / "o2").exists()
+
+
 @pytest.mark.parametrize("header, words", [("x (m),y (mm)", ["units", "m", "mm"]), ("x (m/s),y (m/s)", ["m/s"])])
 def test_unusable_units_in_the_header_are_exit_2(run_cli, small_atlas, coupler_curve, tmp_path, header, words):
     write_csv(tmp_path / "u.csv", coupler_curve[::160], header)
@@ -88,13 +121,52 @@ def test_unusable_units_in_the_header_are_exit_2(run_cli, small_atlas, coupler_c
     assert not (tmp_path / "out").exists()
 
 
-# --- no data ---------------------------------------------------------------------------------------------------
+# --- no data, magnitudes ------------------------------------------------------------------------------------------
 
 
 def test_a_header_without_rows_is_no_data(run_cli, small_atlas, tmp_path):
     (tmp_path / "h.csv").write_text("x,y\n")
     result = run_cli("synthesize", tmp_path / "h.csv", "--atlas", small_atlas, "-o", tmp_path / "out")
     one_line_exit_2(result, "h.csv", "no data")
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_fit_is_scale_free(run_cli, small_atlas, coupler_curve, tmp_path):
+    """The same target in units 1e30 apart (and 1e-100, where the polish failed) gives the same normalized
+    error, and a result.yaml in the target's frame that draws it with that error."""
+    base = coupler_curve[::160]
+    errors, sizes = {}, {}
+    for scale in (1e-100, 1e-30, 1.0, 1e30):
+        target = base * scale
+        write_csv(tmp_path / "t.csv", target)
+        out = tmp_path / f"out{scale:g}"
+        result = run_cli("synthesize", tmp_path / "t.csv", "--atlas", small_atlas, "-o", out, "--top", "1")
+        assert result.exit_code == 0, result.output
+        report = json.loads((out / "report.json").read_text())
+        errors[scale] = report["error"]["after"]["rms"]
+        sizes[scale] = report["target"]["size"] / scale
+        assert resimulated_error(run_cli, out, target, True, tmp_path) == pytest.approx(errors[scale], rel=0.02)
+    assert errors[1.0] < 0.01
+    for scale, error in errors.items():  # to 1e-6 of the size: the scaled input's rounding (1e-16) moves the
+        assert error == pytest.approx(errors[1.0], rel=0, abs=1e-6), scale  # least-squares path by ~1e-8
+        assert sizes[scale] == pytest.approx(sizes[1.0], rel=1e-12)
+
+
+def test_the_index_descriptor_is_scale_free(coupler_curve):
+    """The float32 index descriptor of a curve in any units is that of the curve in mm (it was NaN from 1e60 on:
+    the float32 product saw the unnormalized slopes)."""
+    z = coupler_curve[::50]
+    want = polyline_efd(z[None], 8)
+    for scale in (1e-300, 1e-30, 1e60, 1e150, 1e300):
+        np.testing.assert_allclose(polyline_efd(z[None] * scale, 8), want, atol=1e-6)
+
+
+@pytest.mark.parametrize("scale, words", [(1e300, ["e+30", "≤ 1e+150"]), (1e-200, ["e-19", "1e-150 across"])])
+def test_a_target_beyond_the_float_range_is_one_line_exit_2(run_cli, small_atlas, coupler_curve, tmp_path, scale,
+                                                            words):
+    write_csv(tmp_path / "big.csv", coupler_curve[::160] * scale)
+    result = run_cli("synthesize", tmp_path / "big.csv", "--atlas", small_atlas, "-o", tmp_path / "out")
+    one_line_exit_2(result, "big.csv", *words)
     assert not (tmp_path / "out").exists()
 
 
