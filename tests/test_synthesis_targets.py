@@ -203,3 +203,59 @@ def test_an_unevenly_sampled_closed_target_is_synthesized_as_closed(run_cli, sma
     assert report["target"]["closed"] and report["error"]["after"]["rms"] < 0.01
     assert resimulated_error(run_cli, out, target, True, tmp_path) == pytest.approx(report["error"]["after"]["rms"],
                                                                                      rel=0.02)
+
+
+# --- the pictures -------------------------------------------------------------------------------------------------
+
+
+def texts(svg: str) -> list[str]:
+    return re.findall(r"<text[^>]*>([^<]*)</text>", svg)
+
+
+def legend(svg: str) -> list[str]:
+    block = re.search(r'<g class="legend"[^>]*>(.*?)</g>', svg, re.S)
+    assert block, "no legend"
+    return texts(block.group(1))
+
+
+def test_smoothed_target_the_overlay_draws_what_its_error_is_measured_against(run_cli, small_atlas, coupler_curve,
+                                                                              tmp_path):
+    """--smooth: the overlay draws the smoothed target (the error's reference) and its title says so; the report's
+    error is against the smoothed target (given in the report), which result.yaml reproduces."""
+    rng = np.random.default_rng(3)
+    raw = coupler_curve[::100] + 0.8 * (rng.normal(size=200) + 1j * rng.normal(size=200))
+    write_csv(tmp_path / "noisy.csv", raw)
+    out = tmp_path / "out"
+    result = run_cli("synthesize", tmp_path / "noisy.csv", "--atlas", small_atlas, "-o", out, "--top", "1",
+                     "--smooth", "0.01")
+    assert result.exit_code == 0, result.output
+    svg = (out / "overlay.svg").read_text()
+    title = re.search(r"<title>([^<]*)</title>", svg).group(1)
+    assert "smoothed" in title and "σ = 0.01" in title, title
+    assert re.findall(r'class="target" data-name="([^"]*)"', svg) == ["smoothed target"]
+    names = legend(svg)
+    assert len(names) == len(set(names)) and names.count("target") == 1, names
+    report = json.loads((out / "report.json").read_text())
+    assert report["target"]["smoothed"] is True
+    smoothed = np.array(report["target"]["curve"])
+    smoothed = smoothed[:, 0] + 1j * smoothed[:, 1]
+    assert len(smoothed) == 200 and np.abs(smoothed - raw).max() > 0.1
+    error = report["error"]["after"]["rms"]
+    assert resimulated_error(run_cli, out, smoothed, True, tmp_path) == pytest.approx(error, rel=0.02)
+    assert resimulated_error(run_cli, out, raw, True, tmp_path) > 1.2 * error  # the raw target is farther
+
+
+def test_history_and_overlay_name_their_axes_and_each_thing_once(run_cli, small_atlas, coupler_curve, tmp_path):
+    write_csv(tmp_path / "t.csv", coupler_curve[::160], "x (mm),y (mm)")
+    out = tmp_path / "out"
+    result = run_cli("synthesize", tmp_path / "t.csv", "--atlas", small_atlas, "-o", out, "--top", "2")
+    assert result.exit_code == 0, result.output
+    overlay = legend((out / "overlay.svg").read_text())
+    assert len(overlay) == len(set(overlay)) and overlay.count("target") == 1, overlay
+    history = (out / "history.svg").read_text()
+    words = texts(history)
+    assert "evaluations" in words and not {"x", "y"} & set(words)
+    assert any("RMS error" in w and "% of the target's size" in w and "log" in w for w in words), words
+    assert not any("1 unit =" in w for w in words)
+    names = legend(history)
+    assert len(names) == 2 and len(set(names)) == 2 and sum("(kept)" in n for n in names) == 1, names
