@@ -89,15 +89,20 @@ def register(app: typer.Typer) -> None:
                                      help="Transmission band [DEG, 180° − DEG] every candidate and the result keep "
                                           "(d_s ≥ sin² DEG); below the atlas's 20° trades transmission for accuracy."),
         seed: int = typer.Option(1, "--seed", min=0, help="Recorded with the result (the search is deterministic)."),
+        units: str = typer.Option(None, "--units", help="The target's length units, written into the result "
+                                                        "[default: the target's own (a CSV header's `x (m)`, a "
+                                                        "result's or curve set's units), else mm]."),
         as_json: bool = JSON,
         quiet: bool = QUIET,
     ) -> None:
         """Find the linkage whose tracked point draws the target curve: atlas search, placement, refinement."""
-        from linkedit.curves.sources import input_files, load_inputs
+        from linkedit.curves.sources import UNIT_NAME, input_files, load_inputs
         from linkedit.synthesis.atlas import load
         from linkedit.synthesis.outputs import FILES, write_all
         from linkedit.synthesis.synthesize import synthesize as run
 
+        if units is not None and not UNIT_NAME.fullmatch(units):
+            raise InputError(f"{units!r} is not a length unit's name (no '/', no leading '.')", field="--units")
         check_outputs([("--output", output / name) for name in FILES], [*input_files([target]), atlas])
         curves = load_inputs([target], closed=closed)
         if len(curves) != 1:
@@ -106,11 +111,14 @@ def register(app: typer.Typer) -> None:
         curve = curves[0]
         if curve.points.shape[1] != 2:
             raise InputError("the target must be a planar (x, y) curve", file=curve.origin)
+        if units is not None and curve.units is not None and units != curve.units:
+            raise InputError(f"--units {units} contradicts the target's own units, {curve.units}", file=curve.origin)
         found = load(atlas)
         result = run(curve, found, top=top, smooth=smooth, timing=timing, margin_deg=margin, seed=seed,
-                     units=curve.units or "mm")
+                     units=units or curve.units or "mm")
         options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "timing": timing,
-                   "margin_deg": margin, "seed": seed, "closed": curve.closed, "atlas_size": found.size}
+                   "margin_deg": margin, "seed": seed, "closed": curve.closed, "atlas_size": found.size,
+                   "units": units}
         done = write_all(output, result, options)
         report({k: v for k, v in done.items() if k != "result"} | {"output": str(output)})
         before, after = done["error"]["before"], done["error"]["after"]

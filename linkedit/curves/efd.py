@@ -110,14 +110,17 @@ def polyline_efd(z: np.ndarray, harmonics: int) -> np.ndarray:
     parts, harmonic n is Σ_p w_p e^{2πi n t_p} / (2n²π²) with w_p the change of slope dz/dt
     at vertex p: one cos/sin per vertex, the harmonics by the angle-addition recurrence, one
     batched matrix product — the trigonometric table and the product in float32 (descriptors
-    good to ~1e-6, plenty for an index; :func:`efd_coefficients` is the exact one).
+    good to ~1e-6, plenty for an index; :func:`efd_coefficients` is the exact one). The slopes
+    are taken per unit of length (dz/dt over the curve's length: unit vectors), which scales every
+    coefficient by the same factor the normalization removes: the float32 product sees numbers of
+    order 1 whatever the curve's units.
     """
     delta = np.roll(z, -1, axis=1) - z  # segment p: vertex p → p+1 (the last closes the curve)
     seg = np.abs(delta)
     total = seg.sum(axis=1, keepdims=True)
     t = np.cumsum(seg, axis=1)
     t *= 2.0 * np.pi / total  # angle at vertex p+1 (the last is 2π: vertex 0)
-    slope = np.divide(delta * total, seg, out=np.zeros_like(delta), where=seg > 0)
+    slope = np.divide(delta, seg, out=np.zeros_like(delta), where=seg > 0)
     w = slope - np.roll(slope, -1, axis=1)  # at vertex p+1: slope_p − slope_{p+1}
     angle = t.astype(np.float32)
     trig = np.empty((2 * harmonics, len(z), z.shape[1]), dtype=np.float32)  # rows 2n, 2n+1: cos, sin of (n+1)·t

@@ -9,7 +9,8 @@ An input is written as on the command line:
   choose, ``edit.h5`` alone gives every track before and after;
 * ``path.csv`` — columns x, y[, z] and optionally t (a header names them; without a header,
   2 or 3 numeric columns are x, y[, z]); rows are ordered by t when it is given. Spreadsheet and
-  PMKS+/SolveSpace exports read too: units in the header (``X (mm)``, ``y [mm]``), ``time`` for
+  PMKS+/SolveSpace exports read too: units in the header (``X (mm)``, ``y [mm]``: the curve's units,
+  one for all coordinate columns), ``time`` for
   t, an index column (``index``, ``#``, ``point``…, ignored), ``;`` or tab separators (with
   ``;``, decimal commas), ``#`` and ``//`` comment lines;
 * ``set.yaml`` — a curve set (``specs/curve-set.md``); ``set.yaml:circle`` — one curve of it;
@@ -40,8 +41,9 @@ YAML_SUFFIXES = (".yaml", ".yml")
 #: The groups of an edit result (``specs/edit-hdf5.md``); a bare track name means the last one.
 EDIT_STAGES = ("before", "after")
 #: A curve is closed when its end lies this close to its start, relative to the bounding-box
-#: diagonal, or within 1.5 median steps.
+#: diagonal, or within CLOSE_STEPS steps (median steps, or the steps at its ends).
 CLOSE_GAP = 0.05
+CLOSE_STEPS = 1.5
 
 
 @dataclass(frozen=True)
@@ -226,6 +228,7 @@ def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
     line, first = rows[0]
     header = [_column(c) for c in first]
     keep = list(range(len(header)))
+    units = None
     if all(_is_number(c) for c in header):
         if len(header) not in (2, 3):
             raise InputError(f"{len(header)} columns without a header; give x, y[, z] or a header line", file=file,
@@ -241,6 +244,9 @@ def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
                                  line=line, field=name)
         if len(set(columns)) != len(columns) or "x" not in columns or "y" not in columns:
             raise InputError("the header must name x and y once each (and optionally z, t)", file=file, line=line)
+        units = _header_units({header[i]: first[i] for i in keep if header[i] != "t"}, file, line)
+        if not rows:
+            raise InputError("the file has no data: a header and no rows", file=file, line=line)
     width = len(header)
     rows = [(ln, [row[i] for i in keep] if len(row) == width else row) for ln, row in rows]
     values = np.empty((len(rows), len(columns)))
@@ -259,12 +265,29 @@ def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
         values = values[np.argsort(values[:, columns.index("t")], kind="stable")]
     points = values[:, [columns.index(a) for a in ("x", "y", "z") if a in columns]]
     times = values[:, columns.index("t")] if "t" in columns else None
-    return make_curve(path.stem, points, closed=closed, origin=file, file=file, times=times)
+    return make_curve(path.stem, points, closed=closed, origin=file, file=file, times=times, units=units)
 
 
+def _header_units(cells: dict[str, str], file: str, line: int) -> str | None:
+    """The length unit the coordinate columns' header cells give (``x (m)``, ``y [mm]``), or None;
+    an InputError if they give different ones or one that cannot name units (see ``specs/linkage.md``)."""
+    found = {name: m.group(1).strip() for name, cell in cells.items() if (m := _UNIT.search(cell)) and m.group(1).strip()}
+    if len(set(found.values())) > 1:
+        raise InputError("the columns give different units (" + ", ".join(f"{n} ({u})" for n, u in found.items())
+                         + "): give the coordinates in one unit", file=file, line=line)
+    unit = next(iter(found.values()), None)
+    if unit is not None and not UNIT_NAME.fullmatch(unit):
+        raise InputError(f"the unit {unit!r} is not a length unit's name (no '/', no leading '.')", file=file,
+                         line=line, field=next(iter(found)))
+    return unit
+
+
+#: A length unit's name, as a spec's ``units`` takes it (:data:`linkedit.spec.common.Name`).
+UNIT_NAME = re.compile(r"[^/.\x00-\x1f][^/\x00-\x1f]*")
 #: header names of columns that only number the rows (ignored)
 INDEX_COLUMNS = ("", "index", "idx", "#", "no", "n", "i", "point", "frame", "step", "sample", "unnamed: 0")
 _UNITS = re.compile(r"\s*[\(\[][^\)\]]*[\)\]]\s*")
+_UNIT = re.compile(r"[\(\[]([^\)\]]*)[\)\]]")
 
 
 def _column(cell: str) -> str:
@@ -342,6 +365,8 @@ def make_curve(name: str, points: np.ndarray, *, closed: bool | None, origin: st
     points = np.asarray(points, dtype=float)
     if points.ndim != 2 or points.shape[1] not in (2, 3):
         raise InputError(f"expected points with 2 or 3 coordinates, got shape {points.shape}", **where)
+    if not len(points):
+        raise InputError("no data: the curve has no points", **where)
     if not np.isfinite(points).all():
         raise InputError("the points contain NaN or infinite values", **where)
     keep = np.ones(len(points), dtype=bool)
@@ -378,15 +403,20 @@ def _distinct_up_to_3(points: np.ndarray) -> int:
 
 
 def is_closed(points: np.ndarray) -> bool:
-    """Whether the end meets the start: gap ≤ 5% of the bounding-box diagonal or ≤ 1.5 median steps."""
+    """Whether the end meets the start, from the geometry: the gap between them is at most 5 % of the
+    bounding-box diagonal, or at most 1.5 median steps, or at most 1.5 times the longer of the first and
+    last steps (the closing segment is spaced like the points beside it: a closed curve sampled
+    unevenly, sparsely where it starts and ends, is closed; an open part of a cycle leaves a gap many
+    steps long)."""
     lo, hi = points.min(axis=0), points.max(axis=0)
     with np.errstate(over="ignore"):
         box = float(np.max(hi - lo))
     unit = (points - (0.5 * lo + 0.5 * hi)) / box  # no square under- or overflows, whatever the units
     gap = float(np.linalg.norm(unit[-1] - unit[0]))
     diagonal = float(np.linalg.norm(unit.max(axis=0) - unit.min(axis=0)))
-    step = float(np.median(np.linalg.norm(np.diff(unit, axis=0), axis=1)))
-    return gap <= CLOSE_GAP * diagonal or gap <= 1.5 * step
+    steps = np.linalg.norm(np.diff(unit, axis=0), axis=1)
+    spacing = max(float(np.median(steps)), float(steps[0]), float(steps[-1]))
+    return gap <= CLOSE_GAP * diagonal or gap <= CLOSE_STEPS * spacing
 
 
 def _unique_names(curves: list[Curve]) -> list[Curve]:

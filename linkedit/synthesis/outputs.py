@@ -1,9 +1,11 @@
 """The files ``linkedit synthesize`` writes into its output folder (each one atomically).
 
-``result.yaml`` (the linkage, placed in the target's frame, track ``target``), ``result.h5``
-(its simulation, ``specs/planar-hdf5.md``), ``overlay.svg`` (target dashed, the atlas
-candidate as placed faint, the refined linkage solid), ``history.svg`` (convergence of every
-refined candidate) and ``report.json``.
+``result.yaml`` (the linkage, placed in the target's frame, in its units, track ``target``),
+``result.h5`` (its simulation, ``specs/planar-hdf5.md``), ``overlay.svg`` (the target the error is
+measured against dashed — with --smooth the smoothed one, so named —, the atlas candidate as placed
+faint, the refined linkage solid), ``history.svg`` (convergence of every refined candidate: its best
+RMS error so far against evaluations, log scale) and ``report.json``. Every file's text is made
+before the first is written: a run that fails leaves nothing behind, not even the folder.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from linkedit.io.atomic import write_text
 from linkedit.io.planar_hdf5 import write_motion
 from linkedit.io.planar_svg import drawing
 from linkedit.io.svg import edit_overlay
-from linkedit.io.svg_figure import INK, PALETTE, Figure, Stroke
+from linkedit.io.svg_chart import Panel, chart
 from linkedit.planar import compile_plan, simulate
 from linkedit.planar.simulate import Motion
 from linkedit.spec.linkage_yaml import dump_linkage
@@ -30,17 +32,22 @@ from linkedit.synthesis.synthesize import RESULT_SAMPLES, Candidate, Synthesis, 
 FILES = ("result.yaml", "result.h5", "overlay.svg", "history.svg", "report.json")
 
 
+#: The overlay's name for the curve the linkage's track ``target`` draws (its legend entry beside the target's).
+DRAWN = "drawn by the linkage"
+
+
 def write_all(out: Path, result: Synthesis, options: dict[str, Any]) -> dict[str, Any]:
     """Write every file into ``out``; returns the report (also in report.json)."""
-    out.mkdir(parents=True, exist_ok=True)
     text = dump_linkage(result.spec, header="Synthesized by linkedit synthesize; simulate it with:\n"
                                             "  linkedit simulate result.yaml   (track 'target' draws the curve)")
+    overlay, history = _overlay(result), _history(result)
+    report = _report(result, options)
+    report_text = json.dumps(report, indent=2, allow_nan=False) + "\n"
     write_text(out / "result.yaml", text)
     write_motion(out / "result.h5", result.motion, spec_text=text, options=options | {"command": "synthesize"})
-    _overlay(out / "overlay.svg", result)
-    _history(out / "history.svg", result)
-    report = _report(result, options)
-    write_text(out / "report.json", json.dumps(report, indent=2, allow_nan=False) + "\n")
+    write_text(out / "overlay.svg", overlay)
+    write_text(out / "history.svg", history)
+    write_text(out / "report.json", report_text)
     return report
 
 
@@ -71,7 +78,7 @@ def _report(result: Synthesis, options: dict[str, Any]) -> dict[str, Any]:
         "generator": f"linkedit {__version__}",
         "target": {"origin": result.target.origin, "points": len(result.target.points),
                    "closed": bool(result.target.closed), "size": result.size,
-                   "units": result.spec.units},
+                   "units": result.spec.units, "smoothed": result.smooth > 0, "curve": result.points.tolist()},
         "options": options,
         "family": best.family,
         "error": {"before": {"rms": best.before[0], "max": best.before[1]},
@@ -99,39 +106,42 @@ def _report(result: Synthesis, options: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def _overlay(path: Path, result: Synthesis) -> None:
+def _overlay(result: Synthesis) -> str:
+    """The overlay's SVG text: the target the errors are measured against, the atlas candidate, the result."""
     best = result.best
     as_placed = Candidate(best.family, best.row, best.params, best.index_distance, best.distance, best.placement,
                           refined=Refined(best.params, best.placement, best.before[0]))
-    before = simulate(compile_plan(result_spec(as_placed, complex(*result.target.points[0]), name="atlas candidate",
+    before = simulate(compile_plan(result_spec(as_placed, complex(*result.points[0]), name="atlas candidate",
                                                units=result.spec.units, description="")), RESULT_SAMPLES)
-    edit_overlay(path, before=drawing(before), after=drawing(result.motion),
-                 targets={"target": result.target.points[:, :2]}, envelope=None, units=result.spec.units,
-                 title=f"synthesize: {best.family}, RMS error {100 * best.before[0]:.2g} % → "
-                       f"{100 * result.error[0]:.2g} % of the target's size")
+    smoothed = result.smooth > 0
+    against = f"the smoothed target's size (σ = {result.smooth:g})" if smoothed else "the target's size"
+    return edit_overlay(None, before=_named(drawing(before)), after=_named(drawing(result.motion)),
+                        targets={"smoothed target" if smoothed else "target": result.points}, envelope=None,
+                        units=result.spec.units,
+                        title=f"{best.family}: RMS error {100 * best.before[0]:.2g} % → "
+                              f"{100 * result.error[0]:.2g} % of {against}")
 
 
-def _history(path: Path, result: Synthesis) -> None:
-    """log₁₀ of each refined candidate's best normalized RMS error against evaluations."""
-    refined = [c for c in result.candidates if c.refined is not None and c.refined.history]
-    histories = [c.refined.history for c in refined if c.refined is not None]
-    longest = max((len(h) for h in histories), default=1)
-    lows = [np.log10(max(min(h), 1e-12)) for h in histories] or [0.0]
-    highs = [np.log10(max(max(h), 1e-12)) for h in histories if np.isfinite(max(h))] or [1.0]
-    span = max(max(highs) - min(lows), 1e-3)
-    stretch = 1.6 * span / longest  # x: evaluations, drawn 1.6 times as wide as the error range is high
-    fig = Figure(title=f"refinement: log10(normalized RMS error) against evaluations (x: 1 unit = "
-                       f"{1 / stretch:.3g} evaluations)")
-    for k, h in enumerate(histories):
-        values = np.log10(np.maximum(np.asarray(h, dtype=float), 1e-12))
-        ok = np.isfinite(values)
-        x = np.arange(len(h))[ok] * stretch
-        kept = refined[k] is result.best
-        stroke = Stroke(INK if kept else PALETTE[k % len(PALETTE)], 1.8)
-        if ok.sum() >= 2:
-            fig.polyline(np.stack([x, values[ok]], axis=1), stroke, cls="history", name=f"candidate {k + 1}",
-                         label=f"candidate {k + 1}" + (" (kept)" if kept else ""))
-    write_text(path, fig.render())
+def _named(kw: dict[str, Any]) -> dict[str, Any]:
+    """A linkage drawing whose track ``target`` is named for what it is, the curve the linkage draws."""
+    return kw | {"tracks": {DRAWN if n == "target" else n: p for n, p in kw["tracks"].items()}}
+
+
+def _history(result: Synthesis) -> str:
+    """The history chart's SVG text: each refined candidate's best normalized RMS error so far (log₁₀ of
+    its percentage of the target's size) against evaluations of its residuals."""
+    longest = max((len(c.refined.history) for c in result.candidates if c.refined is not None), default=1)
+    panel = Panel("log₁₀ RMS error (% of the target's size)", name="history")
+    for k, c in enumerate(result.candidates):  # numbered as report.json lists them
+        if c.refined is None or not c.refined.history:
+            continue
+        values = np.full(longest, np.nan)
+        with np.errstate(divide="ignore"):
+            values[:len(c.refined.history)] = np.log10(100.0 * np.asarray(c.refined.history, dtype=float))
+        panel.line(f"candidate {k + 1}" + (" (kept)" if c is result.best else ""),
+                   np.where(np.isfinite(values), values, np.nan))
+    return chart(np.arange(1, max(longest, 1) + 1), [panel], xlabel="evaluations",
+                 title="refinement: best RMS error so far, log scale")
 
 
 def _min_singularity(motion: Motion) -> float | None:

@@ -28,7 +28,7 @@ from linkedit.planar.feasibility import CHECK_SAMPLES, works
 from linkedit.planar.simulate import Motion
 from linkedit.spec.edit_script import EditScript
 from linkedit.spec.linkage import LinkageSpec
-from linkedit.synthesis.refine import curve_error
+from linkedit.synthesis.refine import UNIT, Frame, curve_error
 from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
 from linkedit.synthesis.timed import TimedTarget
 
@@ -49,13 +49,13 @@ class Polish:
     motion: Motion | None = None
 
 
-def measure(spec: LinkageSpec, target: np.ndarray, size: float, samples: int,
-            timed: TimedTarget | None) -> tuple[tuple[float, float], Motion]:
+def measure(spec: LinkageSpec, target: np.ndarray, size: float, samples: int, timed: TimedTarget | None,
+            frame: Frame = UNIT) -> tuple[tuple[float, float], Motion]:
     """(RMS, max) error over ``size`` of the linkage ``spec``'s track ``target`` against the closed
-    target (M,) complex — both ways, or with ``timed`` at the target's times — and its simulation."""
+    target (M,) complex — both ways, or with ``timed`` at the target's times — and its simulation.
+    The target and ``size`` are in the unit frame, the linkage in ``frame``."""
     motion = simulate(compile_plan(spec), TIMED_SAMPLES if timed is not None else samples)
-    p = motion.tracks["target"].position
-    drawn = p[:, 0] + 1j * p[:, 1]
+    drawn = frame.unit(motion.tracks["target"].position)
     if timed is None:
         return curve_error(target, True, drawn, size), motion
     d = np.abs(drawn - timed.points) / size

@@ -68,6 +68,28 @@ class Placement:
         return self.shift + self.scale * np.exp(1j * self.angle) * (np.conj(z) if self.mirrored else z)
 
 
+@dataclass(frozen=True)
+class Frame:
+    """The target's frame: synthesis works on the target centred on its bounding box and scaled to a largest
+    side of 1 (the fit is scale-free: no square leaves the float range, whatever the units); a point z of that
+    unit frame is ``centre + scale·z`` in input units."""
+
+    centre: complex
+    scale: float
+
+    def unit(self, points: np.ndarray) -> np.ndarray:
+        """Points (..., 2), input units → (...,) complex, unit frame."""
+        return ((points[..., 0] - self.centre.real) + 1j * (points[..., 1] - self.centre.imag)) / self.scale
+
+    def place(self, placement: Placement) -> Placement:
+        """A placement onto the unit frame as the same placement onto input units."""
+        return replace(placement, scale=placement.scale * self.scale, shift=self.centre + self.scale * placement.shift)
+
+
+#: The unit frame itself.
+UNIT = Frame(0j, 1.0)
+
+
 @dataclass
 class Refined:
     params: np.ndarray

@@ -1,6 +1,7 @@
 """``linkedit synthesize``: from a target curve to a working linkage.
 
-1. the target (one curve; optionally smoothed) is described like any curve;
+1. the target (one curve) is moved into its unit frame (centred, its largest side 1: the fit is
+   scale-free, the same in any units), optionally smoothed, and described like any curve;
 2. the atlas index gives the nearest ``POOL`` linkages by the index descriptor (those that turn
    with the singularity margin asked for: a transmission band [μ, 180° − μ], d_s ≥ sin² μ);
 3. they are re-simulated and re-ranked by the full curve distance (every term, mirror images
@@ -10,13 +11,13 @@
 5. the best working result is placed in the target's frame at the crank phase where its
    tracked point is nearest the target's first point (with timing: at the first sample's phase),
    polished through ``edit`` when that helps (:mod:`linkedit.synthesis.polish`), and its
-   errors are measured on its ``simulate``.
+   errors are measured on its ``simulate`` in the target's frame and units.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -29,12 +30,13 @@ from linkedit.curves.sources import Curve
 from linkedit.errors import InputError, MechanismError
 from linkedit.planar import compile_plan, feasibility, simulate
 from linkedit.planar.simulate import Motion
-from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.linkage import LinkageSpec, LinkTrack
+from linkedit.spec.mechanism3d import MAX_COORDINATE
 from linkedit.synthesis.atlas import Atlas
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Hit, Index, target_variants
 from linkedit.synthesis.polish import Polish, measure, polish
-from linkedit.synthesis.refine import Placement, Refined, curve_error, refine, timed_error
+from linkedit.synthesis.refine import Frame, Placement, Refined, curve_error, refine, timed_error
 from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
 from linkedit.synthesis.timed import TimedTarget, timed_fit, timed_target
 
@@ -79,6 +81,9 @@ class Candidate:
 class Synthesis:
     target: Curve
     size: float  #: the target's size (major extent, input units): errors are over it
+    #: (M, 2) the target the errors are measured against, input units: ``target.points`` smoothed with --smooth
+    points: np.ndarray
+    smooth: float  #: the --smooth width σ (a fraction of the points; 0: not smoothed)
     candidates: list[Candidate]
     best: Candidate
     spec: LinkageSpec
@@ -91,6 +96,37 @@ class Synthesis:
     timed_error: tuple[float, float] | None = None
     polish: Polish | None = None  #: the final polish through `edit` (closed targets)
     margin_deg: float = MARGIN_DEG  #: the transmission band's edge μ the result keeps (d_s ≥ sin² μ)
+
+
+def target_frame(target: Curve) -> Frame:
+    """The frame of ``target`` (input units): its bounding box's centre and largest side. An InputError
+    (exit 2) naming the magnitude if a coordinate exceeds ``MAX_COORDINATE`` or the curve is less than
+    1/``MAX_COORDINATE`` across: the written linkage's lengths squared would leave the float range."""
+    points = target.points[:, :2]
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    largest = float(np.max(np.abs(points)))
+    if largest > MAX_COORDINATE:
+        raise InputError(f"coordinates up to {largest:.1e}: synthesize takes |x|, |y| ≤ {MAX_COORDINATE:.0e} "
+                         "(give the target in other units)", file=target.origin)
+    side = float(np.max(hi - lo))
+    if side < 1.0 / MAX_COORDINATE:
+        raise InputError(f"the target is only {side:.1e} across: synthesize takes curves at least "
+                         f"{1.0 / MAX_COORDINATE:.0e} across (give it in other units)", file=target.origin)
+    centre = 0.5 * lo + 0.5 * hi
+    return Frame(complex(centre[0], centre[1]), side)
+
+
+def in_frame(spec: LinkageSpec, frame: Frame) -> LinkageSpec:
+    """The linkage ``spec`` (unit frame) in ``frame``'s input units: every position moved, every length scaled."""
+    def place(p: tuple[float, float]) -> tuple[float, float]:
+        return (frame.centre.real + frame.scale * p[0], frame.centre.imag + frame.scale * p[1])
+
+    tracks = {name: t.model_copy(update={"at": place(t.at)}) if isinstance(t, LinkTrack) else t
+              for name, t in spec.tracks.items()}
+    motor = spec.motor if spec.motor.stroke is None else \
+        spec.motor.model_copy(update={"stroke": tuple(frame.scale * s for s in spec.motor.stroke)})
+    return spec.model_copy(update={"joints": {k: place(p) for k, p in spec.joints.items()}, "tracks": tracks,
+                                   "motor": motor})
 
 
 def target_size(points: np.ndarray, closed: bool) -> float:
@@ -118,7 +154,25 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
     the atlas's 20° the refinement may leave the atlas's band, trading transmission for accuracy."""
     margin = margin_of(margin_deg)
     clock = {"start": time.perf_counter()}
-    pts = smooth_curve(target.points, target.closed, smooth)
+    frame = target_frame(target)
+    z = frame.unit(target.points)
+    unit = replace(target, points=smooth_curve(np.stack([z.real, z.imag], axis=1), target.closed, smooth),
+                   anchor=None)
+    found = _search(unit, atlas, index, top=top, timing=timing, margin_deg=margin_deg, margin=margin, name=name,
+                    units=units, clock=clock, frame=frame)
+    for c in found.candidates:
+        c.placement = frame.place(c.placement)
+        if c.refined is not None:
+            c.refined.placement = frame.place(c.refined.placement)
+    centre = np.array([frame.centre.real, frame.centre.imag])
+    return replace(found, target=target, size=found.size * frame.scale, smooth=smooth,
+                   points=centre + frame.scale * unit.points)
+
+
+def _search(target: Curve, atlas: Atlas, index: Index | None, *, top: int, timing: bool, margin_deg: float,
+            margin: float, name: str, units: str, clock: dict[str, float], frame: Frame) -> Synthesis:
+    """:func:`synthesize` on the (smoothed) target in its unit frame; the result's spec and simulation in ``frame``."""
+    pts = target.points
     z_target = pts[:, 0] + 1j * pts[:, 1]
     size = target_size(pts, target.closed)
     timed = timed_target(z_target, target.times, target.period, target.closed, size, target.origin) if timing else None
@@ -129,9 +183,9 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
     clock["query"] = time.perf_counter()
     if timed is not None:
         return _finish(target, z_target, size, _timed_candidates(timed, hits, atlas, top), timed, clock, name, units,
-                       margin_deg)
+                       margin_deg, frame)
 
-    t_desc = describe_curves([Curve(target.name, pts, target.closed, target.origin, None, target.units)])
+    t_desc = describe_curves([target])
     candidates: list[Candidate] = []
     curve_of: dict[int, tuple[Descriptors, int]] = {}  # id(candidate) → its curve, for placing it below
     for fam_name in dict.fromkeys(h.family for h in hits):
@@ -158,7 +212,7 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
         desc, k = curve_of[id(c)]
         c.placement = (_placement(placements(t_desc, desc.take([k]), mirror=True)[0]) if target.closed
                        else _partial_placement(t_desc, desc, k))
-    return _finish(target, z_target, size, chosen, None, clock, name, units, margin_deg)
+    return _finish(target, z_target, size, chosen, None, clock, name, units, margin_deg, frame)
 
 
 def within(hits: list[Hit], atlas: Atlas, margin: float, margin_deg: float) -> list[Hit]:
@@ -195,8 +249,9 @@ def _timed_candidates(timed: TimedTarget, hits: list, atlas: Atlas, top: int) ->
 
 
 def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candidate], timed: TimedTarget | None,
-            clock: dict[str, float], name: str, units: str, margin_deg: float) -> Synthesis:
-    """Refine the chosen candidates, keep the best working one, write its spec and check it by ``simulate``."""
+            clock: dict[str, float], name: str, units: str, margin_deg: float, frame: Frame) -> Synthesis:
+    """Refine the chosen candidates (unit frame), keep the best working one, write its spec in ``frame`` and
+    check it by ``simulate``."""
     clock["rank"] = time.perf_counter()
     margin = margin_of(margin_deg)
     for c in chosen:
@@ -228,10 +283,10 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
             assert polished.spec is not None
             spec = polished.spec
     clock["polish"] = time.perf_counter()
+    spec = in_frame(spec, frame)
     motion = simulate(compile_plan(spec), RESULT_SAMPLES)
-    drawn = motion.tracks["target"].position
-    shape = curve_error(z_target, target.closed, drawn[:, 0] + 1j * drawn[:, 1], size)
-    timed_final = None if timed is None else measure(spec, z_target, size, RESULT_SAMPLES, timed)[0]
+    shape = curve_error(z_target, target.closed, frame.unit(motion.tracks["target"].position), size)
+    timed_final = None if timed is None else measure(spec, z_target, size, RESULT_SAMPLES, timed, frame)[0]
     error = shape[0] if timed_final is None else timed_final[0]
     spec = spec.model_copy(update={"description": f"Synthesized by linkedit from {target.origin}: {best.family} "
                                                   f"(atlas row {best.row}), normalized RMS error {error:.3g}"
@@ -248,7 +303,8 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
     seconds = {"query": clock["query"] - clock["start"], "rank": clock["rank"] - clock["query"],
                "refine": clock["refine"] - clock["rank"], "polish": clock["polish"] - clock["refine"],
                "check": clock["check"] - clock["polish"], "total": clock["check"] - clock["start"]}
-    return Synthesis(target, size, chosen, best, spec, motion, seconds, note, shape, timed_final, polished, margin_deg)
+    return Synthesis(target, size, target.points, 0.0, chosen, best, spec, motion, seconds, note, shape, timed_final,
+                     polished, margin_deg)
 
 
 def diverse(candidates: list[Candidate], count: int) -> list[Candidate]:
