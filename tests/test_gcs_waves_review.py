@@ -248,8 +248,9 @@ def test_what_a_system_keeps_for_later_runs_is_bounded():
     assert 0 < len(layouts) <= KEPT_LAYOUTS and max(layouts) <= KEPT_POSES
 
 
-def test_the_3d_system_of_a_planar_linkage_with_a_slider_is_refused_clearly():
-    """planar_model on a linkage with a slider motor raised StopIteration (review)."""
+def test_the_3d_system_of_a_planar_linkage_with_an_oscillating_input_is_refused_clearly():
+    """planar_model on a linkage with a slider motor raised StopIteration (review); sliders and
+    linear inputs are modelled now, an oscillating input is refused with a ValueError naming it."""
     import pytest
 
     from linkedit.gcs.planar_bridge import planar_model
@@ -257,5 +258,8 @@ def test_the_3d_system_of_a_planar_linkage_with_a_slider_is_refused_clearly():
     from linkedit.spec.yamlload import load_model
     from tests.conftest import EXAMPLES
 
-    with pytest.raises(ValueError, match="sliders"):
-        planar_model(load_model(LinkageSpec, EXAMPLES / "lifting-arm.yaml"))
+    assert planar_model(load_model(LinkageSpec, EXAMPLES / "lifting-arm.yaml")).system is not None
+    spec = load_model(LinkageSpec, EXAMPLES / "crank-rocker.yaml")
+    rocking = spec.model_copy(update={"motor": spec.motor.model_copy(update={"oscillate_deg": (0.0, 30.0)})})
+    with pytest.raises(ValueError, match="oscillating"):
+        planar_model(rocking)
