@@ -26,11 +26,15 @@ from linkedit.gcs.system import Evaluation, State, StepTable, System
 STEP = 1e-5
 
 
-def advanced(table: StepTable, step: int, s: float) -> StepTable:
-    """A one-step table at t + s whose driven parameters moved from their values at ``step``
-    by s along their rates (:meth:`~linkedit.gcs.inputs.Schedule.rate`; exact inside the
-    keyframe segment that starts at ``step``); activity and rates are those of ``step``."""
+def advanced(table: StepTable, step: int | np.ndarray, s: float | np.ndarray) -> StepTable:
+    """A table at t + s for one step or steps (B,) of ``table`` (s scalar or (B,)), whose
+    driven parameters moved from their values there by s along their rates
+    (:meth:`~linkedit.gcs.inputs.Schedule.rate`; exact inside the keyframe segment that starts
+    at the step); activity and rates are those of the step."""
     sys = table.system
+    steps = np.atleast_1d(step)
+    shift = np.broadcast_to(np.asarray(s, dtype=float), steps.shape)
+    B = len(steps)
     vectors: list[np.ndarray] = []
     rel_inverse: list[np.ndarray] = []
     values: list[np.ndarray | None] = []
@@ -39,26 +43,26 @@ def advanced(table: StepTable, step: int, s: float) -> StepTable:
         if rate is None:
             values.append(None)
             continue
-        w = s * rate[step]
+        w = shift[:, None, None] * rate[steps]  # (B, S, 6)
         if blk.kind in kinds.VALUE_KINDS:
             assert value is not None  # a driven value kind has its values
-            v = value[step].copy()
-            v[blk.scheduled] += w[:, 0]
-            values.append(v[None])
+            v = value[steps].copy()
+            v[:, blk.scheduled] += w[..., 0]
+            values.append(v)
             continue
         values.append(None)
-        turn = quat.exp(w[:, 3:])
+        turn = quat.exp(w[..., 3:])
         if blk.kind == "orientation":  # one block per kind: every driven orientation
-            rel_inverse.append(quat.multiply(table.rel_inverse[step], quat.conjugate(turn)))
+            rel_inverse.append(quat.multiply(table.rel_inverse[steps], quat.conjugate(turn)))
         else:
-            base = table.vectors[step, col:col + len(w), :3]
-            vectors.append(np.tile(quat.rotate(turn, base) + w[:, :3], 3))
-            col += len(w)
-    stack = lambda xs, k: np.concatenate(xs)[None] if xs else np.zeros((1, 0, k))  # noqa: E731
-    return StepTable(t=np.array([table.t[step] + s]), vectors=stack(vectors, 9), rel_inverse=stack(rel_inverse, 4),
-                     active=[None if a is None else a[step:step + 1] for a in table.active],
-                     partial=table.partial[step:step + 1], system=sys,
-                     rates=[None if r is None else r[step:step + 1] for r in table.rates], values=values)
+            base = table.vectors[steps, col:col + w.shape[1], :3]
+            vectors.append(np.tile(quat.rotate(turn, base) + w[..., :3], 3))
+            col += w.shape[1]
+    stack = lambda xs, k: np.concatenate(xs, axis=1) if xs else np.zeros((B, 0, k))  # noqa: E731
+    return StepTable(t=table.t[steps] + shift, vectors=stack(vectors, 9), rel_inverse=stack(rel_inverse, 4),
+                     active=[None if a is None else a[steps] for a in table.active],
+                     partial=table.partial[steps], system=sys,
+                     rates=[None if r is None else r[steps] for r in table.rates], values=values)
 
 
 def jacobian_product(system: System, ev: Evaluation, v: np.ndarray) -> np.ndarray:
