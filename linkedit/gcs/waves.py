@@ -590,7 +590,9 @@ class Waves:
         t = self.table.t
         coarse: list[np.ndarray] = []
         rough: list[tuple[np.ndarray, np.ndarray]] = []
-        count = NODES
+        # where J has a free direction, the poses only (the rough poses' velocities are not
+        # quite their canonical motion's: taken before their last move along it)
+        count = VALUES if self.free else NODES
         prior = np.unique(np.clip(k - 1 - STRIDE * np.arange(count), first, None))
         node_t = list(t[prior])
         v = vel[prior]
@@ -612,8 +614,12 @@ class Waves:
             ahead = np.unique(np.minimum(here + stride * np.arange(1, width + 1), stop - 1))
             if 0 < stop - 1 - ahead[-1] <= stride // 2:  # the block's last step, within half a stride: now
                 ahead = np.append(ahead, stop - 1)
-            P, Q = self.extrapolated(np.array(node_t[-count:]), np.array(node_z[-count:]),
-                                     np.array(node_dz[-count:]), t[ahead])
+            if self.free:
+                P, Q = self._split(lagrange(np.array(node_t[-count:]), np.array(node_z[-count:]),
+                                            np.zeros(len(ahead), dtype=int), t[ahead], count))
+            else:
+                P, Q = self.extrapolated(np.array(node_t[-count:]), np.array(node_z[-count:]),
+                                         np.array(node_dz[-count:]), t[ahead])
             anchor = self._split(node_z[-1][None])
             if hold:
                 P, Q = self._held(P, Q, anchor[0][0], anchor[1][0])
@@ -655,7 +661,10 @@ class Waves:
             nt, nz, ndz = np.array(node_t), np.array(node_z), np.array(node_dz)
             right = np.searchsorted(nt, t[k + fine])  # the node after each fine step
             around = np.clip(right - count // 2, 0, max(len(nt) - count, 0))
-            P[fine], Q[fine] = self.osculating(nt, nz, ndz, around, t[k + fine])
+            if self.free:
+                P[fine], Q[fine] = self._split(lagrange(nt, nz, around, t[k + fine], count))
+            else:
+                P[fine], Q[fine] = self.osculating(nt, nz, ndz, around, t[k + fine])
         R, V, work, ok, null = self.solve(P, Q, steps)
         work[at] += CORRECTIONS  # the rough corrections: a linear solve and a factorization each
         for i in range(CANONICAL_PASSES if self.free else 0):
@@ -846,7 +855,10 @@ class Waves:
         if F.null is not None:  # along the free direction, the canonical pose and its tangent
             velocity, move = self.canonical(P, Q, velocity, steps, (J, F))
             P[:], Q[:] = self.moved(P, Q, move)
-            size = np.maximum(size, np.abs(move).max(axis=1))
+            # the prediction's error along it; a Newton move leaves about its square
+            along = np.abs(move).max(axis=1)
+            error = max(error, float(along[0]))
+            size = np.maximum(size, along * along)
         return velocity, error, F.sound & (size <= ROUGH)
 
     # ---- poses ------------------------------------------------------------------------------
