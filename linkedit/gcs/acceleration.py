@@ -7,8 +7,11 @@ the second-order terms (the change of the velocity equations along the velocity 
 size per unit t², far below the 1e-6 of a position difference), with the inputs' parameters
 moved along their exact rates (so a keyframe or the end of a window is not straddled), and
 ``a`` is the least-norm solution with the factorization the pose already has. Where J has a
-null space (a free degree of freedom left still), the velocity stays ⊥ null(J): P v = 0 with
-P the projector on the null space, so P a = −Ṗ v, added from the null spaces at σ = ±h.
+null space (a free degree of freedom, at its canonical pose: :mod:`linkedit.gcs.canonical`),
+the part of ``a`` along it is that of the change of the canonical velocity, a central
+difference of the velocities at σ = ±:data:`NULL_STEP` (each the canonical pose's tangent
+there; error ~1e-7 relative). At a step with an input outside its window (a free member held:
+P v = 0, P the projector on the null space), P a = −Ṗ v from the null spaces at σ = ±h.
 
 Accelerations are d²/dt² of the member positions and the world-frame angular accelerations
 dω/dt (rotation increments q ← exp(δθ) ⊗ q agree with them to second order).
@@ -24,6 +27,9 @@ from linkedit.gcs.system import Evaluation, State, StepTable, System
 
 #: the central difference's step, in scaled pose units along the velocity
 STEP = 1e-5
+#: ... of the canonical velocity along a free direction (its own central differences take
+#: canonical.STEP: rounding ~1e-11, over this)
+NULL_STEP = 2e-4
 
 
 def advanced(table: StepTable, step: int | np.ndarray, s: float | np.ndarray) -> StepTable:
@@ -87,6 +93,34 @@ def _first_order(solver, ev: Evaluation, x: State, table: StepTable, step: int, 
     return (jacobian_product(system, ev, real) + system.time_derivative(x, table, step, ev)) * solver.row
 
 
+def _near(solver, x: State, table: StepTable, ev: Evaluation, f: int):
+    """The linearization at a pose x near a solved one whose J has f free directions, with J's
+    null space there (from its factorization as at a pose; where the pivots cannot tell, an SVD)."""
+    linear = solver.linearize(x, table, 0, ev)
+    if linear.null is None or linear.null.shape[1] != f:
+        J = solver.system.dense_jacobian(ev) * solver.row[:, None] * solver.col
+        linear.null = np.linalg.svd(J)[2][-f:].T
+    return linear
+
+
+def _canonical_change(solver, state: State, table: StepTable, step: int, null: np.ndarray,
+                      velocity: np.ndarray) -> np.ndarray:
+    """The part (6M,) along J's null space ``null`` (6M, f) of the scaled acceleration of the
+    canonical pose: the change of the canonical velocity along the motion, by a central
+    difference of :meth:`Solver.velocity` at x ⊕ ±σv, t ± σ (the poses off the motion by
+    ½σ²a alike, which the difference cancels)."""
+    system = solver.system
+    h = NULL_STEP / max(1.0, float(np.abs(velocity).max(initial=0.0)))
+    real = velocity * solver.col
+    sides = []
+    for s in (h, -h):
+        x = _along(state, s * real)
+        tab = advanced(table, step, s)
+        ev = system.evaluate(x, tab, 0, jacobian=True)
+        sides.append(solver.velocity(x, tab, 0, _near(solver, x, tab, ev, null.shape[1])))
+    return null @ (null.T @ ((sides[0] - sides[1]) / (2 * h)))
+
+
 def acceleration(solver, state: State, table: StepTable, step: int, linear, velocity: np.ndarray) -> np.ndarray:
     """The scaled acceleration (6M,) at a solved pose with its :class:`~linkedit.gcs.solver.Linear`
     and scaled velocity (module docstring)."""
@@ -99,13 +133,11 @@ def acceleration(solver, state: State, table: StepTable, step: int, linear, velo
         tab = advanced(table, step, s)
         ev = system.evaluate(x, tab, 0, jacobian=True)
         terms.append(_first_order(solver, ev, x, tab, 0, real))
-        if linear.null is not None:  # the null space there, from its factorization as at a pose
-            near = solver.linearize(x, tab, 0, ev).null
-            if near is None or near.shape[1] != linear.null.shape[1]:  # the pivots cannot tell: an SVD
-                J = system.dense_jacobian(ev) * solver.row[:, None] * solver.col
-                near = np.linalg.svd(J)[2][-linear.null.shape[1]:].T
-            nulls.append(near)
+        if linear.null is not None and table.partial[step]:
+            nulls.append(_near(solver, x, tab, ev, linear.null.shape[1]).null)
     a = linear.least_norm(-(terms[0] - terms[1]) / (2 * h))
+    if linear.null is not None and not table.partial[step]:
+        return a + _canonical_change(solver, state, table, step, linear.null, velocity)
     if nulls:
         Pv = [N @ (N.T @ velocity) for N in nulls]
         N = linear.null
