@@ -1,23 +1,27 @@
-"""Solve a compiled system at every time step: minimum-change Gauss–Newton with analytic
-Jacobians, branch-safe continuation, exact velocities.
+"""Solve a compiled system at every time step: least-norm Gauss–Newton with analytic
+Jacobians, canonical free directions, branch-safe continuation, exact velocities.
 
 **Dimensionless.** Residual rows are divided by the mechanism's size L (lengths; angles are
 radians already) and position unknowns are measured in L, so the normal matrix, the steps and
 every tolerance are the same for a mechanism in mm, m or km.
 
-**Minimum change.** Each pose is the one closest to an *anchor* pose (the previous time step's,
-or the spec's rest pose at t = 0) that satisfies the constraints: with d the scaled
-displacement from the anchor (positions, world rotation vectors) and J the Jacobian, an
-iteration moves to the least-norm displacement y of J (y − d) = −r, i.e. the correction
-ε = −d + J⁺(J d − r). Its fixed points satisfy r = 0 and d ⊥ null(J): free members (a coupler's
-idle spin, a crank whose input window has closed) do not move, like SolveSpace's dragged
-solve. J⁺ comes from the Cholesky (or sparse LU) factorization of JᵀJ + μI, μ = 1e-13 of its
+**Least norm, canonical free directions.** Gauss–Newton corrections are least norm: with J
+the Jacobian, an iteration moves by −J⁺r. Where J has a null space (a coupler's idle spin), the
+converged pose is then moved along it to the *canonical* pose, the one nearest the rest pose
+(:attr:`Solver.reference`) in the scaled metric (:mod:`linkedit.gcs.canonical`: Newton steps
+along the null space, each followed by least-norm corrections), and its velocity is that
+pose's time derivative — so the poses do not depend on the steps taken. At a step with an
+input outside its window, the corrections and the converged pose keep the *minimum change*
+from an anchor pose (the step before) instead: with d the scaled displacement from the anchor,
+the correction ε = −d + J⁺(J d − r), whose fixed points have d ⊥ null(J), so what that input
+left free (a crank whose window has closed) holds. J⁺ comes from the Cholesky (or sparse LU)
+factorization of JᵀJ + μI, μ = 1e-13 of its
 largest diagonal. Whether J has a null space is decided once per set of active inputs (a rank
 at the first pose that has it) and, at each pose, by small pivots; only then is the null space
 taken (two inverse iterations with that factorization, checked against J; an SVD where they
 are not clean — the normal equations' solution is rounding there, amplified by 1/μ), its
-component removed from every correction and velocity, and the last iterations use fresh
-Jacobians until d ⊥ null(J) to :attr:`Options.still_tol`. The rank of J read off the same
+component removed from every correction and velocity, and the pose moved along it as above to
+:attr:`Options.still_tol`. The rank of J read off the same
 factorization is kept per step (:attr:`Run.rank`) for the diagnostics.
 
 **Continuation.** From a solved pose x at time s, with its factorization and exact velocity v
@@ -120,8 +124,9 @@ class Options:
     ``tol``: largest residual row counted as satisfied; ``max_iterations``: linear solves per
     (sub-)step; ``predictor_tol``: largest distance between a sub-step's tangent prediction and
     its solution; ``max_motion``: largest motion of a sub-step; ``min_fraction``: smallest
-    sub-step, as a fraction of a time step; ``still_tol``: largest component of a pose's change
-    along free directions; ``accelerations``: compute them at every output step (two more
+    sub-step, as a fraction of a time step; ``still_tol``: largest Newton move left along free
+    directions (to the canonical pose; where an input is outside its window, the largest
+    component of a pose's change along them); ``accelerations``: compute them at every output step (two more
     Jacobian evaluations per step, :mod:`linkedit.gcs.acceleration`; ``solve3d
     --accelerations`` asks for them, step by step)."""
 
@@ -378,7 +383,7 @@ class Solver:
 
     def chord(self, x: State, r: np.ndarray, anchor: State | None, linear: Linear, table: StepTable, step: int,
               scaled: tuple[np.ndarray, float, float] | None = None) -> tuple[State, np.ndarray, bool, np.ndarray]:
-        """Minimum-change simplified Newton with a kept factorization while it contracts the
+        """Simplified Newton (least norm, or minimum change from an ``anchor``) with a kept factorization while it contracts the
         residual at least twofold (``scaled``: :meth:`scaled` of r, when known): the best
         (state, residual), whether it converged, and the sum of the corrections that led to the
         state (N,)."""
@@ -398,7 +403,7 @@ class Solver:
 
     def newton(self, x: State, r: np.ndarray, anchor: State | None, linear: Linear, table: StepTable, step: int,
                d: np.ndarray | None = None) -> tuple[State, np.ndarray, bool, Linear | None, np.ndarray]:
-        """Minimum-change Newton from a predicted pose (``d``: its displacement from the anchor
+        """Newton (as :meth:`chord`) from a predicted pose (``d``: its displacement from the anchor
         (N,), when known): one correction with ``linear`` (a nearby pose's factorization), the
         Jacobian evaluated with the residual there and factorized, then :meth:`chord` with it.
         Returns the best (state, residual), whether it converged, the new linearization when
@@ -794,7 +799,7 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
             # what waves keep still is read at the first pose with every input active
             classified, null = True, pose.linear.null
             if null is not None and null.shape[1] == 1 and pose.linear.rank == system.n_unknowns - 1:
-                waves.free = 1  # one free direction (a passive degree of freedom), kept still
+                waves.free = 1  # one free direction (a passive degree of freedom), canonical
             elif null is not None or pose.linear.rank != system.n_unknowns and not solver.normal.sparse:
                 # more free directions, or a rank the pivots cannot tell: step by step (a sparse
                 # system's waves read it pose by pose, as the continuation does)

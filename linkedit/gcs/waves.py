@@ -49,11 +49,12 @@ costs time, never a result.
 **A free direction** (one passive degree of freedom: J has rank N − 1, such as an RSSR
 coupler's idle spin): the corrections are least norm (nothing along J's null vector, taken by
 inverse iteration as the continuation does), and the steps are moved along their null vectors
-so that each changes nothing along its own from the step before — the continuation's minimum
-change, step to step (:meth:`Waves.keep_still`: a prefix sum, converging quadratically over a
-few passes) — and the acceptance test adds the continuation's: that change at most
-``still_tol``. The steps' polynomials go through poses only there (their velocities, the
-instant still motion, differ from the step-to-step one by ~1e-6 of the size per step).
+to their canonical pose, the one nearest the rest pose (:meth:`Waves.canonical`: the
+continuation's Newton step of :mod:`linkedit.gcs.canonical`, for all of them at once, then
+solved again: converging quadratically over a few passes), with its velocity the canonical
+pose's tangent; the acceptance test adds that the last move is at most ``still_tol``. The rough
+steps are moved there by one Newton step, and the polynomials go through poses only (a rough
+pose's velocity is taken before that move).
 
 What this needs beyond the system — J's diagonal blocks and the parts that stay still (found
 before the first wave from :data:`SPLIT_FROM` poses along the tangent of the last solved one,
@@ -112,16 +113,14 @@ ROUGH = 1e-4
 CANONICAL_PASSES = 4
 #: the largest prediction error (scaled) a wave's width aims for, and the first prediction
 #: error of a wave below which the spacing doubles and above which it halves; where J has a
-#: free direction (predictions from poses only, two corrections whatever their error) the
+#: free direction (predictions from poses only, rough poses kept whatever their first error) the
 #: second ones
 REACH, LOW, HIGH = 1e-4, 1e-9, 1e-6
 REACH_FREE, LOW_FREE, HIGH_FREE = 1e-1, 1e-7, 1e-4
 #: solved poses (and their velocities) the polynomial extrapolation goes through
 NODES = 4
-#: ... where J has a free direction: poses only, for the polynomial through them (the
-#: step-by-step poses keep it still from step to step, their velocities at every instant: the
-#: two differ along it by ~1e-6 of the size per step, which the osculating polynomial would
-#: amplify)
+#: ... where J has a free direction: poses only, for the polynomial through them (a rough
+#: pose's velocity is taken before its move to the canonical pose)
 VALUES = 6
 #: converged steps a block starts from
 START = 2
@@ -283,7 +282,7 @@ class Waves:
         #: pairs of blocks (K, 2) that Jacobian entries of this run's poses tied: merged before
         #: the next block
         self.tied = np.zeros((0, 2), dtype=int)
-        #: free directions of J at every pose (0, or 1: a passive degree of freedom kept still)
+        #: free directions of J at every pose (0, or 1: a passive degree of freedom, canonical)
         self.free = 0
 
     def _whole(self) -> Part:
@@ -571,9 +570,9 @@ class Waves:
         last) first, roughly (:meth:`correct`), in waves from the osculating polynomial through
         the poses before them (where J has a free direction, the polynomial through
         :data:`VALUES` poses); then all of them at once, the steps between from the polynomial
-        through the poses around them, and where J has a free direction, passes keeping it
-        still from step to step (:meth:`keep_still`, converging quadratically: at most
-        :data:`STILL_PASSES`); then the continuation's acceptance test."""
+        through the poses around them, and where J has a free direction, passes moving them to
+        their canonical pose (:meth:`canonical`, converging quadratically: at most
+        :data:`CANONICAL_PASSES`); then the continuation's acceptance test."""
         col, M = self.solver.col, self.system.n_members
         if self.solver.normal.sparse:  # the closed form's poses, or none
             rebuilt = self.rebuilt(k, stop, pos, ori, vel) if self.closed is not None else None
@@ -620,10 +619,10 @@ class Waves:
             else:
                 P, Q = self.extrapolated(np.array(node_t[-count:]), np.array(node_z[-count:]),
                                          np.array(node_dz[-count:]), t[ahead])
-            anchor = self._split(node_z[-1][None])
             if hold:
-                P, Q = self._held(P, Q, anchor[0][0], anchor[1][0])
-            v, error, good = self.correct(P, Q, ahead, anchor)
+                last = self._split(node_z[-1][None])
+                P, Q = self._held(P, Q, last[0][0], last[1][0])
+            v, error, good = self.correct(P, Q, ahead)
             n = int(np.argmin(good)) if not good.all() else len(ahead)
             if n == 0:
                 if len(ahead) == 1 and stride == 1:
@@ -822,18 +821,16 @@ class Waves:
         velocity = canon.velocity(v0, null, d, G, ((seen[2] - seen[3]) / (2 * hv))[:, None])
         return velocity, canon.step(null, d, G)
 
-    def correct(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
-                before: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, float, np.ndarray]:
+    def correct(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
         """Rough poses at the table's ``steps`` (B,) from predictions P (B, M, 3), Q (B, M, 4)
         (moved in place), good enough to predict from: :data:`CORRECTIONS` least-norm
         Gauss–Newton steps (the error after each about the square of the one before); where J
-        has a free direction, after the first the poses are moved along it so that it keeps
-        still from pose to pose, the first from the pose ``before`` (P (1, M, 3), Q (1, M, 4))
-        (:meth:`keep_still`: steps far apart then follow the still motion roughly, and the
-        prediction's error along it does not carry on). Returns the scaled velocities (B, N) at
-        the last linearization (exact to about the size of the last correction), the first
-        pose's first correction (its prediction's error), and which poses are good (B,): a
-        sound factorization (:meth:`_factor`) and a last correction of at most :data:`ROUGH`."""
+        has a free direction, then one Newton step along it towards the canonical pose
+        (:meth:`canonical`, with the last linearization). Returns the scaled velocities (B, N)
+        at the last linearization (exact to about the size of the last correction), the first
+        pose's prediction error (its first correction, or its move along the free direction),
+        and which poses are good (B,): a sound factorization (:meth:`_factor`) and a last
+        correction (or the square of that move: what it leaves) of at most :data:`ROUGH`."""
         row, c = self.solver.row, self.compiled
         # rough poses need not move what stays still (the block's solve checks all of it)
         moving = self._moving()
