@@ -122,3 +122,28 @@ def spherical_four_bar(theta: np.ndarray) -> np.ndarray:
     gamma = np.sqrt((1.0 - np.sum(rest * rest, axis=1)) / np.sum(n * n, axis=1))
     side = np.sign(np.cross(b0, d) @ c0)
     return rest + side * gamma[:, None] * n
+
+
+def spin_gradient(position: np.ndarray, orientation: np.ndarray, a: np.ndarray, b: np.ndarray,
+                  rest_position: np.ndarray, rest_orientation: np.ndarray, size: float) -> np.ndarray:
+    """The derivative (T,) of ½(|p − p₀|²/L² + θ²) — a member's squared distance from its rest
+    pose (p₀, q₀) in the solver's scaled metric, θ the angle of q q₀⁻¹ — as the member spins
+    about the world line through its own points a and b (member space (3,)), by central
+    differences of 1e-4 rad; zero where the spin is the one nearest the rest pose. position
+    (T, 3) and orientation (T, 4) of the member, its rest pose (3,), (4,), the size L."""
+    from linkedit.gcs import quaternions as quat
+
+    R = quat.to_matrix(orientation)
+    A, B = position + R @ a, position + R @ b
+    u = (B - A) / np.linalg.norm(B - A, axis=1, keepdims=True)
+
+    def half_distance(e: float) -> np.ndarray:
+        turn = np.concatenate([np.full((len(u), 1), np.cos(e / 2)), np.sin(e / 2) * u], axis=1)
+        p = A + quat.rotate(turn, position - A)
+        q = quat.multiply(turn, orientation)
+        rel = quat.multiply(q, quat.conjugate(np.broadcast_to(rest_orientation, q.shape)))
+        theta = 2 * np.arcsin(np.clip(np.linalg.norm(rel[:, 1:], axis=1), 0.0, 1.0))
+        return 0.5 * (((p - rest_position) ** 2).sum(axis=1) / size**2 + theta**2)
+
+    e = 1e-4
+    return (half_distance(e) - half_distance(-e)) / (2 * e)

@@ -1,23 +1,27 @@
-"""Solve a compiled system at every time step: minimum-change Gauss–Newton with analytic
-Jacobians, branch-safe continuation, exact velocities.
+"""Solve a compiled system at every time step: least-norm Gauss–Newton with analytic
+Jacobians, canonical free directions, branch-safe continuation, exact velocities.
 
 **Dimensionless.** Residual rows are divided by the mechanism's size L (lengths; angles are
 radians already) and position unknowns are measured in L, so the normal matrix, the steps and
 every tolerance are the same for a mechanism in mm, m or km.
 
-**Minimum change.** Each pose is the one closest to an *anchor* pose (the previous time step's,
-or the spec's rest pose at t = 0) that satisfies the constraints: with d the scaled
-displacement from the anchor (positions, world rotation vectors) and J the Jacobian, an
-iteration moves to the least-norm displacement y of J (y − d) = −r, i.e. the correction
-ε = −d + J⁺(J d − r). Its fixed points satisfy r = 0 and d ⊥ null(J): free members (a coupler's
-idle spin, a crank whose input window has closed) do not move, like SolveSpace's dragged
-solve. J⁺ comes from the Cholesky (or sparse LU) factorization of JᵀJ + μI, μ = 1e-13 of its
+**Least norm, canonical free directions.** Gauss–Newton corrections are least norm: with J
+the Jacobian, an iteration moves by −J⁺r. Where J has a null space (a coupler's idle spin), the
+converged pose is then moved along it to the *canonical* pose, the one nearest the rest pose
+(:attr:`Solver.reference`) in the scaled metric (:mod:`linkedit.gcs.canonical`: Newton steps
+along the null space, each followed by least-norm corrections), and its velocity is that
+pose's time derivative — so the poses do not depend on the steps taken. At a step with an
+input outside its window, the corrections and the converged pose keep the *minimum change*
+from an anchor pose (the step before) instead: with d the scaled displacement from the anchor,
+the correction ε = −d + J⁺(J d − r), whose fixed points have d ⊥ null(J), so what that input
+left free (a crank whose window has closed) holds. J⁺ comes from the Cholesky (or sparse LU)
+factorization of JᵀJ + μI, μ = 1e-13 of its
 largest diagonal. Whether J has a null space is decided once per set of active inputs (a rank
 at the first pose that has it) and, at each pose, by small pivots; only then is the null space
 taken (two inverse iterations with that factorization, checked against J; an SVD where they
 are not clean — the normal equations' solution is rounding there, amplified by 1/μ), its
-component removed from every correction and velocity, and the last iterations use fresh
-Jacobians until d ⊥ null(J) to :attr:`Options.still_tol`. The rank of J read off the same
+component removed from every correction and velocity, and the pose moved along it as above to
+:attr:`Options.still_tol`. The rank of J read off the same
 factorization is kept per step (:attr:`Run.rank`) for the diagnostics.
 
 **Continuation.** From a solved pose x at time s, with its factorization and exact velocity v
@@ -71,8 +75,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from linkedit.gcs import canonical as canon
 from linkedit.gcs import quaternions as quat
-from linkedit.gcs.acceleration import acceleration
+from linkedit.gcs.acceleration import acceleration, advanced, jacobian_product
 from linkedit.gcs.linalg import Factor, Linearization, NormalEquations, orthonormal
 from linkedit.gcs.system import Evaluation, State, StepTable, System
 
@@ -119,8 +124,9 @@ class Options:
     ``tol``: largest residual row counted as satisfied; ``max_iterations``: linear solves per
     (sub-)step; ``predictor_tol``: largest distance between a sub-step's tangent prediction and
     its solution; ``max_motion``: largest motion of a sub-step; ``min_fraction``: smallest
-    sub-step, as a fraction of a time step; ``still_tol``: largest component of a pose's change
-    along free directions; ``accelerations``: compute them at every output step (two more
+    sub-step, as a fraction of a time step; ``still_tol``: largest Newton move left along free
+    directions (to the canonical pose; where an input is outside its window, the largest
+    component of a pose's change along them); ``accelerations``: compute them at every output step (two more
     Jacobian evaluations per step, :mod:`linkedit.gcs.acceleration`; ``solve3d
     --accelerations`` asks for them, step by step)."""
 
@@ -241,6 +247,8 @@ class Solver:
                                       [self.row[g.rows][:, :, None, None] * six for g in s.groups])
         self.iterations = self.factorizations = 0
         self.structure: dict[bytes, bool] = {}  #: active-input pattern → J has a null space
+        #: the pose that free directions are canonical against (:mod:`linkedit.gcs.canonical`)
+        self.reference: State = s.rest
         self._probes: dict[int, np.ndarray] = {}
 
     # ---- building blocks --------------------------------------------------------------------
@@ -320,7 +328,34 @@ class Solver:
         nearest the ``incoming`` velocity (N,) when given (:meth:`Linear.continued`), so the
         continuation keeps the branch whose tangent continues the motion."""
         rt = self.system.time_derivative(x, table, step, linear.ev)
-        return linear.continued(-rt * self.row, incoming)
+        v0 = linear.continued(-rt * self.row, incoming)
+        if linear.null is None or table.partial[step]:
+            return v0
+        # the canonical pose's tangent (:mod:`linkedit.gcs.canonical`)
+        null, d = linear.null[None], self.displacement(x, self.reference)[None]
+        G = canon.hessian(null, d, self._bend(x, table, step, linear, d[0])[None])
+        return canon.velocity(v0[None], null, d, G, self._bend(x, table, step, linear, d[0], v0)[None])[0]
+
+    def _bend(self, x: State, table: StepTable, step: int, linear: Linear, d: np.ndarray,
+              w: np.ndarray | None = None) -> np.ndarray:
+        """λᵀ J̇ n_i for J's null vectors n_i (the columns of ``linear.null``) at a solved pose
+        x with displacement d (N,) from the reference, λ = J⁺ᵀ d: along every n_j (f, f), or
+        along w (N,) with the inputs advanced in time (f,), by central differences of the
+        scaled J (:mod:`linkedit.gcs.canonical`)."""
+        assert linear.null is not None
+        null, system = linear.null, self.system
+        lam = linear.lin.JT.T @ linear.still(linear.factor.solve(linear.still(d))) * self.row
+        moves = null.T if w is None else w[None]
+        out = np.empty((null.shape[1], len(moves)))
+        for j, m in enumerate(moves):
+            h = canon.STEP / max(1.0, float(np.abs(m).max(initial=0.0)))
+            sides = []
+            for s in (h, -h):
+                tab, k = (table, step) if w is None else (advanced(table, step, s), 0)
+                ev = system.evaluate(self.moved(x, s * m), tab, k, jacobian=True)
+                sides.append([lam @ jacobian_product(system, ev, n * self.col) for n in null.T])
+            out[:, j] = (np.array(sides[0]) - np.array(sides[1])) / (2 * h)
+        return out if w is None else out[:, 0]
 
     def _residual(self, x: State, table: StepTable, step: int) -> np.ndarray:
         return self.system.evaluate(x, table, step).r
@@ -330,23 +365,25 @@ class Solver:
         rs = r * self.row
         return rs, float(np.abs(rs).max()) if rs.size else 0.0, math.sqrt(rs @ rs)
 
-    def correction(self, x: State, rs: np.ndarray, anchor: State, linear: Linear,
+    def correction(self, x: State, rs: np.ndarray, anchor: State | None, linear: Linear,
                    d: np.ndarray | None = None) -> np.ndarray:
-        """The minimum-change correction (N,) at x for the scaled residual ``rs``: least norm
-        against it, and the change from the anchor along the null space of J taken back (``d``:
-        x's displacement from the anchor (N,), when known)."""
+        """The correction (N,) at x for the scaled residual ``rs``: least norm; with an
+        ``anchor`` (minimum change), the change from it along the null space of J taken back
+        (``d``: x's displacement from the anchor (N,), when known)."""
         y = linear.factor.solve(linear.lin.gradient(rs))
         if linear.null is None:
             return -y
+        if anchor is None:
+            return -linear.still(y)
         if d is None:
             d = self.displacement(x, anchor)
         return linear.null @ (linear.null.T @ (y - d)) - y  # −(y − P y) − P d, P the null projector
 
     # ---- one pose ---------------------------------------------------------------------------
 
-    def chord(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable, step: int,
+    def chord(self, x: State, r: np.ndarray, anchor: State | None, linear: Linear, table: StepTable, step: int,
               scaled: tuple[np.ndarray, float, float] | None = None) -> tuple[State, np.ndarray, bool, np.ndarray]:
-        """Minimum-change simplified Newton with a kept factorization while it contracts the
+        """Simplified Newton (least norm, or minimum change from an ``anchor``) with a kept factorization while it contracts the
         residual at least twofold (``scaled``: :meth:`scaled` of r, when known): the best
         (state, residual), whether it converged, and the sum of the corrections that led to the
         state (N,)."""
@@ -364,9 +401,9 @@ class Solver:
             x, r, rs, err, norm, total = x1, r1, rs1, err1, norm1, total + e
         return x, r, True, total
 
-    def newton(self, x: State, r: np.ndarray, anchor: State, linear: Linear, table: StepTable, step: int,
+    def newton(self, x: State, r: np.ndarray, anchor: State | None, linear: Linear, table: StepTable, step: int,
                d: np.ndarray | None = None) -> tuple[State, np.ndarray, bool, Linear | None, np.ndarray]:
-        """Minimum-change Newton from a predicted pose (``d``: its displacement from the anchor
+        """Newton (as :meth:`chord`) from a predicted pose (``d``: its displacement from the anchor
         (N,), when known): one correction with ``linear`` (a nearby pose's factorization), the
         Jacobian evaluated with the residual there and factorized, then :meth:`chord` with it.
         Returns the best (state, residual), whether it converged, the new linearization when
@@ -431,10 +468,14 @@ class Solver:
     def settle(self, x: State, r: np.ndarray, anchor: State, table: StepTable, step: int,
                known: Linear | Evaluation | None = None) -> tuple[State, np.ndarray, Linear]:
         """Linearize a converged pose (``known``: its linearization, or its evaluation with the
-        Jacobian); where J has a null space, remove the pose's change along it (minimum change
-        from the anchor) with fresh Jacobians until below ``still_tol``."""
+        Jacobian); where J has a null space, move the pose along it to the canonical pose
+        (:meth:`canonical`), or, at a step with an input outside its window, remove the pose's
+        change along it from the anchor (minimum change: what the input left free holds) with
+        fresh Jacobians until below ``still_tol``."""
         opt = self.options
         linear = known if isinstance(known, Linear) else self.linearize(x, table, step, known)
+        if not table.partial[step]:
+            return self.canonical(x, r, table, step, linear)
         for _ in range(8):
             if linear.null is None:
                 break
@@ -452,6 +493,36 @@ class Solver:
             linear = self.linearize(x, table, step)
         return x, r, linear
 
+    def canonical(self, x: State, r: np.ndarray, table: StepTable, step: int,
+                  linear: Linear) -> tuple[State, np.ndarray, Linear]:
+        """Move a converged pose along J's null space to the canonical pose (the one nearest
+        :attr:`reference`, :mod:`linkedit.gcs.canonical`): Newton steps along it (the reduced
+        Hessian taken at the first), each followed by least-norm corrections back onto the
+        constraints, until the step is at most ``still_tol`` (that last one taken as it is)."""
+        G = None
+        for _ in range(canon.ITERATIONS):
+            if linear.null is None:
+                break
+            null, d = linear.null[None], self.displacement(x, self.reference)[None]
+            if G is None or G.shape[1] != null.shape[2]:
+                G = canon.hessian(null, d, self._bend(x, table, step, linear, d[0])[None])
+            e = canon.step(null, d, G)[0]
+            if np.abs(e).max(initial=0.0) <= self.options.still_tol:
+                # the last move needs no correction (the constraints change by |e|²) and leaves
+                # the linearization as good as REUSE does
+                x = self.moved(x, e)
+                r = self._residual(x, table, step)
+                break
+            x1 = self.moved(x, e)
+            r1 = self._residual(x1, table, step)
+            self.iterations += 1
+            x1, r1, ok, _ = self.chord(x1, r1, None, linear, table, step)
+            if not ok:
+                break  # best effort: the converged pose stands
+            x, r = x1, r1
+            linear = self.linearize(x, table, step)
+        return x, r, linear
+
     def pose(self, start: State, anchor: State, table: StepTable, step: int, linear: Linear | None = None,
              budget: int | None = None, d: np.ndarray | None = None
              ) -> tuple[State, np.ndarray, int, Linear | Evaluation | None, np.ndarray | None]:
@@ -462,8 +533,9 @@ class Solver:
         corrections from ``start`` (N,) or None when Levenberg–Marquardt took it)."""
         r = self._residual(start, table, step)
         x = start
+        toward = anchor if table.partial[step] else None  # free directions: canonical (settle)
         if linear is not None:
-            x, r, ok, known, total = self.newton(start, r, anchor, linear, table, step, d)
+            x, r, ok, known, total = self.newton(start, r, toward, linear, table, step, d)
             if ok:
                 return x, r, CONVERGED, known, total
         if self.error(r) <= self.options.tol:
@@ -631,6 +703,7 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
     good: Pose | None = None
     stuck = False  # the continuation from ``good`` failed once: it would fail again at the same place
     rest = (start or system.rest).copy()
+    solver.reference = rest
     # waves predict from the times of solved steps: they need them distinct, in one direction
     monotone = bool((np.diff(t) > 0).all() or (np.diff(t) < 0).all())
     waves = Waves(solver, table) if options.waves and Waves.applies(solver) and monotone else None
@@ -726,7 +799,7 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
             # what waves keep still is read at the first pose with every input active
             classified, null = True, pose.linear.null
             if null is not None and null.shape[1] == 1 and pose.linear.rank == system.n_unknowns - 1:
-                waves.free = 1  # one free direction (a passive degree of freedom), kept still
+                waves.free = 1  # one free direction (a passive degree of freedom), canonical
             elif null is not None or pose.linear.rank != system.n_unknowns and not solver.normal.sparse:
                 # more free directions, or a rank the pivots cannot tell: step by step (a sparse
                 # system's waves read it pose by pose, as the continuation does)

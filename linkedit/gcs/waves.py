@@ -49,11 +49,12 @@ costs time, never a result.
 **A free direction** (one passive degree of freedom: J has rank N − 1, such as an RSSR
 coupler's idle spin): the corrections are least norm (nothing along J's null vector, taken by
 inverse iteration as the continuation does), and the steps are moved along their null vectors
-so that each changes nothing along its own from the step before — the continuation's minimum
-change, step to step (:meth:`Waves.keep_still`: a prefix sum, converging quadratically over a
-few passes) — and the acceptance test adds the continuation's: that change at most
-``still_tol``. The steps' polynomials go through poses only there (their velocities, the
-instant still motion, differ from the step-to-step one by ~1e-6 of the size per step).
+to their canonical pose, the one nearest the rest pose (:meth:`Waves.canonical`: the
+continuation's Newton step of :mod:`linkedit.gcs.canonical`, for all of them at once, then
+solved again: converging quadratically over a few passes), with its velocity the canonical
+pose's tangent; the acceptance test adds that the last move is at most ``still_tol``. The rough
+steps are moved there by one Newton step, and the polynomials go through poses only (a rough
+pose's velocity is taken before that move).
 
 What this needs beyond the system — J's diagonal blocks and the parts that stay still (found
 before the first wave from :data:`SPLIT_FROM` poses along the tangent of the last solved one,
@@ -85,8 +86,10 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.csgraph
 
+from linkedit.gcs import canonical as canon
 from linkedit.gcs import constraints as kinds
 from linkedit.gcs import quaternions as quat
+from linkedit.gcs.acceleration import advanced
 from linkedit.gcs.closed_form import ClosedForm
 from linkedit.gcs.solver import FREE_PIVOT, NULL_APART, NULL_CLEAN, Solver
 from linkedit.gcs.system import EVALUATE, Block, Evaluation, State, StepParameters, StepTable
@@ -106,22 +109,18 @@ WIDEST = 16
 #: be predicted from
 CORRECTIONS = 2
 ROUGH = 1e-4
-#: passes keeping a free direction still (:meth:`Waves.keep_still`), the last one once the
-#: moves are at most STILL_DONE (the change along it then ~1e-16)
-STILL_PASSES = 4
-STILL_DONE = 1e-8
+#: passes moving the poses to their canonical pose along a free direction (:meth:`Waves.canonical`)
+CANONICAL_PASSES = 4
 #: the largest prediction error (scaled) a wave's width aims for, and the first prediction
 #: error of a wave below which the spacing doubles and above which it halves; where J has a
-#: free direction (predictions from poses only, two corrections whatever their error) the
+#: free direction (predictions from poses only, rough poses kept whatever their first error) the
 #: second ones
 REACH, LOW, HIGH = 1e-4, 1e-9, 1e-6
 REACH_FREE, LOW_FREE, HIGH_FREE = 1e-1, 1e-7, 1e-4
 #: solved poses (and their velocities) the polynomial extrapolation goes through
 NODES = 4
-#: ... where J has a free direction: poses only, for the polynomial through them (the
-#: step-by-step poses keep it still from step to step, their velocities at every instant: the
-#: two differ along it by ~1e-6 of the size per step, which the osculating polynomial would
-#: amplify)
+#: ... where J has a free direction: poses only, for the polynomial through them (a rough
+#: pose's velocity is taken before its move to the canonical pose)
 VALUES = 6
 #: converged steps a block starts from
 START = 2
@@ -283,7 +282,7 @@ class Waves:
         #: pairs of blocks (K, 2) that Jacobian entries of this run's poses tied: merged before
         #: the next block
         self.tied = np.zeros((0, 2), dtype=int)
-        #: free directions of J at every pose (0, or 1: a passive degree of freedom kept still)
+        #: free directions of J at every pose (0, or 1: a passive degree of freedom, canonical)
         self.free = 0
 
     def _whole(self) -> Part:
@@ -325,11 +324,12 @@ class Waves:
         return lay
 
     def evaluate(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray, jacobian: bool,
-                 skip: tuple[int, ...] = ()) -> tuple[np.ndarray, list[np.ndarray | None]]:
-        """Residuals (B, R) at positions P (B, M, 3) and quaternions Q (B, M, 4) at the table's
-        ``steps`` (B,), and with ``jacobian`` the Jacobian per group (B, n, k, 2, 6); the groups
-        ``skip`` are not evaluated (rows zero, Jacobian None)."""
-        s, tab = self.system, self.table
+                 skip: tuple[int, ...] = (), table: StepTable | None = None) -> tuple[np.ndarray, list[np.ndarray | None]]:
+        """Residuals (B, R) at positions P (B, M, 3) and quaternions Q (B, M, 4) at the
+        ``steps`` (B,) of the run's table (or of ``table``), and with ``jacobian`` the Jacobian
+        per group (B, n, k, 2, 6); the groups ``skip`` are not evaluated (rows zero, Jacobian
+        None)."""
+        s, tab = self.system, table or self.table
         B, M = P.shape[0], s.n_members
         lay = self._layout(B)
         # member-major layouts (M + 1, B, ·), the world last
@@ -570,9 +570,9 @@ class Waves:
         last) first, roughly (:meth:`correct`), in waves from the osculating polynomial through
         the poses before them (where J has a free direction, the polynomial through
         :data:`VALUES` poses); then all of them at once, the steps between from the polynomial
-        through the poses around them, and where J has a free direction, passes keeping it
-        still from step to step (:meth:`keep_still`, converging quadratically: at most
-        :data:`STILL_PASSES`); then the continuation's acceptance test."""
+        through the poses around them, and where J has a free direction, passes moving them to
+        their canonical pose (:meth:`canonical`, converging quadratically: at most
+        :data:`CANONICAL_PASSES`); then the continuation's acceptance test."""
         col, M = self.solver.col, self.system.n_members
         if self.solver.normal.sparse:  # the closed form's poses, or none
             rebuilt = self.rebuilt(k, stop, pos, ori, vel) if self.closed is not None else None
@@ -589,8 +589,8 @@ class Waves:
         t = self.table.t
         coarse: list[np.ndarray] = []
         rough: list[tuple[np.ndarray, np.ndarray]] = []
-        # where J has a free direction, the poses only: their velocities do not follow the
-        # step-by-step poses along it (which keep still from step to step, not at every instant)
+        # where J has a free direction, the poses only (the rough poses' velocities are not
+        # quite their canonical motion's: taken before their last move along it)
         count = VALUES if self.free else NODES
         prior = np.unique(np.clip(k - 1 - STRIDE * np.arange(count), first, None))
         node_t = list(t[prior])
@@ -619,10 +619,10 @@ class Waves:
             else:
                 P, Q = self.extrapolated(np.array(node_t[-count:]), np.array(node_z[-count:]),
                                          np.array(node_dz[-count:]), t[ahead])
-            anchor = self._split(node_z[-1][None])
             if hold:
-                P, Q = self._held(P, Q, anchor[0][0], anchor[1][0])
-            v, error, good = self.correct(P, Q, ahead, anchor)
+                last = self._split(node_z[-1][None])
+                P, Q = self._held(P, Q, last[0][0], last[1][0])
+            v, error, good = self.correct(P, Q, ahead)
             n = int(np.argmin(good)) if not good.all() else len(ahead)
             if n == 0:
                 if len(ahead) == 1 and stride == 1:
@@ -664,18 +664,24 @@ class Waves:
                 P[fine], Q[fine] = self._split(lagrange(nt, nz, around, t[k + fine], count))
             else:
                 P[fine], Q[fine] = self.osculating(nt, nz, ndz, around, t[k + fine])
-        R, V, work, ok, null = self.solve(P, Q, steps, velocities=not self.free)
+        R, V, work, ok, null = self.solve(P, Q, steps)
         work[at] += CORRECTIONS  # the rough corrections: a linear solve and a factorization each
-        for i in range(STILL_PASSES if self.free else 0):
-            # the free direction kept still from step to step, then solved again there (the
-            # velocities at the last pass)
-            last = self.keep_still(P, Q, null, pos[k - 1], ori[k - 1]) <= STILL_DONE or i == STILL_PASSES - 1
-            R, V, again, ok, null = self.solve(P, Q, steps, velocities=last)
-            work += again
-            if last:
+        for i in range(CANONICAL_PASSES if self.free else 0):
+            # the free direction moved to the canonical pose, then solved again there (until
+            # the move is at most still_tol; the velocities the canonical pose's tangent)
+            V, move = self.canonical(P, Q, V, steps)
+            if np.abs(move).max() <= self.solver.options.still_tol or i == CANONICAL_PASSES - 1:
+                # the last moves need no correction (the constraints change by |move|²)
+                last = np.abs(move).max(axis=1) <= self.solver.options.still_tol
+                P[:], Q[:] = self.moved(P, Q, move * last[:, None])
+                R[last] = self.evaluate(P[last], Q[last], steps[last], False)[0]
+                ok &= last
                 break
+            P[:], Q[:] = self.moved(P, Q, move)
+            R, V, again, ok, null = self.solve(P, Q, steps)
+            work += again
         before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
-        n = self.accepted(P, Q, V, ok, null, steps, before, float(t[k - 1]))
+        n = self.accepted(P, Q, V, ok, steps, before, float(t[k - 1]))
         self.system.batched["waves"] = self.compiled.copy()  # for later runs (Compiled)
         return Solved(P, Q, R, V, work, n)
 
@@ -710,10 +716,9 @@ class Waves:
             steps, P, Q = steps[:n], P[:n], Q[:n]
             if sparse:
                 R, V, work, ok, rank = self.verify(P, Q, steps, before[2])
-                null = np.zeros_like(V)
             else:
-                R, V, work, ok, null = self.solve(P, Q, steps)
-            a = self.accepted(P, Q, V, ok, null, steps, before, t_before)
+                R, V, work, ok, _ = self.solve(P, Q, steps)
+            a = self.accepted(P, Q, V, ok, steps, before, t_before)
             kept.append((P[:a], Q[:a], R[:a], V[:a], work[:a]))
             if sparse:
                 ranks.append(rank[:a])
@@ -776,45 +781,56 @@ class Waves:
             work[b] = 1
         return r, velocity, work, ok, rank
 
-    def keep_still(self, P: np.ndarray, Q: np.ndarray, null: np.ndarray, P0: np.ndarray, Q0: np.ndarray) -> float:
-        """Move B consecutive solved poses (P (B, M, 3), Q (B, M, 4), in place) along their
-        unit null vectors n_k (B, N, oriented alike in place) so that none moves along its own
-        from the pose before (the first from P0 (M, 3), Q0 (M, 4)), to first order in the
-        moves α_k: with g_k = n_k · (x_k ⊖ x_{k−1}), a_k = ∂g_k/∂α_k and b_k = ∂g_k/∂α_{k−1}
-        (by differences), α_k = −(g_k + b_k α_{k−1}) / a_k (α before the first zero) — a
-        prefix product and sum. The constraints change to second order in α. Returns the
-        largest |α|."""
-        eps = 1e-7
-        turn = np.ones(len(null))  # one orientation all along (each is found up to its sign)
-        turn[1:] = np.sign((null[1:] * null[:-1]).sum(axis=1))
-        null *= np.cumprod(turn)[:, None]
-        Pp, Qp = np.concatenate([P0[None], P[:-1]]), np.concatenate([Q0[None], Q[:-1]])
-        g = (null * self.displacement(P, Q, Pp, Qp)).sum(axis=1)
-        Pa, Qa = self.moved(P, Q, eps * null)
-        a = ((null * self.displacement(Pa, Qa, Pp, Qp)).sum(axis=1) - g) / eps
-        b = np.zeros(len(null))
-        if len(null) > 1:
-            Pb, Qb = self.moved(Pp[1:], Qp[1:], eps * null[:-1])
-            b[1:] = ((null[1:] * self.displacement(P[1:], Q[1:], Pb, Qb)).sum(axis=1) - g[1:]) / eps
-        m = -b / a
-        m[0] = 1.0
-        product = np.cumprod(m)
-        alpha = product * np.cumsum(-g / a / product)
-        P[:], Q[:] = self.moved(P, Q, alpha[:, None] * null)
-        return float(np.abs(alpha).max())
+    def canonical(self, P: np.ndarray, Q: np.ndarray, v0: np.ndarray, steps: np.ndarray,
+                  known: tuple["Jacobians", "Factors"] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """For B solved poses (P (B, M, 3), Q (B, M, 4)) with one free direction, at the table's
+        ``steps`` (B,), with least-norm scaled velocities v0 (B, N): the canonical pose's
+        velocities (B, N) and the Newton moves (B, N) along J's null vectors towards it
+        (:mod:`linkedit.gcs.canonical`; zero at the canonical pose), as the continuation's
+        :meth:`Solver.canonical` and :meth:`Solver.velocity` take them; J and its
+        factorization at the poses are evaluated, or ``known`` (a rough pose's, nearby)."""
+        if known is None:
+            J = self.jacobian(self.evaluate(P, Q, steps, True)[1])
+            F = self._factor(J)
+        else:
+            J, F = known
+        assert F.null is not None
+        n = F.null
+        B = len(steps)
+        ref = self.solver.reference
+        d = self.displacement(P, Q, np.broadcast_to(ref.position, P.shape), np.broadcast_to(ref.orientation, Q.shape))
+        # λ = J⁺ᵀ d, block by block
+        flat = d - n * (n * d).sum(axis=1)[:, None]
+        y = self.least_norm(F, [flat[:, p.cols] for p in F.parts])
+        lam = [(Jp @ y[:, p.cols, None])[..., 0] for p, Jp in zip(F.parts, J.blocks)]
+        # λᵀ J̇ n by central differences along n, then along v0 with the inputs advanced in
+        # time, all 4B poses in one evaluation
+        hn = np.full(B, canon.STEP)
+        hv = canon.STEP / np.maximum(1.0, np.abs(v0).max(axis=1))
+        h = np.concatenate([hn, -hn, hv, -hv])
+        moves = np.concatenate([n, n, v0, v0]) * h[:, None]
+        four = np.tile(steps, 4)
+        Pm, Qm = self.moved(np.tile(P, (4, 1, 1)), np.tile(Q, (4, 1, 1)), moves)
+        tab = advanced(self.table, four, np.concatenate([0.0 * hn, 0.0 * hn, hv, -hv]))
+        Jm = self.jacobian(self.evaluate(Pm, Qm, np.arange(4 * B), True, table=tab)[1])
+        n4 = np.tile(n, (4, 1))
+        seen = sum(((np.tile(lp, (4, 1))[:, :, None] * Jp).sum(axis=1) * n4[:, p.cols]).sum(axis=1)
+                   for lp, p, Jp in zip(lam, J.parts, Jm.blocks)).reshape(4, B)
+        null = n[:, :, None]
+        G = canon.hessian(null, d, ((seen[0] - seen[1]) / (2 * hn))[:, None, None])
+        velocity = canon.velocity(v0, null, d, G, ((seen[2] - seen[3]) / (2 * hv))[:, None])
+        return velocity, canon.step(null, d, G)
 
-    def correct(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
-                before: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, float, np.ndarray]:
+    def correct(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
         """Rough poses at the table's ``steps`` (B,) from predictions P (B, M, 3), Q (B, M, 4)
         (moved in place), good enough to predict from: :data:`CORRECTIONS` least-norm
         Gauss–Newton steps (the error after each about the square of the one before); where J
-        has a free direction, after the first the poses are moved along it so that it keeps
-        still from pose to pose, the first from the pose ``before`` (P (1, M, 3), Q (1, M, 4))
-        (:meth:`keep_still`: steps far apart then follow the still motion roughly, and the
-        prediction's error along it does not carry on). Returns the scaled velocities (B, N) at
-        the last linearization (exact to about the size of the last correction), the first
-        pose's first correction (its prediction's error), and which poses are good (B,): a
-        sound factorization (:meth:`_factor`) and a last correction of at most :data:`ROUGH`."""
+        has a free direction, then one Newton step along it towards the canonical pose
+        (:meth:`canonical`, with the last linearization). Returns the scaled velocities (B, N)
+        at the last linearization (exact to about the size of the last correction), the first
+        pose's prediction error (its first correction, or its move along the free direction),
+        and which poses are good (B,): a sound factorization (:meth:`_factor`) and a last
+        correction (or the square of that move: what it leaves) of at most :data:`ROUGH`."""
         row, c = self.solver.row, self.compiled
         # rough poses need not move what stays still (the block's solve checks all of it)
         moving = self._moving()
@@ -832,9 +848,14 @@ class Waves:
             if i == CORRECTIONS - 1:
                 rt = self.time_derivative(Q, steps, jacs)
             P[:], Q[:] = self.moved(P, Q, step)
-            if F.null is not None and i == 0:  # the free direction kept still from pose to pose
-                self.keep_still(P, Q, F.null.copy(), before[0][0], before[1][0])
         velocity = self.least_norm(F, self._gradient(J, -rt * row))
+        if F.null is not None:  # along the free direction, the canonical pose and its tangent
+            velocity, move = self.canonical(P, Q, velocity, steps, (J, F))
+            P[:], Q[:] = self.moved(P, Q, move)
+            # the prediction's error along it; a Newton move leaves about its square
+            along = np.abs(move).max(axis=1)
+            error = max(error, float(along[0]))
+            size = np.maximum(size, along * along)
         return velocity, error, F.sound & (size <= ROUGH)
 
     # ---- poses ------------------------------------------------------------------------------
@@ -1052,12 +1073,11 @@ class Waves:
             live = lg
         return r, velocity, work, done, null
 
-    def accepted(self, P: np.ndarray, Q: np.ndarray, velocity: np.ndarray, done: np.ndarray, null: np.ndarray,
+    def accepted(self, P: np.ndarray, Q: np.ndarray, velocity: np.ndarray, done: np.ndarray,
                  steps: np.ndarray, before: tuple[np.ndarray, np.ndarray, np.ndarray], t_before: float) -> int:
         """How many of the consecutive ``steps`` (B,), solved (P, Q, scaled velocities,
-        ``done``, J's unit null vectors (B, N) where it has a free direction), pass the
-        continuation's acceptance test, each from the step before it (where J has a free
-        direction, the change along it at most ``still_tol``); the first from ``before``
+        ``done``: converged, and where J has a free direction at the canonical pose), pass the
+        continuation's acceptance test, each from the step before it; the first from ``before``
         (position (M, 3), quaternions (M, 4), scaled velocity (N,)) at ``t_before``."""
         opt = self.solver.options
         P0 = np.concatenate([before[0][None], P[:-1]])
@@ -1067,8 +1087,6 @@ class Waves:
         moved = self.displacement(P, Q, P0, Q0)
         ok = done & (np.abs(moved - h[:, None] * v0).max(axis=1) <= opt.predictor_tol) \
             & (np.abs(v0).max(axis=1) * np.abs(h) <= opt.max_motion)
-        if self.free:
-            ok &= (np.abs((null * moved).sum(axis=1)[:, None] * null).max(axis=1) <= opt.still_tol)
         return int(np.argmin(ok)) if not ok.all() else len(steps)
 
     # ---- predictions ----------------------------------------------------------------------
