@@ -546,3 +546,148 @@ def test_synthesize_never_writes_into_its_atlas_folder(run_cli, tmp_path):
     line = _one_line(run_cli("synthesize", tmp_path / "target.csv", "--atlas", atlases, "-o", atlases), 2)
     assert "input folder" in line and str(atlases) in line
     assert _listing(atlases) == {Path("a.h5"): b"an atlas"}
+
+
+# --- sizes: refused before the work when they cannot fit ------------------------------------------
+
+def _linkedit(*args, limit: tuple[int, int] | None = None, timeout: float = 120) -> subprocess.CompletedProcess:
+    """The CLI in a subprocess; ``limit``: (resource, bytes), e.g. the address space (``ulimit -v``)."""
+    import resource
+
+    def preexec() -> None:
+        if limit is not None:
+            resource.setrlimit(limit[0], (limit[1], limit[1]))
+
+    return subprocess.run([sys.executable, "-c", "from linkedit.cli import main; main()", *map(str, args)],
+                          capture_output=True, text=True, timeout=timeout, preexec_fn=preexec)
+
+
+def _refused_line(r: subprocess.CompletedProcess) -> str:
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1, r.stderr
+    return lines[0]
+
+
+def test_samples_beyond_a_memory_limit_are_refused_naming_the_memory(tmp_path):
+    """Under `ulimit -v` (or a container's cgroup limit) MemAvailable still showed the whole machine:
+    `--samples 2000000` passed the check and ended in an ArrayMemoryError traceback."""
+    import resource
+
+    r = _linkedit("simulate", EXAMPLES / "jansen.yaml", "--samples", 2_000_000, "-o", tmp_path / "o.h5",
+                  limit=(resource.RLIMIT_AS, 2 << 30))
+    line = _refused_line(r)
+    assert line.startswith("linkedit: error: --samples: 2,000,000 samples of 8 joints would need about 5.7 GiB")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_features_beyond_the_memory_are_refused_naming_the_memory(tmp_path):
+    """`features -n 4096` on many curves was a 16 GiB allocation traceback (crossings are counted for 128
+    curves at once over all pairs of points)."""
+    import resource
+
+    t = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    for k in range(20):
+        np.savetxt(tmp_path / f"c{k}.csv", np.column_stack([np.cos(t), (1 + k / 10) * np.sin(t)]), delimiter=",",
+                   header="x,y", comments="")
+    r = _linkedit("features", tmp_path, "-n", 4096, limit=(resource.RLIMIT_AS, 3 << 30))
+    need = 20 * 4096 * 4097 * 13 / 2**30
+    assert _refused_line(r).startswith(f"linkedit: error: --samples: 20 curves of 4,096 points would need about "
+                                       f"{need:.1f} GiB of memory")
+
+
+def test_a_long_csv_is_written_in_pieces(tmp_path, monkeypatch):
+    """`simulate -o o.csv --samples 3000000` hung: the whole table was formatted as text at once (27 GB
+    for 3 million rows). Rows are formatted a chunk at a time: writing takes little more memory than the
+    table of numbers itself (a third of the text's size here; the text at once was 6 times its size),
+    and the file is the same as the text made at once."""
+    import tracemalloc
+
+    from linkedit.io import csv_table
+    from linkedit.io.planar_csv import columns, motion_csv
+    from linkedit.io.planar_out import write_result
+    from linkedit.planar import compile_plan, simulate
+    from linkedit.spec.linkage import LinkageSpec
+    from linkedit.spec.yamlload import load_model
+
+    motion = simulate(compile_plan(load_model(LinkageSpec, EXAMPLES / "jansen.yaml")), 5000)
+    monkeypatch.setattr(csv_table, "CHUNK_ROWS", 100)
+    peaks = []
+    for write in (lambda: columns(motion), lambda: write_result(tmp_path / "o.csv", motion, spec_text="", options={})):
+        tracemalloc.start()
+        write()
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+    text = (tmp_path / "o.csv").read_text()
+    assert peaks[1] < peaks[0] + len(text) / 3, (peaks, len(text))
+    assert text == "".join(motion_csv(motion)) and len(text.splitlines()) == 2 + 5000
+
+
+# --- `linkedit examples DIR`: nothing followed, all or nothing ---------------------------------------
+
+def _planted(tmp_path, kind: str) -> Path:
+    """A DIR for `linkedit examples` with something hostile in it (or as it); returns DIR."""
+    folder = tmp_path / "ex"
+    if kind == "fifo":
+        os.mkfifo(folder)
+        return folder
+    if kind == "dangling":
+        folder.symlink_to(tmp_path / "nowhere")
+        return folder
+    folder.mkdir()
+    if kind == "fifo inside":
+        os.mkfifo(folder / "jansen.yaml")
+    elif kind == "device inside":
+        (folder / "jansen.yaml").symlink_to("/dev/zero")
+    elif kind == "planted link":
+        (folder / "jansen.yaml").symlink_to(tmp_path / "planted.yaml")
+    elif kind == "linked folder":
+        (folder / "3d").symlink_to(tmp_path / "elsewhere")
+    return folder
+
+
+@pytest.mark.parametrize("kind, words", [
+    ("fifo", "ex exists and is not a folder"), ("dangling", "ex is a symbolic link: not followed"),
+    ("fifo inside", "jansen.yaml exists and is not a regular file"),
+    ("device inside", "jansen.yaml is a symbolic link: not followed"),
+    ("planted link", "jansen.yaml is a symbolic link: not followed"),
+    ("linked folder", "3d is a symbolic link: not followed"),
+])
+def test_examples_into_a_hostile_folder_is_one_line_and_follows_nothing(tmp_path, kind, words):
+    """A FIFO hung (read to compare), /dev/zero was a MemoryError, links were followed (creating their
+    target anywhere)."""
+    folder = _planted(tmp_path, kind)
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    line = _refused_line(_linkedit("examples", folder, timeout=30))
+    assert line.startswith("linkedit: error: ") and words in line
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before
+
+
+def test_examples_are_copied_all_or_nothing(tmp_path):
+    """A copy that fails half-way (here the file size limit, as a full disk) leaves no file and no
+    folder it made (it left a partial copy)."""
+    import resource
+
+    r = _linkedit("examples", tmp_path / "new" / "ex", limit=(resource.RLIMIT_FSIZE, 4096))
+    assert r.returncode == 1 and r.stderr.startswith("linkedit: error: file size limit reached writing "), r.stderr
+    assert list(tmp_path.iterdir()) == []
+    assert _linkedit("examples", tmp_path / "ex").returncode == 0
+    assert _linkedit("examples", tmp_path / "ex").returncode == 0  # the same files again: nothing differs
+
+
+def test_a_result_updated_in_place_by_another_process_is_refused(run_cli, tmp_path, gcs_result, monkeypatch):
+    """Two `solve3d --from R.h5` updating R.h5 at once lost one update: the second waits for the lock
+    (here 0.2 s), then is refused naming the holder; R.h5 is untouched, and the lock is free afterwards."""
+    from linkedit.io import atomic
+
+    path = tmp_path / "g.h5"
+    shutil.copy(gcs_result, path)
+    before = path.read_bytes()
+    monkeypatch.setattr(atomic, "LOCK_WAIT", 0.2)
+    with atomic.locked(path):
+        line = _one_line(run_cli("solve3d", "--from", path, "--track", "p=coupler:1,0,0"), 2)
+    assert line == f"linkedit: error: {path}: another linkedit process (pid {os.getpid()}) is updating it; " \
+                   "try again when it has finished"
+    assert path.read_bytes() == before
+    assert run_cli("solve3d", "--from", path, "--track", "p=coupler:1,0,0").exit_code == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["g.h5"]

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import json
+import os
 
 import h5py
 import numpy as np
 import pytest
 
 from linkedit.curves.efd import efd_coefficients, normalize_efd, polyline_efd
+from linkedit.errors import InputError
 from linkedit.planar import compile_plan, simulate
 from linkedit.synthesis import atlas, fourbar
 from linkedit.synthesis.index import Index, target_variants
@@ -235,6 +237,112 @@ def test_dask_tasks_are_runs_of_consecutive_chunks():
         tasks = atlas.dask_tasks(jobs, threads)
         assert sum(tasks, []) == jobs and {len(task) for task in tasks[:-1]} == {per_task}
     assert atlas.dask_tasks(jobs[:1], 2) == [jobs[:1]] and atlas.dask_tasks([], 2) == []
+
+
+def _refused(result, code: int, tmp_path) -> str:
+    """The one stderr line of a refused build, after checking that it wrote nothing."""
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == code and len(lines) == 1 and "Traceback" not in result.output, result.output
+    assert list(tmp_path.iterdir()) == []
+    return lines[0]
+
+
+def _build(run_cli, tmp_path, *args):
+    return run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", tmp_path / "a.h5", *args)
+
+
+@pytest.mark.parametrize("address, words", [
+    ("not-an-address", "expected tcp://HOST:PORT"), ("", "expected tcp://HOST:PORT"),
+    ("tcp://host:", "expected tcp://HOST:PORT"), ("tcp://host:70000", "a port 1..65535"),
+    ("inproc://10.0.0.1/1/1", "inproc:// is not"), ("tls://127.0.0.1:8786", "needs Dask's TLS settings"),
+])
+def test_a_bad_scheduler_address_is_one_line_exit_2(run_cli, tmp_path, address, words):
+    """They were tracebacks (missing port number, an unpack error, TLS expects a ssl_context), and ''
+    started a local cluster."""
+    pytest.importorskip("dask.distributed")
+    line = _refused(_build(run_cli, tmp_path, "--scheduler", address), 2, tmp_path)
+    assert line.startswith("linkedit: error: --scheduler: ") and words in line
+
+
+@pytest.fixture
+def server():
+    """A TCP server on 127.0.0.1 that accepts connections and sends ``greeting`` (b"": nothing), never more."""
+    import socket
+    import threading
+
+    made = []
+
+    def serve(greeting: bytes) -> str:
+        listener = socket.socket()
+        listener.bind(("127.0.0.1", 0))
+        listener.listen(8)
+        made.append(listener)
+
+        def answer() -> None:
+            while True:
+                try:
+                    conn, _ = listener.accept()
+                except OSError:  # closed at the end of the test
+                    return
+                made.append(conn)
+                conn.sendall(greeting)
+
+        threading.Thread(target=answer, daemon=True).start()
+        return f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+
+    yield serve
+    for sock in made:
+        sock.close()
+
+
+@pytest.mark.parametrize("greeting, words", [(b"", "no answer within 1 s (--connect-timeout)"),
+                                             (b"SSH-2.0-OpenSSH_9.6\r\n" * 4, "is not a Dask scheduler")])
+def test_a_scheduler_that_does_not_answer_is_one_line_exit_1(run_cli, tmp_path, server, greeting, words):
+    """A server that accepts and never answers hung the build forever (Dask's handshake waits without a
+    timeout) with its .part behind; one that answers in another protocol was a 2.8 EiB allocation."""
+    import time
+
+    pytest.importorskip("dask.distributed")
+    start = time.perf_counter()
+    line = _refused(_build(run_cli, tmp_path, "--scheduler", server(greeting), "--connect-timeout", "1"), 1, tmp_path)
+    assert words in line and time.perf_counter() - start < 4
+
+
+def test_a_worker_address_is_not_a_scheduler(run_cli, tmp_path, cluster):
+    worker = next(iter(cluster.scheduler_info["workers"]))
+    assert "a Dask Worker is not a Dask scheduler" in _refused(_build(run_cli, tmp_path, "--scheduler", worker), 1,
+                                                               tmp_path)
+
+
+def test_seeds_beyond_64_bits_and_atlases_beyond_the_disk_are_refused(run_cli, tmp_path):
+    """--seed 2**64 was `TypeError: Object dtype has no native HDF5 equivalent`; -n 10**12 ran until a
+    MemoryError (the chunk list alone) or a full disk."""
+    assert "--seed: must be ≤ 9223372036854775807" in _refused(_build(run_cli, tmp_path, "--seed", 2**64), 2, tmp_path)
+    with pytest.raises(InputError, match="--seed"):
+        atlas.build(tmp_path / "a.h5", ["four-bar"], 10, seed=2**64)
+    line = _refused(run_cli("atlas", "build", "--family", "four-bar", "-n", 10**12, "-o", tmp_path / "a.h5"), 2,
+                    tmp_path)
+    need = 10**12 * atlas.stored_bytes("four-bar") / 2**30
+    assert line.startswith("linkedit: error: --count: 1,000,000,000,000 linkages would need about ")
+    assert f"{need:,.1f} GiB of disk" in line and atlas.stored_bytes("four-bar") == 6 * 8 + 8 + 29 * 4 + 32 * 2 * 4
+
+
+def test_an_atlas_being_appended_to_is_not_appended_to_again(run_cli, tmp_path, monkeypatch):
+    """Two appends at once lost one or corrupted the file: the second waits for the lock (here 0.2 s),
+    then is refused naming the process holding it, and the atlas is untouched."""
+    from linkedit.io import atomic
+
+    out = tmp_path / "a.h5"
+    assert run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", out).exit_code == 0
+    before = out.read_bytes()
+    monkeypatch.setattr(atomic, "LOCK_WAIT", 0.2)
+    with atomic.locked(out):
+        r = run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", out)
+    assert r.exit_code == 2 and r.output.strip() == (f"linkedit: error: {out}: another linkedit process "
+                                                     f"(pid {os.getpid()}) is updating it; try again when it has finished")
+    assert out.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["a.h5"]
+    assert run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", out).exit_code == 0  # released
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.h5"] and h5py.File(out)["families/four-bar/params"].shape[0] == 20
 
 
 @pytest.mark.parametrize("name", ["jansen", "klann", "watt", "stephenson"])

@@ -54,9 +54,25 @@ def _load(inputs: list[str], closed: bool | None, samples: int | None, harmonics
         curves = load_inputs(inputs, closed=closed, skip=skip)
         if not curves:
             raise InputError("no curve could be read", field="INPUT")
+    _check_memory(len(curves), samples or DEFAULT_SAMPLES)
     desc = describe_curves(curves, samples=samples or DEFAULT_SAMPLES, harmonics=harmonics or DEFAULT_HARMONICS,
                            anchor=_anchor(anchor), smooth=smooth)
     return curves, desc
+
+
+#: Bytes per curve and pair of resampled points while crossings are counted (a float64 product and
+#: four boolean arrays, :func:`linkedit.curves.features.self_intersections`).
+CROSSING_BYTES = 8 + 5
+
+
+def _check_memory(count: int, samples: int) -> None:
+    """InputError (exit 2) if describing ``count`` curves of ``samples`` points would not fit in memory:
+    crossings are counted for up to ``CROSSING_BLOCK`` curves at once, each over all pairs of points."""
+    from linkedit.curves.features import CROSSING_BLOCK
+    from linkedit.resources import require_memory
+
+    require_memory(min(count, CROSSING_BLOCK) * samples * (samples + 1) * CROSSING_BYTES,
+                   f"{count:,} curves of {samples:,} points", field="--samples")
 
 
 def _feature_rows(curves: list, desc: Any) -> list[dict[str, Any]]:

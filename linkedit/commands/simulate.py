@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import sys
 from enum import Enum
 from pathlib import Path
@@ -260,30 +259,15 @@ BYTES_PER_SAMPLE_JOINT = 2 * 3 * 8 * 8
 
 
 def check_memory(samples: int | None, spec: Any, path: Path) -> None:
-    """InputError (exit 2) if ``samples`` samples of ``spec`` would not fit in the memory available."""
+    """InputError (exit 2) if ``samples`` samples of ``spec`` would not fit in the memory available
+    (:func:`linkedit.resources.require_memory`: cgroup and ``ulimit -v`` limits included)."""
     from linkedit.planar.simulate import DEFAULT_SAMPLES
+    from linkedit.resources import require_memory
 
     count = samples or spec.samples or DEFAULT_SAMPLES
-    need = count * len(spec.joints) * BYTES_PER_SAMPLE_JOINT
-    have = _available_memory()
-    if need > have:
-        where: dict[str, Any] = {"field": "--samples"} if samples else {"file": str(path), "field": "samples"}
-        gib = need / 2**30
-        raise InputError(f"{count:,} samples of {len(spec.joints)} joints need about "
-                         f"{f'{gib:,.1f}' if gib < 1e6 else f'{gib:.1e}'} GiB; {have / 2**30:,.1f} GiB are available",
-                         **where)
-
-
-def _available_memory() -> int:
-    """Bytes of memory available to this process (MemAvailable on Linux, else the physical memory)."""
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    where: dict[str, Any] = {"field": "--samples"} if samples else {"file": str(path), "field": "samples"}
+    require_memory(count * len(spec.joints) * BYTES_PER_SAMPLE_JOINT, f"{count:,} samples of {len(spec.joints)} joints",
+                   **where)
 
 
 def _progress(total: int):

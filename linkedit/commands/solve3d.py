@@ -152,6 +152,10 @@ def register(app: typer.Typer) -> None:
             ignored = [option for option, on in given.items() if on]
             if ignored:
                 raise InputError(f"nothing is solved with --from: drop {', '.join(ignored)}", field="--from")
+            if output is None:  # read and replaced in place: under its lock until the rename
+                from linkedit.io.atomic import hold
+
+                hold(source)
             res = read_result(source)
             out = output or source
         else:

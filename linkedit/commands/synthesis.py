@@ -48,9 +48,12 @@ def register(app: typer.Typer) -> None:
         family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, slider-crank, jansen, klann, watt, stephenson."),
         count: int = typer.Option(..., "-n", "--count", min=1, help="Linkages to add per family."),
         output: Path = typer.Option(..., "-o", "--output", help="Atlas file (.h5); an existing one is appended to."),
-        seed: int = typer.Option(1, "--seed", min=0, help="Seed of the chunks (an atlas keeps its seed)."),
+        seed: int = typer.Option(1, "--seed", min=0, max=2**63 - 1, help="Seed of the chunks (an atlas keeps its seed)."),
         scheduler: str = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786): build there."),
         workers: int = typer.Option(None, "--workers", min=1, help="Build on a local Dask cluster of N worker processes."),
+        connect_timeout: float = typer.Option(10.0, "--connect-timeout", metavar="SECONDS", min=0.1, max=3600.0,
+                                              help="Seconds the --scheduler has to answer (and its first worker to join)."),
+        verbose: bool = typer.Option(False, "--verbose", help="Show Dask's own log lines (--scheduler, --workers)."),
         as_json: bool = JSON,
         quiet: bool = QUIET,
     ) -> None:
@@ -64,7 +67,7 @@ def register(app: typer.Typer) -> None:
         names = _families(family)
         start = time.perf_counter()
         counts = build_atlas(output, names, count, seed=seed, scheduler=scheduler, workers=workers,
-                             progress=_Progress(live=not quiet))
+                             connect_timeout=connect_timeout, verbose=verbose, progress=_Progress(live=not quiet))
         seconds = time.perf_counter() - start
         report({"output": str(output), "families": dict(counts), "linkages": count * len(names), "seconds": seconds})
         say(f"{count * len(names):,} linkages in {seconds:.2f} s ({count * len(names) / seconds:,.0f} "
@@ -88,7 +91,7 @@ def register(app: typer.Typer) -> None:
         margin: float = typer.Option(20.0, "--margin", metavar="DEG", min=1.0, max=60.0,
                                      help="Transmission band [DEG, 180° − DEG] every candidate and the result keep "
                                           "(d_s ≥ sin² DEG); below the atlas's 20° trades transmission for accuracy."),
-        seed: int = typer.Option(1, "--seed", min=0, help="Recorded with the result (the search is deterministic)."),
+        seed: int = typer.Option(1, "--seed", min=0, max=2**63 - 1, help="Recorded with the result (the search is deterministic)."),
         units: str = typer.Option(None, "--units", help="The target's length units, written into the result "
                                                         "[default: the target's own (a CSV header's `x (m)`, a "
                                                         "result's or curve set's units), else mm]."),

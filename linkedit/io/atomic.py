@@ -7,7 +7,8 @@ appear together or not at all. Only regular files (or new paths) are ever replac
 node, a FIFO or a folder at the target is an error, not something to rename over.
 
 Temporary files are named ``.<name>.<pid>.<random>.part``; one whose process is gone (SIGKILL,
-power loss) is removed by the next write to the same target. A write that fails (a full disk: ENOSPC,
+power loss) is removed by the next write to the same target. A file read and replaced (an atlas
+appended to, a result updated in place) is locked meanwhile (:func:`locked`, :func:`hold`). A write that fails (a full disk: ENOSPC,
 EFBIG past the file size limit) raises an OSError naming the target, not its temporary file.
 """
 
@@ -19,15 +20,21 @@ import errno
 import os
 import signal
 import stat
+import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
+from typing import Any
 
 #: errno of a write that failed for want of room → what the one-line error says ("… writing FILE")
 DISK_FULL = {errno.ENOSPC: "no space left", errno.EFBIG: "file size limit reached", errno.EDQUOT: "disk quota exceeded"}
 
 #: (temporary, target) renames waiting for the innermost :func:`together` block to succeed.
 _PENDING: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar("pending", default=None)
+#: releases of the :func:`locked` targets held until the outermost :func:`together` block ends.
+_HELD: contextvars.ContextVar[list[Callable[[], None]] | None] = contextvars.ContextVar("held", default=None)
+#: Seconds a writer waits for another process's lock on the same target before it gives up.
+LOCK_WAIT = 2.0
 
 
 def check_target(target: str | Path) -> None:
@@ -61,17 +68,24 @@ def together() -> Iterator[None]:
     pending: list[tuple[Path, Path]] = []
     outer = _PENDING.get()
     token = _PENDING.set(pending)
+    held = _HELD.set([]) if outer is None else None
     try:
-        yield
-    except BaseException:
-        _discard(pending)
-        raise
+        try:
+            yield
+        except BaseException:
+            _discard(pending)
+            raise
+        finally:
+            _PENDING.reset(token)
+        if outer is not None:
+            outer.extend(pending)
+            return
+        _commit(pending)
     finally:
-        _PENDING.reset(token)
-    if outer is not None:
-        outer.extend(pending)
-        return
-    _commit(pending)
+        if held is not None:  # the locks of the block's in-place updates, after their renames
+            for release in reversed(_HELD.get() or []):
+                release()
+            _HELD.reset(held)
 
 
 def commit() -> None:
@@ -128,10 +142,89 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
             _discard([(tmp, target)])
 
 
-def write_text(target: str | Path, text: str) -> None:
-    """Write a text file atomically."""
-    with atomic_path(target) as tmp:
-        tmp.write_text(text, encoding="utf-8")
+@contextlib.contextmanager
+def locked(target: str | Path, wait: float | None = None) -> Iterator[None]:
+    """Hold ``target`` for a read-modify-write (an atlas appended to, a result updated in place): an
+    exclusive ``flock`` on ``.<name>.lock`` beside it, which records the holder's process ID. Another
+    process holding it is waited for ``wait`` seconds (:data:`LOCK_WAIT`), then InputError (exit 2) naming it. Inside
+    :func:`together` the lock is kept until the block's renames are done (an update is read and
+    replaced under one lock); the lock file is removed when released.
+    """
+    if _HELD.get() is not None:
+        hold(target, wait)
+        yield
+        return
+    release = _lock(Path(target), LOCK_WAIT if wait is None else wait)
+    try:
+        yield
+    finally:
+        release()
+
+
+def hold(target: str | Path, wait: float | None = None) -> None:
+    """Take ``target``'s lock (see :func:`locked`) until the enclosing :func:`together` block has
+    renamed its writes: for a command that reads a file and replaces it (``solve3d --from R.h5``)."""
+    held = _HELD.get()
+    if held is None:
+        raise RuntimeError("hold() needs an enclosing together() block")
+    held.append(_lock(Path(target), LOCK_WAIT if wait is None else wait))
+
+
+def _lock(target: Path, wait: float) -> Callable[[], None]:
+    """Take the lock of :func:`locked`; return its release."""
+    import fcntl
+    import time
+
+    from linkedit.errors import InputError
+
+    check_target(target)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(target)) from None
+    path = target.parent / f".{target.name}.lock"
+    deadline = time.monotonic() + wait
+    while True:
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o666)
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(target)) from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip()
+            os.close(fd)
+            if time.monotonic() >= deadline:
+                raise InputError(f"another linkedit process ({f'pid {holder}' if holder.isdigit() else 'unknown'}) "
+                                 "is updating it; try again when it has finished", file=str(target)) from None
+            time.sleep(0.05)
+            continue
+        if _same_file(fd, path):  # else its holder removed it while we waited: lock the new one
+            break
+        os.close(fd)
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+
+    def release() -> None:
+        with contextlib.suppress(OSError):
+            os.unlink(path)
+        os.close(fd)
+
+    return release
+
+
+def _same_file(fd: int, path: Path) -> bool:
+    try:
+        here, there = os.fstat(fd), os.stat(path, follow_symlinks=False)
+    except OSError:
+        return False
+    return (here.st_dev, here.st_ino) == (there.st_dev, there.st_ino)
+
+
+def write_text(target: str | Path, text: str | Iterable[str]) -> None:
+    """Write a text file atomically: one string, or its pieces in order (a long table, never held whole)."""
+    with atomic_path(target) as tmp, open(tmp, "w", encoding="utf-8") as fh:
+        fh.writelines([text] if isinstance(text, str) else text)
 
 
 class Interrupted(KeyboardInterrupt):
@@ -153,7 +246,8 @@ class _Signals:
 def interruptible() -> Iterator[None]:
     """Inside the block SIGINT and SIGTERM raise :class:`Interrupted` (a KeyboardInterrupt), so temporary
     files are cleaned up, and are remembered: one whose exception a finalizer swallowed ("Exception
-    ignored", e.g. while h5py frees an object) is raised again by :func:`check_interrupt`. A signal
+    ignored", e.g. while h5py frees an object or in a garbage collector callback) is raised again by
+    :func:`check_interrupt`, without Python's "Exception ignored" traceback on stderr. A signal
     ignored when the block starts stays ignored; the previous handlers are restored after the block."""
 
     def handler(signum: int, frame: object) -> None:
@@ -168,9 +262,17 @@ def interruptible() -> Iterator[None]:
         yield
         return
     _Signals.received.clear()
+    unraisable = sys.unraisablehook
+
+    def quiet(info: Any) -> None:  # "Exception ignored in …" with its traceback: the signal is recorded
+        if not isinstance(info.exc_value, Interrupted):
+            unraisable(info)
+
+    sys.unraisablehook = quiet
     try:
         yield
     finally:
+        sys.unraisablehook = unraisable
         for sig, old in previous.items():
             signal.signal(sig, old)
         _Signals.received.clear()  # handled by now (the Interrupted exception carries the signal)
@@ -211,10 +313,14 @@ def _discard(pending: list[tuple[Path, Path]]) -> None:
 
 
 def _remove_stale(target: Path) -> None:
-    """Remove temporary files of ``target`` left by linkedit processes that no longer exist."""
+    """Remove temporary files of ``target`` left by linkedit processes that no longer run."""
     for part in target.parent.glob(f".{_glob_escape(target.name)}.*.part"):
         pid = part.name[len(target.name) + 2:].split(".", 1)[0]
-        if pid.isdigit() and not _alive(int(pid)):
+        try:
+            changed = part.stat().st_mtime
+        except OSError:
+            continue
+        if pid.isdigit() and not _running_since(int(pid), changed):
             with contextlib.suppress(OSError):
                 part.unlink()
 
@@ -224,11 +330,22 @@ def _glob_escape(name: str) -> str:
     return "".join(f"[{c}]" if c in "*?[" else c for c in name)
 
 
-def _alive(pid: int) -> bool:
+def _running_since(pid: int, when: float) -> bool:
+    """Whether process ``pid`` runs and already ran at ``when`` (a time its temporary file changed): a
+    killed process not yet reaped (a zombie) does not run, and a later process given the same number
+    started after its file last changed."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:
+        pass
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            fields = fh.read().rsplit(")", 1)[1].split()
+        with open("/proc/stat") as fh:
+            boot = next(float(line.split()[1]) for line in fh if line.startswith("btime "))
+    except (OSError, IndexError, StopIteration, ValueError):  # no /proc (not Linux): trust kill(pid, 0)
         return True
-    return True
+    started = boot + int(fields[19]) / os.sysconf("SC_CLK_TCK")  # field 22 of stat: start time, clock ticks after boot
+    return fields[0] not in ("Z", "X") and started <= when + 1.0  # btime has whole seconds

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import csv
 import io
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 
 import numpy as np
 
@@ -61,8 +61,14 @@ def _cell(value: Cell) -> str:
     return repr(float(value)) if np.isfinite(value) else ""
 
 
-def csv_text(header: Sequence[str], rows: Iterable[Sequence[Cell]] | np.ndarray, *, comment: str | None = None) -> str:
-    """The CSV text of a table (see the module docstring).
+#: rows formatted at a time: a long table (``simulate --samples 3000000 -o o.csv``) is written in pieces,
+#: never held as text all at once
+CHUNK_ROWS = 10_000
+
+
+def csv_chunks(header: Sequence[str], rows: Iterable[Sequence[Cell]] | np.ndarray, *,
+               comment: str | None = None) -> Iterator[str]:
+    """The CSV text of a table (see the module docstring) in pieces of :data:`CHUNK_ROWS` rows.
 
     ``rows``: a (rows, columns) float array, or rows of cells (str: text; bool, int, float: numbers;
     None: empty). ``comment``: a first line ``# comment`` (units, provenance).
@@ -73,7 +79,16 @@ def csv_text(header: Sequence[str], rows: Iterable[Sequence[Cell]] | np.ndarray,
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(header_cells(header))
     if isinstance(rows, np.ndarray):
-        writer.writerows(number_cells(rows))
+        for start in range(0, len(rows), CHUNK_ROWS):
+            writer.writerows(number_cells(rows[start:start + CHUNK_ROWS]))
+            yield out.getvalue()
+            out.seek(0)
+            out.truncate()
     else:
         writer.writerows([_cell(v) for v in row] for row in rows)
-    return out.getvalue()
+    yield out.getvalue()
+
+
+def csv_text(header: Sequence[str], rows: Iterable[Sequence[Cell]] | np.ndarray, *, comment: str | None = None) -> str:
+    """The CSV text of a table at once (see :func:`csv_chunks`)."""
+    return "".join(csv_chunks(header, rows, comment=comment))

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 
 from linkedit.errors import InputError
@@ -60,8 +61,9 @@ def require(kind: str, path: str | Path) -> None:
                          f"pip install 'linkedit[{extra}]'", file=str(path)) from None
 
 
-def write_out(path: str | Path, text: str) -> None:
-    """Write text to ``path`` atomically, or to standard output for ``-`` (UTF-8).
+def write_out(path: str | Path, text: str | Iterable[str]) -> None:
+    """Write text (one string, or its pieces in order) to ``path`` atomically, or to standard output for
+    ``-`` (UTF-8).
 
     Every byte must reach standard output: a failed write (a full disk behind ``> file``) is an
     OSError naming ``standard output`` (Python's buffered stdout dropped a short write's rest silently).
@@ -69,18 +71,20 @@ def write_out(path: str | Path, text: str) -> None:
     if not is_stdout(path):
         write_text(path, text)
         return
+    pieces = [text] if isinstance(text, str) else text
     sys.stdout.flush()
     try:
         fd = sys.stdout.fileno()
     except (AttributeError, ValueError, OSError):  # not a file (a test's captured stdout)
-        sys.stdout.write(text)
+        sys.stdout.writelines(pieces)
         sys.stdout.flush()
         return
-    data = memoryview(text.encode("utf-8"))
-    try:
-        while data:
-            data = data[os.write(fd, data):]
-    except BrokenPipeError:
-        raise
-    except OSError as exc:
-        raise OSError(exc.errno, exc.strerror, "standard output") from None
+    for piece in pieces:
+        data = memoryview(piece.encode("utf-8"))
+        try:
+            while data:
+                data = data[os.write(fd, data):]
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, "standard output") from None

@@ -12,10 +12,12 @@ prefixes neutralized, 17 significant digits); samples where the linkage does not
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 
 from linkedit import __version__
-from linkedit.io.csv_table import csv_text
+from linkedit.io.csv_table import csv_chunks
 from linkedit.planar.simulate import Motion
 
 
@@ -50,8 +52,8 @@ def columns(motion: Motion) -> tuple[list[str], np.ndarray]:
     return names, table
 
 
-def motion_csv(motion: Motion) -> str:
-    """The CSV text of ``motion`` (see module docstring)."""
+def motion_csv(motion: Motion) -> Iterator[str]:
+    """The CSV text of ``motion`` (see module docstring), in pieces of rows (:func:`csv_chunks`)."""
     units = motion.plan.spec.units
     names, table = columns(motion)
     if motion.plan.linear:
@@ -60,4 +62,4 @@ def motion_csv(motion: Motion) -> str:
         what = "t the motor phase (0..1: a revolution, or the sweep), motor_angle_deg in degrees"
     per = units if motion.plan.linear else "rad"
     what += f", positions in {units}, velocities in {units}/{per}"
-    return csv_text(names, table, comment=f"linkedit {__version__} planar result {motion.plan.spec.name}: {what}")
+    return csv_chunks(names, table, comment=f"linkedit {__version__} planar result {motion.plan.spec.name}: {what}")

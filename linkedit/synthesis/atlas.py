@@ -11,9 +11,12 @@ equals one built at once. Layout: ``specs/atlas-hdf5.md``.
 
 from __future__ import annotations
 
+import contextlib
 import json
+import logging
 import os
 import shutil
+import sys
 import time
 from collections import deque
 from collections.abc import Callable, Iterator
@@ -25,10 +28,11 @@ import numpy as np
 
 from linkedit import __version__
 from linkedit.curves.efd import polyline_efd
-from linkedit.errors import InputError
-from linkedit.io.atomic import atomic_path, deferred_interrupts
+from linkedit.errors import InputError, LinkeditError
+from linkedit.io.atomic import atomic_path, deferred_interrupts, locked
 from linkedit.io.hdf5 import writing
 from linkedit.planar.feasibility import works
+from linkedit.resources import require_disk
 from linkedit.synthesis.families import family
 
 FORMAT_VERSION = "1"
@@ -42,6 +46,8 @@ COARSE_STEP = 2
 HARMONICS = 8
 #: Linkages evaluated together inside a chunk (their working arrays stay in the CPU cache).
 BLOCK = 1024
+#: Seconds a Dask scheduler has to answer (``--connect-timeout``).
+CONNECT_TIMEOUT = 10.0
 
 
 def index_vector(efd: np.ndarray) -> np.ndarray:
@@ -113,34 +119,166 @@ def dask_tasks(jobs: list[tuple[int, int]], threads: int) -> list[list[tuple[int
 
 
 def run_chunks(name: str, seed: int, jobs: list[tuple[int, int]], *, scheduler: str | None = None,
-               workers: int | None = None) -> Iterator[tuple[int, Chunk]]:
-    """Chunks in order of ``jobs``: in-process, or on Dask (``scheduler`` address, or a local
-    cluster of ``workers`` processes); results are the same either way."""
+               workers: int | None = None, connect_timeout: float = CONNECT_TIMEOUT,
+               verbose: bool = False) -> Iterator[tuple[int, Chunk]]:
+    """Chunks in order of ``jobs``: in-process, or on Dask (see :func:`chunk_runner`); results are the
+    same either way."""
+    with chunk_runner(scheduler, workers, connect_timeout=connect_timeout, verbose=verbose) as run:
+        yield from run(name, seed, jobs)
+
+
+#: builds chunks ``jobs`` of family ``name`` from ``seed``: (index, chunk) in order of ``jobs``
+Runner = Callable[[str, int, list[tuple[int, int]]], Iterator[tuple[int, Chunk]]]
+
+
+@contextlib.contextmanager
+def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
+                 connect_timeout: float = CONNECT_TIMEOUT, verbose: bool = False) -> Iterator[Runner]:
+    """Where chunks are built for the block: in-process, on the Dask scheduler at ``scheduler`` (checked
+    by :func:`scheduler_address` and :func:`probe`: a ClusterError when it does not answer within
+    ``connect_timeout`` seconds) or on a local cluster of ``workers`` processes, closed with the block.
+    Dask's own log lines stay off the terminal unless ``verbose``."""
     if scheduler is None and not workers:
-        for index, size in jobs:
-            yield index, build_chunk(name, seed, index, size)
+        yield lambda name, seed, jobs: ((index, build_chunk(name, seed, index, size)) for index, size in jobs)
         return
     try:
         from dask.distributed import Client
     except ImportError:
         raise InputError("the Dask path needs dask.distributed: pip install 'linkedit[cluster]'",
-                         field="--scheduler" if scheduler else "--workers") from None
-    cluster = None if scheduler else local_cluster(workers or 1)
+                         field="--scheduler" if scheduler is not None else "--workers") from None
+    with dask_logs(verbose):
+        address = None
+        if scheduler is not None:
+            address = scheduler_address(scheduler)
+            probe(address, connect_timeout)
+        cluster = None if address is not None else local_cluster(workers or 1, verbose=verbose)
+        try:
+            with Client(address or cluster, timeout=connect_timeout) as client:
+                nthreads = _workers_of(client, connect_timeout)
+                # results come straight from the workers when one of them can be reached (relayed by the
+                # scheduler, they cost twice the CPU); each is released once read, so the workers hold
+                # only the results not yet written
+                first = next(iter(nthreads), None)
+                direct = cluster is not None or (first is not None and reaches(client, first))
+
+                def run(name: str, seed: int, jobs: list[tuple[int, int]]) -> Iterator[tuple[int, Chunk]]:
+                    tasks = dask_tasks(jobs, sum(nthreads.values()))
+                    futures = deque(client.submit(build_chunks, name, seed, task, pure=True) for task in tasks)
+                    for task in tasks:
+                        yield from zip([index for index, _ in task], client.gather(futures.popleft(), direct=direct))
+
+                yield run
+        finally:
+            if cluster is not None:
+                cluster.close()
+
+
+class ClusterError(LinkeditError):
+    """The Dask scheduler cannot be reached, does not answer, or has no workers (exit 1)."""
+
+
+#: Address schemes ``--scheduler`` takes (``inproc://`` lives inside one process; ``ucx://`` needs UCX).
+SCHEMES = ("tcp", "tls")
+
+
+def scheduler_address(text: str) -> str:
+    """``text`` as a Dask scheduler address ``tcp://HOST:PORT`` (``HOST:PORT`` means tcp); InputError
+    (exit 2) for anything else, and for ``tls://`` without Dask's TLS settings."""
+    scheme, sep, rest = text.strip().partition("://")
+    if not sep:
+        scheme, rest = "tcp", text.strip()
+    host, colon, port = rest.rpartition(":")
+    if scheme not in SCHEMES:
+        raise InputError(f"{text!r}: {scheme}:// is not a scheduler address linkedit can reach "
+                         "(tcp://HOST:PORT or tls://HOST:PORT)", field="--scheduler")
+    if not colon or not host.strip("[]") or not port.isdigit() or not 0 < int(port) < 65536 or \
+            any(c.isspace() or c in "/?#@" for c in host):
+        raise InputError(f"{text!r}: expected tcp://HOST:PORT (a port 1..65535), e.g. tcp://10.0.0.5:8786",
+                         field="--scheduler")
+    if scheme == "tls":
+        from distributed.security import Security
+
+        if Security().get_connection_args("client").get("ssl_context") is None:
+            raise InputError(f"{text!r}: tls:// needs Dask's TLS settings (distributed.comm.tls.ca-file, "
+                             "distributed.comm.tls.client.cert and .key in the Dask config or environment)",
+                             field="--scheduler")
+    return f"{scheme}://{host}:{int(port)}"
+
+
+def probe(address: str, timeout: float) -> None:
+    """ClusterError unless a Dask scheduler answers at ``address`` within ``timeout`` seconds in all
+    (Dask's own connect waits forever for a server that accepts and never answers)."""
+    import asyncio
+    import threading
+
+    from distributed.comm import connect
+    from distributed.core import send_recv
+    from distributed.security import Security
+
+    async def ask() -> object:
+        comm = await connect(address, timeout=timeout, **Security().get_connection_args("client"))
+        try:
+            return await send_recv(comm, op="identity")
+        finally:
+            comm.abort()
+
+    outcome: dict[str, object] = {}
+
+    def run() -> None:  # a thread of its own: the caller may run an event loop (a notebook)
+        try:
+            outcome["reply"] = asyncio.run(asyncio.wait_for(ask(), timeout))
+        except BaseException as exc:  # noqa: BLE001 - whatever answered there, reported below
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=run, name="linkedit-dask-probe", daemon=True)
+    thread.start()
+    thread.join(timeout + 5.0)
+    error, reply = outcome.get("error"), outcome.get("reply")
+    if "reply" not in outcome and (error is None or isinstance(error, (asyncio.TimeoutError, TimeoutError))):
+        raise ClusterError(f"--scheduler {address}: no answer within {timeout:g} s (--connect-timeout)")
+    if isinstance(error, OSError):  # refused, unreachable, a TLS handshake that failed
+        reason = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise ClusterError(f"--scheduler {address}: cannot connect ({reason})")
+    # else an answer in another protocol (its first bytes read as a frame length of exabytes), or a worker
+    if error is not None or not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        what = reply.get("type") if isinstance(reply, dict) else None
+        raise ClusterError(f"--scheduler {address}: {f'a Dask {what}' if what else 'what answers'} is not a Dask "
+                           "scheduler")
+
+
+def _workers_of(client, timeout: float) -> dict[str, int]:
+    """Threads per worker of ``client``'s cluster, once there is one (ClusterError after ``timeout`` s)."""
+    nthreads = client.nthreads()
+    if not nthreads:
+        try:
+            client.wait_for_workers(1, timeout=timeout)
+        except Exception:  # a timeout (or the scheduler going away meanwhile)
+            raise ClusterError(f"--scheduler {client.scheduler.address}: no worker joined within {timeout:g} s "
+                               "(start workers with `dask worker ADDRESS`)") from None
+        nthreads = client.nthreads()
+    return nthreads
+
+
+#: loggers whose lines Dask, tornado and asyncio print while a cluster starts, works and stops
+DASK_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+@contextlib.contextmanager
+def dask_logs(verbose: bool) -> Iterator[None]:
+    """Dask's log lines (worker warnings, "Task exception was never retrieved" at an interrupt) off the
+    terminal inside the block unless ``verbose``: linkedit reports what went wrong in one line."""
+    if verbose:
+        yield
+        return
+    loggers = [logging.getLogger(name) for name in DASK_LOGGERS]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL + 1)
     try:
-        with Client(scheduler or cluster) as client:
-            nthreads = client.nthreads()
-            # results come straight from the workers when one of them can be reached (relayed by the
-            # scheduler, they cost twice the CPU); each is released once read, so the workers hold
-            # only the results not yet written
-            first = next(iter(nthreads), None)
-            direct = cluster is not None or (first is not None and reaches(client, first))
-            tasks = dask_tasks(jobs, sum(nthreads.values()))
-            futures = deque(client.submit(build_chunks, name, seed, task, pure=True) for task in tasks)
-            for task in tasks:
-                yield from zip([index for index, _ in task], client.gather(futures.popleft(), direct=direct))
+        yield
     finally:
-        if cluster is not None:
-            cluster.close()
+        for logger, level in zip(loggers, levels):
+            logger.setLevel(level)
 
 
 def reaches(client, address: str, timeout: float = 2.0) -> bool:
@@ -173,31 +311,79 @@ WORKER_MALLOC = {"MALLOC_TRIM_THRESHOLD_": 1 << 30, "MALLOC_MMAP_THRESHOLD_": 1 
 LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s"}
 
 
-def local_cluster(workers: int):
+def local_cluster(workers: int, verbose: bool = True):
     """A local Dask cluster of ``workers`` single-threaded processes, with :data:`WORKER_MALLOC`
-    in their environment and :data:`LOCAL_CLUSTER_CONFIG`."""
+    in their environment and :data:`LOCAL_CLUSTER_CONFIG`; its processes print nothing unless ``verbose``.
+    The workers are child processes that end with this one (Dask's nannies watch their parent)."""
     import dask
     from dask.distributed import LocalCluster
 
     environ = {f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_MALLOC.items()}
-    with dask.config.set({**environ, **LOCAL_CLUSTER_CONFIG}):
+    with dask.config.set({**environ, **LOCAL_CLUSTER_CONFIG}), contextlib.nullcontext() if verbose else _no_stderr():
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
 
 
+@contextlib.contextmanager
+def _no_stderr() -> Iterator[None]:
+    """File descriptor 2 on /dev/null inside the block: processes started there (Dask's workers and
+    multiprocessing's resource tracker) print nothing on the terminal, whenever they stop."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(null)
+
+
+#: Largest seed: the generators take any integer ≥ 0, the atlas stores it as a signed 64-bit attribute.
+MAX_SEED = 2**63 - 1
+
+
+def stored_bytes(name: str) -> int:
+    """Bytes one linkage of family ``name`` takes in an atlas (uncompressed; see :func:`_family_group`)."""
+    return 8 * len(family(name).PARAMETERS) + 8 + 4 * (4 * HARMONICS - 3) + 4 * 2 * (SAMPLES // COARSE_STEP)
+
+
 def build(path: str | Path, names: list[str], count: int, *, seed: int = 1, scheduler: str | None = None,
-          workers: int | None = None, progress: Callable[[int, int, float], None] | None = None) -> dict[str, int]:
+          workers: int | None = None, connect_timeout: float = CONNECT_TIMEOUT, verbose: bool = False,
+          progress: Callable[[int, int, float], None] | None = None) -> dict[str, int]:
     """Build (or append to) the atlas at ``path``: ``count`` more linkages of every family in ``names``.
 
-    An existing atlas is grown with the next chunks of its own seed (``seed`` must match);
-    the new file replaces the old one only when complete. Returns the linkage count per family.
-    ``progress(done, total, seconds)`` is called after every chunk.
+    An existing atlas is grown with the next chunks of its own seed (``seed`` must match), under the
+    target's lock (:func:`linkedit.io.atomic.locked`: a concurrent append waits, then is refused); the
+    new file replaces the old one only when complete. A build whose file would not fit on the disk is
+    refused (InputError) before any work. Returns the linkage count per family.
+    ``progress(done, total, seconds)`` is called after every chunk; ``scheduler``, ``workers``,
+    ``connect_timeout``, ``verbose``: see :func:`chunk_runner`.
     """
     path = Path(path)
+    if not 0 <= seed <= MAX_SEED:
+        raise InputError(f"must be an integer from 0 to 2**63 - 1, got {seed}", field="--seed")
+    if scheduler is not None:
+        scheduler_address(scheduler)  # a malformed address is an input error before anything is opened
+    total = count * len(names)
+    with locked(path):
+        old = 0
+        if path.exists():
+            _check_existing(path, seed)
+            old = path.stat().st_size
+        require_disk(old + count * sum(map(stored_bytes, names)), path, f"{total:,} linkages", field="--count")
+        with chunk_runner(scheduler, workers, connect_timeout=connect_timeout, verbose=verbose) as run:
+            return _grow(path, names, count, seed, run, progress)
+
+
+def _grow(path: Path, names: list[str], count: int, seed: int, run: Runner,
+          progress: Callable[[int, int, float], None] | None) -> dict[str, int]:
+    """:func:`build`'s work: a copy of the atlas at ``path`` (or a new one) grown by ``count`` linkages of
+    every family of ``names``, renamed onto ``path``."""
     total = count * len(names)
     done, start = 0, time.perf_counter()
     with atomic_path(path) as tmp:
         if path.exists():
-            _check_existing(path, seed)
             shutil.copyfile(path, tmp)
             mode = "r+"
         else:
@@ -212,7 +398,7 @@ def build(path: str | Path, names: list[str], count: int, *, seed: int = 1, sche
                     group = _family_group(f, name)
                 first = int(group.attrs["chunks"])
                 jobs = chunk_sizes(count, first)
-                for index, chunk in run_chunks(name, seed, jobs, scheduler=scheduler, workers=workers):
+                for index, chunk in run(name, seed, jobs):
                     with deferred_interrupts():  # HDF5 is not cut short: a signal is raised after the chunk
                         _append(group, chunk)
                         group.attrs["chunks"] = index + 1
