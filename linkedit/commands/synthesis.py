@@ -73,10 +73,19 @@ def register(app: typer.Typer) -> None:
     @app.command()
     @guard
     def synthesize(
-        target: str = typer.Argument(..., help="The curve: .csv (x, y[, t]), set.yaml:name or result.h5:track."),
-        atlas: Path = typer.Option(..., "--atlas", help="Atlas file or folder of atlases (`linkedit atlas build`)."),
+        target: str = typer.Argument(None, help="The curve: .csv (x, y[, t]), set.yaml:name or result.h5:track."),
+        atlas: Path = typer.Option(None, "--atlas", help="Atlas file or folder of atlases (`linkedit atlas build`)."),
         output: Path = typer.Option(..., "-o", "--output", help="Output folder: result.yaml, result.h5, overlay.svg, "
                                                                 "history.svg, report.json."),
+        pairs: Path = typer.Option(None, "--function", metavar="PAIRS.csv",
+                                   help="Function generation instead: a four-bar whose rocker turns as the CSV's "
+                                        "input_deg, output_deg pairs prescribe (no target, no --atlas)."),
+        relative: bool = typer.Option(False, "--relative", help="With --function: the angles are changes from "
+                                                                "rest angles the synthesis chooses (and the output "
+                                                                "may turn either way) [default: absolute, from the "
+                                                                "ground line]."),
+        tolerance: float = typer.Option(0.5, "--tolerance", metavar="DEG", min=0.0,
+                                        help="With --function: a larger max output error gets a note."),
         top: int = typer.Option(5, "--top", min=1, max=50, help="Candidates refined."),
         closed: bool = typer.Option(None, "--closed/--open", help="The target is a closed cycle / an open (partial) "
                                                                   "curve [default: detected from its ends]."),
@@ -93,6 +102,14 @@ def register(app: typer.Typer) -> None:
         quiet: bool = QUIET,
     ) -> None:
         """Find the linkage whose tracked point draws the target curve: atlas search, placement, refinement."""
+        if pairs is not None:
+            if target is not None or atlas is not None:
+                raise InputError("--function takes no target curve and no --atlas", field="--function")
+            _function(pairs, output, relative=relative, margin=margin, tolerance=tolerance)
+            return
+        if target is None or atlas is None:
+            raise InputError("give a target curve and --atlas (or --function PAIRS.csv)",
+                             field="--atlas" if target is not None else "target")
         from linkedit.curves.sources import input_files, load_inputs
         from linkedit.synthesis.atlas import load
         from linkedit.synthesis.outputs import FILES, write_all
@@ -122,3 +139,22 @@ def register(app: typer.Typer) -> None:
                 f"(max {100 * timed['after']['max']:.3g} %)")
         if done["note"]:
             say(f"note: {done['note']}")
+
+
+def _function(pairs: Path, output: Path, *, relative: bool, margin: float, tolerance: float) -> None:
+    """``synthesize --function``: fit, write the output folder, say the errors."""
+    from linkedit.synthesis.generate import FILES, run_function
+
+    check_outputs([("--output", output / name) for name in FILES], [pairs])
+    options = {"function": str(pairs), "relative": relative, "margin_deg": margin, "tolerance_deg": tolerance}
+    done = run_function(pairs, output, relative=relative, margin_deg=margin, tolerance_deg=tolerance, options=options)
+    report(done | {"output": str(output)})
+    link = done["linkage"]
+    say(f"function generator: output error max {done['error']['max_deg']:.3g}°, RMS {done['error']['rms_deg']:.3g}° "
+        f"over {done['pairs']['count']} pairs; crank {link['crank']:.4g}, coupler {link['coupler']:.4g}, rocker "
+        f"{link['rocker']:.4g}, ground {link['ground']:.4g} {link['units']}; transmission "
+        f"{done['transmission_deg']['min']:.1f}°…{done['transmission_deg']['max']:.1f}° → {output}/")
+    if done["angles"]["output_sense"] == "opposite":
+        say("the rocker turns clockwise as the output angle grows (the other way fits better)")
+    if done["note"]:
+        say(f"note: {done['note']}")
