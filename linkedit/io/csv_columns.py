@@ -1,7 +1,7 @@
 """Read a CSV table of named numeric columns (the inputs of ``synthesize --function`` / ``--motion``).
 
 One header row names the columns (case and surrounding spaces ignored, a unit in brackets
-dropped: ``Input (deg)`` is ``input``); ``,``, ``;`` or tab separate cells; blank lines and
+dropped from the name and kept as the column's unit: ``x (mm)`` is ``x`` in mm); ``,``, ``;`` or tab separate cells; blank lines and
 lines starting with ``#`` or ``//`` are skipped. Every other row must hold one finite number
 per column. Errors are :class:`~linkedit.errors.InputError` naming the file, line and column.
 """
@@ -12,6 +12,7 @@ import csv
 import io
 import re
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -26,10 +27,23 @@ def _name(cell: str) -> str:
     return _UNIT.sub("", cell).strip().lower()
 
 
-def read_columns(path: Path, required: Sequence[str], optional: Sequence[str] = (),
-                 *, minimum: int = 1) -> tuple[dict[str, np.ndarray], list[int]]:
-    """The columns of ``path`` by name, (N,) float each (``optional`` ones only when present),
-    and the file line of each row (N,). At least ``minimum`` rows, else an InputError."""
+def _unit(cell: str) -> str | None:
+    found = _UNIT.search(cell)
+    return found.group(0).strip()[1:-1].strip() or None if found else None
+
+
+@dataclass(frozen=True)
+class Table:
+    """Named columns (N,) float each, the file line of each row, and each column's unit (or None)."""
+
+    columns: dict[str, np.ndarray]
+    lines: list[int]
+    units: dict[str, str | None]
+
+
+def read_columns(path: Path, required: Sequence[str], optional: Sequence[str] = (), *, minimum: int = 1) -> Table:
+    """The columns of ``path`` by name (``optional`` ones only when present). At least ``minimum``
+    rows, else an InputError."""
     file = str(path)
     text = read_text(path)
     rows = [(n + 1, line) for n, line in enumerate(text.splitlines())
@@ -62,4 +76,5 @@ def read_columns(path: Path, required: Sequence[str], optional: Sequence[str] = 
                 raise InputError(f"not a finite number: {cell.strip()!r}", file=file, line=line, field=names[c])
     if len(values) < minimum:
         raise InputError(f"{len(values)} data rows; at least {minimum} are needed", file=file)
-    return {name: values[:, names.index(name)] for name in wanted if name in names}, [n for n, _ in cells[1:]]
+    return Table({name: values[:, names.index(name)] for name in wanted if name in names}, [n for n, _ in cells[1:]],
+                 {name: _unit(cell) for name, cell in zip(names, header)})

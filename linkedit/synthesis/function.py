@@ -76,8 +76,8 @@ def output_angles(params: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return np.angle(tip - 1.0) - beta
 
 
-def cos_mu_range(params: np.ndarray, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
-    """The extreme values of cos μ (K,) each over inputs φ ∈ [lo, hi] (radians): at the range's ends
+def cos_mu_range(params: np.ndarray, lo: np.ndarray | float, hi: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+    """The extreme values of cos μ (K,) each over inputs φ ∈ [lo, hi] (radians; scalars or (K,)): at the range's ends
     or where the crank angle α + φ crosses a multiple of π (|A − D| extreme there)."""
     a, b, c, alpha = params[:, 0], params[:, 1], params[:, 2], params[:, 4]
     t0, t1 = alpha + lo, alpha + hi
@@ -91,8 +91,8 @@ def cos_mu_range(params: np.ndarray, lo: float, hi: float) -> tuple[np.ndarray, 
     return cos_mu[0], cos_mu[1]
 
 
-def lowest_singularity(params: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """min d_s = sin²μ over inputs [lo, hi], (K,), exact; −1 where B cannot be placed somewhere."""
+def lowest_singularity(params: np.ndarray, lo: np.ndarray | float, hi: np.ndarray | float) -> np.ndarray:
+    """min d_s = sin²μ over inputs [lo, hi] (scalars or (K,)), (K,), exact; −1 where B cannot be placed somewhere."""
     first, second = cos_mu_range(params, lo, hi)
     out = np.full(len(params), np.inf)
     for cos_mu in (first, second):
@@ -100,7 +100,7 @@ def lowest_singularity(params: np.ndarray, lo: float, hi: float) -> np.ndarray:
     return np.where(np.isfinite(out), out, -1.0)
 
 
-def transmission_range(params: np.ndarray, lo: float, hi: float) -> tuple[float, float]:
+def transmission_range(params: np.ndarray, lo: np.ndarray | float, hi: np.ndarray | float) -> tuple[float, float]:
     """(smallest, largest) transmission angle μ in degrees of one linkage (1, 6) over [lo, hi]."""
     first, second = cos_mu_range(params, lo, hi)
     mu = np.degrees(np.arccos(np.clip([first[0], second[0]], -1.0, 1.0)))

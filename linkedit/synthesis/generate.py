@@ -22,12 +22,13 @@ from linkedit.io.atomic import write_text
 from linkedit.io.csv_columns import read_columns
 from linkedit.io.planar_hdf5 import write_motion
 from linkedit.planar import Geometry, compile_plan, simulate
+from linkedit.planar.feasibility import assembles
 from linkedit.planar.kinematics import evaluate
 from linkedit.planar.law_of_cosines import dyad
 from linkedit.planar.simulate import Motion
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.linkage_yaml import dump_linkage
-from linkedit.synthesis import function
+from linkedit.synthesis import function, motion
 
 FILES = ("result.yaml", "result.h5", "report.json")
 #: the ground link's length of a function generator, in UNITS (angles do not depend on it)
@@ -35,6 +36,8 @@ GROUND = 100.0
 UNITS = "mm"
 #: samples of the written simulation (result.h5): both ends of the input range included
 RESULT_SAMPLES = 361
+#: a motion generator whose coupler point misses a pose by more than this fraction of the size gets a note
+POSITION_TOLERANCE = 0.005
 
 
 def at_inputs(spec: LinkageSpec, angles: np.ndarray) -> dict[str, np.ndarray]:
@@ -44,7 +47,7 @@ def at_inputs(spec: LinkageSpec, angles: np.ndarray) -> dict[str, np.ndarray]:
     plan = compile_plan(spec)
     state = evaluate(plan, Geometry.of(plan, plan.normalized_points()), np.asarray(angles, dtype=float), order=0)
     z = state.z * plan.scale + plan.origin
-    ok = np.isfinite(state.ds).all(axis=0) & (state.ds > 0).all(axis=0)
+    ok = assembles(state.ds).all(axis=0)
     z = np.where(ok[None, :], z, np.nan)
     out = {name: z[plan.row_of[i]] for i, name in enumerate(plan.joint_names)}
     out |= {name: z[plan.row_of[p]] for name, p in zip(plan.track_names, plan.track_points)}
@@ -64,8 +67,8 @@ def _write(out: Path, spec: LinkageSpec, motion: Motion, header: str, report: di
 def read_pairs(path: Path) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """Input and output angles (N,) each, degrees, and their file lines; InputError for fewer than
     3 distinct inputs or inputs spanning more than a turn."""
-    cols, lines = read_columns(path, ("input_deg", "output_deg"), minimum=3)
-    phi, psi = cols["input_deg"], cols["output_deg"]
+    table = read_columns(path, ("input_deg", "output_deg"), minimum=3)
+    phi, psi, lines = table.columns["input_deg"], table.columns["output_deg"], table.lines
     if len(np.unique(phi)) < 3:
         raise InputError(f"{len(np.unique(phi))} distinct input angles; at least 3 are needed", file=str(path),
                          field="input_deg")
@@ -121,7 +124,7 @@ def run_function(path: Path, out: Path, *, relative: bool, margin_deg: float, to
     worst = float(np.abs(errors).max())
     a, b, c = (float(v) * GROUND for v in found.params[:3])
     note = "" if worst <= tolerance_deg else (
-        f"no four-bar meets the pairs within {tolerance_deg:g}°: the best found is off by {worst:.3g}° (max)"
+        f"no four-bar found meets the pairs within {tolerance_deg:g}°: the best is off by {worst:.3g}° (max)"
         + (f"; its transmission angle reaches the band's edge ({margin_deg:g}°): a smaller --margin trades "
            "transmission quality for accuracy" if min(lo, 180 - hi) < margin_deg + 0.5 else ""))
     report = {
@@ -148,4 +151,108 @@ def run_function(path: Path, out: Path, *, relative: bool, margin_deg: float, to
     header = ("Synthesized by linkedit synthesize --function; simulate it with:\n"
               "  linkedit simulate result.yaml   (the rocker D-B is the output; track 'target' is its tip B)")
     _write(out, spec, motion, header, report, options | {"command": "synthesize", "mode": "function"})
+    return report
+
+
+def read_poses(path: Path) -> tuple[np.ndarray, np.ndarray, list[int], str]:
+    """Coupler point positions (N,) complex, coupler angles (N,) degrees, file lines (in pose
+    order: by ``t`` when given) and units; InputError for fewer than 3 poses or positions that
+    all coincide."""
+    table = read_columns(path, ("x", "y", "angle_deg"), ("t",), minimum=3)
+    cols = table.columns
+    order = np.argsort(cols["t"], kind="stable") if "t" in cols else np.arange(len(cols["x"]))
+    points = (cols["x"] + 1j * cols["y"])[order]
+    if np.abs(points - points[0]).max() <= 1e-12 * max(np.abs(points).max(), 1e-300):
+        raise InputError("every pose has the same position: give the coupler point's path", file=str(path), field="x")
+    units = {u for u in (table.units.get("x"), table.units.get("y")) if u is not None}
+    if len(units) > 1:
+        raise InputError(f"x and y are in different units ({', '.join(sorted(units))})", file=str(path), field="y")
+    return points, cols["angle_deg"][order], [table.lines[i] for i in order], units.pop() if units else UNITS
+
+
+def motion_spec(found: motion.MotionFit, centre: complex, size: float, name: str, units: str) -> LinkageSpec:
+    """The fitted four-bar placed by z ↦ centre + size·z at its rest pose (the first pose), the motor
+    sweeping the crank through every pose (``range_deg``), track ``target`` = the coupler point."""
+    def place(z: complex) -> list[float]:
+        w = centre + size * z
+        return [w.real, w.imag]
+
+    sweep = float(np.degrees(found.turns[-1]))
+    return LinkageSpec.model_validate({
+        "name": name, "units": units,
+        "description": "four-bar motion generator: its coupler A-B carries the coupler point (track target) "
+                       "through the poses (linkedit synthesize --motion)",
+        "joints": {k: place(z) for k, z in (("O", found.O), ("A", found.A), ("B", found.B), ("D", found.D))},
+        "ground": ["O", "D"],
+        "links": {"crank": ["O", "A"], "coupler": ["A", "B"], "rocker": ["D", "B"]},
+        "motor": {"joint": "A", "pivot": "O", "direction": "ccw" if sweep > 0 else "cw",
+                  "range_deg": [0.0, abs(sweep)]},
+        "tracks": {"target": {"link": "coupler", "at": place(found.P)}},
+    })
+
+
+def run_motion(path: Path, out: Path, *, margin_deg: float, tolerance_deg: float,
+               options: dict[str, Any]) -> dict[str, Any]:
+    """Synthesize a motion generator for the poses in ``path`` and write it into ``out``; returns
+    the report. MechanismError (exit 1) when no pair of dyads gives a working four-bar."""
+    start = time.perf_counter()
+    points, angles_deg, lines, units = read_poses(path)
+    centre = complex(points.mean())
+    size = float(np.abs(points[:, None] - points[None, :]).max())
+    theta = np.radians(angles_deg)
+    found = motion.fit((points - centre) / size, theta, margin_deg=margin_deg)
+    if found is None:
+        raise MechanismError(f"{path}: no pair of the dyads found makes a four-bar that passes the {len(points)} poses "
+                             f"in order on one assembly branch with its transmission angle within [{margin_deg:g}°, "
+                             f"{180 - margin_deg:g}°] (try a smaller --margin, or fewer or other poses)")
+    fitted = time.perf_counter()
+    spec = motion_spec(found, centre, size, Path(path).stem, units)
+    rest = float(np.angle(found.A - found.O))
+    at = at_inputs(spec, rest + found.turns)  # the written spec, evaluated at each pose's crank angle
+    kappa = found.kappa
+    result_angle = np.angle(at["B"] - at["A"]) + kappa
+    gap = np.abs(at["target"] - points) / size
+    turn_error = np.degrees(function.wrap(result_angle - theta))
+    if not (np.isfinite(gap).all() and np.isfinite(turn_error).all()):
+        raise MechanismError(f"{spec.name}: the written linkage does not assemble at every pose's crank angle")
+    simulated = simulate(spec, RESULT_SAMPLES)
+    row = motion.frame_rows(*(np.array([z]) for z in (found.O, found.A, found.B, found.D)))
+    lo, hi = function.transmission_range(row, min(0.0, found.turns[-1]), max(0.0, found.turns[-1]))
+    joints = {k: np.array(spec.joints[k]) for k in "OABD"}
+    length = {name: float(np.hypot(*(joints[q] - joints[p]))) for name, (p, q) in
+              (("ground", "OD"), ("crank", "OA"), ("coupler", "AB"), ("rocker", "DB"))}
+    worst_pos, worst_angle = float(gap.max()), float(np.abs(turn_error).max())
+    note = "" if worst_pos <= POSITION_TOLERANCE and worst_angle <= tolerance_deg else (
+        f"no four-bar found passes the poses within {100 * POSITION_TOLERANCE:g} % of their size and "
+        f"{tolerance_deg:g}°: the best is off by {100 * worst_pos:.3g} % and {worst_angle:.3g}° (max)")
+    sweep = float(np.degrees(found.turns[-1]))
+    report = {
+        "generator": f"linkedit {__version__}", "mode": "motion",
+        "poses": {"origin": str(path), "count": int(len(points)), "size": size, "units": units},
+        "options": options,
+        "error": {"position": {"max": worst_pos, "rms": float(np.sqrt(np.mean(gap ** 2)))},
+                  "angle_deg": {"max": worst_angle, "rms": float(np.sqrt(np.mean(turn_error ** 2)))},
+                  "tolerance": {"position": POSITION_TOLERANCE, "angle_deg": tolerance_deg},
+                  "measured": "result.yaml evaluated at each pose's crank angle (linkedit.planar): the coupler "
+                              "point's distance from the pose over the poses' size, and the coupler angle's error"},
+        "linkage": {"units": units, **length},
+        "coupler_angle_offset_deg": float(np.degrees(kappa)),
+        "transmission_deg": {"min": lo, "max": hi},
+        "margin_deg": margin_deg,
+        "min_singularity": found.lowest,
+        "crank_sweep_deg": sweep,
+        "points": [{"line": ln, "x": z.real, "y": z.imag, "angle_deg": float(a),
+                    "result": [float(r.real), float(r.imag)], "result_angle_deg": float(a + e),
+                    "position_error": float(g), "angle_error_deg": float(e),
+                    "motor_angle_deg": float(np.degrees(rest + d)), "motor_turn_deg": float(np.degrees(d)),
+                    "t": float(abs(np.degrees(d)) / abs(sweep))}
+                   for ln, z, a, r, g, e, d in zip(lines, points, angles_deg, at["target"], gap, turn_error, found.turns)],
+        "note": note,
+        "result": {"spec": "result.yaml", "simulation": "result.h5", "track": "target", "samples": RESULT_SAMPLES},
+        "seconds": {"fit": fitted - start, "total": time.perf_counter() - start},
+    }
+    header = ("Synthesized by linkedit synthesize --motion; simulate it with:\n"
+              "  linkedit simulate result.yaml   (track 'target' is the coupler point; the coupler's angle is the "
+              "angle of A->B plus coupler_angle_offset_deg of report.json)")
+    _write(out, spec, simulated, header, report, options | {"command": "synthesize", "mode": "motion"})
     return report
