@@ -146,3 +146,8 @@ def test_function_takes_no_atlas_and_a_curve_needs_one(run_cli, tmp_path):
     assert both.exit_code == 2 and "--function takes no target curve, no --atlas" in both.output
     neither = run_cli("synthesize", "-o", tmp_path / "o")
     assert neither.exit_code == 2 and "--function" in neither.output
+    curve_option = run_cli("synthesize", "--function", tmp_path / "p.csv", "--timing", "-o", tmp_path / "o")
+    assert curve_option.exit_code == 2 and "--timing applies to a target curve, not to --function" in curve_option.output
+    stray = run_cli("synthesize", "--motion", tmp_path / "p.csv", "--relative", "-o", tmp_path / "o")
+    assert stray.exit_code == 2 and "--relative applies to --function" in stray.output
+    assert not (tmp_path / "o").exists()

@@ -105,12 +105,20 @@ def register(app: typer.Typer) -> None:
         as_json: bool = JSON,
         quiet: bool = QUIET,
     ) -> None:
-        """Find the linkage whose tracked point draws the target curve: atlas search, placement, refinement."""
+        """Find the linkage whose tracked point draws the target curve: atlas search, placement, refinement;
+        or, with --function or --motion, a four-bar function or motion generator."""
+        curve_only = {"--top": top != 5, "--closed/--open": closed is not None, "--smooth": smooth != 0.0,
+                      "--timing": timing, "--seed": seed != 1}
+        if pairs is None and relative:
+            raise InputError("--relative applies to --function", field="--relative")
         if pairs is not None or poses is not None:
             mode = "--function" if pairs is not None else "--motion"
             if target is not None or atlas is not None or (pairs is not None and poses is not None):
                 raise InputError(f"{mode} takes no target curve, no --atlas and not both --function and --motion",
                                  field=mode)
+            for option, given in curve_only.items():
+                if given:
+                    raise InputError(f"{option} applies to a target curve, not to {mode}", field=option)
             if pairs is not None:
                 _function(pairs, output, relative=relative, margin=margin, tolerance=tolerance)
             else:
@@ -119,6 +127,8 @@ def register(app: typer.Typer) -> None:
         if target is None or atlas is None:
             raise InputError("give a target curve and --atlas (or --function PAIRS.csv, or --motion POSES.csv)",
                              field="--atlas" if target is not None else "target")
+        if tolerance != 0.5:
+            raise InputError("--tolerance applies to --function and --motion", field="--tolerance")
         from linkedit.curves.sources import input_files, load_inputs
         from linkedit.synthesis.atlas import load
         from linkedit.synthesis.outputs import FILES, write_all

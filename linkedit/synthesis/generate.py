@@ -47,8 +47,7 @@ def at_inputs(spec: LinkageSpec, angles: np.ndarray) -> dict[str, np.ndarray]:
     plan = compile_plan(spec)
     state = evaluate(plan, Geometry.of(plan, plan.normalized_points()), np.asarray(angles, dtype=float), order=0)
     z = state.z * plan.scale + plan.origin
-    ok = assembles(state.ds).all(axis=0)
-    z = np.where(ok[None, :], z, np.nan)
+    z = np.where(np.all(assembles(state.ds), axis=0, keepdims=True), z, np.nan)
     out = {name: z[plan.row_of[i]] for i, name in enumerate(plan.joint_names)}
     out |= {name: z[plan.row_of[p]] for name, p in zip(plan.track_names, plan.track_points)}
     return out
