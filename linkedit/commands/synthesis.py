@@ -76,10 +76,23 @@ def register(app: typer.Typer) -> None:
     @app.command()
     @guard
     def synthesize(
-        target: str = typer.Argument(..., help="The curve: .csv (x, y[, t]), set.yaml:name or result.h5:track."),
-        atlas: Path = typer.Option(..., "--atlas", help="Atlas file or folder of atlases (`linkedit atlas build`)."),
+        target: str = typer.Argument(None, help="The curve: .csv (x, y[, t]), set.yaml:name or result.h5:track."),
+        atlas: Path = typer.Option(None, "--atlas", help="Atlas file or folder of atlases (`linkedit atlas build`)."),
         output: Path = typer.Option(..., "-o", "--output", help="Output folder: result.yaml, result.h5, overlay.svg, "
                                                                 "history.svg, report.json."),
+        pairs: Path = typer.Option(None, "--function", metavar="PAIRS.csv",
+                                   help="Function generation instead: a four-bar whose rocker turns as the CSV's "
+                                        "input_deg, output_deg pairs prescribe (no target, no --atlas)."),
+        poses: Path = typer.Option(None, "--motion", metavar="POSES.csv",
+                                   help="Motion generation instead: a four-bar whose coupler passes through the "
+                                        "CSV's poses x, y, angle_deg[, t] in order (no target, no --atlas)."),
+        relative: bool = typer.Option(False, "--relative", help="With --function: the angles are changes from "
+                                                                "rest angles the synthesis chooses (and the output "
+                                                                "may turn either way) [default: absolute, from the "
+                                                                "ground line]."),
+        tolerance: float = typer.Option(0.5, "--tolerance", metavar="DEG", min=0.0,
+                                        help="With --function or --motion: a larger max output (coupler) angle "
+                                             "error gets a note."),
         top: int = typer.Option(5, "--top", min=1, max=50, help="Candidates refined."),
         closed: bool = typer.Option(None, "--closed/--open", help="The target is a closed cycle / an open (partial) "
                                                                   "curve [default: detected from its ends]."),
@@ -98,7 +111,30 @@ def register(app: typer.Typer) -> None:
         as_json: bool = JSON,
         quiet: bool = QUIET,
     ) -> None:
-        """Find the linkage whose tracked point draws the target curve: atlas search, placement, refinement."""
+        """Find the linkage whose tracked point draws the target curve: atlas search, placement, refinement;
+        or, with --function or --motion, a four-bar function or motion generator."""
+        curve_only = {"--top": top != 5, "--closed/--open": closed is not None, "--smooth": smooth != 0.0,
+                      "--timing": timing, "--seed": seed != 1}
+        if pairs is None and relative:
+            raise InputError("--relative applies to --function", field="--relative")
+        if pairs is not None or poses is not None:
+            mode = "--function" if pairs is not None else "--motion"
+            if target is not None or atlas is not None or (pairs is not None and poses is not None):
+                raise InputError(f"{mode} takes no target curve, no --atlas and not both --function and --motion",
+                                 field=mode)
+            for option, given in curve_only.items():
+                if given:
+                    raise InputError(f"{option} applies to a target curve, not to {mode}", field=option)
+            if pairs is not None:
+                _function(pairs, output, relative=relative, margin=margin, tolerance=tolerance)
+            else:
+                _motion(poses, output, margin=margin, tolerance=tolerance)
+            return
+        if target is None or atlas is None:
+            raise InputError("give a target curve and --atlas (or --function PAIRS.csv, or --motion POSES.csv)",
+                             field="--atlas" if target is not None else "target")
+        if tolerance != 0.5:
+            raise InputError("--tolerance applies to --function and --motion", field="--tolerance")
         from linkedit.curves.sources import UNIT_NAME, input_files, load_inputs
         from linkedit.synthesis.atlas import load
         from linkedit.synthesis.outputs import FILES, write_all
@@ -133,3 +169,40 @@ def register(app: typer.Typer) -> None:
                 f"(max {100 * timed['after']['max']:.3g} %)")
         if done["note"]:
             say(f"note: {done['note']}")
+
+
+def _function(pairs: Path, output: Path, *, relative: bool, margin: float, tolerance: float) -> None:
+    """``synthesize --function``: fit, write the output folder, say the errors."""
+    from linkedit.synthesis.generate import FILES, run_function
+
+    check_outputs([("--output", output / name) for name in FILES], [pairs])
+    options = {"function": str(pairs), "relative": relative, "margin_deg": margin, "tolerance_deg": tolerance}
+    done = run_function(pairs, output, relative=relative, margin_deg=margin, tolerance_deg=tolerance, options=options)
+    report(done | {"output": str(output)})
+    link = done["linkage"]
+    say(f"function generator: output error max {done['error']['max_deg']:.3g}°, RMS {done['error']['rms_deg']:.3g}° "
+        f"over {done['pairs']['count']} pairs; crank {link['crank']:.4g}, coupler {link['coupler']:.4g}, rocker "
+        f"{link['rocker']:.4g}, ground {link['ground']:.4g} {link['units']}; transmission "
+        f"{done['transmission_deg']['min']:.1f}°…{done['transmission_deg']['max']:.1f}° → {output}/")
+    if done["angles"]["output_sense"] == "opposite":
+        say("the rocker turns clockwise as the output angle grows (the other way fits better)")
+    if done["note"]:
+        say(f"note: {done['note']}")
+
+
+def _motion(poses: Path, output: Path, *, margin: float, tolerance: float) -> None:
+    """``synthesize --motion``: fit, write the output folder, say the errors."""
+    from linkedit.synthesis.generate import FILES, run_motion
+
+    check_outputs([("--output", output / name) for name in FILES], [poses])
+    options = {"motion": str(poses), "margin_deg": margin, "tolerance_deg": tolerance}
+    done = run_motion(poses, output, margin_deg=margin, tolerance_deg=tolerance, options=options)
+    report(done | {"output": str(output)})
+    link, error = done["linkage"], done["error"]
+    say(f"motion generator: {done['poses']['count']} poses met within {100 * error['position']['max']:.3g} % of "
+        f"their size and {error['angle_deg']['max']:.3g}° (max); crank {link['crank']:.4g}, coupler "
+        f"{link['coupler']:.4g}, rocker {link['rocker']:.4g}, ground {link['ground']:.4g} {link['units']}; crank "
+        f"sweep {done['crank_sweep_deg']:.1f}°, transmission {done['transmission_deg']['min']:.1f}°…"
+        f"{done['transmission_deg']['max']:.1f}° → {output}/")
+    if done["note"]:
+        say(f"note: {done['note']}")

@@ -1,0 +1,257 @@
+"""``linkedit synthesize --function`` and ``--motion``: from prescribed pairs or poses to a four-bar.
+
+Each run reads its table, fits the four-bar (:mod:`linkedit.synthesis.function`,
+:mod:`linkedit.synthesis.motion`), writes it as a LinkageSpec, measures its errors on that
+written spec evaluated through the planar core at the prescribed inputs (what ``linkedit
+simulate result.yaml`` computes), and writes ``result.yaml``, ``result.h5`` (its simulation) and
+``report.json`` (``specs/synthesis-report.md``) into the output folder, each atomically.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from linkedit import __version__
+from linkedit.errors import InputError, MechanismError
+from linkedit.io.atomic import write_text
+from linkedit.io.csv_columns import read_columns
+from linkedit.io.planar_hdf5 import write_motion
+from linkedit.planar import Geometry, compile_plan, simulate
+from linkedit.planar.feasibility import assembles
+from linkedit.planar.kinematics import evaluate
+from linkedit.planar.law_of_cosines import dyad
+from linkedit.planar.simulate import Motion
+from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.linkage_yaml import dump_linkage
+from linkedit.synthesis import function, motion
+
+FILES = ("result.yaml", "result.h5", "report.json")
+#: the ground link's length of a function generator, in UNITS (angles do not depend on it)
+GROUND = 100.0
+UNITS = "mm"
+#: samples of the written simulation (result.h5): both ends of the input range included
+RESULT_SAMPLES = 361
+#: a motion generator whose coupler point misses a pose by more than this fraction of the size gets a note
+POSITION_TOLERANCE = 0.005
+
+
+def at_inputs(spec: LinkageSpec, angles: np.ndarray) -> dict[str, np.ndarray]:
+    """Joint and track positions (T,) complex each of ``spec`` at absolute motor angles ``angles``
+    (T,) radians, evaluated through the planar core as ``simulate`` does (NaN where it does not
+    assemble)."""
+    plan = compile_plan(spec)
+    state = evaluate(plan, Geometry.of(plan, plan.normalized_points()), np.asarray(angles, dtype=float), order=0)
+    z = state.z * plan.scale + plan.origin
+    z = np.where(np.all(assembles(state.ds), axis=0, keepdims=True), z, np.nan)
+    out = {name: z[plan.row_of[i]] for i, name in enumerate(plan.joint_names)}
+    out |= {name: z[plan.row_of[p]] for name, p in zip(plan.track_names, plan.track_points)}
+    return out
+
+
+def _write(out: Path, spec: LinkageSpec, motion: Motion, header: str, report: dict[str, Any],
+           options: dict[str, Any]) -> None:
+    """result.yaml, result.h5 (``motion``: the spec simulated) and report.json into ``out``."""
+    text = dump_linkage(spec, header=header)
+    out.mkdir(parents=True, exist_ok=True)
+    write_text(out / "result.yaml", text)
+    write_motion(out / "result.h5", motion, spec_text=text, options=options)
+    write_text(out / "report.json", json.dumps(report, indent=2, allow_nan=False) + "\n")
+
+
+def read_pairs(path: Path) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Input and output angles (N,) each, degrees, and their file lines; InputError for fewer than
+    3 distinct inputs or inputs spanning more than a turn."""
+    table = read_columns(path, ("input_deg", "output_deg"), minimum=3)
+    phi, psi, lines = table.columns["input_deg"], table.columns["output_deg"], table.lines
+    if len(np.unique(phi)) < 3:
+        raise InputError(f"{len(np.unique(phi))} distinct input angles; at least 3 are needed", file=str(path),
+                         field="input_deg")
+    if np.ptp(phi) > 360.0:
+        raise InputError(f"the input angles span {np.ptp(phi):.6g}°, more than one turn of the crank", file=str(path),
+                         field="input_deg")
+    return phi, psi, lines
+
+
+def function_spec(found: function.FunctionFit, rest_deg: float, span_deg: float, name: str) -> LinkageSpec:
+    """The fitted four-bar at the crank's rest (input ``rest_deg``), ground O = 0, D = (GROUND, 0),
+    the motor sweeping ``range_deg`` [0, span_deg], track ``target`` = the rocker tip B."""
+    a, b, c, s, alpha, _ = found.params
+    pin = a * np.exp(1j * (alpha + np.radians(rest_deg)))
+    tip, _ = dyad(np.array([[pin]]), np.array([[1.0 + 0j]]), np.array([[0.5 * (b * b - c * c)]]),
+                           np.array([[b * b]]), np.array([[s]]))
+    joints = {"O": 0j, "A": GROUND * pin, "B": GROUND * complex(tip[0, 0]), "D": complex(GROUND)}
+    return LinkageSpec.model_validate({
+        "name": name, "units": UNITS,
+        "description": "four-bar function generator: the rocker D-B turns as the pairs prescribe when the crank "
+                       "O-A turns (linkedit synthesize --function)",
+        "joints": {k: [z.real, z.imag] for k, z in joints.items()},
+        "ground": ["O", "D"],
+        "links": {"crank": ["O", "A"], "coupler": ["A", "B"], "rocker": ["D", "B"]},
+        "motor": {"joint": "A", "pivot": "O", "direction": "ccw", "range_deg": [0.0, span_deg]},
+        "tracks": {"target": {"joint": "B"}},
+    })
+
+
+def run_function(path: Path, out: Path, *, relative: bool, margin_deg: float, tolerance_deg: float,
+                 options: dict[str, Any]) -> dict[str, Any]:
+    """Synthesize a function generator for the pairs in ``path`` and write it into ``out``;
+    returns the report. MechanismError (exit 1) when no four-bar works over the input range."""
+    start = time.perf_counter()
+    phi_deg, psi_deg, lines = read_pairs(path)
+    phi, psi = np.radians(phi_deg), np.radians(psi_deg)
+    found = function.fit(phi, psi, relative=relative, margin_deg=margin_deg)
+    if found is None:
+        raise MechanismError(f"{path}: no four-bar turns through the input range {phi_deg.min():.6g}°…"
+                             f"{phi_deg.max():.6g}° with its transmission angle within [{margin_deg:g}°, "
+                             f"{180 - margin_deg:g}°] (try a smaller --margin or a shorter input range)")
+    fitted = time.perf_counter()
+    rest, span = float(phi_deg.min()), float(np.ptp(phi_deg))
+    spec = function_spec(found, rest, span, Path(path).stem)
+    _, _, _, _, alpha, beta = found.params
+    at = at_inputs(spec, alpha + phi)  # the written spec, evaluated at each pair's input
+    result = found.sense * function.wrap(np.angle(at["B"] - at["D"]) - beta - found.sense * psi) + psi
+    errors = np.degrees(result - psi)
+    if not np.isfinite(errors).all():
+        raise MechanismError(f"{spec.name}: the written linkage does not assemble at every pair's input")
+    motion = simulate(spec, RESULT_SAMPLES)
+    lo, hi = function.transmission_range(found.params[None], phi.min(), phi.max())
+    worst = float(np.abs(errors).max())
+    a, b, c = (float(v) * GROUND for v in found.params[:3])
+    note = "" if worst <= tolerance_deg else (
+        f"no four-bar found meets the pairs within {tolerance_deg:g}°: the best is off by {worst:.3g}° (max)"
+        + (f"; its transmission angle reaches the band's edge ({margin_deg:g}°): a smaller --margin trades "
+           "transmission quality for accuracy" if min(lo, 180 - hi) < margin_deg + 0.5 else ""))
+    report = {
+        "generator": f"linkedit {__version__}", "mode": "function",
+        "pairs": {"origin": str(path), "count": int(len(phi)), "angles": "relative" if relative else "absolute"},
+        "options": options,
+        "error": {"max_deg": worst, "rms_deg": float(np.sqrt(np.mean(errors ** 2))), "tolerance_deg": tolerance_deg,
+                  "measured": "result.yaml evaluated at each pair's input (linkedit.planar): output angle − prescribed"},
+        "linkage": {"units": UNITS, "ground": GROUND, "crank": a, "coupler": b, "rocker": c},
+        "angles": {"crank_at_input_0_deg": float(np.degrees(alpha)),
+                   "rocker_at_output_0_deg": float(np.degrees(beta)),
+                   "output_sense": "same" if found.sense > 0 else "opposite",
+                   "rest_input_deg": rest},
+        "transmission_deg": {"min": lo, "max": hi},
+        "margin_deg": margin_deg,
+        "min_singularity": found.lowest,
+        "points": [{"line": ln, "input_deg": float(x), "output_deg": float(y), "result_deg": float(np.degrees(r)),
+                    "error_deg": float(e), "motor_angle_deg": float(np.degrees(alpha) + x), "t": float((x - rest) / span)}
+                   for ln, x, y, r, e in zip(lines, phi_deg, psi_deg, result, errors)],
+        "note": note,
+        "result": {"spec": "result.yaml", "simulation": "result.h5", "track": "target", "samples": RESULT_SAMPLES},
+        "seconds": {"fit": fitted - start, "total": time.perf_counter() - start},
+    }
+    header = ("Synthesized by linkedit synthesize --function; simulate it with:\n"
+              "  linkedit simulate result.yaml   (the rocker D-B is the output; track 'target' is its tip B)")
+    _write(out, spec, motion, header, report, options | {"command": "synthesize", "mode": "function"})
+    return report
+
+
+def read_poses(path: Path) -> tuple[np.ndarray, np.ndarray, list[int], str]:
+    """Coupler point positions (N,) complex, coupler angles (N,) degrees, file lines (in pose
+    order: by ``t`` when given) and units; InputError for fewer than 3 poses or positions that
+    all coincide."""
+    table = read_columns(path, ("x", "y", "angle_deg"), ("t",), minimum=3)
+    cols = table.columns
+    order = np.argsort(cols["t"], kind="stable") if "t" in cols else np.arange(len(cols["x"]))
+    points = (cols["x"] + 1j * cols["y"])[order]
+    if np.abs(points - points[0]).max() <= 1e-12 * max(np.abs(points).max(), 1e-300):
+        raise InputError("every pose has the same position: give the coupler point's path", file=str(path), field="x")
+    units = {u for u in (table.units.get("x"), table.units.get("y")) if u is not None}
+    if len(units) > 1:
+        raise InputError(f"x and y are in different units ({', '.join(sorted(units))})", file=str(path), field="y")
+    return points, cols["angle_deg"][order], [table.lines[i] for i in order], units.pop() if units else UNITS
+
+
+def motion_spec(found: motion.MotionFit, centre: complex, size: float, name: str, units: str) -> LinkageSpec:
+    """The fitted four-bar placed by z ↦ centre + size·z at its rest pose (the first pose), the motor
+    sweeping the crank through every pose (``range_deg``), track ``target`` = the coupler point."""
+    def place(z: complex) -> list[float]:
+        w = centre + size * z
+        return [w.real, w.imag]
+
+    sweep = float(np.degrees(found.turns[-1]))
+    return LinkageSpec.model_validate({
+        "name": name, "units": units,
+        "description": "four-bar motion generator: its coupler A-B carries the coupler point (track target) "
+                       "through the poses (linkedit synthesize --motion)",
+        "joints": {k: place(z) for k, z in (("O", found.O), ("A", found.A), ("B", found.B), ("D", found.D))},
+        "ground": ["O", "D"],
+        "links": {"crank": ["O", "A"], "coupler": ["A", "B"], "rocker": ["D", "B"]},
+        "motor": {"joint": "A", "pivot": "O", "direction": "ccw" if sweep > 0 else "cw",
+                  "range_deg": [0.0, abs(sweep)]},
+        "tracks": {"target": {"link": "coupler", "at": place(found.P)}},
+    })
+
+
+def run_motion(path: Path, out: Path, *, margin_deg: float, tolerance_deg: float,
+               options: dict[str, Any]) -> dict[str, Any]:
+    """Synthesize a motion generator for the poses in ``path`` and write it into ``out``; returns
+    the report. MechanismError (exit 1) when no pair of dyads gives a working four-bar."""
+    start = time.perf_counter()
+    points, angles_deg, lines, units = read_poses(path)
+    centre = complex(points.mean())
+    size = float(np.abs(points[:, None] - points[None, :]).max())
+    theta = np.radians(angles_deg)
+    found = motion.fit((points - centre) / size, theta, margin_deg=margin_deg)
+    if found is None:
+        raise MechanismError(f"{path}: no pair of the dyads found makes a four-bar that passes the {len(points)} poses "
+                             f"in order on one assembly branch with its transmission angle within [{margin_deg:g}°, "
+                             f"{180 - margin_deg:g}°] (try a smaller --margin, or fewer or other poses)")
+    fitted = time.perf_counter()
+    spec = motion_spec(found, centre, size, Path(path).stem, units)
+    rest = float(np.angle(found.A - found.O))
+    at = at_inputs(spec, rest + found.turns)  # the written spec, evaluated at each pose's crank angle
+    kappa = found.kappa
+    result_angle = np.angle(at["B"] - at["A"]) + kappa
+    gap = np.abs(at["target"] - points) / size
+    turn_error = np.degrees(function.wrap(result_angle - theta))
+    if not (np.isfinite(gap).all() and np.isfinite(turn_error).all()):
+        raise MechanismError(f"{spec.name}: the written linkage does not assemble at every pose's crank angle")
+    simulated = simulate(spec, RESULT_SAMPLES)
+    row = motion.frame_rows(*(np.array([z]) for z in (found.O, found.A, found.B, found.D)))
+    lo, hi = function.transmission_range(row, min(0.0, found.turns[-1]), max(0.0, found.turns[-1]))
+    joints = {k: np.array(spec.joints[k]) for k in "OABD"}
+    length = {name: float(np.hypot(*(joints[q] - joints[p]))) for name, (p, q) in
+              (("ground", "OD"), ("crank", "OA"), ("coupler", "AB"), ("rocker", "DB"))}
+    worst_pos, worst_angle = float(gap.max()), float(np.abs(turn_error).max())
+    note = "" if worst_pos <= POSITION_TOLERANCE and worst_angle <= tolerance_deg else (
+        f"no four-bar found passes the poses within {100 * POSITION_TOLERANCE:g} % of their size and "
+        f"{tolerance_deg:g}°: the best is off by {100 * worst_pos:.3g} % and {worst_angle:.3g}° (max)")
+    sweep = float(np.degrees(found.turns[-1]))
+    report = {
+        "generator": f"linkedit {__version__}", "mode": "motion",
+        "poses": {"origin": str(path), "count": int(len(points)), "size": size, "units": units},
+        "options": options,
+        "error": {"position": {"max": worst_pos, "rms": float(np.sqrt(np.mean(gap ** 2)))},
+                  "angle_deg": {"max": worst_angle, "rms": float(np.sqrt(np.mean(turn_error ** 2)))},
+                  "tolerance": {"position": POSITION_TOLERANCE, "angle_deg": tolerance_deg},
+                  "measured": "result.yaml evaluated at each pose's crank angle (linkedit.planar): the coupler "
+                              "point's distance from the pose over the poses' size, and the coupler angle's error"},
+        "linkage": {"units": units, **length},
+        "coupler_angle_offset_deg": float(np.degrees(kappa)),
+        "transmission_deg": {"min": lo, "max": hi},
+        "margin_deg": margin_deg,
+        "min_singularity": found.lowest,
+        "crank_sweep_deg": sweep,
+        "points": [{"line": ln, "x": z.real, "y": z.imag, "angle_deg": float(a),
+                    "result": [float(r.real), float(r.imag)], "result_angle_deg": float(a + e),
+                    "position_error": float(g), "angle_error_deg": float(e),
+                    "motor_angle_deg": float(np.degrees(rest + d)), "motor_turn_deg": float(np.degrees(d)),
+                    "t": float(abs(np.degrees(d)) / abs(sweep))}
+                   for ln, z, a, r, g, e, d in zip(lines, points, angles_deg, at["target"], gap, turn_error, found.turns)],
+        "note": note,
+        "result": {"spec": "result.yaml", "simulation": "result.h5", "track": "target", "samples": RESULT_SAMPLES},
+        "seconds": {"fit": fitted - start, "total": time.perf_counter() - start},
+    }
+    header = ("Synthesized by linkedit synthesize --motion; simulate it with:\n"
+              "  linkedit simulate result.yaml   (track 'target' is the coupler point; the coupler's angle is the "
+              "angle of A->B plus coupler_angle_offset_deg of report.json)")
+    _write(out, spec, simulated, header, report, options | {"command": "synthesize", "mode": "motion"})
+    return report
