@@ -29,6 +29,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from linkedit.planar.feasibility import works
+from linkedit.synthesis.points import family_closest
 from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
 from linkedit.synthesis.timed import VELOCITY_WEIGHT, TimedTarget, central, timed_sequence
 
@@ -159,10 +160,13 @@ def timed_error(timed: TimedTarget, fam: ModuleType, params: np.ndarray, placeme
 
 
 def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np.ndarray, closed: bool,
-           size: float, *, margin: float, timed: TimedTarget | None = None, iterations: int = ITERATIONS) -> Refined:
+           size: float, *, margin: float, timed: TimedTarget | None = None, points: bool = False,
+           iterations: int = ITERATIONS) -> Refined:
     """Refine one candidate (``params`` (P,), the branch fixed) against ``target`` (M,) complex:
-    by shape (point-to-curve distances), or with ``timed`` by positions and velocities at the
-    target's times (the start phase free too); every kept iterate works with ``margin``.
+    by shape (point-to-curve distances), with ``points`` by each precision point's exact distance to
+    the whole curve (:mod:`linkedit.synthesis.points`; ``size`` their RMS radius), or with ``timed`` by
+    positions and velocities at the target's times (the start phase free too); every kept iterate works
+    with ``margin``.
 
     The finite-difference Jacobian evaluates all perturbed linkages in one batched call.
     """
@@ -183,6 +187,8 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
         """Parameter rows (K, P), min d_s (K,) and residuals (K, R): point-to-curve distances."""
         p, factor, shift = unpack(x)
         ds = fam.min_singularity(p, margin)
+        if points:
+            return p, ds, family_closest(fam, p, factor, shift, placement.mirrored, target)
         z = fam.curves(p, SAMPLES)
         curve = shift[:, None] + factor[:, None] * (np.conj(z) if placement.mirrored else z)
         with np.errstate(invalid="ignore"):
