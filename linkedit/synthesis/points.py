@@ -77,7 +77,8 @@ def closest(points: np.ndarray, dense: np.ndarray,
     """Distances (K, N) from ``points`` (N,) complex to curves sampled at equal phases, ``dense`` (K, T)
     complex, and the closest phases (K, N) in [0, 1). With ``evaluate`` (phases (K, N) → curve points
     (K, N) complex) the phase is refined by two parabolas and the curve evaluated there (exact to rounding);
-    without it, the squared distance's parabola through the closest sample and its neighbours gives it."""
+    without it, the squared distance's parabola through the closest sample and its neighbours gives it (to
+    ~h³·|c'|·|c''|/d for a curve passing at d ≪ its sample spacing h·|c'|: use ``evaluate`` there)."""
     t = dense.shape[-1]
     gap = points[None, :, None] - dense[:, None, :]
     d2 = gap.real ** 2 + gap.imag ** 2  # (K, N, T)

@@ -347,9 +347,12 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
     motion = simulate(compile_plan(spec), RESULT_SAMPLES)
     shape = curve_error(z_target, target.closed, frame.unit(motion.tracks["target"].position), size)
     point_distances = None
-    if points:  # each point's distance to result.yaml's curve, simulated densely
-        drawn = frame.unit(simulate(motion.plan, CHECK_SAMPLES).tracks["target"].position)
-        point_distances = precision.closest(z_target, drawn[None])[0][0]
+    if points:  # each point's exact distance to result.yaml's curve (the refined linkage: points are not polished)
+        assert best.refined is not None
+        place = best.refined.placement
+        point_distances = precision.family_closest(family(best.family), best.refined.params[None],
+                                                   np.array([place.scale * np.exp(1j * place.angle)]),
+                                                   np.array([place.shift]), place.mirrored, z_target)[0]
         shape = precision.error(point_distances, size)
     timed_final = None if timed is None else measure(spec, z_target, size, RESULT_SAMPLES, timed, frame)[0]
     error = shape[0] if timed_final is None else timed_final[0]
