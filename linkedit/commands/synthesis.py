@@ -88,9 +88,10 @@ def register(app: typer.Typer) -> None:
         margin: float = typer.Option(20.0, "--margin", metavar="DEG", min=1.0, max=60.0,
                                      help="Transmission band [DEG, 180° − DEG] every candidate and the result keep "
                                           "(d_s ≥ sin² DEG); below the atlas's 20° trades transmission for accuracy."),
-        points: bool = typer.Option(False, "--points", help="The target is precision points: each point's distance "
-                                                            "to the curve at any crank phase [default: detected for "
-                                                            "a closed target of ≤ 25 unevenly spaced points]."),
+        points: bool = typer.Option(None, "--points/--curve", help="The target is precision points (each point's "
+                                                                   "distance to the curve at any crank phase) / a "
+                                                                   "sampled curve [default: points for a closed "
+                                                                   "target of ≤ 25 unevenly spaced points]."),
         seed: int = typer.Option(1, "--seed", min=0, help="Recorded with the result (the search is deterministic)."),
         units: str = typer.Option(None, "--units", help="The target's length units, written into the result "
                                                         "[default: the target's own (a CSV header's `x (m)`, a "

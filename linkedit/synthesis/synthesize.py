@@ -162,7 +162,7 @@ def margin_of(margin_deg: float) -> float:
 
 def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: int = 5, smooth: float = 0.0,
                timing: bool = False, margin_deg: float = MARGIN_DEG, seed: int = 1, name: str = "synthesized",
-               units: str = "mm", points: bool = False) -> Synthesis:
+               units: str = "mm", points: bool | None = None) -> Synthesis:
     """Find, place and refine linkages drawing ``target``; MechanismError if none survives.
 
     ``timing``: the target's sample times count (:mod:`linkedit.synthesis.timed`): candidates are
@@ -170,8 +170,8 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
     pose is the target's first sample. ``margin_deg``: every candidate, iterate and the result keep
     the transmission angle (every rebuilt joint's angle) within [μ, 180° − μ], d_s ≥ sin² μ; below
     the atlas's 20° the refinement may leave the atlas's band, trading transmission for accuracy.
-    ``points``: the target is precision points (:mod:`linkedit.synthesis.points`); a closed target of few,
-    unevenly spaced points is taken for them too unless ``timing`` or ``smooth`` is asked."""
+    ``points``: the target is precision points (:mod:`linkedit.synthesis.points`), or a curve (False); None:
+    a closed target of few, unevenly spaced points is taken for them unless ``timing`` or ``smooth`` is asked."""
     margin = margin_of(margin_deg)
     clock = {"start": time.perf_counter()}
     frame = target_frame(target)
@@ -179,7 +179,8 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
     if points and (timing or smooth > 0):
         raise InputError("precision points are matched at any crank phase and not smoothed: --points takes "
                          "neither --timing nor --smooth", field="--points")
-    mode = "given (--points)" if points else None if timing or smooth > 0 else precision.detect(z, target.closed)
+    mode = ("given (--points)" if points else None if points is False or timing or smooth > 0
+            else precision.detect(z, target.closed))
     unit = replace(target, points=smooth_curve(np.stack([z.real, z.imag], axis=1), target.closed, smooth),
                    anchor=None)
     found = _search(unit, atlas, index, top=top, timing=timing, margin_deg=margin_deg, margin=margin, name=name,
