@@ -94,7 +94,7 @@ class Candidate:
 @dataclass
 class Synthesis:
     target: Curve
-    size: float  #: the target's size (major extent, input units): errors are over it
+    size: float  #: the target's size (major extent; precision points: their RMS radius; input units): errors are over it
     #: (M, 2) the target the errors are measured against, input units: ``target.points`` smoothed with --smooth
     points: np.ndarray
     smooth: float  #: the --smooth width σ (a fraction of the points; 0: not smoothed)
