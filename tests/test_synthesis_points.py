@@ -58,7 +58,8 @@ def test_precision_points_are_told_from_a_sampled_curve():
     assert precision.detect(uneven(curve, 12, 3), closed=False) is None  # open: a part of a curve
     ring = np.concatenate([curve, curve[:1]])
     s = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(ring)))])
-    even = np.interp(np.arange(12) * s[-1] / 12, s, ring.real) + 1j * np.interp(np.arange(12) * s[-1] / 12, s, ring.imag)
+    at = np.arange(12) * s[-1] / 12
+    even = np.interp(at, s, ring.real) + 1j * np.interp(at, s, ring.imag)
     assert precision.detect(even, closed=True) is None  # 12 points evenly spaced along the curve: a sampled curve
 
 

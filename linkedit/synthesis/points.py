@@ -62,7 +62,8 @@ def spline(z: np.ndarray, closed: bool, count: int = 256) -> np.ndarray:
 
 
 def _vertex(f: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """The parabola through (−1, f₋), (0, f₀), (1, f₊): its vertex's offset in [−1, 1] and value (0 where it opens down)."""
+    """The parabola through (−1, f₋), (0, f₀), (1, f₊): its vertex's offset in [−1, 1] and value (where it
+    opens down: offset 0, value f₀)."""
     lo, mid, hi = f
     curv = lo - 2.0 * mid + hi
     up = curv > 0

@@ -5,8 +5,8 @@ The unknowns are the family parameters (the branch stays) and the placement z �
 distance to the candidate's curve and every candidate point's distance to the target's
 (only the first set for an open target, which may be part of a cycle), both over the
 target's size; for precision points each point's exact distance to the whole curve
-(:mod:`linkedit.synthesis.points`) over their RMS radius; with timing (:mod:`linkedit.synthesis.timed`), the position and velocity gaps
-at the target's times instead, the start phase free too. scipy's trust-region least squares
+(:mod:`linkedit.synthesis.points`) over their RMS radius; with timing (:mod:`linkedit.synthesis.timed`),
+the position and velocity gaps at the target's times instead, the start phase free too. scipy's trust-region least squares
 minimizes them. The refinement keeps the linkage working, as LinkEdit's barrier does: an
 iterate whose linkage does not work with the singularity margin m (sin² of the transmission
 band's edge, the family's 20° unless asked otherwise; the one planar predicate,

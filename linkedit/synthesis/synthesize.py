@@ -94,7 +94,8 @@ class Candidate:
 @dataclass
 class Synthesis:
     target: Curve
-    size: float  #: the target's size (major extent; precision points: their RMS radius; input units): errors are over it
+    #: the target's size (major extent; precision points: their RMS radius; input units): errors are over it
+    size: float
     #: (M, 2) the target the errors are measured against, input units: ``target.points`` smoothed with --smooth
     points: np.ndarray
     smooth: float  #: the --smooth width σ (a fraction of the points; 0: not smoothed)
@@ -278,7 +279,8 @@ def _point_candidates(z: np.ndarray, hits: list[Hit], atlas: Atlas, top: int) ->
     return diverse(candidates, top)
 
 
-def _point_error(fam_name: str, params: np.ndarray, place: Placement, z: np.ndarray, size: float) -> tuple[float, float]:
+def _point_error(fam_name: str, params: np.ndarray, place: Placement, z: np.ndarray,
+                 size: float) -> tuple[float, float]:
     """(RMS, max) exact distance of the precision points ``z`` (N,) complex to the placed curve, over ``size``."""
     factor = np.array([place.scale * np.exp(1j * place.angle)])
     d = precision.family_closest(family(fam_name), params[None], factor, np.array([place.shift]), place.mirrored, z)
