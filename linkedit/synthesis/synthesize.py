@@ -63,6 +63,10 @@ RESULT_SAMPLES = 360
 RANK_SAMPLES = 64
 #: Precision points: trust-region iterations per candidate (their residuals are few and cheap).
 POINT_ITERATIONS = 200
+#: Precision points: SCREEN × --top distinct candidates are refined for SCREEN_ITERATIONS first, and the best
+#: --top of them go on (a start outside the right basin stalls in a nearby linkage, so more starts are tried).
+SCREEN = 4
+SCREEN_ITERATIONS = 30
 CHECK_SAMPLES = 10 * precision.DENSE
 #: Candidates of one family whose parameters differ by less than this (RMS, family frame) are near-copies:
 #: the refined shortlist takes distinct ones first (several starts, not one start several times).
@@ -89,6 +93,8 @@ class Candidate:
     #: with --timing: (RMS, max) error of the positions at the target's times, as placed and refined
     timed_before: tuple[float, float] | None = None
     timed_after: tuple[float, float] | None = None
+    #: precision points: the screening's short refinement, where the full one starts
+    start: Refined | None = None
 
 
 @dataclass
@@ -210,8 +216,8 @@ def _search(target: Curve, atlas: Atlas, index: Index | None, *, top: int, timin
     hits = within(index.query(target_variants(closed_target), pool), atlas, margin, margin_deg)
     clock["query"] = time.perf_counter()
     if points:
-        return _finish(target, z_target, size, _point_candidates(z_target, hits, atlas, top), None, clock, name,
-                       units, margin_deg, frame, points=True)
+        chosen = _screened(_point_candidates(z_target, hits, atlas, SCREEN * top), z_target, size, margin, top)
+        return _finish(target, z_target, size, chosen, None, clock, name, units, margin_deg, frame, points=True)
     if timed is not None:
         return _finish(target, z_target, size, _timed_candidates(timed, hits, atlas, top), timed, clock, name, units,
                        margin_deg, frame)
@@ -279,6 +285,17 @@ def _point_candidates(z: np.ndarray, hits: list[Hit], atlas: Atlas, top: int) ->
     return diverse(candidates, top)
 
 
+def _screened(candidates: list[Candidate], z: np.ndarray, size: float, margin: float, top: int) -> list[Candidate]:
+    """The ``top`` candidates best after SCREEN_ITERATIONS of refinement on the precision points ``z``, in that
+    order, each with its short refinement as ``start``."""
+    for c in candidates:
+        c.start = refine(family(c.family), c.params, c.placement, z, True, size, margin=margin, points=True,
+                         iterations=SCREEN_ITERATIONS)
+    kept = sorted((c for c in candidates if c.start is not None and np.isfinite(c.start.error)),
+                  key=lambda c: c.start.error if c.start is not None else np.inf)
+    return kept[:top] or candidates[:top]
+
+
 def _point_error(fam_name: str, params: np.ndarray, place: Placement, z: np.ndarray,
                  size: float) -> tuple[float, float]:
     """(RMS, max) exact distance of the precision points ``z`` (N,) complex to the placed curve, over ``size``."""
@@ -319,8 +336,10 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
                         else curve_error(z_target, target.closed, curve, size))
             if timed is not None:
                 c.timed_before = timed_error(timed, fam, c.params, c.placement)
-        c.refined = refine(fam, c.params, c.placement, z_target, target.closed, size, margin=margin, timed=timed,
-                           points=points, iterations=POINT_ITERATIONS if points else ITERATIONS)
+        start = c.start or Refined(c.params, c.placement, np.inf)
+        c.refined = refine(fam, start.params, start.placement, z_target, target.closed, size, margin=margin,
+                           timed=timed, points=points, iterations=POINT_ITERATIONS if points else ITERATIONS)
+        c.refined.history[:0] = start.history
         if np.isfinite(c.refined.error):
             curve = c.refined.placement.apply(fam.curves(c.refined.params[None], RESULT_SAMPLES)[0])
             c.after = (_point_error(c.family, c.refined.params, c.refined.placement, z_target, size) if points
