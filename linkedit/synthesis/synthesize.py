@@ -37,9 +37,9 @@ from linkedit.planar import compile_plan, feasibility, simulate
 from linkedit.planar.simulate import Motion
 from linkedit.spec.linkage import LinkageSpec, LinkTrack
 from linkedit.spec.mechanism3d import MAX_COORDINATE
+from linkedit.synthesis import points as precision
 from linkedit.synthesis.atlas import Atlas
 from linkedit.synthesis.families import family
-from linkedit.synthesis import points as precision
 from linkedit.synthesis.index import Hit, Index, target_variants
 from linkedit.synthesis.polish import Polish, measure, polish
 from linkedit.synthesis.refine import ITERATIONS, Frame, Placement, Refined, curve_error, refine, timed_error
@@ -58,8 +58,7 @@ POINTS_POOL = 256
 SCREENED = 48
 #: Samples of the final check and of the written result.
 RESULT_SAMPLES = 360
-#: Precision points: samples of each candidate's curve placed and ranked on them, and of the written
-#: result's check (its closest points refined by a parabola through three samples).
+#: Precision points: samples of each candidate's curve placed and ranked on them.
 RANK_SAMPLES = 64
 #: Precision points: trust-region iterations per candidate (their residuals are few and cheap).
 POINT_ITERATIONS = 200
@@ -67,7 +66,6 @@ POINT_ITERATIONS = 200
 #: --top of them go on (a start outside the right basin stalls in a nearby linkage, so more starts are tried).
 SCREEN = 4
 SCREEN_ITERATIONS = 30
-CHECK_SAMPLES = 10 * precision.DENSE
 #: Candidates of one family whose parameters differ by less than this (RMS, family frame) are near-copies:
 #: the refined shortlist takes distinct ones first (several starts, not one start several times).
 NEAR = 0.05
