@@ -104,6 +104,10 @@ def register(app: typer.Typer) -> None:
         margin: float = typer.Option(20.0, "--margin", metavar="DEG", min=1.0, max=60.0,
                                      help="Transmission band [DEG, 180° − DEG] every candidate and the result keep "
                                           "(d_s ≥ sin² DEG); below the atlas's 20° trades transmission for accuracy."),
+        points: bool = typer.Option(None, "--points/--curve", help="The target is precision points (each point's "
+                                                                   "distance to the curve at any crank phase) / a "
+                                                                   "sampled curve [default: points for a closed "
+                                                                   "target of ≤ 25 unevenly spaced points]."),
         seed: int = typer.Option(1, "--seed", min=0, max=2**63 - 1, help="Recorded with the result (the search is deterministic)."),
         units: str = typer.Option(None, "--units", help="The target's length units, written into the result "
                                                         "[default: the target's own (a CSV header's `x (m)`, a "
@@ -114,7 +118,8 @@ def register(app: typer.Typer) -> None:
         """Find the linkage whose tracked point draws the target curve: atlas search, placement, refinement;
         or, with --function or --motion, a four-bar function or motion generator."""
         curve_only = {"--top": top != 5, "--closed/--open": closed is not None, "--smooth": smooth != 0.0,
-                      "--timing": timing, "--seed": seed != 1}
+                      "--timing": timing, "--seed": seed != 1, "--units": units is not None,
+                      "--points/--curve": points is not None}
         if pairs is None and relative:
             raise InputError("--relative applies to --function", field="--relative")
         if pairs is not None or poses is not None:
@@ -154,10 +159,10 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"--units {units} contradicts the target's own units, {curve.units}", file=curve.origin)
         found = load(atlas)
         result = run(curve, found, top=top, smooth=smooth, timing=timing, margin_deg=margin, seed=seed,
-                     units=units or curve.units or "mm")
+                     units=units or curve.units or "mm", points=points)
         options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "timing": timing,
                    "margin_deg": margin, "seed": seed, "closed": curve.closed, "atlas_size": found.size,
-                   "units": units}
+                   "units": units, "points": points}
         done = write_all(output, result, options)
         report({k: v for k, v in done.items() if k != "result"} | {"output": str(output)})
         before, after = done["error"]["before"], done["error"]["after"]

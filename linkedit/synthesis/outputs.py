@@ -84,8 +84,7 @@ def _report(result: Synthesis, options: dict[str, Any]) -> dict[str, Any]:
         "error": {"before": {"rms": best.before[0], "max": best.before[1]},
                   "refined": {"rms": best.after[0], "max": best.after[1]},
                   "after": {"rms": result.error[0], "max": result.error[1]},
-                  "normalized_by": "target size (major extent); RMS over target→result and result→target distances, "
-                                   "both curves sampled evenly along their length; after: result.yaml simulated"}
+                  "normalized_by": _normalized_by(result)}
         | ({} if result.timed_error is None or best.timed_before is None or best.timed_after is None else {"timed": {
             "before": {"rms": best.timed_before[0], "max": best.timed_before[1]},
             "refined": {"rms": best.timed_after[0], "max": best.timed_after[1]},
@@ -97,6 +96,7 @@ def _report(result: Synthesis, options: dict[str, Any]) -> dict[str, Any]:
             "error": None if result.polish.error is None else {"rms": result.polish.error[0],
                                                                 "max": result.polish.error[1]},
             "min_singularity": result.polish.min_singularity},
+        "precision_points": _precision(result),
         "note": result.note,
         "result": {"spec": "result.yaml", "simulation": "result.h5", "track": "target", "samples": RESULT_SAMPLES,
                    "min_singularity": _min_singularity(result.motion),
@@ -104,6 +104,24 @@ def _report(result: Synthesis, options: dict[str, Any]) -> dict[str, Any]:
         "candidates": [_candidate_row(c) for c in result.candidates],
         "seconds": result.seconds,
     }
+
+
+def _normalized_by(result: Synthesis) -> str:
+    """What the errors are measured by and over, in words."""
+    if result.points_mode is not None:
+        return ("the precision points' RMS radius about their centroid; RMS and max over the points of each point's "
+                "distance to the linkage's whole curve (any crank phase); after: result.yaml simulated")
+    return ("target size (major extent); RMS over target→result and result→target distances, "
+            "both curves sampled evenly along their length; after: result.yaml simulated")
+
+
+def _precision(result: Synthesis) -> dict[str, Any] | None:
+    """Precision points: how they were told from a curve, their RMS radius and each one's distance to the result."""
+    if result.points_mode is None or result.point_distances is None:
+        return None
+    d = result.point_distances
+    return {"mode": result.points_mode, "count": len(d), "radius": result.size, "distances": d.tolist(),
+            "mean": float(d.mean() / result.size)}
 
 
 def _overlay(result: Synthesis) -> str:

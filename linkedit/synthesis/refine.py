@@ -4,8 +4,9 @@ The unknowns are the family parameters (the branch stays) and the placement z �
 (z conjugated for a mirrored candidate). The residuals are geometric: every target point's
 distance to the candidate's curve and every candidate point's distance to the target's
 (only the first set for an open target, which may be part of a cycle), both over the
-target's size; with timing (:mod:`linkedit.synthesis.timed`), the position and velocity gaps
-at the target's times instead, the start phase free too. scipy's trust-region least squares
+target's size; for precision points each point's exact distance to the whole curve
+(:mod:`linkedit.synthesis.points`) over their RMS radius; with timing (:mod:`linkedit.synthesis.timed`),
+the position and velocity gaps at the target's times instead, the start phase free too. scipy's trust-region least squares
 minimizes them. The refinement keeps the linkage working, as LinkEdit's barrier does: an
 iterate whose linkage does not work with the singularity margin m (sin² of the transmission
 band's edge, the family's 20° unless asked otherwise; the one planar predicate,
@@ -29,6 +30,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from linkedit.planar.feasibility import works
+from linkedit.synthesis.points import family_closest
 from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
 from linkedit.synthesis.timed import VELOCITY_WEIGHT, TimedTarget, central, timed_sequence
 
@@ -159,10 +161,13 @@ def timed_error(timed: TimedTarget, fam: ModuleType, params: np.ndarray, placeme
 
 
 def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np.ndarray, closed: bool,
-           size: float, *, margin: float, timed: TimedTarget | None = None, iterations: int = ITERATIONS) -> Refined:
+           size: float, *, margin: float, timed: TimedTarget | None = None, points: bool = False,
+           iterations: int = ITERATIONS) -> Refined:
     """Refine one candidate (``params`` (P,), the branch fixed) against ``target`` (M,) complex:
-    by shape (point-to-curve distances), or with ``timed`` by positions and velocities at the
-    target's times (the start phase free too); every kept iterate works with ``margin``.
+    by shape (point-to-curve distances), with ``points`` by each precision point's exact distance to
+    the whole curve (:mod:`linkedit.synthesis.points`; ``size`` their RMS radius), or with ``timed`` by
+    positions and velocities at the target's times (the start phase free too); every kept iterate works
+    with ``margin``.
 
     The finite-difference Jacobian evaluates all perturbed linkages in one batched call.
     """
@@ -183,6 +188,8 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
         """Parameter rows (K, P), min d_s (K,) and residuals (K, R): point-to-curve distances."""
         p, factor, shift = unpack(x)
         ds = fam.min_singularity(p, margin)
+        if points:
+            return p, ds, family_closest(fam, p, factor, shift, placement.mirrored, target)
         z = fam.curves(p, SAMPLES)
         curve = shift[:, None] + factor[:, None] * (np.conj(z) if placement.mirrored else z)
         with np.errstate(invalid="ignore"):

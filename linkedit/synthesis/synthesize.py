@@ -12,6 +12,11 @@
    tracked point is nearest the target's first point (with timing: at the first sample's phase),
    polished through ``edit`` when that helps (:mod:`linkedit.synthesis.polish`), and its
    errors are measured on its ``simulate`` in the target's frame and units.
+
+Precision points (``--points``, or a closed target of few, unevenly spaced points:
+:mod:`linkedit.synthesis.points`) are not a polygon: the error is each point's distance to the whole
+curve over the points' RMS radius; the pool is ranked and placed by it, the refinement minimizes it,
+and the polish (whose distance runs from the curve to the target polygon) is skipped.
 """
 
 from __future__ import annotations
@@ -32,11 +37,12 @@ from linkedit.planar import compile_plan, feasibility, simulate
 from linkedit.planar.simulate import Motion
 from linkedit.spec.linkage import LinkageSpec, LinkTrack
 from linkedit.spec.mechanism3d import MAX_COORDINATE
+from linkedit.synthesis import points as precision
 from linkedit.synthesis.atlas import Atlas
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Hit, Index, target_variants
 from linkedit.synthesis.polish import Polish, measure, polish
-from linkedit.synthesis.refine import Frame, Placement, Refined, curve_error, refine, timed_error
+from linkedit.synthesis.refine import ITERATIONS, Frame, Placement, Refined, curve_error, refine, timed_error
 from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
 from linkedit.synthesis.timed import TimedTarget, timed_fit, timed_target
 
@@ -46,10 +52,20 @@ POOL = 64
 OPEN_POOL = 512
 #: With --timing: candidates taken from the index (a close shape may have the wrong timing).
 TIMED_POOL = 512
+#: Precision points: candidates taken from the index, placed and ranked by the point distances.
+POINTS_POOL = 256
 #: Open targets: candidates ranked on the fine partial grid after the coarse screening.
 SCREENED = 48
 #: Samples of the final check and of the written result.
 RESULT_SAMPLES = 360
+#: Precision points: samples of each candidate's curve placed and ranked on them.
+RANK_SAMPLES = 64
+#: Precision points: trust-region iterations per candidate (their residuals are few and cheap).
+POINT_ITERATIONS = 200
+#: Precision points: SCREEN × --top distinct candidates are refined for SCREEN_ITERATIONS first, and the best
+#: --top of them go on (a start outside the right basin stalls in a nearby linkage, so more starts are tried).
+SCREEN = 4
+SCREEN_ITERATIONS = 30
 #: Candidates of one family whose parameters differ by less than this (RMS, family frame) are near-copies:
 #: the refined shortlist takes distinct ones first (several starts, not one start several times).
 NEAR = 0.05
@@ -75,12 +91,15 @@ class Candidate:
     #: with --timing: (RMS, max) error of the positions at the target's times, as placed and refined
     timed_before: tuple[float, float] | None = None
     timed_after: tuple[float, float] | None = None
+    #: precision points: the screening's short refinement, where the full one starts
+    start: Refined | None = None
 
 
 @dataclass
 class Synthesis:
     target: Curve
-    size: float  #: the target's size (major extent, input units): errors are over it
+    #: the target's size (major extent; precision points: their RMS radius; input units): errors are over it
+    size: float
     #: (M, 2) the target the errors are measured against, input units: ``target.points`` smoothed with --smooth
     points: np.ndarray
     smooth: float  #: the --smooth width σ (a fraction of the points; 0: not smoothed)
@@ -96,6 +115,10 @@ class Synthesis:
     timed_error: tuple[float, float] | None = None
     polish: Polish | None = None  #: the final polish through `edit` (closed targets)
     margin_deg: float = MARGIN_DEG  #: the transmission band's edge μ the result keeps (d_s ≥ sin² μ)
+    #: precision points: why the target is taken for them ("given (--points)" or "detected: …"); None: a curve
+    points_mode: str | None = None
+    #: precision points: each point's distance (N,) to the written result's curve (input units)
+    point_distances: np.ndarray | None = None
 
 
 def target_frame(target: Curve) -> Frame:
@@ -144,43 +167,55 @@ def margin_of(margin_deg: float) -> float:
 
 def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: int = 5, smooth: float = 0.0,
                timing: bool = False, margin_deg: float = MARGIN_DEG, seed: int = 1, name: str = "synthesized",
-               units: str = "mm") -> Synthesis:
+               units: str = "mm", points: bool | None = None) -> Synthesis:
     """Find, place and refine linkages drawing ``target``; MechanismError if none survives.
 
     ``timing``: the target's sample times count (:mod:`linkedit.synthesis.timed`): candidates are
     ranked, placed and refined by positions and velocities at those times, and the result's rest
     pose is the target's first sample. ``margin_deg``: every candidate, iterate and the result keep
     the transmission angle (every rebuilt joint's angle) within [μ, 180° − μ], d_s ≥ sin² μ; below
-    the atlas's 20° the refinement may leave the atlas's band, trading transmission for accuracy."""
+    the atlas's 20° the refinement may leave the atlas's band, trading transmission for accuracy.
+    ``points``: the target is precision points (:mod:`linkedit.synthesis.points`), or a curve (False); None:
+    a closed target of few, unevenly spaced points is taken for them unless ``timing`` or ``smooth`` is asked."""
     margin = margin_of(margin_deg)
     clock = {"start": time.perf_counter()}
     frame = target_frame(target)
     z = frame.unit(target.points)
+    if points and (timing or smooth > 0):
+        raise InputError("precision points are matched at any crank phase and not smoothed: --points takes "
+                         "neither --timing nor --smooth", field="--points")
+    mode = ("given (--points)" if points else None if points is False or timing or smooth > 0
+            else precision.detect(z, target.closed))
     unit = replace(target, points=smooth_curve(np.stack([z.real, z.imag], axis=1), target.closed, smooth),
                    anchor=None)
     found = _search(unit, atlas, index, top=top, timing=timing, margin_deg=margin_deg, margin=margin, name=name,
-                    units=units, clock=clock, frame=frame)
+                    units=units, clock=clock, frame=frame, points=mode is not None)
     for c in found.candidates:
         c.placement = frame.place(c.placement)
         if c.refined is not None:
             c.refined.placement = frame.place(c.refined.placement)
     centre = np.array([frame.centre.real, frame.centre.imag])
     return replace(found, target=target, size=found.size * frame.scale, smooth=smooth,
-                   points=centre + frame.scale * unit.points)
+                   points=centre + frame.scale * unit.points, points_mode=mode,
+                   point_distances=None if found.point_distances is None else found.point_distances * frame.scale)
 
 
 def _search(target: Curve, atlas: Atlas, index: Index | None, *, top: int, timing: bool, margin_deg: float,
-            margin: float, name: str, units: str, clock: dict[str, float], frame: Frame) -> Synthesis:
+            margin: float, name: str, units: str, clock: dict[str, float], frame: Frame, points: bool) -> Synthesis:
     """:func:`synthesize` on the (smoothed) target in its unit frame; the result's spec and simulation in ``frame``."""
     pts = target.points
     z_target = pts[:, 0] + 1j * pts[:, 1]
-    size = target_size(pts, target.closed)
+    size = precision.rms_radius(z_target) if points else target_size(pts, target.closed)
     timed = timed_target(z_target, target.times, target.period, target.closed, size, target.origin) if timing else None
     index = index or Index(atlas)
-    closed_target = z_target if target.closed else np.concatenate([z_target, z_target[-2:0:-1]])
-    hits = index.query(target_variants(closed_target), TIMED_POOL if timed else POOL if target.closed else OPEN_POOL)
-    hits = within(hits, atlas, margin, margin_deg)
+    asked = precision.spline(z_target, target.closed) if points else z_target
+    closed_target = asked if target.closed else np.concatenate([asked, asked[-2:0:-1]])
+    pool = TIMED_POOL if timed else POINTS_POOL if points else POOL if target.closed else OPEN_POOL
+    hits = within(index.query(target_variants(closed_target), pool), atlas, margin, margin_deg)
     clock["query"] = time.perf_counter()
+    if points:
+        chosen = _screened(_point_candidates(z_target, hits, atlas, SCREEN * top), z_target, size, margin, top)
+        return _finish(target, z_target, size, chosen, None, clock, name, units, margin_deg, frame, points=True)
     if timed is not None:
         return _finish(target, z_target, size, _timed_candidates(timed, hits, atlas, top), timed, clock, name, units,
                        margin_deg, frame)
@@ -231,6 +266,42 @@ def within(hits: list[Hit], atlas: Atlas, margin: float, margin_deg: float) -> l
     return sorted(kept, key=lambda h: h.distance)
 
 
+def _point_candidates(z: np.ndarray, hits: list[Hit], atlas: Atlas, top: int) -> list[Candidate]:
+    """The index hits placed on the precision points ``z`` (N,) complex and ranked by their RMS distance to the
+    points (:func:`linkedit.synthesis.points.fit`, over the points' RMS radius); the best ``top`` distinct ones."""
+    candidates: list[Candidate] = []
+    radius = precision.rms_radius(z)
+    for fam_name in dict.fromkeys(h.family for h in hits):
+        mine = [h for h in hits if h.family == fam_name]
+        params = atlas.families[fam_name]["params"][[h.row for h in mine]]
+        with np.errstate(invalid="ignore"):
+            dist, alpha, beta, mirrored = precision.fit(z, family(fam_name).curves(params, RANK_SAMPLES))
+        for h, p, d, a, b, m in zip(mine, params, dist, alpha, beta, mirrored):
+            place = Placement(float(abs(a)), float(np.angle(a)), complex(b), bool(m))
+            candidates.append(Candidate(fam_name, h.row, p, h.distance, float(d) / radius, place))
+    candidates.sort(key=lambda c: c.distance)
+    return diverse(candidates, top)
+
+
+def _screened(candidates: list[Candidate], z: np.ndarray, size: float, margin: float, top: int) -> list[Candidate]:
+    """The ``top`` candidates best after SCREEN_ITERATIONS of refinement on the precision points ``z``, in that
+    order, each with its short refinement as ``start``."""
+    for c in candidates:
+        c.start = refine(family(c.family), c.params, c.placement, z, True, size, margin=margin, points=True,
+                         iterations=SCREEN_ITERATIONS)
+    kept = sorted((c for c in candidates if c.start is not None and np.isfinite(c.start.error)),
+                  key=lambda c: c.start.error if c.start is not None else np.inf)
+    return kept[:top] or candidates[:top]
+
+
+def _point_error(fam_name: str, params: np.ndarray, place: Placement, z: np.ndarray,
+                 size: float) -> tuple[float, float]:
+    """(RMS, max) exact distance of the precision points ``z`` (N,) complex to the placed curve, over ``size``."""
+    factor = np.array([place.scale * np.exp(1j * place.angle)])
+    d = precision.family_closest(family(fam_name), params[None], factor, np.array([place.shift]), place.mirrored, z)
+    return precision.error(d[0], size) if np.isfinite(d).all() else (np.inf, np.inf)
+
+
 def _timed_candidates(timed: TimedTarget, hits: list, atlas: Atlas, top: int) -> list[Candidate]:
     """The index hits re-ranked and placed by the timed distance; the best ``top`` distinct ones."""
     candidates: list[Candidate] = []
@@ -249,7 +320,8 @@ def _timed_candidates(timed: TimedTarget, hits: list, atlas: Atlas, top: int) ->
 
 
 def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candidate], timed: TimedTarget | None,
-            clock: dict[str, float], name: str, units: str, margin_deg: float, frame: Frame) -> Synthesis:
+            clock: dict[str, float], name: str, units: str, margin_deg: float, frame: Frame,
+            points: bool = False) -> Synthesis:
     """Refine the chosen candidates (unit frame), keep the best working one, write its spec in ``frame`` and
     check it by ``simulate``."""
     clock["rank"] = time.perf_counter()
@@ -258,13 +330,18 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
         fam = family(c.family)
         with np.errstate(invalid="ignore"):
             curve = c.placement.apply(fam.curves(c.params[None], RESULT_SAMPLES)[0])
-            c.before = curve_error(z_target, target.closed, curve, size)
+            c.before = (_point_error(c.family, c.params, c.placement, z_target, size) if points
+                        else curve_error(z_target, target.closed, curve, size))
             if timed is not None:
                 c.timed_before = timed_error(timed, fam, c.params, c.placement)
-        c.refined = refine(fam, c.params, c.placement, z_target, target.closed, size, margin=margin, timed=timed)
+        start = c.start or Refined(c.params, c.placement, np.inf)
+        c.refined = refine(fam, start.params, start.placement, z_target, target.closed, size, margin=margin,
+                           timed=timed, points=points, iterations=POINT_ITERATIONS if points else ITERATIONS)
+        c.refined.history[:0] = start.history
         if np.isfinite(c.refined.error):
             curve = c.refined.placement.apply(fam.curves(c.refined.params[None], RESULT_SAMPLES)[0])
-            c.after = curve_error(z_target, target.closed, curve, size)
+            c.after = (_point_error(c.family, c.refined.params, c.refined.placement, z_target, size) if points
+                       else curve_error(z_target, target.closed, curve, size))
             if timed is not None:
                 c.timed_after = timed_error(timed, fam, c.refined.params, c.refined.placement)
     clock["refine"] = time.perf_counter()
@@ -277,7 +354,10 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
     refined = best.after if timed is None else best.timed_after
     assert refined is not None
     polished = None
-    if target.closed:  # the final polish through `edit` (kept only if it lowers the error within the margin)
+    if points:
+        polished = Polish(False, "precision points are not polished: the edit's follow distance runs from the "
+                                 "linkage's curve to the target polygon, not from each point to the curve")
+    elif target.closed:  # the final polish through `edit` (kept only if it lowers the error within the margin)
         polished = polish(spec, z_target, size, refined, margin, RESULT_SAMPLES, timed)
         if polished.kept:
             assert polished.spec is not None
@@ -286,6 +366,14 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
     spec = in_frame(spec, frame)
     motion = simulate(compile_plan(spec), RESULT_SAMPLES)
     shape = curve_error(z_target, target.closed, frame.unit(motion.tracks["target"].position), size)
+    point_distances = None
+    if points:  # each point's exact distance to result.yaml's curve (the refined linkage: points are not polished)
+        assert best.refined is not None
+        place = best.refined.placement
+        point_distances = precision.family_closest(family(best.family), best.refined.params[None],
+                                                   np.array([place.scale * np.exp(1j * place.angle)]),
+                                                   np.array([place.shift]), place.mirrored, z_target)[0]
+        shape = precision.error(point_distances, size)
     timed_final = None if timed is None else measure(spec, z_target, size, RESULT_SAMPLES, timed, frame)[0]
     error = shape[0] if timed_final is None else timed_final[0]
     spec = spec.model_copy(update={"description": f"Synthesized by linkedit from {target.origin}: {best.family} "
@@ -294,8 +382,9 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
     clock["check"] = time.perf_counter()
     note = ""
     if error > POOR:
+        against = "the points' RMS radius" if points else "the target's size"
         note = (f"no family in the atlas draws this curve well{' with its timing' if timed is not None else ''}: "
-                f"the best found is off by {100 * error:.1f} % of the target's size (RMS)")
+                f"the best found is off by {100 * error:.1f} % of {against} (RMS)")
         worst = motion.min_singularity()
         if worst is not None and worst[0] <= ON_MARGIN * margin:
             note += (f"; it lies on the transmission band's edge ({margin_deg:g}°): a smaller --margin trades "
@@ -304,7 +393,7 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
                "refine": clock["refine"] - clock["rank"], "polish": clock["polish"] - clock["refine"],
                "check": clock["check"] - clock["polish"], "total": clock["check"] - clock["start"]}
     return Synthesis(target, size, target.points, 0.0, chosen, best, spec, motion, seconds, note, shape, timed_final,
-                     polished, margin_deg)
+                     polished, margin_deg, point_distances=point_distances)
 
 
 def diverse(candidates: list[Candidate], count: int) -> list[Candidate]:
