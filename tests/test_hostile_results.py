@@ -249,3 +249,64 @@ def test_plot_refuses_a_speed_that_is_not_finite_and_positive(run_cli, planar, t
     r = run_cli("plot", planar, "-o", tmp_path / "p.svg", "--per-second", "--rpm", rpm)
     assert r.exit_code == 2 and "--rpm" in r.output, r.output
     assert not (tmp_path / "p.svg").exists()
+
+
+@pytest.fixture(scope="module")
+def small_atlas(tmp_path_factory) -> Path:
+    from typer.testing import CliRunner
+
+    from linkedit.cli import app
+
+    out = tmp_path_factory.mktemp("atlas") / "a.h5"
+    r = CliRunner().invoke(app, ["atlas", "build", "--family", "four-bar", "-n", "3000", "-o", str(out), "--seed", "1", "-q"])
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def drop_root_attr(name: str):
+    def change(f: h5py.File, tmp: Path) -> None:
+        del f.attrs[name]
+    return change
+
+
+def drop_group_attr(where: str, name: str):
+    def change(f: h5py.File, tmp: Path) -> None:
+        del f[where].attrs[name]
+    return change
+
+
+def narrow_index(f: h5py.File, tmp: Path) -> None:
+    data = f["families/four-bar/index"][:, :-1]
+    del f["families/four-bar/index"]
+    f["families/four-bar/index"] = data
+
+
+def linked_curves(f: h5py.File, tmp: Path) -> None:
+    del f["families/four-bar/curves"]
+    f["families/four-bar/curves"] = h5py.SoftLink("/families/four-bar/curves")
+
+
+ATLAS_DAMAGE = {"no seed": (drop_root_attr("seed"), "seed"), "no chunk": (drop_root_attr("chunk"), "chunk"),
+                "no harmonics": (drop_root_attr("harmonics"), "harmonics"),
+                "no chunks": (drop_group_attr("families/four-bar", "chunks"), "chunks"),
+                "no params": (drop("families/four-bar/params"), "params"),
+                "no index": (drop("families/four-bar/index"), "index"),
+                "index of the wrong width": (narrow_index, "/families/four-bar/index"),
+                "curves behind a soft link": (linked_curves, "soft link"),
+                "sparse curves": (replace("families/four-bar/curves", h5py.Empty("f")), "curves")}
+
+
+@pytest.mark.parametrize("damage", ATLAS_DAMAGE, ids=list(ATLAS_DAMAGE))
+def test_a_damaged_atlas_is_one_line_for_synthesize_and_for_an_append(run_cli, small_atlas, tmp_path, damage):
+    change, words = ATLAS_DAMAGE[damage]
+    bad = mutated(small_atlas, tmp_path, change)
+    before = bad.read_bytes()
+    target = tmp_path / "t.csv"
+    target.write_text("x,y\n" + "\n".join(f"{np.cos(a):.6f},{0.5 * np.sin(a):.6f}" for a in np.linspace(0, 6.2, 40)))
+    for args in (["synthesize", target, "--atlas", bad, "-o", tmp_path / "syn"],
+                 ["atlas", "build", "--family", "four-bar", "-n", "100", "-o", bad, "--seed", "1"]):
+        r = run_cli(*args)
+        assert r.exit_code == 2 and "Traceback" not in r.output, (args[0], r.output)
+        line = [ln for ln in r.output.splitlines() if str(bad) in ln]
+        assert len(line) == 1 and words in line[0], (args[0], r.output)
+    assert bad.read_bytes() == before and not (tmp_path / "syn").exists()

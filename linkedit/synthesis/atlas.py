@@ -30,6 +30,7 @@ from linkedit import __version__
 from linkedit.curves.efd import polyline_efd
 from linkedit.errors import InputError, LinkeditError
 from linkedit.io.atomic import atomic_path, deferred_interrupts, locked
+from linkedit.io.h5read import ResultReader, open_result
 from linkedit.io.hdf5 import writing
 from linkedit.planar.feasibility import works
 from linkedit.resources import require_disk
@@ -413,18 +414,45 @@ def _grow(path: Path, names: list[str], count: int, seed: int, run: Runner,
 
 
 def _check_existing(path: Path, seed: int) -> None:
+    """An atlas to append to: of this layout, built with ``seed``, every family's arrays whole."""
     try:
-        with h5py.File(path, "r") as f:
-            if f.attrs.get("kind") != "atlas":
+        with open_result(path) as f:
+            if f.attr("kind", default=None) != "atlas":
                 raise InputError("exists and is not a linkedit atlas (refusing to overwrite it)", file=str(path))
-            if int(f.attrs["seed"]) != seed:
-                raise InputError(f"this atlas was built with --seed {int(f.attrs['seed'])}; append with the same "
-                                 "seed (or write a new file)", file=str(path), field="--seed")
-            if int(f.attrs["chunk"]) != CHUNK or int(f.attrs["samples"]) != SAMPLES:
-                raise InputError("this atlas was built by another version of the layout; build a new one",
-                                 file=str(path))
-    except OSError as exc:
-        raise InputError(f"cannot open as HDF5: {exc}", file=str(path)) from None
+            built = _layout(f)
+    except InputError as exc:
+        if "not a linkedit result" in str(exc) or "cannot open as HDF5" in str(exc):
+            raise InputError("exists and is not a linkedit atlas (refusing to overwrite it)", file=str(path)) from None
+        raise
+    if built != seed:
+        raise InputError(f"this atlas was built with --seed {built}; append with the same seed (or write a new file)",
+                         file=str(path), field="--seed")
+
+
+def _layout(f: ResultReader) -> int:
+    """Check an open atlas against this version's layout before anything is read or appended (the
+    root attributes, each family's known name, its arrays' shapes and lengths, its ``chunks``);
+    returns its seed. InputError naming the file and the member otherwise."""
+    if (f.attr("chunk", kind=int) != CHUNK or f.attr("samples", kind=int) != SAMPLES
+            or f.attr("harmonics", kind=int) != HARMONICS):
+        raise f.error("/", "an atlas of another layout version (chunk, samples or harmonics differ); rebuild it")
+    seed = f.attr("seed", kind=int)
+    if not 0 <= seed < 2**63:
+        raise f.error("/", f"attribute 'seed': {seed} is not a seed")
+    for name in f.names("families"):
+        fam = family(name, field=f"{f.path}: families/{name}")
+        g = f"families/{name}"
+        rows = f.dataset(f"{g}/params").shape[0] if f.dataset(f"{g}/params").ndim == 2 else -1
+        shapes = {"params": (rows, len(fam.PARAMETERS)), "min_ds": (rows,), "index": (rows, 4 * HARMONICS - 3),
+                  "curves": (rows, SAMPLES // COARSE_STEP, 2)}
+        for key, shape in shapes.items():
+            ds = f.dataset(f"{g}/{key}")
+            if ds.shape != shape or ds.dtype.kind != "f":
+                raise f.error(f"{g}/{key}", f"expected {shape} numbers, found {ds.shape} {ds.dtype}")
+        chunks = f.attr("chunks", g, kind=int)
+        if not 0 <= rows <= chunks * CHUNK:
+            raise f.error(g, f"attribute 'chunks': {chunks} chunks cannot hold {rows} linkages")
+    return seed
 
 
 def _family_group(f: h5py.File, name: str) -> h5py.Group:
@@ -482,21 +510,14 @@ def load(path: str | Path) -> Atlas:
     for file in files:
         if not file.is_file():
             raise InputError("no such file", file=str(file))
-        try:
-            f = h5py.File(file, "r")
-        except OSError as exc:
-            raise InputError(f"cannot open as HDF5: {exc}", file=str(file)) from None
-        with f:
-            if f.attrs.get("kind") != "atlas" or "families" not in f:
+        with open_result(file, kind="atlas") as f:
+            if not f.has("families"):
                 raise InputError("not a linkedit atlas (build one with `linkedit atlas build`)", file=str(file))
-            if int(f.attrs["harmonics"]) != HARMONICS or int(f.attrs["samples"]) != SAMPLES:
-                raise InputError("atlas of another layout version; rebuild it", file=str(file))
-            seed = int(f.attrs["seed"])
-            for name, g in f["families"].items():
-                family(name, field=f"{file}: families/{name}")
+            seed = _layout(f)
+            for name in f.names("families"):
                 bucket = families.setdefault(name, {k: [] for k in ("params", "min_ds", "index", "curves")})
                 for key in bucket:
-                    bucket[key].append(g[key][()])
+                    bucket[key].append(f.array(f"families/{name}/{key}", kinds="f"))
     merged = {name: {k: np.concatenate(v) for k, v in parts.items()} for name, parts in families.items()}
     if not any(len(v["params"]) for v in merged.values()):
         raise InputError("the atlas is empty", file=str(path))
