@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 from collections import deque
 from enum import Enum
 from pathlib import Path
@@ -13,18 +12,18 @@ from linkedit.commands.common import JSON, QUIET, check_outputs, guard, report, 
 from linkedit.errors import InputError
 
 
-#: a track name becomes an HDF5 group: not empty, no "/", no leading ".", no control characters
-_NAME = re.compile(r"^[^/.\x00-\x1f][^/\x00-\x1f]*$")
-
-
 def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
     """``[name=]member:x,y,z`` or ``[name=]member:point`` → (name, member, point)."""
     name, eq, rest = text.partition("=")
     if not eq:
         name, rest = text, text
     member, colon, point = rest.partition(":")
-    if not colon or not member or not point or not _NAME.match(name):
+    if not colon or not member or not point:
         raise InputError(f"{text!r}: expected [name=]member:x,y,z or [name=]member:point", field="--track")
+    from linkedit.spec.common import name_problem  # a track name becomes an HDF5 group, as a spec's names
+
+    if name_problem(name):
+        raise InputError(f"{text!r}: {name_problem(name)}", field="--track")
     parts = point.split(",")
     if len(parts) == 1:
         return name, member, point

@@ -20,7 +20,7 @@ from typing import Annotated, Any, Literal, Union
 import pydantic
 
 from linkedit.errors import InputError
-from linkedit.spec.common import Count, Finite, Name, SpecModel, Vec3
+from linkedit.spec.common import PYTHON_PATTERN, Count, Finite, Name, SpecModel, Vec3
 
 
 def _unit(v: tuple[float, ...]) -> tuple[float, ...]:
@@ -234,7 +234,7 @@ class CustomC(SpecModel):
     residual (size,)`` on ``members``; runs only with ``--allow-python``."""
 
     type: Literal["custom"]
-    python: Annotated[str, pydantic.StringConstraints(pattern=r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")]
+    python: Annotated[str, pydantic.StringConstraints(pattern=PYTHON_PATTERN)]
     members: list[Name] = pydantic.Field(min_length=1)
     size: Count = pydantic.Field(ge=1)
 
