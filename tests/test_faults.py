@@ -102,14 +102,17 @@ main()
 """
 
 
+@pytest.mark.parametrize("command", [("simulate", EXAMPLES / "crank-rocker.yaml", "-n", "36"),
+                                     ("solve3d", EXAMPLES / "3d" / "crank-rocker.yaml", "--steps", "12")],
+                         ids=lambda c: c[0])
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=lambda s: s.name)
-def test_a_signal_landing_in_a_finalizer_still_interrupts_the_run(tmp_path, sig):
-    """A SIGINT/SIGTERM whose KeyboardInterrupt a finalizer swallows ("Exception ignored") still ends the
-    run with 128 + the signal, and the result is not written (it exited 0 with the file written)."""
+def test_a_signal_landing_in_a_finalizer_still_interrupts_the_run(tmp_path, sig, command):
+    """A SIGINT/SIGTERM whose KeyboardInterrupt a finalizer swallows ("Exception ignored") while the result
+    is written still ends the run with 128 + the signal, and the result is not written (it exited 0 with
+    the file written; solve3d: a KeyboardInterrupt traceback, issue 26 §7)."""
     out = tmp_path / "r.h5"
     out.write_bytes(b"the older result")
-    r = subprocess.run([sys.executable, "-c", FINALIZER.format(sig=sig.name), "simulate",
-                        str(EXAMPLES / "crank-rocker.yaml"), "-n", "36", "-o", str(out)],
+    r = subprocess.run([sys.executable, "-c", FINALIZER.format(sig=sig.name), *map(str, command), "-o", str(out)],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 128 + sig, r.stderr
     assert r.stderr == "linkedit: error: interrupted\n"  # without Python's "Exception ignored" traceback

@@ -398,6 +398,47 @@ def test_a_rotation_axis_of_1e308_turns_the_crank_like_the_unit_axis(run_cli, tm
     assert np.allclose(p, q, rtol=0, atol=1e-9)
 
 
+@pytest.mark.parametrize("old, new", [
+    ("orientation: {axis: [0, 0, 1], angle_deg: 90}", "orientation: [1.0e-300, 0, 0, 1.0e-300]"),
+    ("orientation: {axis: [0, 0, 1], angle_deg: 90}", "orientation: [5.0e-324, 0, 0, 5.0e-324]"),  # subnormal
+    ("rotation: {axis: [0, 0, 1]", "rotation: {axis: [0, 0, 1.0e-300]"),
+])
+def test_a_tiny_quaternion_or_axis_is_normalized_not_called_zero(run_cli, tmp_path, old, new):
+    """specs/limits.md: any finite nonzero size is normalized (it was refused below 1e-9 as 'zero')."""
+    text = (EXAMPLES / "3d" / "crank-rocker.yaml").read_text()
+    tiny, unit = tmp_path / "tiny.yaml", tmp_path / "unit.yaml"
+    assert old in text
+    tiny.write_text(text.replace(old, new))
+    unit.write_text(text.replace(old, old.replace("{axis: [0, 0, 1], angle_deg: 90}", "[1, 0, 0, 1]")))
+    for spec in (tiny, unit):
+        r = run_cli("solve3d", spec, "-o", tmp_path / f"{spec.stem}.h5", "--steps", "9")
+        assert r.exit_code == 0, r.output
+    with h5py.File(tmp_path / "tiny.h5") as a, h5py.File(tmp_path / "unit.h5") as b:
+        assert np.ptp(a["tracks/P/position"][()], axis=0).max() > 0.1  # the crank turns
+        assert np.array_equal(a["members/orientation"][()], b["members/orientation"][()])
+        assert np.array_equal(a["tracks/P/position"][()], b["tracks/P/position"][()])
+
+
+def test_an_all_zero_quaternion_is_still_refused(run_cli, tmp_path):
+    spec = tmp_path / "zero.yaml"
+    spec.write_text((EXAMPLES / "3d" / "crank-rocker.yaml").read_text()
+                    .replace("orientation: {axis: [0, 0, 1], angle_deg: 90}", "orientation: [0, 0, 0.0, -0.0]"))
+    assert "rocker.orientation: zero quaternion" in _one_line(run_cli("solve3d", spec, "-o", tmp_path / "o.h5"), 2)
+
+
+def test_a_mechanism_with_nothing_to_solve_is_one_line(run_cli, tmp_path):
+    """No constraint, joint or input: refused (exit 2), not ``ValueError: need at least one array``."""
+    spec = tmp_path / "free.yaml"
+    spec.write_text("name: free\nunits: mm\nmembers:\n  a: {shape: {points: {p: [1, 0, 0]}}}\n"
+                    "outputs: {tracks: {tip: {member: a, point: p}}}\n")
+    r = run_cli("solve3d", spec, "-o", tmp_path / "o.h5", "--json")
+    assert r.exit_code == 2 and report_of(r) is None
+    line = _one_line(run_cli("solve3d", spec, "-o", tmp_path / "o.h5"), 2)
+    assert line.endswith("free.yaml:1: constraints: nothing holds or drives the members: give at least one "
+                         "constraint, joint or input")
+    assert sorted(os.listdir(tmp_path)) == ["free.yaml"]
+
+
 def test_an_edit_whose_picture_path_is_a_folder_writes_nothing(run_cli, tmp_path, spec):
     out = tmp_path / "out"
     (out / "spec-edit.svg").mkdir(parents=True)

@@ -115,3 +115,28 @@ def test_toggle_exactly_at_a_sample_is_named_a_toggle_never_too_close(run_cli, t
         ok = f["diagnostics/assembled"][()]
         assert ok.tolist() == [True, True, False, True]
         assert np.isfinite(f["joints/velocity"][()][ok]).all()
+
+
+def _moved(dx: float) -> str:
+    """The crank-rocker example (75 mm) moved by ``dx`` along x."""
+    from tests.conftest import EXAMPLES
+
+    data = yaml.safe_load((EXAMPLES / "crank-rocker.yaml").read_text())
+    data["joints"] = {n: [x + dx, y] for n, (x, y) in data["joints"].items()}
+    return yaml.safe_dump(data, sort_keys=False)
+
+
+def test_a_linkage_beyond_double_precision_from_the_origin_is_named_so_not_coinciding(run_cli, tmp_path):
+    far, near = tmp_path / "far.yaml", tmp_path / "near.yaml"
+    far.write_text(_moved(1e12))  # joints 75 mm apart at 1e12: 1e-9 of the offset is 1000 mm
+    r = run_cli("simulate", far, "-o", tmp_path / "far.h5")
+    assert r.exit_code == 2 and "coincides" not in r.output, r.output
+    assert "lies 1e+12 from the origin: beyond double precision for its size" in r.output
+    assert "move it nearer the origin" in r.output
+    near.write_text(_moved(1e9))  # 1e-9 of the offset is 1 mm: still simulated
+    assert run_cli("simulate", near, "-o", tmp_path / "near.h5", "-n", "12").exit_code == 0
+    # joints that are one point for the linkage's own size still coincide, at any offset
+    same = tmp_path / "same.yaml"
+    same.write_text(_moved(1e12).replace("1000000000075.0", "1000000000000.0"))
+    r = run_cli("simulate", same, "-o", tmp_path / "same.h5")
+    assert r.exit_code == 2 and "joint 'D' coincides with joint 'O'" in r.output, r.output

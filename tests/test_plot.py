@@ -140,3 +140,19 @@ def test_toggle_spikes_of_a_partial_result_are_clipped_and_marked(run_cli, tmp_p
     assert "spikes clipped" in "".join(panel.itertext())
     # a panel without spikes is not clipped
     assert not _panel(ET.parse(out).getroot(), "position").findall(".//s:polygon[@class='clipped']", NS)
+
+
+@pytest.mark.parametrize("options", [(), ("--joint", "B"), ("--per-second", "--rpm", "30")])
+def test_no_attribute_of_a_partial_result_plot_is_nan_and_lines_break_at_the_gap(run_cli, tmp_path, options):
+    from tests.planar_specs import LOCKING
+
+    spec, h5, out = tmp_path / "lock.yaml", tmp_path / "lock.h5", tmp_path / "plot.svg"
+    spec.write_text(LOCKING)
+    assert run_cli("simulate", spec, "--partial", "-n", "72", "-o", h5).exit_code == 0
+    assert run_cli("plot", h5, "-o", out, *options).exit_code == 0
+    root = ET.parse(out).getroot()
+    values = [v.lower() for e in root.iter() for v in e.attrib.values()]
+    assert values and not [v for v in values if "nan" in v or "inf" in v]
+    # the 125°…235° gap splits every curve of the position panel into a run before and a run after it
+    lines = _panel(root, "position").findall(".//s:polyline[@class='series']", NS)
+    assert len(lines) == 2 * len({line.get("data-name") for line in lines})

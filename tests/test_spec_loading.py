@@ -33,3 +33,37 @@ def test_malformed_yaml_names_the_line():
 def test_empty_file():
     with pytest.raises(InputError, match="empty"):
         load_yaml("x.yaml", "")
+
+
+RULE = ("a name may hold any characters but '/' and control characters, and may not begin with '.' "
+        "(it becomes an HDF5 group name)")
+
+
+@pytest.mark.parametrize("old, new, expected", [
+    ("  B: [63", '  "B/x": [0, 50]\n  B: [63', ":11: joints.B/x: the name 'B/x' has a '/': "),
+    ("name: crank-rocker", "name: .hidden", ":2: name: the name '.hidden' begins with '.': "),
+    ("name: crank-rocker", 'name: "a\\tb"', ":2: name: the name 'a\\tb' has the control character '\\t': "),
+    ("  crank: [O, A]", "  crank: [O, A]\n  'a/b': [O, A]", ":15: links.a/b: the name 'a/b' has a '/': "),
+])
+def test_a_bad_name_is_explained_in_words_not_as_a_regex(run_cli, tmp_path, old, new, expected):
+    from tests.conftest import EXAMPLES
+
+    spec = tmp_path / "s.yaml"
+    text = (EXAMPLES / "crank-rocker.yaml").read_text()
+    assert old in text
+    spec.write_text(text.replace(old, new, 1))
+    r = run_cli("simulate", spec, "-o", tmp_path / "o.h5")
+    assert r.exit_code == 2 and r.output.strip() == f"linkedit: error: {spec}{expected}{RULE}"
+
+
+def test_a_bad_track_name_and_python_reference_are_explained_in_words(run_cli, tmp_path):
+    from tests.conftest import EXAMPLES
+
+    r = run_cli("solve3d", EXAMPLES / "3d" / "crank-rocker.yaml", "--track", "a/b=crank:1,0,0", "-o", tmp_path / "o.h5")
+    assert r.exit_code == 2 and r.output.strip() == f"linkedit: error: --track: 'a/b=crank:1,0,0': the name 'a/b' has a '/': {RULE}"
+    spec = tmp_path / "py.yaml"
+    spec.write_text((EXAMPLES / "3d" / "crank-rocker.yaml").read_text().replace(
+        "constraints:\n", "constraints:\n  circle: {type: custom, python: 'os.path/join', members: [crank], size: 1}\n", 1))
+    r = run_cli("solve3d", spec, "--allow-python", "-o", tmp_path / "o.h5")
+    assert r.exit_code == 2 and "constraints.circle.python: 'os.path/join' is not module:function: " in r.output
+    assert "pattern" not in r.output and "\\w" not in r.output

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import re
+from collections import deque
 from enum import Enum
 from pathlib import Path
 
@@ -12,18 +12,18 @@ from linkedit.commands.common import JSON, QUIET, check_outputs, guard, report, 
 from linkedit.errors import InputError
 
 
-#: a track name becomes an HDF5 group: not empty, no "/", no leading ".", no control characters
-_NAME = re.compile(r"^[^/.\x00-\x1f][^/\x00-\x1f]*$")
-
-
 def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
     """``[name=]member:x,y,z`` or ``[name=]member:point`` → (name, member, point)."""
     name, eq, rest = text.partition("=")
     if not eq:
         name, rest = text, text
     member, colon, point = rest.partition(":")
-    if not colon or not member or not point or not _NAME.match(name):
+    if not colon or not member or not point:
         raise InputError(f"{text!r}: expected [name=]member:x,y,z or [name=]member:point", field="--track")
+    from linkedit.spec.common import name_problem  # a track name becomes an HDF5 group, as a spec's names
+
+    if name_problem(name):
+        raise InputError(f"{text!r}: {name_problem(name)}", field="--track")
     parts = point.split(",")
     if len(parts) == 1:
         return name, member, point
@@ -71,9 +71,16 @@ def _line(res, out: Path, svg: Path | None) -> str:
 
 class Progress:
     """Reports a long solve on stderr: a line every few seconds once it runs past the first
-    ones (step, time, rate), none for a quick one."""
+    ones (step, rate, time left), none for a quick one.
+
+    The rate is taken over the last :attr:`WINDOW` seconds (the last line or two), not since the start: the first steps
+    (assembly, building the solver's structures) are far slower than the rest, and an average over
+    them promised hours for a run of seconds. No estimate is given before :attr:`FIRST` of the steps
+    are done."""
 
     EVERY = 2.0  #: seconds between lines
+    WINDOW = 4.0  #: seconds of recent steps the rate is taken over (at most; the last line's at least)
+    FIRST = 0.05  #: fraction of the steps done before the time left is estimated
 
     def __init__(self, name: str) -> None:
         import time
@@ -81,16 +88,32 @@ class Progress:
         self.name = name
         self.clock = time.perf_counter
         self.next = self.clock() + self.EVERY
-        self.start = self.clock()
+        self.seen: deque[tuple[float, int]] = deque([(self.clock(), 0)])  # (time, steps done) at each line
 
     def __call__(self, k: int, total: int) -> None:
         now = self.clock()
         if now < self.next:
             return
         self.next = now + self.EVERY
-        rate = (k + 1) / (now - self.start)
-        typer.echo(f"{self.name}: step {k + 1}/{total} ({rate:.1f} steps/s, about {(total - k - 1) / rate:.0f} s left)",
-                   err=True)
+        done = k + 1
+        while len(self.seen) > 1 and now - self.seen[0][0] > self.WINDOW:
+            self.seen.popleft()
+        then, before = self.seen[0]
+        self.seen.append((now, done))
+        rate = (done - before) / max(now - then, 1e-9)
+        text = f"{self.name}: step {done:,}/{total:,} ({rate:,.1f} steps/s"
+        if self.FIRST * total <= done < total and rate > 0:
+            text += f", about {_duration((total - done) / rate)} left"
+        typer.echo(text + ")", err=True)
+
+
+def _duration(seconds: float) -> str:
+    """``12 s``, ``4 min``, ``2.5 h`` for a time left."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
 
 
 class View(str, Enum):

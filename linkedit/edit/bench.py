@@ -5,12 +5,15 @@ Every example edit of ``examples/edits/`` plus a knee edit and a whole-mechanism
 function-preserving edit in ≤ 30 iterations and ≤ 40 ms, every example in ≤ 60 iterations, the
 10-pair edits converged in ≤ 1 s of optimization. Then the slider and complex-loop examples
 (issue 10): displace a joint, keep a track (the lifting arm: a linear input). Times are the median of 3 runs (one in quick
-mode); iteration counts do not depend on the machine.
+mode); iteration counts do not depend on the machine. Last, a large linkage: the knee edit of the
+89-pair Strandbeest (982 joints), timed whole (set-up, optimization, final check), since the set-up
+grows faster than the optimization (its Jacobian colouring took 360 s of a 20 s edit, issue 26 §7).
 """
 
 from __future__ import annotations
 
 import statistics
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -23,16 +26,22 @@ from linkedit.spec.yamlload import load_model
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "edits"
 
 
+def knee_edit(pairs: int, samples: int) -> tuple[LinkageSpec, EditScript]:
+    """The ``pairs``-pair Strandbeest and a knee edit of its first leg pair (the feet kept)."""
+    beest = catalog.strandbeest(pairs)
+    c = beest.joints["C_0_L"]
+    knee = {"samples": samples, "lock": ["O"], "operations": [
+        {"name": "knee", "preserve": ["foot_0_L", "foot_0_R"], "displace": {"joint": "C_0_L", "to": [c[0] + 3, c[1] + 2]}}]}
+    return beest, EditScript.model_validate(knee)
+
+
 def strandbeest_cases() -> list[tuple[str, LinkageSpec, EditScript]]:
     """A knee edit and an 80 % scaling of the 10-pair Strandbeest, the crank free."""
-    beest = catalog.strandbeest(10)
-    c = beest.joints["C_0_L"]
-    knee = {"samples": 60, "lock": ["O"], "operations": [
-        {"name": "knee", "preserve": ["foot_0_L", "foot_0_R"], "displace": {"joint": "C_0_L", "to": [c[0] + 3, c[1] + 2]}}]}
+    beest, knee = knee_edit(10, 60)
     scale = {"samples": 60, "lock": ["O"], "operations": [
         {"name": "scale", "preserve": list(beest.tracks), "transform": {"joints": "all", "scale": 0.8, "about": [0, 0]},
          "terms": {"preserve": 1000, "transform": 0.3}}]}
-    return [("strandbeest-10 knee", beest, EditScript.model_validate(knee)),
+    return [("strandbeest-10 knee", beest, knee),
             ("strandbeest-10 scaling", beest, EditScript.model_validate(scale))]
 
 
@@ -90,3 +99,21 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
         echo(f"{name:<30}{gn[0]:>7}{flag(gn):1}{gn[1]:>9.1f}{bf[0]:>9}{flag(bf):1}{bf[1]:>9.1f}"
              f"{bf[1] / max(gn[1], 1e-9):>9.1f}×  {targets.get(name, '≤ 60 its')}")
     echo("(* = stopped at max_iterations; stalled operations count as finished)")
+    if not quick:
+        large(echo)
+
+
+#: the large linkage's pairs, samples and whole-edit target (s)
+LARGE = (89, 30, 60.0)
+
+
+def large(echo: Callable[[str], None]) -> None:
+    """Time the knee edit of the 89-pair Strandbeest whole, once: set-up and checks besides optimization."""
+    pairs, samples, target = LARGE
+    spec, script = knee_edit(pairs, samples)
+    start = time.perf_counter()
+    result = run_script(spec, script)
+    whole = time.perf_counter() - start
+    optimization = sum(op.seconds for op in result.operations)
+    echo(f"strandbeest-{pairs} knee ({len(spec.joints)} joints, {samples} samples): {whole:.1f} s whole "
+         f"({optimization:.1f} s optimization, {whole - optimization:.1f} s set-up and checks); target ≤ {target:g} s")

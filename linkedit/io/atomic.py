@@ -6,9 +6,11 @@ temporary file after an error, Ctrl-C or SIGTERM (see :func:`interruptible`). In
 appear together or not at all. Only regular files (or new paths) are ever replaced: a device
 node, a FIFO or a folder at the target is an error, not something to rename over.
 
-Temporary files are named ``.<name>.<pid>.<random>.part``; one whose process is gone (SIGKILL,
-power loss) is removed by the next write to the same target. A file read and replaced (an atlas
-appended to, a result updated in place) is locked meanwhile (:func:`locked`, :func:`hold`). A write that fails (a full disk: ENOSPC,
+Temporary files are named ``.<name>.<pid>.<random>.part`` (a name longer than 200 bytes is cut to
+its first 120 bytes and a hash of the whole, ``<start>~<hash>``, so that any name the file system
+takes, up to 255 bytes, can be written); one whose process is gone (SIGKILL, power loss) is removed
+by the next write to the same target. A file read and replaced (an atlas appended to, a result
+updated in place) is locked meanwhile (:func:`locked`, :func:`hold`). A write that fails (a full disk: ENOSPC,
 EFBIG past the file size limit) raises an OSError naming the target, not its temporary file.
 """
 
@@ -17,7 +19,9 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import errno
+import hashlib
 import os
+import re
 import signal
 import stat
 import sys
@@ -118,7 +122,7 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         _remove_stale(target)
-        fd, name = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".part", dir=target.parent)
+        fd, name = tempfile.mkstemp(prefix=f".{_tag(target.name)}.{os.getpid()}.", suffix=".part", dir=target.parent)
     except OSError as exc:
         raise OSError(exc.errno, exc.strerror, str(target)) from None
     tmp = Path(name)
@@ -312,15 +316,30 @@ def _discard(pending: list[tuple[Path, Path]]) -> None:
             os.unlink(tmp)
 
 
+#: longest file name (bytes) whose temporary file keeps it whole: ``.`` + 200 + ``.<pid>.<random>.part`` < 255
+_WHOLE = 200
+
+
+def _tag(name: str) -> str:
+    """What a temporary file of ``name`` is named after: ``name`` itself, or for a name longer than
+    :data:`_WHOLE` bytes its first 120 bytes and a hash of the whole (``start~0123abcd…``)."""
+    raw = name.encode("utf-8", "surrogateescape")
+    if len(raw) <= _WHOLE:
+        return name
+    start = raw[:120].decode("utf-8", "ignore")
+    return f"{start}~{hashlib.sha256(raw).hexdigest()[:16]}"
+
+
 def _remove_stale(target: Path) -> None:
     """Remove temporary files of ``target`` left by linkedit processes that no longer run."""
-    for part in target.parent.glob(f".{_glob_escape(target.name)}.*.part"):
-        pid = part.name[len(target.name) + 2:].split(".", 1)[0]
+    tag = _tag(target.name)
+    for part in target.parent.glob(f".{_glob_escape(tag)}.*.part"):
+        m = re.fullmatch(r"(\d+)\.[^.]+\.part", part.name[len(tag) + 2:])  # not another target's (``name.1``)
         try:
             changed = part.stat().st_mtime
         except OSError:
             continue
-        if pid.isdigit() and not _running_since(int(pid), changed):
+        if m and not _running_since(int(m[1]), changed):
             with contextlib.suppress(OSError):
                 part.unlink()
 

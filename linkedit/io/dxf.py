@@ -6,6 +6,10 @@ hole circle per joint; a slider's slot outline, as wide as a pin hole, over the 
 travels, is on its guide link's layer, or on ``FRAME`` for a guide on the frame), ``TRACK-<name>`` (each track's curve as a polyline, closed for a full
 cycle, broken where the linkage does not assemble). Coordinates are the rest pose in the
 spec's units, moved so the first ground joint is the origin; ``$INSUNITS`` says the unit.
+
+Layer names: characters DXF forbids (``<>/\\":;?*|=`,``) become ``_``; DXF compares layer names
+without case, so a name that would repeat an earlier one (``c;x`` after ``c_x``, ``COUPLER`` after
+``coupler``) is numbered in spec order: ``LINK-COUPLER#2``, ``#3``…
 """
 
 from __future__ import annotations
@@ -32,6 +36,20 @@ def layer_name(kind: str, name: str) -> str:
     return f"{kind}-" + re.sub(r'[<>/\\":;?*|=`,]', "_", name) if kind else name
 
 
+def unique_layers(names: list[str], taken: set[str]) -> list[str]:
+    """``names`` (DXF-safe layer names) made distinct from each other and from ``taken`` (folded to
+    lower case, updated) as DXF compares them: a repeat is numbered ``name#2``, ``name#3``…"""
+    out = []
+    for name in names:
+        unique, n = name, 1
+        while unique.lower() in taken:
+            n += 1
+            unique = f"{name}#{n}"
+        taken.add(unique.lower())
+        out.append(unique)
+    return out
+
+
 def write_motion_dxf(path: str | Path, motion: Motion) -> None:
     """Write the rest pose and the track curves of ``motion`` as DXF (R2010), atomically."""
     require("dxf", path)
@@ -50,8 +68,10 @@ def write_motion_dxf(path: str | Path, motion: Motion) -> None:
     msp = doc.modelspace()
     ground = set(graph.ground)
     doc.layers.add("FRAME", color=8)
-    for color, (name, members) in enumerate(zip(graph.link_names, graph.links), start=1):
-        layer = "FRAME" if set(members) <= ground else layer_name("LINK", name)
+    taken = {"frame"}
+    links = unique_layers([layer_name("LINK", name) for name in graph.link_names], taken)
+    links = ["FRAME" if set(members) <= ground else layer for layer, members in zip(links, graph.links)]
+    for color, (layer, members) in enumerate(zip(links, graph.links), start=1):
         if layer != "FRAME":
             doc.layers.add(layer, color=color % 255 or 1)
         pts = [tuple(rest[m]) for m in members]
@@ -62,12 +82,12 @@ def write_motion_dxf(path: str | Path, motion: Motion) -> None:
         msp.add_circle(tuple(rest[g]), hole, dxfattribs={"layer": "FRAME"})
     moved = motion.positions[motion.assembled] - origin
     for s, pair in zip(slides.from_graph(graph, moved[0]), graph.sliders):
-        layer = "FRAME" if s.guide is None else layer_name("LINK", graph.link_names[pair.guide])
+        layer = "FRAME" if s.guide is None else links[pair.guide]
         msp.add_lwpolyline(_slot_outline(slides.slot(s, moved), hole), format="xyb", close=True,
                            dxfattribs={"layer": layer})
     closed = motion.cyclic and bool(motion.assembled.all())
-    for color, (name, track) in enumerate(motion.tracks.items(), start=1):
-        layer = layer_name("TRACK", name)
+    tracks = unique_layers([layer_name("TRACK", name) for name in motion.tracks], taken)
+    for color, (layer, track) in enumerate(zip(tracks, motion.tracks.values()), start=1):
         doc.layers.add(layer, color=color % 255 or 1)
         for piece in _assembled_runs(track.position - origin, motion.assembled):
             if len(piece) > 1:

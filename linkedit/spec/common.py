@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Annotated
 
 import pydantic
@@ -18,8 +19,37 @@ MAX_WEIGHT = 1e12
 Vec2 = tuple[Finite, Finite]
 Vec3 = tuple[Finite, Finite, Finite]
 #: A name of a joint, link, track, member…: becomes an HDF5 group name, so no "/", no leading "."
-#: and no control characters (NUL ends a name in HDF5).
-Name = Annotated[str, pydantic.StringConstraints(min_length=1, strip_whitespace=True, pattern=r"^[^/.\x00-\x1f][^/\x00-\x1f]*$")]
+#: and no control characters (NUL ends a name in HDF5). Errors say so in words (:func:`name_problem`).
+NAME_PATTERN = r"^[^/.\x00-\x1f][^/\x00-\x1f]*$"
+Name = Annotated[str, pydantic.StringConstraints(min_length=1, strip_whitespace=True, pattern=NAME_PATTERN)]
+
+
+def name_problem(text: str) -> str:
+    """What is wrong with ``text`` as a :data:`Name`, in words (``""`` if nothing is)."""
+    if not text:
+        what = "is empty"
+    elif "/" in text:
+        what = "has a '/'"
+    elif text.startswith("."):
+        what = "begins with '.'"
+    elif any(ord(c) < 0x20 for c in text):
+        bad = next(c for c in text if ord(c) < 0x20)
+        what = f"has the control character {bad!r}"
+    else:
+        return ""
+    return (f"the name {text!r} {what}: a name may hold any characters but '/' and control characters, "
+            "and may not begin with '.' (it becomes an HDF5 group name)")
+
+
+#: a custom constraint's ``python:`` reference, ``package.module:function``
+PYTHON_PATTERN = r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$"
+
+#: the words a pattern's mismatch is reported in, by pattern (never the pattern itself)
+PATTERN_WORDS: dict[str, Callable[[str], str]] = {
+    NAME_PATTERN: name_problem,
+    PYTHON_PATTERN: lambda text: (f"{text!r} is not module:function: a Python module path (letters, digits, '_' "
+                                  "and '.'), a ':', then a function name (letters, digits and '_')"),
+}
 
 
 class SpecModel(pydantic.BaseModel):

@@ -267,16 +267,27 @@ class LinkageSpec(SpecModel):
                              f"({size:.4g}): it cannot stay assembled", field=("motor", "stroke"))
 
     def _check_coincident(self) -> None:
+        """Joints closer than 1e-9 of the largest coordinate are one point: refused, as coinciding
+        when they are (nearly) one point for the linkage's own size too, else as a linkage placed
+        too far from the origin for double precision at its size."""
         names = list(self.joints)
         pts = [self.joints[n] for n in names]
         scale = max(abs(c) for p in pts for c in p) or 1.0  # relative: the same at any size
         seen: dict[tuple[int, int], str] = {}
         cell = scale * 1e-9
+        size = max(max(p[0] for p in pts) - min(p[0] for p in pts), max(p[1] for p in pts) - min(p[1] for p in pts))
         for name, (x, y) in zip(names, pts):
             key = (math.floor(x / cell), math.floor(y / cell))
             for dx in (-1, 0, 1):
                 for dy in (-1, 0, 1):
                     other = seen.get((key[0] + dx, key[1] + dy))
-                    if other is not None and math.dist(self.joints[other], (x, y)) <= cell:
-                        raise InputError(f"joint {name!r} coincides with joint {other!r}", field=("joints", name))
+                    apart = math.inf if other is None else math.dist(self.joints[other], (x, y))
+                    if apart > cell:
+                        continue
+                    if apart > 1e-9 * size:
+                        raise InputError(
+                            f"the linkage (size {size:.4g}) lies {scale:.4g} from the origin: beyond "
+                            f"double precision for its size (joints {name!r} and {other!r}, {apart:.4g} apart, are "
+                            "one point to 1e-9 of that distance); move it nearer the origin", field=("joints", name))
+                    raise InputError(f"joint {name!r} coincides with joint {other!r}", field=("joints", name))
             seen[key] = name

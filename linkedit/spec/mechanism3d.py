@@ -20,11 +20,12 @@ from typing import Annotated, Any, Literal, Union
 import pydantic
 
 from linkedit.errors import InputError
-from linkedit.spec.common import Count, Finite, Name, SpecModel, Vec3
+from linkedit.spec.common import PYTHON_PATTERN, Count, Finite, Name, SpecModel, Vec3
 
 
 def _unit(v: tuple[float, ...]) -> tuple[float, ...]:
-    """``v`` scaled to length 1 without overflow (``v`` may hold values near 1e308)."""
+    """``v`` (not all zero) scaled to length 1 without overflow or underflow: divided by its largest
+    component first, so values near 1e308 and near 1e-308 (subnormals too) give the same direction."""
     big = max(abs(c) for c in v)
     scaled = [c / big for c in v]
     norm = math.sqrt(sum(c * c for c in scaled))
@@ -32,13 +33,13 @@ def _unit(v: tuple[float, ...]) -> tuple[float, ...]:
 
 
 def _nonzero_quaternion(q: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
-    if math.hypot(*q) < 1e-9:
+    if not any(q):
         raise ValueError("zero quaternion: an orientation needs a unit quaternion [w, x, y, z]")
     return _unit(q)  # type: ignore[return-value]
 
 
 def _nonzero_vector(v: tuple[float, float, float]) -> tuple[float, float, float]:
-    if math.hypot(*v) < 1e-12:
+    if not any(v):
         raise ValueError("zero vector: an axis or normal needs a direction")
     return _unit(v)  # type: ignore[return-value]
 
@@ -233,7 +234,7 @@ class CustomC(SpecModel):
     residual (size,)`` on ``members``; runs only with ``--allow-python``."""
 
     type: Literal["custom"]
-    python: Annotated[str, pydantic.StringConstraints(pattern=r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")]
+    python: Annotated[str, pydantic.StringConstraints(pattern=PYTHON_PATTERN)]
     members: list[Name] = pydantic.Field(min_length=1)
     size: Count = pydantic.Field(ge=1)
 
@@ -420,6 +421,9 @@ class MechanismSpec(SpecModel):
 
     @pydantic.model_validator(mode="after")
     def _check_references(self, info: pydantic.ValidationInfo) -> "MechanismSpec":
+        if not (self.constraints or self.joints or self.inputs):
+            raise InputError("nothing holds or drives the members: give at least one constraint, joint or input",
+                             field=("constraints",))
         for name, m in self.members.items():
             if isinstance(m.shape, str) and m.shape not in self.shapes:
                 raise InputError(f"unknown shape {m.shape!r}", field=("members", name, "shape"))

@@ -23,6 +23,7 @@ import pydantic
 import yaml
 
 from linkedit.errors import InputError
+from linkedit.spec.common import PATTERN_WORDS
 
 Path_ = tuple[str | int, ...]
 
@@ -208,6 +209,8 @@ def first_problem(model: type[pydantic.BaseModel], exc: pydantic.ValidationError
         msg = "unknown field (not part of this format)" + hint
     elif err["type"] == "missing":
         msg = "required field is missing"
+    elif err["type"] == "string_pattern_mismatch" and err.get("ctx", {}).get("pattern") in PATTERN_WORDS:
+        msg = PATTERN_WORDS[err["ctx"]["pattern"]](str(err["input"]).strip()) or msg
     elif msg.startswith("Value error, "):
         msg = msg[len("Value error, "):]
     return loc, msg
