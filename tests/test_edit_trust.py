@@ -281,7 +281,7 @@ def test_a_symmetric_edit_of_ten_leg_pairs_converges_like_an_unsymmetric_one(run
     c = np.add(beest.joints["C_0_L"], (3.0, 2.0)).tolist()
     runs = {}
     for name, extra in (("plain", {}), ("symmetric", {"symmetric": [["_L", "_R"]]})):
-        script = write(tmp_path, f"{name}.yaml", {"samples": 40, "lock": ["O"], **extra, "operations": [
+        script = write(tmp_path, f"{name}.yaml", {"samples": 24, "lock": ["O"], **extra, "operations": [
             {"preserve": ["foot_0_L", "foot_1_L"], "displace": {"joint": "C_0_L", "to": c}}]})
         r = run_cli("edit", p, script, "-o", tmp_path / name, "--json")
         assert r.exit_code == 0, r.output
