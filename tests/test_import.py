@@ -137,6 +137,8 @@ def test_pylinkage_json_four_bar(run_cli, tmp_path):
      r"joint P2 \(RP\): a slider needs its slot angle"),
     ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0 L[L1]]]", r"expected ',' or '\]'"),
     ("M[J[R, P[0, 0], L[ground]], J[R, P[1, 0], L[L1]]]", r"no revolute pair on a ground link"),
+    ("M[", r"column 3: the expression ends too early"),  # the parser read past its end: StopIteration
+    ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1", r"ends too early|ends before its closing"),
 ])
 def test_bad_sources_one_line_exit_2(run_cli, tmp_path, source, pattern):
     r = run_cli("import", source, "-o", tmp_path / "x.yaml")

@@ -76,8 +76,8 @@ class _Parser:
         self.take()
 
     def take(self) -> _Token:
-        """The look-ahead token, moving on to the next one."""
-        token, self.next = self.next, next(self.stream)
+        """The look-ahead token, moving on to the next one (past the end: the end again)."""
+        token, self.next = self.next, next(self.stream, self.next)
         if self.next[0] == "bad":
             raise self.fail(self.next, f"unexpected character {self.next[1]!r}")
         return token
