@@ -12,14 +12,19 @@ from linkedit.errors import InputError
 
 
 def _families(text: str) -> list[str]:
-    from linkedit.synthesis.families import family
+    from linkedit.synthesis.families import family, spec_family
 
     names = [n.strip() for n in text.split(",") if n.strip()]
     if not names:
         raise InputError("name at least one family", field="--family")
-    for n in names:
-        family(n)
-    return list(dict.fromkeys(names))
+    out = []
+    for n in names:  # a built-in family's name, or a linkage spec file (its name is the family's)
+        if n.lower().endswith((".yaml", ".yml")):
+            out.append(spec_family(Path(n)))
+        else:
+            family(n)
+            out.append(n)
+    return list(dict.fromkeys(out))
 
 
 class _Progress:
@@ -45,7 +50,7 @@ def register(app: typer.Typer) -> None:
     @atlas_app.command("build")
     @guard
     def build(
-        family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, slider-crank, jansen, klann, watt, stephenson."),
+        family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, slider-crank, jansen, klann, watt, stephenson, or a linkage spec file (e.g. examples/klann.yaml)."),
         count: int = typer.Option(..., "-n", "--count", min=1, help="Linkages to add per family."),
         output: Path = typer.Option(..., "-o", "--output", help="Atlas file (.h5); an existing one is appended to."),
         seed: int = typer.Option(1, "--seed", min=0, max=2**63 - 1, help="Seed of the chunks (an atlas keeps its seed)."),

@@ -34,7 +34,7 @@ from linkedit.io.h5read import ResultReader, open_result
 from linkedit.io.hdf5 import writing
 from linkedit.planar.feasibility import works
 from linkedit.resources import require_disk
-from linkedit.synthesis.families import family
+from linkedit.synthesis.families import SPEC_TEXTS, family
 
 FORMAT_VERSION = "1"
 #: Linkages per chunk (the unit of work and of seeding).
@@ -68,9 +68,10 @@ class Chunk:
     curves: np.ndarray  #: (K, SAMPLES / COARSE_STEP, 2) float32 coarse curves, family frame
 
 
-def build_chunk(name: str, seed: int, index: int, size: int = CHUNK) -> Chunk:
-    """Chunk ``index`` of family ``name``'s atlas from ``seed`` (a pure function)."""
-    fam = family(name)
+def build_chunk(name: str, seed: int, index: int, size: int = CHUNK, spec: str | None = None) -> Chunk:
+    """Chunk ``index`` of family ``name``'s atlas from ``seed`` (a pure function); ``spec``: the
+    linkage spec text of a family made from a spec (:func:`~linkedit.synthesis.families.spec_family`)."""
+    fam = family(name, spec=spec)
     rng = np.random.default_rng([seed, fam.ID, index])
     margin = fam.margin()
     kept: list[np.ndarray] = []
@@ -106,9 +107,10 @@ def chunk_sizes(count: int, first: int = 0) -> list[tuple[int, int]]:
 TASK_CHUNKS = 4
 
 
-def build_chunks(name: str, seed: int, jobs: list[tuple[int, int]]) -> list[Chunk]:
-    """Chunks ``jobs`` ((index, size) pairs) of family ``name``'s atlas: one Dask task."""
-    return [build_chunk(name, seed, index, size) for index, size in jobs]
+def build_chunks(name: str, seed: int, jobs: list[tuple[int, int]], spec: str | None = None) -> list[Chunk]:
+    """Chunks ``jobs`` ((index, size) pairs) of family ``name``'s atlas: one Dask task (``spec``: as
+    :func:`build_chunk`'s, so a worker can make a family from a spec)."""
+    return [build_chunk(name, seed, index, size, spec) for index, size in jobs]
 
 
 def dask_tasks(jobs: list[tuple[int, int]], threads: int) -> list[list[tuple[int, int]]]:
@@ -164,7 +166,8 @@ def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
 
                 def run(name: str, seed: int, jobs: list[tuple[int, int]]) -> Iterator[tuple[int, Chunk]]:
                     tasks = dask_tasks(jobs, sum(nthreads.values()))
-                    futures = deque(client.submit(build_chunks, name, seed, task, pure=True) for task in tasks)
+                    spec = SPEC_TEXTS.get(name)
+                    futures = deque(client.submit(build_chunks, name, seed, task, spec, pure=True) for task in tasks)
                     for task in tasks:
                         yield from zip([index for index, _ in task], client.gather(futures.popleft(), direct=direct))
 
@@ -440,8 +443,8 @@ def _layout(f: ResultReader) -> int:
     if not 0 <= seed < 2**63:
         raise f.error("/", f"attribute 'seed': {seed} is not a seed")
     for name in f.names("families"):
-        fam = family(name, field=f"{f.path}: families/{name}")
         g = f"families/{name}"
+        fam = family(name, field=f"{f.path}: families/{name}", spec=f.attr("spec", g, default=None))
         rows = f.dataset(f"{g}/params").shape[0] if f.dataset(f"{g}/params").ndim == 2 else -1
         shapes = {"params": (rows, len(fam.PARAMETERS)), "min_ds": (rows,), "index": (rows, 4 * HARMONICS - 3),
                   "curves": (rows, SAMPLES // COARSE_STEP, 2)}
@@ -474,6 +477,8 @@ def _family_group(f: h5py.File, name: str) -> h5py.Group:
     g["curves"].attrs["description"] = "tracked point over one crank cycle, family frame (ground length 1)"
     g.attrs.update({"family_id": fam.ID, "margin": fam.margin(), "chunks": 0,
                     "distribution": (fam.sample.__doc__ or "").strip()})
+    if name in SPEC_TEXTS:  # a family made from a spec: its text, to make it again by name
+        g.attrs["spec"] = SPEC_TEXTS[name]
     return g
 
 

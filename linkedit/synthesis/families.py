@@ -1,5 +1,11 @@
 """The families an atlas can hold: name → module with the family interface.
 
+Besides the built-in ones, any planar linkage spec of revolute joints driven by a full-turn crank
+is a family (:func:`spec_family`: ``atlas build --family examples/klann.yaml``): its rest pose is
+sampled around the design like the catalog families (:class:`~linkedit.synthesis.legs.CatalogFamily`),
+its first joint track is the curve, and the atlas keeps its spec text so that synthesis (and a Dask
+worker) rebuilds it by name.
+
 A family (a module, or a :class:`~linkedit.synthesis.legs.CatalogFamily`) provides ``NAME``,
 ``PARAMETERS``, ``ID`` (a small integer mixed into chunk seeds), ``margin()``, ``sample(rng, count)``,
 ``min_singularity(params, margin=None)`` (the lowest d_s over the cycle, which the one planar
@@ -12,16 +18,73 @@ from __future__ import annotations
 
 from typing import Any
 
-from linkedit.errors import InputError
+import zlib
+from pathlib import Path
+
+from linkedit.errors import InputError, LinkeditError
+from linkedit.planar.plan import compile_plan
+from linkedit.spec.linkage import JointTrack, LinkageSpec
+from linkedit.spec.yamlload import load_yaml, read_text, validate
 from linkedit.synthesis import fourbar, slidercrank
-from linkedit.synthesis.legs import JANSEN, KLANN, STEPHENSON, WATT
+from linkedit.synthesis.legs import JANSEN, KLANN, STEPHENSON, WATT, CatalogFamily
 
 FAMILIES: dict[str, Any] = {fourbar.NAME: fourbar, slidercrank.NAME: slidercrank,
                             **{f.NAME: f for f in (JANSEN, KLANN, WATT, STEPHENSON)}}
 
 
-def family(name: str, field: str = "--family") -> Any:
-    """The family module called ``name``; an InputError naming the known ones otherwise."""
-    if name not in FAMILIES:
-        raise InputError(f"unknown family {name!r} (families: {', '.join(FAMILIES)})", field=field)
-    return FAMILIES[name]
+#: families made from linkage specs, by name (:func:`spec_family`)
+SPECS: dict[str, CatalogFamily] = {}
+#: the spec text each of them was made from (stored in an atlas, sent to Dask workers)
+SPEC_TEXTS: dict[str, str] = {}
+
+
+def family(name: str, field: str = "--family", spec: str | None = None) -> Any:
+    """The family called ``name`` (built in, or made from a spec: with ``spec``, its YAML text, it
+    is made here if it is not yet); an InputError naming the known ones otherwise."""
+    if name in FAMILIES:
+        return FAMILIES[name]
+    if spec is not None:
+        return from_spec_text(name, spec, field=field)
+    if name in SPECS:
+        return SPECS[name]
+    raise InputError(f"unknown family {name!r} (families: {', '.join(FAMILIES)}, or a linkage spec file)", field=field)
+
+
+def spec_family(path: Path, field: str = "--family") -> str:
+    """Make the family of the linkage spec at ``path`` and return its name (the spec's ``name``)."""
+    text = read_text(path)
+    data, lines = load_yaml(str(path), text)
+    spec = validate(LinkageSpec, data, file=str(path), lines=lines)
+    return from_spec_text(spec.name, text, field=field, file=str(path)).NAME
+
+
+def from_spec_text(name: str, text: str, *, field: str = "--family", file: str | None = None) -> CatalogFamily:
+    """The family ``name`` of the linkage spec ``text``: revolute joints only, a crank turning a
+    full revolution, a joint track (its first) as the curve. InputError otherwise, or when a
+    different spec was already made under that name or it is a built-in family's name."""
+    where = file or field
+    if name in FAMILIES:
+        raise InputError(f"the spec's name {name!r} is a built-in family's: rename the linkage", file=file, field=field)
+    if name in SPECS:
+        if SPEC_TEXTS[name] != text:
+            raise InputError(f"two different linkages are called {name!r}", file=file, field=field)
+        return SPECS[name]
+    data, lines = load_yaml(where, text)
+    spec = validate(LinkageSpec, data, file=where, lines=lines)
+    motor = spec.motor
+    if spec.sliders or motor.linear or motor.range_deg is not None or motor.oscillate_deg is not None:
+        raise InputError("a family needs revolute joints driven by a full-turn crank (no sliders, "
+                         "range_deg, oscillate_deg or linear input yet)", file=file, field=field)
+    track = next((n for n, t in spec.tracks.items() if isinstance(t, JointTrack)), None)
+    if track is None:
+        raise InputError("a family needs a track on a joint (its curve)", file=file, field=field)
+    try:
+        plan = compile_plan(spec)
+    except LinkeditError as exc:
+        raise InputError(f"the linkage cannot be a family: {exc}", file=file, field=field) from None
+    if plan.steps:
+        raise InputError("a family needs a linkage of dyads and rigid links (no numeric group yet)", file=file,
+                         field=field)
+    fam = CatalogFamily(name, 1000 + zlib.crc32(text.encode()) % 100_000, lambda: spec, track)
+    SPECS[name], SPEC_TEXTS[name] = fam, text
+    return fam
