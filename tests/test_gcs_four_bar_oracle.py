@@ -1,4 +1,4 @@
-"""Final review of solve3d (closed form, waves, failure reporting; 3463c18..89814bc): runs
+"""solve3d against an oracle (closed form, waves, failure reporting; 3463c18..89814bc): runs
 compared with independent closed-form kinematics of planar four-bars (circle intersections)
 written as 3D specs with revolute joints.
 

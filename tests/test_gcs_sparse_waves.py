@@ -1,4 +1,4 @@
-"""Review of the sparse systems' waves (25ba511, 9e18219, 79eb1d1): runs of systems above 120
+"""The sparse systems' waves (25ba511, 9e18219, 79eb1d1): runs of systems above 120
 unknowns that the closed form rebuilds, through waves, against ``Options(waves=False)``.
 
 What held (measured by the review, not tested here): the 3- and 10-pair Strandbeests at 361

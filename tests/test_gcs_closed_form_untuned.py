@@ -1,4 +1,4 @@
-"""Review of the closed-form predictions (linkedit.gcs.closed_form, db1fe7e..cc41178): runs in
+"""The closed-form predictions (linkedit.gcs.closed_form, db1fe7e..cc41178): runs in
 waves against ``Options(waves=False)`` on mechanisms the change was not tuned on.
 
 What held (not tested here, measured by the review): four-bars in the xz plane and in tilted

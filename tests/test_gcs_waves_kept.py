@@ -1,4 +1,4 @@
-"""Review of the waves' kept compilation (``System.batched["waves"]``: parts, quiet parts,
+"""The waves' kept compilation (``System.batched["waves"]``: parts, quiet parts,
 skipped groups): cases where a run with waves differs from the step-by-step run or fails.
 Each test states the step-by-step (``Options(waves=False)``) run as the reference.
 

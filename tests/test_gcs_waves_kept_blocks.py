@@ -1,4 +1,4 @@
-"""Second review of the waves' kept compilation (``System.batched["waves"]``: ``_survey``,
+"""The waves' kept compilation, its blocks and copies (``System.batched["waves"]``: ``_survey``,
 ``_stir``, ``_merge``, copies per run). Every run here gives the step-by-step poses
 (``Options(waves=False)``); what fails is what the system keeps for its later runs.
 
