@@ -22,8 +22,6 @@ Every curve is checked: finite numbers, at least 3 distinct points, a positive l
 from __future__ import annotations
 
 import contextvars
-import csv
-import io
 import os
 import re
 from collections.abc import Callable, Iterable
@@ -34,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from linkedit.errors import InputError
-from linkedit.spec.yamlload import read_text
+from linkedit.spec.tables import column_name, column_unit, numbers, read_rows
 
 HDF5_SUFFIXES = (".h5", ".hdf5")
 YAML_SUFFIXES = (".yaml", ".yml")
@@ -214,19 +212,11 @@ def read_tracks(path: Path, names: list[str] | None, *, closed: bool | None = No
 def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
     """One curve from a CSV file (columns x, y[, z], optional t)."""
     file = str(path)
-    text = read_text(path)
-    lines = text.splitlines()
-    data_lines = [ln for ln in lines if ln.strip() and not ln.lstrip().startswith(("#", "//"))]
-    delimiter = _delimiter(data_lines[0]) if data_lines else ","
-    decimal_comma = delimiter == ";" and any("," in ln and "." not in ln for ln in data_lines[1:3])
-    if decimal_comma:
-        text = text.replace(",", ".")
-    rows = [(i + 1, r) for i, r in enumerate(csv.reader(io.StringIO(text), delimiter=delimiter))
-            if r and any(c.strip() for c in r) and not r[0].lstrip().startswith(("#", "//"))]
+    rows = read_rows(path)
     if not rows:
         raise InputError("the file has no data", file=file)
     line, first = rows[0]
-    header = [_column(c) for c in first]
+    header = [column_name(c) for c in first]
     keep = list(range(len(header)))
     units = None
     if all(_is_number(c) for c in header):
@@ -249,18 +239,7 @@ def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
             raise InputError("the file has no data: a header and no rows", file=file, line=line)
     width = len(header)
     rows = [(ln, [row[i] for i in keep] if len(row) == width else row) for ln, row in rows]
-    values = np.empty((len(rows), len(columns)))
-    for r, (line, row) in enumerate(rows):
-        if len(row) != len(columns):
-            raise InputError(f"{len(row)} values, expected {len(columns)}", file=file, line=line)
-        for c, cell in enumerate(row):
-            try:
-                values[r, c] = float(cell)
-            except ValueError:
-                raise InputError(f"not a number: {cell.strip()!r}", file=file, line=line, field=columns[c]) from None
-            if not np.isfinite(values[r, c]):
-                raise InputError(f"not a finite number: {cell.strip()!r}", file=file, line=line,
-                                 field=columns[c]) from None
+    values = numbers(rows, columns, file)
     if "t" in columns:
         values = values[np.argsort(values[:, columns.index("t")], kind="stable")]
     points = values[:, [columns.index(a) for a in ("x", "y", "z") if a in columns]]
@@ -271,7 +250,7 @@ def read_csv(path: Path, *, closed: bool | None = None) -> Curve:
 def _header_units(cells: dict[str, str], file: str, line: int) -> str | None:
     """The length unit the coordinate columns' header cells give (``x (m)``, ``y [mm]``), or None;
     an InputError if they give different ones or one that cannot name units (see ``specs/linkage.md``)."""
-    found = {name: m.group(1).strip() for name, cell in cells.items() if (m := _UNIT.search(cell)) and m.group(1).strip()}
+    found = {name: unit for name, cell in cells.items() if (unit := column_unit(cell))}
     if len(set(found.values())) > 1:
         raise InputError("the columns give different units (" + ", ".join(f"{n} ({u})" for n, u in found.items())
                          + "): give the coordinates in one unit", file=file, line=line)
@@ -286,19 +265,6 @@ def _header_units(cells: dict[str, str], file: str, line: int) -> str | None:
 UNIT_NAME = re.compile(r"[^/.\x00-\x1f][^/\x00-\x1f]*")
 #: header names of columns that only number the rows (ignored)
 INDEX_COLUMNS = ("", "index", "idx", "#", "no", "n", "i", "point", "frame", "step", "sample", "unnamed: 0")
-_UNITS = re.compile(r"\s*[\(\[][^\)\]]*[\)\]]\s*")
-_UNIT = re.compile(r"[\(\[]([^\)\]]*)[\)\]]")
-
-
-def _column(cell: str) -> str:
-    """A header cell as a column name: ``X (mm)``, ``x [mm]``, `` X `` → ``x``; ``time`` → ``t``."""
-    name = _UNITS.sub("", cell).strip().lower()
-    return {"time": "t"}.get(name, name)
-
-
-def _delimiter(line: str) -> str:
-    """The separator of a CSV line: the most frequent of , ; and tab."""
-    return max((",", ";", "\t"), key=line.count)
 
 
 def _is_number(text: str) -> bool:

@@ -19,7 +19,7 @@ import numpy as np
 from linkedit import __version__
 from linkedit.errors import InputError, MechanismError
 from linkedit.io.atomic import write_text
-from linkedit.io.csv_columns import read_columns
+from linkedit.spec.tables import read_columns
 from linkedit.io.planar_hdf5 import write_motion
 from linkedit.planar import Geometry, compile_plan, simulate
 from linkedit.planar.feasibility import assembles
