@@ -182,6 +182,18 @@ def test_synthesize_on_a_full_disk_is_one_line_exit_1(tmp_path):
     assert r.returncode == 1, r.stderr
     assert r.stderr.strip().splitlines() == [f"linkedit: error: file size limit reached writing {out / 'result.h5'}"]
     assert not [p for p in tmp_path.rglob("*") if p.is_file() and p != atlas]
+    assert not out.exists()  # nor the output folder it made (it was left empty)
+
+
+@pytest.mark.parametrize("name", ["r.h5", "r.csv"])
+def test_a_write_that_fails_removes_the_folders_it_made(tmp_path, name):
+    """`-o new/deep/r.h5` on a full disk: exit 1, and the folders the run created are gone again (they were
+    left behind, empty); a folder that was there before stays."""
+    out = tmp_path / "new" / "deep" / name
+    r = subprocess.run(_linkedit("simulate", EXAMPLES / "jansen.yaml", "-n", "2000", "-o", out), capture_output=True,
+                       text=True, timeout=300, preexec_fn=_limited(20_000))
+    assert r.returncode == 1, r.stderr
+    assert list(tmp_path.iterdir()) == []
 
 
 # --- atlas builds: killed, interrupted, concurrent ------------------------------------------------

@@ -35,6 +35,8 @@ DISK_FULL = {errno.ENOSPC: "no space left", errno.EFBIG: "file size limit reache
 
 #: (temporary, target) renames waiting for the innermost :func:`together` block to succeed.
 _PENDING: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar("pending", default=None)
+#: folders the writes of the enclosing :func:`together` block created (removed again, if empty, when it fails)
+_MADE: contextvars.ContextVar[list[Path] | None] = contextvars.ContextVar("made", default=None)
 #: releases of the :func:`locked` targets held until the outermost :func:`together` block ends.
 _HELD: contextvars.ContextVar[list[Callable[[], None]] | None] = contextvars.ContextVar("held", default=None)
 #: Seconds a writer waits for another process's lock on the same target before it gives up.
@@ -72,16 +74,21 @@ def together() -> Iterator[None]:
     pending: list[tuple[Path, Path]] = []
     outer = _PENDING.get()
     token = _PENDING.set(pending)
+    made: list[Path] = []
+    made_token = _MADE.set(made)
     held = _HELD.set([]) if outer is None else None
     try:
         try:
             yield
         except BaseException:
             _discard(pending)
+            _unmake(made)
             raise
         finally:
             _PENDING.reset(token)
+            _MADE.reset(made_token)
         if outer is not None:
+            (_MADE.get() or []).extend(made)
             outer.extend(pending)
             return
         _commit(pending)
@@ -119,8 +126,13 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
     (at the end of the enclosing :func:`together` block, if any). Errors name ``target``."""
     target = Path(target)
     check_target(target)
+    made = _MADE.get()
+    own = made is None
+    made = [] if made is None else made
     try:
+        missing = [p for p in (target.parent, *target.parent.parents) if not p.exists()]
         target.parent.mkdir(parents=True, exist_ok=True)
+        made.extend(missing)
         _remove_stale(target)
         fd, name = tempfile.mkstemp(prefix=f".{_tag(target.name)}.{os.getpid()}.", suffix=".part", dir=target.parent)
     except OSError as exc:
@@ -144,6 +156,8 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
     finally:
         if pending is None or (tmp, target) not in pending:
             _discard([(tmp, target)])
+            if own and not target.exists():  # a lone write that failed: the folders it made go too
+                _unmake(made)
 
 
 @contextlib.contextmanager
@@ -308,6 +322,14 @@ def _replace(tmp: Path, target: Path) -> None:
         os.replace(tmp, target)
     except OSError as exc:
         raise OSError(exc.errno, exc.strerror, str(target)) from None
+
+
+def _unmake(made: list[Path]) -> None:
+    """Remove the folders ``made`` (deepest first) that a failed run created and left empty."""
+    for folder in sorted(set(made), key=lambda p: len(p.parts), reverse=True):  # deepest first
+        with contextlib.suppress(OSError):
+            folder.rmdir()
+    made.clear()
 
 
 def _discard(pending: list[tuple[Path, Path]]) -> None:
