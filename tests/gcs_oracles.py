@@ -147,3 +147,25 @@ def spin_gradient(position: np.ndarray, orientation: np.ndarray, a: np.ndarray, 
 
     e = 1e-4
     return (half_distance(e) - half_distance(-e)) / (2 * e)
+
+
+def pinned_four_bar(name: str, coupler: dict[str, list[float]], tracks: dict[str, dict[str, str]]) -> dict:
+    """A 3D spec of a planar four-bar of pins (m): crank and rocker 1 long, ground 4, both at 90° at
+    rest, the coupler's points ``coupler`` (``a`` at the crank's tip, ``b`` at the rocker's), the
+    crank driven a full turn over 361 steps."""
+    return {
+        "name": name, "units": "m",
+        "shapes": {"bar": {"points": {"pivot": [0, 0, 0], "tip": [1, 0, 0]}}, "coupler": {"points": coupler}},
+        "members": {"crank": {"position": [0, 0, 0], "orientation": {"axis": [0, 0, 1], "angle_deg": 90}, "shape": "bar"},
+                    "coupler": {"position": [0, 1, 0], "shape": "coupler"},
+                    "rocker": {"position": [4, 0, 0], "orientation": {"axis": [0, 0, 1], "angle_deg": 90},
+                               "shape": "bar"}},
+        "constraints": {
+            "crank_pivot": {"type": "pin", "member": "crank", "point": "pivot", "world": [0, 0, 0]},
+            "crank_coupler": {"type": "pin", "member": "crank", "point": "tip", "other": "coupler", "other_point": "a"},
+            "coupler_rocker": {"type": "pin", "member": "coupler", "point": "b", "other": "rocker", "other_point": "tip"},
+            "rocker_pivot": {"type": "pin", "member": "rocker", "point": "pivot", "world": [4, 0, 0]}},
+        "inputs": {"drive": {"type": "orientation", "member": "crank",
+                             "rotation": {"axis": [0, 0, 1], "angles_deg": [0, 360]}}},
+        "outputs": {"steps": 361, "tracks": tracks},
+    }

@@ -9,26 +9,13 @@ import pytest
 import yaml
 
 from linkedit.gcs.result import read_result
+from tests.gcs_oracles import pinned_four_bar
 
 #: crank = rocker = 1 m, coupler = ground = 4 m, crank at 90° at rest: a parallelogram whose
 #: change points (crank at 180° and 360°) are at t = 0.25 and 0.75
-PARALLELOGRAM = {
-    "name": "parallelogram", "units": "m",
-    "shapes": {"bar": {"points": {"pivot": [0, 0, 0], "tip": [1, 0, 0]}},
-               "coupler": {"points": {"a": [0, 0, 0], "b": [4, 0, 0], "P": [2, 1, 0]}}},
-    "members": {"crank": {"position": [0, 0, 0], "orientation": {"axis": [0, 0, 1], "angle_deg": 90}, "shape": "bar"},
-                "coupler": {"position": [0, 1, 0], "shape": "coupler"},
-                "rocker": {"position": [4, 0, 0], "orientation": {"axis": [0, 0, 1], "angle_deg": 90}, "shape": "bar"}},
-    "constraints": {
-        "crank_pivot": {"type": "pin", "member": "crank", "point": "pivot", "world": [0, 0, 0]},
-        "crank_coupler": {"type": "pin", "member": "crank", "point": "tip", "other": "coupler", "other_point": "a"},
-        "coupler_rocker": {"type": "pin", "member": "coupler", "point": "b", "other": "rocker", "other_point": "tip"},
-        "rocker_pivot": {"type": "pin", "member": "rocker", "point": "pivot", "world": [4, 0, 0]}},
-    "inputs": {"drive": {"type": "orientation", "member": "crank",
-                         "rotation": {"axis": [0, 0, 1], "angles_deg": [0, 360]}}},
-    "outputs": {"steps": 361, "tracks": {"P": {"member": "coupler", "point": "P"},
-                                         "rocker_tip": {"member": "rocker", "point": "tip"}}},
-}
+PARALLELOGRAM = pinned_four_bar("parallelogram", {"a": [0, 0, 0], "b": [4, 0, 0], "P": [2, 1, 0]},
+                                {"P": {"member": "coupler", "point": "P"},
+                                 "rocker_tip": {"member": "rocker", "point": "tip"}})
 SIZE = float(np.hypot(4.0, 2.0))  # the rest pose's bounding box: (0, 0) to (4, 2)
 
 

@@ -11,6 +11,7 @@ from linkedit.gcs.mechanism import solve_spec
 from linkedit.gcs.result import read_result
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import validate
+from tests.gcs_oracles import pinned_four_bar
 
 #: a crank (1 m) and a rocker (2 m) pinned 4 m apart, their tips held 4 m apart by a distance
 #: (a four-bar whose coupler is a distance constraint), the crank turned by 60°
@@ -55,22 +56,7 @@ def test_a_tiny_conflict_is_over_constrained_at_the_start_naming_both_constraint
 
 #: a four-bar of pins whose coupler (10 m) is longer than the other three links together
 #: (crank 1, ground 4, rocker 1): its loop closes nowhere
-TOO_LONG = {
-    "name": "too-long", "units": "m",
-    "shapes": {"bar": {"points": {"pivot": [0, 0, 0], "tip": [1, 0, 0]}},
-               "coupler": {"points": {"a": [0, 0, 0], "b": [10, 0, 0]}}},
-    "members": {"crank": {"position": [0, 0, 0], "orientation": {"axis": [0, 0, 1], "angle_deg": 90}, "shape": "bar"},
-                "coupler": {"position": [0, 1, 0], "shape": "coupler"},
-                "rocker": {"position": [4, 0, 0], "orientation": {"axis": [0, 0, 1], "angle_deg": 90}, "shape": "bar"}},
-    "constraints": {
-        "crank_pivot": {"type": "pin", "member": "crank", "point": "pivot", "world": [0, 0, 0]},
-        "crank_coupler": {"type": "pin", "member": "crank", "point": "tip", "other": "coupler", "other_point": "a"},
-        "coupler_rocker": {"type": "pin", "member": "coupler", "point": "b", "other": "rocker", "other_point": "tip"},
-        "rocker_pivot": {"type": "pin", "member": "rocker", "point": "pivot", "world": [4, 0, 0]}},
-    "inputs": {"drive": {"type": "orientation", "member": "crank",
-                         "rotation": {"axis": [0, 0, 1], "angles_deg": [0, 360]}}},
-    "outputs": {"steps": 361, "tracks": {"tip": {"member": "rocker", "point": "tip"}}},
-}
+TOO_LONG = pinned_four_bar("too-long", {"a": [0, 0, 0], "b": [10, 0, 0]}, {"tip": {"member": "rocker", "point": "tip"}})
 
 
 def test_a_loop_that_cannot_close_is_inconsistent_at_once(run_cli, tmp_path):
