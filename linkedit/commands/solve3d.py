@@ -119,6 +119,7 @@ def _duration(seconds: float) -> str:
 class View(str, Enum):
     """SVG projection."""
 
+    plane = "plane"
     xy = "xy"
     xz = "xz"
     yz = "yz"
@@ -146,7 +147,7 @@ def register(app: typer.Typer) -> None:
         spec: Path = typer.Argument(None, help="3D mechanism spec (YAML); not needed with --from."),
         output: Path = typer.Option(None, "--output", "-o", help="Result .h5 [default: out/<spec>.h5; with --from: the same file]."),
         svg: Path = typer.Option(None, "--svg", help="Draw shapes and output curves to this .svg."),
-        view: View = typer.Option(None, "--view", help="SVG projection: xy, xz, yz (orthographic) or iso [default: xy for a mechanism that stays in a plane z = const, else iso]."),
+        view: View = typer.Option(None, "--view", help="SVG projection: plane (face-on to the plane of motion), xy, xz, yz (orthographic) or iso [default: the plane of motion (xy, xz or yz when it faces one) for a mechanism that moves in a plane, else iso]."),
         arrows: bool = typer.Option(False, "--arrows", help="Draw velocity arrows on the curves."),
         velocity: VelocityRule = typer.Option(VelocityRule.exact, "--velocity", help="Track velocities: exact (from the constraint Jacobian at each pose) or parabola (the paper's three-point rule on positions)."),
         steps: int = typer.Option(None, "--steps", help="Time steps over t in [0, 1] [default: the spec's]."),

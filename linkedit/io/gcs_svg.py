@@ -1,15 +1,19 @@
 """The picture of a solved 3D mechanism, drawn by the shared figure module (:mod:`linkedit.io.svg_figure`).
 
-A projection of the world onto the drawing: ``xy`` (top), ``xz`` (front), ``yz`` (side) —
-orthographic, with the figure's axes in the mechanism's units — or ``iso`` (isometric, a ground
-plane grid under the mechanism with its tick values). An axes triad shows the world directions
-in every view. Members are drawn like planar links (bars between consecutive points of each
-drawing line, plates for closed lines) at the first step (solid, labelled) and a few later
-steps (faint); each track's curve in its colour, with optional velocity arrows scaled so the
-longest is a tenth of the drawing (the curve stays visible).
+A projection of the world onto the drawing: ``plane`` (face-on: looking along the normal of the
+plane the mechanism moves in, fitted to all its points over the run), ``xy`` (top), ``xz``
+(front), ``yz`` (side) — orthographic, with the figure's axes in the mechanism's units — or
+``iso`` (isometric, a ground plane grid under the mechanism with its tick values and axis
+names). An axes triad shows the world directions in every view. Members are drawn like planar
+links (bars between consecutive points of each drawing line, plates for closed lines) at the
+first step (solid, labelled; nearer strokes darker and wider, drawn over farther ones) and a few
+later steps (faint); each track's curve in its colour, with optional velocity arrows scaled so
+the longest is a tenth of the drawing (the curve stays visible). Labels are placed apart by the
+figure (:func:`~linkedit.io.svg_figure.place_labels`).
 
 Elements carry ``class`` and ``data-name``: ``member`` / ``member-pose`` (faint poses) /
-``member-label`` / ``track`` / ``track-point`` / ``velocity`` / ``ground-plane`` / ``triad``.
+``member-label`` / ``track`` / ``track-point`` / ``velocity`` / ``ground-plane`` /
+``ground-tick`` / ``ground-axis`` / ``triad``.
 """
 
 from __future__ import annotations
@@ -24,91 +28,168 @@ from linkedit.gcs.result import GcsResult
 from linkedit.io.atomic import write_text
 from linkedit.io.svg_figure import INK, PALETTE, Figure, Stroke, nice_ticks, tick_label
 
-VIEWS = ("xy", "xz", "yz", "iso")
+VIEWS = ("plane", "xy", "xz", "yz", "iso")
 _ISO = np.array([[np.cos(np.pi / 6), -np.cos(np.pi / 6), 0.0], [np.sin(np.pi / 6), np.sin(np.pi / 6), 1.0]])
-#: view → (2, 3) projection matrix (world → drawing, y up) and the drawing's axis names
+#: fixed view → (2, 3) projection matrix (world → drawing, y up) and the drawing's axis names
 PROJECTIONS: dict[str, tuple[np.ndarray, tuple[str, str] | None]] = {
     "xy": (np.array([[1.0, 0, 0], [0, 1.0, 0]]), ("x", "y")),
     "xz": (np.array([[1.0, 0, 0], [0, 0, 1.0]]), ("x", "z")),
     "yz": (np.array([[0, 1.0, 0], [0, 0, 1.0]]), ("y", "z")),
     "iso": (_ISO, None),
 }
+#: a mechanism whose points stay within this fraction of its extent of one plane moves in that
+#: plane: the default view looks at it face-on
+FLAT = 0.05
+#: ... and through a world view (xy, xz, yz) when the plane's normal is within this of its axis
+ALIGNED_DEG = 1.0
 ARROW_FRACTION = 0.1  #: the longest velocity arrow, as a fraction of the drawing's size
 ARROWS_PER_TRACK = 16
 POSES = 8  #: poses drawn over the run (the first solid, the others faint)
+#: depth cue of the solid pose: bar width (px) and ink from the farthest to the nearest stroke
+DEPTH_WIDTH = (4.0, 9.0)
+DEPTH_INK = ((0xa0, 0xae, 0xc0), (0x1a, 0x20, 0x2c))
 
 
-def project(p: np.ndarray, view: str) -> np.ndarray:
-    """World points ``(..., 3)`` → drawing coordinates ``(..., 2)`` (x right, y up)."""
+def project(p: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """World points ``(..., 3)`` → drawing coordinates ``(..., 2)`` (x right, y up) by a (2, 3) ``matrix``."""
+    return np.asarray(p, dtype=float) @ matrix.T
+
+
+def projection(view: str, res: GcsResult) -> tuple[np.ndarray, tuple[str, str] | None]:
+    """The (2, 3) projection matrix of ``view`` and the drawing's axis names (None: no world axes)."""
+    if view == "plane":
+        return _face_on(_world_points(res))
     if view not in PROJECTIONS:
         raise InputError(f"unknown view {view!r} (choose from {', '.join(VIEWS)})", field="--view")
-    return np.asarray(p, dtype=float) @ PROJECTIONS[view][0].T
+    return PROJECTIONS[view]
 
 
 def default_view(res: GcsResult) -> str:
-    """``xy`` for a mechanism that stays in a plane z = const (every member point and track over
-    the run, to 1e-9 of its size), ``iso`` otherwise."""
+    """The view of the plane the mechanism moves in, when it is (nearly) planar — every member
+    point and track over the run within :data:`FLAT` of its extent of the plane fitted to them —
+    as ``xy``, ``xz`` or ``yz`` when that plane faces a world axis (within :data:`ALIGNED_DEG`),
+    else ``plane`` (face-on); ``iso`` for a spatial mechanism (or one moving along a line)."""
     world = _world_points(res)
-    size = float(np.ptp(world, axis=0).max()) if world.size else 0.0
-    flat = world.size == 0 or float(np.ptp(world[:, 2])) <= 1e-9 * max(size, 1e-300)
-    return "xy" if flat else "iso"
+    if world.size == 0 or not np.ptp(world, axis=0).max() > 0:
+        return "xy"
+    axes = np.linalg.svd(world - world.mean(axis=0), full_matrices=False)[2]
+    extent = np.ptp(world @ axes.T, axis=0)
+    if not (extent[2] <= FLAT * extent[0] and extent[1] > FLAT * extent[0]):
+        return "iso"
+    facing = int(np.argmax(np.abs(axes[2])))
+    if abs(axes[2, facing]) >= np.cos(np.radians(ALIGNED_DEG)):
+        return ("yz", "xz", "xy")[facing]
+    return "plane"
+
+
+def _face_on(world: np.ndarray) -> tuple[np.ndarray, tuple[str, str]]:
+    """The projection onto the plane fitted to ``world`` (n, 3) (least squares): rows u, v (in-plane
+    unit vectors, u × v = n, the normal towards the viewer, its largest component positive); v is
+    world z (or, for a plane near horizontal, y) projected on the plane, so up stays up."""
+    n = np.linalg.svd(world - world.mean(axis=0), full_matrices=False)[2][2] if len(world) >= 3 else np.eye(3)[2]
+    n = n * np.sign(n[np.argmax(np.abs(n))])
+    up = next(v for v in (np.eye(3)[2], np.eye(3)[1], np.eye(3)[0]) if np.linalg.norm(v - (v @ n) * n) > 0.3)
+    v = up - (up @ n) * n
+    v /= np.linalg.norm(v)
+    return np.array([np.cross(v, n), v]), ("u", "v")
+
+
+def _toward_viewer(matrix: np.ndarray) -> np.ndarray:
+    """The unit world direction (3,) towards the viewer of a projection (its rows' cross product)."""
+    w = np.cross(matrix[0], matrix[1])
+    return w / np.linalg.norm(w)
+
+
+def _vector(v: np.ndarray) -> str:
+    return "(" + ", ".join(f"{c:.2f}".replace("-0.00", "0.00") for c in v) + ")"
 
 
 def draw(path: str | Path | None, res: GcsResult, view: str | None = None, velocity: bool = False) -> str:
     """The picture's SVG text; written atomically to ``path`` if given. ``view``: one of
     :data:`VIEWS`, default :func:`default_view`; ``velocity``: draw velocity arrows on the tracks."""
     view = view or default_view(res)
-    project(np.zeros(3), view)  # checks the name
+    matrix, axis_names = projection(view, res)
     T = res.t.size
     frames = np.unique(np.linspace(0, T - 1, min(POSES, T)).round().astype(int))
-    fig = Figure(title=f"{res.name} — view {view}, {T} steps", units=res.units, axis_names=PROJECTIONS[view][1])
+    caption = "plane (face-on)" if view == "plane" else view
+    fig = Figure(title=f"{res.name} — view {caption}, {T} steps", units=res.units, axis_names=axis_names)
     world = _world_points(res)
-    size = float(np.ptp(project(world, view), axis=0).max()) if world.size else 1.0
+    size = float(np.ptp(project(world, matrix), axis=0).max()) if world.size else 1.0
     if view == "iso" and world.size:
         _ground_plane(fig, world, res.units)
-    for k in frames[::-1]:  # faint poses under the first, solid one
-        first = k == frames[0]
+    for k in frames[:0:-1]:  # faint poses under the first, solid one
         for name, lines in _member_lines(res, int(k)).items():
             for line in lines:
-                xy = project(line, view)
-                if len(xy) == 1:
-                    fig.joints(xy, names=[name], cls="member" if first else "member-pose")
-                    continue
-                closed = len(xy) >= 3 and np.allclose(line[0], line[-1])
-                style = dict(name=name, style="solid", cls="member") if first else \
-                    dict(name=name, style="faint", cls="member-pose", width=3.0)
-                if closed:
-                    fig.link(xy[:-1], **style)  # type: ignore[arg-type]
-                else:
-                    for a, b in zip(xy[:-1], xy[1:]):
-                        fig.link(np.array([a, b]), **style)  # type: ignore[arg-type]
-    gain = _arrows(fig, res, view, size) if velocity else None  # under the curves: a short track stays visible
+                _member(fig, name, project(line, matrix), np.allclose(line[0], line[-1]),
+                        dict(name=name, style="faint", cls="member-pose", width=3.0), "member-pose")
+    cue = _depth_cue(fig, res, matrix, world)
+    gain = _arrows(fig, res, matrix, size) if velocity else None  # under the curves: a short track stays visible
     for n, (name, tr) in enumerate(res.tracks.items()):
         color = PALETTE[n % len(PALETTE)]
         stroke = Stroke(color, 2.2, "dashed" if n >= len(PALETTE) else "solid")
-        fig.polyline(project(tr.position, view), stroke, closed=tr.cyclic, cls="track", name=name, label=name)
-        fig.joints(project(tr.position[:1], view), names=[name], fill=color, stroke=Stroke(color, 1.0),
+        fig.polyline(project(tr.position, matrix), stroke, closed=tr.cyclic, cls="track", name=name, label=name)
+        fig.joints(project(tr.position[:1], matrix), names=[name], fill=color, stroke=Stroke(color, 1.0),
                    cls="track-point")
     if gain is not None:
         fig.legend(f"velocity d/dt × {gain:.3g} (t in [0, 1]{f'; {res.units} per unit t' if res.units else ''})",
                    Stroke(INK, 1.2))
     for name, lines in _member_lines(res, 0).items():  # the figure places the labels apart
         corners = np.vstack(lines) if lines else res.position[0, [res.member_names.index(name)]]
-        fig.annotate(project(corners.mean(axis=0), view).tolist(), name, cls="member-label")
+        fig.annotate(project(corners.mean(axis=0), matrix).tolist(), name, cls="member-label")
     R = quat.to_matrix(res.orientation[0])
     for m, name in enumerate(res.member_names):
         pts = res.points.get(name, {})
         if pts:
             local = np.array(list(pts.values()), dtype=float).reshape(-1, 3)
-            fig.joints(project(res.position[0, m] + local @ R[m].T, view), names=[f"{name}.{p}" for p in pts])
+            fig.joints(project(res.position[0, m] + local @ R[m].T, matrix), names=[f"{name}.{p}" for p in pts])
     fig.legend("members at t = 0", Stroke(INK, 3.0))
+    if cue:
+        fig.legend("nearer: darker, wider", Stroke(INK, DEPTH_WIDTH[1]))
     if len(frames) > 1:
         fig.legend(f"{len(frames) - 1} later poses", Stroke(INK, 3.0, "faint"))
-    fig.triad({a: PROJECTIONS[view][0][:, i].tolist() for i, a in enumerate("xyz")})
+    if view == "plane":
+        fig.legend(f"u = {_vector(matrix[0])}, v = {_vector(matrix[1])}", Stroke("#ffffff", 0.0))
+    fig.triad({a: matrix[:, i].tolist() for i, a in enumerate("xyz")})
     svg = fig.render()
     if path is not None:
         write_text(path, svg)
     return svg
+
+
+def _member(fig: Figure, name: str, xy: np.ndarray, closed: bool, style: dict, cls: str) -> None:
+    """One drawing line of a member (projected, (n, 2)): a dot, a plate (``closed``) or bars."""
+    if len(xy) == 1:
+        fig.joints(xy, names=[name], cls=cls)
+    elif closed and len(xy) >= 3:
+        fig.link(xy[:-1], **style)
+    else:
+        for a, b in zip(xy[:-1], xy[1:]):
+            fig.link(np.array([a, b]), **style)
+
+
+def _depth_cue(fig: Figure, res: GcsResult, matrix: np.ndarray, world: np.ndarray) -> bool:
+    """The solid pose (t = 0), farthest stroke first, each bar or plate darker and its bars wider the
+    nearer it is to the viewer (:data:`DEPTH_INK`, :data:`DEPTH_WIDTH`); True when the scene has
+    depth (over 1e-6 of its size), else every stroke is drawn as the nearest."""
+    toward = _toward_viewer(matrix)
+    depth = world @ toward if world.size else np.zeros(1)
+    lo, span = float(depth.min()), float(np.ptp(depth))
+    deep = span > 1e-6 * max(float(np.ptp(world, axis=0).max()) if world.size else 0.0, 1e-300)
+    pieces = []  # (depth, name, world line, closed)
+    for name, lines in _member_lines(res, 0).items():
+        for line in lines:
+            closed = len(line) >= 3 and np.allclose(line[0], line[-1])
+            if closed or len(line) == 1:
+                pieces.append((float(line.mean(axis=0) @ toward), name, line, closed))
+            else:
+                pieces += [(float((a + b) @ toward) / 2, name, np.array([a, b]), False) for a, b in zip(line[:-1], line[1:])]
+    for d, name, line, closed in sorted(pieces, key=lambda p: p[0]):
+        s = (d - lo) / span if deep else 1.0
+        ink = "#" + "".join(f"{round(f + s * (n - f)):02x}" for f, n in zip(*DEPTH_INK))
+        width = DEPTH_WIDTH[0] + s * (DEPTH_WIDTH[1] - DEPTH_WIDTH[0])
+        _member(fig, name, project(line, matrix), closed,
+                dict(name=name, style="solid", cls="member", color=ink, width=round(width, 2)), "member")
+    return deep
 
 
 def _member_lines(res: GcsResult, k: int) -> dict[str, list[np.ndarray]]:
@@ -135,7 +216,7 @@ def _world_points(res: GcsResult) -> np.ndarray:
 
 def _ground_plane(fig: Figure, world: np.ndarray, units: str) -> None:
     """A grid on the plane z = lowest z under the mechanism, at round world steps, with tick values
-    (the first of each row with ``units``)."""
+    along two edges and the axis names (with ``units``) past their ends."""
     lo, hi = world.min(axis=0), world.max(axis=0)
     span = float(max((hi - lo)[:2].max(), 1e-12 * max(1.0, float(np.abs(world).max()))))
     lo2, hi2 = lo[:2] - 0.1 * span, hi[:2] + 0.1 * span
@@ -144,22 +225,29 @@ def _ground_plane(fig: Figure, world: np.ndarray, units: str) -> None:
     ys = np.arange(np.floor(lo2[1] / step), np.ceil(hi2[1] / step) + 1) * step
     z = lo[2]
     grid = Stroke("#a0aec0", 0.8)
-    unit = f" {units}" if units else ""
-    for n, x in enumerate(xs):
-        fig.polyline(project(np.array([[x, ys[0], z], [x, ys[-1], z]]), "iso"), grid, cls="ground-plane")
-        fig.annotate(project(np.array([x, ys[0], z]), "iso").tolist(), f"x {tick_label(float(x), step)}{unit}" if n == 0
-                     else tick_label(float(x), step), size=9, offset_px=(-10.0, 16.0), cls="ground-tick")
-    for n, y in enumerate(ys):
-        fig.polyline(project(np.array([[xs[0], y, z], [xs[-1], y, z]]), "iso"), grid, cls="ground-plane")
-        fig.annotate(project(np.array([xs[-1], y, z]), "iso").tolist(), f"y {tick_label(float(y), step)}{unit}" if n == 0
-                     else tick_label(float(y), step), size=9, offset_px=(6.0, 10.0), cls="ground-tick")
-    fig.legend(f"ground plane z = {tick_label(float(z), step)}{unit} (grid {tick_label(step, step)}{unit})", grid)
+    iso = PROJECTIONS["iso"][0]
+    unit = f" ({units})" if units else ""
+    for x in xs:
+        fig.polyline(project(np.array([[x, ys[0], z], [x, ys[-1], z]]), iso), grid, cls="ground-plane")
+        fig.annotate(project(np.array([x, ys[0], z]), iso).tolist(), tick_label(float(x), step), size=9,
+                     offset_px=(-10.0, 16.0), cls="ground-tick")
+    for y in ys:
+        fig.polyline(project(np.array([[xs[0], y, z], [xs[-1], y, z]]), iso), grid, cls="ground-plane")
+        fig.annotate(project(np.array([xs[-1], y, z]), iso).tolist(), tick_label(float(y), step), size=9,
+                     offset_px=(6.0, 10.0), cls="ground-tick")
+    mid = (xs[len(xs) // 2 - 1] + xs[len(xs) // 2]) / 2, (ys[len(ys) // 2 - 1] + ys[len(ys) // 2]) / 2
+    fig.annotate(project(np.array([mid[0], ys[0], z]), iso).tolist(), f"x{unit}", size=10, offset_px=(0.0, 34.0),
+                 cls="ground-axis")
+    fig.annotate(project(np.array([xs[-1], mid[1], z]), iso).tolist(), f"y{unit}", size=10, offset_px=(22.0, 30.0),
+                 cls="ground-axis")
+    plain = f" {units}" if units else ""
+    fig.legend(f"ground plane z = {tick_label(float(z), step)}{plain} (grid {tick_label(step, step)}{plain})", grid)
 
 
-def _arrows(fig: Figure, res: GcsResult, view: str, size: float) -> float | None:
+def _arrows(fig: Figure, res: GcsResult, matrix: np.ndarray, size: float) -> float | None:
     """Velocity arrows at evenly spaced steps of every track, the longest ``ARROW_FRACTION`` of ``size``;
     returns their scale (None: nothing moves)."""
-    v2 = {n: project(tr.velocity, view) for n, tr in res.tracks.items()}  # projections are linear
+    v2 = {n: project(tr.velocity, matrix) for n, tr in res.tracks.items()}  # projections are linear
     vmax = max((float(np.linalg.norm(v, axis=1).max()) for v in v2.values()), default=0.0)
     if not vmax > 0:
         return None
@@ -167,7 +255,7 @@ def _arrows(fig: Figure, res: GcsResult, view: str, size: float) -> float | None
     T = res.t.size
     ks = np.unique(np.linspace(0, T - 1, ARROWS_PER_TRACK, endpoint=False).round().astype(int))
     for n, (name, tr) in enumerate(res.tracks.items()):
-        p, color = project(tr.position, view), PALETTE[n % len(PALETTE)]
+        p, color = project(tr.position, matrix), PALETTE[n % len(PALETTE)]
         for k in ks:
             fig.arrow(p[k], p[k] + gain * v2[name][k], Stroke(color, 1.2), cls="velocity", name=name)
     return gain

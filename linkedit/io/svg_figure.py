@@ -225,6 +225,7 @@ class Figure:
     _captions: tuple[list[str], str] | None = field(default=None, repr=False)
     _labels: list[_Label] = field(default_factory=list, repr=False)
     _placed: dict[int, tuple[float, float, bool]] = field(default_factory=dict, repr=False)
+    _triad_px: float | None = field(default=None, repr=False)  #: the triad's arrow length, px (labels keep off it)
 
     # -- primitives ------------------------------------------------------------------------
 
@@ -506,6 +507,7 @@ class Figure:
         ``(2,)`` (x right, y up; its length, at most 1, is the foreshortening: 0 is an axis seen end-on,
         drawn as a dot)."""
         dirs = {str(n): finite(f"triad {n}", d, (2,)) for n, d in directions.items()}
+        self._triad_px = length_px
 
         def draw(v: View) -> Mark:
             c = np.array([v.left + 14.0 + length_px, v.top + v.height - 14.0 - length_px])
@@ -573,10 +575,18 @@ class Figure:
         anchors = np.array([v.px(lb.point) for lb in self._labels]).reshape(-1, 2)
         boxes = np.array([text_box(float(a[0] + lb.offset_px[0]), float(a[1] + lb.offset_px[1]), lb.words, lb.size)
                           for a, lb in zip(anchors, self._labels)])
-        avoid = np.concatenate([v.px(it.marks_at) for it in self._items] + [anchors, np.zeros((0, 2))])
+        avoid = np.concatenate([v.px(it.marks_at) for it in self._items] + [anchors, self._triad_area(v)])
         shifts, moved = place_labels(anchors, boxes.reshape(-1, 4), v.area, avoid)
         self._placed = {id(lb): (float(a[0] + lb.offset_px[0] + s[0]), float(a[1] + lb.offset_px[1] + s[1]), bool(m))
                         for lb, a, s, m in zip(self._labels, anchors, shifts, moved)}
+
+    def _triad_area(self, v: View) -> np.ndarray:
+        """Points (k, 2) every 6 px over the corner the triad and its axis names take (none without a triad)."""
+        if self._triad_px is None:
+            return np.zeros((0, 2))
+        side = 2 * self._triad_px + 34.0
+        xs, ys = np.meshgrid(np.arange(0.0, side + 6, 6), np.arange(0.0, side + 6, 6))
+        return np.column_stack([v.left + xs.ravel(), v.top + v.height - ys.ravel()])
 
     def _layout(self) -> tuple[View, float, float]:
         xs = np.concatenate([it.xs for it in self._items] + [np.zeros(0)])
