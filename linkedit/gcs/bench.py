@@ -22,6 +22,11 @@ what waves keep on it, as SolveSpace's sketch is built before its timing). Print
    per-step diagnostics ``solve3d`` adds (status, degrees of freedom, redundant equations), how
    many steps it solved in waves (:mod:`linkedit.gcs.waves`), and whether they were predicted in
    closed form (:mod:`linkedit.gcs.closed_form`) or by extrapolation.
+5. The variants of issue 22 (``examples/3d/bench/``: a cylinder-driven rocker, a crank-rocker
+   whose coupler is a welded group, an offset slider-crank of joints; with the spatial
+   slider-crank and the passive-DOF RSSR examples): linkedit's CPU ms per step (median of
+   repeats after an untimed run), and SolveSpace's where it is installed and a sketch is given
+   (:data:`VARIANT_SKETCHES`).
 """
 
 from __future__ import annotations
@@ -325,7 +330,61 @@ def _predicted(system: "System") -> str:
     return "—" if kept is None else "extrapolated" if kept.closed is None else "closed form"
 
 
+#: the variants' specs (examples/3d/...) and their SolveSpace sketches (None: none written)
+VARIANTS: dict[str, PointModel | None] = {
+    "bench/cylinder-rocker": None,
+    "bench/welded-crank-rocker": PointModel(
+        points={"O": ("crank", "pivot"), "A": ("crank", "tip"), "B": ("bar", "b"), "D": ("rocker", "pivot"),
+                "P": ("plate", "P")},
+        held=("O", "D", "A"), links=(("A", "B", "P"), ("B", "D")), planar=True),
+    "bench/offset-slider-crank": None,
+    "spatial-slider-crank": None,
+    "rssr": SPATIAL["rssr"],
+}
+
+
+def _variants(echo: Callable[[str], None], quick: bool) -> None:
+    import time
+
+    from linkedit.gcs.members import compile_mechanism
+    from linkedit.gcs.solver import solve_run
+    from linkedit.spec.mechanism3d import MechanismSpec
+    from linkedit.spec.yamlload import load_model
+
+    try:
+        import python_solvespace  # noqa: F401
+        solvespace = True
+    except ImportError:
+        solvespace = False
+    steps = 24 if quick else 360
+    repeats = 1 if quick else 5
+    t = np.arange(steps) / steps
+    echo(f"variants (issue 22), {steps} steps, CPU ms per step, medians of {repeats}"
+         f"{'' if solvespace else ' (SolveSpace: not installed)'}")
+    echo(f"{'mechanism':<26}{'unknowns':>9}  {'linkedit':>9}  {'in waves':>8}  {'SolveSpace':>11}  {'ratio':>6}")
+    for name, model in VARIANTS.items():
+        system, _ = compile_mechanism(load_model(MechanismSpec, EXAMPLES / f"{name}.yaml"))
+        table = system.step_table(t)
+        run = solve_run(system, t, table=table)
+        times = []
+        for _ in range(repeats):
+            start = time.process_time()
+            solve_run(system, t, table=table)
+            times.append((time.process_time() - start) / steps)
+        ours = float(np.median(times)) * 1e3
+        cell = f"{'—':>11}  {'':>6}"
+        if solvespace and model is not None:
+            member = np.array([system.member_names.index(m) for m, _ in model.points.values()])
+            local = np.array([system.points[m][p] for m, p in model.points.values()])
+            R = quat.to_matrix(run.orientation[:, member])
+            ran = _solvespace_run(model, run.position[:, member] + np.einsum("tpij,pj->tpi", R, local), fixed=False)
+            cell = f"{'failed':>11}  {'':>6}" if ran is None else f"{ran[0] * 1e3:>11.3f}  {ours / (ran[0] * 1e3):>5.2f}×"
+        echo(f"{name.removeprefix('bench/'):<26}{system.n_unknowns:>9}  {ours:>9.3f}  "
+             f"{f'{int(run.batched.sum())}/{steps}':>8}  {cell}")
+
+
 def run(echo: Callable[[str], None], quick: bool = False) -> None:
     _strandbeests(echo, quick)
     _six_bar(echo, quick)
     _solvespace(echo, quick)
+    _variants(echo, quick)
