@@ -279,7 +279,7 @@ def lists_figures(echo: Callable[[str], None], vectors: np.ndarray, repeats: int
     from linkedit.synthesis.index import Lists, nearest_rows
 
     t0 = time.perf_counter()
-    lists = Lists(vectors)
+    lists = Lists.trained(vectors)
     t_lists = time.perf_counter() - t0
     columns, norms = np.ascontiguousarray(vectors.T), np.einsum("kd,kd->k", vectors, vectors)
     held = atlas.build_chunk("four-bar", 988, 0, 200).params
