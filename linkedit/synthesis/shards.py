@@ -71,7 +71,7 @@ def write_shard(folder: Path, name: str, seed: int, index: int, chunk: Chunk) ->
     """Store chunk ``index`` of family ``name`` as its shard (atomically: a ``.part`` file renamed when
     whole); return its manifest entry."""
     min_ds = chunk.min_ds.astype(np.float32)
-    centroids, order, offsets = cells_of(chunk.index, seed=index)
+    centroids, order, offsets = cells_of(chunk.index, cells=shard_cells(len(chunk.index)), seed=index)
     file = shard_file(name, index)
     with durable_path(folder / file) as tmp, writing(tmp) as f:
         f.attrs.update({"format_version": FORMAT_VERSION, "kind": "atlas-shard", "generator": f"linkedit {__version__}",
@@ -86,6 +86,11 @@ def write_shard(folder: Path, name: str, seed: int, index: int, chunk: Chunk) ->
             "sha256": checksum(chunk.params, min_ds, chunk.index)}
 
 
+def shard_cells(rows: int) -> int:
+    """Cells of a shard's quantizer: √rows (100 for 10,000 rows; training costs a tenth of building the chunk)."""
+    return max(1, int(np.sqrt(rows)))
+
+
 def store_chunks(folder: str, name: str, seed: int, jobs: list[tuple[int, int]], spec: str | None = None
                  ) -> list[dict[str, Any]]:
     """Build chunks ``jobs`` ((index, size) pairs) of family ``name`` and store each as a shard in the atlas
@@ -96,8 +101,8 @@ def store_chunks(folder: str, name: str, seed: int, jobs: list[tuple[int, int]],
 
 def shard_bytes(name: str) -> int:
     """Bytes one linkage of family ``name`` takes in a shard: params (float64), min_ds and index (float32), its
-    place in the cell order (uint16) and its share of the shard's centroids (2·√CHUNK cells, float32)."""
-    cells = int(np.clip(2.0 * np.sqrt(CHUNK), 1, 16384))
+    place in the cell order (uint16) and its share of the shard's centroids (float32)."""
+    cells = shard_cells(CHUNK)
     return 8 * len(family(name).PARAMETERS) + 4 + 4 * WIDTH + 2 + -(-cells * WIDTH * 4 // CHUNK)
 
 
@@ -279,16 +284,24 @@ def load(path: str | Path, threads: int | None = None) -> Atlas:
         for name, entry in manifest["families"].items():
             if not entry["shards"]:
                 continue
-            parts = list(pool.map(partial(_read_shard, path, name, manifest["seed"]), entry["shards"]))
-            base = np.cumsum([0] + [len(p["params"]) for p in parts])
-            arrays = {key: np.concatenate([p[key] for p in parts]) for key in ("params", "min_ds", "index", "centroids")}
-            arrays["order"] = np.concatenate([p["order"].astype(np.int64) + b for p, b in zip(parts, base)])
-            arrays["offsets"] = np.concatenate([*(p["offsets"][:-1] + b for p, b in zip(parts, base)), base[-1:]])
-            arrays["cells"] = np.array([len(p["centroids"]) for p in parts])
-            families[name] = arrays
+            families[name] = merge(list(pool.map(partial(_read_shard, path, name, manifest["seed"]), entry["shards"])))
     if not families:
         raise InputError("the atlas is empty", file=str(path))
     return Atlas(path, families, manifest["seed"])
+
+
+def merge(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """A family's shards' arrays (in chunk order) as one: params, min_ds, index and centroids concatenated,
+    ``order`` as atlas rows, ``offsets`` into it, ``cells`` each shard's cell count (what
+    :func:`linkedit.synthesis.index.stored_lists` searches)."""
+    base = np.cumsum([0] + [len(p["index"]) for p in parts])
+    arrays: dict[str, np.ndarray] = {key: np.concatenate([p[key] for p in parts])
+                                     for key in ("params", "min_ds", "index", "centroids")
+                                     if key in parts[0]}
+    arrays["order"] = np.concatenate([p["order"].astype(np.int64) + b for p, b in zip(parts, base)])
+    arrays["offsets"] = np.concatenate([*(p["offsets"][:-1] + b for p, b in zip(parts, base)), base[-1:]])
+    arrays["cells"] = np.array([len(p["centroids"]) for p in parts])
+    return arrays
 
 
 def _read_shard(folder: Path, name: str, seed: int, shard: dict[str, Any]) -> dict[str, np.ndarray]:
