@@ -392,7 +392,7 @@ def test_the_coarse_quantizer_finds_the_exact_nearest_atlas_curves():
 
     chunk = atlas.build_chunk("four-bar", 1, 0, 20000)
     vectors = chunk.index
-    lists = Lists(vectors, cells=64)
+    lists = Lists.trained(vectors, cells=64)
     columns, norms = np.ascontiguousarray(vectors.T), np.einsum("kd,kd->k", vectors, vectors)
     held = atlas.build_chunk("four-bar", 989, 0, 40).params
     found = []

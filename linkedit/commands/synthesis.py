@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import Any
 
 import typer
 
@@ -28,19 +29,34 @@ def _families(text: str) -> list[str]:
 
 
 class _Progress:
-    """linkages done, linkages/s — on a terminal only."""
+    """A rich progress bar on stderr while an atlas builds (a terminal only): linkages done, rate, time
+    elapsed and left; the callback of :func:`linkedit.synthesis.atlas.build`, stopped with the block."""
 
     def __init__(self, live: bool = True) -> None:
         self.live = live and sys.stderr.isatty()
+        self.bar: Any = None
+
+    def __enter__(self) -> _Progress:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.bar is not None:
+            self.bar.stop()
 
     def __call__(self, done: int, total: int, seconds: float) -> None:
-        if self.live:
-            rate = done / max(seconds, 1e-9)
-            bar = "#" * int(30 * done / total)
-            sys.stderr.write(f"\r[{bar:<30}] {done:,}/{total:,} linkages, {rate:,.0f} linkages/s")
-            if done >= total:
-                sys.stderr.write("\n")
-            sys.stderr.flush()
+        if not self.live:
+            return
+        if self.bar is None:
+            from rich.console import Console
+            from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
+                                       TimeRemainingColumn)
+
+            self.bar = Progress(TextColumn("atlas build"), BarColumn(), MofNCompleteColumn(), TextColumn("linkages"),
+                                TextColumn("{task.fields[rate]}"), TimeElapsedColumn(), TextColumn("left"),
+                                TimeRemainingColumn(), console=Console(stderr=True))
+            self.task = self.bar.add_task("build", total=total, rate="")
+            self.bar.start()
+        self.bar.update(self.task, completed=done, rate=f"{done / max(seconds, 1e-9):,.0f}/s")
 
 
 def register(app: typer.Typer) -> None:
@@ -51,13 +67,17 @@ def register(app: typer.Typer) -> None:
     @guard
     def build(
         family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, slider-crank, jansen, klann, watt, stephenson, or a linkage spec file (e.g. examples/klann.yaml)."),
-        count: int = typer.Option(..., "-n", "--count", min=1, help="Linkages to add per family."),
-        output: Path = typer.Option(..., "-o", "--output", help="Atlas file (.h5); an existing one is appended to."),
+        count: int = typer.Option(None, "-n", "--count", min=1, help="Linkages to add per family."),
+        output: Path = typer.Option(..., "-o", "--output", help="Atlas file (.h5), or a folder of shards (a name "
+                                                                "without suffix; workers write their shards there); "
+                                                                "an existing one is appended to."),
         seed: int = typer.Option(1, "--seed", min=0, max=2**63 - 1, help="Seed of the chunks (an atlas keeps its seed)."),
         scheduler: str = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786): build there."),
         workers: int = typer.Option(None, "--workers", min=1, help="Build on a local Dask cluster of N worker processes."),
         connect_timeout: float = typer.Option(10.0, "--connect-timeout", metavar="SECONDS", min=0.1, max=3600.0,
                                               help="Seconds the --scheduler has to answer (and its first worker to join)."),
+        resume: bool = typer.Option(False, "--resume", help="A folder of shards: finish the build that was "
+                                                            "interrupted there (the same --family and -n)."),
         verbose: bool = typer.Option(False, "--verbose", help="Show Dask's own log lines (--scheduler, --workers)."),
         as_json: bool = JSON,
         quiet: bool = QUIET,
@@ -65,24 +85,35 @@ def register(app: typer.Typer) -> None:
         """Sample a family's linkages, keep the working ones, store their curves and descriptors."""
         import time
 
-        from linkedit.synthesis.atlas import build as build_atlas
+        from linkedit.synthesis import atlas as atlas_file
+        from linkedit.synthesis import shards
 
-        if output.suffix.lower() not in (".h5", ".hdf5"):
-            raise InputError(f"{output}: an atlas is an HDF5 file (.h5)", field="--output")
         names = _families(family)
+        sharded = output.is_dir() or output.suffix == ""
+        if not sharded and output.suffix.lower() not in (".h5", ".hdf5"):
+            raise InputError(f"{output}: an atlas is an HDF5 file (.h5) or a folder of shards (a name without suffix)",
+                             field="--output")
+        if not sharded and (resume or count is None):
+            raise InputError("--resume continues a folder of shards (an atlas file is written whole or not at all)"
+                             if resume else "give the number of linkages to add", field="--resume" if resume else "--count")
         start = time.perf_counter()
-        counts = build_atlas(output, names, count, seed=seed, scheduler=scheduler, workers=workers,
-                             connect_timeout=connect_timeout, verbose=verbose, progress=_Progress(live=not quiet))
+        options: dict[str, Any] = {"seed": seed, "scheduler": scheduler, "workers": workers,
+                                   "connect_timeout": connect_timeout, "verbose": verbose}
+        with _Progress(live=not quiet) as progress:
+            counts = (shards.build(output, names, count, resume=resume, progress=progress, **options) if sharded else
+                      atlas_file.build(output, names, count, progress=progress, **options))
         seconds = time.perf_counter() - start
-        report({"output": str(output), "families": dict(counts), "linkages": count * len(names), "seconds": seconds})
-        say(f"{count * len(names):,} linkages in {seconds:.2f} s ({count * len(names) / seconds:,.0f} "
-            f"linkages/s) → {output}: " + ", ".join(f"{n} {c:,}" for n, c in counts.items()))
+        added = count * len(names) if count is not None else None
+        report({"output": str(output), "families": dict(counts), "linkages": added, "seconds": seconds})
+        say((f"{added:,} linkages in {seconds:.2f} s ({added / seconds:,.0f} linkages/s)" if added is not None else
+             f"resumed in {seconds:.2f} s") + f" → {output}: " + ", ".join(f"{n} {c:,}" for n, c in counts.items()))
 
     @app.command()
     @guard
     def synthesize(
         target: str = typer.Argument(None, help="The curve: .csv (x, y[, t]), set.yaml:name or result.h5:track."),
-        atlas: Path = typer.Option(None, "--atlas", help="Atlas file or folder of atlases (`linkedit atlas build`)."),
+        atlas: Path = typer.Option(None, "--atlas", help="Atlas file, folder of shards, or folder of atlas files "
+                                                           "(`linkedit atlas build`)."),
         output: Path = typer.Option(..., "-o", "--output", help="Output folder: result.yaml, result.h5, overlay.svg, "
                                                                 "history.svg, report.json."),
         pairs: Path = typer.Option(None, "--function", metavar="PAIRS.csv",
@@ -146,8 +177,8 @@ def register(app: typer.Typer) -> None:
         if tolerance != 0.5:
             raise InputError("--tolerance applies to --function and --motion", field="--tolerance")
         from linkedit.curves.sources import UNIT_NAME, input_files, load_inputs
-        from linkedit.synthesis.atlas import load
         from linkedit.synthesis.outputs import FILES, write_all
+        from linkedit.synthesis.shards import open_atlas
         from linkedit.synthesis.synthesize import synthesize as run
 
         if units is not None and not UNIT_NAME.fullmatch(units):
@@ -162,7 +193,7 @@ def register(app: typer.Typer) -> None:
             raise InputError("the target must be a planar (x, y) curve", file=curve.origin)
         if units is not None and curve.units is not None and units != curve.units:
             raise InputError(f"--units {units} contradicts the target's own units, {curve.units}", file=curve.origin)
-        found = load(atlas)
+        found = open_atlas(atlas)
         result = run(curve, found, top=top, smooth=smooth, timing=timing, margin_deg=margin, seed=seed,
                      units=units or curve.units or "mm", points=points)
         options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "timing": timing,

@@ -161,6 +161,19 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
 
 
 @contextlib.contextmanager
+def durable_path(target: str | Path) -> Iterator[Path]:
+    """:func:`atomic_path` renamed as soon as the block succeeds, even inside :func:`together`: one
+    piece of a long run that outlives the run's failure or interruption (an atlas shard, its manifest)."""
+    pending, made = _PENDING.set(None), _MADE.set(None)
+    try:
+        with atomic_path(target) as tmp:
+            yield tmp
+    finally:
+        _MADE.reset(made)
+        _PENDING.reset(pending)
+
+
+@contextlib.contextmanager
 def locked(target: str | Path, wait: float | None = None) -> Iterator[None]:
     """Hold ``target`` for a read-modify-write (an atlas appended to, a result updated in place): an
     exclusive ``flock`` on ``.<name>.lock`` beside it, which records the holder's process ID. Another

@@ -22,6 +22,7 @@ from collections import deque
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Protocol
 
 import h5py
 import numpy as np
@@ -123,15 +124,23 @@ def dask_tasks(jobs: list[tuple[int, int]], threads: int) -> list[list[tuple[int
 
 def run_chunks(name: str, seed: int, jobs: list[tuple[int, int]], *, scheduler: str | None = None,
                workers: int | None = None, connect_timeout: float = CONNECT_TIMEOUT,
-               verbose: bool = False) -> Iterator[tuple[int, Chunk]]:
+               verbose: bool = False) -> Iterator[tuple[int, Any]]:
     """Chunks in order of ``jobs``: in-process, or on Dask (see :func:`chunk_runner`); results are the
     same either way."""
     with chunk_runner(scheduler, workers, connect_timeout=connect_timeout, verbose=verbose) as run:
         yield from run(name, seed, jobs)
 
 
-#: builds chunks ``jobs`` of family ``name`` from ``seed``: (index, chunk) in order of ``jobs``
-Runner = Callable[[str, int, list[tuple[int, int]]], Iterator[tuple[int, Chunk]]]
+#: one task: chunks ``jobs`` of family ``name`` from ``seed`` (``spec``: as :func:`build_chunk`'s) → one result
+#: per chunk (:func:`build_chunks`: the chunks; :func:`linkedit.synthesis.shards.store_chunks`: their shard entries)
+Task = Callable[[str, int, list[tuple[int, int]], "str | None"], list[Any]]
+
+
+class Runner(Protocol):
+    """Runs ``task`` over chunks ``jobs`` of family ``name`` from ``seed``: (index, result) in order of ``jobs``."""
+
+    def __call__(self, name: str, seed: int, jobs: list[tuple[int, int]], task: Task = ...) -> Iterator[tuple[int, Any]]:
+        ...
 
 
 @contextlib.contextmanager
@@ -142,7 +151,11 @@ def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
     ``connect_timeout`` seconds) or on a local cluster of ``workers`` processes, closed with the block.
     Dask's own log lines stay off the terminal unless ``verbose``."""
     if scheduler is None and not workers:
-        yield lambda name, seed, jobs: ((index, build_chunk(name, seed, index, size)) for index, size in jobs)
+        def here(name: str, seed: int, jobs: list[tuple[int, int]], task: Task = build_chunks) -> Iterator[tuple[int, Any]]:
+            spec = SPEC_TEXTS.get(name)
+            return ((index, task(name, seed, [(index, size)], spec)[0]) for index, size in jobs)
+
+        yield here
         return
     try:
         from dask.distributed import Client
@@ -164,12 +177,13 @@ def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
                 first = next(iter(nthreads), None)
                 direct = cluster is not None or (first is not None and reaches(client, first))
 
-                def run(name: str, seed: int, jobs: list[tuple[int, int]]) -> Iterator[tuple[int, Chunk]]:
-                    tasks = dask_tasks(jobs, sum(nthreads.values()))
+                def run(name: str, seed: int, jobs: list[tuple[int, int]], task: Task = build_chunks
+                        ) -> Iterator[tuple[int, Any]]:
+                    runs = dask_tasks(jobs, sum(nthreads.values()))
                     spec = SPEC_TEXTS.get(name)
-                    futures = deque(client.submit(build_chunks, name, seed, task, spec, pure=True) for task in tasks)
-                    for task in tasks:
-                        yield from zip([index for index, _ in task], client.gather(futures.popleft(), direct=direct))
+                    futures = deque(client.submit(task, name, seed, part, spec, pure=True) for part in runs)
+                    for part in runs:
+                        yield from zip([index for index, _ in part], client.gather(futures.popleft(), direct=direct))
 
                 yield run
         finally:
@@ -347,6 +361,14 @@ def _no_stderr() -> Iterator[None]:
 MAX_SEED = 2**63 - 1
 
 
+def check_options(seed: int, scheduler: str | None) -> None:
+    """InputError for a seed out of range or a malformed scheduler address, before anything is opened."""
+    if not 0 <= seed <= MAX_SEED:
+        raise InputError(f"must be an integer from 0 to 2**63 - 1, got {seed}", field="--seed")
+    if scheduler is not None:
+        scheduler_address(scheduler)
+
+
 def stored_bytes(name: str) -> int:
     """Bytes one linkage of family ``name`` takes in an atlas (uncompressed; see :func:`_family_group`)."""
     return 8 * len(family(name).PARAMETERS) + 8 + 4 * (4 * HARMONICS - 3) + 4 * 2 * (SAMPLES // COARSE_STEP)
@@ -365,10 +387,7 @@ def build(path: str | Path, names: list[str], count: int, *, seed: int = 1, sche
     ``connect_timeout``, ``verbose``: see :func:`chunk_runner`.
     """
     path = Path(path)
-    if not 0 <= seed <= MAX_SEED:
-        raise InputError(f"must be an integer from 0 to 2**63 - 1, got {seed}", field="--seed")
-    if scheduler is not None:
-        scheduler_address(scheduler)  # a malformed address is an input error before anything is opened
+    check_options(seed, scheduler)
     total = count * len(names)
     with locked(path):
         old = 0

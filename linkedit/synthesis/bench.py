@@ -4,7 +4,8 @@
   rejection, the batched evaluation and the index descriptors (chunks only, and the whole
   ``atlas build`` with HDF5 writing); per core, ``atlas build`` in-process, as 2 in-process
   builds side by side and on a local Dask cluster of 2 workers if ``dask.distributed`` is
-  installed (:func:`dask_comparison`);
+  installed (:func:`dask_comparison`); a sharded build in-process and on those workers, and the
+  parallel efficiency (:func:`shard_scaling`);
 * a query of the index of a 1,000,000-curve atlas (built in memory, chunk by chunk);
 * ``synthesize`` end to end (query, re-ranking, refinement of the best 5, final check) for
   targets drawn by held-out four-bars, against that atlas;
@@ -24,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import os
+import shutil
 import statistics
 import tempfile
 import time
@@ -144,6 +146,7 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
                     runs[kind].append((seconds, sum(used), every, sum(cpu > 0.1 * seconds for cpu in used)))
                 else:
                     runs[kind].append((seconds, total, every, DASK_WORKERS))
+        shard_scaling(echo, cluster.scheduler_address, DASK_WORKERS, chunks, repeats, start)
     wall, cpu, others, cores = ({k: statistics.median(r[i] for r in v) for k, v in runs.items()} for i in range(4))
     per_core = {k: count / wall[k] / cores[k] for k in runs}
     echo(f"atlas build -n {count:,} (HDF5 written), per core = linkages/s / busy threads or processes; runs "
@@ -158,6 +161,33 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
          f"of in-process, ×{per_core['dask'] / per_core['side by side']:.2f} of side by side; per CPU-second of "
          f"every process of the run ×{cpu['in-process'] / cpu['dask']:.2f} of in-process (the ratio on cores of "
          f"its own)")
+
+
+def shard_scaling(echo: Callable[[str], None], scheduler: str, workers: int, chunks: int, repeats: int,
+                  start: float) -> None:
+    """A sharded ``atlas build`` of ``chunks`` chunks of four-bars (each task stores its shard; the client writes
+    only the manifest): in-process and on the pre-started Dask cluster at ``scheduler`` of ``workers``
+    single-threaded workers (started in ``start`` seconds, apart), interleaved, medians of ``repeats``; the
+    parallel efficiency is the Dask rate over ``workers`` times the in-process rate."""
+    from linkedit.synthesis import shards
+
+    count = chunks * atlas.CHUNK
+    seconds: dict[str, list[float]] = {"in-process": [], "dask": []}
+    load = os.getloadavg()[0]
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(repeats):
+            for kind in seconds:
+                folder = Path(tmp) / kind
+                t0 = time.perf_counter()
+                shards.build(folder, ["four-bar"], count, seed=1, scheduler=scheduler if kind == "dask" else None)
+                seconds[kind].append(time.perf_counter() - t0)
+                shutil.rmtree(folder)
+    rate = {kind: count / statistics.median(times) for kind, times in seconds.items()}
+    echo(f"sharded atlas build -n {count:,} (workers write their shards, the client the manifest; {os.cpu_count()} "
+         f"cores, load average {load:.2f} before, {os.getloadavg()[0]:.2f} after; medians of {repeats}): in-process "
+         f"{rate['in-process']:,.0f} linkages/s; {workers} local Dask workers (started once in {start:.1f} s, not "
+         f"timed) {rate['dask']:,.0f} linkages/s: parallel efficiency "
+         f"{rate['dask'] / (workers * rate['in-process']):.0%} (target ≥ 85 % at 2 workers on 2 cores)")
 
 
 def chebyshev_straight_line(points: int) -> np.ndarray:
@@ -273,30 +303,48 @@ def precision_points(echo: Callable[[str], None], book: atlas.Atlas, index: Inde
              f"{generating.mean():10.1e}  {cpu:5.2f}")
 
 
-def lists_figures(echo: Callable[[str], None], vectors: np.ndarray, repeats: int) -> None:
-    """The coarse quantizer (:class:`~linkedit.synthesis.index.Lists`) on the same curves: its build
-    time, query time and recall of the exact top 10 over 200 held-out four-bar targets."""
-    from linkedit.synthesis.index import Lists, nearest_rows
+def lists_figures(echo: Callable[[str], None], parts: list[atlas.Chunk], repeats: int) -> None:
+    """The coarse quantizers on the curves of ``parts`` (chunks): one trained on them all
+    (:class:`~linkedit.synthesis.index.Lists`) and, as a sharded atlas stores them, one per chunk searched in
+    groups by threads (:func:`~linkedit.synthesis.index.stored_lists`): build time, median query time and
+    recall of the exact top 10 over 200 held-out four-bar targets, against the whole scan."""
+    from linkedit.synthesis.index import Lists, cells_of, nearest_rows
+    from linkedit.synthesis.shards import merge, shard_cells
 
+    vectors = np.concatenate([p.index for p in parts])
     t0 = time.perf_counter()
-    lists = Lists(vectors)
+    lists = Lists.trained(vectors)
     t_lists = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    stored = merge([dict(zip(("centroids", "order", "offsets"), cells_of(p.index, shard_cells(len(p.index)), k)),
+                         index=p.index)
+                    for k, p in enumerate(parts)])
+    t_cells = time.perf_counter() - t0
+    sharded = Index(atlas.Atlas(Path("memory"), {"four-bar": stored}, 1), scan_limit=0)
     columns, norms = np.ascontiguousarray(vectors.T), np.einsum("kd,kd->k", vectors, vectors)
     held = atlas.build_chunk("four-bar", 988, 0, 200).params
-    recall, exact, probed = [], [], []
+    recall, exact, probed, shard_recall, shard_time = [], [], [], [], []
     for k, row in enumerate(held):
         v = target_variants(fourbar.curves(row[None], 300, 0.1 * k)[0])
         t0 = time.perf_counter()
-        truth = nearest_rows(v, columns, norms, 10)[0]
+        truth = set(nearest_rows(v, columns, norms, 10)[0].tolist())
         exact.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
         found = lists.query(v, 10)[0]
         probed.append(time.perf_counter() - t0)
-        recall.append(len(set(truth.tolist()) & set(found.tolist())) / 10)
+        recall.append(len(truth & set(found.tolist())) / 10)
+        t0 = time.perf_counter()
+        hits = sharded.query(v, 10)
+        shard_time.append(time.perf_counter() - t0)
+        shard_recall.append(len(truth & {h.row for h in hits}) / 10)
     echo(f"index query through {len(lists.centroids):,} cells of {len(vectors):,} curves ({t_lists:.1f} s to build): "
          f"{1e3 * statistics.median(probed):.1f} ms median against {1e3 * statistics.median(exact):.1f} ms for the "
          f"whole scan, recall of the exact top 10 {np.mean(recall):.3f} over {len(held)} held-out targets "
          f"(target ≥ 0.99)")
+    echo(f"  as a sharded atlas stores it: {len(parts)} shards' own quantizers ({len(stored['centroids']):,} cells, "
+         f"{t_cells:.1f} s to train, inside the build tasks), {len(sharded.lists[0] or [])} groups in threads on "
+         f"{os.cpu_count()} cores: {1e3 * statistics.median(shard_time):.1f} ms median, recall of the exact top 10 "
+         f"{np.mean(shard_recall):.3f} (target ≥ 0.99)")
 
 
 def run(echo: Callable[[str], None], quick: bool = False) -> None:
@@ -332,7 +380,7 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
     echo(f"index query, {big:,} curves ({t_big:.1f} s to build them, {big / t_big:,.0f} linkages/s): "
          f"{1e3 * t_query:.1f} ms median (target ≤ {1e3 * QUERY_TARGET:.0f} ms)")
     if not quick:
-        lists_figures(echo, merged["index"], repeats)
+        lists_figures(echo, parts, repeats)
 
     runs = []
     for z in targets[: 1 if quick else 4]:

@@ -11,15 +11,20 @@ A family of more than :data:`SCAN_LIMIT` linkages is searched through :class:`Li
 quantizer (k-means cells of the descriptors; each query scans the cells nearest to any of its
 variants, then ranks those linkages exactly): the scanned fraction, not the atlas, sets the
 time, with the exact top-10 found ≥ 99 % of the time (``linkedit bench -s synthesis`` measures
-the recall).
+the recall). A sharded atlas (:mod:`linkedit.synthesis.shards`) stores each shard's quantizer, trained
+by the worker that built the shard; the query searches groups of shards in threads and ranks the
+union of their candidates exactly.
 """
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
+from linkedit.blas import single_threaded
 from linkedit.curves.efd import polyline_efd, variant_signs
 from linkedit.synthesis.atlas import HARMONICS, Atlas, index_vector
 
@@ -41,8 +46,9 @@ def target_variants(z: np.ndarray) -> np.ndarray:
 
 #: families up to this many linkages are scanned whole (1M in ≤ 50 ms); larger ones through :class:`Lists`
 SCAN_LIMIT = 2_000_000
-#: cells a query scans per variant (of ~2·√K): the exact top-10 is found ≥ 99 % of the time
-PROBE = 16
+#: cells a query scans (of ~2·√K; those nearest to any variant of the target): the exact top-10 is found
+#: ≥ 99 % of the time (0.991 on 300,000 four-bars; a shard of √K cells: this many per shard, 0.997)
+PROBE = 32
 
 
 def nearest_rows(variants: np.ndarray, columns: np.ndarray, norms: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
@@ -55,37 +61,55 @@ def nearest_rows(variants: np.ndarray, columns: np.ndarray, norms: np.ndarray, c
     return rows, d2[rows]
 
 
-class Lists:
-    """Inverted lists of descriptors (K, D): ``cells`` k-means centroids (trained on a sample),
-    the rows grouped by their nearest centroid. :meth:`query` scans the ``probe`` cells nearest to
-    each variant and ranks those rows exactly (:func:`nearest_rows`)."""
+def cells_of(vectors: np.ndarray, cells: int | None = None, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The coarse quantizer of descriptors ``vectors`` (K, D): ``cells`` k-means centroids (C, D) float32
+    (trained on a sample; 2·√K by default), the rows grouped by their nearest centroid (K,) and each
+    cell's start in that order (C + 1,): what :class:`Lists` searches, and what an atlas shard stores."""
+    with single_threaded():  # small products: OpenBLAS's threads cost 30× on a loaded machine
+        return _cells_of(vectors, cells, seed)
 
-    def __init__(self, vectors: np.ndarray, cells: int | None = None, seed: int = 0) -> None:
-        count = len(vectors)
-        cells = min(cells or int(np.clip(2.0 * np.sqrt(count), 1, 16384)), count)
-        rng = np.random.default_rng(seed)
-        sample = vectors[np.sort(rng.choice(count, min(count, 20 * cells), replace=False))]
-        centroids = sample[rng.choice(len(sample), cells, replace=False)].astype(np.float32)
-        for _ in range(8):  # Lloyd's iterations on the sample (a cell left empty keeps its centroid)
-            cell = _nearest(sample, centroids)
-            sums = np.zeros_like(centroids)
-            np.add.at(sums, cell, sample)
-            size = np.bincount(cell, minlength=cells)
-            full = size > 0
-            centroids[full] = sums[full] / size[full, None]
-        self.centroids = centroids
-        cell = _nearest(vectors, centroids)
-        self.rows = np.argsort(cell, kind="stable")
-        self.offsets = np.searchsorted(cell[self.rows], np.arange(cells + 1))
-        ordered = vectors[self.rows]
+
+def _cells_of(vectors: np.ndarray, cells: int | None, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    count = len(vectors)
+    cells = min(cells or int(np.clip(2.0 * np.sqrt(count), 1, 16384)), count)
+    rng = np.random.default_rng(seed)
+    sample = vectors[np.sort(rng.choice(count, min(count, 20 * cells), replace=False))]
+    centroids = sample[rng.choice(len(sample), cells, replace=False)].astype(np.float32)
+    for _ in range(8):  # Lloyd's iterations on the sample (a cell left empty keeps its centroid)
+        cell = _nearest(sample, centroids)
+        sums = np.stack([np.bincount(cell, weights=column, minlength=cells) for column in sample.T], axis=1)
+        size = np.bincount(cell, minlength=cells)
+        full = size > 0
+        centroids[full] = sums[full] / size[full, None]
+    cell = _nearest(vectors, centroids)
+    rows = np.argsort(cell, kind="stable")
+    return centroids, rows, np.searchsorted(cell[rows], np.arange(cells + 1))
+
+
+class Lists:
+    """Inverted lists of descriptors ``vectors`` (K, D): ``centroids`` (C, D), ``rows`` (atlas rows
+    grouped by cell) and ``offsets`` (C + 1,) into them, as :func:`cells_of` makes them (or several
+    shards' lists concatenated: ``parts`` of them). :meth:`query` scans the cells nearest to each
+    variant and ranks those rows exactly (:func:`nearest_rows`)."""
+
+    def __init__(self, vectors: np.ndarray, centroids: np.ndarray, rows: np.ndarray, offsets: np.ndarray,
+                 parts: int = 1) -> None:
+        self.centroids, self.rows, self.offsets, self.parts = centroids, rows, offsets, parts
+        ordered = vectors[rows]
         self.columns = np.ascontiguousarray(ordered.T)
         self.norms = np.einsum("kd,kd->k", ordered, ordered)
 
-    def query(self, variants: np.ndarray, count: int, probe: int = PROBE) -> tuple[np.ndarray, np.ndarray]:
-        """Rows (atlas order) and squared distances less |q|², nearest first (see :func:`nearest_rows`)."""
-        d2 = np.einsum("cd,cd->c", self.centroids, self.centroids)[None] - 2.0 * variants @ self.centroids.T  # (V, C)
-        p = min(probe, d2.shape[1])
-        cells = np.unique(np.argpartition(d2, p - 1, axis=1)[:, :p])
+    @classmethod
+    def trained(cls, vectors: np.ndarray, cells: int | None = None, seed: int = 0) -> Lists:
+        """Lists of ``vectors`` with a quantizer trained on them (:func:`cells_of`)."""
+        return cls(vectors, *cells_of(vectors, cells, seed))
+
+    def query(self, variants: np.ndarray, count: int, probe: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Rows (atlas order) and squared distances less |q|², nearest first (see :func:`nearest_rows`):
+        the ``probe`` cells nearest to any variant are scanned (:data:`PROBE` per part by default)."""
+        d2 = np.einsum("cd,cd->c", self.centroids, self.centroids) - 2.0 * (variants @ self.centroids.T).max(axis=0)
+        p = min(probe or PROBE * self.parts, len(d2))
+        cells = np.sort(np.argpartition(d2, p - 1)[:p])  # nearest to any variant
         spans = [np.arange(self.offsets[c], self.offsets[c + 1]) for c in cells]
         at = np.concatenate(spans) if spans else np.zeros(0, dtype=int)
         found, dist = nearest_rows(variants, self.columns[:, at], self.norms[at], count)
@@ -101,17 +125,41 @@ def _nearest(vectors: np.ndarray, centroids: np.ndarray, block: int = 32768) -> 
     return out
 
 
-class Index:
-    """An atlas's index descriptors, ready for queries: scanned whole, or through :class:`Lists`
-    for a family of more than SCAN_LIMIT linkages."""
+def stored_lists(arrays: dict[str, np.ndarray], groups: int) -> list[Lists]:
+    """A sharded family's stored quantizer (``centroids``, ``order``, ``offsets`` and each shard's cell
+    count ``cells``, concatenated over its shards: :func:`linkedit.synthesis.shards.load`) as ``groups``
+    :class:`Lists` of consecutive shards, searched side by side."""
+    cells = arrays["cells"]
+    bounds = np.concatenate([[0], np.cumsum(cells)])
+    out = []
+    for part in np.array_split(np.arange(len(cells)), min(groups, len(cells))):
+        c0, c1 = bounds[part[0]], bounds[part[-1] + 1]
+        r0, r1 = arrays["offsets"][c0], arrays["offsets"][c1]
+        out.append(Lists(arrays["index"], arrays["centroids"][c0:c1], arrays["order"][r0:r1],
+                         arrays["offsets"][c0:c1 + 1] - r0, parts=len(part)))
+    return out
 
-    def __init__(self, atlas: Atlas, scan_limit: int = SCAN_LIMIT) -> None:
+
+class Index:
+    """An atlas's index descriptors, ready for queries: scanned whole, or for a family of more than
+    ``scan_limit`` linkages through :class:`Lists` — a sharded atlas's stored ones, in ``threads`` groups
+    of shards searched by as many threads, else one trained here."""
+
+    def __init__(self, atlas: Atlas, scan_limit: int = SCAN_LIMIT, threads: int | None = None) -> None:
         self.names = list(atlas.families)
-        vectors = [atlas.families[n]["index"] for n in self.names]
-        self.lists = [Lists(v) if len(v) > scan_limit else None for v in vectors]
-        self.norms = [np.einsum("kd,kd->k", v, v) if ls is None else None for v, ls in zip(vectors, self.lists)]
-        self.columns = [np.ascontiguousarray(v.T) if ls is None else None  # (D, K): the product runs along K
-                        for v, ls in zip(vectors, self.lists)]
+        threads = threads or os.cpu_count() or 1
+        self.lists: list[list[Lists] | None] = []
+        self.columns: list[np.ndarray | None] = []
+        self.norms: list[np.ndarray | None] = []
+        for name in self.names:
+            arrays = atlas.families[name]
+            v = arrays["index"]
+            scanned = len(v) <= scan_limit
+            self.lists.append(None if scanned else stored_lists(arrays, threads) if "centroids" in arrays
+                              else [Lists.trained(v)])
+            self.norms.append(np.einsum("kd,kd->k", v, v) if scanned else None)
+            self.columns.append(np.ascontiguousarray(v.T) if scanned else None)  # (D, K): the product runs along K
+        self.pool = ThreadPoolExecutor(threads) if any(ls and len(ls) > 1 for ls in self.lists) else None
 
     def query(self, variants: np.ndarray, count: int) -> list[Hit]:
         """The ``count`` nearest linkages over all families, nearest first."""
@@ -119,7 +167,12 @@ class Index:
         hits: list[Hit] = []
         for name, columns, norm, lists in zip(self.names, self.columns, self.norms, self.lists):
             if lists is not None:
-                rows, d2 = lists.query(variants, count)
+                with single_threaded():  # one BLAS thread per search thread
+                    found = list(self.pool.map(lambda ls: ls.query(variants, count), lists)) if self.pool else \
+                        [ls.query(variants, count) for ls in lists]
+                rows, d2 = (np.concatenate(part) for part in zip(*found))
+                best = np.argsort(d2, kind="stable")[:count]
+                rows, d2 = rows[best], d2[best]
             else:
                 assert columns is not None and norm is not None  # scanned whole
                 rows, d2 = nearest_rows(variants, columns, norm, count)

@@ -1,0 +1,334 @@
+"""Sharded atlases: a folder of HDF5 shards, one per chunk, and a manifest listing the complete ones.
+
+The task that builds a chunk also stores it (:func:`store_chunks`, in-process or on a Dask worker):
+its parameters, smallest d_s, index descriptors and the chunk's own coarse quantizer
+(:func:`linkedit.synthesis.index.cells_of`), written atomically. The client collects only each shard's
+entry (chunk, rows, checksum) into ``manifest.json``, rewritten atomically every few seconds and
+whenever the build stops, so an interrupted build leaves complete shards and a manifest of only
+those, and ``--resume`` builds the chunks it still lists as pending. Curves are not stored: they are
+the family's closed form of the parameters, recomputed on demand. Layout: ``specs/atlas-hdf5.md``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from linkedit import __version__
+from linkedit.errors import InputError
+from linkedit.io.atomic import deferred_interrupts, durable_path, locked
+from linkedit.io.h5read import open_result
+from linkedit.io.hdf5 import writing
+from linkedit.resources import require_disk
+from linkedit.synthesis.atlas import (CHUNK, CONNECT_TIMEOUT, HARMONICS, SAMPLES, Atlas, Chunk, build_chunk,
+                                      check_options, chunk_runner, chunk_sizes)
+from linkedit.synthesis.atlas import load as load_file
+from linkedit.synthesis.families import SPEC_TEXTS, family
+from linkedit.synthesis.index import cells_of
+
+FORMAT_VERSION = "2"
+MANIFEST = "manifest.json"
+#: Seconds between rewrites of the manifest while a build runs (and at its end, however it ends).
+SAVE_EVERY = 2.0
+#: a family's folder inside the atlas folder: its name when it is one of these, else a hash of it
+_SAFE = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]{0,63}")
+WIDTH = 4 * HARMONICS - 3
+
+
+def is_sharded(path: str | Path) -> bool:
+    """Whether ``path`` names a sharded atlas (an existing folder with a manifest, or no ``.h5`` suffix)."""
+    path = Path(path)
+    return (path / MANIFEST).is_file() or path.suffix.lower() not in (".h5", ".hdf5")
+
+
+def folder_of(name: str) -> str:
+    """The folder of family ``name``'s shards inside the atlas folder."""
+    return name if _SAFE.fullmatch(name) else "family-" + hashlib.sha256(name.encode()).hexdigest()[:16]
+
+
+def shard_file(name: str, index: int) -> str:
+    return f"{folder_of(name)}/{index:08d}.h5"
+
+
+def checksum(params: np.ndarray, min_ds: np.ndarray, index: np.ndarray) -> str:
+    """SHA-256 of a shard's content: its params (float64), min_ds and index (float32) bytes, little-endian."""
+    h = hashlib.sha256()
+    for data, kind in ((params, "<f8"), (min_ds, "<f4"), (index, "<f4")):
+        h.update(np.ascontiguousarray(data, dtype=kind).data)
+    return h.hexdigest()
+
+
+def write_shard(folder: Path, name: str, seed: int, index: int, chunk: Chunk) -> dict[str, Any]:
+    """Store chunk ``index`` of family ``name`` as its shard (atomically: a ``.part`` file renamed when
+    whole); return its manifest entry."""
+    min_ds = chunk.min_ds.astype(np.float32)
+    centroids, order, offsets = cells_of(chunk.index, cells=shard_cells(len(chunk.index)), seed=index)
+    file = shard_file(name, index)
+    with durable_path(folder / file) as tmp, writing(tmp) as f:
+        f.attrs.update({"format_version": FORMAT_VERSION, "kind": "atlas-shard", "generator": f"linkedit {__version__}",
+                        "family": name, "chunk": index, "rows": len(chunk.params), "seed": seed})
+        f.create_dataset("params", data=chunk.params)
+        f.create_dataset("min_ds", data=min_ds)
+        f.create_dataset("index", data=chunk.index)
+        f.create_dataset("lists/centroids", data=centroids)
+        f.create_dataset("lists/order", data=order.astype(np.min_scalar_type(max(len(order) - 1, 0))))
+        f.create_dataset("lists/offsets", data=offsets.astype(np.int64))
+    return {"chunk": index, "rows": len(chunk.params), "file": file,
+            "sha256": checksum(chunk.params, min_ds, chunk.index)}
+
+
+def shard_cells(rows: int) -> int:
+    """Cells of a shard's quantizer: √rows (100 for 10,000 rows; training costs a tenth of building the chunk)."""
+    return max(1, int(np.sqrt(rows)))
+
+
+def store_chunks(folder: str, name: str, seed: int, jobs: list[tuple[int, int]], spec: str | None = None
+                 ) -> list[dict[str, Any]]:
+    """Build chunks ``jobs`` ((index, size) pairs) of family ``name`` and store each as a shard in the atlas
+    folder ``folder`` (one Dask task: the folder must be on a file system the worker shares); their entries."""
+    return [write_shard(Path(folder), name, seed, index, build_chunk(name, seed, index, size, spec))
+            for index, size in jobs]
+
+
+def shard_bytes(name: str) -> int:
+    """Bytes one linkage of family ``name`` takes in a shard: params (float64), min_ds and index (float32), its
+    place in the cell order (uint16) and its share of the shard's centroids (float32)."""
+    cells = shard_cells(CHUNK)
+    return 8 * len(family(name).PARAMETERS) + 4 + 4 * WIDTH + 2 + -(-cells * WIDTH * 4 // CHUNK)
+
+
+# --- the manifest ---------------------------------------------------------------------------------------
+
+
+def _new_manifest(seed: int) -> dict[str, Any]:
+    return {"format_version": FORMAT_VERSION, "kind": "atlas", "generator": f"linkedit {__version__}", "seed": seed,
+            "samples": SAMPLES, "harmonics": HARMONICS, "chunk": CHUNK, "build": None, "families": {}}
+
+
+def _new_family(name: str) -> dict[str, Any]:
+    fam = family(name)
+    return {"family_id": fam.ID, "margin": fam.margin(), "distribution": (fam.sample.__doc__ or "").strip(),
+            "columns": list(fam.PARAMETERS), "spec": SPEC_TEXTS.get(name), "folder": folder_of(name),
+            "chunks": 0, "partial_chunk": False, "shards": [], "pending": []}
+
+
+def save(folder: Path, manifest: dict[str, Any]) -> None:
+    """Write the manifest atomically, its shards in chunk order, at once (even inside ``together``)."""
+    for entry in manifest["families"].values():
+        entry["shards"].sort(key=lambda s: s["chunk"])
+    with durable_path(folder / MANIFEST) as tmp:
+        tmp.write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
+
+
+def read_manifest(folder: Path) -> dict[str, Any]:
+    """The manifest of the atlas folder ``folder``, checked (InputError naming it and the field otherwise)."""
+    path = folder / MANIFEST
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read ({exc})", file=str(path)) from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"not JSON: {exc.msg}", file=str(path), line=exc.lineno) from None
+
+    def need(ok: bool, field: tuple[str | int, ...], what: str) -> None:
+        if not ok:
+            raise InputError(what, file=str(path), field=field)
+
+    def integer(value: object, low: int, high: int) -> bool:
+        return isinstance(value, int) and not isinstance(value, bool) and low <= value <= high
+
+    need(isinstance(data, dict), (), "expected a JSON object")
+    need(data.get("kind") == "atlas" and data.get("format_version") == FORMAT_VERSION, ("format_version",),
+         f"not a linkedit atlas manifest of format {FORMAT_VERSION}")
+    need((data.get("chunk"), data.get("samples"), data.get("harmonics")) == (CHUNK, SAMPLES, HARMONICS), ("chunk",),
+         "an atlas of another layout version (chunk, samples or harmonics differ); rebuild it")
+    need(integer(data.get("seed"), 0, 2**63 - 1), ("seed",), "expected an integer from 0 to 2**63 - 1")
+    build = data.get("build")
+    need(build is None or (isinstance(build, dict) and integer(build.get("count"), 1, 2**62)
+                           and isinstance(build.get("families"), list)), ("build",), "expected null or a build record")
+    need(isinstance(data.get("families"), dict), ("families",), "expected an object of families")
+    for name, entry in data["families"].items():
+        where: tuple[str | int, ...] = ("families", name)
+        need(isinstance(entry, dict), where, "expected an object")
+        spec = entry.get("spec")
+        need(spec is None or isinstance(spec, str), (*where, "spec"), "expected null or a spec's text")
+        family(name, field=f"{path}: families/{name}", spec=spec)
+        need(entry.get("folder") == folder_of(name), (*where, "folder"), f"expected {folder_of(name)!r}")
+        need(integer(entry.get("chunks"), 0, 2**62), (*where, "chunks"), "expected a chunk count")
+        for key in ("shards", "pending"):
+            need(isinstance(entry.get(key), list), (*where, key), "expected a list")
+        for k, shard in enumerate(entry["shards"]):
+            ok = (isinstance(shard, dict) and integer(shard.get("chunk"), 0, entry["chunks"] - 1)
+                  and integer(shard.get("rows"), 1, CHUNK) and shard.get("file") == shard_file(name, shard["chunk"])
+                  and isinstance(shard.get("sha256"), str))
+            need(ok, (*where, "shards", k), "expected {chunk, rows (1..chunk), file (<folder>/<chunk:08d>.h5), sha256}")
+        for k, job in enumerate(entry["pending"]):
+            need(isinstance(job, list) and len(job) == 2 and integer(job[0], 0, entry["chunks"] - 1)
+                 and integer(job[1], 1, CHUNK), (*where, "pending", k), "expected [chunk, size]")
+        need(len({s["chunk"] for s in entry["shards"]} | {j[0] for j in entry["pending"]})
+             == len(entry["shards"]) + len(entry["pending"]), (*where, "shards"), "a chunk is listed twice")
+    return data
+
+
+# --- building -------------------------------------------------------------------------------------------
+
+
+def build(path: str | Path, names: list[str], count: int | None, *, seed: int = 1, resume: bool = False,
+          scheduler: str | None = None, workers: int | None = None, connect_timeout: float = CONNECT_TIMEOUT,
+          verbose: bool = False, progress: Callable[[int, int, float], None] | None = None) -> dict[str, int]:
+    """Build (or append to) the sharded atlas in folder ``path``: ``count`` more linkages of every family in
+    ``names``, each chunk stored as a shard by the task that built it (see :func:`linkedit.synthesis.atlas.build`
+    for ``seed``, ``scheduler``, ``workers``, ``connect_timeout``, ``verbose`` and ``progress``). ``resume``:
+    build only the chunks an interrupted build left pending (``count``, if given, must be that build's).
+    Returns the linkage count per family."""
+    path = Path(path)
+    check_options(seed, scheduler)
+    if not (path / MANIFEST).is_file() and path.exists() and (not path.is_dir() or any(path.iterdir())):
+        raise InputError(f"exists and is not a sharded atlas (no {MANIFEST}); refusing to write into it",
+                         file=str(path))
+    with locked(path / MANIFEST):
+        manifest = read_manifest(path) if (path / MANIFEST).is_file() else _new_manifest(seed)
+        if manifest["seed"] != seed:
+            raise InputError(f"this atlas was built with --seed {manifest['seed']}; use the same seed",
+                             file=str(path), field="--seed")
+        jobs = _plan(path, manifest, names, count, resume)
+        left = {name: sum(size for _, size in jobs[name]) for name in jobs}
+        require_disk(sum(n * shard_bytes(name) for name, n in left.items()), path / MANIFEST,
+                     f"{sum(left.values()):,} linkages", field="--count")
+        save(path, manifest)
+        _run(path, manifest, jobs, seed, progress, chunk_runner(scheduler, workers, connect_timeout=connect_timeout,
+                                                                verbose=verbose))
+    return {name: sum(s["rows"] for s in entry["shards"]) for name, entry in manifest["families"].items()}
+
+
+def _plan(path: Path, manifest: dict[str, Any], names: list[str], count: int | None,
+          resume: bool) -> dict[str, list[tuple[int, int]]]:
+    """The chunks to build per family, recorded in ``manifest`` as pending (a new build) or read from it."""
+    pending = {name: [tuple(job) for job in entry["pending"]] for name, entry in manifest["families"].items()
+               if entry["pending"]}
+    build = manifest["build"]
+    if resume:
+        if build is None:
+            raise InputError("nothing to resume: no build of this atlas was interrupted", file=str(path),
+                             field="--resume")
+        if count is not None and count != build["count"] or sorted(names) != sorted(build["families"]):
+            raise InputError(f"the interrupted build was --family {','.join(build['families'])} -n {build['count']}; "
+                             "resume it with those", file=str(path), field="--resume")
+        return {name: pending.get(name, []) for name in build["families"]}  # type: ignore[misc]
+    if build is not None:
+        raise InputError(f"a build of {sum(map(len, pending.values()))} more chunks was interrupted here; finish it "
+                         "with --resume", file=str(path), field="--resume")
+    if count is None:
+        raise InputError("give the number of linkages to add", field="--count")
+    jobs = {}
+    for name in names:
+        entry = manifest["families"].setdefault(name, _new_family(name))
+        jobs[name] = chunk_sizes(count, entry["chunks"])
+        entry["pending"] = [list(job) for job in jobs[name]]
+        entry["chunks"] += len(jobs[name])
+        entry["partial_chunk"] = bool(jobs[name]) and jobs[name][-1][1] < CHUNK
+    manifest["build"] = {"count": count, "families": names}
+    return jobs
+
+
+def _run(path: Path, manifest: dict[str, Any], jobs: dict[str, list[tuple[int, int]]], seed: int,
+         progress: Callable[[int, int, float], None] | None, runner: Any) -> None:
+    """Build and store ``jobs``, listing each shard in ``manifest`` as its entry comes back; the manifest is
+    saved every :data:`SAVE_EVERY` seconds and when the build ends, however it ends."""
+    total = sum(size for family_jobs in jobs.values() for _, size in family_jobs)
+    done, start, saved = 0, time.perf_counter(), time.monotonic()
+    store = partial(store_chunks, str(path.absolute()))
+    try:
+        with runner as run:
+            for name, family_jobs in jobs.items():
+                entry = manifest["families"][name]
+                for index, shard in run(name, seed, family_jobs, task=store):
+                    entry["shards"].append(shard)
+                    entry["pending"] = [job for job in entry["pending"] if job[0] != index]
+                    done += shard["rows"]
+                    if progress is not None:
+                        progress(done, total, time.perf_counter() - start)
+                    if time.monotonic() - saved > SAVE_EVERY:
+                        with deferred_interrupts():
+                            save(path, manifest)
+                        saved = time.monotonic()
+        manifest["build"] = None
+    finally:
+        with deferred_interrupts():
+            save(path, manifest)
+
+
+# --- reading --------------------------------------------------------------------------------------------
+
+
+def load(path: str | Path, threads: int | None = None) -> Atlas:
+    """Read the sharded atlas in folder ``path`` (every shard checked against its manifest entry, read by
+    ``threads`` threads): per family its params, min_ds, index and the shards' quantizers concatenated
+    (``centroids``, ``order``: rows grouped by cell, ``offsets``, ``cells``: each shard's cell count)."""
+    path = Path(path)
+    manifest = read_manifest(path)
+    if manifest["build"] is not None:
+        raise InputError(f"a build was interrupted: {sum(len(e['pending']) for e in manifest['families'].values())} "
+                         "chunks are missing; finish it with `linkedit atlas build ... --resume`", file=str(path))
+    families: dict[str, dict[str, np.ndarray]] = {}
+    with ThreadPoolExecutor(threads) as pool:
+        for name, entry in manifest["families"].items():
+            if not entry["shards"]:
+                continue
+            families[name] = merge(list(pool.map(partial(_read_shard, path, name, manifest["seed"]), entry["shards"])))
+    if not families:
+        raise InputError("the atlas is empty", file=str(path))
+    return Atlas(path, families, manifest["seed"])
+
+
+def merge(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """A family's shards' arrays (in chunk order) as one: params, min_ds, index and centroids concatenated,
+    ``order`` as atlas rows, ``offsets`` into it, ``cells`` each shard's cell count (what
+    :func:`linkedit.synthesis.index.stored_lists` searches)."""
+    base = np.cumsum([0] + [len(p["index"]) for p in parts])
+    arrays: dict[str, np.ndarray] = {key: np.concatenate([p[key] for p in parts])
+                                     for key in ("params", "min_ds", "index", "centroids")
+                                     if key in parts[0]}
+    arrays["order"] = np.concatenate([p["order"].astype(np.int64) + b for p, b in zip(parts, base)])
+    arrays["offsets"] = np.concatenate([*(p["offsets"][:-1] + b for p, b in zip(parts, base)), base[-1:]])
+    arrays["cells"] = np.array([len(p["centroids"]) for p in parts])
+    return arrays
+
+
+def _read_shard(folder: Path, name: str, seed: int, shard: dict[str, Any]) -> dict[str, np.ndarray]:
+    """One shard's arrays, checked against its manifest entry (layout, rows, checksum)."""
+    file, rows = folder / shard["file"], shard["rows"]
+    if not file.is_file():
+        raise InputError(f"shard {shard['file']} listed in {MANIFEST} is missing", file=str(folder))
+    width = len(family(name).PARAMETERS)
+    with open_result(file, kind="atlas-shard") as f:
+        if (f.attr("family"), f.attr("chunk", kind=int), f.attr("seed", kind=int)) != (name, shard["chunk"], seed):
+            raise f.error("/", f"not chunk {shard['chunk']} of {name} with seed {seed}")
+        out = {"params": f.array("params", shape=(rows, width), kinds="f"),
+               "min_ds": f.array("min_ds", shape=(rows,), kinds="f"),
+               "index": f.array("index", shape=(rows, WIDTH), kinds="f").astype(np.float32, copy=False),
+               "centroids": f.array("lists/centroids", shape=(None, WIDTH), kinds="f").astype(np.float32, copy=False),
+               "order": f.array("lists/order", shape=(rows,), kinds="u"),
+               "offsets": f.array("lists/offsets", shape=(None,), kinds="iu").astype(np.int64)}
+        if checksum(out["params"], out["min_ds"], out["index"]) != shard["sha256"]:
+            raise f.error("/", f"its content does not match its checksum in {MANIFEST} (changed since it was built)")
+        offsets, order = out["offsets"], out["order"]
+        if (len(offsets) != len(out["centroids"]) + 1 or offsets[0] != 0 or offsets[-1] != rows
+                or (np.diff(offsets) < 0).any() or order.max(initial=0) >= rows
+                or np.bincount(order, minlength=rows).max(initial=0) > 1):
+            raise f.error("lists", "its cells do not group the shard's rows (offsets, order)")
+    return out
+
+
+def open_atlas(path: str | Path) -> Atlas:
+    """An atlas for queries: a sharded folder (with a manifest), else an atlas file or a folder of them."""
+    return load(path) if (Path(path) / MANIFEST).is_file() else load_file(path)
