@@ -31,3 +31,14 @@ def report_of(result) -> object:
     data = json.loads(result.stdout)
     assert data["ok"] is (result.exit_code == 0) and data["exit_code"] == result.exit_code, data
     return data["result"]
+
+
+@pytest.fixture(scope="session")
+def cluster():
+    """One local Dask cluster of 2 single-threaded worker processes (what ``--workers 2`` starts)
+    for every Dask test of the session: a cluster takes about 10 s to start."""
+    pytest.importorskip("dask.distributed")
+    from linkedit.synthesis import atlas
+
+    with atlas.local_cluster(2) as cluster:
+        yield cluster

@@ -23,12 +23,6 @@ def small_chunks(monkeypatch):
     monkeypatch.setattr(shards, "CHUNK", SMALL)
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    """A local Dask cluster of 2 single-threaded worker processes (what --workers 2 starts)."""
-    pytest.importorskip("dask.distributed")
-    with atlas.local_cluster(2) as cluster:
-        yield cluster
 
 
 def _build(run_cli, out, count, *args):

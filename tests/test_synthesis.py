@@ -193,12 +193,6 @@ def test_atlas_build_cli(run_cli, tmp_path):
     assert other_seed.exit_code == 2 and "--seed 4" in other_seed.output
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    """One local Dask cluster for this module's Dask tests (a cluster takes about 10 s to start)."""
-    pytest.importorskip("dask.distributed")
-    with atlas.local_cluster(2) as cluster:  # what --workers 2 starts
-        yield cluster
 
 
 def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path, monkeypatch, cluster):
