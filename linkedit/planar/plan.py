@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -66,23 +67,23 @@ class Plan:
         """True when the input is a driven slider (derivatives are per unit of stroke)."""
         return self.graph.pivot < 0
 
-    @property
+    @cached_property
     def has_groups(self) -> bool:
         return any(isinstance(st, Group) for st in self.rules)
 
-    @property
+    @cached_property
     def steps(self) -> tuple[Step, ...]:
         """The rules of the non-revolute kinds (sliders, the linear input, numeric groups), in
         order, with joint-space rows in the normalized frame (see ``origin``, ``scale``); result
         files list them under ``/rules/steps``."""
         return tuple(r for r in self.rules if isinstance(r, Step))
 
-    @property
+    @cached_property
     def step_rows(self) -> np.ndarray:
         """(X,) each of :attr:`steps`' row of the singularity distance."""
         return np.array([rows.start for r, rows in zip(self.rules, self.ds_rows) if isinstance(r, Step)], dtype=int)
 
-    @property
+    @cached_property
     def n_ds(self) -> int:
         """N: how many rows of singularity distance an evaluation has."""
         return self.ds_rows[-1].stop if self.ds_rows else 0
