@@ -44,7 +44,8 @@ def dyad(zi: np.ndarray, zj: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray
     e = zj - zi
     shape = np.broadcast_shapes(e.shape, np.shape(half_diff))
     u, a, bsq, b = (np.empty(shape) for _ in range(4))
-    w = dyad_coefficient(e, half_diff, lik2, sign, np.empty(shape, dtype=complex), np.empty(shape), u, a, b, bsq)
+    with np.errstate(invalid="ignore"):
+        w = dyad_coefficient(e, half_diff, lik2, sign, np.empty(shape, dtype=complex), np.empty(shape), u, a, b, bsq)
     return zi + w * e, DyadTerms(e, u, a, b, bsq, w)
 
 
@@ -56,7 +57,8 @@ def dyad_coefficient(e: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray, sig
 
     ``e`` = z_j − z_i (R, T) complex; ``w`` (R, T) complex and ``d2``, ``u``, ``a``, ``b`` (R, T)
     real buffers, left holding 1/d², A and B; ``bsq`` a buffer kept holding B² (else B² is
-    formed in ``b``). NaN where the triangle cannot be closed.
+    formed in ``b``). NaN where the triangle cannot be closed (the caller silences numpy's
+    warning: an ``np.errstate`` per call would cost more than a small batch).
     """
     bsq = b if bsq is None else bsq
     np.multiply(e.real, e.real, out=d2)
@@ -68,8 +70,7 @@ def dyad_coefficient(e: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray, sig
     np.multiply(lik2, u, out=bsq)
     np.multiply(a, a, out=d2)
     bsq -= d2
-    with np.errstate(invalid="ignore"):
-        np.sqrt(bsq, out=b)
+    np.sqrt(bsq, out=b)
     b *= sign
     w.real = a
     w.imag = b
