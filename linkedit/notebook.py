@@ -64,7 +64,7 @@ class Motion(_Motion):
         for name, tr in self.tracks.items():
             data[f"track_{name}"] = (("t", "xy"), tr.position, {"units": plan.spec.units})
         coords = {"t": self.t, "joint": plan.joint_names, "xy": ["x", "y"],
-                  "rule": [plan.joint_names[k] for k in plan.rules[:, 2]]}
+                  "rule": [plan.joint_names[k] for k in plan.table.joints[:, 2]]}
         return xr.Dataset({k: xr.Variable(*v) for k, v in data.items()}, coords=coords,
                           attrs={"name": plan.spec.name, "units": plan.spec.units})
 
@@ -130,7 +130,7 @@ def load(path: str | Path) -> Motion:
         spec = validate(LinkageSpec, yaml.safe_load(f.attr("spec")), file=f"{path}:/spec")
         plan = compile_plan(spec)
         t = f.array("t", shape=(None,))
-        T, J, R = t.size, plan.n_joints, len(plan.rules)
+        T, J, R = t.size, plan.n_joints, len(plan.table.joints)
         tracks = {n: Track(*(f.array(f"tracks/{n}/{q}", shape=(T, 2)) for q in ("position", "velocity", "acceleration")))
                   for n in f.names("tracks")}
         joints = [f.array(f"joints/{q}", shape=(T, J, 2)) for q in ("position", "velocity", "acceleration")]

@@ -82,11 +82,11 @@ def test_jacobian_through_steps_matches_central_differences(name, op):
                                         "operations": [fill(OPS[op], names_for(spec, name))]})
     problem = problem_for(spec, script)
     guarded = problem.kin.guarded
-    R = len(problem.plan.rules)
+    rows = problem.plan.step_rows
     rng = np.random.default_rng(7)
     v = rng.normal(scale=0.003 * problem.size, size=problem.var.n)
     problem.eps[guarded] = 0.9  # the barrier active on many samples
-    steps = np.arange(R, guarded.size)[guarded[R:]]
+    steps = rows[guarded[rows]]
     ds = problem.evaluate(v).ds[steps, :40]
     for n, d in zip(steps, np.sort(ds, axis=1)):  # slider rules: ε in the widest gap between middle samples
         gap = 10 + np.argmax(np.diff(d[10:30]))
@@ -108,11 +108,11 @@ def test_forward_model_through_steps_equals_simulate(name):
     script = EditScript.model_validate({"samples": 48, "motor": {"free_angle": True},
                                         "operations": [{"displace": {"joint": CASES[name][1], "to": [0, 0]}}]})
     problem = problem_for(spec, script)
-    R = len(problem.plan.rules)
-    guarded = problem.kin.guarded[R:]
+    rows = problem.plan.step_rows
+    guarded = problem.kin.guarded[rows]
 
     def step_ds(ev, motion) -> None:  # the sliders' d_s too
-        assert np.allclose(ev.ds[R:, :48][guarded], motion.step_singularity.T[guarded], rtol=0, atol=1e-9)
+        assert np.allclose(ev.ds[rows, :48][guarded], motion.step_singularity.T[guarded], rtol=0, atol=1e-9)
 
     assert_forward_model_equals_simulate(spec, problem, scale=0.02, extra=step_ds)
 
@@ -192,12 +192,12 @@ def test_the_predicate_names_a_linear_input_by_its_stroke_and_its_guide():
     plan = compile_plan(spec_of("piston-driven crank"))
     rest = plan.graph.rest[:, 0] + 1j * plan.graph.rest[:, 1]
     stroke = np.linspace(0.0, -18.0, 7)
-    ds = np.ones((len(plan.rules) + len(plan.steps), 7))
-    ds[np.flatnonzero(~plan.rigid)[0], 4] = -0.1  # the dyad cannot close at the fifth sample
+    ds = np.ones((plan.n_ds, 7))
+    ds[plan.table.row[np.flatnonzero(~plan.table.rigid)[0]], 4] = -0.1  # the dyad cannot close at the fifth sample
     assert failure(plan, rest, ds, stroke) == "joint A cannot be assembled at stroke -12 mm"
     arm = compile_plan(spec_of("lifting-arm"))
     names = arm.joint_names
     rest = arm.graph.rest[:, 0] + 1j * arm.graph.rest[:, 1]
     rest[names.index("Q")] = rest[names.index("P")]  # the cylinder's barrel shrinks to nothing
-    why = failure(arm, rest, np.ones((len(arm.rules) + len(arm.steps), 1)), np.zeros(1))
+    why = failure(arm, rest, np.ones((arm.n_ds, 1)), np.zeros(1))
     assert why == "linear input cylinder: its guide barrel vanishes (P and Q meet)"

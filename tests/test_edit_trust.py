@@ -44,7 +44,7 @@ def rest_angle(spec: LinkageSpec) -> float:
 
 def dyad_orientations(spec: LinkageSpec) -> np.ndarray:
     plan = compile_plan(spec)
-    return plan.orientation[~plan.rigid]
+    return plan.table.orientation[~plan.table.rigid]
 
 
 def term(operation: dict, name: str) -> dict:

@@ -60,8 +60,8 @@ def test_full_cycle_keeps_every_link_rigid(file):
 @pytest.mark.parametrize("file", MOVING)
 def test_triangle_orientations_never_change(file):
     m = cycle(file)
-    assert (m.orientation == m.plan.orientation[None, :]).all()
-    assert (m.plan.orientation[~m.plan.rigid] != 0).all()
+    assert (m.orientation == m.plan.table.orientation[None, :]).all()
+    assert (m.plan.table.orientation[~m.plan.table.rigid] != 0).all()
 
 
 @pytest.mark.parametrize("file", MOVING)
@@ -140,7 +140,7 @@ def test_klann_foot_walks_a_flat_stride():
                                   "klann.yaml"])
 def test_transmission_angles_are_reasonable(file):
     m = cycle(file)
-    dyads = ~m.plan.rigid
+    dyads = ~m.plan.table.rigid
     mu = np.degrees(m.transmission[:, dyads])
     assert np.minimum(mu, 180 - mu).min() >= 30.0
 

@@ -104,8 +104,8 @@ def test_edit_calls_a_toggle_unassembled_as_simulate_does():
     """d_s at or below the toggle rounding is a lock-up for `simulate`; the edit's predicate says so too."""
     plan = compile_plan(catalog.crank_rocker())
     rest = np.array([complex(*plan.spec.joints[n]) for n in plan.joint_names])
-    ds = np.ones((len(plan.rules), 4))
-    dyad = int(np.flatnonzero(~plan.rigid)[0])
+    ds = np.ones((plan.n_ds, 4))
+    dyad = int(plan.table.row[np.flatnonzero(~plan.table.rigid)[0]])
     ds[dyad, 2] = TOGGLE / 2
     why = failure(plan, rest, ds, np.array([0.0, 90.0, 180.0, 270.0]))
     assert why is not None and "cannot be assembled" in why

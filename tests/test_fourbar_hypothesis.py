@@ -74,7 +74,7 @@ def test_random_grashof_crank_rockers_turn_fully_and_stay_rigid(case):
     size = max(lengths.values())
     for (a, b), key in {("O", "A"): "crank", ("A", "B"): "coupler", ("D", "B"): "rocker", ("O", "D"): "ground"}.items():
         assert np.abs(length(a, b) - lengths[key]).max() <= 1e-9 * size, (a, b)
-    assert (m.orientation == m.plan.orientation).all()
+    assert (m.orientation == m.plan.table.orientation).all()
     # the coupler point rides on the coupler: fixed distances to A and B
     c = m.tracks["coupler_point"].position
     for j in ("A", "B"):

@@ -81,9 +81,9 @@ def test_link_lengths_and_rigid_track_point_are_kept():
 def test_jansen_ordering_levels():
     plan = compile_plan(spec_of(JANSEN))
     names = plan.joint_names
-    levels = {names[k]: int(lv) for (_, _, k), lv in zip(plan.rules, plan.level)}
+    levels = {names[k]: int(lv) for (_, _, k), lv in zip(plan.table.joints, plan.table.level)}
     assert levels == {"C": 1, "D": 1, "E": 2, "F": 3, "G": 4}
-    rigid = {names[k] for (_, _, k), r in zip(plan.rules, plan.rigid) if r}
+    rigid = {names[k] for (_, _, k), r in zip(plan.table.joints, plan.table.rigid) if r}
     assert rigid == {"E", "G"}
 
 
@@ -139,7 +139,7 @@ def test_clockwise_motor_turns_the_other_way():
 
 def test_singularity_distance_is_sin_squared_of_the_angle_at_the_joint():
     m = simulate(spec_of(FOURBAR), 90)
-    dyad = np.flatnonzero(~m.plan.rigid)[0]
+    dyad = np.flatnonzero(~m.plan.table.rigid)[0]
     assert np.allclose(m.singularity[:, dyad], np.sin(m.transmission[:, dyad]) ** 2, atol=1e-12)
 
 

@@ -34,7 +34,7 @@ def test_family_curves_match_simulate(mirrored):
         want = 3 - 7j + 40.0 * np.exp(1.1j) * (np.conj(batch[k]) if mirrored else batch[k])
         assert np.abs(got[:, 0] + 1j * got[:, 1] - want).max() < 1e-9 * 40.0
         # the closed-form margin is the cycle's smallest d_s (sampled: never below it, close above)
-        ds = motion.singularity[:, ~motion.plan.rigid].min()
+        ds = motion.singularity[:, ~motion.plan.table.rigid].min()
         assert fourbar.min_singularity(row[None])[0] - 1e-12 <= ds <= fourbar.min_singularity(row[None])[0] + 1e-3
 
 

@@ -186,14 +186,7 @@ def register(app: typer.Typer) -> None:
                 errors.append(error_json(exc, path))
                 worst = max(worst, exc.exit_code)
                 continue
-            names = plan.joint_names
-            levels: dict[int, list[str]] = {}
-            for (i, j, k), lv, rigid in zip(plan.rules, plan.level, plan.rigid):
-                kind = "rigid" if rigid else "dyad"
-                levels.setdefault(int(lv), []).append(f"{names[k]} ← ({names[i]}, {names[j]}) {kind}")
-            for step in plan.steps:
-                levels.setdefault(int(step.level), []).append(step.describe(names))
-            levels = dict(sorted(levels.items()))
+            levels = plan.describe()
             reports.append({"spec": str(path)} | motion.summary() | {"grubler": plan.mobility.grubler,
                             "redundant": plan.mobility.redundant, "levels": levels,
                             "warnings": transmission_warnings(motion)})
@@ -246,10 +239,10 @@ def _worst_transmission(motion: Any) -> list[tuple[str, tuple[float, float]]]:
 
     plan = motion.plan
     out = []
-    for r in np.flatnonzero(~plan.rigid):
+    for r in np.flatnonzero(~plan.table.rigid):
         a = np.where(motion.assembled, np.degrees(motion.transmission[:, r]), 90.0)
         t = int(np.argmax(np.abs(a - 90.0)))
-        out.append((plan.joint_names[plan.rules[r, 2]], (float(a[t]), float(np.degrees(motion.motor_angle[t])))))
+        out.append((plan.joint_names[plan.table.joints[r, 2]], (float(a[t]), float(np.degrees(motion.motor_angle[t])))))
     return out
 
 

@@ -22,25 +22,26 @@ from linkedit.planar.plan import Plan
 
 
 def flipped(plan: Plan, rest: np.ndarray) -> np.ndarray:
-    """Dyad rules (indices into ``plan.rules``) whose rest triangle lost its orientation.
+    """Dyad rules (indices into ``plan.table``) whose rest triangle lost its orientation.
 
     ``rest`` (J,) complex joint positions.
     """
-    dyad = np.flatnonzero(~plan.rigid)
-    i, j, k = plan.rules[dyad].T
+    t = plan.table
+    dyad = np.flatnonzero(~t.rigid)
+    i, j, k = t.joints[dyad].T
     u, v = rest[j] - rest[i], rest[k] - rest[i]
     cross = u.real * v.imag - u.imag * v.real
-    return dyad[~(cross * plan.orientation[dyad] > 0)]
+    return dyad[~(cross * t.orientation[dyad] > 0)]
 
 
 def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray,
             arm: complex | None = None) -> str | None:
     """Why the linkage does not work, naming the joint and motor angle; None if it works.
 
-    ``rest`` (J,) complex; ``ds`` (R, T) singularity distance per rule (rigid rows ignored),
-    NaN where not computed, optionally followed by one row per step of ``plan.steps`` (a slider
-    rule or a numeric group that cannot be placed: ≤ 0 or NaN); a row fails where it does not
-    :func:`~linkedit.planar.feasibility.assembles`. ``turn_deg`` (T,) motor rotation of each sample
+    ``rest`` (J,) complex; ``ds`` (N, T) singularity distance per row of the plan's rules
+    (``Plan.ds_rows``; rows of :attr:`~linkedit.planar.rules.Rule.exact` rules ignored), NaN where not
+    computed; a row fails where it does not :func:`~linkedit.planar.feasibility.assembles`, and the
+    first one in evaluation order is named. ``turn_deg`` (T,) motor rotation of each sample
     from the rest pose, degrees (a linear input: its stroke, spec units);
     ``arm`` the direction the crank must keep at rest (its rest angle is fixed), or None (and for a
     linear input, whose guide link must keep a length instead).
@@ -52,23 +53,22 @@ def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray,
         return why
     bad = flipped(plan, rest)
     if bad.size:
-        i, j, k = plan.rules[bad[0]]
+        i, j, k = plan.table.joints[bad[0]]
         return (f"joint {names[k]} changes branch: triangle {names[i]}-{names[j]}-{names[k]} "
                 "of the rest pose flipped")
-    dyad = np.concatenate([~plan.rigid, np.ones(ds.shape[0] - len(plan.rules), dtype=bool)])
-    closed = assembles(ds[dyad])
+    owner, within = plan.ds_rule()
+    checked = np.flatnonzero([not plan.rules[o].exact for o in owner])
+    closed = assembles(ds[checked])
     if closed.all():
         return None
     r, t = np.argwhere(~closed)[0]
-    rule = np.flatnonzero(dyad)[r]
+    row = checked[r]
     if plan.linear:
         angle = f"stroke {turn_deg[t]:.6g} {plan.spec.units}"
     else:
         rest_deg = np.degrees(np.angle(rest[g.motor] - rest[g.pivot]))
         angle = f"motor angle {(rest_deg + turn_deg[t] + 180.0) % 360.0 - 180.0:.1f}°"
-    if rule >= len(plan.rules):
-        return f"{plan.steps[rule - len(plan.rules)].label()} cannot be assembled at {angle}"
-    return f"joint {names[plan.rules[rule, 2]]} cannot be assembled at {angle}"
+    return f"{plan.rules[owner[row]].culprit(names, int(within[row]))} cannot be assembled at {angle}"
 
 
 def _crank(plan: Plan, rest: np.ndarray, arm: complex | None) -> str | None:

@@ -23,18 +23,18 @@ import numpy as np
 from linkedit.edit import steps as es
 from linkedit.edit.feasibility import failure
 from linkedit.errors import MechanismError
-from linkedit.planar import law_of_cosines as loc
 from linkedit.planar.kinematics import GROUP_STEP_DEG, GROUP_STEP_LENGTH, continuation_grid
 from linkedit.planar.plan import Plan
+from linkedit.planar.rules import RestFrame, Rigid, Step
 
 
 @dataclass
 class Evaluation:
     """One evaluation at a rest pose.
 
-    ``rest`` (J,) complex joints; ``z`` (P, T) complex points in internal rows; ``ds`` (R + X, T)
-    singularity distance per rule (1 for rigid rules), then per step of ``plan.steps``; with
-    tangents, ``dz`` (P, C, T) and ``dlnds`` (R + X, C, T) = ∂ln d_s (rows the barrier guards,
+    ``rest`` (J,) complex joints; ``z`` (P, T) complex points in internal rows; ``ds`` (N, T)
+    singularity distance per d_s row of the plan (``Plan.ds_rows``; 1 for rigid rules); with
+    tangents, ``dz`` (P, C, T) and ``dlnds`` (N, C, T) = ∂ln d_s (rows the barrier guards,
     :attr:`RestPoseKinematics.guarded`; 0 elsewhere); ``why`` is None when the linkage works
     (:func:`linkedit.edit.feasibility.failure`).
     """
@@ -75,15 +75,16 @@ class RestPoseKinematics:
         self.ground = np.array(g.ground)
         self.motor, self.pivot = g.motor, g.pivot
         # tracked points on links keep their coefficient in the frame of their two joints
-        coef = plan.geometry().coef
-        self.fixed = [None if not b.rigid else np.where(b.k_point >= self.J, coef[n][:, 0], np.nan)
-                      for n, b in enumerate(plan.batches)]
+        self.fixed = {id(rule): rule.tracked(const[0], self.J) for rule, const in zip(plan.rules, plan.geometry().constants)
+                      if isinstance(rule, Rigid)}
         self.steps = es.RestPoseSteps(plan) if plan.steps else None
-        #: (R + X,) rows of ``ds`` the barrier guards (dyad rules, slider rules) and the point row
+        #: (N,) rows of ``ds`` the barrier guards (dyad rules, slider rules) and the point row
         #: each depends through (its written joint)
-        self.guarded = np.concatenate([~plan.rigid, self.steps.guarded if self.steps else np.zeros(0, bool)])
-        self.guard_rows = np.concatenate([plan.row_of[plan.rules[:, 2]],
-                                          [plan.row_of[s.joints[0]] for s in plan.steps]]).astype(int)
+        self.guarded = np.zeros(plan.n_ds, dtype=bool)
+        self.guard_rows = np.zeros(plan.n_ds, dtype=int)
+        for rule, rows in zip(plan.rules, plan.ds_rows):
+            self.guarded[rows] = rule.guarded
+            self.guard_rows[rows] = plan.row_of[rule.placed()]
         # a numeric group is continued from the rest pose at most GROUP_STEP_DEG apart (as in simulate)
         self.keep = None
         if plan.has_groups and self.linear:
@@ -105,23 +106,25 @@ class RestPoseKinematics:
         world = x[:, 0] + 1j * x[:, 1]
         rest = world if self.steps is None else self.steps.normalized(world)
         T, C = self.spin.size, self.directions
-        R = len(plan.rules)
+        N = plan.n_ds
         alloc = np.zeros if plan.steps else np.empty  # steps' rows multiply unknown joints by 0
         z = alloc((plan.n_points, T), dtype=complex)
-        ds = np.ones((R + len(plan.steps), T))
+        ds = np.ones((N, T))
         dz = alloc((plan.n_points, C, T), dtype=complex) if tangents else None
-        dlnds = np.zeros((R + len(plan.steps), C, T)) if tangents else None
+        dlnds = np.zeros((N, C, T)) if tangents else None
         D = self.drest if self.steps is None else self.drest / self.steps.scale
         graph, why = None, None
-        steps: tuple = ()
+        steps: dict[int, Step] = {}
         if self.steps is not None:
+            compiled: tuple = ()
             try:
-                graph, steps = self.steps.compile(rest)
+                graph, compiled = self.steps.compile(rest)
             except MechanismError as exc:
                 why = str(exc)
-            why = why or self.steps.changed(steps)
+            why = why or self.steps.changed(compiled)
             if why is not None:
                 return Evaluation(rest=world, z=z, ds=ds, dz=dz, dlnds=dlnds, why=why)
+            steps = {id(old): new for old, new in zip(plan.steps, compiled)}
         z[plan.ground_rows] = rest[self.ground, None]
         if dz is not None:
             dz[plan.ground_rows] = D[self.ground][:, :, None]
@@ -131,50 +134,11 @@ class RestPoseKinematics:
             if dz is not None:
                 darm = D[self.motor] - D[self.pivot]
                 dz[plan.motor_row] = D[self.pivot][:, None] + darm[:, None] * self.spin
+        frame = RestFrame(z=z, ds=ds, dz=dz, dlnds=dlnds, rest=rest, D=D, joints=plan.row_of[: self.J],
+                          s=self.stroke, graph=graph, steps=steps, fixed=self.fixed)
         with np.errstate(invalid="ignore", divide="ignore"):
-            for kind, n in plan.schedule or tuple(("batch", n) for n in range(len(plan.batches))):
-                if kind == "step":
-                    self._step(graph, steps[n], R + n, rest, z, ds, dz, dlnds, D)
-                    continue
-                b = plan.batches[n]
-                out = slice(b.start, b.stop)
-                zi, zj = z[b.i], z[b.j]
-                ri, rj = rest[b.i_point], rest[b.j_point]
-                if b.rigid:
-                    fixed = self.fixed[n]
-                    assert fixed is not None  # every rigid batch has its fixed coefficients
-                    joint = np.isnan(fixed)
-                    rk = rest[np.where(joint, b.k_point, 0)]
-                    c = np.where(joint, (rk - ri) / (rj - ri), fixed)
-                    e = zj - zi
-                    z[out] = zi + c[:, None] * e
-                    if dz is not None:
-                        Di, Dj = D[b.i_point], D[np.where(joint, b.j_point, 0)]
-                        Dk = D[np.where(joint, b.k_point, 0)]
-                        dc = np.where(joint[:, None], (Dk - Di - c[:, None] * (Dj - Di)) / (rj - ri)[:, None], 0.0)
-                        dzi, dzj = dz[b.i], dz[b.j]
-                        dz[out] = dzi + dc[:, :, None] * e[:, None, :] + c[:, None, None] * (dzj - dzi)
-                    continue
-                rk = rest[b.k_point]
-                lik2, ljk2 = np.abs(rk - ri) ** 2, np.abs(rk - rj) ** 2
-                half = 0.5 * (lik2 - ljk2)
-                z[out], t = loc.dyad(zi, zj, half[:, None], lik2[:, None], b.sign)
-                ds[b.rule] = loc.singularity_distance(t, lik2[:, None], ljk2[:, None])
-                if dz is not None and dlnds is not None:
-                    Di, Dj, Dk = D[b.i_point], D[b.j_point], D[b.k_point]
-                    dL = 2.0 * ((rk - ri).conj()[:, None] * (Dk - Di)).real  # (R, C)
-                    dM = 2.0 * ((rk - rj).conj()[:, None] * (Dk - Dj)).real
-                    dh = 0.5 * (dL - dM)
-                    dzi, dzj = dz[b.i], dz[b.j]
-                    de = dzj - dzi  # (R, C, T)
-                    e, u, a = t.e[:, None, :], t.u[:, None, :], t.a[:, None, :]
-                    du = -2.0 * (e.real * de.real + e.imag * de.imag) * u * u
-                    da = dh[:, :, None] * u + half[:, None, None] * du
-                    dbsq = dL[:, :, None] * u + lik2[:, None, None] * du - 2.0 * a * da
-                    db = dbsq / (2.0 * t.b[:, None, :])
-                    dz[out] = dzi + (da + 1j * db) * e + t.w[:, None, :] * de
-                    dlnds[b.rule] = (dbsq / t.bsq[:, None, :] - 2.0 * du / u
-                                     - (dL / lik2[:, None])[:, :, None] - (dM / ljk2[:, None])[:, :, None])
+            for rule, rows in zip(plan.rules, plan.ds_rows):
+                rule.at_rest(frame, rows)
         if self.keep is not None:
             z, ds = z[:, self.keep], ds[:, self.keep]
             dz = None if dz is None else dz[..., self.keep]
@@ -185,18 +149,3 @@ class RestPoseKinematics:
                 dz *= self.steps.scale
         why = failure(plan, world, ds, self.turn_deg, self.arm)
         return Evaluation(rest=world, z=z, ds=ds, dz=dz, dlnds=dlnds, why=why)
-
-    def _step(self, graph, step, r: int, rest: np.ndarray, z: np.ndarray, ds: np.ndarray,
-              dz: np.ndarray | None, dlnds: np.ndarray | None, D: np.ndarray) -> None:
-        """Evaluate one step in place (normalized frame): its joints' rows of ``z`` (and ``dz``),
-        its d_s in row ``r`` of ``ds`` (and ∂ln d_s when guarded)."""
-        rows = self.plan.row_of[: self.J]
-        zj = z[rows]
-        out, ds[r] = step.place(zj, self.stroke, rest)
-        z[rows[step.joints]] = zj[step.joints] = out
-        if dz is None:
-            return
-        dzj = dz[rows]
-        dz[rows[step.joints]] = dzj[step.joints] = es.tangents(graph, step, zj, dzj, D)
-        if step.guarded and dlnds is not None:
-            dlnds[r] = step.dlnds(graph, zj, dzj, D)

@@ -31,7 +31,6 @@ from scipy import sparse
 from scipy.linalg import null_space
 
 from linkedit.edit.kinematics import Evaluation, RestPoseKinematics
-from linkedit.edit.steps import dependencies as step_dependencies
 from linkedit.edit.variables import Variables, colour, column_map, seeds
 from linkedit.planar.plan import Plan
 from linkedit.planar.simulate import motor_input
@@ -421,16 +420,8 @@ def dependencies(plan: Plan, uses: np.ndarray) -> np.ndarray:
     dep[plan.ground_rows] = uses[list(g.ground)]
     if g.pivot >= 0:  # a linear input's driven joint is written by its step
         dep[plan.motor_row] = uses[g.motor] | uses[g.pivot]
-    J = plan.n_joints
-    for kind, n in plan.schedule or tuple(("batch", n) for n in range(len(plan.batches))):
-        if kind == "step":
-            st = plan.steps[n]
-            needs = step_dependencies(plan, st)
-            dep[plan.row_of[st.joints]] = (dep[plan.row_of[needs]].any(axis=0) | uses[needs].any(axis=0))[None]
-            continue
-        b = plan.batches[n]
-        own = uses[b.i_point] | uses[b.j_point] | np.where((b.k_point < J)[:, None], uses[np.minimum(b.k_point, J - 1)], False)
-        dep[b.start:b.stop] = dep[b.i] | dep[b.j] | own
+    for rule in plan.rules:
+        rule.depend(plan.row_of, dep, uses)
     return dep
 
 

@@ -199,15 +199,14 @@ def _check(plan: Plan, spec: LinkageSpec, samples: int, arm: complex | None) -> 
     z = rest[:, 0] + 1j * rest[:, 1]
     t = motor_phases(spec, samples)
     turn = motor_input(spec.motor, t) if plan.linear else np.degrees(motor_turn(spec.motor, t))
-    ones = np.ones((len(plan.rules), samples))
+    ones = np.ones((plan.n_ds, samples))
     why = failure(plan, z, ones, turn, arm) or check_steps(plan, z)  # rest branches first: re-basing needs them
     if why is not None:
         return None, why
     motion = simulate(replan(plan, spec), samples, partial=True)
     if not motion.assembled.all():
         return None, "; ".join(lk.describe() for lk in motion.lockups)
-    steps_ds = motion.step_singularity.T if motion.step_singularity is not None else np.ones((0, samples))
-    return motion, failure(plan, z, np.vstack([motion.singularity.T, steps_ds]), turn, arm)
+    return motion, failure(plan, z, motion.rule_ds()[0].T, turn, arm)
 
 
 def replan(plan: Plan, spec: LinkageSpec) -> Plan:

@@ -4,8 +4,8 @@ A step's constants (a slider's rod length and side, its slot line, a group's row
 come from the rest pose, so they are compiled again at every evaluation with the planar
 engine's own :func:`~linkedit.planar.rules.compile_steps`, in the plan's normalized frame
 (origin and unit of the *original* plan: constants, so a tangent only scales by 1/unit).
-Positions come from the engine's rules; tangents along each rest-pose direction from the
-implicit function theorem (:meth:`~linkedit.planar.rules.Step.rest_tangent`: one batched solve per
+Positions come from the engine's rules (:meth:`~linkedit.planar.rules.Step.at_rest`); tangents
+along each rest-pose direction from the implicit function theorem (:meth:`~linkedit.planar.rules.Step.rest_tangent`: one batched solve per
 direction); the guarded kinds (a slider, a joint in two slots, a turning slotted link) give the
 tangent of ln d_s too (:meth:`~linkedit.planar.rules.Step.dlnds`), for the barrier. A numeric group has no barrier: the predicate
 keeps it solvable and on its rest branch (sign of its Jacobian's determinant).
@@ -57,18 +57,6 @@ class RestPoseSteps:
             if why is not None:
                 return why
         return None
-
-
-def tangents(graph: LinkageGraph, step: Step, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray) -> np.ndarray:
-    """Tangents (n, C, T) of the step's joints: ``dzj`` (J, C, T) of the known joints, ``drest``
-    (J, C) the rest-pose directions (both normalized)."""
-    return np.stack([step.rest_tangent(graph, zj, dzj[:, c], drest[:, c]) for c in range(drest.shape[1])], axis=1)
-
-
-def dependencies(plan: Plan, step: Step) -> np.ndarray:
-    """Joints (indices) whose rest positions a step's constants depend on."""
-    rows = set().union(*step.rows.joints) if step.rows.m else set()
-    return np.array(sorted(rows | set(step.joints.tolist()) | set(step.inputs.tolist())), dtype=int)
 
 
 def check(plan: Plan, rest: np.ndarray) -> str | None:

@@ -315,11 +315,11 @@ def numeric_motion(plan: "Plan", samples: int | None = None) -> "Motion":
 
     vel, acc = derivatives(nm.positions)
     tv, ta = derivatives(nm.tracks)
-    rules = plan.rules
+    rules = plan.table.joints
     with np.errstate(invalid="ignore"):
         transmission = transmission_angle(nm.positions, rules)
         orientation = triangle_orientation(nm.positions, rules)
-    singularity = np.where(plan.rigid[None, :], 1.0, np.sin(transmission) ** 2)
+    singularity = np.where(plan.table.rigid[None, :], 1.0, np.sin(transmission) ** 2)
     tracks = {name: Track(position=nm.tracks[:, i], velocity=tv[:, i], acceleration=ta[:, i])
               for i, name in enumerate(spec.tracks)}
     return Motion(plan=plan, t=t, motor_angle=angle, positions=nm.positions, velocity=vel, acceleration=acc,

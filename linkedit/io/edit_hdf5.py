@@ -56,7 +56,7 @@ def write_edit(path: str | Path, result: EditResult, *, script_text: str, linkag
         scale(f, "xy", ["x", "y"], "plane coordinate")
         entries: list[Entry] = []
         for stage, motion in (("before", result.before), ("after", result.after)):
-            scale(f, f"{stage}/rule", [motion.plan.joint_names[k] for k in motion.plan.rules[:, 2]],
+            scale(f, f"{stage}/rule", [motion.plan.joint_names[k] for k in motion.plan.table.joints[:, 2]],
                   "the joint each rule rebuilds, evaluation order")
             entries += _motion(stage, motion, units)
         ops = f.create_group("operations")

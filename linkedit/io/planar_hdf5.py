@@ -37,7 +37,7 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
         scale(f, "joint", names, "joint names, spec order")
         scale(f, "xy", ["x", "y"], "plane coordinate")
         scale(f, "link", list(plan.graph.link_names), "link names, spec order")
-        scale(f, "rule", [names[k] for k in plan.rules[:, 2]], "the joint each rule rebuilds, evaluation order")
+        scale(f, "rule", [names[k] for k in plan.table.joints[:, 2]], "the joint each rule rebuilds, evaluation order")
         scale(f, "ground_joint", [names[g] for g in plan.graph.ground], "ground joint names")
         scale(f, "pair", np.arange(len(plan.pairs)), "index of a joint pair held at constant distance")
         scale(f, "end", [0, 1], "first or second joint of a pair")
@@ -68,11 +68,12 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
             put(g, "acceleration", track.acceleration, dims=TXY, units=f"{u}/{per}**2",
                 description=f"d² position / d {what}²")
         rules = f.create_group("rules")
-        put(rules, "joints", plan.rules, dims=("rule", "ijk"),
+        table = plan.table
+        put(rules, "joints", table.joints, dims=("rule", "ijk"),
             description="(i, j, k): joint k rebuilt from i and j, evaluation order")
-        put(rules, "level", plan.level, dims=("rule",), description="level of each rule (evaluated together)")
-        put(rules, "rigid", plan.rigid, dims=("rule",), description="i, j, k on one link (else a dyad)")
-        put(rules, "orientation", plan.orientation.astype(np.int8), dims=("rule",),
+        put(rules, "level", table.level, dims=("rule",), description="level of each rule (evaluated together)")
+        put(rules, "rigid", table.rigid, dims=("rule",), description="i, j, k on one link (else a dyad)")
+        put(rules, "orientation", table.orientation.astype(np.int8), dims=("rule",),
             description="orientation of triangle (i, j, k) at rest: +1 ccw, -1 cw, 0 collinear")
         if plan.steps:
             steps = f.create_group("steps")

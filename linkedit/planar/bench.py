@@ -38,7 +38,7 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
             pos = best_time(lambda: positions(plan, geom, angle, work), budget_s=budget) / samples * 1e6
             full = best_time(lambda: evaluate(plan, geom, angle, order=2), budget_s=budget) / samples * 1e6
             target = f"≤ {TARGETS_360[name]}" if samples == 360 else ""
-            echo(f"{name:<22}{plan.n_joints:>7}{int(plan.level.max()):>7}  {samples:>7}  {pos:>18.3f}  {full:>21.3f}  {target}")
+            echo(f"{name:<22}{plan.n_joints:>7}{plan.levels:>7}  {samples:>7}  {pos:>18.3f}  {full:>21.3f}  {target}")
     rule_kinds(echo, budget)
 
 
@@ -56,5 +56,5 @@ def rule_kinds(echo: Callable[[str], None], budget: float) -> None:
         pos = best_time(lambda: positions(plan, geom, angle), budget_s=budget) / 360 * 1e6
         full = best_time(lambda: evaluate(plan, geom, angle, order=2), budget_s=budget) / 360 * 1e6
         base = base or full
-        kinds = ", ".join(sorted({"rigid" if r else "dyad" for r in plan.rigid} | {st.kind for st in plan.steps}))
+        kinds = ", ".join(sorted({r.kind for r in plan.rules if r.ds_count()}))
         echo(f"{name:<24}{kinds:>24}  {pos:>18.3f}  {full:>21.3f}  {full / base:>10.1f}")

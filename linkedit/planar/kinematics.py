@@ -1,8 +1,9 @@
 """Evaluate a plan over many motor angles at once: positions, velocities, accelerations.
 
 All arrays are complex (x + iy) with rows in the plan's internal order: shape (P, T) for P
-points and T samples. One Python iteration per batch (a level's rigid or dyad rules), never
-per sample. Derivatives are with respect to the motor angle, propagated analytically through
+points and T samples. One Python iteration per rule of the plan's sequence (a level's rigid or
+dyad batch is one rule), never per sample; each rule writes its own rows
+(:mod:`linkedit.planar.rules`). Derivatives are with respect to the motor angle, propagated analytically through
 the same rules.
 """
 
@@ -12,10 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from linkedit.planar import law_of_cosines as loc
 from linkedit.planar.feasibility import assembles
 from linkedit.planar.plan import Geometry, Plan
-from linkedit.planar.rules import Step
+from linkedit.planar.rules import Frame, Triangles
 
 #: largest input change between two samples a numeric group is continued across: motor
 #: degrees, or a fraction of the characteristic length for a linear input
@@ -25,13 +25,13 @@ GROUP_STEP_LENGTH = 0.005
 
 @dataclass
 class State:
-    """Evaluated plan. ``z``, ``dz``, ``ddz``: (P, T) complex in internal rows; ``ds``: (R, T)."""
+    """Evaluated plan. ``z``, ``dz``, ``ddz``: (P, T) complex in internal rows; ``ds``: (N, T)."""
 
     z: np.ndarray
     dz: np.ndarray | None  # None when evaluated with order 0
     ddz: np.ndarray | None  # None when evaluated with order < 2
-    ds: np.ndarray  # singularity distance per rule (1 for rigid rules); < 0: cannot close
-    step_ds: np.ndarray  # (X, T) per step of plan.steps: < 0 or NaN: cannot place
+    #: singularity distance per d_s row (``Plan.ds_rows``; 1 for rigid rules); < 0 or NaN: cannot place
+    ds: np.ndarray
     #: with numeric groups: whether every intermediate continuation sample assembled too
     between_ok: bool = True
 
@@ -50,7 +50,7 @@ class Workspace:
     """
 
     def __init__(self, plan: Plan, samples: int) -> None:
-        rows = max((b.stop - b.start for b in plan.batches), default=0)
+        rows = max((r.stop - r.start for r in plan.rules if isinstance(r, Triangles)), default=0)
         self.samples = samples
         self.z = np.empty((plan.n_points, samples), dtype=complex)
         self.zi, self.zj, self.e, self.w = (np.empty((rows, samples), dtype=complex) for _ in range(4))
@@ -72,18 +72,8 @@ def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | N
     np.multiply(geom.arm, np.exp(1j * (angle - geom.rest_angle)), out=z[plan.motor_row])
     z[plan.motor_row] += geom.pivot
     with np.errstate(invalid="ignore", divide="ignore"):
-        for n, b in enumerate(plan.batches):
-            r = b.stop - b.start
-            zi, zj, e = np.take(z, b.i, axis=0, out=w.zi[:r]), np.take(z, b.j, axis=0, out=w.zj[:r]), w.e[:r]
-            out = z[b.start:b.stop]
-            np.subtract(zj, zi, out=e)
-            if b.rigid:
-                np.multiply(e, geom.coef[n], out=e)
-            else:
-                loc.dyad_coefficient(e, geom.half_diff[n], geom.lik2[n], b.sign, w.w[:r], w.d2[:r], w.u[:r],
-                                     w.a[:r], w.b[:r])
-                np.multiply(e, w.w[:r], out=e)
-            np.add(zi, e, out=out)
+        for rule, const in zip(plan.rules, geom.constants):
+            rule.positions(z, const, w)
     return z
 
 
@@ -118,15 +108,14 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> S
     def pick(a: np.ndarray | None) -> np.ndarray | None:
         return None if a is None else a[:, keep]
 
-    between_ok = bool(np.isfinite(full.z).all() and assembles(full.ds).all() and assembles(full.step_ds).all())
-    return State(z=full.z[:, keep], dz=pick(full.dz), ddz=pick(full.ddz), ds=full.ds[:, keep],
-                 step_ds=full.step_ds[:, keep], between_ok=between_ok)
+    between_ok = bool(np.isfinite(full.z).all() and assembles(full.ds).all())
+    return State(z=full.z[:, keep], dz=pick(full.dz), ddz=pick(full.ddz), ds=full.ds[:, keep], between_ok=between_ok)
 
 
 def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int) -> State:
-    """The one evaluation of a plan: every level's batches, then its steps, in order. With a
-    geometry of K linkages (:attr:`Geometry.linkages`), arrays carry a linkage axis after the
-    row: (P, K, T), and ``angle`` may be (K, T) (dyad and rigid rules only)."""
+    """The one evaluation of a plan: every rule in order. With a geometry of K linkages
+    (:attr:`Geometry.linkages`), arrays carry a linkage axis after the row: (P, K, T), and
+    ``angle`` may be (K, T) (dyad and rigid rules only)."""
     lead = geom.linkages
     if lead and plan.steps:
         raise ValueError("sliders and numeric groups are evaluated one linkage at a time")
@@ -135,8 +124,7 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int) -> Stat
     z = np.zeros((P, *lead, T), dtype=complex)  # zeros: step rows multiply not-yet-known joints by 0
     dz = np.zeros((P, *lead, T), dtype=complex) if order >= 1 else None
     ddz = np.zeros((P, *lead, T), dtype=complex) if order >= 2 else None
-    ds = np.ones((len(plan.rules), *lead, T))
-    step_ds = np.ones((len(plan.steps), T))
+    ds = np.ones((plan.n_ds, *lead, T))
     z[plan.ground_rows] = geom.ground
     if not plan.linear:
         arm = geom.arm * np.exp(1j * (angle - geom.rest_angle))
@@ -145,47 +133,10 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int) -> Stat
             dz[plan.motor_row] = 1j * arm
         if ddz is not None:
             ddz[plan.motor_row] = -arm
-    schedule = plan.schedule or tuple(("batch", n) for n in range(len(plan.batches)))
+    s = angle if plan.linear else np.zeros_like(angle)
+    frame = Frame(z=z, dz=dz, ddz=ddz, ds=ds, joints=plan.row_of[: plan.n_joints], s=s,
+                  drive=1.0 if plan.linear else 0.0, rest=geom.rest)
     with np.errstate(invalid="ignore", divide="ignore"):
-        for kind, n in schedule:
-            if kind == "step":
-                step_ds[n] = _step(plan, geom, plan.steps[n], angle, z, dz, ddz)
-                continue
-            b = plan.batches[n]
-            out = slice(b.start, b.stop)
-            if b.rigid:
-                c = geom.coef[n]
-                z[out] = loc.rigid(z[b.i], z[b.j], c)
-                if dz is not None:
-                    dz[out] = loc.rigid(dz[b.i], dz[b.j], c)
-                if ddz is not None:
-                    ddz[out] = loc.rigid(ddz[b.i], ddz[b.j], c)
-                continue
-            half, lik2 = geom.half_diff[n], geom.lik2[n]
-            sign = geom.sign[n] if geom.sign else b.sign
-            z[out], terms = loc.dyad(z[b.i], z[b.j], half, lik2, sign)
-            public = b.rule >= 0
-            ds[b.rule[public]] = loc.singularity_distance(terms, lik2, geom.ljk2[n])[public]
-            if dz is not None:
-                dz[out], de, du, dw = loc.dyad_velocity(terms, dz[b.i], dz[b.j], half, lik2)
-                if ddz is not None:
-                    ddz[out] = loc.dyad_acceleration(terms, de, du, dw, ddz[b.i], ddz[b.j], half, lik2)
-    return State(z=z, dz=dz, ddz=ddz, ds=ds, step_ds=step_ds)
-
-
-def _step(plan: Plan, geom: Geometry, step: Step, value: np.ndarray, z: np.ndarray,
-          dz: np.ndarray | None, ddz: np.ndarray | None) -> np.ndarray:
-    """Evaluate one step in place (rows of ``z``, ``dz``, ``ddz``); returns its d_s (T,)."""
-    joints = plan.row_of[: plan.n_joints]
-    rows = joints[step.joints]
-    s = value if plan.linear else np.zeros_like(value)
-    zj = z[joints]
-    out, ds = step.place(zj, s, geom.rest)
-    z[rows] = out
-    zj[step.joints] = out
-    if dz is not None:
-        dzj = dz[joints]
-        dz[rows] = dzj[step.joints] = step.velocity(zj, dzj, 1.0 if plan.linear else 0.0)
-        if ddz is not None:
-            ddz[rows] = step.acceleration(zj, dzj, ddz[joints])
-    return ds
+        for rule, rows, const in zip(plan.rules, plan.ds_rows, geom.constants):
+            rule.evaluate(frame, const, rows)
+    return State(z=z, dz=dz, ddz=ddz, ds=ds)

@@ -42,37 +42,35 @@ def dyad(zi: np.ndarray, zj: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray
     ``half_diff`` = (l_ik² − l_jk²)/2, ``lik2`` = l_ik², ``sign`` = s: each (R, 1).
     """
     e = zj - zi
-    d2 = e.real * e.real
-    d2 += e.imag * e.imag
-    u = np.divide(1.0, d2)
-    a = half_diff * u
-    a += 0.5
-    bsq = lik2 * u
-    bsq -= a * a
+    shape = np.broadcast_shapes(e.shape, np.shape(half_diff))
+    u, a, bsq, b = (np.empty(shape) for _ in range(4))
     with np.errstate(invalid="ignore"):
-        b = np.sqrt(bsq)
-    b *= sign
-    w = a + 1j * b
+        w = dyad_coefficient(e, half_diff, lik2, sign, np.empty(shape, dtype=complex), np.empty(shape), u, a, b, bsq)
     return zi + w * e, DyadTerms(e, u, a, b, bsq, w)
 
 
 def dyad_coefficient(e: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray, sign: np.ndarray,
-                     w: np.ndarray, d2: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """w = A + iB of :func:`dyad`, computed into the given buffers (no allocation); returns ``w``.
+                     w: np.ndarray, d2: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray,
+                     bsq: np.ndarray | None = None) -> np.ndarray:
+    """w = A + iB (the module docstring's formula, written once), computed into the given
+    buffers (no allocation); returns ``w``.
 
-    ``e`` (R, T) complex input; ``w`` (R, T) complex and ``d2``, ``u``, ``a``, ``b`` (R, T)
-    real scratch buffers. NaN where the triangle cannot be closed.
+    ``e`` = z_j − z_i (R, T) complex; ``w`` (R, T) complex and ``d2``, ``u``, ``a``, ``b`` (R, T)
+    real buffers, left holding 1/d², A and B; ``bsq`` a buffer kept holding B² (else B² is
+    formed in ``b``). NaN where the triangle cannot be closed (the caller silences numpy's
+    warning: an ``np.errstate`` per call would cost more than a small batch).
     """
+    bsq = b if bsq is None else bsq
     np.multiply(e.real, e.real, out=d2)
     np.multiply(e.imag, e.imag, out=u)
     d2 += u
     np.divide(1.0, d2, out=u)
     np.multiply(half_diff, u, out=a)
     a += 0.5
-    np.multiply(lik2, u, out=b)
+    np.multiply(lik2, u, out=bsq)
     np.multiply(a, a, out=d2)
-    b -= d2
-    np.sqrt(b, out=b)
+    bsq -= d2
+    np.sqrt(bsq, out=b)
     b *= sign
     w.real = a
     w.imag = b

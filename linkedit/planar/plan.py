@@ -1,11 +1,12 @@
 """Compile a linkage once into a reconstruction plan; evaluate it many times.
 
-The plan holds everything that depends only on topology and the rest-pose branch: the rules
-(i, j) → k in evaluation order, their levels, the triangle orientations, and index arrays that
-let each level be computed as one batched array operation (one batch of rigid rules and one of
-dyad rules per level). Points are joints (0..J-1, spec order) followed by tracked points
-attached to links (J..). Internally, rows are ordered ground, motor, then batch by batch, so
-every batch writes one contiguous block.
+The plan holds everything that depends only on topology and the rest-pose branch: one sequence
+of rules (:mod:`linkedit.planar.rules`) in evaluation order — per level its rigid batch, its
+dyad batch (each one array operation), then its sliders, slots and numeric groups — and the
+table of triangle rules (i, j) → k with their levels and rest orientations that result files
+list. Points are joints (0..J-1, spec order) followed by tracked points attached to links
+(J..). Internally, rows are ordered ground, motor, then rule by rule, so every rule writes one
+contiguous block; every rule owns a contiguous block of the singularity-distance rows too.
 
 The numeric constants that come from a rest pose (link lengths, rigid coefficients, motor arm)
 are a separate :class:`Geometry`, so an optimizer can change the rest pose without recompiling.
@@ -15,31 +16,28 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
 
 import numpy as np
 
 from linkedit.errors import MechanismError
 from linkedit.planar.graph import LinkageGraph, Mobility, mobility
 from linkedit.planar.ordering import order_joints
-from linkedit.planar.rules import Group, Step, compile_steps
+from linkedit.planar.rules import Dyad, Group, Rigid, Rule, Step, Triangles, compile_steps
 from linkedit.spec.linkage import JointTrack, LinkageSpec, LinkTrack
 
 
 @dataclass(frozen=True)
-class Batch:
-    """Rules of one kind in one level. Rows ``start:stop`` are written; inputs are rows ``i``, ``j``."""
+class TriangleTable:
+    """The dyad and rigid rules (i, j) → k, as result files list them (``/rules``, the ``rule``
+    axis): the ordering's order (by level). R entries."""
 
-    rigid: bool
-    level: int
-    start: int
-    stop: int
-    i: np.ndarray  # (R,) input rows
-    j: np.ndarray  # (R,) input rows
-    k_point: np.ndarray  # (R,) point ids written (joint index, or J + track-point number)
-    i_point: np.ndarray  # (R,) point ids of the inputs
-    j_point: np.ndarray
-    rule: np.ndarray  # (R,) index into Plan.rules, or -1 for a tracked point
-    sign: np.ndarray  # (R, 1) orientation of triangle (i, j, k) at rest (dyads), ±1
+    joints: np.ndarray  # (R, 3) joint indices (i, j, k)
+    level: np.ndarray  # (R,)
+    rigid: np.ndarray  # (R,) bool
+    orientation: np.ndarray  # (R,) rest orientation of (i, j, k): +1 ccw, −1 cw, 0 collinear
+    row: np.ndarray  # (R,) each entry's row of the singularity distance (Plan.ds_rows)
 
 
 @dataclass(frozen=True)
@@ -49,11 +47,11 @@ class Plan:
     spec: LinkageSpec
     graph: LinkageGraph
     mobility: Mobility
-    rules: np.ndarray  # (R, 3) joint indices (i, j, k) in evaluation order
-    level: np.ndarray  # (R,)
-    rigid: np.ndarray  # (R,) bool
-    orientation: np.ndarray  # (R,) rest orientation of (i, j, k): +1 ccw, −1 cw, 0 collinear
-    batches: tuple[Batch, ...]
+    #: every rule, in evaluation order
+    rules: tuple[Rule, ...]
+    #: each rule's rows of the singularity distance d_s (N rows in all), aligned with ``rules``
+    ds_rows: tuple[slice, ...]
+    table: TriangleTable
     row_of: np.ndarray  # (P,) internal row of each point
     ground_rows: np.ndarray  # (G,) == row_of[ground]
     motor_row: int
@@ -61,11 +59,6 @@ class Plan:
     track_names: tuple[str, ...]
     track_points: np.ndarray  # (K,) point id of each track
     rest_points: np.ndarray  # (P, 2) rest positions of all points (joints, then track points)
-    #: rules of the new kinds (sliders, linear input, numeric groups), with joint-space rows in
-    #: the normalized frame (see ``origin``, ``scale``); empty for revolute dyadic linkages
-    steps: tuple[Step, ...] = ()
-    #: evaluation order: ("batch", n) and ("step", n), level by level
-    schedule: tuple[tuple[str, int], ...] = ()
     origin: complex = 0j  #: the first ground joint at rest: the normalized frame's origin
     scale: float = 1.0  #: the linkage's characteristic length: the normalized frame's unit
 
@@ -74,9 +67,48 @@ class Plan:
         """True when the input is a driven slider (derivatives are per unit of stroke)."""
         return self.graph.pivot < 0
 
-    @property
+    @cached_property
     def has_groups(self) -> bool:
-        return any(isinstance(st, Group) for st in self.steps)
+        return any(isinstance(st, Group) for st in self.rules)
+
+    @cached_property
+    def steps(self) -> tuple[Step, ...]:
+        """The rules of the non-revolute kinds (sliders, the linear input, numeric groups), in
+        order, with joint-space rows in the normalized frame (see ``origin``, ``scale``); result
+        files list them under ``/rules/steps``."""
+        return tuple(r for r in self.rules if isinstance(r, Step))
+
+    @cached_property
+    def step_rows(self) -> np.ndarray:
+        """(X,) each of :attr:`steps`' row of the singularity distance."""
+        return np.array([rows.start for r, rows in zip(self.rules, self.ds_rows) if isinstance(r, Step)], dtype=int)
+
+    @cached_property
+    def n_ds(self) -> int:
+        """N: how many rows of singularity distance an evaluation has."""
+        return self.ds_rows[-1].stop if self.ds_rows else 0
+
+    @property
+    def levels(self) -> int:
+        """The deepest level of a rule that places a joint (0: ground and motor only; tracked
+        points on links do not count)."""
+        return max((r.level for r in self.rules if r.ds_count()), default=0)
+
+    def ds_rule(self) -> tuple[np.ndarray, np.ndarray]:
+        """(N,) the index into ``rules`` of each d_s row, and its index within that rule."""
+        owner = np.repeat(np.arange(len(self.rules)), [rows.stop - rows.start for rows in self.ds_rows])
+        within = np.arange(owner.size) - np.array([self.ds_rows[o].start for o in owner], dtype=int)
+        return owner, within
+
+    def describe(self) -> dict[int, list[str]]:
+        """What every rule does, level by level (``validate``): the triangle table's entries in
+        its order, then the other kinds in evaluation order."""
+        names = self.joint_names
+        lines = sorted((line for r in self.rules for line in r.lines(names)), key=lambda e: e[0])
+        out: dict[int, list[str]] = {}
+        for (level, _, _), text in lines:
+            out.setdefault(level, []).append(text)
+        return out
 
     def normalized_points(self, points: np.ndarray | None = None) -> np.ndarray:
         """Rest points (P, 2) moved to the normalized frame: (p − origin)/scale."""
@@ -115,10 +147,12 @@ class Plan:
         graph = dataclasses.replace(self.graph, rest=np.array([spec.joints[n] for n in self.joint_names], dtype=float))
         extra = [_link_point(spec.tracks[n]) for n, p in zip(self.track_names, self.track_points) if p >= self.n_joints]
         points = np.vstack([graph.rest, np.array(extra, dtype=float).reshape(-1, 2)])
-        orientation = np.array([_orientation(graph.rest, i, j, k) for i, j, k in self.rules], dtype=int)
-        if not np.array_equal(orientation[~self.rigid], self.orientation[~self.rigid]):
+        t = self.table
+        orientation = np.array([_orientation(graph.rest, i, j, k) for i, j, k in t.joints], dtype=int)
+        if not np.array_equal(orientation[~t.rigid], t.orientation[~t.rigid]):
             raise ValueError("a dyad triangle changed orientation: compile the spec instead")
-        return dataclasses.replace(self, spec=spec, graph=graph, orientation=orientation, rest_points=points)
+        return dataclasses.replace(self, spec=spec, graph=graph, table=dataclasses.replace(t, orientation=orientation),
+                                   rest_points=points)
 
     def points_for(self, rest: np.ndarray) -> np.ndarray:
         """Rest positions of all points (P, 2) for new joint positions (J, 2).
@@ -133,12 +167,8 @@ class Plan:
         out[: self.n_joints] = rest
         old = self.rest_points[:, 0] + 1j * self.rest_points[:, 1]
         new = out[:, 0] + 1j * out[:, 1]
-        for b in self.batches:
-            mask = b.k_point >= self.n_joints
-            if b.rigid and mask.any():
-                ip, jp, kp = b.i_point[mask], b.j_point[mask], b.k_point[mask]
-                coef = (old[kp] - old[ip]) / (old[jp] - old[ip])
-                new[kp] = new[ip] + coef * (new[jp] - new[ip])
+        for rule in self.rules:
+            rule.move_tracks(old, new)
         out[self.n_joints:] = np.column_stack([new.real, new.imag])[self.n_joints:]
         return out
 
@@ -146,22 +176,15 @@ class Plan:
 @dataclass(frozen=True)
 class Geometry:
     """Constants of a plan at one rest pose — or at K rest poses of one topology (a leading
-    linkage axis: the atlas, a synthesis family). Per batch: rigid ``coef`` or dyad lengths,
-    (R, 1) for one linkage, (R, K, 1) for K."""
+    linkage axis: the atlas, a synthesis family). Per rule (``Rule.constants``): (R, 1) arrays
+    for one linkage, (R, K, 1) for K."""
 
     rest: np.ndarray  # (P,) complex rest positions of all points; (P, K) for K linkages
     pivot: complex | np.ndarray  # (K, 1) for K linkages
     arm: complex | np.ndarray  # motor joint − pivot at rest; (K, 1) for K linkages
     rest_angle: float | np.ndarray  # motor angle at rest, radians; (K, 1) for K linkages
     ground: np.ndarray  # (G, 1) complex; (G, K, 1) for K linkages
-    # per batch; a batch of the other kind (rigid or dyad) has an empty (0, 1) entry
-    coef: tuple[np.ndarray, ...]  # rigid batches: (R, 1) complex
-    lik2: tuple[np.ndarray, ...]  # dyad batches: l_ik², (R, 1)
-    ljk2: tuple[np.ndarray, ...]
-    half_diff: tuple[np.ndarray, ...]  # (l_ik² − l_jk²)/2
-    #: K linkages: each dyad's triangle orientation at its own rest pose, (R, K, 1) (its branch);
-    #: empty for one linkage, which takes the plan's (``Batch.sign``)
-    sign: tuple[np.ndarray, ...] = ()
+    constants: tuple[tuple[Any, ...], ...]  # per rule of the plan, aligned with ``Plan.rules``
 
     @property
     def linkages(self) -> tuple[int, ...]:
@@ -175,41 +198,16 @@ class Geometry:
         pts = points if many else points[None]
         z = (pts[..., 0] + 1j * pts[..., 1]).T  # (P, K)
         g = plan.graph
-        coef: list[np.ndarray] = []
-        lik2: list[np.ndarray] = []
-        ljk2: list[np.ndarray] = []
-        half: list[np.ndarray] = []
-        sign: list[np.ndarray] = []
-        none = np.empty((0,) + (1,) * (1 + many))
-
-        def shaped(a: np.ndarray) -> np.ndarray:  # (R, K, 1), or (R, 1) for one linkage
-            return a if many else a[:, 0]
-
-        for b in plan.batches:
-            zi, zj, zk = z[b.i_point, :, None], z[b.j_point, :, None], z[b.k_point, :, None]
-            if b.rigid:
-                coef.append(shaped((zk - zi) / (zj - zi)))
-                sign.append(none)
-                lik2.append(none)
-                ljk2.append(none)
-                half.append(none)
-            else:
-                a, c = np.abs(zk - zi) ** 2, np.abs(zk - zj) ** 2
-                coef.append(none)
-                sign.append(np.sign(((zj - zi).conjugate() * (zk - zi)).imag))
-                lik2.append(shaped(a))
-                ljk2.append(shaped(c))
-                half.append(shaped(0.5 * (a - c)))
+        constants = tuple(rule.constants(z, many) for rule in plan.rules)
         if g.pivot >= 0:
             pivot, arm = z[g.pivot, :, None], z[g.motor, :, None] - z[g.pivot, :, None]
         else:
             pivot, arm = np.zeros((z.shape[1], 1), dtype=complex), np.ones((z.shape[1], 1), dtype=complex)
         if not many:
             return cls(rest=z[:, 0], pivot=complex(pivot[0, 0]), arm=complex(arm[0, 0]),
-                       rest_angle=float(np.angle(arm[0, 0])), ground=z[list(g.ground), 0, None],
-                       coef=tuple(coef), lik2=tuple(lik2), ljk2=tuple(ljk2), half_diff=tuple(half))
+                       rest_angle=float(np.angle(arm[0, 0])), ground=z[list(g.ground), 0, None], constants=constants)
         return cls(rest=z, pivot=pivot, arm=arm, rest_angle=np.angle(arm), ground=z[list(g.ground), :, None],
-                   coef=tuple(coef), lik2=tuple(lik2), ljk2=tuple(ljk2), half_diff=tuple(half), sign=tuple(sign))
+                   constants=constants)
 
 
 def _link_point(track: JointTrack | LinkTrack) -> tuple[float, float]:
@@ -315,12 +313,11 @@ def compile_plan(spec: LinkageSpec) -> Plan:
     row_of = np.empty(len(points), dtype=int)
     for row, p in enumerate(order):
         row_of[p] = row
-    batches = []
+    sequence: list[Rule] = []
     row = len(order)
     groups: dict[tuple[int, bool], list[tuple[int, bool, int, int, int, int]]] = {}
     for e in entries:
         groups.setdefault((e[0], e[1]), []).append(e)
-    schedule: list[tuple[str, int]] = []
     for level in sorted({lv for lv, _ in groups} | {st.level for st in steps}):
         for (lv, is_dyad), members in groups.items():
             if lv != level:
@@ -332,27 +329,30 @@ def compile_plan(spec: LinkageSpec) -> Plan:
             kp = np.array([e[5] for e in members])
             rule_idx = np.array([e[2] for e in members])
             sign = np.array([orientation[e[2]] if e[2] >= 0 else 1 for e in members], dtype=float)[:, None]
-            batches.append(Batch(rigid=not is_dyad, level=lv, start=row, stop=row + len(members),
-                                 i=row_of[ip], j=row_of[jp], k_point=kp, i_point=ip, j_point=jp,
-                                 rule=rule_idx, sign=sign))
-            schedule.append(("batch", len(batches) - 1))
+            kind = Dyad if is_dyad else Rigid
+            sequence.append(kind(level=lv, start=row, stop=row + len(members), i=row_of[ip], j=row_of[jp],
+                                 k_point=kp, i_point=ip, j_point=jp, rule=rule_idx, sign=sign))
             row += len(members)
-        for index, st in enumerate(steps):
+        for st in steps:
             if st.level == level:
                 row_of[st.joints] = row + np.arange(st.joints.size)
                 row += st.joints.size
-                schedule.append(("step", index))
-
+                sequence.append(st)
+    ds_rows: list[slice] = []
+    table_row, first = np.zeros(len(rules), dtype=int), 0
+    for rule in sequence:
+        ds_rows.append(slice(first, first + rule.ds_count()))
+        if isinstance(rule, Triangles):
+            table_row[rule.rule[rule.listed]] = np.arange(first, ds_rows[-1].stop)
+        first = ds_rows[-1].stop
+    table = TriangleTable(joints=np.array([(r.i, r.j, r.k) for r in rules], dtype=int).reshape(-1, 3),
+                          level=np.array([r.level for r in rules], dtype=int),
+                          rigid=np.array([r.rigid for r in rules], dtype=bool), orientation=orientation, row=table_row)
     return Plan(
-        spec=spec, graph=original, mobility=mob,
-        rules=np.array([(r.i, r.j, r.k) for r in rules], dtype=int).reshape(-1, 3),
-        level=np.array([r.level for r in rules], dtype=int),
-        rigid=np.array([r.rigid for r in rules], dtype=bool),
-        orientation=orientation, batches=tuple(batches), row_of=row_of,
-        ground_rows=row_of[list(graph.ground)], motor_row=int(row_of[graph.motor]),
+        spec=spec, graph=original, mobility=mob, rules=tuple(sequence), ds_rows=tuple(ds_rows), table=table,
+        row_of=row_of, ground_rows=row_of[list(graph.ground)], motor_row=int(row_of[graph.motor]),
         pivot_row=int(row_of[graph.pivot]) if graph.pivot >= 0 else -1, track_names=tuple(track_names),
-        track_points=np.array(track_points, dtype=int), rest_points=points,
-        steps=steps, schedule=tuple(schedule), origin=origin, scale=scale,
+        track_points=np.array(track_points, dtype=int), rest_points=points, origin=origin, scale=scale,
     )
 
 

@@ -17,7 +17,7 @@ from linkedit.planar.diagnostics import LockUp, lockups, transmission_angle, tri
 from linkedit.planar.feasibility import CHECK_SAMPLES, TOGGLE, assembles, lowest
 from linkedit.planar.kinematics import State, evaluate
 from linkedit.planar.plan import Geometry, Plan, compile_plan
-from linkedit.planar.rules import Group
+from linkedit.planar.rules import Failure, Group
 from linkedit.spec.linkage import LinkageSpec, Motor
 
 DEFAULT_SAMPLES = 360
@@ -34,7 +34,7 @@ class Track:
 
 @dataclass(repr=False)
 class Motion:
-    """A simulated cycle. T samples, J joints, R rules (see ``plan.rules``)."""
+    """A simulated cycle. T samples, J joints, R triangle rules (``plan.table``), X steps (``plan.steps``)."""
 
     plan: Plan
     t: np.ndarray  #: (T,) motor phase: fraction of a revolution, or of the sweep for ``range_deg``
@@ -56,19 +56,34 @@ class Motion:
     def cyclic(self) -> bool:
         return self.plan.spec.motor.cyclic
 
-    def _watched(self) -> tuple[np.ndarray, list[str]] | None:
-        """d_s (T, W) of the dyad, slider and group rules (NaN where not assembled) and the joint
-        each one places; None without any."""
+    def rule_ds(self) -> tuple[np.ndarray, np.ndarray]:
+        """d_s (T, N) per row of the plan's rules (``Plan.ds_rows``; 1 where not measured) and
+        (N,) whether each row was measured (a step's by the symbolic engine only)."""
         plan = self.plan
-        dyads = ~plan.rigid
-        # the steps' own are measured by the symbolic engine only (the numeric one's motion has none)
-        watched = [n for n, st in enumerate(plan.steps) if st.watched and self.step_singularity is not None]
-        if not (dyads.any() or watched):
+        ds = np.ones((self.t.size, plan.n_ds))
+        known = np.zeros(plan.n_ds, dtype=bool)
+        ds[:, plan.table.row] = self.singularity
+        known[plan.table.row] = True
+        if self.step_singularity is not None:
+            ds[:, plan.step_rows] = self.step_singularity
+            known[plan.step_rows] = True
+        return ds, known
+
+    def _watched(self) -> tuple[np.ndarray, list[str]] | None:
+        """d_s (T, W) of the watched rules' rows (dyad, slider and group; NaN where not
+        assembled), in evaluation order, and the joint each one places; None without any."""
+        plan = self.plan
+        ds, known = self.rule_ds()
+        names = plan.joint_names
+        rows: list[int] = []
+        joints: list[str] = []
+        for rule, own in zip(plan.rules, plan.ds_rows):
+            if rule.watched and known[own].all():
+                rows += range(own.start, own.stop)
+                joints += [names[k] for k in rule.placed()]
+        if not rows:
             return None
-        steps = self.step_singularity if self.step_singularity is not None else np.ones((self.t.size, 0))
-        joints = [plan.joint_names[k] for k in plan.rules[dyads, 2]]
-        joints += [plan.joint_names[plan.steps[n].joints[0]] for n in watched]
-        return np.hstack([self.singularity[:, dyads], steps[:, watched]]), joints
+        return ds[:, np.array(rows, dtype=int)], joints
 
     def _where(self, t: int) -> float:
         """The input at sample ``t``: motor angle in degrees, or a linear input's stroke."""
@@ -110,15 +125,15 @@ class Motion:
         """Key figures for printing or JSON."""
         out: dict = {
             "name": self.plan.spec.name, "samples": int(self.t.size), "joints": self.plan.n_joints,
-            "rules": int(len(self.plan.rules) + len(self.plan.steps)),
-            "levels": int(max([*self.plan.level.tolist(), *(st.level for st in self.plan.steps)], default=0)),
+            "rules": int(len(self.plan.table.joints) + len(self.plan.steps)),
+            "levels": int(self.plan.levels),
             "mobility": self.plan.mobility.rank, "assembled": bool(self.assembled.all()),
         }
         worst = self.min_singularity()
         if worst:
             where = "stroke" if self.plan.linear else "motor_angle_deg"
             out["min_singularity"] = {"value": worst[0], "joint": worst[1], where: worst[2]}
-            dyads = ~self.plan.rigid
+            dyads = ~self.plan.table.rigid
             if dyads.any():
                 dev = np.abs(np.where(self.assembled[:, None], self.transmission, np.pi / 2)[:, dyads] - np.pi / 2)
                 out["worst_transmission_angle_deg"] = float(90.0 - np.degrees(dev.max()))
@@ -210,27 +225,6 @@ def plan_graph_normalized(plan: Plan):
     return plan.graph.with_rest((plan.graph.rest - o) / plan.scale)
 
 
-def _explain(plan: Plan, d: np.ndarray, lik: np.ndarray, ljk: np.ndarray, ds: np.ndarray, sds: np.ndarray):
-    """The lock-up explanation of item r (rules first, then steps) at sample t, for :func:`lockups`."""
-    names = plan.joint_names
-    R = len(plan.rules)
-
-    def explain(r: int, t: int) -> tuple[str, tuple[str, str], bool, str]:
-        if r < R:
-            i, j, k = plan.rules[r]
-            far = bool(d[t, r] > lik[r] + ljk[r]) if np.isfinite(d[t, r]) else False
-            what = ""
-            if abs(ds[t, r]) <= TOGGLE:  # within rounding of a toggle: name it, never "too close"
-                how = "stretched" if abs(d[t, r] - lik[r] - ljk[r]) <= abs(d[t, r] - abs(lik[r] - ljk[r])) else "folded"
-                what = (f"joint {names[k]} reaches a toggle position: its links are fully {how} between "
-                        f"{names[i]} and {names[j]} (d_s = 0, its velocity is undefined there)")
-            return names[k], (names[i], names[j]), far, what
-        step = plan.steps[r - R]
-        return names[step.joints[0]], ("", ""), False, step.lockup(names, abs(sds[t, r - R]) <= TOGGLE)
-
-    return explain
-
-
 def _unit(plan: Plan) -> str:
     return plan.spec.units if plan.linear else "°"
 
@@ -262,18 +256,16 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
         _check_closure(plan, state)
         dz, ddz = state.derivatives()
         state = State(z=state.z[:, :-1], dz=dz[:, :-1], ddz=ddz[:, :-1], ds=state.ds[:, :-1],
-                      step_ds=state.step_ds[:, :-1], between_ok=state.between_ok)
+                      between_ok=state.between_ok)
     unit = _unit(plan)
     shown = value if plan.linear else np.degrees(value)
 
     pn = _joint_order(plan, state.z)  # normalized frame
-    rules = plan.rules
     ds = state.ds.T.copy()
-    sds = state.step_ds.T.copy()
-    ok = _assembled(pn, ds, sds)
+    ok = _assembled(pn, ds)
     found: list[LockUp] = []
     if not ok.all():
-        found = _find_lockups(plan, pn, ds, sds, shown, unit)
+        found = _find_lockups(plan, pn, ds, shown, unit)
         if not partial or not ok.any():
             raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
     elif samples < CHECK_SAMPLES and (not plan.has_groups or not state.between_ok):
@@ -307,18 +299,18 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
         tracks[name] = Track(position=xy(state.z, scale, o), velocity=xy(dz, dscale, 0.0),
                              acceleration=xy(ddz, ddscale, 0.0))
     with np.errstate(invalid="ignore"):
-        transmission = transmission_angle(pn, rules)
-        orientation = triangle_orientation(pn, rules)
+        transmission = transmission_angle(pn, plan.table.joints)
+        orientation = triangle_orientation(pn, plan.table.joints)
+    ds = np.where(ok[:, None], ds, np.nan)
     return Motion(plan=plan, t=t, motor_angle=value, positions=p, velocity=v, acceleration=acc,
-                  tracks=tracks, singularity=np.where(ok[:, None], ds, np.nan), orientation=orientation,
-                  transmission=transmission, assembled=ok, lockups=found,
-                  step_singularity=np.where(ok[:, None], sds, np.nan))
+                  tracks=tracks, singularity=ds[:, plan.table.row], orientation=orientation,
+                  transmission=transmission, assembled=ok, lockups=found, step_singularity=ds[:, plan.step_rows])
 
 
-def _assembled(pn: np.ndarray, ds: np.ndarray, sds: np.ndarray) -> np.ndarray:
-    """(T,) whether every joint is placed at each sample: positions (T, J, 2), d_s of the rules
-    (T, R) and steps (T, X) (:func:`linkedit.planar.feasibility.assembles`)."""
-    return np.isfinite(pn).all(axis=(1, 2)) & assembles(ds).all(axis=1) & assembles(sds).all(axis=1)
+def _assembled(pn: np.ndarray, ds: np.ndarray) -> np.ndarray:
+    """(T,) whether every joint is placed at each sample: positions (T, J, 2), d_s of every rule
+    row (T, N) (:func:`linkedit.planar.feasibility.assembles`)."""
+    return np.isfinite(pn).all(axis=(1, 2)) & assembles(ds).all(axis=1)
 
 
 def _lockups_between(plan: Plan, geom: Geometry, scale: float) -> list[LockUp]:
@@ -328,38 +320,32 @@ def _lockups_between(plan: Plan, geom: Geometry, scale: float) -> list[LockUp]:
     t, value = motor_angles(spec, CHECK_SAMPLES)
     state = evaluate(plan, geom, value / scale if plan.linear else value, order=0)
     pn = _joint_order(plan, state.z)
-    ds, sds = state.ds.T, state.step_ds.T
-    if _assembled(pn, ds, sds).all():
+    ds = state.ds.T
+    if _assembled(pn, ds).all():
         return []
     shown = value if plan.linear else np.degrees(value)
-    found = _find_lockups(plan, pn, ds, sds, shown, _unit(plan))
+    found = _find_lockups(plan, pn, ds, shown, _unit(plan))
     return [replace(lk, what=(lk.what or lk.because()) + " (found between the requested samples: "
                     "simulate with more samples to see it)") for lk in found]
 
 
-def _find_lockups(plan: Plan, pn: np.ndarray, ds: np.ndarray, sds: np.ndarray, shown: np.ndarray,
-                  unit: str) -> list[LockUp]:
-    """Lock-up intervals of rules and steps, in evaluation order (see :func:`lockups`)."""
-    rules = plan.rules
-    samples = pn.shape[0]
-    d = np.linalg.norm(pn[:, rules[:, 1]] - pn[:, rules[:, 0]], axis=-1) if len(rules) else np.zeros((samples, 0))
-    rest = plan_graph_normalized(plan).rest
-    lik = np.linalg.norm(rest[rules[:, 2]] - rest[rules[:, 0]], axis=-1)
-    ljk = np.linalg.norm(rest[rules[:, 2]] - rest[rules[:, 1]], axis=-1)
+def _find_lockups(plan: Plan, pn: np.ndarray, ds: np.ndarray, shown: np.ndarray, unit: str) -> list[LockUp]:
+    """Lock-up intervals of the rules' d_s rows (T, N), in evaluation order (see :func:`lockups`);
+    each rule explains its own rows."""
     finite = np.isfinite(pn).all(axis=2)  # (T, J)
-    bad_rules = ~assembles(ds)
-    own_rules = (ds <= TOGGLE) | (bad_rules & np.isfinite(d))
-    bad_steps = ~assembles(sds)
-    inputs_ok = np.stack([finite[:, st.inputs].all(axis=1) for st in plan.steps], axis=1) if plan.steps \
-        else np.zeros((samples, 0), dtype=bool)
-    own_steps = (sds <= TOGGLE) | (bad_steps & inputs_ok)
-    # evaluation order: by level, rules before steps within a level
-    levels = np.concatenate([plan.level, [st.level for st in plan.steps]]).astype(float)
-    order = np.argsort(levels + np.r_[np.zeros(len(rules)), np.full(len(plan.steps), 0.5)], kind="stable")
-    bad = np.concatenate([bad_rules, bad_steps], axis=1)[:, order]
-    own = np.concatenate([own_rules, own_steps], axis=1)[:, order]
-    explain = _explain(plan, d, lik, ljk, ds, sds)
-    return lockups(bad, own, shown, plan.spec.motor.cyclic, lambda r, t: explain(int(order[r]), t), unit)
+    bad = ~assembles(ds)
+    placed = np.hstack([rule.inputs_placed(finite) for rule in plan.rules]) if plan.rules \
+        else np.zeros((pn.shape[0], 0), dtype=bool)
+    own = (ds <= TOGGLE) | (bad & placed)
+    owner, within = plan.ds_rule()
+    rest = plan_graph_normalized(plan).rest
+    names = plan.joint_names
+
+    def explain(r: int, t: int) -> tuple[str, tuple[str, str], bool, str]:
+        rule = plan.rules[owner[r]]
+        return rule.explain(names, int(within[r]), Failure(pn, ds[:, plan.ds_rows[owner[r]]], rest, TOGGLE), t)
+
+    return lockups(bad, own, shown, plan.spec.motor.cyclic, explain, unit)
 
 
 def _check_closure(plan: Plan, state: State) -> None:

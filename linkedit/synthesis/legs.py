@@ -76,7 +76,7 @@ class CatalogFamily:
         turn = 2.0 * np.pi * (np.asarray(phase, dtype=float).reshape(-1, 1) + np.arange(samples)[None, :] / samples)
         state = _evaluate(self.plan, geom, geom.rest_angle + self.direction * turn, order=0)
         z = state.z[self.plan.row_of[: self.plan.n_joints]]  # (J, K, T)
-        return z.transpose(1, 0, 2), state.ds[~self.plan.rigid].transpose(1, 0, 2)
+        return z.transpose(1, 0, 2), state.ds[self.plan.table.row[~self.plan.table.rigid]].transpose(1, 0, 2)
 
     def min_singularity(self, params: np.ndarray, margin: float | None = None) -> np.ndarray:
         """The lowest d_s over the cycle (K,): :func:`linkedit.planar.feasibility.lowest` of the dyads

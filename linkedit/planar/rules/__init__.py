@@ -1,7 +1,8 @@
-"""The planar rules of the non-revolute kinds, one module each, and how a plan compiles them.
+"""The planar rule vocabulary, one module per kind, and how a plan compiles the non-revolute ones.
 
-Dyad and rigid rules (the law of cosines, :mod:`linkedit.planar.law_of_cosines`) are evaluated
-in batches by :mod:`linkedit.planar.kinematics`; every other kind is a :class:`Step` subclass:
+Every rule is a :class:`Rule` (:mod:`.base`). :class:`Dyad` (the law of cosines,
+:mod:`linkedit.planar.law_of_cosines`) and :class:`Rigid` hold a whole level's batch each
+(:class:`Triangles`); every other kind is a :class:`Step` subclass:
 :class:`Slider` (circle–line), :class:`Drive` (the linear input), :class:`Lines` (two slots),
 :class:`Rotate` (a slotted rocker), :class:`Yoke` (a translating slotted link) and
 :class:`Group` (a complex loop solved numerically). A new kind is one class in one module,
@@ -13,18 +14,22 @@ from __future__ import annotations
 from linkedit.planar.constraints import linkage_rows
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
-from linkedit.planar.rules.base import Step
+from linkedit.planar.rules.base import Failure, Frame, RestFrame, Rule, Step
 from linkedit.planar.rules.drive import Drive
+from linkedit.planar.rules.dyad import Dyad
 from linkedit.planar.rules.group import Group
 from linkedit.planar.rules.lines import Lines
 from linkedit.planar.rules.rotate import Rotate
+from linkedit.planar.rules.rigid import Rigid
 from linkedit.planar.rules.slider import Slider
+from linkedit.planar.rules.triangles import Triangles
 from linkedit.planar.rules.yoke import Yoke
 
 #: the class of each kind the ordering (:mod:`linkedit.planar.ordering`) names
 KINDS: dict[str, type[Step]] = {cls.kind: cls for cls in (Slider, Drive, Lines, Rotate, Yoke, Group)}
 
-__all__ = ["KINDS", "Drive", "Group", "Lines", "Rotate", "Slider", "Step", "Yoke", "compile_steps"]
+__all__ = ["KINDS", "Drive", "Dyad", "Failure", "Frame", "Group", "Lines", "RestFrame", "Rigid", "Rotate", "Rule",
+           "Slider", "Step", "Triangles", "Yoke", "compile_steps"]
 
 
 def compile_steps(graph: LinkageGraph, rules: tuple[StepRule, ...], known0: set[int],

@@ -1,6 +1,10 @@
-"""What every planar rule of the non-revolute kinds shares: its rows, and derivatives from them.
+"""What every planar rule shares (:class:`Rule`), and the rows the non-revolute kinds share.
 
-A :class:`Step` writes some joints from joints known before it, over T samples at once. Each
+A plan is one sequence of :class:`Rule` objects in evaluation order; each writes some points'
+rows of the arrays one evaluation fills (:class:`Frame`, or :class:`RestFrame` for ``edit``'s
+rest-pose tangents) and its own rows of the singularity distance d_s. The revolute kinds
+(:mod:`.dyad`, :mod:`.rigid`) are one object per level holding that level's whole batch, so a
+level costs one array operation per kind. A :class:`Step` writes some joints from joints known before it, over T samples at once. Each
 kind (one module each: :mod:`.slider`, :mod:`.drive`, :mod:`.lines`, :mod:`.rotate`,
 :mod:`.yoke`, :mod:`.group`) owns its closed form (or numeric solve) for the positions, its
 singularity distance, how it explains a lock-up and how it leaves its rest branch. Velocities,
@@ -13,7 +17,7 @@ every kind.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -22,16 +26,131 @@ from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
 
 
-@dataclass(frozen=True)
-class Step:
-    """One compiled rule of a non-revolute kind. Indices are joints (spec order)."""
+@dataclass
+class Frame:
+    """The arrays one evaluation fills, rows in the plan's internal order: ``z``, ``dz``, ``ddz``
+    (P, *L, T) complex (L: an optional linkage axis), ``ds`` (N, *L, T) d_s per rule row (1 where
+    a rule has none; < 0 or NaN: cannot place)."""
 
-    #: the kind's name, as written to result files and shown by ``validate``
+    z: np.ndarray
+    dz: np.ndarray | None
+    ddz: np.ndarray | None
+    ds: np.ndarray
+    joints: np.ndarray  #: (J,) internal row of each joint
+    s: np.ndarray  #: (T,) the linear input (zeros for a rotary one)
+    drive: float  #: ds/dinput: 1 for a linear input, 0 for a rotary one
+    rest: np.ndarray  #: (J,) complex rest joints (where a numeric group starts)
+
+
+@dataclass
+class RestFrame:
+    """The arrays of ``edit``'s evaluation from a rest pose (:mod:`linkedit.edit.kinematics`):
+    ``z`` (P, T), ``ds`` (N, T) as in :class:`Frame`; with tangents ``dz`` (P, C, T) and
+    ``dlnds`` (N, C, T) along the rest-pose directions ``D`` (J, C) complex."""
+
+    z: np.ndarray
+    ds: np.ndarray
+    dz: np.ndarray | None
+    dlnds: np.ndarray | None
+    rest: np.ndarray  #: (J,) complex rest joints (normalized frame when the plan has steps)
+    D: np.ndarray  #: (J, C) rest-pose directions
+    joints: np.ndarray  #: (J,) internal row of each joint
+    s: np.ndarray  #: (T,) the linear input
+    graph: LinkageGraph | None  #: the graph at ``rest`` (steps only)
+    #: the plan's steps compiled again at ``rest``, by ``id`` of the plan's (steps only)
+    steps: dict[int, "Step"]
+    #: rigid rules: coefficients of tracked points kept in their link's frame, by ``id`` of the rule
+    fixed: dict[int, np.ndarray]
+
+
+class Rule:
+    """One rule of a plan: writes its points from points written before it (see module docstring).
+
+    ``rows`` below is the rule's slice of the d_s rows (``Plan.ds_rows``); ``const`` its part of
+    a :class:`~linkedit.planar.plan.Geometry` (:meth:`constants`).
+    """
+
+    #: the kind's name, as result files and ``validate`` give it
     kind: ClassVar[str] = ""
-    #: its singularity distance counts towards a motion's minimum (``Motion.min_singularity``)
+    #: its d_s rows count towards a motion's minimum (``Motion.min_singularity``)
     watched: ClassVar[bool] = False
-    #: ``edit``'s singularity barrier guards it (it has :meth:`dlnds`)
+    #: ``edit``'s singularity barrier guards its d_s rows
     guarded: ClassVar[bool] = False
+    #: exact by construction: its d_s rows are 1, never checked
+    exact: ClassVar[bool] = False
+    level: int
+
+    def ds_count(self) -> int:
+        """How many rows of d_s the rule owns."""
+        return 1
+
+    def written(self) -> np.ndarray:
+        """(n,) point ids the rule writes (joints, then tracked points J..)."""
+        raise NotImplementedError
+
+    def placed(self) -> np.ndarray:
+        """(ds_count,) the joint each of its d_s rows places (named by messages)."""
+        raise NotImplementedError
+
+    def constants(self, z: np.ndarray, many: bool) -> tuple[Any, ...]:
+        """Its constants at rest points ``z`` (P, K) complex (``many``: keep the linkage axis)."""
+        return ()
+
+    def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
+        """Write its points (and derivatives) and its d_s rows of ``f``."""
+        raise NotImplementedError
+
+    def positions(self, z: np.ndarray, const: tuple[Any, ...], work: Any) -> None:
+        """Positions only, into ``z`` (P, T) with ``work``'s buffers
+        (:class:`~linkedit.planar.kinematics.Workspace`: no allocation); the revolute kinds only."""
+        raise TypeError(f"a {type(self).__name__} rule is placed by evaluate()")
+
+    def at_rest(self, f: RestFrame, rows: slice) -> None:
+        """Write its points, d_s, and with tangents ∂z and ∂ln d_s of ``f``."""
+        raise NotImplementedError
+
+    def depend(self, row_of: np.ndarray, dep: np.ndarray, uses: np.ndarray) -> None:
+        """Fill ``dep`` (P, n) bool, the variables each point row depends on, for its points
+        (``uses`` (J, n): the variables each joint's rest position depends on)."""
+        raise NotImplementedError
+
+    def lines(self, names: list[str]) -> list[tuple[tuple[int, int, int], str]]:
+        """What it does, for ``validate``: (sort key within the listing, line) per entry."""
+        raise NotImplementedError
+
+    def explain(self, names: list[str], n: int, f: "Failure", t: int) -> tuple[str, tuple[str, str], bool, str]:
+        """Why its d_s row ``n`` (0-based within the rule) fails at sample ``t``: (joint,
+        inputs, stretched, what), as :func:`linkedit.planar.diagnostics.lockups` takes it."""
+        raise NotImplementedError
+
+    def inputs_placed(self, finite: np.ndarray) -> np.ndarray:
+        """(T, ds_count) whether the joints each of its d_s rows reads are placed, from
+        ``finite`` (T, J) bool (a row failing with its inputs placed fails on its own)."""
+        raise NotImplementedError
+
+    def culprit(self, names: list[str], n: int) -> str:
+        """Its d_s row ``n`` as a failure names it: ``joint X``, ``slider s``, …"""
+        raise NotImplementedError
+
+    def move_tracks(self, old: np.ndarray, new: np.ndarray) -> None:
+        """Carry tracked points it writes from rest points ``old`` to ``new`` (P,) complex, in place."""
+
+
+@dataclass
+class Failure:
+    """A cycle's samples for lock-up explanations: positions ``p`` (T, J, 2) and the rule's d_s
+    rows ``ds`` (T, n), normalized frame; ``rest`` (J, 2) normalized rest joints."""
+
+    p: np.ndarray
+    ds: np.ndarray
+    rest: np.ndarray
+    toggle: float
+
+
+@dataclass(frozen=True)
+class Step(Rule):
+    """One compiled rule of a non-revolute kind. Indices are joints (spec order). Its one d_s row;
+    a :attr:`guarded` kind has :meth:`dlnds`."""
 
     level: int
     joints: np.ndarray  # (n,) joints written
@@ -48,6 +167,61 @@ class Step:
         linkage's rows (:func:`~linkedit.planar.constraints.linkage_rows`), ``known`` the joints
         known before it."""
         raise NotImplementedError
+
+    def written(self) -> np.ndarray:
+        return self.joints
+
+    def placed(self) -> np.ndarray:
+        return self.joints[:1]
+
+    def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
+        """Place its joints in ``f`` (one linkage), then their derivatives by :meth:`velocity`
+        and :meth:`acceleration`."""
+        out_rows = f.joints[self.joints]
+        zj = f.z[f.joints]
+        out, f.ds[rows] = self.place(zj, f.s, f.rest)
+        f.z[out_rows] = zj[self.joints] = out
+        if f.dz is not None:
+            dzj = f.dz[f.joints]
+            f.dz[out_rows] = dzj[self.joints] = self.velocity(zj, dzj, f.drive)
+            if f.ddz is not None:
+                f.ddz[out_rows] = self.acceleration(zj, dzj, f.ddz[f.joints])
+
+    def at_rest(self, f: RestFrame, rows: slice) -> None:
+        """Place its joints by the step compiled at ``f.rest``; tangents by :meth:`rest_tangent`
+        (one batched solve per direction), ∂ln d_s by :meth:`dlnds` when guarded."""
+        new = f.steps[id(self)]
+        zj = f.z[f.joints]
+        out, f.ds[rows] = new.place(zj, f.s, f.rest)
+        f.z[f.joints[self.joints]] = zj[self.joints] = out
+        if f.dz is None or f.graph is None:
+            return
+        dzj = f.dz[f.joints]
+        tangent = np.stack([new.rest_tangent(f.graph, zj, dzj[:, c], f.D[:, c]) for c in range(f.D.shape[1])], axis=1)
+        f.dz[f.joints[self.joints]] = dzj[self.joints] = tangent
+        if self.guarded and f.dlnds is not None:
+            f.dlnds[rows] = new.dlnds(f.graph, zj, dzj, f.D)
+
+    def needs(self) -> np.ndarray:
+        """Joints (indices) whose rest positions its constants depend on."""
+        rows = set().union(*self.rows.joints) if self.rows.m else set()
+        return np.array(sorted(rows | set(self.joints.tolist()) | set(self.inputs.tolist())), dtype=int)
+
+    def depend(self, row_of: np.ndarray, dep: np.ndarray, uses: np.ndarray) -> None:
+        needs = self.needs()
+        dep[row_of[self.joints]] = (dep[row_of[needs]].any(axis=0) | uses[needs].any(axis=0))[None]
+
+    def lines(self, names: list[str]) -> list[tuple[tuple[int, int, int], str]]:
+        return [((self.level, 1, 0), self.describe(names))]
+
+    def inputs_placed(self, finite: np.ndarray) -> np.ndarray:
+        return np.all(finite[:, self.inputs], axis=1, keepdims=True)
+
+    def explain(self, names: list[str], n: int, f: "Failure", t: int) -> tuple[str, tuple[str, str], bool, str]:
+        return names[self.joints[0]], ("", ""), False, self.lockup(names, abs(f.ds[t, n]) <= f.toggle)
+
+    def culprit(self, names: list[str], n: int) -> str:
+        return self.label()
 
     def what(self) -> str:
         """What the step is, for ``validate``: e.g. ``slider s``."""

@@ -1,0 +1,81 @@
+"""Dyad rules: joint k at fixed distances from two known joints i, j, a level's batch at once.
+
+The law of cosines (:mod:`linkedit.planar.law_of_cosines`, the one place it is written) on the
+triangle (i, j, k), on the side it has at rest; d_s = sin²α, α the angle at k (LinkEdit Eq. 6);
+velocities, accelerations and ``edit``'s rest-pose tangents differentiate the same formula.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from linkedit.planar import law_of_cosines as loc
+from linkedit.planar.rules.base import Frame, RestFrame
+from linkedit.planar.rules.triangles import Triangles
+
+
+@dataclass(frozen=True, eq=False)
+class Dyad(Triangles):
+    """A level's dyads, each on the side ``sign`` of its rest triangle."""
+
+    kind: ClassVar[str] = "dyad"
+    watched: ClassVar[bool] = True
+    guarded: ClassVar[bool] = True
+
+    def constants(self, z: np.ndarray, many: bool) -> tuple[Any, ...]:
+        """(l_ik², l_jk², (l_ik² − l_jk²)/2, sign): (R, 1) each, (R, K, 1) with ``many`` (then each
+        linkage's own rest orientation)."""
+        zi, zj, zk = z[self.i_point, :, None], z[self.j_point, :, None], z[self.k_point, :, None]
+        a, c = np.abs(zk - zi) ** 2, np.abs(zk - zj) ** 2
+        if many:
+            return a, c, 0.5 * (a - c), np.sign(((zj - zi).conjugate() * (zk - zi)).imag)
+        return a[:, 0], c[:, 0], 0.5 * (a - c)[:, 0], self.sign
+
+    def positions(self, z: np.ndarray, const: tuple[Any, ...], work: Any) -> None:
+        r = self.stop - self.start
+        zi, zj, e = np.take(z, self.i, axis=0, out=work.zi[:r]), np.take(z, self.j, axis=0, out=work.zj[:r]), work.e[:r]
+        np.subtract(zj, zi, out=e)
+        lik2, _, half, sign = const
+        loc.dyad_coefficient(e, half, lik2, sign, work.w[:r], work.d2[:r], work.u[:r], work.a[:r], work.b[:r])
+        np.multiply(e, work.w[:r], out=e)
+        np.add(zi, e, out=z[self.start:self.stop])
+
+    def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
+        lik2, ljk2, half, sign = const
+        out = slice(self.start, self.stop)
+        f.z[out], terms = loc.dyad(f.z[self.i], f.z[self.j], half, lik2, sign)
+        f.ds[rows] = loc.singularity_distance(terms, lik2, ljk2)
+        if f.dz is not None:
+            f.dz[out], de, du, dw = loc.dyad_velocity(terms, f.dz[self.i], f.dz[self.j], half, lik2)
+            if f.ddz is not None:
+                f.ddz[out] = loc.dyad_acceleration(terms, de, du, dw, f.ddz[self.i], f.ddz[self.j], half, lik2)
+
+    def at_rest(self, f: RestFrame, rows: slice) -> None:
+        """Lengths from the rest pose ``f.rest``; with tangents, ∂z_k and ∂ln d_s along ``f.D``."""
+        out = slice(self.start, self.stop)
+        zi, zj = f.z[self.i], f.z[self.j]
+        ri, rj, rk = f.rest[self.i_point], f.rest[self.j_point], f.rest[self.k_point]
+        lik2, ljk2 = np.abs(rk - ri) ** 2, np.abs(rk - rj) ** 2
+        half = 0.5 * (lik2 - ljk2)
+        f.z[out], t = loc.dyad(zi, zj, half[:, None], lik2[:, None], self.sign)
+        f.ds[rows] = loc.singularity_distance(t, lik2[:, None], ljk2[:, None])
+        if f.dz is None or f.dlnds is None:
+            return
+        D = f.D
+        Di, Dj, Dk = D[self.i_point], D[self.j_point], D[self.k_point]
+        dL = 2.0 * ((rk - ri).conj()[:, None] * (Dk - Di)).real  # (R, C)
+        dM = 2.0 * ((rk - rj).conj()[:, None] * (Dk - Dj)).real
+        dh = 0.5 * (dL - dM)
+        dzi, dzj = f.dz[self.i], f.dz[self.j]
+        de = dzj - dzi  # (R, C, T)
+        e, u, a = t.e[:, None, :], t.u[:, None, :], t.a[:, None, :]
+        du = -2.0 * (e.real * de.real + e.imag * de.imag) * u * u
+        da = dh[:, :, None] * u + half[:, None, None] * du
+        dbsq = dL[:, :, None] * u + lik2[:, None, None] * du - 2.0 * a * da
+        db = dbsq / (2.0 * t.b[:, None, :])
+        f.dz[out] = dzi + (da + 1j * db) * e + t.w[:, None, :] * de
+        f.dlnds[rows] = (dbsq / t.bsq[:, None, :] - 2.0 * du / u
+                         - (dL / lik2[:, None])[:, :, None] - (dM / ljk2[:, None])[:, :, None])

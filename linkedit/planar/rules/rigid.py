@@ -1,0 +1,77 @@
+"""Rigid rules: joint (or tracked point) k fixed in the frame of link (i, j), a level's batch at once.
+
+z_k = z_i + c·(z_j − z_i) with the constant c = (z̄_k − z̄_i)/(z̄_j − z̄_i) of the rest pose
+(:func:`linkedit.planar.law_of_cosines.rigid`); the same line gives every derivative. Exact by
+construction: its d_s is 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from linkedit.planar import law_of_cosines as loc
+from linkedit.planar.rules.base import Frame, RestFrame
+from linkedit.planar.rules.triangles import Triangles
+
+
+@dataclass(frozen=True, eq=False)
+class Rigid(Triangles):
+    """A level's rigid rules and the tracked points on links placed with them."""
+
+    kind: ClassVar[str] = "rigid"
+    exact: ClassVar[bool] = True
+
+    def constants(self, z: np.ndarray, many: bool) -> tuple[Any, ...]:
+        """(c,): (R, 1) complex, (R, K, 1) with ``many``."""
+        zi, zj, zk = z[self.i_point, :, None], z[self.j_point, :, None], z[self.k_point, :, None]
+        c = (zk - zi) / (zj - zi)
+        return (c if many else c[:, 0],)
+
+    def positions(self, z: np.ndarray, const: tuple[Any, ...], work: Any) -> None:
+        r = self.stop - self.start
+        zi, zj, e = np.take(z, self.i, axis=0, out=work.zi[:r]), np.take(z, self.j, axis=0, out=work.zj[:r]), work.e[:r]
+        np.subtract(zj, zi, out=e)
+        np.multiply(e, const[0], out=e)
+        np.add(zi, e, out=z[self.start:self.stop])
+
+    def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
+        out, c = slice(self.start, self.stop), const[0]
+        f.z[out] = loc.rigid(f.z[self.i], f.z[self.j], c)
+        if f.dz is not None:
+            f.dz[out] = loc.rigid(f.dz[self.i], f.dz[self.j], c)
+        if f.ddz is not None:
+            f.ddz[out] = loc.rigid(f.ddz[self.i], f.ddz[self.j], c)
+
+    def at_rest(self, f: RestFrame, rows: slice) -> None:
+        """Joints take c from the rest pose (its tangent from ``f.D``); tracked points keep
+        the plan's (``f.fixed``: NaN for joints)."""
+        out = slice(self.start, self.stop)
+        zi, zj = f.z[self.i], f.z[self.j]
+        ri, rj = f.rest[self.i_point], f.rest[self.j_point]
+        fixed = f.fixed[id(self)]
+        joint = np.isnan(fixed)
+        rk = f.rest[np.where(joint, self.k_point, 0)]
+        c = np.where(joint, (rk - ri) / (rj - ri), fixed)
+        e = zj - zi
+        f.z[out] = zi + c[:, None] * e
+        if f.dz is not None:
+            D = f.D
+            Di, Dj = D[self.i_point], D[np.where(joint, self.j_point, 0)]
+            Dk = D[np.where(joint, self.k_point, 0)]
+            dc = np.where(joint[:, None], (Dk - Di - c[:, None] * (Dj - Di)) / (rj - ri)[:, None], 0.0)
+            dzi, dzj = f.dz[self.i], f.dz[self.j]
+            f.dz[out] = dzi + dc[:, :, None] * e[:, None, :] + c[:, None, None] * (dzj - dzi)
+
+    def tracked(self, coef: np.ndarray, joints: int) -> np.ndarray:
+        """(R,) the plan's coefficients ``coef`` (its constants) of tracked points, NaN for joints."""
+        return np.where(self.k_point >= joints, coef[:, 0], np.nan)
+
+    def move_tracks(self, old: np.ndarray, new: np.ndarray) -> None:
+        m = ~self.listed
+        if m.any():
+            ip, jp, kp = self.i_point[m], self.j_point[m], self.k_point[m]
+            coef = (old[kp] - old[ip]) / (old[jp] - old[ip])
+            new[kp] = new[ip] + coef * (new[jp] - new[ip])

@@ -1,0 +1,78 @@
+"""What the revolute kinds share: a level's batch of rules (i, j) → k, written as one block.
+
+A :class:`Triangles` object is every rule of one kind (:mod:`.dyad`, :mod:`.rigid`) in one
+level: it writes the internal rows ``start:stop`` from the rows ``i``, ``j`` with one array
+operation per quantity. Its members are entries of the plan's triangle table (``rule``; −1 for
+a tracked point on a link, which a rigid rule places but no table lists).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import numpy as np
+
+from linkedit.planar.rules.base import Failure, Rule
+
+
+@dataclass(frozen=True, eq=False)
+class Triangles(Rule):
+    """Rules (i, j) → k of one kind in one level (see module docstring)."""
+
+    level: int
+    start: int
+    stop: int
+    i: np.ndarray  # (R,) input rows
+    j: np.ndarray  # (R,) input rows
+    k_point: np.ndarray  # (R,) point ids written (joint index, or J + track-point number)
+    i_point: np.ndarray  # (R,) point ids of the inputs
+    j_point: np.ndarray
+    rule: np.ndarray  # (R,) index into the plan's triangle table, or -1 for a tracked point
+    sign: np.ndarray  # (R, 1) orientation of triangle (i, j, k) at rest (dyads), ±1
+
+    @property
+    def listed(self) -> np.ndarray:
+        """(R,) bool: members the triangle table lists (each owns one d_s row)."""
+        return self.rule >= 0
+
+    def ds_count(self) -> int:
+        return int(self.listed.sum())
+
+    def written(self) -> np.ndarray:
+        return self.k_point
+
+    def placed(self) -> np.ndarray:
+        return self.k_point[self.listed]
+
+    def depend(self, row_of: np.ndarray, dep: np.ndarray, uses: np.ndarray) -> None:
+        J = uses.shape[0]
+        own = uses[self.i_point] | uses[self.j_point] | np.where(
+            (self.k_point < J)[:, None], uses[np.minimum(self.k_point, J - 1)], False)
+        dep[self.start:self.stop] = dep[self.i] | dep[self.j] | own
+
+    def lines(self, names: list[str]) -> list[tuple[tuple[int, int, int], str]]:
+        m = self.listed
+        return [((self.level, 0, int(r)), f"{names[k]} ← ({names[i]}, {names[j]}) {self.kind}")
+                for r, i, j, k in zip(self.rule[m], self.i_point[m], self.j_point[m], self.k_point[m])]
+
+    def inputs_placed(self, finite: np.ndarray) -> np.ndarray:
+        m = self.listed
+        return finite[:, self.i_point[m]] & finite[:, self.j_point[m]]
+
+    def explain(self, names: list[str], n: int, f: Failure, t: int) -> tuple[str, tuple[str, str], bool, str]:
+        """Joint k, its inputs, whether they are too far apart for its links, and a toggle's
+        explanation when its d_s is 0 within rounding."""
+        m = self.listed
+        i, j, k = self.i_point[m][n], self.j_point[m][n], self.k_point[m][n]
+        d = np.linalg.norm(f.p[:, [j]] - f.p[:, [i]], axis=-1)[t, 0]
+        lik = np.linalg.norm(f.rest[[k]] - f.rest[[i]], axis=-1)[0]
+        ljk = np.linalg.norm(f.rest[[k]] - f.rest[[j]], axis=-1)[0]
+        far = bool(d > lik + ljk) if np.isfinite(d) else False
+        what = ""
+        if abs(f.ds[t, n]) <= f.toggle:  # within rounding of a toggle: name it, never "too close"
+            how = "stretched" if abs(d - lik - ljk) <= abs(d - abs(lik - ljk)) else "folded"
+            what = (f"joint {names[k]} reaches a toggle position: its links are fully {how} between "
+                    f"{names[i]} and {names[j]} (d_s = 0, its velocity is undefined there)")
+        return names[k], (names[i], names[j]), far, what
+
+    def culprit(self, names: list[str], n: int) -> str:
+        return f"joint {names[self.placed()[n]]}"
