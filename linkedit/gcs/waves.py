@@ -1,7 +1,7 @@
 """Many time steps solved at once, each kept only where the step-by-step continuation would
 have accepted it.
 
-The continuation of :mod:`linkedit.gcs.solver` pays Python's per-call cost at every step.
+The continuation of :mod:`linkedit.gcs.continuation` pays Python's per-call cost at every step.
 Where the scaled Jacobian has full column rank (nothing free to keep still), the pose at a
 time is the root of the constraints nearest its prediction whatever the anchor, so a *block*
 of steps can be solved together:
@@ -86,13 +86,16 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.csgraph
 
+from linkedit.gcs import accept
 from linkedit.gcs import canonical as canon
 from linkedit.gcs import constraints as kinds
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.acceleration import advanced
 from linkedit.gcs.closed_form import ClosedForm
-from linkedit.gcs.solver import FREE_PIVOT, NULL_APART, NULL_CLEAN, Solver
+from linkedit.gcs.continuation import Solver
+from linkedit.gcs.linalg import probes
 from linkedit.gcs.system import EVALUATE, Block, Evaluation, State, StepParameters, StepTable
+from linkedit.gcs.tolerances import DAMPING, FREE_PIVOT, NULL_APART, NULL_CLEAN, TIED
 
 #: steps of a block after a rejected step (doubling after each block accepted whole); the
 #: first block is the whole run
@@ -137,11 +140,6 @@ SPLIT_FROM = 64
 CHUNK = 256
 #: batches of at most this many poses solve their triangular systems pose by pose
 FEW = 24
-#: scaled Jacobian entries (of order 1) at most this large tie no unknowns, and scaled
-#: residual rows stir no still part: the rounding of exact zeros (a planar linkage's poses off
-#: their plane by ~1e-30 after steps solved step by step); a block solve that leaves them out
-#: errs by as little
-TIED = 1e-15
 #: the layouts of this many batch sizes, of at most KEPT_POSES poses, are kept on the system
 #: for its later runs (the last built)
 KEPT_LAYOUTS, KEPT_POSES = 16, 1024
@@ -740,7 +738,7 @@ class Waves:
         (secant over two steps; the first's exact): a step that fails it so is left to the
         continuation, not factorized first (the test proper comes after the solve)."""
         opt = self.solver.options
-        n = int(np.argmin(valid)) if not valid.all() else len(valid)
+        n = accept.leading(valid)
         if n == 0:
             return 0
         P0 = np.concatenate([before[0][None], P[:n - 1]])
@@ -750,9 +748,7 @@ class Waves:
         v = np.empty_like(moved)
         v[0] = before[2]
         v[1:] = (moved[:-1] + moved[1:]) / (h[:-1] + h[1:])[:, None]
-        ok = (np.abs(moved - h[:, None] * v).max(axis=1) <= opt.predictor_tol) \
-            & (np.abs(v).max(axis=1) * np.abs(h) <= opt.max_motion)
-        return int(np.argmin(ok)) if not ok.all() else n
+        return accept.leading(accept.passes(moved, h, v, opt))
 
     def verify(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
                incoming: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -889,7 +885,7 @@ class Waves:
         small = np.zeros(B, dtype=int)
         for H in normal:
             n = H.shape[1]
-            H.reshape(B, n * n)[:, ::n + 1] += (1e-13 * top)[:, None]
+            H.reshape(B, n * n)[:, ::n + 1] += (DAMPING * top)[:, None]
             try:
                 L = np.linalg.cholesky(H)
             except np.linalg.LinAlgError:  # some pose is not positive definite: one by one
@@ -918,7 +914,7 @@ class Waves:
         (μ sets the null eigenvalue apart by FREE_PIVOT / 1e-13 at least); and whether each is
         clean (B,): |J n| at most NULL_CLEAN of √(largest diagonal of JᵀJ)."""
         B, N = len(top), self.system.n_unknowns
-        probe = np.random.default_rng(1).standard_normal(N)  # as the continuation's probes
+        probe = probes(N, 1)[:, 0]  # as the continuation's
         parts = self.parts
         y = self._assemble(self._solve(factors, [np.broadcast_to(probe[p.cols], (B, len(p.cols))) for p in parts]),
                            parts)
@@ -934,10 +930,10 @@ class Waves:
         null vector, clean when J's two singular values there are at most NULL_CLEAN and at
         least NULL_APART of √(largest diagonal of JᵀJ)."""
         B, N = len(top), self.system.n_unknowns
-        probes = np.random.default_rng(2).standard_normal((N, 2))  # as the continuation's probes
+        start = probes(N, 2)  # as the continuation's
         Y = np.empty((B, N, 2))
         for j in range(2):
-            y = self._assemble(self._solve(factors, [np.broadcast_to(probes[p.cols, j], (B, len(p.cols)))
+            y = self._assemble(self._solve(factors, [np.broadcast_to(start[p.cols, j], (B, len(p.cols)))
                                                      for p in self.parts]), self.parts)
             Y[:, :, j] = self._assemble(self._solve(factors, [y[:, p.cols] for p in self.parts]), self.parts)
         # an orthonormal basis of the span (Gram–Schmidt), J on it (B, R, 2) and its 2 × 2 Gram matrix
@@ -1085,9 +1081,7 @@ class Waves:
         v0 = np.concatenate([before[2][None], velocity[:-1]])
         h = np.diff(np.concatenate([[t_before], self.table.t[steps]]))
         moved = self.displacement(P, Q, P0, Q0)
-        ok = done & (np.abs(moved - h[:, None] * v0).max(axis=1) <= opt.predictor_tol) \
-            & (np.abs(v0).max(axis=1) * np.abs(h) <= opt.max_motion)
-        return int(np.argmin(ok)) if not ok.all() else len(steps)
+        return accept.leading(done & accept.passes(moved, h, v0, opt))
 
     # ---- predictions ----------------------------------------------------------------------
 
