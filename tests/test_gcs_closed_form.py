@@ -12,7 +12,8 @@ from linkedit.gcs import quaternions as quat
 from linkedit.gcs.closed_form import ClosedForm, Driven, Dyad
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.planar_bridge import planar_model
-from linkedit.gcs.solver import Options, solve_run
+from linkedit.gcs.solve import solve_run
+from linkedit.gcs.tolerances import Options
 from linkedit.gcs.system import State
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.mechanism3d import MechanismSpec
@@ -248,7 +249,7 @@ def test_a_block_whose_first_step_cannot_be_rebuilt_is_left_to_the_continuation(
     """The crank-rocker's rocker driven past its reach: a block starting where the crank–coupler
     dyad cannot close has no pose to screen or solve (none is rebuilt); the waves say so and the
     continuation takes the step."""
-    from linkedit.gcs.solver import Solver
+    from linkedit.gcs.continuation import Solver
     from linkedit.gcs.waves import Waves
 
     data = _data("crank-rocker")

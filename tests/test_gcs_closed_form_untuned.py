@@ -22,7 +22,8 @@ import pytest
 
 from linkedit.gcs.closed_form import ClosedForm
 from linkedit.gcs.members import compile_mechanism
-from linkedit.gcs.solver import Options, solve_run
+from linkedit.gcs.solve import solve_run
+from linkedit.gcs.tolerances import Options
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import validate
 

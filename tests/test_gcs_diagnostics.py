@@ -10,9 +10,11 @@ import pytest
 
 from linkedit.errors import MechanismError
 from linkedit.gcs import diagnostics as diag
+from linkedit.gcs import linalg
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.result import read_result, write_result
-from linkedit.gcs.solver import CONVERGED, solve_run
+from linkedit.gcs.solve import solve_run
+from linkedit.gcs.tolerances import CONVERGED, RANK_TOL
 from linkedit.gcs.system import Custom, State, System
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_model
@@ -21,12 +23,12 @@ from tests.test_gcs_solver import _spec
 
 def _dense_rank(J: np.ndarray) -> int:
     s = np.linalg.svd(J, compute_uv=False)
-    return int(np.sum(s > diag.RANK_TOL * s[0])) if s.size and s[0] > 0 else 0
+    return int(np.sum(s > RANK_TOL * s[0])) if s.size and s[0] > 0 else 0
 
 
-@pytest.mark.parametrize("whole", [diag.WHOLE_SVD, 0])  # small matrices whole, or block by block
+@pytest.mark.parametrize("whole", [linalg.WHOLE_SVD, 0])  # small matrices whole, or block by block
 def test_block_rank_equals_the_dense_rank(monkeypatch, whole):
-    monkeypatch.setattr(diag, "WHOLE_SVD", whole)
+    monkeypatch.setattr(linalg, "WHOLE_SVD", whole)
     rng = np.random.default_rng(4)
     for _ in range(20):
         # a random matrix with decoupled blocks, dependent rows, zero rows and zero columns, shuffled

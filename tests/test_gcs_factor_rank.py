@@ -8,7 +8,7 @@ import pytest
 
 from linkedit.gcs import diagnostics as diag
 from linkedit.gcs.members import compile_mechanism
-from linkedit.gcs.solver import solve_run
+from linkedit.gcs.solve import solve_run
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_model
 from tests.conftest import EXAMPLES

@@ -59,7 +59,8 @@ def test_a_coarse_run_does_not_jump_over_a_lock_up(waves):
     joint C is 0.7 of the size away from where the mechanism (on its branch) would put it, for
     a motion it cannot make."""
     from linkedit.gcs.members import compile_mechanism
-    from linkedit.gcs.solver import Options, solve_run
+    from linkedit.gcs.solve import solve_run
+    from linkedit.gcs.tolerances import Options
 
     spec = _spec(_four_bar(1, 3, 3.19, 5.2, angles=(10, 370)))
     with pytest.raises(MechanismError):

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.diagnostics import redundant_constraints, run_diagnostics
 from linkedit.gcs.mechanism import solve_spec
 from linkedit.gcs.members import compile_mechanism
+from linkedit.gcs.continuation import Solver
 from linkedit.gcs.outputs import velocity
-from linkedit.gcs.solver import CONVERGED, INCONSISTENT, SLSQP_TOL, Options, Solver, solve_run
+from linkedit.gcs.solve import solve_run
+from linkedit.gcs.tolerances import CONVERGED, INCONSISTENT, SLSQP_TOL, Options
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_model, load_yaml, validate
 from tests.conftest import EXAMPLES
@@ -125,3 +128,9 @@ def test_slsqp_fd_reports_an_inconsistent_spec_as_inconsistent():
     _, r, info = Solver(system, Options(solver="slsqp-fd")).solve(system.rest, table, 0)
     assert info.status == INCONSISTENT
     assert np.max(np.abs(r) * system.row_scale) > SLSQP_TOL
+
+
+def test_an_unknown_solver_option_is_refused_by_name():
+    """``Options(solver=…)`` names the solvers there are (it used to run ``lm`` for any name)."""
+    with pytest.raises(ValueError, match=r"Options.solver: 'newton' is not a solver; use one of 'lm', 'slsqp-fd'"):
+        Options(solver="newton")

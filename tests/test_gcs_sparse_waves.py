@@ -34,7 +34,8 @@ import pytest
 from linkedit.gcs.linalg import NormalEquations
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.planar_bridge import planar_model
-from linkedit.gcs.solver import Options, solve_run
+from linkedit.gcs.solve import solve_run
+from linkedit.gcs.tolerances import Options
 from linkedit.planar import catalog
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import validate

@@ -71,7 +71,7 @@ def test_jansen_leg_in_3d_scales_and_coarse_steps_stay_on_the_branch():
     """Defects 1 and 3: the Jansen leg ×100 failed 360 of 361 steps; with 19 steps the foot
     was up to 144 mm off on the last 5, all "converged"."""
     from linkedit.gcs.planar_bridge import planar_model, point_positions
-    from linkedit.gcs.solver import solve_run
+    from linkedit.gcs.solve import solve_run
     from linkedit.spec.linkage import LinkageSpec
 
     data = load_yaml(EXAMPLES / "jansen.yaml")[0]
@@ -174,7 +174,7 @@ def test_crank_rocker_and_spherical_four_bar_match_their_closed_forms():
 @pytest.mark.parametrize("name,track", [("crank-rocker", "P"), ("rssr", "fin"), ("spherical-four-bar", "P")])
 def test_exact_velocities_match_central_differences_of_fine_positions(name, track):
     from linkedit.gcs.members import compile_mechanism
-    from linkedit.gcs.solver import solve_run
+    from linkedit.gcs.solve import solve_run
 
     spec = _spec(_data(name))
     res = solve_spec(spec, steps=361, rank=False)
@@ -275,7 +275,8 @@ def test_a_failed_step_reports_its_own_times_pose_and_gap(waves):
     message gives the real gap (~0.09 mm, not the 3e-10 of a sub-step's pose)."""
     from linkedit.errors import MechanismError
     from linkedit.gcs.planar_bridge import planar_model, simulate_numeric
-    from linkedit.gcs.solver import Options, solve_run
+    from linkedit.gcs.solve import solve_run
+    from linkedit.gcs.tolerances import Options
     from linkedit.gcs.system import State
     from linkedit.planar import catalog
     from linkedit.planar.simulate import motor_angles
@@ -303,7 +304,9 @@ def test_time_run_backwards_is_continued_step_by_step_to_the_forward_poses():
     step was found by a direct solve instead, which a lock-up between steps would have sent to
     another branch); the poses are the ascending run's."""
     from linkedit.gcs.members import compile_mechanism
-    from linkedit.gcs.solver import Options, Solver, solve_run
+    from linkedit.gcs.continuation import Solver
+    from linkedit.gcs.solve import solve_run
+    from linkedit.gcs.tolerances import Options
 
     system = compile_mechanism(validate(MechanismSpec, load_yaml(EXAMPLES / "3d" / "crank-rocker.yaml")[0], file="t"))[0]
     t = np.linspace(0.0, 1.0, 121)

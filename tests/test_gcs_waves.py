@@ -11,7 +11,8 @@ from linkedit.gcs import quaternions as quat
 from linkedit.gcs.closed_form import ClosedForm
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.planar_bridge import planar_model
-from linkedit.gcs.solver import Options, solve_run
+from linkedit.gcs.solve import solve_run
+from linkedit.gcs.tolerances import Options
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
@@ -176,7 +177,7 @@ def test_blas_runs_on_one_thread_inside_and_is_restored_after():
 
 
 def test_a_planar_linkage_solves_its_in_plane_and_out_of_plane_unknowns_apart():
-    from linkedit.gcs.solver import Solver
+    from linkedit.gcs.continuation import Solver
     from linkedit.gcs.waves import SPLIT_FROM, Waves
 
     system = _system("crank-rocker")

@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from linkedit.gcs.members import compile_mechanism
-from linkedit.gcs.solver import Options, solve_run
+from linkedit.gcs.solve import solve_run
+from linkedit.gcs.tolerances import Options
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
 from tests.test_gcs_waves import _assert_same
@@ -236,7 +237,7 @@ def test_what_a_system_keeps_for_later_runs_is_bounded():
     """Runs of many sizes on one system (the review measured 194 MB kept after runs of 2k to
     50k steps): the layouts kept are of at most KEPT_LAYOUTS batch sizes of at most
     KEPT_POSES poses each."""
-    from linkedit.gcs.waves import KEPT_LAYOUTS, KEPT_POSES
+    from linkedit.gcs.evaluate import KEPT_LAYOUTS, KEPT_POSES
     from tests.test_gcs_waves import _system
 
     system = _system("six-bar")

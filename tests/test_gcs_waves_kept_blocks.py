@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from linkedit.gcs.members import compile_mechanism
-from linkedit.gcs.solver import Options, solve_run
+from linkedit.gcs.solve import solve_run
+from linkedit.gcs.tolerances import Options
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
 from tests.conftest import EXAMPLES

@@ -134,7 +134,7 @@ class VelocityRule(str, Enum):
 
 
 class Solver(str, Enum):
-    """Step solver (see linkedit.gcs.solver.SOLVERS)."""
+    """Step solver (see linkedit.gcs.tolerances.SOLVERS)."""
 
     lm = "lm"
     slsqp_fd = "slsqp-fd"

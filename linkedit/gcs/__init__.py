@@ -12,7 +12,8 @@ through the same solver.
 from linkedit.gcs.mechanism import check_solved, solve_spec
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.result import GcsResult, read_result, write_result
-from linkedit.gcs.solver import Options, solve_run
+from linkedit.gcs.solve import solve_run
+from linkedit.gcs.tolerances import Options
 from linkedit.gcs.system import Custom, Elementary, State, System
 
 __all__ = ["Custom", "Elementary", "GcsResult", "Options", "State", "System", "check_solved",

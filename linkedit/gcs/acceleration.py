@@ -122,7 +122,7 @@ def _canonical_change(solver, state: State, table: StepTable, step: int, null: n
 
 
 def acceleration(solver, state: State, table: StepTable, step: int, linear, velocity: np.ndarray) -> np.ndarray:
-    """The scaled acceleration (6M,) at a solved pose with its :class:`~linkedit.gcs.solver.Linear`
+    """The scaled acceleration (6M,) at a solved pose with its :class:`~linkedit.gcs.linalg.Linear`
     and scaled velocity (module docstring)."""
     system = solver.system
     h = STEP / max(1.0, float(np.abs(velocity).max(initial=0.0)))

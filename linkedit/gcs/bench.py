@@ -42,7 +42,7 @@ from linkedit.gcs import quaternions as quat
 from linkedit.timing import best_time
 
 if TYPE_CHECKING:
-    from linkedit.gcs.solver import Run
+    from linkedit.gcs.solve import Run
     from linkedit.gcs.system import State, System
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "3d"
@@ -91,7 +91,9 @@ def _rough_start(system, rng: np.random.Generator) -> "State":
 
 def _six_bar(echo: Callable[[str], None], quick: bool) -> None:
     from linkedit.gcs.members import compile_mechanism
-    from linkedit.gcs.solver import STATUS_NAMES, Options, Solver, solve_run
+    from linkedit.gcs.continuation import Solver
+    from linkedit.gcs.solve import solve_run
+    from linkedit.gcs.tolerances import STATUS_NAMES, Options
     from linkedit.spec.mechanism3d import MechanismSpec
     from linkedit.spec.yamlload import load_model
 
@@ -277,7 +279,7 @@ def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
     import time
 
     from linkedit.gcs.diagnostics import run_diagnostics
-    from linkedit.gcs.solver import solve_run
+    from linkedit.gcs.solve import solve_run
 
     try:
         import python_solvespace  # noqa: F401

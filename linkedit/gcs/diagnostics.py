@@ -6,7 +6,7 @@ system's length scale (rows and translation columns), so that lengths and angles
 dof = 6M − rank, redundant = (independent equations of the active constraints) − rank.
 
 At a converged step the solver has already read the rank from the factorization it keeps
-for the pose (:attr:`~linkedit.gcs.solver.Run.rank`: N where no pivot is small, N minus a clean
+for the pose (:attr:`~linkedit.gcs.solve.Run.rank`: N where no pivot is small, N minus a clean
 null space): that rank is used as it is. Elsewhere a rank costs dense SVDs of the blocks the
 Jacobian decouples into (:func:`jacobian_rank`, at most about R·N·min(R, N) operations for R
 rows and N unknowns), so it is not taken at every step of a large system: it is taken at the first step, at every step that did not converge or
@@ -24,22 +24,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from linkedit.gcs.solver import CONVERGED, Options, Run
+from linkedit.gcs.linalg import jacobian_rank, left_null_space
+from linkedit.gcs.solve import Run
 from linkedit.gcs.system import State, StepTable, System
+from linkedit.gcs.tolerances import CONVERGED, NULL_TOL, Options
 
-#: singular values below this fraction of the largest count as zero
-RANK_TOL = 1e-9
 #: name redundant constraints (a small SVD per constraint) only up to this many constraints
 MAX_NAMED_CHECKS = 200
-#: a constraint is redundant when the left null space of J restricted to its rows has full
-#: rank: smallest singular value above this (they are O(1) for a repeated constraint)
-NULL_TOL = 1e-6
 #: operations the periodic rank evaluations of one run may take, counted as R·N·min(R, N)
 #: (a dense SVD) plus RANK_OVERHEAD (building the Jacobian) per rank
 RANK_BUDGET = 2e9
 RANK_OVERHEAD = 1e7
-#: Jacobians with at most this many entries get one dense SVD (no block decomposition)
-WHOLE_SVD = 120 * 180
 
 
 @dataclass
@@ -68,53 +63,6 @@ def scaled_jacobian(system: System, state: State, table: StepTable, step: int) -
     J = J * system.row_scale[:, None]
     cols = np.tile(np.r_[np.full(3, system.length_scale), np.ones(3)], system.n_members)
     return J * cols
-
-
-def decoupled_blocks(J: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The blocks a matrix (R, N) decouples into: (row indices, column indices) of each
-    connected component of the bipartite graph of its nonzero entries (zero rows and columns
-    belong to none). J's singular values are those of its blocks together. A small matrix (up
-    to :data:`WHOLE_SVD` entries) is one block of its nonzero rows and columns: separate blocks
-    would save little, and finding them loads SciPy's sparse graph modules (start-up)."""
-    if J.size <= WHOLE_SVD:
-        nonzero = J != 0
-        rows, cols = np.flatnonzero(nonzero.any(axis=1)), np.flatnonzero(nonzero.any(axis=0))
-        return [(rows, cols)] if rows.size else []
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    R, N = J.shape
-    i, j = np.nonzero(J)
-    graph = coo_matrix((np.ones(i.size), (i, R + j)), shape=(R + N, R + N))
-    _, label = connected_components(graph, directed=False)
-    rows, cols = label[:R], label[R:]
-    return [(np.flatnonzero(rows == k), np.flatnonzero(cols == k)) for k in np.unique(label[i])]
-
-
-def jacobian_rank(J: np.ndarray) -> int:
-    """Numerical rank of a matrix (R, N): singular values above RANK_TOL times the largest,
-    taken block by block (:func:`decoupled_blocks`): exact, and a fraction of the work when it
-    decouples (a planar linkage: in-plane and out-of-plane unknowns)."""
-    blocks = decoupled_blocks(J)
-    if not blocks:
-        return 0
-    s = np.concatenate([np.linalg.svd(J[np.ix_(r, c)], compute_uv=False) for r, c in blocks])
-    return int(np.sum(s > RANK_TOL * s.max()))
-
-
-def left_null_space(J: np.ndarray) -> np.ndarray:
-    """An orthonormal basis Y (R, R − rank) of the vectors y with yᵀJ = 0 (rank as
-    :func:`jacobian_rank`), assembled block by block."""
-    R = J.shape[0]
-    blocks = decoupled_blocks(J)
-    svds = [np.linalg.svd(J[np.ix_(r, c)], full_matrices=True) for r, c in blocks]
-    top = max((float(s[0]) for _, s, _ in svds if s.size), default=0.0)
-    basis = [np.eye(R)[:, np.abs(J).max(axis=1, initial=0.0) == 0]]  # zero rows
-    for (rows, _), (U, s, _) in zip(blocks, svds):
-        Y = np.zeros((R, rows.size - int(np.sum(s > RANK_TOL * top))))
-        Y[rows] = U[:, rows.size - Y.shape[1]:]
-        basis.append(Y)
-    return np.concatenate(basis, axis=1)
 
 
 def active_equations(system: System, table: StepTable) -> np.ndarray:

@@ -14,20 +14,25 @@ matrix whose structure is computed once.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.linalg
 
-from linkedit.gcs.system import Group
+from linkedit.gcs.system import Evaluation, Group
+from linkedit.gcs.tolerances import NULL_APART, NULL_CLEAN, NULL_SINGULAR, RANK_TOL
 
 if TYPE_CHECKING:
     import scipy.sparse
 
 #: unknowns above which the sparse factorization is used
 SPARSE_ABOVE = 120
+#: Jacobians with at most this many entries get one dense SVD (no block decomposition)
+WHOLE_SVD = 120 * 180
 
 _potrf, _potrs, _geqrf, _orgqr = scipy.linalg.get_lapack_funcs(("potrf", "potrs", "geqrf", "orgqr"),
                                                               dtype=np.float64)
@@ -231,3 +236,124 @@ class NormalEquations:
     def diagonal(self, data: np.ndarray) -> np.ndarray:
         """The diagonal (N,) of JᵀJ from ``Linearization.data``."""
         return data[self.diag_index]
+
+
+@dataclass
+class Linear:
+    """A pose's Jacobian (scaled), its factorization and, where J has a null space, an
+    orthonormal basis of it (N, f) (None when J has full column rank)."""
+
+    ev: Evaluation
+    lin: Linearization
+    factor: Factor
+    null: np.ndarray | None
+    #: rank of J read from the factorization (N minus the null space), −1 where it cannot
+    #: tell (small pivots that are not a clean null space: the diagnostics take an SVD)
+    rank: int = -1
+    #: small pivots where J has no null space for these inputs: a singular pose (a change
+    #: point, a lock-up), where J alone leaves the velocity undetermined along a direction
+    singular: bool = False
+
+    def least_norm(self, b: np.ndarray) -> np.ndarray:
+        """The least-norm y (N,) of J y = b (R,): the normal equations' solution (regularized
+        by μ) without its component along the null space (there it is rounding amplified by 1/μ)."""
+        return self.still(self.factor.solve(self.lin.gradient(b)))
+
+    def continued(self, b: np.ndarray, incoming: np.ndarray | None) -> np.ndarray:
+        """The least-norm y (N,) of J y = b (R,); at a singular pose (a change point, where
+        branches cross and J cannot tell their tangents apart) with the ``incoming`` velocity
+        (N,) the motion arrived with, the one nearest it, y = w + J⁺(b − J w) (J⁺ damped: along
+        the directions J hardly sees, w is kept), so the motion keeps the branch it was on."""
+        if incoming is None or not self.singular:
+            return self.least_norm(b)
+        return incoming + self.least_norm(b - self.lin.JT.T @ incoming)
+
+    def still(self, d: np.ndarray) -> np.ndarray:
+        """d (N,) without its component along the null space of J."""
+        return d if self.null is None else d - self.null @ (self.null.T @ d)
+
+
+
+@cache
+def probes(N: int, f: int) -> np.ndarray:
+    """The fixed random vectors (N, f) inverse iteration starts from for f small pivots (the
+    same for every scheduler: read only)."""
+    Y = np.random.default_rng(f).standard_normal((N, f))
+    Y.setflags(write=False)
+    return Y
+
+
+def null_space(J: np.ndarray | scipy.sparse.csr_matrix, factor: Factor, f: int,
+               top: float) -> tuple[np.ndarray | None, int]:
+    """An orthonormal basis (N, k) of the null space of the scaled J (R, N) and the rank of J,
+    for f small pivots of its factorized JᵀJ + μI (k ≤ f: a small pivot may also be a direction
+    J sees weakly), ``top`` its largest diagonal entry: two inverse iterations with the
+    factorization from :func:`probes` (the damping μ sets the null eigenvalues apart from the
+    others by a factor of at least FREE_PIVOT / DAMPING) span the null space; an SVD of J on
+    that span (N × f) picks it out when its singular values are clearly zero or clearly not
+    (rank N − k); otherwise an SVD of J decides (rank −1: the pivots cannot tell)."""
+    N = J.shape[1]
+    Y = factor.solve(factor.solve(probes(N, f)))
+    scale = math.sqrt(top)
+    if f == 1:  # the usual case (one idle spin): no decomposition needed
+        span = Y / math.sqrt(Y[:, 0] @ Y[:, 0])
+        seen = J @ span[:, 0]
+        if math.sqrt(seen @ seen) <= NULL_CLEAN * scale:
+            return span, N - 1
+    else:
+        span = orthonormal(Y)
+        _, sv, Vt = np.linalg.svd(np.asarray(J @ span))
+        sv = np.concatenate([sv, np.zeros(f - sv.size)])  # fewer rows than f: the rest are zero
+        zero = sv <= NULL_CLEAN * scale
+        if zero.any() and (sv[~zero] >= NULL_APART * scale).all():
+            return span @ Vt[zero].T, N - int(zero.sum())
+    _, sv, Vt = np.linalg.svd(J.toarray() if hasattr(J, "toarray") else J)
+    rank = int(np.sum(sv > NULL_SINGULAR * sv[0])) if sv.size else 0
+    return (Vt[rank:].T if rank < Vt.shape[0] else None), -1
+
+
+def decoupled_blocks(J: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The blocks a matrix (R, N) decouples into: (row indices, column indices) of each
+    connected component of the bipartite graph of its nonzero entries (zero rows and columns
+    belong to none). J's singular values are those of its blocks together. A small matrix (up
+    to :data:`WHOLE_SVD` entries) is one block of its nonzero rows and columns: separate blocks
+    would save little, and finding them loads SciPy's sparse graph modules (start-up)."""
+    if J.size <= WHOLE_SVD:
+        nonzero = J != 0
+        rows, cols = np.flatnonzero(nonzero.any(axis=1)), np.flatnonzero(nonzero.any(axis=0))
+        return [(rows, cols)] if rows.size else []
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    R, N = J.shape
+    i, j = np.nonzero(J)
+    graph = coo_matrix((np.ones(i.size), (i, R + j)), shape=(R + N, R + N))
+    _, label = connected_components(graph, directed=False)
+    rows, cols = label[:R], label[R:]
+    return [(np.flatnonzero(rows == k), np.flatnonzero(cols == k)) for k in np.unique(label[i])]
+
+
+def jacobian_rank(J: np.ndarray) -> int:
+    """Numerical rank of a matrix (R, N): singular values above RANK_TOL times the largest,
+    taken block by block (:func:`decoupled_blocks`): exact, and a fraction of the work when it
+    decouples (a planar linkage: in-plane and out-of-plane unknowns)."""
+    blocks = decoupled_blocks(J)
+    if not blocks:
+        return 0
+    s = np.concatenate([np.linalg.svd(J[np.ix_(r, c)], compute_uv=False) for r, c in blocks])
+    return int(np.sum(s > RANK_TOL * s.max()))
+
+
+def left_null_space(J: np.ndarray) -> np.ndarray:
+    """An orthonormal basis Y (R, R − rank) of the vectors y with yᵀJ = 0 (rank as
+    :func:`jacobian_rank`), assembled block by block."""
+    R = J.shape[0]
+    blocks = decoupled_blocks(J)
+    svds = [np.linalg.svd(J[np.ix_(r, c)], full_matrices=True) for r, c in blocks]
+    top = max((float(s[0]) for _, s, _ in svds if s.size), default=0.0)
+    basis = [np.eye(R)[:, np.abs(J).max(axis=1, initial=0.0) == 0]]  # zero rows
+    for (rows, _), (U, s, _) in zip(blocks, svds):
+        Y = np.zeros((R, rows.size - int(np.sum(s > RANK_TOL * top))))
+        Y[rows] = U[:, rows.size - Y.shape[1]:]
+        basis.append(Y)
+    return np.concatenate(basis, axis=1)

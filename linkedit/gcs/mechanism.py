@@ -12,7 +12,8 @@ from linkedit.errors import InputError, MechanismError
 from linkedit.gcs.diagnostics import run_diagnostics
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.result import GcsResult
-from linkedit.gcs.solver import CONVERGED, STATUS_NAMES, Options, Run, solve_run
+from linkedit.gcs.solve import Run, solve_run
+from linkedit.gcs.tolerances import CONVERGED, STATUS_NAMES, Options
 from linkedit.gcs.system import System
 from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
 

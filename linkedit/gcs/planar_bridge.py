@@ -9,7 +9,7 @@ against its guide (it does not turn relative to it). The motor is an orientation
 crank: a turn about z from the rest pose, one revolution over t ∈ [0, 1) (or the spec's
 ``range_deg`` sweep); a linear input is a ``plane`` input: the driven joint on the plane across
 its slot at the stroke s(t) from its rest position. Each step is solved from the previous ones
-(:func:`linkedit.gcs.solver.solve_run`).
+(:func:`linkedit.gcs.solve.solve_run`).
 """
 
 from __future__ import annotations
@@ -23,7 +23,8 @@ import numpy as np
 from linkedit.errors import MechanismError
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.inputs import Schedule
-from linkedit.gcs.solver import CONVERGED, STATUS_NAMES, Options, Run, solve_run
+from linkedit.gcs.solve import Run, solve_run
+from linkedit.gcs.tolerances import CONVERGED, STATUS_NAMES, Options
 from linkedit.gcs.system import WORLD, Elementary, State, System
 from linkedit.planar.simulate import motor_input
 from linkedit.spec.linkage import JointTrack, LinkageSpec

@@ -16,7 +16,7 @@ import numpy as np
 from linkedit.errors import InputError, MechanismError
 from linkedit.gcs.diagnostics import Diagnostics
 from linkedit.gcs.outputs import ends_meet, track_positions, track_velocities, velocity
-from linkedit.gcs.solver import STATUS_NAMES
+from linkedit.gcs.tolerances import STATUS_NAMES
 
 if TYPE_CHECKING:
     from linkedit.io.hdf5 import Entry

@@ -1,7 +1,7 @@
 """Many time steps solved at once, each kept only where the step-by-step continuation would
 have accepted it.
 
-The continuation of :mod:`linkedit.gcs.solver` pays Python's per-call cost at every step.
+The continuation of :mod:`linkedit.gcs.continuation` pays Python's per-call cost at every step.
 Where the scaled Jacobian has full column rank (nothing free to keep still), the pose at a
 time is the root of the constraints nearest its prediction whatever the anchor, so a *block*
 of steps can be solved together:
@@ -82,25 +82,21 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import scipy.linalg
-import scipy.sparse
-import scipy.sparse.csgraph
 
+from linkedit.gcs import accept
 from linkedit.gcs import canonical as canon
-from linkedit.gcs import constraints as kinds
-from linkedit.gcs import quaternions as quat
 from linkedit.gcs.acceleration import advanced
 from linkedit.gcs.closed_form import ClosedForm
-from linkedit.gcs.solver import FREE_PIVOT, NULL_APART, NULL_CLEAN, Solver
-from linkedit.gcs.system import EVALUATE, Block, Evaluation, State, StepParameters, StepTable
+from linkedit.gcs.continuation import Solver
+from linkedit.gcs.evaluate import KEPT_POSES, _Layout
+from linkedit.gcs.factors import BatchedFactors, Factors
+from linkedit.gcs.predict import NODES, Extrapolation, flat, lagrange
+from linkedit.gcs.structure import SPLIT_FROM, STRIDE, WIDEST_STRIDE, Compiled, Jacobians, Part, _take
+from linkedit.gcs.system import Evaluation, State, StepTable
 
 #: steps of a block after a rejected step (doubling after each block accepted whole); the
 #: first block is the whole run
 SHORTEST = 16
-#: a block solves steps STRIDE apart first (from extrapolation), then the ones between; the
-#: spacing adapts to the extrapolation's error, up to WIDEST_STRIDE
-STRIDE = 8
-WIDEST_STRIDE = 8
 #: Gauss–Newton iterations of a block's steps
 ITERATIONS = 8
 #: steps of the widest wave
@@ -117,8 +113,6 @@ CANONICAL_PASSES = 4
 #: second ones
 REACH, LOW, HIGH = 1e-4, 1e-9, 1e-6
 REACH_FREE, LOW_FREE, HIGH_FREE = 1e-1, 1e-7, 1e-4
-#: solved poses (and their velocities) the polynomial extrapolation goes through
-NODES = 4
 #: ... where J has a free direction: poses only, for the polynomial through them (a rough
 #: pose's velocity is taken before its move to the canonical pose)
 VALUES = 6
@@ -129,24 +123,9 @@ START = 2
 #: where the factorization is of the pose itself
 REFINE = 1e-5
 FRESH = 1e-9
-#: J's diagonal blocks (:attr:`Waves.parts`) are found from the first batch of at least this
-#: many poses (no accidental zeros)
-SPLIT_FROM = 64
 #: the chunks of a sparse system's closed-form poses (:meth:`Waves.rebuilt`): its evaluation's
 #: arrays take ~0.3 MB per pose for 726 unknowns
 CHUNK = 256
-#: batches of at most this many poses solve their triangular systems pose by pose
-FEW = 24
-#: scaled Jacobian entries (of order 1) at most this large tie no unknowns, and scaled
-#: residual rows stir no still part: the rounding of exact zeros (a planar linkage's poses off
-#: their plane by ~1e-30 after steps solved step by step); a block solve that leaves them out
-#: errs by as little
-TIED = 1e-15
-#: the layouts of this many batch sizes, of at most KEPT_POSES poses, are kept on the system
-#: for its later runs (the last built)
-KEPT_LAYOUTS, KEPT_POSES = 16, 1024
-
-_potrs = scipy.linalg.get_lapack_funcs("potrs", dtype=np.float64)
 
 
 @dataclasses.dataclass
@@ -166,102 +145,7 @@ class Solved:
     rank: np.ndarray | None = None
 
 
-@dataclasses.dataclass
-class Part:
-    """A diagonal block of the Jacobian: its residual rows (Rp,) and unknowns (Np,)."""
-
-    rows: np.ndarray
-    cols: np.ndarray
-
-
-@dataclasses.dataclass
-class Jacobians:
-    """Scaled Jacobians of B poses, block by block of ``parts`` (:attr:`Waves.parts`, or some
-    of them): (B, Rp, Np) each, and which of its entries off the blocks exceed :data:`TIED`
-    (``off``, (B, S), one per off-block slot of :meth:`Waves._place`)."""
-
-    blocks: list[np.ndarray]
-    off: np.ndarray
-    parts: list[Part]
-
-    @property
-    def leaves(self) -> np.ndarray:
-        """Whether each pose's J has entries off the blocks (B,)."""
-        return np.asarray(self.off.any(axis=1))
-
-    def take(self, idx: np.ndarray) -> "Jacobians":
-        return Jacobians([_take(J, idx) for J in self.blocks], _take(self.off, idx), self.parts)
-
-    def only(self, which: list[int]) -> "Jacobians":
-        """The blocks ``which`` (indices into ``parts``)."""
-        return Jacobians([self.blocks[i] for i in which], self.off, [self.parts[i] for i in which])
-
-
-@dataclasses.dataclass
-class Factors:
-    """Factorizations of B poses' scaled JᵀJ + μI, block by block of ``parts`` (B, Np, Np)
-    each (the other unknowns are not solved for: zero), whether each is sound (B,), and J's
-    unit null vectors (B, N) where it has a free direction."""
-
-    factors: list[np.ndarray]
-    sound: np.ndarray
-    null: np.ndarray | None
-    parts: list[Part]
-
-    def take(self, idx: np.ndarray) -> "Factors":
-        return Factors([_take(L, idx) for L in self.factors], _take(self.sound, idx),
-                       None if self.null is None else _take(self.null, idx), self.parts)
-
-
-@dataclasses.dataclass
-class _Layout:
-    """An evaluation's fixed parts for B poses, member-major (member or vector i of pose b at
-    i·B + b, so each kernel sees B times its constraints, constraint-major): the blocks with
-    spread indices, the member of each member vector (K·B,), the member vectors (K, B, 9) and
-    the inverse relative orientations (n, B, 4)."""
-
-    blocks: list[Block]
-    member: np.ndarray
-    vectors: np.ndarray
-    rel_inverse: np.ndarray
-
-
-@dataclasses.dataclass
-class Compiled:
-    """What batched evaluation of one system needs beyond the system itself, built at first
-    use and kept on it (:attr:`System.batched`) for every later run, as the system is compiled
-    once: the diagonal blocks of J that solve apart (``parts``: a planar linkage's in-plane
-    and out-of-plane unknowns; one block until a batch of :data:`SPLIT_FROM` poses was seen,
-    ``decided``), the parts that stay still (``quiet``: their rows and time derivatives exactly
-    zero, to :data:`TIED`, over the batch that found them, such as a planar linkage's
-    out-of-plane part), the rows that are theirs or empty (``still``, (R,)) and the
-    groups all of whose rows are (``skip``), per group where a pose's Jacobian entries go and
-    their scales, where the blocks and the off-block slots end and which blocks each off-block
-    slot ties (``places``, ``ends``, ``ties`` (S, 2): :meth:`Waves._place`), and the layouts
-    per batch size (:meth:`Waves._layout`); ``key``: a digest of what it was built from
-    (:meth:`System.digest`). Blocks a run's poses tie together are merged (:meth:`Waves._merge`).
-    A run changes a copy of its own and keeps a copy of that on the system after each block,
-    so that runs of one system in several threads do not see each other's halfway changes."""
-
-    parts: list[Part]
-    key: bytes = b""
-    decided: bool = False
-    quiet: np.ndarray | None = None
-    still: np.ndarray | None = None
-    skip: tuple[int, ...] = ()
-    places: list[tuple[np.ndarray, np.ndarray]] | None = None
-    ends: list[int] = dataclasses.field(default_factory=list)
-    ties: np.ndarray | None = None
-    layouts: dict[int, _Layout] = dataclasses.field(default_factory=dict)
-    closed: ClosedForm | None = None
-
-    def copy(self) -> "Compiled":
-        """A copy to change (the layouts shared: each is never changed, only added or dropped)."""
-        return dataclasses.replace(self, quiet=None if self.quiet is None else self.quiet.copy(),
-                                   still=None if self.still is None else self.still.copy())
-
-
-class Waves:
+class Waves(Extrapolation, BatchedFactors):
     """Batched evaluation and solution of one system over a step table (module docstring)."""
 
     def __init__(self, solver: Solver, table: StepTable) -> None:
@@ -279,6 +163,7 @@ class Waves:
         self.closed = self.compiled.closed
         #: layouts of more poses than are kept on the system, for this run
         self._layouts: dict[int, _Layout] = {}
+        self._kept_layouts = self.compiled.layouts
         #: pairs of blocks (K, 2) that Jacobian entries of this run's poses tied: merged before
         #: the next block
         self.tied = np.zeros((0, 2), dtype=int)
@@ -289,10 +174,6 @@ class Waves:
         s = self.system
         return Part(np.arange(s.n_rows), np.arange(s.n_unknowns))
 
-    @property
-    def parts(self) -> list[Part]:
-        """The diagonal blocks of J that solve apart (:class:`Compiled`)."""
-        return self.compiled.parts
 
     @staticmethod
     def applies(solver: Solver) -> bool:
@@ -304,262 +185,6 @@ class Waves:
 
     # ---- batched evaluation ---------------------------------------------------------------
 
-    def _layout(self, B: int) -> "_Layout":
-        """What an evaluation of B poses needs that does not change between calls: kept on the
-        system for the :data:`KEPT_LAYOUTS` batch sizes of at most :data:`KEPT_POSES` poses last
-        built (a few MB at most), else for this run."""
-        layouts = self.compiled.layouts if B <= KEPT_POSES else self._layouts
-        lay = layouts.get(B)
-        if lay is None:
-            s = self.system
-            lanes = np.arange(B)
-            spread = lambda idx: (idx[:, None] * B + lanes).ravel()  # noqa: E731
-            blocks = [dataclasses.replace(blk, a=spread(blk.a), b=spread(blk.b),
-                                          vectors=tuple(slice(v.start * B, v.stop * B) for v in blk.vectors))
-                      for blk in s.blocks]
-            lay = layouts[B] = _Layout(blocks, spread(s.vector_member), np.repeat(s.vectors[:, None], B, axis=1),
-                                       np.repeat(s.rel_inverse[:, None], B, axis=1))
-            for old in list(layouts)[:-KEPT_LAYOUTS]:  # (a copy of the keys: other runs may add)
-                layouts.pop(old, None)
-        return lay
-
-    def evaluate(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray, jacobian: bool,
-                 skip: tuple[int, ...] = (), table: StepTable | None = None) -> tuple[np.ndarray, list[np.ndarray | None]]:
-        """Residuals (B, R) at positions P (B, M, 3) and quaternions Q (B, M, 4) at the
-        ``steps`` (B,) of the run's table (or of ``table``), and with ``jacobian`` the Jacobian
-        per group (B, n, k, 2, 6); the groups ``skip`` are not evaluated (rows zero, Jacobian
-        None)."""
-        s, tab = self.system, table or self.table
-        B, M = P.shape[0], s.n_members
-        lay = self._layout(B)
-        # member-major layouts (M + 1, B, ·), the world last
-        members_p, members_q = np.empty((M + 1, B, 3)), np.empty((M + 1, B, 4))
-        members_p[:M], members_p[M] = np.swapaxes(P, 0, 1), 0.0
-        members_q[:M], members_q[M] = np.swapaxes(Q, 0, 1), (1.0, 0.0, 0.0, 0.0)
-        Pm, Qm = members_p.reshape(-1, 3), members_q.reshape(-1, 4)
-        V = lay.vectors
-        if tab.vectors.shape[1]:
-            V = V.copy()
-            V[s.driven_vectors] = np.swapaxes(tab.vectors[steps], 0, 1)
-        R = quat.to_matrix(Qm).reshape(-1, 9)
-        W = np.einsum("nij,nj->ni", R.take(lay.member, axis=0).reshape(-1, 3, 3), V.reshape(-1, 9)[:, :3])
-        X = Pm.take(lay.member, axis=0) + W
-        rel = lay.rel_inverse
-        if tab.rel_inverse.shape[1]:
-            rel = rel.copy()
-            rel[s.driven_rel] = np.swapaxes(tab.rel_inverse[steps], 0, 1)
-        values = {blk.kind: np.repeat(blk.value, B) if v is None else v[steps].T.ravel()
-                  for blk, v in zip(s.blocks, tab.values) if blk.kind in kinds.VALUE_KINDS}
-        # the kernels read only the relative orientations and the values; every input is active
-        par = StepParameters(0.0, np.zeros((0, 9)), rel.reshape(-1, 4), [None] * len(s.blocks),
-                             np.zeros(0, dtype=int), values)
-        r = np.empty((B, s.n_rows))
-        jacs: list[np.ndarray | None] = []
-        for i, (blk, wide) in enumerate(zip(s.blocks, lay.blocks)):
-            if i in skip:
-                r[:, blk.start:blk.stop] = 0.0
-                jacs.append(None)
-                continue
-            n, k = blk.rows.shape
-            out = np.empty((n * B, k))
-            J = EVALUATE[blk.kind](wide, X, W, Qm, par, out, jacobian)
-            r[:, blk.start:blk.stop] = np.swapaxes(out.reshape(n, B, k), 0, 1).reshape(B, -1)
-            if J is not None:
-                jacs.append(np.swapaxes(J.reshape((n, B) + J.shape[1:]), 0, 1))
-        return r, jacs
-
-    def time_derivative(self, Q: np.ndarray, steps: np.ndarray, jacs: list[np.ndarray | None]) -> np.ndarray:
-        """∂r/∂t (B, R) at quaternions Q (B, M, 4) (as :meth:`System.time_derivative`, batched)."""
-        s = self.system
-        B = Q.shape[0]
-        out = np.zeros((B, s.n_rows))
-        for blk, jac, rate in zip(s.blocks, jacs, self.table.rates):
-            if rate is None or jac is None:
-                continue
-            sel = blk.scheduled
-            if blk.kind in kinds.VALUE_KINDS:
-                out[:, blk.rows[sel]] = -rate[steps]
-                continue
-            w = rate[steps]  # (B, S, 6): u, ω in b's frame
-            if not blk.on_world:
-                Qe = np.concatenate([Q, np.tile([1.0, 0.0, 0.0, 0.0], (B, 1, 1))], axis=1)
-                Rb = quat.to_matrix(Qe[:, blk.b[sel]])  # (B, S, 3, 3)
-                w = (w.reshape(B, -1, 2, 3) @ np.swapaxes(Rb, 2, 3)).reshape(B, -1, 6)
-            out[:, blk.rows[sel]] = (jac[:, sel][..., 1, :] * w[:, :, None, :]).sum(axis=3)
-        return out
-
-    def jacobian(self, jacs: list[np.ndarray | None]) -> Jacobians:
-        """The scaled Jacobians, dense block by block of :attr:`parts`, from the groups'
-        (B, n, k, 2, 6) as :meth:`evaluate` returns them (views of the kernels'
-        constraint-major arrays, put in place as they lie; the blocks are found from the first
-        call with at least :data:`SPLIT_FROM` poses)."""
-        B, c = next(J for J in jacs if J is not None).shape[0], self.compiled
-        if c.places is None:
-            c.places, c.ends, c.ties = self._place()
-        # the blocks, then a slot for each entry off them, then a dump for the world's entries
-        ends = c.ends
-        flat = np.zeros((B, ends[-1] + 1))
-        for J, (at, scale) in zip(jacs, c.places):
-            if J is not None:
-                flat[:, at] = J.reshape((B,) + at.shape) * scale
-        blocks = [flat[:, e - len(p.rows) * len(p.cols):e].reshape(B, len(p.rows), len(p.cols))
-                  for p, e in zip(self.parts, ends)]
-        off = np.abs(flat[:, ends[-2]:ends[-1]]) > TIED
-        if not c.decided and B >= SPLIT_FROM:  # many poses: no accidental zeros
-            c.decided = True
-            if self._decouple(blocks[0]):
-                c.places = None
-                return self.jacobian(jacs)
-        return Jacobians(blocks, off, self.parts)
-
-    def _place(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int], np.ndarray]:
-        """Per group: where a pose's Jacobian entries (n, k·12) go in its flat Jacobian — the
-        blocks of :attr:`parts` one after the other, then a slot for each entry off them, then
-        a dump for the world's — and their scales (n, k·12); where the blocks and the off-block
-        slots end; and the blocks of each off-block slot's row and column (S, 2)."""
-        s, ne = self.system, self.solver.normal
-        R, N, M = s.n_rows, s.n_unknowns, s.n_members
-        if ne.group_scale is None:
-            raise ValueError("the solver's normal equations are built with their scale")
-        part_row, part_col = np.empty(R, dtype=int), np.empty(N + 1, dtype=int)
-        at_row, at_col = np.empty(R, dtype=int), np.empty(N + 1, dtype=int)
-        for i, p in enumerate(self.parts):
-            part_row[p.rows], at_row[p.rows] = i, np.arange(len(p.rows))
-            part_col[p.cols], at_col[p.cols] = i, np.arange(len(p.cols))
-        part_col[N], at_col[N] = -1, 0  # the world
-        ends = list(np.cumsum([len(p.rows) * len(p.cols) for p in self.parts]))
-        width = np.array([len(p.cols) for p in self.parts])
-        start = np.array(ends) - width * np.array([len(p.rows) for p in self.parts])
-        places, off, ties = [], ends[-1], []
-        for grp, sc in zip(s.groups, ne.group_scale):
-            n, k = grp.rows.shape
-            member = grp.members[:, None, :, None]  # (n, 1, 2, 1)
-            col = np.broadcast_to(np.where(member >= M, N, 6 * member + np.arange(6)), (n, k, 2, 6))
-            row = np.broadcast_to(grp.rows[:, :, None, None], (n, k, 2, 6))
-            part = part_row[row]
-            at = np.where(part == part_col[col], start[part] + at_row[row] * width[part] + at_col[col], -1)
-            stray = (at < 0) & (col < N)
-            at[stray] = off + np.arange(int(stray.sum()))
-            off += int(stray.sum())
-            places.append(at)
-            ties.append(np.column_stack([part[stray], part_col[col][stray]]))
-        ends.append(off)  # the dump follows
-        return ([(np.where(at < 0, off, at).reshape(len(at), -1), np.broadcast_to(sc, at.shape).reshape(len(at), -1))
-                 for at, sc in zip(places, ne.group_scale)], ends, np.concatenate(ties))
-
-    def _decouple(self, J: np.ndarray) -> bool:
-        """Split :attr:`parts` (one block) by Jacobians J (B, R, N): the unknowns that no
-        residual row ties together solve apart (a row without entries goes with the first
-        unknown); whether it split."""
-        rows, cols = np.nonzero((np.abs(J) > TIED).any(axis=0))
-        R, N = J.shape[1:]
-        label = _components(N + R, cols, N + rows)
-        col_label, row_label = label[:N], label[N:]
-        row_label[np.setdiff1d(np.arange(R), rows)] = col_label[0]
-        groups = np.unique(col_label)
-        if len(groups) == 1:
-            return False
-        self.compiled.parts = [Part(np.flatnonzero(row_label == g), np.flatnonzero(col_label == g)) for g in groups]
-        return True
-
-    def _survey(self, P: np.ndarray, Q: np.ndarray, v: np.ndarray, step: int) -> None:
-        """Find J's diagonal blocks and the parts that stay still (:class:`Compiled`) before a
-        system's first wave, from :data:`SPLIT_FROM` poses along the tangent of a solved pose
-        (P (M, 3), Q (M, 4), scaled velocity v (N,), at the table's ``step``): x ⊕ s·v, s spread
-        over ±:data:`STRIDE` steps — off the motion by O(s²) but of its structure (a planar
-        linkage's stay planar), with no accidental zeros. A wrong guess costs time only: the
-        block's solve checks every row and pivot, and the guess corrects itself (module
-        docstring)."""
-        t = self.table.t
-        h = abs(float(t[min(step + 1, len(t) - 1)] - t[max(step - 1, 0)])) / 2
-        s = np.linspace(-1.0, 1.0, SPLIT_FROM) * STRIDE * h
-        B = len(s)
-        Ps, Qs = self.moved(np.broadcast_to(P, (B,) + P.shape), np.broadcast_to(Q, (B,) + Q.shape), s[:, None] * v)
-        steps = np.full(B, step)
-        r, jacs = self.evaluate(Ps, Qs, steps, True)
-        J = self.jacobian(jacs)  # decides the blocks (B ≥ SPLIT_FROM)
-        if self.compiled.quiet is None:
-            self._settle(r, self.time_derivative(Qs, steps, jacs), J)
-
-    def _stir(self, rs: np.ndarray) -> None:
-        """The still parts (:class:`Compiled`) with rows above :data:`TIED` in scaled residuals
-        rs (B, R) (an input held when they were found moves; rounding does not count) are still
-        no longer."""
-        c = self.compiled
-        assert c.quiet is not None and c.still is not None
-        moving = (np.abs(rs) > TIED).any(axis=0)  # (R,)
-        loud = [i for i, (p, q) in enumerate(zip(c.parts, c.quiet)) if q and moving[p.rows].any()]
-        if not loud:
-            return
-        c.quiet[loud] = False
-        for i in loud:
-            c.still[c.parts[i].rows] &= ~moving[c.parts[i].rows]
-        self._skips()
-
-    def _settle(self, r: np.ndarray, rt: np.ndarray, J: Jacobians) -> None:
-        """Find the quiet parts (:class:`Compiled`) from the residuals r, time derivatives rt
-        (B, R) and Jacobians J of a batch (zero: at most :data:`TIED`, scaled), and the groups
-        all of whose rows are theirs or empty (zero, with zero time derivatives and Jacobian
-        rows, such as the component of an axis constraint along the aligned axes)."""
-        c, s = self.compiled, self.system
-        row = self.solver.row
-        zero = np.asarray(~((np.abs(r * row) > TIED) | (np.abs(rt * row) > TIED)).any(axis=0))  # (R,)
-        c.quiet = np.array([zero[p.rows].all() for p in c.parts])
-        c.still = np.zeros(s.n_rows, dtype=bool)
-        for p, q, Jp in zip(c.parts, c.quiet, J.blocks):
-            c.still[p.rows] = q | (zero[p.rows] & ~(np.abs(Jp) > TIED).any(axis=(0, 2)))
-        self._skips()
-
-    def _held(self, P: np.ndarray, Q: np.ndarray, P0: np.ndarray, Q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Poses P (B, M, 3), Q (B, M, 4) with the still parts' coordinates (:class:`Compiled`)
-        those of the pose P0 (M, 3), Q0 (M, 4): the others' exact local coordinates from it
-        (rotation vectors by log and exp)."""
-        B, M = P.shape[:2]
-        d = self.displacement(P, Q, np.broadcast_to(P0, P.shape), np.broadcast_to(Q0, Q.shape))
-        d[:, self._still_cols()] = 0.0
-        e = (d * self.solver.col).reshape(B, M, 6)
-        turn = quat.exp(e[..., 3:].reshape(-1, 3))
-        return P0 + e[..., :3], quat.multiply(turn, np.broadcast_to(Q0, Q.shape).reshape(-1, 4)).reshape(B, M, 4)
-
-    def _still_cols(self) -> np.ndarray:
-        """The unknowns of the still parts (:class:`Compiled`)."""
-        return np.concatenate([p.cols for p, q in zip(self.parts, self._quiet()) if q])
-
-    def _quiet(self) -> np.ndarray:
-        quiet = self.compiled.quiet
-        assert quiet is not None
-        return quiet
-
-    def _moving(self) -> list[int]:
-        """The parts that the rough steps solve where some stay still (:class:`Compiled`), else
-        none (they solve them all: no still part known, a free direction, or nothing moves)."""
-        quiet = self.compiled.quiet
-        if quiet is None or self.free or quiet.all() or not quiet.any():
-            return []
-        return [i for i, q in enumerate(quiet) if not q]
-
-    def _skips(self) -> None:
-        """The groups all of whose rows are still (:class:`Compiled`)."""
-        c = self.compiled
-        assert c.still is not None
-        c.skip = tuple(i for i, blk in enumerate(self.system.blocks) if c.still[blk.start:blk.stop].all())
-
-    def _merge(self) -> None:
-        """Merge the blocks that this run's poses tied (:attr:`tied`) — for later runs too: a
-        merged block is still only if all its blocks were, and its rows are not taken as empty."""
-        c = self.compiled
-        label = _components(len(c.parts), self.tied[:, 0], self.tied[:, 1])
-        self.tied = np.zeros((0, 2), dtype=int)
-        merged = [np.flatnonzero(label == g) for g in np.unique(label)]
-        parts = [Part(np.sort(np.concatenate([c.parts[i].rows for i in m])),
-                      np.sort(np.concatenate([c.parts[i].cols for i in m]))) for m in merged]
-        if c.quiet is not None and c.still is not None:
-            c.quiet = np.array([c.quiet[m].all() for m in merged])
-            for p, q in zip(parts, c.quiet):
-                c.still[p.rows] &= q
-        c.parts, c.places = parts, None
-        if c.still is not None:
-            self._skips()
 
     # ---- a block of steps -----------------------------------------------------------------
 
@@ -740,7 +365,7 @@ class Waves:
         (secant over two steps; the first's exact): a step that fails it so is left to the
         continuation, not factorized first (the test proper comes after the solve)."""
         opt = self.solver.options
-        n = int(np.argmin(valid)) if not valid.all() else len(valid)
+        n = accept.leading(valid)
         if n == 0:
             return 0
         P0 = np.concatenate([before[0][None], P[:n - 1]])
@@ -750,9 +375,7 @@ class Waves:
         v = np.empty_like(moved)
         v[0] = before[2]
         v[1:] = (moved[:-1] + moved[1:]) / (h[:-1] + h[1:])[:, None]
-        ok = (np.abs(moved - h[:, None] * v).max(axis=1) <= opt.predictor_tol) \
-            & (np.abs(v).max(axis=1) * np.abs(h) <= opt.max_motion)
-        return int(np.argmin(ok)) if not ok.all() else n
+        return accept.leading(accept.passes(moved, h, v, opt))
 
     def verify(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
                incoming: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -860,130 +483,6 @@ class Waves:
 
     # ---- poses ------------------------------------------------------------------------------
 
-    def moved(self, P: np.ndarray, Q: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Poses after scaled local steps e (B, N) (as :meth:`State.moved`)."""
-        B, M = P.shape[:2]
-        d = (e * self.solver.col).reshape(B, M, 6)
-        return P + d[..., :3], quat.turned(Q.reshape(-1, 4), d[..., 3:].reshape(-1, 3)).reshape(B, M, 4)
-
-    def displacement(self, P: np.ndarray, Q: np.ndarray, P0: np.ndarray, Q0: np.ndarray) -> np.ndarray:
-        """Scaled local coordinates (B, N) from poses 0 to poses (as :meth:`State.minus`)."""
-        B, M = P.shape[:2]
-        phi = quat.log(quat.multiply(Q.reshape(-1, 4), quat.conjugate(Q0.reshape(-1, 4)))).reshape(B, M, 3)
-        return np.concatenate([P - P0, phi], axis=2).reshape(B, 6 * M) / self.solver.col
-
-    def _factor(self, J: Jacobians) -> "Factors":
-        """Cholesky factors (B, Np, Np) of the scaled JᵀJ + μI, block by block (μ as the
-        continuation's: 1e-13 of the largest diagonal entry, at least 1e-13), and whether each
-        pose's is sound (B,): positive definite with exactly :attr:`free` pivots below
-        :data:`FREE_PIVOT` of that entry (no other free or singular direction) and, where J has
-        a free direction, its null vector (:meth:`_null`) clean (J zero off its blocks is
-        checked at the solved pose: :meth:`_apart`)."""
-        normal = [np.swapaxes(Jp, 1, 2) @ Jp for Jp in J.blocks]
-        B = len(J.leaves)
-        top = np.ones(B)
-        for H in normal:
-            np.maximum(top, np.diagonal(H, axis1=1, axis2=2).max(axis=1), out=top)
-        factors = []
-        sound = np.ones(B, dtype=bool)
-        small = np.zeros(B, dtype=int)
-        for H in normal:
-            n = H.shape[1]
-            H.reshape(B, n * n)[:, ::n + 1] += (1e-13 * top)[:, None]
-            try:
-                L = np.linalg.cholesky(H)
-            except np.linalg.LinAlgError:  # some pose is not positive definite: one by one
-                L = np.tile(np.eye(n), (B, 1, 1))
-                for i, h in enumerate(H):
-                    try:
-                        L[i] = np.linalg.cholesky(h)
-                    except np.linalg.LinAlgError:
-                        sound[i] = False
-            factors.append(L)
-            small += (np.diagonal(L, axis1=1, axis2=2) ** 2 < FREE_PIVOT * top[:, None]).sum(axis=1)
-        sound &= small == self.free
-        null = None
-        if self.free:
-            null, clean = self._null(factors, J, top)
-            sound &= clean
-            weak = np.flatnonzero(small == self.free + 1)  # a direction J sees weakly besides
-            if weak.size:
-                null[weak], clean = self._null_apart([L[weak] for L in factors], J.take(weak), top[weak])
-                sound[weak] = clean
-        return Factors(factors, sound, null, J.parts)
-
-    def _null(self, factors: list[np.ndarray], J: Jacobians, top: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Unit null vectors (B, N) of J where it has one free direction, as the continuation
-        takes them: two inverse iterations with the factorization from a fixed random vector
-        (μ sets the null eigenvalue apart by FREE_PIVOT / 1e-13 at least); and whether each is
-        clean (B,): |J n| at most NULL_CLEAN of √(largest diagonal of JᵀJ)."""
-        B, N = len(top), self.system.n_unknowns
-        probe = np.random.default_rng(1).standard_normal(N)  # as the continuation's probes
-        parts = self.parts
-        y = self._assemble(self._solve(factors, [np.broadcast_to(probe[p.cols], (B, len(p.cols))) for p in parts]),
-                           parts)
-        y = self._assemble(self._solve(factors, [y[:, p.cols] for p in parts]), parts)
-        y /= np.sqrt((y * y).sum(axis=1))[:, None]
-        seen = sum(((Jp @ y[:, p.cols, None])[..., 0] ** 2).sum(axis=1) for p, Jp in zip(self.parts, J.blocks))
-        return y, np.sqrt(seen) <= NULL_CLEAN * np.sqrt(top)
-
-    def _null_apart(self, factors: list[np.ndarray], J: Jacobians, top: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """As :meth:`_null` where two pivots are small (a direction J sees weakly besides the
-        free one), as the continuation takes it: two inverse iterations from two fixed random
-        vectors span both; of the two directions of that span, the one J does not see is the
-        null vector, clean when J's two singular values there are at most NULL_CLEAN and at
-        least NULL_APART of √(largest diagonal of JᵀJ)."""
-        B, N = len(top), self.system.n_unknowns
-        probes = np.random.default_rng(2).standard_normal((N, 2))  # as the continuation's probes
-        Y = np.empty((B, N, 2))
-        for j in range(2):
-            y = self._assemble(self._solve(factors, [np.broadcast_to(probes[p.cols, j], (B, len(p.cols)))
-                                                     for p in self.parts]), self.parts)
-            Y[:, :, j] = self._assemble(self._solve(factors, [y[:, p.cols] for p in self.parts]), self.parts)
-        # an orthonormal basis of the span (Gram–Schmidt), J on it (B, R, 2) and its 2 × 2 Gram matrix
-        Y[:, :, 0] /= np.sqrt((Y[:, :, 0] ** 2).sum(axis=1))[:, None]
-        Y[:, :, 1] -= Y[:, :, 0] * (Y[:, :, 0] * Y[:, :, 1]).sum(axis=1)[:, None]
-        Y[:, :, 1] /= np.sqrt((Y[:, :, 1] ** 2).sum(axis=1))[:, None]
-        JY = np.concatenate([Jp @ Y[:, p.cols] for p, Jp in zip(self.parts, J.blocks)], axis=1)
-        values, vectors = np.linalg.eigh(np.swapaxes(JY, 1, 2) @ JY)  # ascending
-        scale = np.sqrt(top)
-        sv = np.sqrt(np.maximum(values, 0.0))
-        clean = (sv[:, 0] <= NULL_CLEAN * scale) & (sv[:, 1] >= NULL_APART * scale)
-        return (Y @ vectors[:, :, :1])[..., 0], clean
-
-    def _apart(self, J: Jacobians, idx: np.ndarray) -> np.ndarray:
-        """Whether the solved poses ``idx`` of J have J zero off its blocks (to :data:`TIED`)
-        (B',); the blocks that the others' entries tie are merged before the next block."""
-        off = J.off[idx]
-        tied = off.any(axis=0)
-        if tied.any() and self.compiled.ties is not None:
-            self.tied = np.concatenate([self.tied, self.compiled.ties[tied]])
-        return np.asarray(~off.any(axis=1))
-
-    def _assemble(self, x: list[np.ndarray], parts: list[Part]) -> np.ndarray:
-        """One vector (B, N) from its blocks (B, Np) of ``parts`` (zero elsewhere)."""
-        full = len(parts) == len(self.parts)
-        out = (np.empty if full else np.zeros)((len(x[0]), self.system.n_unknowns))
-        for p, xp in zip(parts, x):
-            out[:, p.cols] = xp
-        return out
-
-    def least_norm(self, F: "Factors", b: list[np.ndarray]) -> np.ndarray:
-        """y (B, N) of (JᵀJ + μI) y = b (blocks (B, Np)) without its component along J's null
-        vector (there it is rounding amplified by 1/μ): the least-norm solution."""
-        y = self._assemble(self._solve(F.factors, b), F.parts)
-        return y if F.null is None else y - F.null * (F.null * y).sum(axis=1)[:, None]
-
-    @staticmethod
-    def _solve(factors: list[np.ndarray], b: list[np.ndarray]) -> list[np.ndarray]:
-        """x of L Lᵀ x = b block by block: factors (B, Np, Np) and right-hand sides (B, Np)."""
-        return [cholesky_solve(L, bp) if bp.any() else np.zeros_like(bp)  # a planar linkage's out-of-plane
-                for L, bp in zip(factors, b)]                                 # part rarely is
-
-    @staticmethod
-    def _gradient(J: Jacobians, r: np.ndarray) -> list[np.ndarray]:
-        """Jᵀ r block by block (B, Np) for residual rows r (B, R)."""
-        return [(r[:, p.rows][:, None, :] @ Jp)[:, 0] for p, Jp in zip(J.parts, J.blocks)]
 
     def solve(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray, budget: int = ITERATIONS,
               velocities: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -1085,107 +584,6 @@ class Waves:
         v0 = np.concatenate([before[2][None], velocity[:-1]])
         h = np.diff(np.concatenate([[t_before], self.table.t[steps]]))
         moved = self.displacement(P, Q, P0, Q0)
-        ok = done & (np.abs(moved - h[:, None] * v0).max(axis=1) <= opt.predictor_tol) \
-            & (np.abs(v0).max(axis=1) * np.abs(h) <= opt.max_motion)
-        return int(np.argmin(ok)) if not ok.all() else len(steps)
-
-    # ---- predictions ----------------------------------------------------------------------
-
-    def osculating(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray, around: np.ndarray,
-                   t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Positions (B, M, 3) and quaternions (B, M, 4) at times ``t`` (B,), each from the
-        osculating polynomial (degree 2k − 1) through k consecutive ones of n solved poses
-        (the first of them ``around`` (B,)) and their time derivatives: times (n,), flat poses
-        and derivatives (n, 7M) (:func:`flat`; quaternions component-wise, then normalized)."""
-        k = min(NODES, len(t_nodes))
-        x, which, idx, tau, half = _windows(t_nodes, around, t, k)
-        # the interpolant's weights on the node values and rates: w A = (1, τ, τ², …) at τ
-        w = (tau[:, None] ** np.arange(2 * k))[:, None, :] @ np.linalg.inv(_hermite(x))[which]  # (B, 1, 2k)
-        around = nodes[idx]  # (B, k, 7M), from the first: coordinates equal at every pose stay exactly so
-        Z = around[:, :1] + w[:, :, :k] @ (around - around[:, :1]) + (w[:, :, k:] * half[:, None, None]) @ rates[idx]
-        return self._split(Z[:, 0])
-
-    def extrapolated(self, t_nodes: np.ndarray, nodes: np.ndarray, rates: np.ndarray,
-                     t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """As :meth:`osculating`, every time from the same k poses: times (k,), flat poses and
-        their time derivatives (k, 7M), normalized by the farthest time."""
-        t0, k = t_nodes[-1], len(t_nodes)
-        span = max(float(np.ptp(t_nodes)), float(np.abs(t - t0).max()))
-        A = _hermite((t_nodes - t0) / span)
-        w = np.linalg.solve(A.T, ((t - t0) / span) ** np.arange(2 * k)[:, None])  # (2k, B)
-        # from the last pose: coordinates equal at every pose stay exactly so
-        return self._split(nodes[-1] + w[:k].T @ (nodes - nodes[-1]) + (span * w[k:].T) @ rates)
-
-    def _split(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        M = self.system.n_members
-        return Z[:, :3 * M].reshape(-1, M, 3), quat.normalize(Z[:, 3 * M:].reshape(-1, M, 4))
+        return accept.leading(done & accept.passes(moved, h, v0, opt))
 
 
-def _components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The connected component (n,) of each of n nodes linked in pairs a[i], b[i]."""
-    graph = scipy.sparse.coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n))
-    return scipy.sparse.csgraph.connected_components(graph, directed=False)[1]
-
-
-def lagrange(t_nodes: np.ndarray, nodes: np.ndarray, around: np.ndarray, t: np.ndarray, k: int) -> np.ndarray:
-    """Flat poses (B, 7M) at times t (B,), each from the polynomial (degree k − 1) through k
-    consecutive of n flat poses (times (n,), poses (n, 7M)), the first of them ``around`` (B,)."""
-    k = min(k, len(t_nodes))
-    x, which, idx, tau, _ = _windows(t_nodes, around, t, k)
-    # the weights on the node values: w A = (1, τ, τ², …) at τ, A the nodes' powers
-    w = (tau[:, None] ** np.arange(k))[:, None, :] @ np.linalg.inv(x[..., None] ** np.arange(k))[which]
-    return (w @ nodes[idx])[:, 0]
-
-
-def _windows(t_nodes: np.ndarray, around: np.ndarray, t: np.ndarray,
-             k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The windows of k consecutive nodes (times (n,)) that times t (B,) are predicted from,
-    the first of each ``around`` (B,), with each window's times centred and scaled onto
-    [−1, 1] (well-conditioned systems): the distinct windows' node times so scaled (W, k),
-    which window each time uses (B,), its node indices (B, k), the time so scaled (B,), and
-    the half width (B,) of its window."""
-    first, which = np.unique(around, return_inverse=True)
-    window = first[:, None] + np.arange(k)  # (W, k)
-    tw = t_nodes[window]
-    mid, half = 0.5 * (tw[:, 0] + tw[:, -1]), np.maximum(0.5 * np.ptp(tw, axis=1), np.finfo(float).tiny)
-    return (tw - mid[:, None]) / half[:, None], which, window[which], (t - mid[which]) / half[which], half[which]
-
-
-def _hermite(x: np.ndarray) -> np.ndarray:
-    """The osculating interpolation matrices (..., 2k, 2k) at normalized node times x (..., k):
-    rows the values then the derivatives of the monomials 1, x, …, x^(2k−1)."""
-    powers = np.arange(2 * x.shape[-1])
-    return np.concatenate([x[..., None] ** powers, powers * x[..., None] ** np.maximum(powers - 1, 0)], axis=-2)
-
-
-def flat(P: np.ndarray, Q: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Poses as flat states (B, 7M) — positions (B, M, 3) then quaternions (B, M, 4) — and their
-    time derivatives (B, 7M) from the real velocities V (B, M, 6): ṗ, and q̇ = ½ (0, ω) ⊗ q."""
-    B, M = P.shape[:2]
-    w = np.concatenate([np.zeros(V.shape[:2] + (1,)), V[..., 3:]], axis=2)
-    dq = 0.5 * quat.multiply(w.reshape(-1, 4), Q.reshape(-1, 4)).reshape(B, 4 * M)
-    return (np.concatenate([P.reshape(B, 3 * M), Q.reshape(B, 4 * M)], axis=1),
-            np.concatenate([V[..., :3].reshape(B, 3 * M), dq], axis=1))
-
-
-def cholesky_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """x (B, N) of L Lᵀ x = b for lower-triangular L (B, N, N) and b (B, N): forward and back
-    substitution, each a loop over the N unknowns of array operations over B (LAPACK's potrs
-    pose by pose for at most :data:`FEW` poses, where that loop's fixed cost dominates)."""
-    if len(L) <= FEW:
-        return np.array([_potrs(c, x, lower=True)[0] for c, x in zip(L, b)]).reshape(b.shape)
-    n = L.shape[1]
-    d = np.diagonal(L, axis1=1, axis2=2)
-    y = np.empty_like(b)
-    for i in range(n):
-        y[:, i] = (b[:, i] - np.einsum("bj,bj->b", L[:, i, :i], y[:, :i])) / d[:, i]
-    x = np.empty_like(b)
-    for i in range(n - 1, -1, -1):
-        x[:, i] = (y[:, i] - np.einsum("bj,bj->b", L[:, i + 1:, i], x[:, i + 1:])) / d[:, i]
-    return x
-
-
-def _take(a: np.ndarray, idx: np.ndarray) -> np.ndarray:
-    """a[idx] for sorted distinct indices ``idx`` into a's first axis: a itself (no copy) when
-    they are all of them."""
-    return a if len(idx) == len(a) else a[idx]

@@ -40,15 +40,6 @@ fine one (the same branch), or fails at the time where the step fell below
 continued from: the next one starts again from the last good pose (continuation, then a direct
 solve from it).
 
-**Waves.** Where J has full column rank or one free direction, :func:`solve_run` solves many
-steps at once (:mod:`linkedit.gcs.waves`) and keeps each only where the step-by-step
-acceptance test above, taken from the step before it, passes: the same poses (the same branch),
-far fewer Python calls. The first rejected step is solved by the continuation, which the waves
-then resume from. Waves begin at the first pose with every input active (where J's free
-directions are read), and stop at every input keyframe (the input's rate jumps there); none
-starts where the last two velocities show that the next step's second-order move takes half
-the acceptance test's bound (steps that coarse are sub-stepped by the continuation).
-
 Each accepted pose is factorized once (at its first corrected iterate, when the later
 corrections moved it at most :data:`REUSE`, else afresh): that factorization gives its
 velocity, its null space and rank, the first correction of the next step and, with
@@ -70,33 +61,18 @@ it reports failure.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from linkedit.gcs import accept
 from linkedit.gcs import canonical as canon
-from linkedit.gcs import quaternions as quat
-from linkedit.gcs.acceleration import acceleration, advanced, jacobian_product
-from linkedit.gcs.linalg import Factor, Linearization, NormalEquations, orthonormal
+from linkedit.gcs.acceleration import advanced, jacobian_product
+from linkedit.gcs.linalg import Linear, Linearization, NormalEquations, jacobian_rank, null_space
+from linkedit.gcs.predict import Pose
 from linkedit.gcs.system import Evaluation, State, StepTable, System
+from linkedit.gcs.tolerances import CONVERGED, DAMPING, FREE_PIVOT, INCONSISTENT, NOT_CONVERGED, SLSQP_TOL, Options
 
-CONVERGED, INCONSISTENT, NOT_CONVERGED = 0, 1, 2
-STATUS_NAMES = ("converged", "inconsistent", "did not converge")
-SOLVERS = ("lm", "slsqp-fd")
-#: largest scaled residual row of a converged ``slsqp-fd`` step (``Options.tol`` is the LM one)
-SLSQP_TOL = 1e-6
-#: a pivot of the factorized JᵀJ + μI below this fraction of its largest diagonal entry is a
-#: direction J does not see (a free degree of freedom)
-FREE_PIVOT = 1e-4
-#: singular values of the scaled J below this fraction of the largest span its null space
-NULL_SINGULAR = 1e-8
-#: a null-space basis B from inverse iteration is clean when |J B| is below this fraction of
-#: √(largest diagonal of JᵀJ) (at most the largest singular value): J's rank is N minus its
-#: columns, as the diagnostics' SVD (RANK_TOL) would count it
-NULL_CLEAN = 1e-9
-#: ... and the other directions of its span are seen by J when above this fraction
-NULL_APART = 1e-6
 #: a Levenberg–Marquardt iterate is near a stationary point of the cost when |Jᵀr| is at most
 #: this fraction of √(largest diagonal of JᵀJ)·|r| (scaled); there, a cost decreasing by less than
 #: CREEP of itself per iteration (three in a row) is a least-squares minimum: inconsistent
@@ -111,42 +87,6 @@ REUSE = 1e-10
 #: there (the direct solve from the last good pose then finishes it); short of it, something
 #: (a lock-up, a singular pose) stopped it, and a pose found directly is not on its branch
 ARRIVED = 1e-6
-#: degree of the polynomial through the last accepted poses that starts a step when it agrees
-#: with the second-order tangent prediction (higher degrees amplify the poses' own errors, up to
-#: the tolerance, more than they follow the motion at a few hundred steps per cycle)
-PREDICT_ORDER = 7
-
-
-@dataclass
-class Options:
-    """Solver settings (scaled quantities: lengths divided by the mechanism's size, radians).
-
-    ``tol``: largest residual row counted as satisfied; ``max_iterations``: linear solves per
-    (sub-)step; ``predictor_tol``: largest distance between a sub-step's tangent prediction and
-    its solution; ``max_motion``: largest motion of a sub-step; ``min_fraction``: smallest
-    sub-step, as a fraction of a time step; ``still_tol``: largest Newton move left along free
-    directions (to the canonical pose; where an input is outside its window, the largest
-    component of a pose's change along them); ``accelerations``: compute them at every output step (two more
-    Jacobian evaluations per step, :mod:`linkedit.gcs.acceleration`; ``solve3d
-    --accelerations`` asks for them, step by step)."""
-
-    tol: float = 1e-12
-    max_iterations: int = 100
-    predictor_tol: float = 2e-3
-    max_motion: float = 0.05
-    min_fraction: float = 1e-9
-    still_tol: float = 1e-10
-    solver: str = "lm"
-    accelerations: bool = False
-    #: solve many steps at once where that gives the continuation's poses (:mod:`linkedit.gcs.waves`)
-    waves: bool = True
-    #: end the run at its first step that fails (the run returned holds the steps up to it)
-    stop_at_failure: bool = False
-
-    @property
-    def satisfied_tol(self) -> float:
-        """The largest scaled residual row the chosen solver counts as satisfied."""
-        return SLSQP_TOL if self.solver == "slsqp-fd" else self.tol
 
 
 @dataclass
@@ -154,80 +94,6 @@ class StepResult:
     status: int
     iterations: int  #: linear solves
     factorizations: int
-
-
-@dataclass
-class Linear:
-    """A pose's Jacobian (scaled), its factorization and, where J has a null space, an
-    orthonormal basis of it (N, f) (None when J has full column rank)."""
-
-    ev: Evaluation
-    lin: Linearization
-    factor: Factor
-    null: np.ndarray | None
-    #: rank of J read from the factorization (N minus the null space), −1 where it cannot
-    #: tell (small pivots that are not a clean null space: the diagnostics take an SVD)
-    rank: int = -1
-    #: small pivots where J has no null space for these inputs: a singular pose (a change
-    #: point, a lock-up), where J alone leaves the velocity undetermined along a direction
-    singular: bool = False
-
-    def least_norm(self, b: np.ndarray) -> np.ndarray:
-        """The least-norm y (N,) of J y = b (R,): the normal equations' solution (regularized
-        by μ) without its component along the null space (there it is rounding amplified by 1/μ)."""
-        return self.still(self.factor.solve(self.lin.gradient(b)))
-
-    def continued(self, b: np.ndarray, incoming: np.ndarray | None) -> np.ndarray:
-        """The least-norm y (N,) of J y = b (R,); at a singular pose (a change point, where
-        branches cross and J cannot tell their tangents apart) with the ``incoming`` velocity
-        (N,) the motion arrived with, the one nearest it, y = w + J⁺(b − J w) (J⁺ damped: along
-        the directions J hardly sees, w is kept), so the motion keeps the branch it was on."""
-        if incoming is None or not self.singular:
-            return self.least_norm(b)
-        return incoming + self.least_norm(b - self.lin.JT.T @ incoming)
-
-    def still(self, d: np.ndarray) -> np.ndarray:
-        """d (N,) without its component along the null space of J."""
-        return d if self.null is None else d - self.null @ (self.null.T @ d)
-
-
-@dataclass
-class Pose:
-    """A solved pose at time ``t``: state, residual, linearization, scaled velocity (N,) and
-    the change of velocity per unit time since the pose before (N,) (None for the first)."""
-
-    t: float
-    state: State
-    r: np.ndarray
-    linear: Linear
-    velocity: np.ndarray
-    trend: np.ndarray | None = None
-    #: the accepted poses of this continuation up to this one, newest last: times (k,) and
-    #: states (k, 7M) (positions (M, 3) then quaternions (M, 4), flattened), k ≤ PREDICT_ORDER + 1
-    history: tuple[np.ndarray, np.ndarray] | None = None
-
-    def followed_by(self, t: float, state: State, r: np.ndarray, linear: "Linear", velocity: np.ndarray) -> "Pose":
-        """The next accepted pose of the continuation."""
-        ts, Z = self.history or (np.array([self.t]), _flat(self.state)[None])
-        keep = slice(-PREDICT_ORDER, None)
-        history = (np.concatenate([ts[keep], [t]]), np.concatenate([Z[keep], _flat(state)[None]]))
-        return Pose(t, state, r, linear, velocity, (velocity - self.velocity) / (t - self.t), history)
-
-    def extrapolated(self, t: float) -> State | None:
-        """The Lagrange polynomial through the history's poses at t (quaternions component-wise,
-        then normalized: consecutive solved quaternions never flip sign); None with fewer than
-        three poses."""
-        if self.history is None or len(self.history[0]) < 3:
-            return None
-        ts, Z = self.history
-        z = lagrange_weights(ts, t) @ Z
-        M = self.state.position.shape[0]
-        return State(z[:3 * M].reshape(M, 3), quat.normalize(z[3 * M:].reshape(M, 4)))
-
-
-def _flat(x: State) -> np.ndarray:
-    """Positions then quaternions of a state, flattened (7M,)."""
-    return np.concatenate([x.position.ravel(), x.orientation.ravel()])
 
 
 @dataclass
@@ -249,7 +115,6 @@ class Solver:
         self.structure: dict[bytes, bool] = {}  #: active-input pattern → J has a null space
         #: the pose that free directions are canonical against (:mod:`linkedit.gcs.canonical`)
         self.reference: State = s.rest
-        self._probes: dict[int, np.ndarray] = {}
 
     # ---- building blocks --------------------------------------------------------------------
 
@@ -259,57 +124,26 @@ class Solver:
 
     def linearize(self, x: State, table: StepTable, step: int, ev: Evaluation | None = None) -> Linear:
         """Factorize the scaled JᵀJ + μI at x (from ``ev``, its evaluation with the Jacobian,
-        when given); where J has a null space, take its basis (:meth:`_null_space`)."""
+        when given); where J has a null space, take its basis (:func:`~linkedit.gcs.linalg.null_space`)."""
         if ev is None:
             ev = self.system.evaluate(x, table, step, jacobian=True)
         lin = self.normal.linearize(ev.jacobians(), scaled=True)
         diagonal = self.normal.diagonal(lin.data)
         top = max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
-        factor = self.normal.factor(lin.data, 0.0, 1e-13 * top)
+        factor = self.normal.factor(lin.data, 0.0, DAMPING * top)
         self.factorizations += 1
         small = factor.pivots() < FREE_PIVOT * top
         if not small.any():
             return Linear(ev, lin, factor, None, self.system.n_unknowns)
         if not self._free(table, step, lin):
             return Linear(ev, lin, factor, None, singular=True)
-        return Linear(ev, lin, factor, *self._null_space(lin, factor, int(small.sum()), top))
-
-    def _null_space(self, lin: Linearization, factor: Factor, f: int, top: float) -> tuple[np.ndarray | None, int]:
-        """An orthonormal basis (N, k) of the null space of J and the rank of J, for f small
-        pivots (k ≤ f: a small pivot may also be a direction J sees weakly): two inverse
-        iterations with the factorization from fixed random vectors (the damping μ sets the null
-        eigenvalues apart from the others by a factor of at least FREE_PIVOT / 1e-13) span the
-        null space; an SVD of J on that span (N × f) picks it out when its singular values
-        are clearly zero or clearly not (rank N − k); otherwise an SVD of J decides."""
-        N = self.system.n_unknowns
-        J = lin.JT.T
-        if f not in self._probes:
-            self._probes[f] = np.random.default_rng(f).standard_normal((N, f))
-        Y = factor.solve(factor.solve(self._probes[f]))
-        scale = math.sqrt(top)
-        if f == 1:  # the usual case (one idle spin): no decomposition needed
-            span = Y / math.sqrt(Y[:, 0] @ Y[:, 0])
-            seen = J @ span[:, 0]
-            if math.sqrt(seen @ seen) <= NULL_CLEAN * scale:
-                return span, N - 1
-        else:
-            span = orthonormal(Y)
-            _, sv, Vt = np.linalg.svd(np.asarray(J @ span))
-            sv = np.concatenate([sv, np.zeros(f - sv.size)])  # fewer rows than f: the rest are zero
-            zero = sv <= NULL_CLEAN * scale
-            if zero.any() and (sv[~zero] >= NULL_APART * scale).all():
-                return span @ Vt[zero].T, N - int(zero.sum())
-        _, sv, Vt = np.linalg.svd(J.toarray() if hasattr(J, "toarray") else J)
-        rank = int(np.sum(sv > NULL_SINGULAR * sv[0])) if sv.size else 0
-        return (Vt[rank:].T if rank < Vt.shape[0] else None), -1
+        return Linear(ev, lin, factor, *null_space(lin.JT.T, factor, int(small.sum()), top))
 
     def _free(self, table: StepTable, step: int, lin: Linearization) -> bool:
         """Whether J has a null space for the inputs active at this step: its rank is taken
         (block by block) the first time each set of active inputs is met, and kept."""
         key = table.at(step).inactive_rows.tobytes() if table.partial[step] else b""
         if key not in self.structure:
-            from linkedit.gcs.diagnostics import jacobian_rank
-
             J = lin.JT.T
             self.structure[key] = jacobian_rank(J.toarray() if hasattr(J, "toarray") else np.asarray(J)) \
                 < self.system.n_unknowns
@@ -439,7 +273,7 @@ class Solver:
             lin = self.normal.linearize(ev.jacobians(), scaled=True)
             diagonal = self.normal.diagonal(lin.data)
             top = max(float(diagonal.max()) if diagonal.size else 0.0, 1.0)
-            floor = 1e-13 * top
+            floor = DAMPING * top
             g = lin.gradient(r * self.row)
             flat = math.sqrt(g @ g) <= STATIONARY * math.sqrt(top * f)
             while True:
@@ -580,7 +414,7 @@ class Solver:
             if abs(h) > abs(t1 - here.t):
                 h = t1 - here.t
             speed = float(np.abs(here.velocity).max(initial=0.0))
-            if speed * abs(h) > opt.max_motion:
+            if not accept.within_motion(speed, h, opt):
                 h = math.copysign(opt.max_motion / speed, span)
             if abs(h) < opt.min_fraction * abs(span):
                 return (*best, None, here.t)
@@ -599,7 +433,7 @@ class Solver:
             # the pose's displacement from here: the prediction's and the corrections' (to first
             # order in the corrections, ample for the test), or taken afresh after LM
             moved = g + total if total is not None else self.displacement(x, here.state)
-            near = status == CONVERGED and np.abs(moved - tangent).max() <= opt.predictor_tol
+            near = status == CONVERGED and bool(accept.near(moved, tangent, opt))
             if not near:
                 if s == t1 and np.sum(r * r) < np.sum(best[1] * best[1]):
                     best = (x, r, status if status != CONVERGED else NOT_CONVERGED)
@@ -612,227 +446,6 @@ class Solver:
                 return x, r, CONVERGED, here, s
             h *= 2.0
 
-
-def _curving(t: np.ndarray, vel: np.ndarray, k: int, col: np.ndarray) -> float:
-    """The second-order part of the move from step k − 1 to k (scaled), ½ h² |a|, with the
-    acceleration from the velocities (T, M, 6) of the two steps before: where it exceeds
-    ``predictor_tol`` the acceptance test would reject that step (the continuation sub-steps
-    it), and where it exceeds half of it the steps after likely some: a wave starting there
-    would keep little."""
-    h, before = float(t[k] - t[k - 1]), float(t[k - 1] - t[k - 2])
-    change = np.abs((vel[k - 1] - vel[k - 2]).ravel() / col).max()
-    return 0.5 * h * h / abs(before) * float(change)
-
-
-@dataclass
-class Run:
-    """Member states, velocities and per-step diagnostics over T steps."""
-
-    t: np.ndarray  #: (T,)
-    position: np.ndarray  #: (T, M, 3)
-    orientation: np.ndarray  #: (T, M, 4)
-    velocity: np.ndarray  #: (T, M, 6): d position / dt and world angular velocity
-    acceleration: np.ndarray | None  #: (T, M, 6): d² position / dt² and world angular acceleration (None: not asked)
-    residual: np.ndarray  #: (T, R) residual vector at each solved step
-    status: np.ndarray  #: (T,) int8: 0 converged, 1 inconsistent, 2 did not converge
-    iterations: np.ndarray  #: (T,) linear solves
-    factorizations: np.ndarray  #: (T,)
-    #: (T,) time up to which a failed step's continuation got (t of the step when converged)
-    reached: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    #: (T,) rank of the scaled Jacobian at each converged step, read from its factorization;
-    #: −1 where the factorization cannot tell (or the step failed)
-    rank: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
-    #: (T,) bool: the step was solved in a wave (:mod:`linkedit.gcs.waves`), not step by step
-    batched: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
-
-    def state(self, step: int) -> State:
-        return State(self.position[step], self.orientation[step])
-
-    def take(self, steps: np.ndarray) -> "Run":
-        """The run at some of its steps (indices (T',))."""
-        return Run(t=self.t[steps], position=self.position[steps], orientation=self.orientation[steps],
-                   velocity=self.velocity[steps],
-                   acceleration=None if self.acceleration is None else self.acceleration[steps],
-                   residual=self.residual[steps], status=self.status[steps], iterations=self.iterations[steps],
-                   factorizations=self.factorizations[steps], reached=self.reached[steps], rank=self.rank[steps],
-                   batched=self.batched[steps])
-
-
-def solve_run(system: System, t: np.ndarray, options: Options | None = None, start: State | None = None,
-              table: StepTable | None = None, progress: Callable[[int, int], None] | None = None) -> Run:
-    """Solve every time step of ``t`` (T,) by continuation from the first (module docstring),
-    many steps at once where :mod:`linkedit.gcs.waves` applies (the same poses), BLAS on one
-    thread (:mod:`linkedit.blas`); ``progress(k, T)`` is called after each step."""
-    from linkedit.blas import single_threaded
-
-    t = np.asarray(t, dtype=float)
-    # an input's window ending between two steps is solved at its edge too (not returned): the
-    # member it leaves holds the input's last value there, whatever the steps
-    edges = np.unique([e for blk in system.blocks for sc in blk.schedules for e in sc.window
-                       if t.size and min(t[0], t[-1]) < e < max(t[0], t[-1])])
-    edges = edges[~np.isin(edges, t)]
-    if edges.size == 0 or not ((np.diff(t) > 0).all() or (np.diff(t) < 0).all()):
-        with single_threaded():
-            return _solve_run(system, t, options, start, table, progress)
-    full = np.sort(np.concatenate([t, edges]))
-    full = full if t[-1] > t[0] else full[::-1]
-    keep = np.flatnonzero(np.isin(full, t))
-    where = {int(k): i for i, k in enumerate(keep)}
-    told = None if progress is None else (lambda k, T: progress(where[k], t.size) if k in where else None)
-    with single_threaded():
-        run = _solve_run(system, full, options, start, None, told)
-    return run.take(keep[keep < run.t.size])
-
-
-def _solve_run(system: System, t: np.ndarray, options: Options | None, start: State | None,
-               table: StepTable | None, progress: Callable[[int, int], None] | None) -> Run:
-    from linkedit.gcs.waves import SHORTEST, START, Waves
-
-    options = options or Options()
-    t = np.asarray(t, dtype=float)
-    table = table or system.step_table(t)
-    solver = Solver(system, options)
-    T, M = t.size, system.n_members
-    pos, ori = np.empty((T, M, 3)), np.empty((T, M, 4))
-    vel, acc = np.zeros((T, M, 6)), np.zeros((T, M, 6))
-    res = np.empty((T, system.n_rows))
-    status = np.empty(T, dtype=np.int8)
-    iters, facts = np.zeros(T, dtype=np.int32), np.zeros(T, dtype=np.int32)
-    reached = t.copy()
-    rank = np.full(T, -1)
-    good: Pose | None = None
-    stuck = False  # the continuation from ``good`` failed once: it would fail again at the same place
-    rest = (start or system.rest).copy()
-    solver.reference = rest
-    # waves predict from the times of solved steps: they need them distinct, in one direction
-    monotone = bool((np.diff(t) > 0).all() or (np.diff(t) < 0).all())
-    waves = Waves(solver, table) if options.waves and Waves.applies(solver) and monotone else None
-    batched = np.zeros(T, dtype=bool)
-    classified = False  # whether J's free directions at a pose with every input active were read
-    streak = 0  #: the first of the converged steps just before k
-    resting, pause = 0, SHORTEST  #: no wave before step ``resting``; the next pause after a wave accepted none
-    width = T
-    #: steps k0..k solved by waves and accepted since the last step-by-step pose ``good`` (−1: none)
-    wave_from = -1
-
-    def resume(k: int) -> Pose:
-        """The continuation's pose at step k, solved by a wave (its factorization and history)."""
-        x = State(pos[k].copy(), ori[k].copy())
-        linear = solver.linearize(x, table, k)
-        lo = max(0, k - PREDICT_ORDER)
-        ts = t[lo:k + 1]
-        Z = np.concatenate([pos[lo:k + 1].reshape(k + 1 - lo, -1), ori[lo:k + 1].reshape(k + 1 - lo, -1)], axis=1)
-        v = vel[k].ravel() / solver.col
-        trend = (v - vel[k - 1].ravel() / solver.col) / (t[k] - t[k - 1]) if k > 0 else None
-        return Pose(float(t[k]), x, res[k].copy(), linear, v, trend, (ts, Z))
-
-    k = 0
-    # the inputs' keyframes inside their windows: their rates jump there, so the poses' motion
-    # is smooth only between them; waves neither predict nor interpolate across one
-    keys = np.unique([float(x) for blk in system.blocks for sc in blk.schedules for x in sc.times[1:-1]])
-    piece = np.searchsorted(keys, t, side="right")
-    starts = np.concatenate([[0], np.flatnonzero(np.diff(piece)) + 1])
-    piece_start = starts[np.searchsorted(starts, np.arange(T), side="right") - 1]  # (T,) first step of each one's piece
-    while k < T:
-        since = max(streak, int(piece_start[k]))  # the converged steps just before k on k's piece
-        if waves is not None and classified and k - since >= START and k >= resting and not table.partial[k] \
-                and abs(t[k] - t[k - 1]) * np.abs(vel[k - 1].ravel() / solver.col).max() <= options.max_motion \
-                and _curving(t, vel, k, solver.col) <= 0.5 * options.predictor_tol:
-            # many steps at once from the accepted ones before them (not where the first of them
-            # would move or turn too far for the acceptance test, nor for a while after a wave that
-            # accepted none), up to the next keyframe or input window's edge
-            stop = min(T, k + width)
-            edge = np.flatnonzero(table.partial[k:stop] | (piece[k:stop] != piece[k]))
-            stop = k + int(edge[0]) if edge.size else stop
-            wave = waves.block(k, stop, pos, ori, vel, since)
-            n = wave.accepted
-            if n:
-                done = np.arange(k, k + n)
-                pos[done], ori[done], res[done] = wave.position[:n], wave.orientation[:n], wave.residual[:n]
-                vel[done] = (wave.velocity[:n] * solver.col).reshape(n, M, 6)
-                status[done], batched[done] = CONVERGED, True
-                rank[done] = system.n_unknowns - waves.free if wave.rank is None else wave.rank[:n]
-                iters[done], facts[done] = wave.work[:n, 0], wave.work[:n, 1]
-                wave_from = k if wave_from < 0 else wave_from
-                if progress is not None:
-                    for j in done:
-                        progress(int(j), T)
-                k += n
-                width = 2 * width if k == stop else SHORTEST
-                pause = SHORTEST
-                continue
-            width = SHORTEST
-            resting, pause = k + pause, 2 * pause
-        if wave_from >= 0:  # step by step again, from the last pose a wave accepted
-            good, stuck, wave_from = resume(k - 1), False, -1
-        it0, f0 = solver.iterations, solver.factorizations
-        if options.solver == "slsqp-fd":
-            x, r, info = solver.solve(good.state if good else rest, table, k)
-            st, pose = info.status, None
-            if st == CONVERGED:
-                linear = solver.linearize(x, table, k)
-                pose = Pose(t[k], x, r, linear, solver.velocity(x, table, k, linear))
-        elif good is None:
-            x, r, st, pose = solver.first(rest, table, k)
-        else:
-            pose, tried = None, not stuck
-            if tried:
-                x, r, st, pose, reached[k] = solver.advance(good, table, k)
-                stuck = pose is None
-            else:
-                reached[k] = reached[k - 1]
-            if pose is None:  # continuation failed: solve directly from the last good pose
-                x2, r2, st2, pose = solver.first(good.state, table, k)
-                if pose is not None or not tried or r2 @ r2 < r @ r:
-                    x, r = x2, r2
-                # why it fails is told from the last good pose directly, whatever way the
-                # sub-steps went there (a run through waves reaches it by another one)
-                st = st2
-                if pose is not None and tried and abs(t[k] - reached[k]) > ARRIVED * abs(t[k] - good.t):
-                    # a pose, but the continuation stopped short of it from the step before (a
-                    # lock-up or a singular pose between them): not that step's assembly branch
-                    # (after a failed step, the next one restarts from the last good pose)
-                    st, pose = NOT_CONVERGED, None
-                elif pose is not None:
-                    reached[k] = t[k]
-        if pose is not None and waves is not None and not classified and not table.partial[k]:
-            # what waves keep still is read at the first pose with every input active
-            classified, null = True, pose.linear.null
-            if null is not None and null.shape[1] == 1 and pose.linear.rank == system.n_unknowns - 1:
-                waves.free = 1  # one free direction (a passive degree of freedom), canonical
-            elif null is not None or pose.linear.rank != system.n_unknowns and not solver.normal.sparse:
-                # more free directions, or a rank the pivots cannot tell: step by step (a sparse
-                # system's waves read it pose by pose, as the continuation does)
-                waves = None
-        if pose is not None:
-            good, stuck = pose, False
-            vel[k] = (pose.velocity * solver.col).reshape(M, 6)
-            rank[k] = pose.linear.rank
-            if options.accelerations:
-                a = acceleration(solver, pose.state, table, k, pose.linear, pose.velocity)
-                acc[k] = (a * solver.col).reshape(M, 6)
-        pos[k], ori[k], res[k], status[k] = x.position, x.orientation, r, st
-        if st != CONVERGED:
-            streak = k + 1
-        iters[k], facts[k] = solver.iterations - it0, solver.factorizations - f0
-        if progress is not None:
-            progress(k, T)
-        k += 1
-        if st != CONVERGED and options.stop_at_failure:
-            break
-    run = Run(t=t, position=pos, orientation=ori, velocity=vel,
-              acceleration=acc if options.accelerations else None, residual=res, status=status,
-              iterations=iters, factorizations=facts, reached=reached, rank=rank, batched=batched)
-    return run if k == T else run.take(np.arange(k))
-
-
-def lagrange_weights(nodes: np.ndarray, t: float) -> np.ndarray:
-    """Weights (k,) of the Lagrange polynomial through distinct ``nodes`` (k,) at a time ``t``
-    that is none of them: w_j = ∏_{i≠j} (t − t_i) / (t_j − t_i)."""
-    d = t - nodes
-    between = nodes[:, None] - nodes  # t_j − t_i, 1 on the diagonal (i = j is left out)
-    between.flat[::len(nodes) + 1] = 1.0
-    return (d.prod() / d) / between.prod(axis=1)
 
 
 def solve_slsqp(solver: Solver, start: State, table: StepTable, step: int) -> tuple[State, np.ndarray, StepResult]:
