@@ -349,7 +349,7 @@ def _variants(echo: Callable[[str], None], quick: bool) -> None:
     import time
 
     from linkedit.gcs.members import compile_mechanism
-    from linkedit.gcs.solver import solve_run
+    from linkedit.gcs.solve import solve_run
     from linkedit.spec.mechanism3d import MechanismSpec
     from linkedit.spec.yamlload import load_model
 
