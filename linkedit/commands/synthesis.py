@@ -66,7 +66,7 @@ def register(app: typer.Typer) -> None:
     @atlas_app.command("build")
     @guard
     def build(
-        family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, slider-crank, jansen, klann, watt, stephenson, or a linkage spec file (e.g. examples/klann.yaml)."),
+        family: str = typer.Option(..., "--family", help="Families, comma-separated: four-bar, slider-crank, jansen, klann, watt, stephenson, spherical-four-bar, rssr (spatial), or a linkage spec file (e.g. examples/klann.yaml)."),
         count: int = typer.Option(None, "-n", "--count", min=1, help="Linkages to add per family."),
         output: Path = typer.Option(..., "-o", "--output", help="Atlas file (.h5), or a folder of shards (a name "
                                                                 "without suffix; workers write their shards there); "
@@ -111,7 +111,8 @@ def register(app: typer.Typer) -> None:
     @app.command()
     @guard
     def synthesize(
-        target: str = typer.Argument(None, help="The curve: .csv (x, y[, t]), set.yaml:name or result.h5:track."),
+        target: str = typer.Argument(None, help="The curve: .csv (x, y[, t]; x, y, z: a spatial target), set.yaml:name "
+                                                "or result.h5:track."),
         atlas: Path = typer.Option(None, "--atlas", help="Atlas file, folder of shards, or folder of atlas files "
                                                            "(`linkedit atlas build`)."),
         output: Path = typer.Option(..., "-o", "--output", help="Output folder: result.yaml, result.h5, overlay.svg, "
@@ -189,11 +190,15 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"the target holds {len(curves)} curves; name one (set.yaml:name, result.h5:track)",
                              file=target)
         curve = curves[0]
-        if curve.points.shape[1] != 2:
-            raise InputError("the target must be a planar (x, y) curve", file=curve.origin)
         if units is not None and curve.units is not None and units != curve.units:
             raise InputError(f"--units {units} contradicts the target's own units, {curve.units}", file=curve.origin)
-        found = open_atlas(atlas)
+        if curve.points.shape[1] == 3:
+            _spatial(curve, target, atlas, output, top=top, margin=margin, seed=seed, units=units,
+                     planar_only={"--smooth": smooth != 0.0, "--timing": timing, "--points/--curve": points is not None})
+            return
+        from linkedit.synthesis.spatial import restrict
+
+        found = restrict(open_atlas(atlas), 2)
         result = run(curve, found, top=top, smooth=smooth, timing=timing, margin_deg=margin, seed=seed,
                      units=units or curve.units or "mm", points=points)
         options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "timing": timing,
@@ -210,6 +215,29 @@ def register(app: typer.Typer) -> None:
                 f"(max {100 * timed['after']['max']:.3g} %)")
         if done["note"]:
             say(f"note: {done['note']}")
+
+
+def _spatial(curve, target: str, atlas: Path, output: Path, *, top: int, margin: float, seed: int, units: str | None,
+             planar_only: dict[str, bool]) -> None:
+    """``synthesize`` of a 3D (x, y, z) target: search the atlas's spatial families, refine, write a 3D spec."""
+    from linkedit.synthesis.shards import open_atlas
+    from linkedit.synthesis.spatial import synthesize3d, write_all
+
+    for option, given in planar_only.items():
+        if given:
+            raise InputError(f"{option} applies to a planar target, not to a 3D (x, y, z) one", field=option)
+    found = open_atlas(atlas)
+    result = synthesize3d(curve, found, top=top, margin_deg=margin, units=units or curve.units or "mm")
+    options = {"target": target, "atlas": str(atlas), "top": top, "margin_deg": margin, "seed": seed,
+               "closed": curve.closed, "atlas_size": found.size, "units": units}
+    done = write_all(output, result, options)
+    report({k: v for k, v in done.items() if k != "result"} | {"output": str(output)})
+    before, after = done["error"]["before"], done["error"]["after"]
+    say(f"{done['family']}: normalized RMS error {100 * before['rms']:.3g} % → {100 * after['rms']:.3g} % "
+        f"(max {100 * after['max']:.3g} %; result.yaml solved by solve3d) in {done['seconds']['total']:.2f} s "
+        f"→ {output}/")
+    if done["note"]:
+        say(f"note: {done['note']}")
 
 
 def _function(pairs: Path, output: Path, *, relative: bool, margin: float, tolerance: float) -> None:

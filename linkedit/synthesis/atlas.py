@@ -29,6 +29,7 @@ import numpy as np
 
 from linkedit import __version__
 from linkedit.curves.efd import polyline_efd
+from linkedit.curves.normalize import normalize
 from linkedit.errors import InputError, LinkeditError
 from linkedit.io.atomic import atomic_path, deferred_interrupts, locked
 from linkedit.io.h5read import ResultReader, open_result
@@ -52,6 +53,21 @@ BLOCK = 1024
 CONNECT_TIMEOUT = 10.0
 
 
+def dimension(fam: object) -> int:
+    """2 for a planar family (curves (K, T) complex), 3 for a spatial one (``DIM = 3``: curves (K, T, 3))."""
+    return int(getattr(fam, "DIM", 2))
+
+
+def index_efd(z: np.ndarray) -> np.ndarray:
+    """Normalized arc-length EFDs (K, H, 4) of closed curves: planar z (K, T) complex
+    (:func:`~linkedit.curves.efd.polyline_efd`), spatial (K, T, 3) those of their projection onto their
+    principal plane (:func:`~linkedit.curves.normalize.normalize`, as ``linkedit features`` describes 3D curves)."""
+    if z.ndim == 3:
+        p = normalize(z, True, SAMPLES).points
+        z = p[..., 0] + 1j * p[..., 1]
+    return polyline_efd(z, HARMONICS)
+
+
 def index_vector(efd: np.ndarray) -> np.ndarray:
     """Normalized EFDs (K, H, 4) → the index descriptor (K, 4H − 3): everything but the
     first harmonic's a₁ = 1, b₁ = c₁ = 0, which normalization fixes."""
@@ -66,7 +82,7 @@ class Chunk:
     params: np.ndarray  #: (K, P) float64 family parameters
     min_ds: np.ndarray  #: (K,) smallest d_s over the cycle
     index: np.ndarray  #: (K, 4H − 3) float32 index descriptor
-    curves: np.ndarray  #: (K, SAMPLES / COARSE_STEP, 2) float32 coarse curves, family frame
+    curves: np.ndarray  #: (K, SAMPLES / COARSE_STEP, 2 or 3) float32 coarse curves, family frame
 
 
 def build_chunk(name: str, seed: int, index: int, size: int = CHUNK, spec: str | None = None) -> Chunk:
@@ -87,13 +103,12 @@ def build_chunk(name: str, seed: int, index: int, size: int = CHUNK, spec: str |
         have += int(keep.sum())
     params = np.concatenate(kept)[:size]
     desc = np.empty((size, 4 * HARMONICS - 3), dtype=np.float32)
-    coarse = np.empty((size, SAMPLES // COARSE_STEP, 2), dtype=np.float32)
+    coarse = np.empty((size, SAMPLES // COARSE_STEP, dimension(fam)), dtype=np.float32)
     for start in range(0, size, BLOCK):
         z = fam.curves(params[start:start + BLOCK], SAMPLES)
-        desc[start:start + BLOCK] = index_vector(polyline_efd(z, HARMONICS))
+        desc[start:start + BLOCK] = index_vector(index_efd(z))
         part = z[:, ::COARSE_STEP]
-        coarse[start:start + BLOCK, :, 0] = part.real
-        coarse[start:start + BLOCK, :, 1] = part.imag
+        coarse[start:start + BLOCK] = part if part.ndim == 3 else np.stack([part.real, part.imag], axis=2)
     return Chunk(params, np.concatenate(kept_ds)[:size], desc, coarse)
 
 
@@ -371,7 +386,8 @@ def check_options(seed: int, scheduler: str | None) -> None:
 
 def stored_bytes(name: str) -> int:
     """Bytes one linkage of family ``name`` takes in an atlas (uncompressed; see :func:`_family_group`)."""
-    return 8 * len(family(name).PARAMETERS) + 8 + 4 * (4 * HARMONICS - 3) + 4 * 2 * (SAMPLES // COARSE_STEP)
+    fam = family(name)
+    return 8 * len(fam.PARAMETERS) + 8 + 4 * (4 * HARMONICS - 3) + 4 * dimension(fam) * (SAMPLES // COARSE_STEP)
 
 
 def build(path: str | Path, names: list[str], count: int, *, seed: int = 1, scheduler: str | None = None,
@@ -466,7 +482,7 @@ def _layout(f: ResultReader) -> int:
         fam = family(name, field=f"{f.path}: families/{name}", spec=f.attr("spec", g, default=None))
         rows = f.dataset(f"{g}/params").shape[0] if f.dataset(f"{g}/params").ndim == 2 else -1
         shapes = {"params": (rows, len(fam.PARAMETERS)), "min_ds": (rows,), "index": (rows, 4 * HARMONICS - 3),
-                  "curves": (rows, SAMPLES // COARSE_STEP, 2)}
+                  "curves": (rows, SAMPLES // COARSE_STEP, dimension(fam))}
         for key, shape in shapes.items():
             ds = f.dataset(f"{g}/{key}")
             if ds.shape != shape or ds.dtype.kind != "f":
@@ -488,12 +504,14 @@ def _family_group(f: h5py.File, name: str) -> h5py.Group:
                      dtype="f8", chunks=(CHUNK, len(fam.PARAMETERS)))
     g.create_dataset("min_ds", shape=(0,), maxshape=(None,), dtype="f8", chunks=(CHUNK,))
     g.create_dataset("index", shape=(0, width), maxshape=(None, width), dtype="f4", chunks=(CHUNK, width))
-    g.create_dataset("curves", shape=(0, SAMPLES // COARSE_STEP, 2), maxshape=(None, SAMPLES // COARSE_STEP, 2),
-                     dtype="f4", chunks=(min(CHUNK, 2048), SAMPLES // COARSE_STEP, 2))
+    dim = dimension(fam)
+    g.create_dataset("curves", shape=(0, SAMPLES // COARSE_STEP, dim), maxshape=(None, SAMPLES // COARSE_STEP, dim),
+                     dtype="f4", chunks=(min(CHUNK, 2048), SAMPLES // COARSE_STEP, dim))
     g["params"].attrs["columns"] = json.dumps(list(fam.PARAMETERS))
     g["min_ds"].attrs["description"] = "smallest d_s = sin² of the transmission angle over the cycle"
     g["index"].attrs["description"] = "normalized elliptic Fourier descriptors (arc length) minus a1, b1, c1"
-    g["curves"].attrs["description"] = "tracked point over one crank cycle, family frame (ground length 1)"
+    g["curves"].attrs["description"] = "tracked point over one crank cycle, family frame (ground length 1; "\
+                                       "spatial families: their own, see the family)"
     g.attrs.update({"family_id": fam.ID, "margin": fam.margin(), "chunks": 0,
                     "distribution": (fam.sample.__doc__ or "").strip()})
     if name in SPEC_TEXTS:  # a family made from a spec: its text, to make it again by name

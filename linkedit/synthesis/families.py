@@ -11,7 +11,9 @@ A family (a module, or a :class:`~linkedit.synthesis.legs.CatalogFamily`) provid
 ``min_singularity(params, margin=None)`` (the lowest d_s over the cycle, which the one planar
 predicate :func:`linkedit.planar.feasibility.works` holds to a margin: exact in closed form, or
 :func:`~linkedit.planar.feasibility.lowest` at its samples), ``curves(params, samples, phase)``
-(K, T) complex in the family frame, and ``to_spec(...)``.
+(K, T) complex in the family frame, and ``to_spec(...)``. A spatial family (:mod:`~linkedit.synthesis.spherical`,
+:mod:`~linkedit.synthesis.rssr`) has ``DIM = 3``: its curves are (K, T, 3) and its ``to_spec`` gives a 3D
+mechanism spec (:mod:`linkedit.synthesis.spatial`).
 """
 
 from __future__ import annotations
@@ -25,11 +27,12 @@ from linkedit.errors import InputError, LinkeditError
 from linkedit.planar.plan import compile_plan
 from linkedit.spec.linkage import JointTrack, LinkageSpec
 from linkedit.spec.yamlload import load_yaml, read_text, validate
-from linkedit.synthesis import fourbar, slidercrank
+from linkedit.synthesis import fourbar, rssr, slidercrank, spherical
 from linkedit.synthesis.legs import JANSEN, KLANN, STEPHENSON, WATT, CatalogFamily
 
 FAMILIES: dict[str, Any] = {fourbar.NAME: fourbar, slidercrank.NAME: slidercrank,
-                            **{f.NAME: f for f in (JANSEN, KLANN, WATT, STEPHENSON)}}
+                            **{f.NAME: f for f in (JANSEN, KLANN, WATT, STEPHENSON)},
+                            spherical.NAME: spherical, rssr.NAME: rssr}
 
 
 #: families made from linkage specs, by name (:func:`spec_family`)

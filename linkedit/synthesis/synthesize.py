@@ -24,6 +24,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Protocol, TypeVar
 
 import numpy as np
 
@@ -396,11 +397,20 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
                      polished, margin_deg, point_distances=point_distances)
 
 
-def diverse(candidates: list[Candidate], count: int) -> list[Candidate]:
+class _Choice(Protocol):
+    family: str
+    params: np.ndarray
+
+
+#: a candidate of any kind :func:`diverse` chooses among (planar, or spatial: :mod:`linkedit.synthesis.spatial`)
+C = TypeVar("C", bound=_Choice)
+
+
+def diverse(candidates: list[C], count: int) -> list[C]:
     """The first ``count`` of ``candidates`` (best first) that are not near-copies of one taken
     before: same family and parameters within ``NEAR`` (RMS over the parameters, family frame);
     near-copies fill up the list only if too few distinct ones remain."""
-    taken: list[Candidate] = []
+    taken: list[C] = []
     for c in candidates:
         if len(taken) == count:
             break
