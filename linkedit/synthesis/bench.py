@@ -252,7 +252,7 @@ def quality(echo: Callable[[str], None], four_bars: atlas.Atlas, index: Index, e
         if polish is not None and polish.error and not polish.kept:
             polished += " ✗" + (" margin" if "margin" in polish.why else "")
         echo(f"  {name:<42s} {100 * best.before[0]:6.2f} % ({100 * best.before[1]:5.2f} %) → "
-             f"{100 * best.after[0]:6.3f} % ({100 * best.after[1]:5.2f} %) → {polished:<20s} {best.family:<12s} "
+             f"{100 * best.after[0]:6.3f} % ({100 * best.after[1]:5.2f} %) → {polished:<20s} {best.family:<20s} "
              f"{time.perf_counter() - t0:5.2f} s")
     echo("  (✗: the polish is not kept — no lower error, or ' margin': it crossed the singularity margin; the result "
          "is then the refined linkage)")
