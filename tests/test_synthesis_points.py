@@ -13,9 +13,15 @@ from linkedit.synthesis import atlas, fourbar
 from linkedit.synthesis import points as precision
 
 
+#: A crank-rocker the atlas does not hold (family parameters a, b, c, u, v, branch), written out so that the test does
+#: not depend on the family's sampler.
+HELD_OUT = np.array([0.06463566742102209, 0.2660799336834831, 0.8805589003435231, 2.016235087700304,
+                     -0.886957629285714, 1.0])
+
+
 def held_out() -> tuple[np.ndarray, np.ndarray]:
-    """A four-bar of another seed than the atlas's (family parameters) and its curve, moved (3600 samples)."""
-    row = atlas.build_chunk("four-bar", 12345, 0, 3).params[2]
+    """The held-out four-bar (family parameters) and its curve, moved (3600 samples)."""
+    row = HELD_OUT
     return row, -20 + 55j + 80 * np.exp(-0.6j) * fourbar.curves(row[None], 3600)[0]
 
 

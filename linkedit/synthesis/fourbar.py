@@ -29,6 +29,8 @@ MU_MIN_DEG = 20.0
 #: The catalog four-bars (family frame) the distribution also samples around: crank-rocker, Hoekens.
 SEEDS = np.array([[25 / 75, 70 / 75, 60 / 75, 0.2926414, 0.5, 1.0],
                   [0.5, 1.25, 1.25, 2.0, 0.0, 1.0]])
+#: Shares of a draw (:func:`sample`): crank shorter than the ground, drag links, around the catalog designs.
+SHARES = (5 / 8, 1 / 8, 1 / 4)
 
 
 def margin() -> float:
@@ -48,17 +50,26 @@ def min_singularity(params: np.ndarray, margin: float | None = None) -> np.ndarr
 
 
 def sample(rng: np.random.Generator, count: int) -> np.ndarray:
-    """``count`` parameter rows from the family's distribution (not yet filtered):
+    """``count`` parameter rows from the family's distribution (not yet filtered), three kinds by
+    Grashof type in fixed shares of the draw (:data:`SHARES`):
 
-    three quarters over a wide range — a log-uniform in [0.05, 1], b, c log-uniform in
-    [0.2, 4], u uniform in [−1.5, 2.5], v uniform in [−2, 2], branch ±1 — and one quarter
-    around the catalog designs (crank-rocker, Hoekens): lengths times e^{N(0, 0.2²)}, u, v
-    plus N(0, 0.3²), branch kept.
+    * crank shorter than the ground (crank-rockers, 5/8): a log-uniform in [0.05, 1], b, c
+      log-uniform in [0.2, 4];
+    * drag links (ground the shortest link, crank and rocker both turn fully; 1/8): a
+      log-uniform in [1.5, 5] (below 1.5 none keeps the 20° band), b/a, c/a log-uniform in [0.5, 2];
+    * around the catalog designs (crank-rocker, Hoekens; 1/4): lengths times e^{N(0, 0.2²)},
+      u, v plus N(0, 0.3²), branch kept.
+
+    The first two take u uniform in [−1.5, 2.5], v uniform in [−2, 2], branch ±1. Of the rows that
+    keep the 20° band about 16 % are drag links, 32 % the wide crank-rockers, 52 % near the catalog.
     """
-    wide = count - count // 4
+    crank, drag = (int(count * share) for share in SHARES[:2])
+    wide = crank + drag
     out = np.empty((count, 6))
-    out[:wide, 0] = np.exp(rng.uniform(np.log(0.05), 0.0, wide))
-    out[:wide, 1:3] = np.exp(rng.uniform(np.log(0.2), np.log(4.0), (wide, 2)))
+    out[:crank, 0] = np.exp(rng.uniform(np.log(0.05), 0.0, crank))
+    out[:crank, 1:3] = np.exp(rng.uniform(np.log(0.2), np.log(4.0), (crank, 2)))
+    out[crank:wide, 0] = np.exp(rng.uniform(np.log(1.5), np.log(5.0), drag))
+    out[crank:wide, 1:3] = out[crank:wide, :1] * np.exp(rng.uniform(np.log(0.5), np.log(2.0), (drag, 2)))
     out[:wide, 3] = rng.uniform(-1.5, 2.5, wide)
     out[:wide, 4] = rng.uniform(-2.0, 2.0, wide)
     out[:wide, 5] = rng.choice([-1.0, 1.0], wide)
