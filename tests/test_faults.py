@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 
-from tests.conftest import EXAMPLES
+from tests.conftest import EXAMPLES, ROOT
 
 RUNS = {
     "simulate": (["simulate", EXAMPLES / "strandbeest-10.yaml", "--samples"], 100, 8000),
@@ -308,3 +308,83 @@ def test_two_concurrent_appends_never_lose_an_update(tmp_path):
     with h5py.File(out) as f:
         assert f["families/four-bar/params"].shape[0] == 100 + 30_000 * sum(code == 0 for code, _ in results)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.h5"]
+
+
+# --- an interrupt while the command line loads ----------------------------------------------------
+
+LONG_RUN = ["simulate", EXAMPLES / "strandbeest-10.yaml", "--samples", "8000", "-o"]
+
+INTERRUPT_AT_IMPORT = """
+import os, signal, sys, runpy
+
+class Interrupt:  # the signal lands while {module!r} is being imported
+    def find_spec(self, name, path=None, target=None):
+        if name == {module!r}:
+            sys.meta_path.remove(self)
+            os.kill(os.getpid(), signal.{sig})
+        return None
+
+sys.meta_path.insert(0, Interrupt())
+sys.argv = ["linkedit", *sys.argv[1:]]
+runpy.run_module("linkedit", run_name="__main__", alter_sys=True)
+"""
+
+
+@pytest.mark.parametrize("module, sig", [(m, signal.SIGINT) for m in ("linkedit.cli", "typer", "numpy", "pydantic",
+                                                                       "linkedit.commands.simulate")]
+                         + [("typer", signal.SIGTERM)], ids=lambda p: getattr(p, "name", p))
+def test_an_interrupt_while_the_command_line_loads_is_one_line(tmp_path, module, sig):
+    """SIGINT/SIGTERM while `python -m linkedit` imports typer, pydantic, the commands (and numpy, loaded
+    inside the run): one line, 128 + the signal, nothing written (a KeyboardInterrupt traceback, issue 26)."""
+    code = INTERRUPT_AT_IMPORT.format(module=module, sig=sig.name)
+    r = subprocess.run([sys.executable, "-c", code, "simulate", EXAMPLES / "jansen.yaml", "-o", tmp_path / "r.h5"], capture_output=True,
+                       text=True, timeout=120)
+    assert (r.returncode, r.stderr) == (128 + sig, "linkedit: error: interrupted\n")
+    assert list(tmp_path.iterdir()) == []
+
+
+def _console_script(folder: Path) -> Path:
+    """The ``linkedit`` script pip writes for pyproject.toml's entry point."""
+    import tomllib
+
+    module, function = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]["linkedit"].split(":")
+    script = folder / "linkedit"
+    script.write_text(f"import sys\nfrom {module} import {function}\nif __name__ == '__main__':\n    sys.exit({function}())\n")
+    return script
+
+
+def _interrupt_after(command: list, delay: float, folder: Path) -> tuple[int, list[str]]:
+    """Run ``command`` (a Python command line) and send SIGINT ``delay`` s after the interpreter has
+    imported the package ``linkedit`` (the first line of linkedit that runs: before it, the
+    interpreter's own start-up, site's .pth files included, answers Ctrl-C); return the exit code and
+    stderr's lines other than ``-X importtime``'s."""
+    err = folder / "stderr"
+    with open(err, "w") as fh:
+        proc = subprocess.Popen([sys.executable, "-X", "importtime", *map(str, command)], stdout=subprocess.DEVNULL,
+                                stderr=fh)
+    try:
+        _wait_for(lambda: any(line.rsplit("|", 1)[-1].strip() == "linkedit" for line in err.read_text().splitlines()),
+                  timeout=60)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        code = proc.wait(timeout=120)
+    finally:
+        proc.kill()
+        proc.wait()
+    lines = [line for line in err.read_text().splitlines() if not line.startswith("import time:")]
+    err.unlink()
+    return code, lines
+
+
+@pytest.mark.parametrize("entry, delays", [("-m", (0.02, 0.2, 0.5, 1.0)), ("script", (0.05, 0.1, 0.35, 0.75))])
+def test_ctrl_c_at_any_moment_is_one_line_and_exit_130(tmp_path, entry, delays):
+    """Ctrl-C from 0.02 s to 1 s into `python -m linkedit simulate …` and the console script (numpy, h5py,
+    typer loading; options parsed; the run under way): exit 130, the one line, no file left (in the
+    first half second it was a KeyboardInterrupt traceback from whichever import it hit)."""
+    out = tmp_path / "out"
+    out.mkdir()
+    command = ["-m", "linkedit"] if entry == "-m" else [_console_script(tmp_path)]
+    for delay in delays:
+        code, lines = _interrupt_after([*command, *LONG_RUN, out / "r.h5"], delay, tmp_path)
+        assert (code, lines) == (130, ["linkedit: error: interrupted"]), delay
+        assert list(out.iterdir()) == [], delay
