@@ -5,9 +5,13 @@ h5py and typer (half a second), so an interrupt at any moment is one line and ex
 signal (130, 143), never an import's traceback. Until a command's own handling
 (:func:`linkedit.io.atomic.interruptible`) starts nothing has been written, so nothing is left to
 clean up; once the command has finished, a signal ends the process as it ends any program.
+
+Under a file size limit (``ulimit -f``) Python's byte-code cache is not written: CPython keeps a
+``.pyc`` cut short at the limit (its write is not checked), and every later run would fail to import.
 """
 
 import os
+import sys
 
 import _signal  # type: ignore[import-not-found]  # the C module, loaded at start-up (`signal` imports enum: 10-30 ms unguarded)
 
@@ -24,6 +28,10 @@ def main() -> None:
     taken = [sig for sig in _SIGNALS if _signal.getsignal(sig) != _signal.SIG_IGN]  # `nohup`, `cmd &`: stay ignored
     for sig in taken:
         _signal.signal(sig, _interrupted)
+    import resource
+
+    if resource.getrlimit(resource.RLIMIT_FSIZE)[0] != resource.RLIM_INFINITY:
+        sys.dont_write_bytecode = True
     try:
         from linkedit.cli import main as run
 

@@ -25,7 +25,8 @@ RUNS = {
 
 
 def _linkedit(*args) -> list[str]:
-    return [sys.executable, "-c", "from linkedit.cli import main; main()", *map(str, args)]
+    # -B: under a file size limit CPython writes a .pyc cut short (and every later import fails)
+    return [sys.executable, "-B", "-c", "from linkedit.cli import main; main()", *map(str, args)]
 
 
 def _samples(path) -> int:
@@ -154,6 +155,34 @@ def test_a_full_disk_is_one_line_exit_1_and_leaves_the_older_file(tmp_path, case
     assert sorted(p.name for p in tmp_path.iterdir()) == ([name] if case != "atlas" else [])
     if case != "atlas":
         assert out.read_bytes() == b"the older result"
+
+
+def test_a_file_size_limit_below_the_atlas_is_refused_before_the_work(tmp_path):
+    """`(ulimit -f 2000; atlas build -n 100000 -o a.h5)`: the 41 MiB atlas cannot be written under a 2 MiB
+    file size limit; the disk check counted only the free space, so the build ran a chunk and failed
+    at its first write (exit 1). Refused up front naming the output and the limit, exit 2, nothing left."""
+    out = tmp_path / "a.h5"
+    r = subprocess.run(_linkedit(*ATLAS, out, "-n", 100_000), capture_output=True, text=True, timeout=120,
+                       preexec_fn=_limited(2000 * 1024))
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip().splitlines() == [f"linkedit: error: --count: 100,000 linkages would need about 41 MiB of "
+                                             f"disk at {out}; the file size limit (ulimit -f) is 2 MiB"]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_file_size_limit_leaves_python_s_byte_code_cache_whole(tmp_path):
+    """Run under `ulimit -f 4` with no byte-code cache yet (a fresh install, an upgrade): CPython wrote
+    each module's .pyc cut at 4096 bytes and kept it, so every later run failed (EOFError: marshal data
+    too short). linkedit's entry point writes no cache under a file size limit."""
+    import marshal
+
+    shutil.copytree(ROOT / "linkedit", tmp_path / "linkedit", ignore=shutil.ignore_patterns("__pycache__"))
+    env = {**{k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}, "PYTHONPATH": str(tmp_path)}
+    r = subprocess.run([sys.executable, "-m", "linkedit", "simulate", EXAMPLES / "jansen.yaml", "-o", tmp_path / "j.csv"],
+                       capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path, preexec_fn=_limited(4096))
+    assert r.returncode == 1 and "file size limit reached writing" in r.stderr, r.stderr
+    for pyc in (tmp_path / "linkedit").rglob("*.pyc"):  # the package's own start, cached before the entry point runs
+        marshal.loads(pyc.read_bytes()[16:])  # EOFError for one cut short
 
 
 @pytest.mark.parametrize("device", ["limit", "/dev/full"])
