@@ -738,3 +738,16 @@ def test_a_result_updated_in_place_by_another_process_is_refused(run_cli, tmp_pa
     assert path.read_bytes() == before
     assert run_cli("solve3d", "--from", path, "--track", "p=coupler:1,0,0").exit_code == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["g.h5"]
+
+
+def test_a_result_updated_in_place_through_a_link_updates_its_target(run_cli, tmp_path, gcs_result):
+    """`solve3d --from LINK` without -o replaced the symbolic link by a new file and left the result it
+    pointed to as it was (issue 26 §4): the result is updated, and the link stays a link to it."""
+    shutil.copy(gcs_result, tmp_path / "g.h5")
+    (tmp_path / "link.h5").symlink_to("g.h5")
+    r = run_cli("solve3d", "--from", tmp_path / "link.h5", "--track", "p=coupler:1,0,0")
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "link.h5").is_symlink() and os.readlink(tmp_path / "link.h5") == "g.h5"
+    with h5py.File(tmp_path / "g.h5") as f:
+        assert "p" in f["tracks"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["g.h5", "link.h5"]
