@@ -4,9 +4,9 @@ MemoryError (or a full disk) half-way.
 
 Memory available is the smallest of the system's available memory (``MemAvailable``), the
 process's cgroup limit (containers, v1 and v2) less its usage, and the address-space limit
-(``ulimit -v``) less what the process already maps; disk available is the free space of the
-target's file system (a write that still runs out of room, or past ``ulimit -f``, is exit 1: see
-:data:`linkedit.io.atomic.DISK_FULL`).
+(``ulimit -v``) less what the process already maps; disk available for a file is the free space of
+the target's file system, at most the file size limit (``ulimit -f``). A write that still runs out of
+room is exit 1: see :data:`linkedit.io.atomic.DISK_FULL`.
 """
 
 from __future__ import annotations
@@ -41,11 +41,20 @@ def available_memory() -> int:
 
 
 def available_disk(path: str | Path) -> int:
-    """Bytes free for a new file at ``path`` (on the file system of its nearest existing folder)."""
+    """Bytes a new file at ``path`` can take: the free space of the file system of its nearest existing
+    folder, at most the file size limit (:func:`file_size_limit`)."""
     folder = Path(path).absolute().parent
     while not folder.is_dir() and folder != folder.parent:
         folder = folder.parent
-    return shutil.disk_usage(folder).free
+    free = shutil.disk_usage(folder).free
+    limit = file_size_limit()
+    return free if limit is None else min(free, limit)
+
+
+def file_size_limit() -> int | None:
+    """The largest file this process may write in bytes (``ulimit -f``, RLIMIT_FSIZE's soft limit), None if unlimited."""
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    return None if soft == resource.RLIM_INFINITY else soft
 
 
 def require_memory(need: float, what: str, **where: Any) -> None:
@@ -57,11 +66,13 @@ def require_memory(need: float, what: str, **where: Any) -> None:
 
 
 def require_disk(need: float, path: str | Path, what: str, **where: Any) -> None:
-    """InputError (exit 2) if a file of ``need`` bytes cannot be written at ``path``."""
+    """InputError (exit 2) if a file of ``need`` bytes cannot be written at ``path`` (the disk's free space
+    or the file size limit)."""
     have = available_disk(path)
     if need > have:
-        raise InputError(f"{what} would need about {size_text(need)} of disk at {path}; {size_text(have)} are free",
-                         **where)
+        room = (f"the file size limit (ulimit -f) is {size_text(have)}" if have == file_size_limit()
+                else f"{size_text(have)} are free")
+        raise InputError(f"{what} would need about {size_text(need)} of disk at {path}; {room}", **where)
 
 
 def _meminfo() -> int:

@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 
-from tests.conftest import EXAMPLES
+from tests.conftest import EXAMPLES, ROOT
 
 RUNS = {
     "simulate": (["simulate", EXAMPLES / "strandbeest-10.yaml", "--samples"], 100, 8000),
@@ -25,7 +25,8 @@ RUNS = {
 
 
 def _linkedit(*args) -> list[str]:
-    return [sys.executable, "-c", "from linkedit.cli import main; main()", *map(str, args)]
+    # -B: under a file size limit CPython writes a .pyc cut short (and every later import fails)
+    return [sys.executable, "-B", "-c", "from linkedit.cli import main; main()", *map(str, args)]
 
 
 def _samples(path) -> int:
@@ -154,6 +155,34 @@ def test_a_full_disk_is_one_line_exit_1_and_leaves_the_older_file(tmp_path, case
     assert sorted(p.name for p in tmp_path.iterdir()) == ([name] if case != "atlas" else [])
     if case != "atlas":
         assert out.read_bytes() == b"the older result"
+
+
+def test_a_file_size_limit_below_the_atlas_is_refused_before_the_work(tmp_path):
+    """`(ulimit -f 2000; atlas build -n 100000 -o a.h5)`: the 41 MiB atlas cannot be written under a 2 MiB
+    file size limit; the disk check counted only the free space, so the build ran a chunk and failed
+    at its first write (exit 1). Refused up front naming the output and the limit, exit 2, nothing left."""
+    out = tmp_path / "a.h5"
+    r = subprocess.run(_linkedit(*ATLAS, out, "-n", 100_000), capture_output=True, text=True, timeout=120,
+                       preexec_fn=_limited(2000 * 1024))
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip().splitlines() == [f"linkedit: error: --count: 100,000 linkages would need about 41 MiB of "
+                                             f"disk at {out}; the file size limit (ulimit -f) is 2 MiB"]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_file_size_limit_leaves_python_s_byte_code_cache_whole(tmp_path):
+    """Run under `ulimit -f 4` with no byte-code cache yet (a fresh install, an upgrade): CPython wrote
+    each module's .pyc cut at 4096 bytes and kept it, so every later run failed (EOFError: marshal data
+    too short). linkedit's entry point writes no cache under a file size limit."""
+    import marshal
+
+    shutil.copytree(ROOT / "linkedit", tmp_path / "linkedit", ignore=shutil.ignore_patterns("__pycache__"))
+    env = {**{k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}, "PYTHONPATH": str(tmp_path)}
+    r = subprocess.run([sys.executable, "-m", "linkedit", "simulate", EXAMPLES / "jansen.yaml", "-o", tmp_path / "j.csv"],
+                       capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path, preexec_fn=_limited(4096))
+    assert r.returncode == 1 and "file size limit reached writing" in r.stderr, r.stderr
+    for pyc in (tmp_path / "linkedit").rglob("*.pyc"):  # the package's own start, cached before the entry point runs
+        marshal.loads(pyc.read_bytes()[16:])  # EOFError for one cut short
 
 
 @pytest.mark.parametrize("device", ["limit", "/dev/full"])
@@ -308,3 +337,83 @@ def test_two_concurrent_appends_never_lose_an_update(tmp_path):
     with h5py.File(out) as f:
         assert f["families/four-bar/params"].shape[0] == 100 + 30_000 * sum(code == 0 for code, _ in results)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.h5"]
+
+
+# --- an interrupt while the command line loads ----------------------------------------------------
+
+LONG_RUN = ["simulate", EXAMPLES / "strandbeest-10.yaml", "--samples", "8000", "-o"]
+
+INTERRUPT_AT_IMPORT = """
+import os, signal, sys, runpy
+
+class Interrupt:  # the signal lands while {module!r} is being imported
+    def find_spec(self, name, path=None, target=None):
+        if name == {module!r}:
+            sys.meta_path.remove(self)
+            os.kill(os.getpid(), signal.{sig})
+        return None
+
+sys.meta_path.insert(0, Interrupt())
+sys.argv = ["linkedit", *sys.argv[1:]]
+runpy.run_module("linkedit", run_name="__main__", alter_sys=True)
+"""
+
+
+@pytest.mark.parametrize("module, sig", [(m, signal.SIGINT) for m in ("linkedit.cli", "typer", "numpy", "pydantic",
+                                                                       "linkedit.commands.simulate")]
+                         + [("typer", signal.SIGTERM)], ids=lambda p: getattr(p, "name", p))
+def test_an_interrupt_while_the_command_line_loads_is_one_line(tmp_path, module, sig):
+    """SIGINT/SIGTERM while `python -m linkedit` imports typer, pydantic, the commands (and numpy, loaded
+    inside the run): one line, 128 + the signal, nothing written (a KeyboardInterrupt traceback, issue 26)."""
+    code = INTERRUPT_AT_IMPORT.format(module=module, sig=sig.name)
+    r = subprocess.run([sys.executable, "-c", code, "simulate", EXAMPLES / "jansen.yaml", "-o", tmp_path / "r.h5"], capture_output=True,
+                       text=True, timeout=120)
+    assert (r.returncode, r.stderr) == (128 + sig, "linkedit: error: interrupted\n")
+    assert list(tmp_path.iterdir()) == []
+
+
+def _console_script(folder: Path) -> Path:
+    """The ``linkedit`` script pip writes for pyproject.toml's entry point."""
+    import tomllib
+
+    module, function = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]["linkedit"].split(":")
+    script = folder / "linkedit"
+    script.write_text(f"import sys\nfrom {module} import {function}\nif __name__ == '__main__':\n    sys.exit({function}())\n")
+    return script
+
+
+def _interrupt_after(command: list, delay: float, folder: Path) -> tuple[int, list[str]]:
+    """Run ``command`` (a Python command line) and send SIGINT ``delay`` s after the interpreter has
+    imported the package ``linkedit`` (the first line of linkedit that runs: before it, the
+    interpreter's own start-up, site's .pth files included, answers Ctrl-C); return the exit code and
+    stderr's lines other than ``-X importtime``'s."""
+    err = folder / "stderr"
+    with open(err, "w") as fh:
+        proc = subprocess.Popen([sys.executable, "-X", "importtime", *map(str, command)], stdout=subprocess.DEVNULL,
+                                stderr=fh)
+    try:
+        _wait_for(lambda: any(line.rsplit("|", 1)[-1].strip() == "linkedit" for line in err.read_text().splitlines()),
+                  timeout=60)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        code = proc.wait(timeout=120)
+    finally:
+        proc.kill()
+        proc.wait()
+    lines = [line for line in err.read_text().splitlines() if not line.startswith("import time:")]
+    err.unlink()
+    return code, lines
+
+
+@pytest.mark.parametrize("entry, delays", [("-m", (0.02, 0.2, 0.5, 1.0)), ("script", (0.05, 0.1, 0.35, 0.75))])
+def test_ctrl_c_at_any_moment_is_one_line_and_exit_130(tmp_path, entry, delays):
+    """Ctrl-C from 0.02 s to 1 s into `python -m linkedit simulate …` and the console script (numpy, h5py,
+    typer loading; options parsed; the run under way): exit 130, the one line, no file left (in the
+    first half second it was a KeyboardInterrupt traceback from whichever import it hit)."""
+    out = tmp_path / "out"
+    out.mkdir()
+    command = ["-m", "linkedit"] if entry == "-m" else [_console_script(tmp_path)]
+    for delay in delays:
+        code, lines = _interrupt_after([*command, *LONG_RUN, out / "r.h5"], delay, tmp_path)
+        assert (code, lines) == (130, ["linkedit: error: interrupted"]), delay
+        assert list(out.iterdir()) == [], delay

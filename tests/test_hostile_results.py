@@ -281,6 +281,17 @@ def narrow_index(f: h5py.File, tmp: Path) -> None:
     f["families/four-bar/index"] = data
 
 
+def huge_chunks(f: h5py.File, tmp: Path) -> None:
+    f["families/four-bar"].attrs["chunks"] = 1e300  # an integer, as a float beyond 64 bits
+
+
+def half_precision_params(f: h5py.File, tmp: Path) -> None:
+    data = f["families/four-bar/params"][()]
+    del f["families/four-bar/params"]
+    f.create_dataset("families/four-bar/params", data=data.astype("f2"), maxshape=(None, data.shape[1]),
+                     chunks=(100, data.shape[1]))
+
+
 def linked_curves(f: h5py.File, tmp: Path) -> None:
     del f["families/four-bar/curves"]
     f["families/four-bar/curves"] = h5py.SoftLink("/families/four-bar/curves")
@@ -293,7 +304,9 @@ ATLAS_DAMAGE = {"no seed": (drop_root_attr("seed"), "seed"), "no chunk": (drop_r
                 "no index": (drop("families/four-bar/index"), "index"),
                 "index of the wrong width": (narrow_index, "/families/four-bar/index"),
                 "curves behind a soft link": (linked_curves, "soft link"),
-                "sparse curves": (replace("families/four-bar/curves", h5py.Empty("f")), "curves")}
+                "sparse curves": (replace("families/four-bar/curves", h5py.Empty("f")), "curves"),
+                "chunks beyond 64 bits": (huge_chunks, "chunks"),  # the append: a TypeError traceback
+                "params in half precision": (half_precision_params, "/families/four-bar/params")}  # appended to, rounded
 
 
 @pytest.mark.parametrize("damage", ATLAS_DAMAGE, ids=list(ATLAS_DAMAGE))
@@ -310,3 +323,21 @@ def test_a_damaged_atlas_is_one_line_for_synthesize_and_for_an_append(run_cli, s
         line = [ln for ln in r.output.splitlines() if str(bad) in ln]
         assert len(line) == 1 and words in line[0], (args[0], r.output)
     assert bad.read_bytes() == before and not (tmp_path / "syn").exists()
+
+
+def test_an_atlas_stored_at_a_fixed_size_is_refused_for_an_append(run_cli, small_atlas, tmp_path):
+    """An atlas whose arrays another tool rewrote without chunks (as `h5repack -l CONTI` does) can be read
+    but not grown: the append is one line naming the array, the atlas untouched (a TypeError traceback
+    from h5py's resize, found by tests/test_fuzz_atlas.py)."""
+    def contiguous(f: h5py.File, tmp: Path) -> None:
+        data = f["families/four-bar/params"][()]
+        del f["families/four-bar/params"]
+        f["families/four-bar/params"] = data
+
+    bad = mutated(small_atlas, tmp_path, contiguous)
+    before = bad.read_bytes()
+    r = run_cli("atlas", "build", "--family", "four-bar", "-n", "100", "-o", bad, "--seed", "1")
+    assert r.exit_code == 2, r.output
+    assert r.stderr == f"linkedit: error: {bad}: /families/four-bar/params: is stored at a fixed size (rewritten by " \
+                       "another tool?) and cannot grow; append to a new atlas\n"
+    assert bad.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["m.h5"]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections import deque
 from enum import Enum
 from pathlib import Path
@@ -176,12 +177,14 @@ def register(app: typer.Typer) -> None:
             ignored = [option for option, on in given.items() if on]
             if ignored:
                 raise InputError(f"nothing is solved with --from: drop {', '.join(ignored)}", field="--from")
-            if output is None:  # read and replaced in place: under its lock until the rename
+            if output is None:  # read and replaced in place (a link's target, not the link), under its lock
                 from linkedit.io.atomic import hold
 
-                hold(source)
+                out = Path(os.path.realpath(source))
+                hold(out)
+            else:
+                out = output
             res = read_result(source)
-            out = output or source
         else:
             if spec is None:
                 raise InputError("missing SPEC (or --from RESULT.h5)", field="spec")

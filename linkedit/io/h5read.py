@@ -184,6 +184,8 @@ class ResultReader:
             raise self.error(where, f"attribute {name!r}: expected {kind.__name__}, found {value!r}") from None
         if kind is int and out != value:
             raise self.error(where, f"attribute {name!r}: expected an integer, found {value!r}")
+        if kind is int and not -(2**63) <= out < 2**63:  # as HDF5 stores it: a 64-bit integer
+            raise self.error(where, f"attribute {name!r}: {value!r} is out of the range of a 64-bit integer")
         if kind is float and not np.isfinite(out):
             raise self.error(where, f"attribute {name!r}: expected a finite number, found {value!r}")
         return out

@@ -457,7 +457,7 @@ def _check_existing(path: Path, seed: int) -> None:
         with open_result(path) as f:
             if f.attr("kind", default=None) != "atlas":
                 raise InputError("exists and is not a linkedit atlas (refusing to overwrite it)", file=str(path))
-            built = _layout(f)
+            built = _layout(f, growing=True)
     except InputError as exc:
         if "not a linkedit result" in str(exc) or "cannot open as HDF5" in str(exc):
             raise InputError("exists and is not a linkedit atlas (refusing to overwrite it)", file=str(path)) from None
@@ -467,10 +467,11 @@ def _check_existing(path: Path, seed: int) -> None:
                          file=str(path), field="--seed")
 
 
-def _layout(f: ResultReader) -> int:
+def _layout(f: ResultReader, growing: bool = False) -> int:
     """Check an open atlas against this version's layout before anything is read or appended (the
-    root attributes, each family's known name, its arrays' shapes and lengths, its ``chunks``);
-    returns its seed. InputError naming the file and the member otherwise."""
+    root attributes, each family's known name, its arrays' shapes, number types and lengths, its
+    ``chunks``; ``growing``: its arrays can be extended); returns its seed. InputError naming the file
+    and the member otherwise."""
     if (f.attr("chunk", kind=int) != CHUNK or f.attr("samples", kind=int) != SAMPLES
             or f.attr("harmonics", kind=int) != HARMONICS):
         raise f.error("/", "an atlas of another layout version (chunk, samples or harmonics differ); rebuild it")
@@ -485,8 +486,12 @@ def _layout(f: ResultReader) -> int:
                   "curves": (rows, SAMPLES // COARSE_STEP, dimension(fam))}
         for key, shape in shapes.items():
             ds = f.dataset(f"{g}/{key}")
-            if ds.shape != shape or ds.dtype.kind != "f":
-                raise f.error(f"{g}/{key}", f"expected {shape} numbers, found {ds.shape} {ds.dtype}")
+            size = 8 if key in ("params", "min_ds") else 4  # float64, float32 (_family_group)
+            if ds.shape != shape or ds.dtype.kind != "f" or ds.dtype.itemsize != size:
+                raise f.error(f"{g}/{key}", f"expected {shape} float{8 * size}, found {ds.shape} {ds.dtype}")
+            if growing and (ds.chunks is None or ds.maxshape[0] is not None):
+                raise f.error(f"{g}/{key}", "is stored at a fixed size (rewritten by another tool?) and cannot grow; "
+                              "append to a new atlas")
         chunks = f.attr("chunks", g, kind=int)
         if not 0 <= rows <= chunks * CHUNK:
             raise f.error(g, f"attribute 'chunks': {chunks} chunks cannot hold {rows} linkages")
