@@ -158,7 +158,7 @@ def test_a_slider_spec_atlas_synthesizes_a_held_out_design_of_it(run_cli, slider
     from linkedit.synthesis.refine import curve_error
     from linkedit.synthesis.synthesize import target_size
 
-    name = compile_plan(catalog.quick_return() if stem == "quick-return" else catalog.scotch_yoke_coupler()).spec.name
+    name = (catalog.quick_return() if stem == "quick-return" else catalog.scotch_yoke_coupler()).name
     fam = families.family(name)
     draw = fam.sample(np.random.default_rng(77), 64)
     row = draw[works(fam.min_singularity(draw, fam.margin()), fam.margin())][0]
