@@ -147,7 +147,7 @@ def slider_atlases(tmp_path_factory):
 
 
 @pytest.mark.parametrize("stem, timing, mirror", [("quick-return", True, False), ("scotch-yoke-coupler", True, True),
-                                                  ("scotch-yoke-coupler", False, False)])
+                                                  pytest.param("scotch-yoke-coupler", False, False, marks=pytest.mark.slow)])
 def test_a_slider_spec_atlas_synthesizes_a_held_out_design_of_it(run_cli, slider_atlases, tmp_path, stem, timing, mirror):
     """A design drawn apart from the atlas (another seed; its tool path turned, scaled, moved, and
     mirrored) is synthesized to ≤ 1 % RMS of its size (with --timing: the ram's position at each
