@@ -355,6 +355,21 @@ def scotch_yoke() -> LinkageSpec:
     )
 
 
+def scotch_yoke_coupler() -> LinkageSpec:
+    """A Scotch yoke driving a coupler (mm): the yoke Y1–Y2 of :func:`scotch_yoke` carries the
+    coupler Y2–B–P, B on the rocker Q–B; P retraces its arc as the yoke goes and comes back."""
+    return _spec(
+        name="scotch-yoke-coupler", units="mm",
+        description="A Scotch yoke (crank 20) driving the coupler Y2-B-P of a rocker Q-B: P's path.",
+        joints={"O": 0j, "A": 20 + 0j, "Y1": 50 + 0j, "Y2": 90 + 0j, "B": 115 + 45j, "Q": 150 - 10j, "P": 140 + 50j},
+        ground=["O", "Q"],
+        links={"crank": ["O", "A"], "yoke": ["Y1", "Y2"], "coupler": ["Y2", "B", "P"], "rocker": ["Q", "B"]},
+        sliders={"slot": {"joint": "A", "guide": "yoke", "angle_deg": 90.0},
+                 "guide": {"link": "yoke", "guide": "ground", "angle_deg": 0.0}},
+        motor={"joint": "A", "pivot": "O"}, tracks={"point": {"joint": "P"}},
+    )
+
+
 #: two-slots: the rail's height h, the rod P–Q, the column's x
 TWO_SLOTS = {"h": 30.0, "rod": math.hypot(10.0, 40.0), "column": 40.0}
 
@@ -503,6 +518,10 @@ The rest pose below is the crank at 0 degrees, computed exactly from these lengt
             notes={"sliders.slot": "the slot turns with the rocker", "sliders.ram": "the ram's guide"}),
     Example("scotch-yoke.yaml", scotch_yoke,
             header="Scotch yoke: the yoke moves by r cos(theta). Written by linkedit.planar.catalog.",
+            notes={"sliders.slot": "A in the yoke's vertical slot", "sliders.guide": "the yoke translates along x"}),
+    Example("scotch-yoke-coupler.yaml", scotch_yoke_coupler,
+            header="A Scotch yoke driving a coupler: the yoke carries the coupler Y2-B-P of the rocker Q-B.\n"
+                   "Written by linkedit.planar.catalog.",
             notes={"sliders.slot": "A in the yoke's vertical slot", "sliders.guide": "the yoke translates along x"}),
     Example("inverted-slider-crank.yaml", inverted_slider_crank,
             header="Inverted slider-crank: the arm A-X slides through the ground pivot Q.\n"

@@ -115,10 +115,11 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> S
 def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int) -> State:
     """The one evaluation of a plan: every rule in order. With a geometry of K linkages
     (:attr:`Geometry.linkages`), arrays carry a linkage axis after the row: (P, K, T), and
-    ``angle`` may be (K, T) (dyad and rigid rules only)."""
+    ``angle`` may be (K, T); every rule but a numeric group places K linkages at once (the
+    non-revolute kinds their positions and d_s only: ``order`` 0)."""
     lead = geom.linkages
-    if lead and plan.steps:
-        raise ValueError("sliders and numeric groups are evaluated one linkage at a time")
+    if lead and (plan.has_groups or (plan.steps and order > 0)):
+        raise ValueError("numeric groups, and the derivatives of sliders, are evaluated one linkage at a time")
     T = angle.shape[-1]
     P = plan.n_points
     z = np.zeros((P, *lead, T), dtype=complex)  # zeros: step rows multiply not-yet-known joints by 0

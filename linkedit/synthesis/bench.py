@@ -16,6 +16,9 @@
   Gerono's 2:1 figure-eight once more with a 10° transmission band (``--margin 10``: the 20°
   band's optimum is 4.15 %, README); both figure-eights with a six-bar family that draws them inside the 20°
   band (``atlas build --family examples/figure-eight-six-bar.yaml``, :data:`EIGHT_SPEC`);
+* slider specs as families (``atlas build --family examples/quick-return.yaml``): the build rate of
+  a quick-return atlas in-process, and held-out timed paths (the quick-return's ram, the
+  Scotch-yoke-driven coupler point) synthesized against atlases of their specs (:func:`spec_families`);
 * precision points (6–25, drawn unevenly from held-out four-bars' curves): ours with ``--points`` against the
   same points synthesized as a curve and the generating linkage, by the mean point-to-curve distance over the
   points' RMS radius, with CPU seconds.
@@ -38,7 +41,7 @@ import numpy as np
 
 from linkedit.curves.sources import make_curve
 from linkedit.io.atomic import commit
-from linkedit.planar import compile_plan, simulate
+from linkedit.planar import catalog, compile_plan, simulate
 from linkedit.synthesis import atlas, families, fourbar
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.refine import distances_to
@@ -424,3 +427,30 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
             every.families[name] = {key: np.concatenate([getattr(c, key) for c in built])
                                     for key in ("params", "min_ds", "index", "curves")}
     quality(echo, book, index, every, quick)
+    spec_families(echo, quick)
+
+
+def spec_families(echo: Callable[[str], None], quick: bool) -> None:
+    """Slider specs as families: each example's atlas built in-process (its rate, linkages/s with
+    sampling, the 1440-sample check and the descriptors), then a held-out design's tracked path
+    (seed 987, turned, scaled, moved) synthesized with --timing against it."""
+    count, top = (500, 1) if quick else (20_000, 2)
+    for file in ("quick-return.yaml", "scotch-yoke-coupler.yaml"):
+        example = next(e for e in catalog.EXAMPLES if e.file == file)
+        text = example.text()
+        fam = families.from_spec_text(example.build().name, text)
+        t0, c0 = time.perf_counter(), time.process_time()
+        built = [atlas.build_chunk(fam.NAME, 1, i, size, text) for i, size in atlas.chunk_sizes(count)]
+        rate, cpu = count / (time.perf_counter() - t0), count / (time.process_time() - c0)
+        book = atlas.Atlas(Path("memory"), {fam.NAME: {key: np.concatenate([getattr(c, key) for c in built])
+                                                       for key in ("params", "min_ds", "index", "curves")}}, 1)
+        row = atlas.build_chunk(fam.NAME, 987, 0, 1, text).params[0]
+        z = 3 + 1j + 40 * np.exp(0.4j) * fam.curves(row[None], 256, 0.13)[0]
+        curve = make_curve("target", np.stack([z.real, z.imag], axis=1), closed=True, origin="bench",
+                           times=np.arange(256) / 256.0)
+        t0 = time.perf_counter()
+        result = synthesize(curve, book, Index(book), top=top, timing=True)
+        timed = result.timed_error or (np.nan, np.nan)
+        echo(f"spec family {file}: atlas build {rate:,.0f} linkages/s in-process ({cpu:,.0f} per CPU second, {count:,}); a held-out design's "
+             f"path with --timing: {100 * timed[0]:.3g} % RMS ({100 * timed[1]:.3g} % max) at the target's times, "
+             f"{time.perf_counter() - t0:.1f} s")

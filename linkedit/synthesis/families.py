@@ -1,7 +1,7 @@
 """The families an atlas can hold: name → module with the family interface.
 
-Besides the built-in ones, any planar linkage spec of revolute joints driven by a full-turn crank
-is a family (:func:`spec_family`: ``atlas build --family examples/klann.yaml``): its rest pose is
+Besides the built-in ones, any planar linkage spec driven by a full-turn crank and rebuilt in
+closed form (dyads, rigid links, sliders, slots, slotted links; no numeric group) is a family (:func:`spec_family`: ``atlas build --family examples/klann.yaml``): its rest pose is
 sampled around the design like the catalog families (:class:`~linkedit.synthesis.legs.CatalogFamily`),
 its first joint track is the curve, and the atlas keeps its spec text so that synthesis (and a Dask
 worker) rebuilds it by name.
@@ -62,8 +62,8 @@ def spec_family(path: Path, field: str = "--family") -> str:
 
 
 def from_spec_text(name: str, text: str, *, field: str = "--family", file: str | None = None) -> CatalogFamily:
-    """The family ``name`` of the linkage spec ``text``: revolute joints only, a crank turning a
-    full revolution, a joint track (its first) as the curve. InputError otherwise, or when a
+    """The family ``name`` of the linkage spec ``text``: a crank turning a full revolution, rules
+    in closed form only, a joint track (its first) as the curve. InputError otherwise, or when a
     different spec was already made under that name or it is a built-in family's name."""
     where = file or field
     if name in FAMILIES:
@@ -75,9 +75,9 @@ def from_spec_text(name: str, text: str, *, field: str = "--family", file: str |
     data, lines = load_yaml(where, text)
     spec = validate(LinkageSpec, data, file=where, lines=lines)
     motor = spec.motor
-    if spec.sliders or motor.linear or motor.range_deg is not None or motor.oscillate_deg is not None:
-        raise InputError("a family needs revolute joints driven by a full-turn crank (no sliders, "
-                         "range_deg, oscillate_deg or linear input yet)", file=file, field=field)
+    if motor.linear or motor.range_deg is not None or motor.oscillate_deg is not None:
+        raise InputError("a family needs a full-turn crank (no range_deg, oscillate_deg or linear input yet)",
+                         file=file, field=field)
     track = next((n for n, t in spec.tracks.items() if isinstance(t, JointTrack)), None)
     if track is None:
         raise InputError("a family needs a track on a joint (its curve)", file=file, field=field)
@@ -85,8 +85,8 @@ def from_spec_text(name: str, text: str, *, field: str = "--family", file: str |
         plan = compile_plan(spec)
     except LinkeditError as exc:
         raise InputError(f"the linkage cannot be a family: {exc}", file=file, field=field) from None
-    if plan.steps:
-        raise InputError("a family needs a linkage of dyads and rigid links (no numeric group yet)", file=file,
+    if plan.has_groups:
+        raise InputError("a family needs a linkage rebuilt in closed form (no numeric group yet)", file=file,
                          field=field)
     fam = CatalogFamily(name, 1000 + zlib.crc32(text.encode()) % 100_000, lambda: spec, track)
     SPECS[name], SPEC_TEXTS[name] = fam, text

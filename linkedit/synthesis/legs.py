@@ -55,6 +55,9 @@ class CatalogFamily:
         self.size = float(np.ptp(rest, axis=0).max())
         self.base = ((rest - rest[self.pivot]) / self.size).ravel()
         self.PARAMETERS = tuple(f"{n}_{axis}" for n in names for axis in "xy")
+        #: the d_s rows the margin holds: every watched rule's (dyads, sliders, slotted links)
+        self.watched = np.array([r for rule, rows in zip(self.plan.rules, self.plan.ds_rows) if rule.watched
+                                 for r in range(rows.start, rows.stop)], dtype=int)
 
     def margin(self) -> float:
         return margin_of(MU_MIN_DEG)
@@ -68,15 +71,15 @@ class CatalogFamily:
         return rows
 
     def _evaluate(self, params: np.ndarray, samples: int, phase: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
-        """Joint positions (K, J, T) complex and d_s (K, D, T) of the D dyad rules (NaN or < 0 where
-        a joint cannot be placed): the planar engine's one evaluation with a linkage axis."""
+        """Joint positions (K, J, T) complex and d_s (K, D, T) of the D watched rule rows (NaN or < 0
+        where a joint cannot be placed): the planar engine's one evaluation with a linkage axis."""
         count = len(params)
         rest = params.reshape(count, -1, 2)
         geom = Geometry.of(self.plan, rest)
         turn = 2.0 * np.pi * (np.asarray(phase, dtype=float).reshape(-1, 1) + np.arange(samples)[None, :] / samples)
         state = _evaluate(self.plan, geom, geom.rest_angle + self.direction * turn, order=0)
         z = state.z[self.plan.row_of[: self.plan.n_joints]]  # (J, K, T)
-        return z.transpose(1, 0, 2), state.ds[self.plan.table.row[~self.plan.table.rigid]].transpose(1, 0, 2)
+        return z.transpose(1, 0, 2), state.ds[self.watched].transpose(1, 0, 2)
 
     def min_singularity(self, params: np.ndarray, margin: float | None = None) -> np.ndarray:
         """The lowest d_s over the cycle (K,): :func:`linkedit.planar.feasibility.lowest` of the dyads
@@ -114,8 +117,25 @@ class CatalogFamily:
         data.update(name=name, units=units, description=description,
                     joints={n: [float(p.real), float(p.imag)] for n, p in zip(self.plan.joint_names, placed)},
                     motor=motor.model_dump(mode="python"),
-                    tracks={"target": {"joint": self.plan.joint_names[self.track_joint]}})
+                    tracks={"target": {"joint": self.plan.joint_names[self.track_joint]}},
+                    sliders=self._sliders(row.reshape(-1, 2), pose, turn, mirrored))
         return LinkageSpec.model_validate(data)
+
+    def _sliders(self, rest: np.ndarray, pose: np.ndarray, turn: complex, mirrored: bool) -> dict:
+        """The spec's sliders at ``pose`` (J,) complex, placed: a slot's direction turns with its
+        guide from the rest pose ``rest`` (J, 2) (family frame), then with the placement."""
+        g = self.plan.graph
+        start = rest[:, 0] + 1j * rest[:, 1]
+        out = {}
+        for s, (name, slider) in zip(g.sliders, self.spec.sliders.items()):
+            direction = np.exp(1j * s.angle)
+            if not g.fixed(s.guide):
+                a, b = g.frame_pair(s.guide)
+                direction *= (pose[b] - pose[a]) / (start[b] - start[a])
+            direction = turn * (np.conj(direction) if mirrored else direction)
+            out[name] = slider.model_copy(update={"angle_deg": float(np.degrees(np.angle(direction)))}).model_dump(
+                mode="python")
+        return out
 
 
 JANSEN = CatalogFamily("jansen", 2, catalog.jansen_leg, "foot")

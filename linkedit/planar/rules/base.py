@@ -17,7 +17,7 @@ every kind.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, cast
 
 import numpy as np
 
@@ -175,11 +175,16 @@ class Step(Rule):
         return self.joints[:1]
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
-        """Place its joints in ``f`` (one linkage), then their derivatives by :meth:`velocity`
-        and :meth:`acceleration`."""
+        """Place its joints in ``f``, then (one linkage) their derivatives by :meth:`velocity`
+        and :meth:`acceleration`; K linkages (positions only) read their joints in place."""
         out_rows = f.joints[self.joints]
+        if f.z.ndim > 2:
+            joints = cast(np.ndarray, InPlace(f.z, f.joints))  # the closed-form kinds read z[k] only
+            out, f.ds[rows] = self.place(joints, f.s, f.rest, const)
+            f.z[out_rows] = out
+            return
         zj = f.z[f.joints]
-        out, f.ds[rows] = self.place(zj, f.s, f.rest)
+        out, f.ds[rows] = self.place(zj, f.s, f.rest, const)
         f.z[out_rows] = zj[self.joints] = out
         if f.dz is not None:
             dzj = f.dz[f.joints]
@@ -192,7 +197,7 @@ class Step(Rule):
         (one batched solve per direction), ∂ln d_s by :meth:`dlnds` when guarded."""
         new = f.steps[id(self)]
         zj = f.z[f.joints]
-        out, f.ds[rows] = new.place(zj, f.s, f.rest)
+        out, f.ds[rows] = new.place(zj, f.s, f.rest, new.constants(f.rest[:, None], False))
         f.z[f.joints[self.joints]] = zj[self.joints] = out
         if f.dz is None or f.graph is None:
             return
@@ -236,10 +241,13 @@ class Step(Rule):
         """The step as a failure names it: ``slider s``, ``sliders a and b``, ``numeric group …``."""
         return f"slider {self.name}"
 
-    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Positions (n, T) of the step's joints and its singularity distance (T,) (< 0 or NaN:
-        cannot place). ``z`` (J, T) complex joint positions (the step's inputs filled in), ``s``
-        (T,) the linear input, ``rest`` (J,) complex rest joints (where a numeric group starts)."""
+    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray,
+              const: tuple[Any, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (n, *L, T) of the step's joints and its singularity distance (*L, T) (< 0 or
+        NaN: cannot place). ``z`` (J, *L, T) complex joint positions (the step's inputs filled in;
+        L: an optional linkage axis), ``s`` (*L, T) the linear input, ``rest`` (J,) complex rest
+        joints (where a numeric group starts), ``const`` the step's :meth:`constants` (the
+        closed-form kinds: of each linkage)."""
         raise NotImplementedError
 
     def lockup(self, names: list[str], toggle: bool) -> str:
@@ -295,12 +303,56 @@ class Step(Rule):
             return to_complex(solve(rows.jacobian(z, self.joints), rhs))
 
 
-def slot_line(rows: Rows, r: int, k: int, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Point P and direction D (T,) of slot row ``r`` (joint ``k`` removed from E = z_k − P)."""
-    d = rows.dc[r] @ z + rows.d0[r]
-    ec = rows.ec[r].copy()
-    ec[k] = 0.0
-    return -(ec @ z + rows.e0[r]), d
+class InPlace:
+    """Joint positions read where a :class:`Frame` holds them: ``z[k]`` is joint k's (*L, T) row
+    of ``z`` (P, *L, T) (no copy of every joint's rows per step)."""
+
+    def __init__(self, z: np.ndarray, joints: np.ndarray) -> None:
+        self.z, self.joints = z, joints
+
+    def __getitem__(self, k: int) -> np.ndarray:
+        return self.z[self.joints[k]]
+
+
+def keep(a: np.ndarray, many: bool) -> np.ndarray:
+    """A constant (..., K, 1) of K linkages as :meth:`Rule.constants` returns it: as is with
+    ``many``, else (..., 1) (one linkage: broadcasts over the samples)."""
+    return a if many else a[..., 0, :]
+
+
+@dataclass(frozen=True)
+class Slot:
+    """A pin slider's slot line: through its joint's rest point in the direction ``u`` at rest,
+    carried by its guide's frame pair (a, b) (a = −1: the frame)."""
+
+    joint: int
+    a: int
+    b: int
+    u: complex
+
+    @classmethod
+    def of(cls, graph: LinkageGraph, n: int) -> "Slot":
+        """The slot of slider ``n`` (a pin slider) of ``graph``."""
+        s = graph.sliders[n]
+        a, b = (-1, -1) if graph.fixed(s.guide) else graph.frame_pair(s.guide)
+        return cls(s.joint, a, b, complex(np.exp(1j * s.angle)))
+
+    def constants(self, z: np.ndarray, many: bool) -> tuple[np.ndarray, np.ndarray]:
+        """(α, c) at rest points ``z`` (P, K): the line is P = z_a + c·(z_b − z_a), D = α·(z_b − z_a)
+        with α = u/(z̄_b − z̄_a), c = (z̄_joint − z̄_a)/(z̄_b − z̄_a); on the frame P = c = z̄_joint, D = α = u."""
+        point = z[self.joint, :, None]
+        if self.a < 0:
+            return keep(np.full_like(point, self.u), many), keep(point, many)
+        za, m = z[self.a, :, None], z[self.b, :, None] - z[self.a, :, None]
+        return keep(self.u / m, many), keep((point - za) / m, many)
+
+    def line(self, z: np.ndarray, const: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """Point P and direction D (*L, T) of the line at joint positions ``z`` (J, *L, T)."""
+        alpha, c = const
+        if self.a < 0:
+            return c, alpha
+        e = z[self.b] - z[self.a]
+        return z[self.a] + c * e, alpha * e
 
 
 def concat(a: Rows, b: Rows) -> Rows:

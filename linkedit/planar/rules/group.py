@@ -11,6 +11,7 @@ lock-up). Its singularity distance is (σ_min/σ_max)² of the row-scaled group 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -55,7 +56,8 @@ class Group(Step):
     def label(self) -> str:
         return f"numeric group {self.name}"
 
-    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray,
+              const: tuple[Any, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
         out, ds, _ = solve_group(self, z, s, rest[self.joints])
         return out, ds
 

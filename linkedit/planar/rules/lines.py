@@ -8,13 +8,14 @@ sliders).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from linkedit.planar.constraints import Rows, linkage_rows_tangent
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
-from linkedit.planar.rules.base import Step, labelled, slot_line
+from linkedit.planar.rules.base import Slot, Step, labelled
 
 
 @dataclass(frozen=True)
@@ -25,6 +26,8 @@ class Lines(Step):
     watched = True
     guarded = True
 
+    slots: tuple[Slot, ...] = ()  # its two slot lines
+
     @classmethod
     def compile(cls, graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set[int]) -> "Lines":
         """Joint ``rule.joints[0]`` in the slots of sliders ``rule.slider`` and ``rule.i``."""
@@ -33,7 +36,8 @@ class Lines(Step):
         rows = all_rows.take(np.array(source))
         k = rule.joints[0]
         inputs = np.array(sorted(set().union(*rows.joints) - {k}), dtype=int)
-        return cls(rule.level, np.array(rule.joints, dtype=int), inputs, f"{a} and {b}", rows, np.array(source))
+        return cls(rule.level, np.array(rule.joints, dtype=int), inputs, f"{a} and {b}", rows, np.array(source),
+                   slots=(Slot.of(graph, rule.slider), Slot.of(graph, rule.i)))
 
     def what(self) -> str:
         return f"two slots, sliders {self.name}"
@@ -41,9 +45,13 @@ class Lines(Step):
     def label(self) -> str:
         return f"sliders {self.name}"
 
-    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        k = self.joints[0]
-        (p1, d1), (p2, d2) = slot_line(self.rows, 0, k, z), slot_line(self.rows, 1, k, z)
+    def constants(self, z: np.ndarray, many: bool) -> tuple[Any, ...]:
+        """Each slot's (α, c) (:class:`Slot`) at rest points ``z`` (P, K)."""
+        return tuple(slot.constants(z, many) for slot in self.slots)
+
+    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray,
+              const: tuple[Any, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
+        (p1, d1), (p2, d2) = (slot.line(z, c) for slot, c in zip(self.slots, const))
         cross = (np.conj(d2) * d1).imag
         with np.errstate(invalid="ignore", divide="ignore"):
             at = (np.conj(d2) * (p2 - p1)).imag / cross

@@ -7,14 +7,15 @@ slot cannot reach the pin).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.constraints import Rows
 from linkedit.planar.ordering import StepRule
-from linkedit.planar.rules.base import Step, loop_rows
+from linkedit.planar.rules.base import Step, keep, loop_rows
 
 
 @dataclass(frozen=True)
@@ -28,7 +29,6 @@ class Rotate(Step):
     i: int = -1  # the joint the link turns about
     h: float = 0.0  # the pin's rest offset across the slot
     sign: float = 1.0  # which of the two solutions, taken at rest
-    offsets: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))  # (n,) z̄_n − z̄_i
     slider: int = -1  # index into graph.sliders
     pin: int = -1  # the known joint in the link's slot
     u: complex = 0j  # the slot's direction at rest
@@ -41,21 +41,29 @@ class Rotate(Step):
         joints, i, slider, level = np.array(rule.joints, dtype=int), rule.i, rule.slider, rule.level
         name = graph.sliders[slider].name
         k = graph.sliders[slider].joint
-        u = np.exp(1j * graph.sliders[slider].angle)
-        q = np.conj(u) * (z[k] - z[i])
-        return cls(level, joints, inputs, name, rows, source, i=i, h=float(q.imag),
-                   sign=float(np.sign(q.real)) or 1.0, offsets=z[joints] - z[i], slider=slider, pin=k, u=complex(u))
+        u = complex(np.exp(1j * graph.sliders[slider].angle))
+        h, sign = _offset(z[k], z[i], u)
+        return cls(level, joints, inputs, name, rows, source, i=i, h=float(h), sign=float(sign), slider=slider,
+                   pin=k, u=u)
 
     def what(self) -> str:
         return f"slotted link turning, slider {self.name}"
 
-    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def constants(self, z: np.ndarray, many: bool) -> tuple[Any, ...]:
+        """(h, σ, the joints' offsets z̄_n − z̄_i): (K, 1), (K, 1), (n, K, 1) at rest points ``z`` (P, K)
+        with ``many``, else (1,), (1,), (n, 1)."""
+        zi = z[self.i, :, None]
+        h, sign = _offset(z[self.pin, :, None], zi, self.u)
+        return keep(h, many), keep(sign, many), keep(z[self.joints, :, None] - zi, many)
+
+    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray,
+              const: tuple[Any, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
+        h, sign, offsets = const
         w = z[self.pin] - z[self.i]
         w2 = w.real * w.real + w.imag * w.imag
-        h = self.h
         with np.errstate(invalid="ignore", divide="ignore"):
-            rot = np.conj(self.u) * w / (self.sign * np.sqrt(w2 - h * h) + 1j * h)
-            return z[self.i] + self.offsets[:, None] * rot, 1.0 - h * h / w2
+            rot = np.conj(self.u) * w * ((sign * np.sqrt(w2 - h * h) - 1j * h) / w2)  # |σ√(w² − h²) + ih|² = w²
+            return z[self.i] + offsets * rot, 1.0 - h * h / w2
 
     def lockup(self, names: list[str], toggle: bool) -> str:
         return (f"slider {self.name}: the slot of the link carrying {names[self.joints[0]]} cannot reach the pin "
@@ -75,3 +83,10 @@ class Rotate(Step):
         w2 = np.abs(w) ** 2
         ds = 1.0 - h * h / w2
         return (-2.0 * h * dh / w2 + 2.0 * h * h * (np.conj(w) * dw).real / (w2 * w2)) / ds
+
+
+def _offset(pin: Any, zi: Any, u: complex) -> tuple[Any, Any]:
+    """(h, σ) of the rest pose: the pin's offset across the slot (direction u) from joint i, and
+    on which side of i along it (+1 when on it)."""
+    q = np.conj(u) * (pin - zi)
+    return q.imag, np.where(q.real < 0, -1.0, 1.0)

@@ -9,6 +9,7 @@ line); d_s = (l² − p²)/l² is 0 where the rod stands perpendicular to the li
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -16,20 +17,20 @@ from linkedit.errors import MechanismError
 from linkedit.planar.constraints import Rows, _Builder, linkage_rows_tangent
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
-from linkedit.planar.rules.base import Step, concat, labelled, slot_line
+from linkedit.planar.rules.base import Slot, Step, concat, keep, labelled
 
 
 @dataclass(frozen=True)
 class Slider(Step):
-    """Joint ``joints[0]`` in its slot at the rod length sqrt(``l2``) from joint ``i``, on side ``sign``."""
+    """Joint ``joints[0]`` in its slot at its rest distance from joint ``i``, on side ``sign``."""
 
     kind = "slider"
     watched = True
     guarded = True
 
     i: int = -1  # the joint at a fixed distance
-    l2: float = 0.0  # the rod's squared length
     sign: float = 1.0  # which of the two crossings, taken at rest
+    slot: Slot = Slot(-1, -1, -1, 1.0 + 0j)  # its slot line
 
     @classmethod
     def compile(cls, graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set[int]) -> "Slider":
@@ -43,29 +44,37 @@ class Slider(Step):
         b = _Builder(graph.n_joints)
         b.add(False, {k: 1, i: -1}, 0j, {k: 1, i: -1}, 0j, f"slider {name} rod", rhs=l2)
         rows = concat(slot, b.build())
-        p, d = slot_line(rows, 0, k, z[:, None])
-        foot = (np.conj(d) * (z[i] - p)).real
-        side = (np.conj(d) * (z[k] - p)).real - foot
-        if abs(side[0]) <= 1e-9 * np.sqrt(l2):
+        line = Slot.of(graph, rule.slider)
+        side = _side(z[k], z[i], line.u)
+        if abs(side) <= 1e-9 * np.sqrt(l2):
             names = graph.joint_names
             raise MechanismError(
                 f"joint {names[k]} of slider {name}: the rod {names[i]}–{names[k]} stands perpendicular to "
                 "the slot at the rest pose: which side it takes is undefined; move it off the perpendicular")
         inputs = sorted(set().union(*rows.joints) - {k})
         return cls(level, np.array([k]), np.array(inputs, dtype=int), name, rows, np.array(source + [-1]),
-                   i=i, l2=float(l2), sign=float(np.sign(side[0])))
+                   i=i, sign=float(np.sign(side)), slot=line)
 
     def what(self) -> str:
         return f"slider {self.name}"
 
-    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        p, d = slot_line(self.rows, 0, self.joints[0], z)
+    def constants(self, z: np.ndarray, many: bool) -> tuple[Any, ...]:
+        """The slot's (α, c) (:class:`Slot`), the rod's squared length and the side: (K, 1) each
+        at rest points ``z`` (P, K) with ``many``, else (1,)."""
+        zk, zi = z[self.joints[0], :, None], z[self.i, :, None]
+        l2 = np.abs(zk - zi) ** 2
+        return (*self.slot.constants(z, many), keep(l2, many), keep(np.sign(_side(zk, zi, self.slot.u)), many))
+
+    def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray,
+              const: tuple[Any, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
+        alpha, c, l2, sign = const
+        p, d = self.slot.line(z, (alpha, c))
         d = d / np.abs(d)
         q = np.conj(d) * (z[self.i] - p)
-        h2 = self.l2 - q.imag * q.imag
+        h2 = l2 - q.imag * q.imag
         with np.errstate(invalid="ignore"):
-            x = q.real + self.sign * np.sqrt(h2)
-        return (p + d * x)[None], h2 / self.l2
+            x = q.real + sign * np.sqrt(h2)
+        return (p + d * x)[None], h2 / l2
 
     def lockup(self, names: list[str], toggle: bool) -> str:
         k = names[self.joints[0]]
@@ -102,3 +111,8 @@ class Slider(Step):
         a = (np.conj(d) * w).real
         da = (np.conj(dd) * w + np.conj(d) * dw).real
         return 2.0 * da / a - 2.0 * (np.conj(d) * dd).real / np.abs(d) ** 2 - 2.0 * (np.conj(w) * dw).real / np.abs(w) ** 2
+
+
+def _side(zk: Any, zi: Any, u: complex) -> Any:
+    """Re(ū·(z_k − z_i)): which side of the rod's foot on the slot (direction u at rest) joint k takes."""
+    return (np.conj(u) * (zk - zi)).real
