@@ -230,9 +230,9 @@ def _solvespace_run(model: PointModel, xyz: np.ndarray, fixed: bool) -> tuple[fl
         s.set_group(2)
         plane = s.add_work_plane(pts[origin], nm)
         s.coincident(pts[n], plane, Entity.FREE_IN_3D)
-    for n, (origin, direction) in model.on_line.items():
+    for n, (through, direction) in model.on_line.items():
         s.set_group(1)
-        ends = [np.asarray(origin, dtype=float) + k * np.asarray(direction, dtype=float) for k in (0.0, 1.0)]
+        ends = [np.asarray(through, dtype=float) + k * np.asarray(direction, dtype=float) for k in (0.0, 1.0)]
         if model.planar:
             line = s.add_line_2d(*(s.add_point_2d(float(e[0]), float(e[1]), wp) for e in ends), wp)
         else:
@@ -241,13 +241,13 @@ def _solvespace_run(model: PointModel, xyz: np.ndarray, fixed: bool) -> tuple[fl
         s.coincident(pts[n], line, wp)
     radius = None
     if model.stroke is not None:
-        point, centre = model.stroke
+        tip, centre = model.stroke
         s.set_group(1)
-        radius = s.add_distance(float(np.linalg.norm(xyz[0, at[point]] - xyz[0, at[centre]])), wp)
-        normal = s.add_normal_3d(1.0, 0.0, 0.0, 0.0)  # the workplane's: xy
+        radius = s.add_distance(float(np.linalg.norm(xyz[0, at[tip]] - xyz[0, at[centre]])), wp)
+        xy = s.add_normal_3d(1.0, 0.0, 0.0, 0.0)  # the workplane's normal
         s.set_group(2)
-        s.coincident(pts[point], s.add_circle(normal, pts[centre], radius, wp), wp)
-        stroke = np.linalg.norm(xyz[:, at[point]] - xyz[:, at[centre]], axis=1)
+        s.coincident(pts[tip], s.add_circle(xy, pts[centre], radius, wp), wp)
+        stroke = np.linalg.norm(xyz[:, at[tip]] - xyz[:, at[centre]], axis=1)
     held = [(pts[n], at[n]) for n in model.held]
     dim = 2 if model.planar else 3
     out = np.zeros((xyz.shape[0], len(names), 3))
@@ -264,8 +264,8 @@ def _solvespace_run(model: PointModel, xyz: np.ndarray, fixed: bool) -> tuple[fl
     sec = (time.process_time() - start) / xyz.shape[0]
     if model.plane is not None:  # back in the world, off the workplane where linkedit has them
         u, v = np.asarray(model.plane)
-        normal = np.cross(u, v)
-        out = out[..., :1] * u + out[..., 1:2] * v + (world @ normal)[..., None] * normal
+        off = np.cross(u, v)
+        out = out[..., :1] * u + out[..., 1:2] * v + (world @ off)[..., None] * off
     return sec, out
 
 

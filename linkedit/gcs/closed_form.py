@@ -515,13 +515,13 @@ class ClosedForm:
                 J = self._point(P, R, rule.joint, table, steps)  # w's point of the common joint
                 side = quat.dot(quat.cross(A[1] - A[0], J - A[0]), axes[0])
             elif isinstance(rule, Cone):
-                _, n, _, _, _, _ = self._cones(rule, P, R, table, steps)
+                _, placed, _, _, _, _ = self._cones(rule, P, R, table, steps)
                 c = _turn(R[:, rule.members[0]], self._mine("axis", rule.hinge))  # the hinge axis
-                side = quat.dot(c, quat.cross(n[0], n[1]))
+                side = quat.dot(c, quat.cross(placed[0], placed[1]))
             elif isinstance(rule, Slider):
-                _, A, n, _, l, _, _ = self._slide(rule, P, R, table, steps)
+                _, foot, axis, _, line, _, _ = self._slide(rule, P, R, table, steps)
                 J = self._point(P, R, rule.joint, table, steps)  # the slider's point of the joint
-                side = quat.dot(J - A, l - quat.dot(l, n)[:, None] * n)
+                side = quat.dot(J - foot, line - quat.dot(line, axis)[:, None] * axis)
             else:
                 continue
             out.append(1.0 if float(side[0]) >= 0.0 else -1.0)
