@@ -23,10 +23,11 @@ what waves keep on it, as SolveSpace's sketch is built before its timing). Print
    many steps it solved in waves (:mod:`linkedit.gcs.waves`), and whether they were predicted in
    closed form (:mod:`linkedit.gcs.closed_form`) or by extrapolation.
 5. The variants of issue 22 (``examples/3d/bench/``: a cylinder-driven rocker, a crank-rocker
-   whose coupler is a welded group, an offset slider-crank of joints; with the spatial
-   slider-crank and the passive-DOF RSSR examples): linkedit's CPU ms per step (median of
-   repeats after an untimed run), and SolveSpace's where it is installed and a sketch is given
-   (:data:`VARIANT_SKETCHES`).
+   whose coupler is a welded group, an offset slider-crank of joints, the Jansen leg with its
+   pin axes in the xy plane, a steered spherical four-bar; with the spatial slider-crank and the
+   passive-DOF RSSR examples): linkedit's CPU ms per step (median of repeats after an untimed
+   run), and SolveSpace's where it is installed (sketches: :data:`VARIANTS`; a slider's point on
+   a line, a driven length as a point on a circle whose radius is set at each step).
 """
 
 from __future__ import annotations
@@ -148,6 +149,14 @@ class PointModel:
     #: points moved by a passive degree of freedom: each solver keeps them still its own way
     #: (SolveSpace: least change of its parameters), so they are not compared
     passive: tuple[str, ...] = ()
+    #: points kept on a line (a slider): point → (world point on the line, direction)
+    on_line: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = field(default_factory=dict)
+    #: a driven length (a linear actuator): (point, centre); the point is kept on a circle about
+    #: the held centre whose radius is set at each step from linkedit's run
+    stroke: tuple[str, str] | None = None
+    #: a planar sketch's workplane axes u, v in the world (rows (2, 3)) where the mechanism moves
+    #: in another plane than xy
+    plane: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
 
 
 #: spatial examples and their SolveSpace sketches (the RSSR coupler's fin keeps its idle spin:
@@ -183,6 +192,9 @@ def _solvespace_run(model: PointModel, xyz: np.ndarray, fixed: bool) -> tuple[fl
 
     names = list(model.points)
     at = {n: i for i, n in enumerate(names)}
+    world = xyz
+    if model.plane is not None:  # the sketch's coordinates in its workplane
+        xyz = np.concatenate([xyz @ np.asarray(model.plane).T, np.zeros(xyz.shape[:2] + (1,))], axis=2)
     s = SolverSystem()
     s.set_group(1)
     wp = s.create_2d_base() if model.planar else Entity.FREE_IN_3D
@@ -218,6 +230,24 @@ def _solvespace_run(model: PointModel, xyz: np.ndarray, fixed: bool) -> tuple[fl
         s.set_group(2)
         plane = s.add_work_plane(pts[origin], nm)
         s.coincident(pts[n], plane, Entity.FREE_IN_3D)
+    for n, (through, direction) in model.on_line.items():
+        s.set_group(1)
+        ends = [np.asarray(through, dtype=float) + k * np.asarray(direction, dtype=float) for k in (0.0, 1.0)]
+        if model.planar:
+            line = s.add_line_2d(*(s.add_point_2d(float(e[0]), float(e[1]), wp) for e in ends), wp)
+        else:
+            line = s.add_line_3d(*(s.add_point_3d(*map(float, e)) for e in ends))
+        s.set_group(2)
+        s.coincident(pts[n], line, wp)
+    radius = None
+    if model.stroke is not None:
+        tip, centre = model.stroke
+        s.set_group(1)
+        radius = s.add_distance(float(np.linalg.norm(xyz[0, at[tip]] - xyz[0, at[centre]])), wp)
+        xy = s.add_normal_3d(1.0, 0.0, 0.0, 0.0)  # the workplane's normal
+        s.set_group(2)
+        s.coincident(pts[tip], s.add_circle(xy, pts[centre], radius, wp), wp)
+        stroke = np.linalg.norm(xyz[:, at[tip]] - xyz[:, at[centre]], axis=1)
     held = [(pts[n], at[n]) for n in model.held]
     dim = 2 if model.planar else 3
     out = np.zeros((xyz.shape[0], len(names), 3))
@@ -225,11 +255,18 @@ def _solvespace_run(model: PointModel, xyz: np.ndarray, fixed: bool) -> tuple[fl
     for k in range(xyz.shape[0]):
         for p, i in held:
             s.set_params(p.params, tuple(map(float, xyz[k, i, :dim])))
+        if radius is not None:
+            s.set_params(radius.params, (float(stroke[k]),))
         if s.solve() != ResultFlag.OKAY:
             return None
         for n, i in at.items():
             out[k, i, :dim] = s.params(pts[n].params)
-    return (time.process_time() - start) / xyz.shape[0], out
+    sec = (time.process_time() - start) / xyz.shape[0]
+    if model.plane is not None:  # back in the world, off the workplane where linkedit has them
+        u, v = np.asarray(model.plane)
+        off = np.cross(u, v)
+        out = out[..., :1] * u + out[..., 1:2] * v + (world @ off)[..., None] * off
+    return sec, out
 
 
 def _turn_z_onto(normal: np.ndarray) -> tuple[np.ndarray, float]:
@@ -332,15 +369,26 @@ def _predicted(system: "System") -> str:
     return "—" if kept is None else "extrapolated" if kept.closed is None else "closed form"
 
 
-#: the variants' specs (examples/3d/...) and their SolveSpace sketches (None: none written)
-VARIANTS: dict[str, PointModel | None] = {
-    "bench/cylinder-rocker": None,
+#: the variants' specs (examples/3d/...) and their SolveSpace sketches
+VARIANTS: dict[str, PointModel] = {
+    "bench/cylinder-rocker": PointModel(
+        points={"O": ("arm", "pivot"), "L": ("arm", "lug"), "B": ("barrel", "base")},
+        held=("O", "B"), links=(("O", "L"),), planar=True, stroke=("L", "B")),
     "bench/welded-crank-rocker": PointModel(
         points={"O": ("crank", "pivot"), "A": ("crank", "tip"), "B": ("bar", "b"), "D": ("rocker", "pivot"),
                 "P": ("plate", "P")},
         held=("O", "D", "A"), links=(("A", "B", "P"), ("B", "D")), planar=True),
-    "bench/offset-slider-crank": None,
-    "spatial-slider-crank": None,
+    "bench/offset-slider-crank": PointModel(
+        points={"O": ("crank", "pivot"), "A": ("crank", "tip"), "C": ("slider", "c")},
+        held=("O", "A"), links=(("A", "C"),), planar=True, on_line={"C": ((0.0, 0.5, 0.0), (1.0, 0.0, 0.0))}),
+    "bench/jansen-xy-pins": PointModel(
+        points={n: (m, n) for m, js in (("crank", "OA"), ("upper", "BCE"), ("lower", "DFG")) for n in js},
+        held=("O", "B", "A"), links=(("A", "C"), ("A", "D"), ("B", "C", "E"), ("B", "D"), ("E", "F"), ("D", "F", "G")),
+        planar=True, plane=((0.0, 1.0, 0.0), (0.0, 0.0, 1.0))),
+    "bench/steered-spherical-four-bar": SPATIAL["spherical-four-bar"],
+    "spatial-slider-crank": PointModel(
+        points={"O": ("crank", "pivot"), "A": ("crank", "tip"), "C": ("slider", "c")},
+        held=("O", "A"), links=(("A", "C"),), planar=False, on_line={"C": ((2.5, 0.5, 1.0), (1.0, 0.0, 0.0))}),
     "rssr": SPATIAL["rssr"],
 }
 
@@ -363,7 +411,8 @@ def _variants(echo: Callable[[str], None], quick: bool) -> None:
     t = np.arange(steps) / steps
     echo(f"variants (issue 22), {steps} steps, CPU ms per step, medians of {repeats}"
          f"{'' if solvespace else ' (SolveSpace: not installed)'}")
-    echo(f"{'mechanism':<26}{'unknowns':>9}  {'linkedit':>9}  {'in waves':>8}  {'SolveSpace':>11}  {'ratio':>6}")
+    echo(f"{'mechanism':<26}{'unknowns':>9}  {'linkedit':>9}  {'in waves':>8}  {'SolveSpace':>11}  {'ratio':>6}  "
+         f"{'max |Δp| / size':>16}")
     for name, model in VARIANTS.items():
         system, _ = compile_mechanism(load_model(MechanismSpec, EXAMPLES / f"{name}.yaml"))
         table = system.step_table(t)
@@ -375,12 +424,17 @@ def _variants(echo: Callable[[str], None], quick: bool) -> None:
             times.append((time.process_time() - start) / steps)
         ours = float(np.median(times)) * 1e3
         cell = f"{'—':>11}  {'':>6}"
-        if solvespace and model is not None:
+        if solvespace:
             member = np.array([system.member_names.index(m) for m, _ in model.points.values()])
             local = np.array([system.points[m][p] for m, p in model.points.values()])
             R = quat.to_matrix(run.orientation[:, member])
-            ran = _solvespace_run(model, run.position[:, member] + np.einsum("tpij,pj->tpi", R, local), fixed=False)
-            cell = f"{'failed':>11}  {'':>6}" if ran is None else f"{ran[0] * 1e3:>11.3f}  {ours / (ran[0] * 1e3):>5.2f}×"
+            xyz = run.position[:, member] + np.einsum("tpij,pj->tpi", R, local)
+            ran = _solvespace_run(model, xyz, fixed=False)
+            keep = [i for i, n in enumerate(model.points) if n not in model.passive]
+            diff = float("nan") if ran is None else float(np.abs(xyz[:, keep] - ran[1][:, keep]).max()) / float(
+                np.ptp(xyz.reshape(-1, 3), axis=0).max())
+            cell = (f"{'failed':>11}  {'':>6}" if ran is None else f"{ran[0] * 1e3:>11.3f}  {ours / (ran[0] * 1e3):>5.2f}×"
+                    ) + f"  {diff:>16.1e}"
         echo(f"{name.removeprefix('bench/'):<26}{system.n_unknowns:>9}  {ours:>9.3f}  "
              f"{f'{int(run.batched.sum())}/{steps}':>8}  {cell}")
 

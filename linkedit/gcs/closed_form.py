@@ -2,7 +2,7 @@
 joints from known ones.
 
 Where a system's members can be ordered so that each is rebuilt from placed ones (the world
-first) by one of three rules —
+first) by one of five rules —
 
 * **driven**: an orientation constraint sets the member's orientation from a placed member's
   (an input's crank) and a location constraint pins it to a placed one;
@@ -12,7 +12,16 @@ first) by one of three rules —
 * **dyad**: two members pinned to each other and each to a placed member, each aligned with a
   placed member's axis, the two axes along one line n (a revolute dyad): their common joint is
   rebuilt across the axes by the law of cosines (:func:`linkedit.planar.law_of_cosines.dyad`),
-  on the side of the line between the two placed joints that it is on at a solved pose —
+  on the side of the line between the two placed joints that it is on at a solved pose;
+* **cone**: the same two members pinned to their placed members and to each other all at one
+  point (a spherical dyad: every axis through that point): the common axis is where the cones
+  of its angles about the two placed axes meet, on the side of the plane of the placed axes
+  that it is on at a solved pose;
+* **slider**: a member pinned to a placed one about a placed axis (a rod) and a member oriented
+  by an orientation constraint from a placed one with a point on a placed member's line (a
+  slider), pinned to each other: the slider stands where the rod's joint is at its arm from its
+  pin, on the side of the foot of the perpendicular from the pin to the line that it is on at
+  a solved pose (a slider-crank's rod and slider) —
 
 every member's pose at every step follows as array code over the steps. A member's rotation
 is the one taking its local axis and the perpendicular part of its local arm (from its placed
@@ -113,7 +122,44 @@ class Dyad:
     arms: tuple[Arm, Arm]
 
 
-Rule = Driven | Hinged | Dyad
+@dataclass(frozen=True)
+class Cone:
+    """Members u and w, each pinned to a placed member (``pins``) and aligned with a placed
+    member's axis (``axes``), and pinned to each other (``joint``, seen from u) at their points
+    of those pins, their axes of ``hinge`` (seen from u) aligned: a spherical dyad. Each
+    member's ``arms`` (:class:`Arm`) from its placed axis to its hinge axis (unit: the height is
+    the cosine of the angle between them)."""
+
+    members: tuple[int, int]
+    pins: tuple[End, End]
+    axes: tuple[End, End]
+    joint: End
+    hinge: End
+    arms: tuple[Arm, Arm]
+
+
+@dataclass(frozen=True)
+class Slider:
+    """Member u (a rod) pinned by ``pin`` to a placed member and aligned by ``axis`` with a
+    placed member's axis, and member w (a slider) oriented by the orientation constraint
+    ``turn`` from a placed member with its point of the line constraint ``line`` on a placed
+    member's line, pinned to each other by ``joint`` (seen from u); the rod's ``arm`` from its
+    pin to the joint, and the slider's ``offset`` (3,) from its point on the line to the joint
+    (in its space)."""
+
+    members: tuple[int, int]
+    pin: End
+    axis: End
+    turn: End
+    line: End
+    joint: End
+    arm: Arm
+    offset: np.ndarray
+
+
+Rule = Driven | Hinged | Dyad | Cone | Slider
+#: the rules placing two members, each on a side (:meth:`ClosedForm.signs`)
+SIDED = (Dyad, Cone, Slider)
 
 
 class ClosedForm:
@@ -155,7 +201,7 @@ class ClosedForm:
                     if b < M and not (own_b and blk.vectors[1].start + i in driven):
                         per[int(b)].append(End(i, False, int(a)))
         none: dict[int, list[End]] = {m: [] for m in range(M)}
-        pins, axes, turns = (ends.get(k, none) for k in ("location", "axis", "orientation"))
+        pins, axes, turns, lines = (ends.get(k, none) for k in ("location", "axis", "orientation", "line"))
         form = cls(system, [])
         placed = {M}
 
@@ -189,19 +235,64 @@ class ClosedForm:
                                 (form._arm(axis, pin, joint), form._arm(axis_w, pin_w, back)))
             return None
 
+        def cone_of(u: int) -> Rule | None:
+            """A spherical dyad of member u and an unplaced member."""
+            pin, axis = first(pins[u]), first(axes[u])
+            if pin is None or axis is None:
+                return None
+            for joint in pins[u]:
+                w = joint.other
+                if w in placed or form._apart(pin, joint):
+                    continue
+                back = End(joint.index, not joint.side_a, u)
+                pin_w, axis_w = first(pins[w]), first(axes[w])
+                if back not in pins[w] or pin_w is None or axis_w is None or form._apart(pin_w, back):
+                    continue
+                for hinge in (e for e in axes[u] if e.other == w):
+                    other = End(hinge.index, not hinge.side_a, u)
+                    arms = (form._arm(axis, hinge), form._arm(axis_w, other))
+                    if other in axes[w] and min(a.length for a in arms) > PARALLEL:
+                        return Cone((u, w), (pin, pin_w), (axis, axis_w), joint, hinge, arms)
+            return None
+
+        def slider_of(u: int) -> Rule | None:
+            """A rod u pinned to a placed member and a slider on a placed member's line."""
+            pin, axis = first(pins[u]), first(axes[u])
+            if pin is None or axis is None:
+                return None
+            for joint in pins[u]:
+                w = joint.other
+                if w in placed or not form._apart(pin, joint):
+                    continue
+                back = End(joint.index, not joint.side_a, u)
+                turn = first(turns[w])
+                line = next((e for e in lines[w] if e.side_a and e.other in placed), None)
+                if turn is None or line is None or back not in pins[w]:
+                    continue
+                arm = Arm.of(form._mine("axis", axis), form._mine("location", pin), form._mine("location", joint))
+                return Slider((u, w), pin, axis, turn, line, joint, arm,
+                              form._mine("location", back) - form._mine("line", line))
+            return None
+
         while len(placed) <= M:
-            # the members placed directly first, then dyads
-            rule = next((r for u in range(M) if u not in placed for r in (direct(u),) if r is not None), None) \
-                or next((r for u in range(M) if u not in placed for r in (dyad_of(u),) if r is not None), None)
+            # the members placed directly first, then dyads, spherical dyads, sliders
+            rule = None
+            for find in (direct, dyad_of, cone_of, slider_of):
+                rule = next((r for u in range(M) if u not in placed for r in (find(u),) if r is not None), None)
+                if rule is not None:
+                    break
             if rule is None:
                 return None
             form.rules.append(rule)
-            placed |= set(rule.members) if isinstance(rule, Dyad) else {rule.member}
+            placed |= set(rule.members) if isinstance(rule, SIDED) else {rule.member}
         return form
 
-    def _arm(self, axis: End, start: End, end: End) -> Arm:
+    def _arm(self, axis: End, start: End, end: End | None = None) -> Arm:
         """A member's arm from its point of the location constraint ``start`` to that of
-        ``end`` across its axis of the axis constraint ``axis`` (all seen from it)."""
+        ``end`` across its axis of the axis constraint ``axis`` (all seen from it); with no
+        ``end``, from its origin to its unit axis of the axis constraint ``start``."""
+        if end is None:
+            return Arm.of(self._mine("axis", axis), np.zeros(3), self._mine("axis", start))
         return Arm.of(self._mine("axis", axis), self._mine("location", start), self._mine("location", end))
 
     def _apart(self, a: End, b: End) -> bool:
@@ -225,15 +316,27 @@ class ClosedForm:
             return blk.sb[end.index] if j is None else table.vectors[steps, j, :3]
         return blk.sa[end.index]
 
-    def _point(self, P: np.ndarray, R: np.ndarray, end: End, table: StepTable, steps: np.ndarray) -> np.ndarray:
-        """The other member's point of a location constraint in the world (B, 3), from the
-        positions P (B, M+1, 3) and rotations R (B, M+1, 3, 3) placed."""
-        return P[:, end.other] + _turn(R[:, end.other], self._theirs("location", end, table, steps))
+    def _point(self, P: np.ndarray, R: np.ndarray, end: End, table: StepTable, steps: np.ndarray,
+               kind: str = "location") -> np.ndarray:
+        """The other member's point of a location (or line) constraint in the world (B, 3),
+        from the positions P (B, M+1, 3) and rotations R (B, M+1, 3, 3) placed."""
+        return P[:, end.other] + _turn(R[:, end.other], self._theirs(kind, end, table, steps))
 
     def _axis(self, R: np.ndarray, end: End, table: StepTable, steps: np.ndarray) -> np.ndarray:
         """The other member's axis of an axis constraint in the world, unit (B, 3)."""
         n = _turn(R[:, end.other], self._theirs("axis", end, table, steps))
         return n / np.sqrt(quat.dot(n, n))[:, None]
+
+    def _direction(self, R: np.ndarray, end: End) -> np.ndarray:
+        """The other member's direction of a line constraint in the world, unit (B, 3)."""
+        n = _turn(R[:, end.other], self._blocks["line"].nb[end.index])
+        return n / np.sqrt(quat.dot(n, n))[:, None]
+
+    def _turned(self, Q: np.ndarray, end: End, table: StepTable, steps: np.ndarray) -> np.ndarray:
+        """A member's quaternions (B, 4) set by the orientation constraint ``end`` (seen from
+        it) from its other member's quaternions Q (B, M+1, 4)."""
+        rel = self._rel(end, table, steps)
+        return quat.multiply(Q[:, end.other], rel if end.side_a else quat.conjugate(rel))
 
     def _rel(self, end: End, table: StepTable, steps: np.ndarray) -> np.ndarray:
         """The relative orientation of an orientation constraint at ``steps`` (B, 4)."""
@@ -259,9 +362,8 @@ class ClosedForm:
         with np.errstate(invalid="ignore", divide="ignore"):
             for rule in self.rules:
                 if isinstance(rule, Driven):
-                    u, e = rule.member, rule.turn
-                    rel = self._rel(e, table, steps)
-                    Q[:, u] = quat.multiply(Q[:, e.other], rel if e.side_a else quat.conjugate(rel))
+                    u = rule.member
+                    Q[:, u] = self._turned(Q, rule.turn, table, steps)
                     R[:, u] = quat.to_matrix(Q[:, u])
                     P[:, u] = self._point(P, R, rule.pin, table, steps) - R[:, u] @ self._mine("location", rule.pin)
                 elif isinstance(rule, Hinged):
@@ -271,9 +373,18 @@ class ClosedForm:
                     R[:, u] = _rotation(arm.frame, n, X2 - X1 - arm.height * n)
                     P[:, u] = X1 - R[:, u] @ self._mine("location", one)
                     Q[:, u] = quat.from_matrix(R[:, u])
-                else:
+                elif isinstance(rule, Dyad):
                     valid &= self._dyad(rule, P, R, table, steps, next(side))
                     Q[:, list(rule.members)] = quat.from_matrix(R[:, list(rule.members)])
+                elif isinstance(rule, Cone):
+                    valid &= self._cone(rule, P, R, table, steps, next(side))
+                    Q[:, list(rule.members)] = quat.from_matrix(R[:, list(rule.members)])
+                else:
+                    u, w = rule.members
+                    Q[:, w] = self._turned(Q, rule.turn, table, steps)
+                    R[:, w] = quat.to_matrix(Q[:, w])
+                    valid &= self._slider(rule, P, R, table, steps, next(side))
+                    Q[:, u] = quat.from_matrix(R[:, u])
         Q = Q[:, :M]
         flip = np.sign(quat.dot(Q, np.concatenate([anchor[None], Q[:-1]])))
         Q *= np.cumprod(np.where(flip == 0.0, 1.0, flip), axis=0)[..., None]
@@ -314,6 +425,68 @@ class ClosedForm:
         ok = (np.sqrt(quat.dot(c, c)) <= PARALLEL) & (np.abs(quat.dot(A[1] - A[0], axes[0])) <= PARALLEL * reach)
         return X, A, axes, ok
 
+    def _cone(self, rule: Cone, P: np.ndarray, R: np.ndarray, table: StepTable, steps: np.ndarray,
+              sign: float) -> np.ndarray:
+        """Place a spherical dyad's members (into P, R as :meth:`_dyad`) with their hinge axis
+        on the side ``sign`` of the plane of the placed axes; whether each step could (B,)
+        (:meth:`_cones`)."""
+        X, n, x, y, z2, ok = self._cones(rule, P, R, table, steps)
+        across = quat.cross(n[0], n[1])
+        c = x[:, None] * n[0] + y[:, None] * n[1] + (sign * np.sqrt(z2))[:, None] * across
+        for m, pin, arm, Xm, nm in zip(rule.members, rule.pins, rule.arms, X, n):
+            R[:, m] = _rotation(arm.frame, nm, c - arm.height * nm)
+            P[:, m] = Xm - R[:, m] @ self._mine("location", pin)
+        return ok
+
+    def _cones(self, rule: Cone, P: np.ndarray, R: np.ndarray, table: StepTable,
+               steps: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray, np.ndarray, np.ndarray,
+                                           np.ndarray]:
+        """A spherical dyad's placed joints X (B, 3) each and placed axes n (B, 3) each; the
+        hinge axis c = x n₁ + y n₂ + z n₁ × n₂ (c·nᵢ the cosines of the members' arms, |c| = 1):
+        x, y and z² (B,) each (z² < 0: the cones do not meet); and whether the placed joints
+        are one point (to :data:`PARALLEL` of the size) and the placed axes not along one line (B,)."""
+        n = [self._axis(R, end, table, steps) for end in rule.axes]
+        X = [self._point(P, R, pin, table, steps) for pin in rule.pins]
+        c1, c2 = (arm.height for arm in rule.arms)
+        g = quat.dot(n[0], n[1])
+        sine2 = 1.0 - g * g
+        x, y = (c1 - g * c2) / sine2, (c2 - g * c1) / sine2
+        z2 = (1.0 - x * c1 - y * c2) / sine2
+        gap = X[1] - X[0]
+        ok = (np.sqrt(quat.dot(gap, gap)) <= PARALLEL * self.system.length_scale) & (sine2 > PARALLEL)
+        return X, n, x, y, z2, ok
+
+    def _slider(self, rule: Slider, P: np.ndarray, R: np.ndarray, table: StepTable, steps: np.ndarray,
+                sign: float) -> np.ndarray:
+        """Place a rod and its slider (into P, R as :meth:`_dyad`; the slider's rotation already
+        placed) with the slider at the root ``sign`` of |c + s l|² = L² across the rod's axis
+        (:meth:`_slide`); whether each step could (B,)."""
+        u, w = rule.members
+        X, A, n, L0, l, c, ok = self._slide(rule, P, R, table, steps)
+        cn, ln = c - quat.dot(c, n)[:, None] * n, l - quat.dot(l, n)[:, None] * n
+        a, b = quat.dot(ln, ln), quat.dot(cn, ln)
+        s = (-b + sign * np.sqrt(b * b - a * (quat.dot(cn, cn) - rule.arm.length ** 2))) / a
+        R[:, u] = _rotation(rule.arm.frame, n, cn + s[:, None] * ln)
+        P[:, u] = X - R[:, u] @ self._mine("location", rule.pin)
+        P[:, w] = L0 + s[:, None] * l - R[:, w] @ self._mine("line", rule.line)
+        return ok
+
+    def _slide(self, rule: Slider, P: np.ndarray, R: np.ndarray, table: StepTable,
+               steps: np.ndarray) -> tuple[np.ndarray, ...]:
+        """A rod's placed joint X (B, 3), the same moved along its placed axis n (B, 3) by its
+        offset to the joint (A), the slider's line (a point L0 and unit direction l, (B, 3)
+        each), c (B, 3): the joint with the slider's point on the line at L0, less A (the
+        joint is c + s l from A with the slider's point at L0 + s l: the slider's rotation
+        placed); and whether the line and c lie across the axis (to :data:`PARALLEL`) (B,)."""
+        n = self._axis(R, rule.axis, table, steps)
+        X = self._point(P, R, rule.pin, table, steps)
+        A = X + rule.arm.height * n
+        L0 = self._point(P, R, rule.line, table, steps, "line")
+        l = self._direction(R, rule.line)
+        c = L0 + _turn(R[:, rule.members[1]], rule.offset) - A
+        ok = (np.abs(quat.dot(l, n)) <= PARALLEL) & (np.abs(quat.dot(c, n)) <= PARALLEL * self.system.length_scale)
+        return X, A, n, L0, l, c, ok
+
     def sides(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int) -> list[float] | None:
         """The dyads' sides (:meth:`signs`) at a solved pose (positions (M, 3), quaternions
         (M, 4)) at the table's ``step``, or None where the closed form rebuilds another pose
@@ -329,7 +502,8 @@ class ClosedForm:
 
     def signs(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int) -> list[float]:
         """The side (±1) of each dyad's common joint from the line between its placed joints,
-        about n, at a solved pose (positions (M, 3), quaternions (M, 4)) at the table's
+        about n (a spherical dyad's hinge axis from the plane of its placed axes; a slider's
+        joint from the foot of the perpendicular from its rod's pin to its line), at a solved pose (positions (M, 3), quaternions (M, 4)) at the table's
         ``step``."""
         P = np.concatenate([position, np.zeros((1, 3))])[None]
         R = np.concatenate([quat.to_matrix(orientation), np.eye(3)[None]])[None]
@@ -339,7 +513,18 @@ class ClosedForm:
             if isinstance(rule, Dyad):
                 _, A, axes, _ = self._triangle(rule, P, R, table, steps)
                 J = self._point(P, R, rule.joint, table, steps)  # w's point of the common joint
-                out.append(1.0 if float(quat.dot(quat.cross(A[1] - A[0], J - A[0]), axes[0])[0]) >= 0.0 else -1.0)
+                side = quat.dot(quat.cross(A[1] - A[0], J - A[0]), axes[0])
+            elif isinstance(rule, Cone):
+                _, placed, _, _, _, _ = self._cones(rule, P, R, table, steps)
+                c = _turn(R[:, rule.members[0]], self._mine("axis", rule.hinge))  # the hinge axis
+                side = quat.dot(c, quat.cross(placed[0], placed[1]))
+            elif isinstance(rule, Slider):
+                _, foot, axis, _, line, _, _ = self._slide(rule, P, R, table, steps)
+                J = self._point(P, R, rule.joint, table, steps)  # the slider's point of the joint
+                side = quat.dot(J - foot, line - quat.dot(line, axis)[:, None] * axis)
+            else:
+                continue
+            out.append(1.0 if float(side[0]) >= 0.0 else -1.0)
         return out
 
 
