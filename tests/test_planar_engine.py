@@ -43,11 +43,14 @@ def test_dyad_derivatives_match_central_differences():
         return loc.dyad(z0i + vi * s + 0.5 * ai * s * s, z0j + vj * s + 0.5 * aj * s * s, half, lik2, sign)[0]
 
     z, terms = loc.dyad(z0i, z0j, half, lik2, sign)
-    dz, de, du, dw = loc.dyad_velocity(terms, vi, vj, half, lik2)
-    ddz = loc.dyad_acceleration(terms, de, du, dw, ai, aj, half, lik2)
+    E, Zi = np.stack([z0j - z0i, vj - vi, aj - ai]), np.stack([z0i, vi, ai])
+    out = np.empty((2, 3, 1), dtype=complex)
+    real, cplx = (lambda: np.empty((3, 1))), (lambda: np.empty((3, 1), dtype=complex))
+    rates = loc.Rates(cplx(), cplx(), cplx(), np.empty((2, 3, 1), dtype=complex), real(), real(), real(), real())
+    loc.dyad_rates(E, Zi, z - z0i, terms.u, terms.a, terms.b, lik2, out, rates)
     h = 1e-4
-    assert np.allclose(dz, (at(h) - at(-h)) / (2 * h), atol=1e-7)
-    assert np.allclose(ddz, (at(h) - 2 * z + at(-h)) / h**2, atol=1e-5)
+    assert np.allclose(out[0], (at(h) - at(-h)) / (2 * h), atol=1e-7)
+    assert np.allclose(out[1], (at(h) - 2 * z + at(-h)) / h**2, atol=1e-5)
 
 
 def test_motion_derivatives_match_central_differences():
@@ -155,3 +158,62 @@ def test_positions_with_workspace_equal_full_evaluation():
     fast = positions(plan, geom, angle, work).copy()
     assert np.abs(fast - evaluate(plan, geom, angle, order=0).z).max() < 1e-12
     assert positions(plan, geom, angle + 0.1, work) is work.z  # reused, not reallocated
+
+
+def test_multi_level_derivatives_match_central_differences():
+    """Velocities and accelerations through four levels of dyads and rigid rules (a Jansen leg)
+    against central differences of the positions (step h: errors O(h²) and rounding/h²)."""
+    from linkedit.planar.kinematics import evaluate
+
+    plan = compile_plan(spec_of(JANSEN))
+    geom = plan.geometry()
+    angle = geom.rest_angle + np.linspace(0.0, 2 * np.pi, 60, endpoint=False)
+    h = 1e-4
+    s = evaluate(plan, geom, angle, order=2)
+    up, down = (evaluate(plan, geom, angle + d, order=0).z for d in (h, -h))
+    fd_v, fd_a = (up - down) / (2 * h), (up - 2 * s.z + down) / h**2
+    assert np.abs(s.dz - fd_v).max() < 1e-7 * np.abs(s.dz).max()
+    assert np.abs(s.ddz - fd_a).max() < 1e-5 * np.abs(s.ddz).max()
+
+
+def test_evaluate_with_workspace_allocates_no_batch_arrays():
+    """With a Workspace, an evaluation with derivatives writes into its buffers: the memory it
+    allocates is a few motor-row arrays (T,), never a batch (R, T); results equal a fresh one."""
+    import tracemalloc
+
+    from linkedit.planar import catalog
+    from linkedit.planar.kinematics import Workspace, evaluate
+
+    plan = compile_plan(catalog.strandbeest(3))
+    geom = plan.geometry()
+    T = 4000
+    angle = geom.rest_angle + np.linspace(0.0, 2 * np.pi, T, endpoint=False)
+    work = Workspace(plan, T, order=2)
+    fresh = evaluate(plan, geom, angle, order=2)
+    evaluate(plan, geom, angle + 0.1, 2, work)
+    tracemalloc.start()
+    s = evaluate(plan, geom, angle, 2, work)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert all(np.shares_memory(a, work.orders) for a in (s.z, s.dz, s.ddz)) and s.ds is work.ds
+    assert peak < 12 * T * 16  # a dyad batch alone is 12 × 2 × T complex
+    for a, b in ((s.z, fresh.z), (s.dz, fresh.dz), (s.ddz, fresh.ddz), (s.ds, fresh.ds)):
+        assert np.array_equal(a, b)
+
+
+def test_linkage_axis_evaluates_derivatives_of_each_linkage():
+    """A geometry of K linkages gives each linkage's own positions, derivatives and d_s."""
+    from linkedit.planar.kinematics import evaluate
+    from linkedit.planar.plan import Geometry
+
+    plan = compile_plan(spec_of(JANSEN))
+    rest = plan.normalized_points()
+    rng = np.random.default_rng(3)
+    many = rest[None] + 0.01 * rng.normal(size=(3, *rest.shape))
+    geom = Geometry.of(plan, many)
+    angle = geom.rest_angle + np.linspace(0.0, 2 * np.pi, 40, endpoint=False)  # (K, T)
+    s = evaluate(plan, geom, angle, order=2)
+    for k in range(3):
+        one = evaluate(plan, Geometry.of(plan, many[k]), angle[k], order=2)
+        for a, b in ((s.z, one.z), (s.dz, one.dz), (s.ddz, one.ddz), (s.ds, one.ds)):
+            assert np.allclose(a[:, k], b, rtol=0, atol=1e-12 * np.abs(b).max(), equal_nan=True)

@@ -4,18 +4,22 @@ All arrays are complex (x + iy) with rows in the plan's internal order: shape (P
 points and T samples. One Python iteration per rule of the plan's sequence (a level's rigid or
 dyad batch is one rule), never per sample; each rule writes its own rows
 (:mod:`linkedit.planar.rules`). Derivatives are with respect to the motor angle, propagated analytically through
-the same rules.
+the same rules: positions and derivatives are stacked in one array (order+1, P, T), so a rigid
+batch places all orders in one operation and a dyad batch differentiates its placement in a few
+(:func:`linkedit.planar.law_of_cosines.dyad_rates`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from linkedit.planar.feasibility import assembles
 from linkedit.planar.plan import Geometry, Plan
 from linkedit.planar.rules import Frame, Triangles
+from linkedit.planar.rules.base import Pool
 
 #: largest input change between two samples a numeric group is continued across: motor
 #: degrees, or a fraction of the characteristic length for a linear input
@@ -43,18 +47,39 @@ class State:
 
 
 class Workspace:
-    """Preallocated arrays for repeated :func:`positions` calls at T samples.
+    """Preallocated arrays for repeated :func:`positions` or :func:`evaluate` calls at T samples.
 
-    The hot path then allocates nothing: every step writes into these buffers (``out=``), so
-    large batches do not pay for fresh memory pages on each call.
+    The hot path then allocates nothing: every rule writes into these buffers (``out=``), so
+    large batches do not pay for fresh memory pages on each call. For :func:`evaluate` up to
+    derivative ``order``, of ``linkages`` = (K,) linkages or () for one: ``orders`` (order+1,
+    P, *L, T) stacks positions and derivatives, ``ds`` (N, *L, T). The rules' scratch (and
+    :func:`positions`' buffers) share one :class:`~linkedit.planar.rules.base.Pool`.
     """
 
-    def __init__(self, plan: Plan, samples: int) -> None:
+    def __init__(self, plan: Plan, samples: int, order: int = 0, linkages: tuple[int, ...] = ()) -> None:
         rows = max((r.stop - r.start for r in plan.rules if isinstance(r, Triangles)), default=0)
-        self.samples = samples
-        self.z = np.empty((plan.n_points, samples), dtype=complex)
-        self.zi, self.zj, self.e, self.w = (np.empty((rows, samples), dtype=complex) for _ in range(4))
-        self.d2, self.u, self.a, self.b = (np.empty((rows, samples)) for _ in range(4))
+        self.samples, self.order, self.linkages = samples, order, tuple(linkages)
+        shape = (*self.linkages, samples)
+        self.orders, self.ds = Pool.carve(lambda pool: (pool((order + 1, plan.n_points, *shape), complex),
+                                                        pool((plan.n_ds, *shape))))
+        self.z = self.orders[0]
+        self.zi, self.zj, self.e, self.w, self.d2, self.u, self.a, self.b, self.scratch = Pool.carve(
+            lambda pool: self._scratch(pool, plan, rows, order + 1, shape))
+
+    @staticmethod
+    def _scratch(pool: Pool, plan: Plan, rows: int, orders: int, shape: tuple[int, ...]) -> tuple[Any, ...]:
+        """:func:`positions`' buffers, then each rule's scratch by ``id`` of the rule, all
+        overlapping (never used at the same time)."""
+        own = [pool((rows, shape[-1]), complex) for _ in range(4)] + [pool((rows, shape[-1])) for _ in range(4)]
+        scratch: dict[int, Any] = {}
+        for rule in plan.rules:
+            pool.reset()
+            scratch[id(rule)] = rule.scratch(pool, orders, shape)
+        return (*own, scratch)
+
+    def fits(self, order: int, linkages: tuple[int, ...], samples: int) -> bool:
+        """Whether it holds an evaluation of this derivative order and shape."""
+        return self.order == order and self.linkages == linkages and self.samples == samples
 
 
 def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | None = None) -> np.ndarray:
@@ -89,7 +114,7 @@ def continuation_grid(start: float, values: np.ndarray, max_step: float) -> tupl
     return fine, first[1:]
 
 
-def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> State:
+def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2, work: Workspace | None = None) -> State:
     """Positions and up to ``order`` (0, 1, 2) derivatives, plus singularity distances.
 
     ``angle`` (T,): absolute motor angles, radians (for a linear input: displacements along the
@@ -97,10 +122,12 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> S
     has a linkage axis after its row, see :func:`_evaluate`). A plan with slider steps needs a geometry in the normalized
     frame (``Geometry.of(plan, plan.normalized_points())``). A numeric group is continued from
     the rest pose through every sample in order, at most GROUP_STEP_DEG (GROUP_STEP_LENGTH)
-    apart: intermediate inputs are evaluated and dropped.
+    apart: intermediate inputs are evaluated and dropped. With a :class:`Workspace` of this
+    order and shape (``Workspace(plan, T, order, geom.linkages)``) nothing is allocated; the
+    state's arrays are then its buffers, overwritten by the next call.
     """
     if not plan.has_groups:
-        return _evaluate(plan, geom, angle, order)
+        return _evaluate(plan, geom, angle, order, work)
     start, step = (0.0, GROUP_STEP_LENGTH) if plan.linear else (float(geom.rest_angle), np.radians(GROUP_STEP_DEG))
     fine, keep = continuation_grid(start, np.asarray(angle, dtype=float), step)
     full = _evaluate(plan, geom, fine, order)
@@ -112,32 +139,35 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2) -> S
     return State(z=full.z[:, keep], dz=pick(full.dz), ddz=pick(full.ddz), ds=full.ds[:, keep], between_ok=between_ok)
 
 
-def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int) -> State:
+def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: Workspace | None = None) -> State:
     """The one evaluation of a plan: every rule in order. With a geometry of K linkages
     (:attr:`Geometry.linkages`), arrays carry a linkage axis after the row: (P, K, T), and
     ``angle`` may be (K, T); every rule but a numeric group places K linkages at once (the
-    non-revolute kinds their positions and d_s only: ``order`` 0)."""
+    non-revolute kinds their positions and d_s only: ``order`` 0). ``work``: see :func:`evaluate`."""
     lead = geom.linkages
     if lead and (plan.has_groups or (plan.steps and order > 0)):
         raise ValueError("numeric groups, and the derivatives of sliders, are evaluated one linkage at a time")
     T = angle.shape[-1]
-    P = plan.n_points
-    z = np.zeros((P, *lead, T), dtype=complex)  # zeros: step rows multiply not-yet-known joints by 0
-    dz = np.zeros((P, *lead, T), dtype=complex) if order >= 1 else None
-    ddz = np.zeros((P, *lead, T), dtype=complex) if order >= 2 else None
-    ds = np.ones((plan.n_ds, *lead, T))
-    z[plan.ground_rows] = geom.ground
+    if work is None or not work.fits(order, lead, T):
+        work = Workspace(plan, T, order, lead)
+    Z, ds = work.orders, work.ds
+    if plan.steps or plan.linear:
+        Z.fill(0.0)  # step rows multiply not-yet-known joints by 0
+    ds.fill(1.0)
+    Z[0, plan.ground_rows] = geom.ground
+    Z[1:, plan.ground_rows] = 0.0
     if not plan.linear:
         arm = geom.arm * np.exp(1j * (angle - geom.rest_angle))
-        z[plan.motor_row] = geom.pivot + arm
-        if dz is not None:
-            dz[plan.motor_row] = 1j * arm
-        if ddz is not None:
-            ddz[plan.motor_row] = -arm
+        Z[0, plan.motor_row] = geom.pivot + arm
+        if order >= 1:
+            Z[1, plan.motor_row] = 1j * arm
+        if order >= 2:
+            Z[2, plan.motor_row] = -arm
     s = angle if plan.linear else np.zeros_like(angle)
-    frame = Frame(z=z, dz=dz, ddz=ddz, ds=ds, joints=plan.row_of[: plan.n_joints], s=s,
-                  drive=1.0 if plan.linear else 0.0, rest=geom.rest)
+    dz, ddz = (Z[1] if order >= 1 else None), (Z[2] if order >= 2 else None)
+    frame = Frame(z=Z[0], dz=dz, ddz=ddz, ds=ds, joints=plan.row_of[: plan.n_joints], s=s,
+                  drive=1.0 if plan.linear else 0.0, rest=geom.rest, orders=Z, scratch=work.scratch)
     with np.errstate(invalid="ignore", divide="ignore"):
         for rule, rows, const in zip(plan.rules, plan.ds_rows, geom.constants):
             rule.evaluate(frame, const, rows)
-    return State(z=z, dz=dz, ddz=ddz, ds=ds)
+    return State(z=Z[0], dz=dz, ddz=ddz, ds=ds)

@@ -77,44 +77,73 @@ def dyad_coefficient(e: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray, sig
     return w
 
 
-def dyad_velocity(t: DyadTerms, dzi: np.ndarray, dzj: np.ndarray, half_diff: np.ndarray,
-                  lik2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """First derivative of a dyad: returns (dz_k, de, du, dw) for the second derivative."""
-    de = dzj - dzi
-    dd2 = 2.0 * (t.e.real * de.real + t.e.imag * de.imag)
-    du = -dd2 * t.u * t.u
-    da = half_diff * du
-    dbsq = lik2 * du - 2.0 * t.a * da
-    db = dbsq / (2.0 * t.b)
-    dw = da + 1j * db
-    return dzi + dw * t.e + t.w * de, de, du, dw
+@dataclass
+class Rates:
+    """Scratch buffers of :func:`dyad_rates` for a batch of R dyads over samples S: ``g``, ``c``,
+    ``t`` (R, *S) complex; ``P`` (n, R, *S) complex for n derivative orders; ``s``, ``gf``,
+    ``w2``, ``q`` (R, *S) real."""
+
+    g: np.ndarray
+    c: np.ndarray
+    t: np.ndarray
+    P: np.ndarray
+    s: np.ndarray
+    gf: np.ndarray
+    w2: np.ndarray
+    q: np.ndarray
 
 
-def dyad_acceleration(t: DyadTerms, de: np.ndarray, du: np.ndarray, dw: np.ndarray,
-                      ddzi: np.ndarray, ddzj: np.ndarray, half_diff: np.ndarray,
-                      lik2: np.ndarray) -> np.ndarray:
-    """Second derivative of a dyad's rebuilt joint, (R, T) complex."""
-    dde = ddzj - ddzi
-    dd2 = 2.0 * (t.e.real * de.real + t.e.imag * de.imag)
-    ddd2 = 2.0 * (de.real * de.real + de.imag * de.imag + t.e.real * dde.real + t.e.imag * dde.imag)
-    ddu = -ddd2 * t.u * t.u + 2.0 * dd2 * dd2 * t.u ** 3
-    da = dw.real
-    db = dw.imag
-    dda = half_diff * ddu
-    ddbsq = lik2 * ddu - 2.0 * da * da - 2.0 * t.a * dda
-    ddb = (ddbsq - 2.0 * db * db) / (2.0 * t.b)
-    ddw = dda + 1j * ddb
-    return ddzi + ddw * t.e + 2.0 * dw * de + t.w * dde
+def dyad_rates(E: np.ndarray, Zi: np.ndarray, f: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray,
+               lik2: np.ndarray, out: np.ndarray, r: Rates) -> None:
+    """Velocities (and accelerations) of a dyad batch's rebuilt joints, into ``out`` (no allocation).
+
+    ``E`` (n+1, R, *S): e = z_j − z_i and its first n derivatives; ``Zi`` (n+1, R, *S): z_i and
+    its derivatives; ``f`` = z_k − z_i, ``u`` = 1/d², ``a`` = A, ``b`` = B (R, *S) from the
+    positions, ``lik2`` = l_ik²; ``out`` (n, R, *S) complex receives ż_k (and z̈_k); n = 1 or 2.
+
+    Joint k turns with link (i, k) at the rate ω: ż_k = ż_i + iω·f. With g = z_k − z_j, whose
+    length is kept too (g·ġ = 0, · the dot product of the plane), ω = s·(g·ė) with s = u/B,
+    since Im(ḡ·f) = −B·d². Differentiating g·ġ = 0 once more: z̈_k = z̈_i + (iω̇ − ω²)·f with
+    ω̇ = s·(g·ë + ω²·(g·f) − |ġ|²), ġ = iω·f − ė and g·f = l_ik² − A·d². Linear in the inputs'
+    derivatives; every product is complex × complex or real × real (numpy casts mixed ones
+    through a buffer, twice as slow).
+    """
+    D, P, c = E[1:], r.P[: E.shape[0] - 1], r.c
+    np.subtract(f, E[0], out=r.g)
+    np.conjugate(r.g, out=r.g)
+    np.multiply(r.g, D, out=P)  # Re P = g·ė (, g·ë)
+    np.divide(u, b, out=r.s)
+    np.multiply(P[0].real, r.s, out=c.imag)  # c = iω
+    c.real.fill(0.0)
+    np.multiply(c, f, out=r.t)
+    np.add(Zi[1], r.t, out=out[0])
+    if D.shape[0] < 2:
+        return
+    dg, q, w2 = r.t, r.q, r.w2
+    dg -= D[0]  # ġ = iω·f − ė
+    np.multiply(dg.real, dg.real, out=q)
+    np.multiply(dg.imag, dg.imag, out=w2)
+    q += w2  # |ġ|²
+    np.divide(a, u, out=r.gf)
+    np.subtract(lik2, r.gf, out=r.gf)  # g·f
+    np.multiply(c.imag, c.imag, out=w2)  # ω²
+    r.gf *= w2
+    r.gf += P[1].real
+    r.gf -= q
+    np.multiply(r.gf, r.s, out=c.imag)  # ω̇
+    np.negative(w2, out=c.real)
+    np.multiply(c, f, out=r.t)
+    np.add(Zi[2], r.t, out=out[1])
 
 
-def rigid(zi: np.ndarray, zj: np.ndarray, coef: np.ndarray) -> np.ndarray:
-    """A joint fixed in the frame of link (i, j): z_k = z_i + c·(z_j − z_i); also for derivatives."""
-    return zi + coef * (zj - zi)
-
-
-def singularity_distance(t: DyadTerms, lik2: np.ndarray, ljk2: np.ndarray) -> np.ndarray:
-    """d_s = sin²α, α the angle at the rebuilt joint (LinkEdit Eq. 6); < 0 where it cannot close.
+def singularity_distance(bsq: np.ndarray, u: np.ndarray, lik2: np.ndarray, ljk2: np.ndarray,
+                          tmp: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """d_s = sin²α into ``out``, α the angle at the rebuilt joint (LinkEdit Eq. 6); < 0 where it
+    cannot close. ``bsq`` = B², ``u`` = 1/d² (R, T), ``tmp`` a real (R, T) buffer.
 
     With h = |B|·d the triangle's height over i→j, sin α = d·h/(l_ik·l_jk).
     """
-    return t.bsq / (t.u * t.u * lik2 * ljk2)
+    np.multiply(u, u, out=tmp)
+    tmp *= lik2
+    tmp *= ljk2
+    return np.divide(bsq, tmp, out=out)

@@ -13,7 +13,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from linkedit.planar import law_of_cosines as loc
-from linkedit.planar.rules.base import Frame, RestFrame
+from linkedit.planar.rules.base import Frame, Pool, RestFrame
 from linkedit.planar.rules.triangles import Triangles
 
 
@@ -43,15 +43,27 @@ class Dyad(Triangles):
         np.multiply(e, work.w[:r], out=e)
         np.add(zi, e, out=z[self.start:self.stop])
 
+    def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
+        """The inputs (:meth:`Triangles.scratch`), w and z_k − z_i (complex), d², 1/d², A, B, B²
+        (real), and :func:`~linkedit.planar.law_of_cosines.dyad_rates`' buffers: (R, *shape) each."""
+        one, n = (self.stop - self.start, *shape), orders - 1
+        rates = loc.Rates(pool(one, complex), pool(one, complex), pool(one, complex), pool((n, *one), complex),
+                          *(pool(one) for _ in range(4))) if n else None
+        return (*super().scratch(pool, orders, shape), pool(one, complex), pool(one, complex),
+                *(pool(one) for _ in range(5)), rates)
+
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
+        """Positions, d_s and the derivatives of ``f.orders``, each one array operation over the batch."""
         lik2, ljk2, half, sign = const
-        out = slice(self.start, self.stop)
-        f.z[out], terms = loc.dyad(f.z[self.i], f.z[self.j], half, lik2, sign)
-        f.ds[rows] = loc.singularity_distance(terms, lik2, ljk2)
-        if f.dz is not None:
-            f.dz[out], de, du, dw = loc.dyad_velocity(terms, f.dz[self.i], f.dz[self.j], half, lik2)
-            if f.ddz is not None:
-                f.ddz[out] = loc.dyad_acceleration(terms, de, du, dw, f.ddz[self.i], f.ddz[self.j], half, lik2)
+        zi, e, w, fk, d2, u, a, b, bsq, rates = f.scratch[id(self)]
+        Z = f.orders
+        self.inputs(Z, zi, e)
+        loc.dyad_coefficient(e[0], half, lik2, sign, w, d2, u, a, b, bsq)
+        np.multiply(w, e[0], out=fk)
+        np.add(zi[0], fk, out=Z[0, self.start:self.stop])
+        loc.singularity_distance(bsq, u, lik2, ljk2, d2, f.ds[rows])
+        if rates is not None:
+            loc.dyad_rates(e, zi, fk, u, a, b, lik2, Z[1:, self.start:self.stop], rates)
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
         """Lengths from the rest pose ``f.rest``; with tangents, ∂z_k and ∂ln d_s along ``f.D``."""
@@ -61,7 +73,7 @@ class Dyad(Triangles):
         lik2, ljk2 = np.abs(rk - ri) ** 2, np.abs(rk - rj) ** 2
         half = 0.5 * (lik2 - ljk2)
         f.z[out], t = loc.dyad(zi, zj, half[:, None], lik2[:, None], self.sign)
-        f.ds[rows] = loc.singularity_distance(t, lik2[:, None], ljk2[:, None])
+        loc.singularity_distance(t.bsq, t.u, lik2[:, None], ljk2[:, None], np.empty_like(t.u), f.ds[rows])
         if f.dz is None or f.dlnds is None:
             return
         D = f.D

@@ -1,8 +1,8 @@
 """Rigid rules: joint (or tracked point) k fixed in the frame of link (i, j), a level's batch at once.
 
-z_k = z_i + c·(z_j − z_i) with the constant c = (z̄_k − z̄_i)/(z̄_j − z̄_i) of the rest pose
-(:func:`linkedit.planar.law_of_cosines.rigid`); the same line gives every derivative. Exact by
-construction: its d_s is 1.
+z_k = z_i + c·(z_j − z_i) with the constant c = (z̄_k − z̄_i)/(z̄_j − z̄_i) of the rest pose;
+the same line gives every derivative (positions, velocities and accelerations in one array
+operation each). Exact by construction: its d_s is 1.
 """
 
 from __future__ import annotations
@@ -12,7 +12,6 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from linkedit.planar import law_of_cosines as loc
 from linkedit.planar.rules.base import Frame, RestFrame
 from linkedit.planar.rules.triangles import Triangles
 
@@ -38,12 +37,11 @@ class Rigid(Triangles):
         np.add(zi, e, out=z[self.start:self.stop])
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
-        out, c = slice(self.start, self.stop), const[0]
-        f.z[out] = loc.rigid(f.z[self.i], f.z[self.j], c)
-        if f.dz is not None:
-            f.dz[out] = loc.rigid(f.dz[self.i], f.dz[self.j], c)
-        if f.ddz is not None:
-            f.ddz[out] = loc.rigid(f.ddz[self.i], f.ddz[self.j], c)
+        """Every derivative order at once: the rows of ``f.orders``."""
+        zi, e = f.scratch[id(self)]
+        self.inputs(f.orders, zi, e)
+        np.multiply(const[0], e, out=e)
+        np.add(zi, e, out=f.orders[:, self.start:self.stop])
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
         """Joints take c from the rest pose (its tangent from ``f.D``); tracked points keep

@@ -9,9 +9,11 @@ a tracked point on a link, which a rigid rule places but no table lists).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 
-from linkedit.planar.rules.base import Failure, Rule
+from linkedit.planar.rules.base import Failure, Pool, Rule
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,6 +38,17 @@ class Triangles(Rule):
 
     def ds_count(self) -> int:
         return int(self.listed.sum())
+
+    def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
+        """z_i and z_j − z_i with their derivatives, (orders, R, *shape) complex each."""
+        one = (orders, self.stop - self.start, *shape)
+        return pool(one, complex), pool(one, complex)
+
+    def inputs(self, Z: np.ndarray, zi: np.ndarray, e: np.ndarray) -> None:
+        """Fill ``zi`` with the rows ``i`` of ``Z`` (orders, P, *S) and ``e`` with rows ``j`` − rows ``i``."""
+        np.take(Z, self.i, axis=1, out=zi, mode="clip")  # indices are valid: clip skips take's buffering
+        np.take(Z, self.j, axis=1, out=e, mode="clip")
+        e -= zi
 
     def written(self) -> np.ndarray:
         return self.k_point
