@@ -1,9 +1,9 @@
 """A complex loop (a class-III Assur group, a cylinder's barrel), solved numerically as one group.
 
 Newton's method on the group's constraint rows at every sample (the samples are dense: see
-:func:`linkedit.planar.kinematics.evaluate`), continued from the rest pose through every
-GROUP_STRIDE-th sample, the samples between polished all at once from a predictor and checked
-(:func:`solve_group`), keeping the rest pose's branch (the sign of the group Jacobian's
+:func:`linkedit.planar.kinematics.evaluate`), continued from the rest pose through a sample each
+time its inputs have moved GROUP_STRIDE, then every sample polished at once from a predictor and
+checked (:func:`solve_group`), keeping the rest pose's branch (the sign of the group Jacobian's
 determinant never changes; a change means the group passed a singular position, reported as a
 lock-up). Its singularity distance is (σ_min/σ_max)² of the row-scaled group Jacobian.
 """
@@ -23,9 +23,10 @@ from linkedit.planar.rules.base import Step, loop_rows
 #: linkage's characteristic length, squared for distance rows)
 GROUP_TOLERANCE = 1e-13
 GROUP_ITERATIONS = 12
-#: a numeric group is continued sequentially through every GROUP_STRIDE-th sample only; the
-#: samples between are predicted from those and polished all at once
-GROUP_STRIDE = 20
+#: a numeric group is continued sequentially only through the samples where its inputs (known
+#: joints, linear input) have moved this far (of the linkage's size) since the last one, however
+#: dense the samples; the samples between are predicted from those and polished all at once
+GROUP_STRIDE = 0.08
 #: the sequential continuation's tolerance before every sample is polished to GROUP_TOLERANCE:
 #: enough to follow the branch (Newton's next step from here is ~1e-16)
 COARSE_TOLERANCE = 1e-6
@@ -75,10 +76,12 @@ class Group(Step):
 @dataclass(frozen=True)
 class RealForm:
     """The group's rows as real quadratics in X = (x_0, y_0, x_1, …, 1) of its local joints (and a
-    last entry 1): F(X) = Xᵀ·Q·X − drive·s; Q (m, W, W) symmetric, drive (m,)."""
+    last entry 1): F(X) = Xᵀ·Q·X − drive·s, Q (m, W, W) symmetric, stored as ``twice`` = 2·Q
+    (m·W, W) so that one product gives the Jacobian 2·Q·X; drive (m,)."""
 
-    q: np.ndarray
+    twice: np.ndarray
     drive: np.ndarray
+    driven: bool  # some row has a linear input
 
     @classmethod
     def of(cls, rows: Rows) -> "RealForm":
@@ -91,7 +94,9 @@ class RealForm:
         quad = np.conj(ad)[:, :, None] * ae[:, None, :]
         quad = np.where(rows.imag[:, None, None], quad.imag, quad.real)
         quad[:, -1, -1] -= rows.rhs
-        return cls(q=np.ascontiguousarray(0.5 * (quad + np.swapaxes(quad, 1, 2))), drive=rows.drive)
+        twice = quad + np.swapaxes(quad, 1, 2)
+        return cls(twice=np.ascontiguousarray(twice.reshape(-1, twice.shape[2])), drive=rows.drive,
+                   driven=bool(rows.drive.any()))
 
     @property
     def m(self) -> int:
@@ -100,13 +105,16 @@ class RealForm:
     def residual_jacobian(self, x: np.ndarray, s: np.ndarray | float, unknowns: int) -> tuple[np.ndarray, np.ndarray]:
         """F (…, m) and ∂F/∂X of the first ``unknowns`` real variables (…, m, unknowns) at X (…, W)
         and input s (…): one sample (X (W,), s a float) or a batch (X (T, W), s (T,))."""
-        m, width = self.q.shape[:2]
-        flat = self.q.reshape(m * width, width)
+        m, width = self.m, self.twice.shape[1]
         if x.ndim == 1:
-            grad = (flat @ x).reshape(m, width)  # Q·X by row (Q symmetric)
-            return grad @ x - self.drive * s, 2.0 * grad[:, :unknowns]
-        grad = (x @ flat.T).reshape(x.shape[0], m, width)
-        return (grad @ x[:, :, None])[..., 0] - self.drive * np.asarray(s)[:, None], 2.0 * grad[..., :unknowns]
+            grad = (self.twice @ x).reshape(m, width)  # 2·Q·X by row (Q symmetric)
+            f = 0.5 * (grad @ x)
+        else:
+            grad = (x @ self.twice.T).reshape(x.shape[0], m, width)
+            f = 0.5 * (grad @ x[:, :, None])[..., 0]
+        if self.driven:
+            f -= self.drive * np.asarray(s)[..., None]
+        return f, grad[..., :unknowns]
 
 
 def _newton(form: RealForm, x: np.ndarray, s: float, k: int, tol: float = GROUP_TOLERANCE) -> tuple[bool, float, np.ndarray]:
@@ -160,7 +168,7 @@ def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: in
         while done < 1.0:
             f = min(done + piece, 1.0)
             trial = x.copy()
-            trial[k:] = X[prev, k:] + f * (X[t, k:] - X[prev, k:])
+            trial[k:] = X[t, k:] if f == 1.0 else X[prev, k:] + f * (X[t, k:] - X[prev, k:])
             ok, first, jac = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k, tol)
             if ok:
                 ok = bool(_accepted(np.abs(trial[:k] - x[:k]).max(), first))
@@ -234,10 +242,20 @@ def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndar
     return (weight[:, :, None] * solved[nodes]).sum(axis=1)
 
 
+def _coarse(known: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """The samples (increasing, the first and the last among them) the group is continued through
+    sequentially: one each time the inputs ``known`` (J_in, T) complex and ``s`` (T,) have moved
+    GROUP_STRIDE since the one before (their largest move, summed sample to sample)."""
+    moved = np.abs(np.diff(known, axis=1)).max(axis=0, initial=0.0)
+    travel = np.concatenate([[0.0], np.cumsum(np.maximum(moved, np.abs(np.diff(s))))])
+    first = np.flatnonzero(np.diff(np.floor(travel / GROUP_STRIDE))) + 1
+    return np.unique(np.concatenate([[0], first, [travel.size - 1]]))
+
+
 def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """Continue the group from ``start`` (n,) through the samples of ``z`` (J, T), in order.
 
-    Every GROUP_STRIDE-th sample (and the last) is continued sequentially (:func:`_continue`, to
+    The samples :func:`_coarse` picks are continued sequentially (:func:`_continue`, to
     COARSE_TOLERANCE: enough to follow the branch); then every sample is polished by Newton's
     method all at once (:func:`_polish`), the ones between from a cubic through those, each
     checked like a sequential move (converged near its predictor, the determinant's sign of the
@@ -259,7 +277,7 @@ def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) 
     x0[0:k:2], x0[1:k:2] = start.real, start.imag
     out = np.full((T, k), np.nan)
     jacs = np.zeros((T, form.m, k))
-    coarse = np.unique(np.append(np.arange(0, T, GROUP_STRIDE), T - 1))
+    coarse = _coarse(known, s)
     stop = _continue(form, step, X, s, k, x0, coarse, out, jacs, COARSE_TOLERANCE)
     last = coarse[stop - 1] if stop > 0 else (coarse[-1] if stop < 0 else -1)
     fail = -1
