@@ -195,18 +195,15 @@ def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int)
     square = form.m == k
     start = X[:, :k].copy()
     first = np.zeros(X.shape[0])
-    done = np.zeros(X.shape[0], dtype=bool)
-    jac = np.zeros((X.shape[0], form.m, k))
-    live = np.arange(X.shape[0])
+    f, jac = form.residual_jacobian(X, s, k)
     with np.errstate(invalid="ignore", over="ignore"):
-        for it in range(GROUP_ITERATIONS + 1):
-            f, jac[live] = form.residual_jacobian(X[live], s[live], k)
-            conv = np.abs(f).max(axis=1) <= GROUP_TOLERANCE
-            done[live[conv]] = True
-            live, f = live[~conv], f[~conv]
-            if not live.size or it == GROUP_ITERATIONS:
+        done = np.abs(f).max(axis=1) <= GROUP_TOLERANCE
+        live = np.flatnonzero(~done)  # the rows still iterated, and their X, F, J:
+        x, f, a = X[live], f[live], jac[live]
+        for it in range(GROUP_ITERATIONS):
+            if not live.size:
                 break
-            a, b = jac[live], -f
+            b = -f
             if not square:
                 at = np.swapaxes(a, 1, 2)
                 a, b = at @ a, (at @ b[..., None])[..., 0]
@@ -214,12 +211,18 @@ def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int)
                 delta = np.linalg.solve(a, b[..., None])[..., 0]
             except np.linalg.LinAlgError:  # an exactly singular row: left to the sequential fallback
                 regular = np.abs(np.linalg.det(a)) > 0.0
-                live, a, b = live[regular], a[regular], b[regular]
+                live, x, a, b = live[regular], x[regular], a[regular], b[regular]
                 delta = np.linalg.solve(a, b[..., None])[..., 0]
             if it == 0:
                 first[live] = np.abs(delta).max(axis=1)
-            X[live, :k] += delta
-            live = live[np.isfinite(X[live, :k]).all(axis=1)]
+            x[:, :k] += delta
+            f, a = form.residual_jacobian(x, s[live], k)
+            size = np.abs(f).max(axis=1)
+            conv = size <= GROUP_TOLERANCE
+            rows = live[conv]
+            X[rows], jac[rows], done[rows] = x[conv], a[conv], True
+            going = size > GROUP_TOLERANCE  # neither converged nor NaN
+            live, x, f, a = live[going], x[going], f[going], a[going]
     accept = done & _accepted(np.abs(X[:, :k] - start).max(axis=1), first)
     if square and accept.any():
         accept[accept] = np.sign(np.linalg.det(jac[accept])) == step.det_sign
@@ -227,19 +230,17 @@ def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int)
 
 
 def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndarray:
-    """Positions (len(want), k) at samples ``want`` by the cubic through the four solved samples
-    nearest each (fewer when fewer are solved): ``known`` (indices, increasing), ``solved``
-    (len(known), k). Batched Lagrange weights, no per-sample loop."""
+    """Positions (len(want), k) at samples ``want`` (none of them in ``known``) by the cubic through
+    the four solved samples nearest each (fewer when fewer are solved): ``known`` (indices,
+    increasing), ``solved`` (len(known), k). Batched Lagrange weights, no per-sample loop."""
     p = min(4, known.size)
     first = np.clip(np.searchsorted(known, want) - p // 2, 0, known.size - p)
     nodes = first[:, None] + np.arange(p)  # (N, p) the stencil of each wanted sample
     at = known[nodes].astype(float)
-    apart = at[:, :, None] - at[:, None, :]  # (N, p, p) node a − node b
-    to = np.broadcast_to((want[:, None] - at)[:, None, :], apart.shape).copy()  # want − node b
-    eye = np.eye(p, dtype=bool)
-    apart[:, eye], to[:, eye] = 1.0, 1.0
-    weight = (to / apart).prod(axis=2)  # (N, p) Lagrange basis at want
-    return (weight[:, :, None] * solved[nodes]).sum(axis=1)
+    to = want[:, None] - at  # (N, p)
+    apart = (at[:, :, None] - at[:, None, :] + np.eye(p)).prod(axis=2)  # ∏_{b≠a} (node a − node b)
+    weight = to.prod(axis=1, keepdims=True) / to / apart  # (N, p) Lagrange basis at want
+    return np.einsum("np,npk->nk", weight, solved[nodes])
 
 
 def _coarse(known: np.ndarray, s: np.ndarray) -> np.ndarray:
