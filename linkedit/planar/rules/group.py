@@ -1,9 +1,9 @@
 """A complex loop (a class-III Assur group, a cylinder's barrel), solved numerically as one group.
 
 Newton's method on the group's constraint rows at every sample (the samples are dense: see
-:func:`linkedit.planar.kinematics.evaluate`), continued from the rest pose through every
-GROUP_STRIDE-th sample, the samples between polished all at once from a predictor and checked
-(:func:`solve_group`), keeping the rest pose's branch (the sign of the group Jacobian's
+:func:`linkedit.planar.kinematics.evaluate`), continued from the rest pose through a sample each
+time its inputs have moved GROUP_STRIDE, then every sample polished at once from a predictor and
+checked (:func:`solve_group`), keeping the rest pose's branch (the sign of the group Jacobian's
 determinant never changes; a change means the group passed a singular position, reported as a
 lock-up). Its singularity distance is (σ_min/σ_max)² of the row-scaled group Jacobian.
 """
@@ -24,9 +24,13 @@ from linkedit.planar.rules.base import Step, loop_rows
 #: linkage's characteristic length, squared for distance rows)
 GROUP_TOLERANCE = 1e-13
 GROUP_ITERATIONS = 12
-#: a numeric group is continued sequentially through every GROUP_STRIDE-th sample only; the
-#: samples between are predicted from those and polished all at once
-GROUP_STRIDE = 20
+#: a numeric group is continued sequentially only through the samples where its inputs (known
+#: joints, linear input) have moved this far (of the linkage's size) since the last one, however
+#: dense the samples; the samples between are predicted from those and polished all at once
+GROUP_STRIDE = 0.08
+#: the sequential continuation's tolerance before every sample is polished to GROUP_TOLERANCE:
+#: enough to follow the branch (Newton's next step from here is ~1e-16)
+COARSE_TOLERANCE = 1e-6
 
 
 @dataclass(frozen=True)
@@ -73,55 +77,73 @@ class Group(Step):
 
 @dataclass(frozen=True)
 class RealForm:
-    """The group's rows as real quadratics in X = (x_0, y_0, x_1, …) of its local joints:
-    F(X) = Xᵀ·Q·X + g·X + c − drive·s; Q (m, 2L, 2L) symmetric, g (m, 2L), c, drive (m,)."""
+    """The group's rows as real quadratics in X = (x_0, y_0, x_1, …, 1) of its local joints (and a
+    last entry 1): F(X) = Xᵀ·Q·X − drive·s, Q (m, W, W) symmetric, stored as ``twice`` = 2·Q
+    (m·W, W) so that one product gives the Jacobian 2·Q·X; drive (m,)."""
 
-    q: np.ndarray
-    g: np.ndarray
-    c: np.ndarray
+    twice: np.ndarray
     drive: np.ndarray
+    driven: bool  # some row has a linear input
 
     @classmethod
     def of(cls, rows: Rows) -> "RealForm":
-        def real_cols(coef: np.ndarray) -> np.ndarray:  # z_n = x_n + i·y_n
-            out = np.empty((coef.shape[0], 2 * coef.shape[1]), dtype=complex)
-            out[:, 0::2], out[:, 1::2] = coef, 1j * coef
+        def real_cols(coef: np.ndarray, const: np.ndarray) -> np.ndarray:  # z_n = x_n + i·y_n, then 1
+            out = np.empty((coef.shape[0], 2 * coef.shape[1] + 1), dtype=complex)
+            out[:, 0:-1:2], out[:, 1:-1:2], out[:, -1] = coef, 1j * coef, const
             return out
 
-        ad, ae = real_cols(rows.dc), real_cols(rows.ec)
-        part = (lambda w: np.where(rows.imag.reshape((-1,) + (1,) * (w.ndim - 1)), w.imag, w.real))
-        quad = part(np.conj(ad)[:, :, None] * ae[:, None, :])
-        lin = part(np.conj(rows.d0)[:, None] * ae + rows.e0[:, None] * np.conj(ad))
-        const = part(np.conj(rows.d0) * rows.e0) - rows.rhs
-        return cls(q=np.ascontiguousarray(0.5 * (quad + np.swapaxes(quad, 1, 2))), g=lin, c=const, drive=rows.drive)
+        ad, ae = real_cols(rows.dc, rows.d0), real_cols(rows.ec, rows.e0)
+        quad = np.conj(ad)[:, :, None] * ae[:, None, :]
+        quad = np.where(rows.imag[:, None, None], quad.imag, quad.real)
+        quad[:, -1, -1] -= rows.rhs
+        twice = quad + np.swapaxes(quad, 1, 2)
+        return cls(twice=np.ascontiguousarray(twice.reshape(-1, twice.shape[2])), drive=rows.drive,
+                   driven=bool(rows.drive.any()))
 
-    def residual_jacobian(self, x: np.ndarray, s: float, unknowns: int) -> tuple[np.ndarray, np.ndarray]:
-        """F (m,) and ∂F/∂X of the first ``unknowns`` real variables (m, unknowns) at X (2L,)."""
-        m, width = self.g.shape
-        qx = (self.q.reshape(m * width, width) @ x).reshape(m, width)
-        return qx @ x + self.g @ x + self.c - self.drive * s, 2.0 * qx[:, :unknowns] + self.g[:, :unknowns]
+    @property
+    def m(self) -> int:
+        return int(self.drive.size)
+
+    def residual_jacobian(self, x: np.ndarray, s: np.ndarray | float, unknowns: int) -> tuple[np.ndarray, np.ndarray]:
+        """F (…, m) and ∂F/∂X of the first ``unknowns`` real variables (…, m, unknowns) at X (…, W)
+        and input s (…): one sample (X (W,), s a float) or a batch (X (T, W), s (T,))."""
+        m, width = self.m, self.twice.shape[1]
+        if x.ndim == 1:
+            grad = (self.twice @ x).reshape(m, width)  # 2·Q·X by row (Q symmetric)
+            f = 0.5 * (grad @ x)
+        else:
+            grad = (x @ self.twice.T).reshape(x.shape[0], m, width)
+            f = 0.5 * (grad @ x[:, :, None])[..., 0]
+        if self.driven:
+            f -= self.drive * np.asarray(s)[..., None]
+        return f, grad[..., :unknowns]
 
 
-def _newton(form: RealForm, x: np.ndarray, s: float, k: int) -> tuple[bool, float, np.ndarray]:
-    """Newton's method on the first ``k`` real variables of X (updated in place).
+def _newton(form: RealForm, x: np.ndarray, s: float, k: int, tol: float = GROUP_TOLERANCE) -> tuple[bool, float, np.ndarray]:
+    """Newton's method on the first ``k`` real variables of X (updated in place), one sample,
+    until every row is within ``tol`` of 0. Returns (converged, size of the first step, last
+    Jacobian)."""
+    from scipy.linalg import lapack  # LAPACK's solver without numpy's per-call checks: 5× less overhead
 
-    Returns (converged, size of the first step, last Jacobian)."""
     first = 0.0
-    square = form.c.size == k
-    jac = np.zeros((form.c.size, k))
+    square = form.m == k
+    jac = np.zeros((form.m, k))
     for it in range(GROUP_ITERATIONS):
         f, jac = form.residual_jacobian(x, s, k)
-        if np.max(np.abs(f)) <= GROUP_TOLERANCE:
+        size = float(np.abs(f).max())
+        if size <= tol:
             return True, first, jac
-        try:
-            step = np.linalg.solve(jac, -f) if square else np.linalg.lstsq(jac, -f, rcond=None)[0]
-        except np.linalg.LinAlgError:
+        if not size < np.inf:
             return False, first, jac
+        if square:
+            step, singular = lapack.dgesv(jac, -f)[2:]
+            if singular:
+                return False, first, jac
+        else:
+            step = np.linalg.lstsq(jac, -f, rcond=None)[0]
         if it == 0:
             first = float(np.abs(step).max())
         x[:k] += step
-        if not np.all(np.isfinite(x[:k])):
-            return False, first, jac
     return False, first, jac
 
 
@@ -132,14 +154,14 @@ def _accepted(moved: np.ndarray | float, first: np.ndarray | float) -> np.ndarra
 
 
 def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int, x: np.ndarray,
-              path: np.ndarray, out: np.ndarray, jacs: np.ndarray) -> int:
+              path: np.ndarray, out: np.ndarray, jacs: np.ndarray, tol: float = GROUP_TOLERANCE) -> int:
     """Continue the group sequentially from X-row ``x`` (known at sample ``path[0]``) through the
     samples ``path`` in order, writing ``out``/``jacs`` rows. Each move from one sample to the next
     is a homotopy in the known joints (interpolated linearly); Newton's first step is the tangent
     predictor, and a move is accepted only when Newton converges close to it (:func:`_accepted`)
     without the Jacobian's determinant changing sign; otherwise it is halved (down to 1/256).
-    Returns the position in ``path`` where it fails, or −1."""
-    square = form.c.size == k
+    Newton stops within ``tol``. Returns the position in ``path`` where it fails, or −1."""
+    square = form.m == k
     x = x.copy()
     prev = path[0]
     for n, t in enumerate(path):
@@ -148,8 +170,8 @@ def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: in
         while done < 1.0:
             f = min(done + piece, 1.0)
             trial = x.copy()
-            trial[k:] = X[prev, k:] + f * (X[t, k:] - X[prev, k:])
-            ok, first, jac = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k)
+            trial[k:] = X[t, k:] if f == 1.0 else X[prev, k:] + f * (X[t, k:] - X[prev, k:])
+            ok, first, jac = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k, tol)
             if ok:
                 ok = bool(_accepted(np.abs(trial[:k] - x[:k]).max(), first))
                 if ok and square and np.sign(np.linalg.det(jac)) != step.det_sign:
@@ -172,27 +194,18 @@ def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int)
     place). Returns (accepted (T,) — converged, close to its predictor (:func:`_accepted`), on the
     rest pose's side of every singular position (sign of det J) — and the Jacobians (T, m, k) at
     the accepted rows)."""
-    q, g, c, drive = form.q, form.g, form.c, form.drive
-    m, W = g.shape
-    flat = q.reshape(m * W, W).T
-    square = c.size == k
+    square = form.m == k
     start = X[:, :k].copy()
     first = np.zeros(X.shape[0])
-    done = np.zeros(X.shape[0], dtype=bool)
-    jac = np.zeros((X.shape[0], m, k))
-    live = np.arange(X.shape[0])
+    f, jac = form.residual_jacobian(X, s, k)
     with np.errstate(invalid="ignore", over="ignore"):
-        for it in range(GROUP_ITERATIONS + 1):
-            x = X[live]
-            qx = (x @ flat).reshape(live.size, m, W)
-            f = (qx @ x[:, :, None])[..., 0] + x @ g.T + c - drive * s[live, None]
-            jac[live] = 2.0 * qx[:, :, :k] + g[:, :k]
-            conv = np.abs(f).max(axis=1) <= GROUP_TOLERANCE
-            done[live[conv]] = True
-            live, f = live[~conv], f[~conv]
-            if not live.size or it == GROUP_ITERATIONS:
+        done = np.abs(f).max(axis=1) <= GROUP_TOLERANCE
+        live = np.flatnonzero(~done)  # the rows still iterated, and their X, F, J:
+        x, f, a = X[live], f[live], jac[live]
+        for it in range(GROUP_ITERATIONS):
+            if not live.size:
                 break
-            a, b = jac[live], -f
+            b = -f
             if not square:
                 at = np.swapaxes(a, 1, 2)
                 a, b = at @ a, (at @ b[..., None])[..., 0]
@@ -200,12 +213,18 @@ def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int)
                 delta = np.linalg.solve(a, b[..., None])[..., 0]
             except np.linalg.LinAlgError:  # an exactly singular row: left to the sequential fallback
                 regular = np.abs(np.linalg.det(a)) > 0.0
-                live, a, b = live[regular], a[regular], b[regular]
+                live, x, a, b = live[regular], x[regular], a[regular], b[regular]
                 delta = np.linalg.solve(a, b[..., None])[..., 0]
             if it == 0:
                 first[live] = np.abs(delta).max(axis=1)
-            X[live, :k] += delta
-            live = live[np.isfinite(X[live, :k]).all(axis=1)]
+            x[:, :k] += delta
+            f, a = form.residual_jacobian(x, s[live], k)
+            size = np.abs(f).max(axis=1)
+            conv = size <= GROUP_TOLERANCE
+            rows = live[conv]
+            X[rows], jac[rows], done[rows] = x[conv], a[conv], True
+            going = size > GROUP_TOLERANCE  # neither converged nor NaN
+            live, x, f, a = live[going], x[going], f[going], a[going]
     accept = done & _accepted(np.abs(X[:, :k] - start).max(axis=1), first)
     if square and accept.any():
         accept[accept] = np.sign(np.linalg.det(jac[accept])) == step.det_sign
@@ -213,25 +232,40 @@ def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int)
 
 
 def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndarray:
-    """Positions (len(want), k) at samples ``want`` by a cubic through the solved samples ``known``
-    (indices, increasing) and their positions ``solved`` (len(known), k)."""
-    if known.size == 1:
-        return np.repeat(solved, want.size, axis=0)
-    from scipy.interpolate import CubicSpline
+    """Positions (len(want), k) at samples ``want`` (none of them in ``known``) by the cubic through
+    the four solved samples nearest each (fewer when fewer are solved): ``known`` (indices,
+    increasing), ``solved`` (len(known), k). Batched Lagrange weights, no per-sample loop."""
+    p = min(4, known.size)
+    first = np.clip(np.searchsorted(known, want) - p // 2, 0, known.size - p)
+    nodes = first[:, None] + np.arange(p)  # (N, p) the stencil of each wanted sample
+    at = known[nodes].astype(float)
+    to = want[:, None] - at  # (N, p)
+    apart = (at[:, :, None] - at[:, None, :] + np.eye(p)).prod(axis=2)  # ∏_{b≠a} (node a − node b)
+    weight = to.prod(axis=1, keepdims=True) / to / apart  # (N, p) Lagrange basis at want
+    return np.einsum("np,npk->nk", weight, solved[nodes])
 
-    return CubicSpline(known, solved, axis=0)(want)
+
+def _coarse(known: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """The samples (increasing, the first and the last among them) the group is continued through
+    sequentially: one each time the inputs ``known`` (J_in, T) complex and ``s`` (T,) have moved
+    GROUP_STRIDE since the one before (their largest move, summed sample to sample)."""
+    moved = np.abs(np.diff(known, axis=1)).max(axis=0, initial=0.0)
+    travel = np.concatenate([[0.0], np.cumsum(np.maximum(moved, np.abs(np.diff(s))))])
+    first = np.flatnonzero(np.diff(np.floor(travel / GROUP_STRIDE))) + 1
+    return np.unique(np.concatenate([[0], first, [travel.size - 1]]))
 
 
 def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """Continue the group from ``start`` (n,) through the samples of ``z`` (J, T), in order.
 
-    Every GROUP_STRIDE-th sample (and the last) is continued sequentially (:func:`_continue`); the
-    samples between are predicted by a cubic through those and polished by Newton's method all at
-    once (:func:`_polish`), each checked like a sequential move (converged near its predictor, the
-    determinant's sign of the rest pose); a sample that fails the check is continued sequentially
-    from the one before it. Returns positions (n, T) (NaN from the first sample where it fails),
-    the singularity distance (T,) — (σ_min/σ_max)² of the row-scaled group Jacobian — and the
-    index of the first failing sample (−1: none).
+    The samples :func:`_coarse` picks are continued sequentially (:func:`_continue`, to
+    COARSE_TOLERANCE: enough to follow the branch); then every sample is polished by Newton's
+    method all at once (:func:`_polish`), the ones between from a cubic through those, each
+    checked like a sequential move (converged near its predictor, the determinant's sign of the
+    rest pose); a sample that fails the check is continued sequentially from the one before it.
+    Returns positions (n, T) (NaN from the first sample where it fails), the singularity distance
+    (T,) — (σ_min/σ_max)² of the row-scaled group Jacobian — and the index of the first failing
+    sample (−1: none).
     """
     cols = np.concatenate([step.joints, step.inputs])
     form = RealForm.of(step.rows.columns(cols))
@@ -239,32 +273,32 @@ def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) 
     k = 2 * n
     T = z.shape[1]
     known = z[cols[n:]]
-    X = np.empty((T, 2 * cols.size))
-    X[:, k::2], X[:, k + 1::2] = known.real.T, known.imag.T
-    x0 = np.empty(2 * cols.size)
+    X = np.ones((T, 2 * cols.size + 1))  # unknowns, known joints, 1
+    X[:, k:-1:2], X[:, k + 1:-1:2] = known.real.T, known.imag.T
+    x0 = X[0].copy()
     start = np.asarray(start, dtype=complex)
     x0[0:k:2], x0[1:k:2] = start.real, start.imag
-    x0[k:] = X[0, k:]
     out = np.full((T, k), np.nan)
-    jacs = np.zeros((T, form.c.size, k))
-    coarse = np.unique(np.append(np.arange(0, T, GROUP_STRIDE), T - 1))
-    stop = _continue(form, step, X, s, k, x0, coarse, out, jacs)
+    jacs = np.zeros((T, form.m, k))
+    coarse = _coarse(known, s)
+    stop = _continue(form, step, X, s, k, x0, coarse, out, jacs, COARSE_TOLERANCE)
     last = coarse[stop - 1] if stop > 0 else (coarse[-1] if stop < 0 else -1)
     fail = -1
     if last >= 0:
-        inner = np.setdiff1d(np.arange(last + 1), coarse)
+        solved = coarse[coarse <= last]
+        polished = X[: last + 1].copy()
+        inner = np.setdiff1d(np.arange(last + 1), solved)
+        polished[solved, :k] = out[solved]
         if inner.size:
-            solved = coarse[coarse <= last]
-            polished = X[inner]
-            polished[:, :k] = _predict(solved, out[solved], inner)
-            accept, jac = _polish(form, step, polished, s[inner], k)
-            rows = inner[accept]
-            out[rows], jacs[rows] = polished[accept, :k], jac[accept]
-            for t in inner[~accept]:  # a sequential move from the sample before
-                if _continue(form, step, X, s, k, np.concatenate([out[t - 1], X[t - 1, k:]]),
-                             np.array([t - 1, t]), out, jacs) >= 0:
-                    fail = int(t)
-                    break
+            polished[inner, :k] = _predict(solved, out[solved], inner)
+        accept, jac = _polish(form, step, polished, s[: last + 1], k)
+        out[: last + 1] = np.where(accept[:, None], polished[:, :k], np.nan)
+        jacs[: last + 1][accept] = jac[accept]
+        for t in np.flatnonzero(~accept):  # a sequential move from the sample before
+            x, path = (x0, np.array([0])) if t == 0 else (np.concatenate([out[t - 1], X[t - 1, k:]]), np.array([t - 1, t]))
+            if _continue(form, step, X, s, k, x, path, out, jacs) >= 0:
+                fail = int(t)
+                break
     if fail < 0 and stop >= 0:  # the coarse continuation stopped: go on sample by sample
         x = x0 if last < 0 else np.concatenate([out[last], X[last, k:]])
         path = np.arange(max(last, 0), T)

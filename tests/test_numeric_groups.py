@@ -1,0 +1,127 @@
+"""Numeric groups (complex loops) against an independent continuation written here: the rest
+pose's branch followed sample by sample in small steps, with every link length as a row."""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+
+from linkedit.planar import catalog, simulate
+from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.yamlload import load_model
+from tests.conftest import EXAMPLES
+from tests.planar_specs import TRIAD
+
+
+def rest_branch(spec: LinkageSpec, angles: np.ndarray, step_deg: float = 0.5) -> tuple[list[str], np.ndarray, int]:
+    """The joints of a crank-driven group (every moving joint but the motor's), (T, n) complex at
+    motor turns ``angles`` (T,) radians from rest, increasing, continued from the rest pose by
+    Newton's method on |z_a − z_b|² − L² (every pair of every link) in steps of at most
+    ``step_deg``; and the first sample the rest branch cannot reach (a fold: Newton lands more
+    than 1 % of the size away or det J changes sign), or −1."""
+    j = {k: complex(*v) for k, v in spec.joints.items()}
+    motor, pivot = spec.motor.joint, spec.motor.pivot
+    unknown = [k for k in spec.joints if k not in spec.ground and k != motor]
+    pairs = sorted({tuple(sorted((a, b))) for link in spec.links.values() for i, a in enumerate(link)
+                    for b in link[i + 1:] if a in unknown or b in unknown})
+    a_, b_ = (np.array([p[i] for p in pairs]) for i in (0, 1))
+    length2 = np.array([abs(j[a] - j[b]) ** 2 for a, b in pairs])
+    incidence = np.array([[(a == k) - (b == k) for k in unknown] for a, b in pairs], dtype=float)  # (rows, n)
+    names = list(spec.joints)
+    rest = np.array([j[k] for k in names])
+    ia, ib = (np.array([names.index(k) for k in v]) for v in (a_, b_))
+    own, m, p = np.array([names.index(k) for k in unknown]), names.index(motor), names.index(pivot)
+
+    def newton(x: np.ndarray, theta: float) -> tuple[np.ndarray, float]:
+        z = rest.copy()
+        z[m] = rest[p] + (rest[m] - rest[p]) * np.exp(1j * theta)
+        for _ in range(30):
+            z[own] = x[0::2] + 1j * x[1::2]
+            d = z[ia] - z[ib]
+            jac = np.empty((len(pairs), x.size))
+            jac[:, 0::2], jac[:, 1::2] = 2 * incidence * d.real[:, None], 2 * incidence * d.imag[:, None]
+            dx = np.linalg.solve(jac, length2 - np.abs(d) ** 2)
+            x = x + dx
+            if np.abs(dx).max() < 1e-15 * np.abs(x).max():
+                break
+        return x, float(np.linalg.det(jac))
+
+    size = size_of(spec)
+    x, det0 = newton(np.array([c for k in unknown for c in (j[k].real, j[k].imag)]), 0.0)
+    out = np.full((angles.size, len(unknown)), np.nan, dtype=complex)
+    theta = 0.0
+    for n, target in enumerate(angles):
+        parts = max(1, int(np.ceil(np.degrees(target - theta) / step_deg)))
+        for sub in np.linspace(theta, target, parts + 1)[1:]:
+            y, det = newton(x.copy(), sub)
+            if not np.isfinite(y).all() or np.sign(det) != np.sign(det0) or np.abs(y - x).max() > 0.01 * size:
+                return unknown, out, n
+            x = y
+        theta = target
+        out[n] = x[0::2] + 1j * x[1::2]
+    return unknown, out, -1
+
+
+def size_of(spec: LinkageSpec) -> float:
+    """The rest pose's diameter (the tolerances' unit)."""
+    z = np.array([complex(*p) for p in spec.joints.values()])
+    return float(np.abs(z[:, None] - z[None, :]).max())
+
+
+def link_lengths_kept(spec: LinkageSpec, names: list[str], z: np.ndarray) -> float:
+    """Largest change of any link's pair distance over samples (T, J) complex, joints ``names``."""
+    worst = 0.0
+    for link in spec.links.values():
+        for i, a in enumerate(link):
+            for b in link[i + 1:]:
+                rest = abs(complex(*spec.joints[a]) - complex(*spec.joints[b]))
+                worst = max(worst, float(np.abs(np.abs(z[:, names.index(a)] - z[:, names.index(b)]) - rest).max()))
+    return worst
+
+
+def test_the_complex_loop_example_stays_on_its_rest_branch_at_every_sample(run_cli, tmp_path):
+    """``simulate`` of the example writes the independent continuation's positions (to 1e-12 of
+    its size) and keeps every link's length (to 1e-9 of its size) at each of its 360 samples."""
+    spec = load_model(LinkageSpec, EXAMPLES / "complex-loop.yaml")
+    out = tmp_path / "loop.h5"
+    assert run_cli("simulate", EXAMPLES / "complex-loop.yaml", "-o", out).exit_code == 0
+    with h5py.File(out) as f:
+        names = [n.decode() for n in f["joint"][()]]
+        xy, angle = f["joints/position"][()], f["motor_angle"][()]
+    z = xy[..., 0] + 1j * xy[..., 1]
+    group, ref, fold = rest_branch(spec, angle - angle[0])
+    assert fold == -1
+    size = size_of(spec)
+    assert np.abs(z[:, [names.index(k) for k in group]] - ref).max() <= 1e-12 * size
+    assert link_lengths_kept(spec, names, z) <= 1e-9 * size
+
+
+@pytest.mark.parametrize("samples", [360, 97, 90])
+def test_a_group_that_locks_up_inside_the_cycle_fails_at_the_first_sample_past_its_fold(samples):
+    """The triad folds between two samples: every sample before the fold is on the rest branch
+    (the independent continuation), the first one after it and every one later are reported as
+    the group's lock-up, starting at that sample's motor angle."""
+    spec = load_model(LinkageSpec, "triad.yaml", TRIAD)
+    m = simulate(spec, samples, partial=True)
+    names = m.plan.joint_names
+    group, ref, fold = rest_branch(spec, m.motor_angle - m.motor_angle[0], step_deg=0.125)
+    assert 0 < fold < samples
+    assert m.assembled[:fold].all() and not m.assembled[fold:].any()
+    z = m.positions[..., 0] + 1j * m.positions[..., 1]
+    assert np.abs(z[:fold][:, [names.index(k) for k in group]] - ref[:fold]).max() <= 1e-12 * size_of(spec)
+    assert link_lengths_kept(spec, names, z[:fold]) <= 1e-9 * size_of(spec)
+    (lock,) = m.lockups
+    assert f"motor angles {np.degrees(m.motor_angle[fold]):.1f}°" in lock.describe()
+    assert "the numeric group T1, T2, T3 cannot be assembled on its rest-pose branch" in lock.describe()
+
+
+def test_the_rest_branch_is_kept_at_any_sampling():
+    """Coarse and fine samplings of the example land on the same positions (one branch)."""
+    spec = catalog.complex_loop()
+    group, ref, fold = rest_branch(spec, np.radians(np.arange(720) / 2))
+    assert fold == -1
+    for samples in (8, 24, 720):
+        m = simulate(spec, samples)
+        z = m.positions[..., 0] + 1j * m.positions[..., 1]
+        assert np.abs(z[:, [m.plan.joint_names.index(k) for k in group]] - ref[:: 720 // samples]).max() <= 1e-12 * size_of(spec)
