@@ -83,10 +83,10 @@ def test_toggle_pull_keeps_a_working_linkage(run_cli, tmp_path):
     assert "goal not met: displace D" in r.output  # the barrier stops it well short, and says so
     edited = compile_plan(load_model(LinkageSpec, out / f"{stem}-edited.yaml"))
     original = compile_plan(load_model(LinkageSpec, EXAMPLES / "jansen.yaml"))
-    assert np.array_equal(edited.orientation, original.orientation)
+    assert np.array_equal(edited.table.orientation, original.table.orientation)
     motion = simulate(edited, 2000)
     assert motion.assembled.all() and np.nanmin(motion.singularity) > 0
-    assert np.all(motion.orientation == original.orientation)
+    assert np.all(motion.orientation == original.table.orientation)
 
 
 def test_toggle_pull_without_barrier_goes_to_the_toggle_and_says_so(run_cli, tmp_path):
