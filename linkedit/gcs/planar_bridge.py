@@ -15,7 +15,7 @@ its slot at the stroke s(t) from its rest position. Each step is solved from the
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -24,6 +24,7 @@ from linkedit.errors import MechanismError
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.inputs import Schedule
 from linkedit.gcs.solve import Run, solve_run
+from linkedit.gcs.structure import StructureCache
 from linkedit.gcs.tolerances import CONVERGED, STATUS_NAMES, Options
 from linkedit.gcs.system import WORLD, Elementary, State, System
 from linkedit.planar.simulate import motor_input
@@ -45,6 +46,11 @@ class PlanarModel:
     track_names: list[str]
     track_member: np.ndarray  #: (K,) member carrying each tracked point, −1 on the ground
     track_point: np.ndarray  #: (K, 3)
+    #: what the waves compile for the system, kept for the model's later runs
+    cache: StructureCache = field(init=False, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cache", StructureCache(self.system))
 
 
 @dataclass
@@ -262,7 +268,7 @@ def simulate_numeric(spec: LinkageSpec, t: np.ndarray, options: Options | None =
         sweep = 360.0 if motor.range_deg is None else abs(motor.range_deg[1] - motor.range_deg[0])
     fine, keep = refined_phases(t, sweep)
     start = time.perf_counter()
-    run = solve_run(system, fine, options)
+    run = solve_run(system, fine, options, cache=model.cache)
     seconds = time.perf_counter() - start
     run = run.take(keep)
     value = motor_input(motor, t)  # the motor's turn from rest (radians) or the stroke (spec units)

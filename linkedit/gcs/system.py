@@ -25,10 +25,8 @@ matrix JᵀJ and the gradient Jᵀr are assembled from the groups with precomput
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -230,26 +228,10 @@ class System:
     driven_rel: np.ndarray  #: (S',) the relative orientations driven by inputs (StepTable.rel_inverse)
     points: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)  #: member → point name → (3,)
     lines: dict[str, list[list[str]]] = field(default_factory=dict)  #: member → polylines of point names
-    #: what batched evaluation compiles for this system at its first run, kept for the later
-    #: ones (:class:`linkedit.gcs.waves.Compiled`; a copy of the system starts without)
-    batched: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def n_members(self) -> int:
         return len(self.member_names)
-
-    def digest(self) -> bytes:
-        """A digest of what :attr:`batched` is compiled from: the constraint blocks' members,
-        rows and values, the member vectors, relative orientations and scales (a system
-        copied or changed in place since does not use what was compiled for it before)."""
-        h = hashlib.blake2b(digest_size=16)
-        for a in (self.vectors, self.rel_inverse, self.vector_member, self.row_scale, np.array([self.length_scale])):
-            h.update(np.ascontiguousarray(a).tobytes())
-        for blk in self.blocks:
-            h.update(blk.kind.encode())
-            for a in (blk.a, blk.b, blk.rows, blk.value):
-                h.update(np.ascontiguousarray(a).tobytes())
-        return h.digest()
 
     @property
     def n_unknowns(self) -> int:

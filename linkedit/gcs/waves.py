@@ -60,7 +60,7 @@ What this needs beyond the system — J's diagonal blocks and the parts that sta
 before the first wave from :data:`SPLIT_FROM` poses along the tangent of the last solved one,
 :meth:`Waves._survey`, or else from the first batch of as many), where each Jacobian entry
 goes, the layouts per batch size — is built at a system's first run and kept on it for the
-later ones (:attr:`System.batched`), as the system itself is compiled once. They are guesses
+later ones in the caller's :class:`~linkedit.gcs.structure.StructureCache`, as the system itself is compiled once. They are guesses
 that cost time only when wrong (every solved step is checked on every row and pivot, and on J
 zero off its blocks) and they correct themselves: blocks that a run's solved poses tie
 (entries off them beyond rounding, :data:`TIED`) are merged from its next block on, and still
@@ -86,12 +86,11 @@ import numpy as np
 from linkedit.gcs import accept
 from linkedit.gcs import canonical as canon
 from linkedit.gcs.acceleration import advanced
-from linkedit.gcs.closed_form import ClosedForm
 from linkedit.gcs.continuation import Solver
 from linkedit.gcs.evaluate import KEPT_POSES, _Layout
 from linkedit.gcs.factors import BatchedFactors, Factors
 from linkedit.gcs.predict import NODES, Extrapolation, flat, lagrange
-from linkedit.gcs.structure import SPLIT_FROM, STRIDE, WIDEST_STRIDE, Compiled, Jacobians, Part, _take
+from linkedit.gcs.structure import SPLIT_FROM, STRIDE, WIDEST_STRIDE, Compiled, Jacobians, Part, StructureCache, _take
 from linkedit.gcs.system import Evaluation, State, StepTable
 
 #: steps of a block after a rejected step (doubling after each block accepted whole); the
@@ -148,20 +147,17 @@ class Solved:
 class Waves(Extrapolation, BatchedFactors):
     """Batched evaluation and solution of one system over a step table (module docstring)."""
 
-    def __init__(self, solver: Solver, table: StepTable) -> None:
+    def __init__(self, solver: Solver, table: StepTable, cache: StructureCache) -> None:
         self.solver = solver
         self.system = solver.system
         self.table = table
-        s = self.system
-        kept, key = s.batched.get("waves"), s.digest()
-        # (a system copied or changed in place since keeps what its first run compiled: not used)
-        if kept is not None and kept.key == key:
-            self.compiled = kept.copy()
-        else:
-            self.compiled = Compiled([self._whole()], key, closed=ClosedForm.of(s))
+        #: the caller's cache: what earlier runs compiled, and where this run leaves a copy of its own
+        self.cache = cache
+        kept = cache.waves
+        self.compiled = kept.copy() if kept is not None else Compiled([self._whole()], closed=cache.closed_form())
         #: the closed form predicting this run's poses (None: the waves' own predictions)
         self.closed = self.compiled.closed
-        #: layouts of more poses than are kept on the system, for this run
+        #: layouts of more poses than the cache keeps, for this run
         self._layouts: dict[int, _Layout] = {}
         self._kept_layouts = self.compiled.layouts
         #: pairs of blocks (K, 2) that Jacobian entries of this run's poses tied: merged before
@@ -176,12 +172,12 @@ class Waves(Extrapolation, BatchedFactors):
 
 
     @staticmethod
-    def applies(solver: Solver) -> bool:
+    def applies(solver: Solver, cache: StructureCache) -> bool:
         """Whether the system's structure allows waves (see the module docstring; the rank is
         checked at the first pose by the caller)."""
         o, s, normal = solver.options, solver.system, solver.normal
         return (o.solver == "lm" and not o.accelerations and not s.customs
-                and (normal.unique_entries if not normal.sparse else ClosedForm.of(s) is not None))
+                and (normal.unique_entries if not normal.sparse else cache.closed_form() is not None))
 
     # ---- batched evaluation ---------------------------------------------------------------
 
@@ -203,7 +199,7 @@ class Waves(Extrapolation, BatchedFactors):
             rebuilt = self.rebuilt(k, stop, pos, ori, vel) if self.closed is not None else None
             return rebuilt or Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
                                      np.zeros((0, self.system.n_unknowns)), np.zeros((0, 2), dtype=np.int32), 0)
-        if self.tied.size:  # the blocks kept on the system do not hold for this run's poses
+        if self.tied.size:  # the blocks kept in the cache do not hold for this run's poses
             self._merge()
         if not self.compiled.decided and not self.free and np.abs(vel[k - 1]).max() > 0.0:
             self._survey(pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col, k - 1)
@@ -271,7 +267,7 @@ class Waves(Extrapolation, BatchedFactors):
             far = (reach / max(error, 1e-16)) ** 0.2 * (1 if error > high else 0.5 if error < low else 1)
             width = int(np.clip(far, 1, WIDEST))
         if not coarse:
-            self.system.batched["waves"] = self.compiled.copy()
+            self.cache.waves = self.compiled.copy()
             return Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
                           np.zeros((0, self.system.n_unknowns)), np.zeros((0, 2), dtype=np.int32), 0)
         at = np.concatenate(coarse) - k
@@ -307,7 +303,7 @@ class Waves(Extrapolation, BatchedFactors):
             work += again
         before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
         n = self.accepted(P, Q, V, ok, steps, before, float(t[k - 1]))
-        self.system.batched["waves"] = self.compiled.copy()  # for later runs (Compiled)
+        self.cache.waves = self.compiled.copy()  # for later runs (Compiled)
         return Solved(P, Q, R, V, work, n)
 
     def rebuilt(self, k: int, stop: int, pos: np.ndarray, ori: np.ndarray, vel: np.ndarray) -> Solved | None:
@@ -352,7 +348,7 @@ class Waves(Extrapolation, BatchedFactors):
             before, t_before, here = (P[-1], Q[-1], V[-1]), float(t[steps[-1]]), int(steps[-1]) + 1
         if not kept:
             return None
-        self.system.batched["waves"] = self.compiled.copy()  # for later runs (Compiled)
+        self.cache.waves = self.compiled.copy()  # for later runs (Compiled)
         P, Q, R, V, work = (np.concatenate([part[i] for part in kept]) for i in range(5))
         return Solved(P, Q, R, V, work, len(P), np.concatenate(ranks) if sparse else None)
 
