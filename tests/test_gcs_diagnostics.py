@@ -12,7 +12,7 @@ from linkedit.errors import MechanismError
 from linkedit.gcs import diagnostics as diag
 from linkedit.gcs import linalg
 from linkedit.gcs.members import compile_mechanism
-from linkedit.gcs.result import read_result, write_result
+from linkedit.io.gcs_hdf5 import read_result, write_result
 from linkedit.gcs.solve import solve_run
 from linkedit.gcs.tolerances import CONVERGED, RANK_TOL
 from linkedit.gcs.system import Custom, State, System

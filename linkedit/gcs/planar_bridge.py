@@ -27,11 +27,13 @@ from linkedit.gcs.solve import Run, solve_run
 from linkedit.gcs.structure import StructureCache
 from linkedit.gcs.tolerances import CONVERGED, STATUS_NAMES, Options
 from linkedit.gcs.system import WORLD, Elementary, State, System
-from linkedit.planar.simulate import motor_input
+from linkedit.gcs.outputs import velocity
+from linkedit.planar.diagnostics import transmission_angle, triangle_orientation
+from linkedit.planar.simulate import DEFAULT_SAMPLES, Motion, Track, motor_angles, motor_input
 from linkedit.spec.linkage import JointTrack, LinkageSpec
 
 if TYPE_CHECKING:
-    from linkedit.planar import Motion, Plan
+    from linkedit.planar import Plan
 
 
 @dataclass(frozen=True)
@@ -302,10 +304,6 @@ def numeric_motion(plan: "Plan", samples: int | None = None) -> "Motion":
     revolution), not the closed-form derivatives of the symbolic engine. The singularity
     distance, transmission angle and triangle orientation are measured on the solved positions.
     """
-    from linkedit.gcs.outputs import velocity
-    from linkedit.planar.diagnostics import transmission_angle, triangle_orientation
-    from linkedit.planar.simulate import DEFAULT_SAMPLES, Motion, Track, motor_angles
-
     spec = plan.spec
     samples = samples or spec.samples or DEFAULT_SAMPLES
     t, angle = motor_angles(spec, samples)

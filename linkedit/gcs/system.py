@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from linkedit.errors import MechanismError
 from linkedit.gcs import constraints as kinds
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.inputs import Schedule
@@ -535,8 +536,6 @@ def _custom(c: Custom, name: str, P: np.ndarray, Q: np.ndarray, t: float,
 def _call(fn: Callable[..., object], name: str, what: str, shape: tuple[int, ...], P: np.ndarray,
           Q: np.ndarray, t: float) -> np.ndarray:
     """``fn(P, Q, t)`` as a finite float array of ``shape``, or a MechanismError saying why not."""
-    from linkedit.errors import MechanismError
-
     where = f"custom constraint {name!r} at t = {t:.4f}"
     try:
         out = np.asarray(fn(P.copy(), Q.copy(), t), dtype=float)
