@@ -15,7 +15,8 @@ from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.result import GcsResult
 from linkedit.gcs.solve import solve_run
 from linkedit.gcs.tolerances import Options
-from linkedit.gcs.system import Custom, Elementary, State, System
+from linkedit.gcs.kernels import Custom
+from linkedit.gcs.system import Elementary, State, System
 
 __all__ = ["Custom", "Elementary", "GcsResult", "Options", "State", "System", "check_solved",
            "compile_mechanism", "solve_run", "solve_spec"]

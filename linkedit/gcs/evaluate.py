@@ -1,5 +1,5 @@
 """Batched evaluation: the residuals, Jacobians and time derivatives of B poses of one system
-at once, with the elementary kinds' kernels of :data:`linkedit.gcs.system.EVALUATE` run on B
+at once, with the elementary kinds' kernels of :data:`linkedit.gcs.kernels.EVALUATE` run on B
 times their constraints (member-major layouts), and poses moved and compared in the scaled
 local coordinates of the continuation (:meth:`State.moved`, :meth:`State.minus`) — for the
 waves (:mod:`linkedit.gcs.waves`)."""
@@ -13,7 +13,8 @@ import numpy as np
 from linkedit.gcs import constraints as kinds
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.continuation import Solver
-from linkedit.gcs.system import EVALUATE, Block, StepParameters, StepTable, System
+from linkedit.gcs.kernels import EVALUATE, Block, StepParameters
+from linkedit.gcs.system import StepTable, System
 
 #: the layouts of this many batch sizes, of at most KEPT_POSES poses, are kept in the caller's
 #: cache for the system's later runs (the last built)
