@@ -263,6 +263,6 @@ def test_a_block_whose_first_step_cannot_be_rebuilt_is_left_to_the_continuation(
     t = np.linspace(0.0, 1.0, 241)
     off = solve_run(system, t, Options(waves=False))
     k = int(np.flatnonzero(off.status != 0)[0])  # the first step past the reach
-    waves = Waves(Solver(system), system.step_table(t))
+    waves = Waves(Solver(system), system.step_table(t), StructureCache(system))
     vel = off.velocity.copy()
     assert waves.rebuilt(k, k + 16, off.position, off.orientation, vel) is None

@@ -183,8 +183,9 @@ def test_a_planar_linkage_solves_its_in_plane_and_out_of_plane_unknowns_apart():
 
     system = _system("crank-rocker")
     t = np.arange(2 * SPLIT_FROM) / (2 * SPLIT_FROM)
-    run = solve_run(system, t)
-    waves = Waves(Solver(system), system.step_table(t))
+    cache = StructureCache(system)
+    run = solve_run(system, t, cache=cache)
+    waves = Waves(Solver(system), system.step_table(t), cache)
     steps = np.arange(len(t))
     r, jacs = waves.evaluate(run.position.copy(), run.orientation.copy(), steps, True)
     J = waves.jacobian(jacs)
