@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from linkedit.gcs.result import read_result
+from linkedit.io.gcs_hdf5 import read_result
 from tests.gcs_oracles import pinned_four_bar
 
 #: crank = rocker = 1 m, coupler = ground = 4 m, crank at 90° at rest: a parallelogram whose

@@ -13,6 +13,7 @@ from linkedit.gcs.closed_form import ClosedForm, Driven, Dyad
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.planar_bridge import planar_model
 from linkedit.gcs.solve import solve_run
+from linkedit.gcs.structure import StructureCache
 from linkedit.gcs.tolerances import Options
 from linkedit.gcs.system import State
 from linkedit.spec.linkage import LinkageSpec
@@ -128,8 +129,9 @@ def test_waves_from_the_closed_form_converge_at_once_and_give_the_step_by_step_r
     """The predictions are exact to rounding: a step costs one linear solve (its velocity)."""
     system = _system("jansen")
     t = np.arange(360) / 360
-    on, off = solve_run(system, t), solve_run(system, t, Options(waves=False))
-    assert system.batched["waves"].closed is not None
+    cache = StructureCache(system)
+    on, off = solve_run(system, t, cache=cache), solve_run(system, t, Options(waves=False))
+    assert cache.waves is not None and cache.waves.closed is not None
     assert on.batched.sum() >= 355 and on.iterations[2:].mean() <= 1.05
     _assert_same(on.position, on.orientation, off, system.length_scale)
     assert np.abs(on.velocity - off.velocity).max() <= 1e-8 * np.abs(off.velocity).max()
@@ -141,8 +143,9 @@ def test_rules_that_do_not_hold_are_dropped_and_the_run_is_step_by_step():
     system = _system("bennett", 1e-3)
     assert ClosedForm.compile(system) is not None
     t = np.arange(360) / 360
-    on, off = solve_run(system, t), solve_run(system, t, Options(waves=False))
-    assert system.batched["waves"].closed is None and on.batched.sum() >= 350
+    cache = StructureCache(system)
+    on, off = solve_run(system, t, cache=cache), solve_run(system, t, Options(waves=False))
+    assert cache.waves is not None and cache.waves.closed is None and on.batched.sum() >= 350
     _assert_same(on.position, on.orientation, off, system.length_scale)
 
 
@@ -239,8 +242,9 @@ def test_a_pin_whose_axis_points_the_other_way_is_rebuilt_too():
             "outputs": {"steps": 361}}
     system = compile_mechanism(validate(MechanismSpec, data, file="test"))[0]
     t = np.arange(360) / 360
-    on, off = solve_run(system, t), solve_run(system, t, Options(waves=False))
-    assert system.batched["waves"].closed is not None and on.iterations[2:].mean() <= 1.05
+    cache = StructureCache(system)
+    on, off = solve_run(system, t, cache=cache), solve_run(system, t, Options(waves=False))
+    assert cache.waves is not None and cache.waves.closed is not None and on.iterations[2:].mean() <= 1.05
     assert (on.status == off.status).all() and (off.status == 0).all()
     _assert_same(on.position, on.orientation, off, system.length_scale)
 
@@ -260,6 +264,6 @@ def test_a_block_whose_first_step_cannot_be_rebuilt_is_left_to_the_continuation(
     t = np.linspace(0.0, 1.0, 241)
     off = solve_run(system, t, Options(waves=False))
     k = int(np.flatnonzero(off.status != 0)[0])  # the first step past the reach
-    waves = Waves(Solver(system), system.step_table(t))
+    waves = Waves(Solver(system), system.step_table(t), StructureCache(system))
     vel = off.velocity.copy()
     assert waves.rebuilt(k, k + 16, off.position, off.orientation, vel) is None

@@ -8,7 +8,7 @@ import copy
 import yaml
 
 from linkedit.gcs.mechanism import solve_spec
-from linkedit.gcs.result import read_result
+from linkedit.io.gcs_hdf5 import read_result
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import validate
 from tests.gcs_oracles import pinned_four_bar

@@ -12,10 +12,11 @@ from linkedit.errors import MechanismError
 from linkedit.gcs import diagnostics as diag
 from linkedit.gcs import linalg
 from linkedit.gcs.members import compile_mechanism
-from linkedit.gcs.result import read_result, write_result
+from linkedit.io.gcs_hdf5 import read_result, write_result
 from linkedit.gcs.solve import solve_run
 from linkedit.gcs.tolerances import CONVERGED, RANK_TOL
-from linkedit.gcs.system import Custom, State, System
+from linkedit.gcs.kernels import Custom
+from linkedit.gcs.system import State, System
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_model
 from tests.test_gcs_solver import _spec

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from linkedit.gcs import quaternions as quat
-from linkedit.gcs.result import read_result
+from linkedit.io.gcs_hdf5 import read_result
 from tests.conftest import EXAMPLES
 
 EXAMPLES_3D = sorted((EXAMPLES / "3d").glob("*.yaml"))

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from linkedit.gcs import quaternions as quat
-from linkedit.gcs.system import WORLD, Custom, Elementary, State, System
+from linkedit.gcs.kernels import Custom
+from linkedit.gcs.system import WORLD, Elementary, State, System
 
 
 def _random_state(rng, M):

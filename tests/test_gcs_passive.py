@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from linkedit.gcs import quaternions as quat
-from linkedit.gcs import read_result
+from linkedit.io.gcs_hdf5 import read_result
 from linkedit.gcs.members import compile_mechanism
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_model

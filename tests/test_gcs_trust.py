@@ -10,7 +10,7 @@ import yaml
 
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.mechanism import solve_spec
-from linkedit.gcs.result import read_result
+from linkedit.io.gcs_hdf5 import read_result
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
 from tests import gcs_oracles as oracle

@@ -361,7 +361,7 @@ def test_luffing_arm_example_follows_its_closed_form(run_cli, tmp_path):
     """examples/3d/luffing-arm.yaml (barrel, rod and arm joined by presets, a distance input
     from the barrel's base to the rod's eye): the arm's angle, the tip's exact velocity and the
     arm's exact angular acceleration against the closed form, from the result file."""
-    from linkedit.gcs.result import read_result
+    from linkedit.io.gcs_hdf5 import read_result
     from tests.conftest import EXAMPLES
 
     r = run_cli("solve3d", EXAMPLES / "3d" / "luffing-arm.yaml", "-o", tmp_path / "arm.h5", "--accelerations")

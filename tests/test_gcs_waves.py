@@ -12,6 +12,7 @@ from linkedit.gcs.closed_form import ClosedForm
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.planar_bridge import planar_model
 from linkedit.gcs.solve import solve_run
+from linkedit.gcs.structure import StructureCache
 from linkedit.gcs.tolerances import Options
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.mechanism3d import MechanismSpec
@@ -182,8 +183,9 @@ def test_a_planar_linkage_solves_its_in_plane_and_out_of_plane_unknowns_apart():
 
     system = _system("crank-rocker")
     t = np.arange(2 * SPLIT_FROM) / (2 * SPLIT_FROM)
-    run = solve_run(system, t)
-    waves = Waves(Solver(system), system.step_table(t))
+    cache = StructureCache(system)
+    run = solve_run(system, t, cache=cache)
+    waves = Waves(Solver(system), system.step_table(t), cache)
     steps = np.arange(len(t))
     r, jacs = waves.evaluate(run.position.copy(), run.orientation.copy(), steps, True)
     J = waves.jacobian(jacs)
@@ -200,15 +202,16 @@ def test_a_planar_linkage_solves_its_in_plane_and_out_of_plane_unknowns_apart():
 
 def test_a_second_run_reuses_what_the_first_compiled_and_gives_its_poses():
     """The batched evaluation's parts (J's diagonal blocks, where its entries go, the layouts
-    per batch size) are built at the first run and kept on the system."""
+    per batch size) are built at the first run and kept in the caller's cache."""
     system = _system("jansen")
+    cache = StructureCache(system)
     t = np.arange(360) / 360
-    first = solve_run(system, t)
-    compiled = system.batched["waves"]
+    first = solve_run(system, t, cache=cache)
+    compiled = cache.waves
     assert compiled.decided and [len(p.cols) for p in compiled.parts] == [21, 21]
     layouts = dict(compiled.layouts)
-    again = solve_run(system, t)
-    kept = system.batched["waves"]  # a copy of the run's own, after each block
+    again = solve_run(system, t, cache=cache)
+    kept = cache.waves  # a copy of the run's own, after each block
     assert kept.layouts is compiled.layouts and all(kept.layouts[B] is lay for B, lay in layouts.items())
     assert [list(p.cols) for p in kept.parts] == [list(p.cols) for p in compiled.parts]
     assert again.batched.sum() >= 350
@@ -221,11 +224,12 @@ def test_a_warm_system_leaves_what_stays_still_out_of_its_rough_steps_and_gives_
     unknowns, the spherical four-bar's positions) and the groups that are theirs alone, found at
     the first run and kept; the block's solve still checks every row and pivot."""
     system = _system(name)
+    cache = StructureCache(system)
     t = np.arange(360) / 360
-    solve_run(system, t)
-    compiled = system.batched["waves"]
+    solve_run(system, t, cache=cache)
+    compiled = cache.waves
     assert compiled.quiet.any() and not compiled.quiet.all() and compiled.skip
-    on = solve_run(system, t)
+    on = solve_run(system, t, cache=cache)
     off = solve_run(system, t, Options(waves=False))
     assert on.batched.sum() >= 350
     _assert_same(on, off, system.length_scale)
@@ -236,15 +240,16 @@ def test_a_run_started_off_the_plane_is_solved_as_step_by_step(own_predictions):
     back into it to the tolerance; the rough steps then hold what stays still where it is, and
     the poses keep J zero off its blocks (to TIED): all in waves, the blocks kept."""
     system = _system("crank-rocker")
+    cache = StructureCache(system)
     t = np.arange(360) / 360
-    solve_run(system, t)
+    solve_run(system, t, cache=cache)
     start = system.rest.copy()
     start.orientation[:] = quat.turned(start.orientation, np.tile([0.02, -0.01, 0.0], (system.n_members, 1)))
     start.position[:, 2] += 0.01 * system.length_scale
-    on = solve_run(system, t, start=start)
+    on = solve_run(system, t, start=start, cache=cache)
     off = solve_run(system, t, Options(waves=False), start=start)
     assert (off.status == 0).all() and on.batched.sum() >= 350
-    kept = system.batched["waves"]
+    kept = cache.waves
     assert len(kept.parts) == 2 and kept.skip
     _assert_same(on, off, system.length_scale)
 
@@ -266,14 +271,15 @@ def test_an_input_held_then_moving_merges_the_blocks_it_ties_and_stirs_what_was_
                                    "rotation": {"axis": [0, 0, 1], "angles_deg": [0, 0, 90]}}},
             "outputs": {"steps": 361, "tracks": {"tip": {"member": "b", "point": "tip"}}}}
     system = compile_mechanism(validate(MechanismSpec, data, file="test"))[0]
+    cache = StructureCache(system)
     t = np.linspace(0.0, 1.0, 361)
     off = solve_run(system, t, Options(waves=False))
-    first = solve_run(system, t)
-    compiled = system.batched["waves"]
+    first = solve_run(system, t, cache=cache)
+    compiled = cache.waves
     b_turn = [i for i, p in enumerate(compiled.parts) if 6 + 5 in p.cols]  # b's turn about z
     assert len(b_turn) == 1 and not compiled.quiet[b_turn[0]]
     assert any({9, 10} <= set(p.cols) for p in compiled.parts)  # b's x and y turns, tied once it turns
-    again = solve_run(system, t)
+    again = solve_run(system, t, cache=cache)
     assert first.batched.sum() >= 355 and again.batched.sum() >= 355
     _assert_same(first, off, system.length_scale)
     _assert_same(again, off, system.length_scale)
@@ -285,9 +291,10 @@ def test_a_first_run_finds_the_blocks_before_its_first_wave(own_predictions):
     from linkedit.gcs.waves import SPLIT_FROM
 
     system = _system("klann")
+    cache = StructureCache(system)
     t = np.arange(SPLIT_FROM // 2) / 360
-    on = solve_run(system, t)
-    compiled = system.batched["waves"]
+    on = solve_run(system, t, cache=cache)
+    compiled = cache.waves
     assert compiled.decided and [len(p.cols) for p in compiled.parts] == [15, 15]
     assert list(compiled.quiet) == [False, True] and compiled.skip
     off = solve_run(system, t, Options(waves=False))
@@ -305,10 +312,11 @@ def test_a_mechanism_that_stays_still_is_solved_again():
     data["constraints"] = {"crank_pivot": dict(data["constraints"]["crank_pivot"], world=[0, 0, 0])}
     data["outputs"]["tracks"] = {"tip": {"member": "crank", "point": "tip"}}
     system = compile_mechanism(validate(MechanismSpec, data, file="test"))[0]
+    cache = StructureCache(system)
     t = np.linspace(0.0, 1.0, 200)
-    first = solve_run(system, t)
-    again = solve_run(system, t)
+    first = solve_run(system, t, cache=cache)
+    again = solve_run(system, t, cache=cache)
     off = solve_run(system, t, Options(waves=False))
-    assert system.batched["waves"].quiet.all() and again.batched.sum() >= 190
+    assert cache.waves.quiet.all() and again.batched.sum() >= 190
     _assert_same(first, off, system.length_scale)
     _assert_same(again, off, system.length_scale)

@@ -1,4 +1,4 @@
-"""The waves' kept compilation (``System.batched["waves"]``: parts, quiet parts,
+"""The waves' kept compilation (``StructureCache.waves``: parts, quiet parts,
 skipped groups): cases where a run with waves differs from the step-by-step run or fails.
 Each test states the step-by-step (``Options(waves=False)``) run as the reference.
 
@@ -13,6 +13,7 @@ import numpy as np
 
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.solve import solve_run
+from linkedit.gcs.structure import StructureCache
 from linkedit.gcs.tolerances import Options
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
@@ -185,8 +186,9 @@ def test_a_copy_of_a_system_does_not_change_what_the_original_solves():
 
 
 def test_one_system_solved_from_several_threads_at_once():
-    """Each run used to keep its own batched state; now the parts, places and layouts live on
-    the System and a run rewrites them (``_decouple`` sets ``parts`` then drops ``places``), so
+    """One structure cache shared by runs of one system in four threads. Each run used to keep
+    its own batched state; then the parts, places and layouts lived on the System and a run
+    rewrote them (``_decouple`` sets ``parts`` then drops ``places``), so
     runs of one System in several threads see each other's halfway state. Measured: 19 of 172
     runs of a fresh Jansen system, four grids at a time, raise (IndexError "index 21 is out of
     bounds for axis 1 with size 21", ValueError "operands could not be broadcast together with
@@ -204,10 +206,11 @@ def test_one_system_solved_from_several_threads_at_once():
     while not errors and time.monotonic() - start < 5.0:
         system = _system("jansen")
         barrier = threading.Barrier(len(grids))
+        cache = StructureCache(system)  # one cache shared by the threads
 
-        def run(t: np.ndarray, system=system, barrier=barrier):
+        def run(t: np.ndarray, system=system, barrier=barrier, cache=cache):
             barrier.wait()
-            return solve_run(system, t)
+            return solve_run(system, t, cache=cache)
 
         with ThreadPoolExecutor(len(grids)) as pool:
             for future in [pool.submit(run, t) for t in grids]:
@@ -241,9 +244,11 @@ def test_what_a_system_keeps_for_later_runs_is_bounded():
     from tests.test_gcs_waves import _system
 
     system = _system("six-bar")
+    cache = StructureCache(system)
     for steps in (100, 2000, 360, 1500, 50):
-        solve_run(system, np.arange(steps) / steps)
-    layouts = system.batched["waves"].layouts
+        solve_run(system, np.arange(steps) / steps, cache=cache)
+    assert cache.waves is not None
+    layouts = cache.waves.layouts
     assert 0 < len(layouts) <= KEPT_LAYOUTS and max(layouts) <= KEPT_POSES
 
 

@@ -1,4 +1,4 @@
-"""The waves' kept compilation, its blocks and copies (``System.batched["waves"]``: ``_survey``,
+"""The waves' kept compilation, its blocks and copies (``StructureCache.waves``: ``_survey``,
 ``_stir``, ``_merge``, copies per run). Every run here gives the step-by-step poses
 (``Options(waves=False)``); what fails is what the system keeps for its later runs.
 
@@ -13,6 +13,7 @@ import numpy as np
 
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.solve import solve_run
+from linkedit.gcs.structure import StructureCache
 from linkedit.gcs.tolerances import Options
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
@@ -32,11 +33,13 @@ def test_an_input_window_does_not_merge_a_planar_linkage_for_its_later_runs():
     data = load_yaml(EXAMPLES / "3d" / "crank-rocker.yaml")[0]
     data["inputs"]["drive"]["window"] = [0.2, 0.8]
     system = compile_mechanism(validate(MechanismSpec, data, file="test"))[0]
-    solve_run(system, np.arange(360) / 360)
+    cache = StructureCache(system)
+    solve_run(system, np.arange(360) / 360, cache=cache)
     t = np.linspace(0.2, 0.8, 361)
-    again = solve_run(system, t)
+    again = solve_run(system, t, cache=cache)
     _assert_same(again, solve_run(system, t, Options(waves=False)), system.length_scale)  # holds
-    kept = system.batched["waves"]
+    kept = cache.waves
+    assert kept is not None
     assert [len(p.cols) for p in kept.parts] == [9, 9] and kept.skip  # [18], ()
 
 
@@ -48,11 +51,13 @@ def test_a_run_past_the_input_window_does_not_slow_every_later_run_of_a_planar_l
     solves); Jansen 83.0 against 53.1 ms, the six-bar 29.3 against 19.7 ms, the crank-rocker
     21.4 against 16.8 ms — every later run, for the life of the system."""
     system = _system("klann")
-    solve_run(system, np.linspace(-0.5, 1.5, 400))
+    cache = StructureCache(system)
+    solve_run(system, np.linspace(-0.5, 1.5, 400), cache=cache)
     t = np.arange(360) / 360
-    again = solve_run(system, t)
+    again = solve_run(system, t, cache=cache)
     _assert_same(again, solve_run(system, t, Options(waves=False)), system.length_scale)  # holds
-    kept = system.batched["waves"]
+    kept = cache.waves
+    assert kept is not None
     assert [len(p.cols) for p in kept.parts] == [15, 15] and kept.skip  # [30], ()
 
 

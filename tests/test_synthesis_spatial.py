@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from linkedit.gcs import check_solved, read_result, solve_spec
+from linkedit.gcs import check_solved, solve_spec
+from linkedit.io.gcs_hdf5 import read_result
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.synthesis import atlas, rssr, spherical
 from linkedit.synthesis.spatial import curve_error

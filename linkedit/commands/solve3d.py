@@ -162,7 +162,8 @@ def register(app: typer.Typer) -> None:
         quiet: bool = QUIET,
     ) -> None:
         """Solve a 3D mechanism (members, constraints, inputs) at every time step."""
-        from linkedit.gcs import check_solved, read_result, solve_spec, write_result
+        from linkedit.gcs import check_solved, solve_spec
+        from linkedit.io.gcs_hdf5 import read_result, write_result
         from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
         from linkedit.spec.yamlload import load_yaml, located, read_text, validate
 

@@ -44,6 +44,7 @@ from linkedit.timing import best_time
 
 if TYPE_CHECKING:
     from linkedit.gcs.solve import Run
+    from linkedit.gcs.structure import StructureCache
     from linkedit.gcs.system import State, System
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "3d"
@@ -94,6 +95,7 @@ def _six_bar(echo: Callable[[str], None], quick: bool) -> None:
     from linkedit.gcs.members import compile_mechanism
     from linkedit.gcs.continuation import Solver
     from linkedit.gcs.solve import solve_run
+    from linkedit.gcs.structure import StructureCache
     from linkedit.gcs.tolerances import STATUS_NAMES, Options
     from linkedit.spec.mechanism3d import MechanismSpec
     from linkedit.spec.yamlload import load_model
@@ -128,8 +130,9 @@ def _six_bar(echo: Callable[[str], None], quick: bool) -> None:
     steps = 24 if quick else 360
     t = np.arange(steps) / steps
     table = system.step_table(t)
-    sec = best_time(lambda: solve_run(system, t, table=table), 1 if quick else 3)
-    run = solve_run(system, t, table=table)
+    cache = StructureCache(system)
+    sec = best_time(lambda: solve_run(system, t, table=table, cache=cache), 1 if quick else 3)
+    run = solve_run(system, t, table=table, cache=cache)
     echo(f"{name} over {steps} steps: {sec / steps * 1e3:.3f} ms per step, "
          f"{run.iterations.mean():.2f} linear solves per step, max residual {np.abs(run.residual).max():.1e}")
 
@@ -317,6 +320,7 @@ def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
 
     from linkedit.gcs.diagnostics import run_diagnostics
     from linkedit.gcs.solve import solve_run
+    from linkedit.gcs.structure import StructureCache
 
     try:
         import python_solvespace  # noqa: F401
@@ -334,14 +338,14 @@ def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
     echo(f"{'':<26}{'':>9}  {'ms/step':>9}  {'dragged':>11}  {'':>6}  {'':>7}  {'fixed':>11}  {'':>6}  {'':>16}  "
          f"{'ms/step':>14}")
     for name, system, model, world in _linkedit_cases(steps):
-        table = system.step_table(t)
-        run = solve_run(system, t, table=table)
+        table, cache = system.step_table(t), StructureCache(system)
+        run = solve_run(system, t, table=table, cache=cache)
         xyz = world(run)
         times: dict[str, list[float]] = {"ours": [], "dragged": [], "fixed": [], "solve3d": []}
         got = {}
         for _ in range(repeats):
             start = time.process_time()
-            again = solve_run(system, t, table=table)
+            again = solve_run(system, t, table=table, cache=cache)
             times["ours"].append((time.process_time() - start) / steps)
             run_diagnostics(system, again, table)  # as solve3d: status, dof, redundant per step
             times["solve3d"].append((time.process_time() - start) / steps)
@@ -359,13 +363,13 @@ def _solvespace(echo: Callable[[str], None], quick: bool) -> None:
         echo(f"{name:<26}{system.n_unknowns:>9}  {ms['ours']:>9.3f}  {cells[0]}  {'≤ ' + format(target, 'g') + '×':>7}  "
              f"{cells[1]}  {max(diffs, default=float('nan')):>16.1e}  {ms['solve3d']:>14.3f}  "
              f"{f'{int(run.batched.sum())}/{steps}':>8}  "
-             f"{_predicted(system)}"
+             f"{_predicted(cache)}"
              f"{' (passive DOF)' if model.passive else ''}")
 
 
-def _predicted(system: "System") -> str:
+def _predicted(cache: "StructureCache") -> str:
     """How the waves predicted a system's steps (after its runs)."""
-    kept = system.batched.get("waves")
+    kept = cache.waves
     return "—" if kept is None else "extrapolated" if kept.closed is None else "closed form"
 
 
@@ -398,6 +402,7 @@ def _variants(echo: Callable[[str], None], quick: bool) -> None:
 
     from linkedit.gcs.members import compile_mechanism
     from linkedit.gcs.solve import solve_run
+    from linkedit.gcs.structure import StructureCache
     from linkedit.spec.mechanism3d import MechanismSpec
     from linkedit.spec.yamlload import load_model
 
@@ -415,12 +420,12 @@ def _variants(echo: Callable[[str], None], quick: bool) -> None:
          f"{'max |Δp| / size':>16}")
     for name, model in VARIANTS.items():
         system, _ = compile_mechanism(load_model(MechanismSpec, EXAMPLES / f"{name}.yaml"))
-        table = system.step_table(t)
-        run = solve_run(system, t, table=table)
+        table, cache = system.step_table(t), StructureCache(system)
+        run = solve_run(system, t, table=table, cache=cache)
         times = []
         for _ in range(repeats):
             start = time.process_time()
-            solve_run(system, t, table=table)
+            solve_run(system, t, table=table, cache=cache)
             times.append((time.process_time() - start) / steps)
         ours = float(np.median(times)) * 1e3
         cell = f"{'—':>11}  {'':>6}"

@@ -17,7 +17,7 @@ and a Newton step along the null space is α = −G⁻¹ g with the reduced Hess
 
 D = ∂d/∂x (identity on positions, J_l⁻¹(φ) on rotations), J̇_w the change of the scaled J along
 w (central differences, by the scheduler: :meth:`linkedit.gcs.continuation.Solver.canonical`,
-:meth:`linkedit.gcs.waves.Waves.canonical`); the second term is the null space turning
+:func:`linkedit.gcs.free.canonical`); the second term is the null space turning
 (ṅ = −J⁺ J̇ n). Along the motion (least-norm velocity v₀, J v₀ = −∂r/∂t) g stays zero, so the
 velocity is the tangent of the constrained argmin:
 

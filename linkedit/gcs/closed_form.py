@@ -174,15 +174,6 @@ class ClosedForm:
         self._driven_rel = {int(i): j for j, i in enumerate(system.driven_rel)}
 
     @classmethod
-    def of(cls, system: System) -> "ClosedForm | None":
-        """:meth:`compile`, kept on the system for its later runs (:attr:`System.batched`)."""
-        key = system.digest()
-        kept = system.batched.get("closed form")
-        if kept is None or kept[0] != key:
-            kept = system.batched["closed form"] = (key, cls.compile(system))
-        return kept[1]
-
-    @classmethod
     def compile(cls, system: System) -> "ClosedForm | None":
         """The rules in placing order, or None where some member has none (or the system has
         custom constraints)."""

@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from linkedit.blas import single_threaded
+from linkedit.gcs.constraints import EQUATIONS, LENGTH_KINDS
 from linkedit.gcs.linalg import jacobian_rank, left_null_space
 from linkedit.gcs.solve import Run
 from linkedit.gcs.system import State, StepTable, System
@@ -67,8 +69,6 @@ def scaled_jacobian(system: System, state: State, table: StepTable, step: int) -
 
 def active_equations(system: System, table: StepTable) -> np.ndarray:
     """Independent equations of the constraints active at each step, (T,)."""
-    from linkedit.gcs.constraints import EQUATIONS
-
     total = np.full(table.t.size, int(system.owner_equations.sum()))
     for blk, act in zip(system.blocks, table.active):
         if act is not None:
@@ -95,8 +95,6 @@ def run_diagnostics(system: System, run: Run, table: StepTable, rank: bool = Tru
     the tolerance the steps were solved to, so a step that failed names what it could not
     satisfy) names its constraint unsatisfied; the rank is evaluated at :func:`rank_steps`
     (small SVDs: BLAS on one thread, :mod:`linkedit.blas`)."""
-    from linkedit.blas import single_threaded
-
     with single_threaded():
         return _run_diagnostics(system, run, table, rank, unsatisfied_tol)
 
@@ -143,8 +141,6 @@ def _run_diagnostics(system: System, run: Run, table: StepTable, rank: bool, uns
 def length_rows(system: System) -> np.ndarray:
     """Whether each residual row (R,) is a length (in the spec's unit; otherwise an angle in
     radians, or a custom constraint's own value)."""
-    from linkedit.gcs.constraints import LENGTH_KINDS
-
     out = np.zeros(system.n_rows, dtype=bool)
     for blk in system.blocks:
         out[blk.rows] = blk.kind in LENGTH_KINDS

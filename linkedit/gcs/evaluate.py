@@ -1,5 +1,5 @@
 """Batched evaluation: the residuals, Jacobians and time derivatives of B poses of one system
-at once, with the elementary kinds' kernels of :data:`linkedit.gcs.system.EVALUATE` run on B
+at once, with the elementary kinds' kernels of :data:`linkedit.gcs.kernels.EVALUATE` run on B
 times their constraints (member-major layouts), and poses moved and compared in the scaled
 local coordinates of the continuation (:meth:`State.moved`, :meth:`State.minus`) — for the
 waves (:mod:`linkedit.gcs.waves`)."""
@@ -13,10 +13,11 @@ import numpy as np
 from linkedit.gcs import constraints as kinds
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.continuation import Solver
-from linkedit.gcs.system import EVALUATE, Block, StepParameters, StepTable, System
+from linkedit.gcs.kernels import EVALUATE, Block, StepParameters
+from linkedit.gcs.system import StepTable, System
 
-#: the layouts of this many batch sizes, of at most KEPT_POSES poses, are kept on the system
-#: for its later runs (the last built)
+#: the layouts of this many batch sizes, of at most KEPT_POSES poses, are kept in the caller's
+#: cache for the system's later runs (the last built)
 KEPT_LAYOUTS, KEPT_POSES = 16, 1024
 
 
@@ -39,13 +40,13 @@ class BatchedEvaluation:
     system: System
     solver: Solver
     table: StepTable
-    #: layouts per batch size kept for the system's later runs, and this run's own (larger ones)
+    #: layouts per batch size kept for the system's later runs (the caller's cache), and this run's own (larger ones)
     _kept_layouts: dict[int, "_Layout"]
     _layouts: dict[int, "_Layout"]
 
     def _layout(self, B: int) -> "_Layout":
-        """What an evaluation of B poses needs that does not change between calls: kept on the
-        system for the :data:`KEPT_LAYOUTS` batch sizes of at most :data:`KEPT_POSES` poses last
+        """What an evaluation of B poses needs that does not change between calls: kept in the
+        caller's cache for the :data:`KEPT_LAYOUTS` batch sizes of at most :data:`KEPT_POSES` poses last
         built (a few MB at most), else for this run."""
         layouts = self._kept_layouts if B <= KEPT_POSES else self._layouts
         lay = layouts.get(B)

@@ -21,7 +21,8 @@ import numpy as np
 from linkedit.errors import InputError
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.inputs import Schedule, half_turn_keyframe
-from linkedit.gcs.system import WORLD, Custom, Elementary, State, System
+from linkedit.gcs.kernels import Custom
+from linkedit.gcs.system import WORLD, Elementary, State, System
 from linkedit.spec import mechanism3d as ms
 
 

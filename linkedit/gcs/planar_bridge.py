@@ -15,7 +15,7 @@ its slot at the stroke s(t) from its rest position. Each step is solved from the
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -24,13 +24,16 @@ from linkedit.errors import MechanismError
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.inputs import Schedule
 from linkedit.gcs.solve import Run, solve_run
+from linkedit.gcs.structure import StructureCache
 from linkedit.gcs.tolerances import CONVERGED, STATUS_NAMES, Options
 from linkedit.gcs.system import WORLD, Elementary, State, System
-from linkedit.planar.simulate import motor_input
+from linkedit.gcs.outputs import velocity
+from linkedit.planar.diagnostics import transmission_angle, triangle_orientation
+from linkedit.planar.simulate import DEFAULT_SAMPLES, Motion, Track, motor_angles, motor_input
 from linkedit.spec.linkage import JointTrack, LinkageSpec
 
 if TYPE_CHECKING:
-    from linkedit.planar import Motion, Plan
+    from linkedit.planar import Plan
 
 
 @dataclass(frozen=True)
@@ -45,6 +48,11 @@ class PlanarModel:
     track_names: list[str]
     track_member: np.ndarray  #: (K,) member carrying each tracked point, −1 on the ground
     track_point: np.ndarray  #: (K, 3)
+    #: what the waves compile for the system, kept for the model's later runs
+    cache: StructureCache = field(init=False, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cache", StructureCache(self.system))
 
 
 @dataclass
@@ -262,7 +270,7 @@ def simulate_numeric(spec: LinkageSpec, t: np.ndarray, options: Options | None =
         sweep = 360.0 if motor.range_deg is None else abs(motor.range_deg[1] - motor.range_deg[0])
     fine, keep = refined_phases(t, sweep)
     start = time.perf_counter()
-    run = solve_run(system, fine, options)
+    run = solve_run(system, fine, options, cache=model.cache)
     seconds = time.perf_counter() - start
     run = run.take(keep)
     value = motor_input(motor, t)  # the motor's turn from rest (radians) or the stroke (spec units)
@@ -296,10 +304,6 @@ def numeric_motion(plan: "Plan", samples: int | None = None) -> "Motion":
     revolution), not the closed-form derivatives of the symbolic engine. The singularity
     distance, transmission angle and triangle orientation are measured on the solved positions.
     """
-    from linkedit.gcs.outputs import velocity
-    from linkedit.planar.diagnostics import transmission_angle, triangle_orientation
-    from linkedit.planar.simulate import DEFAULT_SAMPLES, Motion, Track, motor_angles
-
     spec = plan.spec
     samples = samples or spec.samples or DEFAULT_SAMPLES
     t, angle = motor_angles(spec, samples)

@@ -25,6 +25,7 @@ from linkedit.gcs.accept import curving, within_motion
 from linkedit.gcs.acceleration import acceleration
 from linkedit.gcs.continuation import ARRIVED, Solver
 from linkedit.gcs.predict import PREDICT_ORDER, Pose
+from linkedit.gcs.structure import StructureCache
 from linkedit.gcs.system import State, StepTable, System
 from linkedit.gcs.tolerances import CONVERGED, NOT_CONVERGED, Options
 from linkedit.gcs.waves import SHORTEST, START, Waves
@@ -65,11 +66,18 @@ class Run:
 
 
 def solve_run(system: System, t: np.ndarray, options: Options | None = None, start: State | None = None,
-              table: StepTable | None = None, progress: Callable[[int, int], None] | None = None) -> Run:
+              table: StepTable | None = None, progress: Callable[[int, int], None] | None = None,
+              cache: StructureCache | None = None) -> Run:
     """Solve every time step of ``t`` (T,) by continuation from the first (module docstring),
     many steps at once where :mod:`linkedit.gcs.waves` applies (the same poses), BLAS on one
-    thread (:mod:`linkedit.blas`); ``progress(k, T)`` is called after each step."""
+    thread (:mod:`linkedit.blas`); ``progress(k, T)`` is called after each step. The system is
+    left as it was; what the waves compile for it is kept in ``cache`` (the caller's, for its
+    later runs of this system; a fresh one when None)."""
     t = np.asarray(t, dtype=float)
+    if cache is None:
+        cache = StructureCache(system)
+    elif cache.system is not system:
+        raise ValueError("the structure cache belongs to another system")
     # an input's window ending between two steps is solved at its edge too (not returned): the
     # member it leaves holds the input's last value there, whatever the steps
     edges = np.unique([e for blk in system.blocks for sc in blk.schedules for e in sc.window
@@ -77,19 +85,19 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
     edges = edges[~np.isin(edges, t)]
     if edges.size == 0 or not ((np.diff(t) > 0).all() or (np.diff(t) < 0).all()):
         with single_threaded():
-            return _solve_run(system, t, options, start, table, progress)
+            return _solve_run(system, t, options, start, table, progress, cache)
     full = np.sort(np.concatenate([t, edges]))
     full = full if t[-1] > t[0] else full[::-1]
     keep = np.flatnonzero(np.isin(full, t))
     where = {int(k): i for i, k in enumerate(keep)}
     told = None if progress is None else (lambda k, T: progress(where[k], t.size) if k in where else None)
     with single_threaded():
-        run = _solve_run(system, full, options, start, None, told)
+        run = _solve_run(system, full, options, start, None, told, cache)
     return run.take(keep[keep < run.t.size])
 
 
 def _solve_run(system: System, t: np.ndarray, options: Options | None, start: State | None,
-               table: StepTable | None, progress: Callable[[int, int], None] | None) -> Run:
+               table: StepTable | None, progress: Callable[[int, int], None] | None, cache: StructureCache) -> Run:
     options = options or Options()
     t = np.asarray(t, dtype=float)
     table = table or system.step_table(t)
@@ -108,7 +116,7 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
     solver.reference = rest
     # waves predict from the times of solved steps: they need them distinct, in one direction
     monotone = bool((np.diff(t) > 0).all() or (np.diff(t) < 0).all())
-    waves = Waves(solver, table) if options.waves and Waves.applies(solver) and monotone else None
+    waves = Waves(solver, table, cache) if options.waves and Waves.applies(solver, cache) and monotone else None
     batched = np.zeros(T, dtype=bool)
     classified = False  # whether J's free directions at a pose with every input active were read
     streak = 0  #: the first of the converged steps just before k

@@ -14,6 +14,7 @@ import scipy.sparse.csgraph
 from linkedit.gcs.closed_form import ClosedForm
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.evaluate import BatchedEvaluation, _Layout
+from linkedit.gcs.system import System
 from linkedit.gcs.tolerances import TIED
 
 #: a block solves steps STRIDE apart first (from extrapolation), then the ones between; the
@@ -59,8 +60,8 @@ class Jacobians:
 @dataclasses.dataclass
 class Compiled:
     """What batched evaluation of one system needs beyond the system itself, built at first
-    use and kept on it (:attr:`System.batched`) for every later run, as the system is compiled
-    once: the diagonal blocks of J that solve apart (``parts``: a planar linkage's in-plane
+    use and kept by the caller (:class:`StructureCache`) for its later runs of that system: the
+    diagonal blocks of J that solve apart (``parts``: a planar linkage's in-plane
     and out-of-plane unknowns; one block until a batch of :data:`SPLIT_FROM` poses was seen,
     ``decided``), the parts that stay still (``quiet``: their rows and time derivatives exactly
     zero, to :data:`TIED`, over the batch that found them, such as a planar linkage's
@@ -68,13 +69,12 @@ class Compiled:
     groups all of whose rows are (``skip``), per group where a pose's Jacobian entries go and
     their scales, where the blocks and the off-block slots end and which blocks each off-block
     slot ties (``places``, ``ends``, ``ties`` (S, 2): :meth:`Waves._place`), and the layouts
-    per batch size (:meth:`Waves._layout`); ``key``: a digest of what it was built from
-    (:meth:`System.digest`). Blocks a run's poses tie together are merged (:meth:`Waves._merge`).
-    A run changes a copy of its own and keeps a copy of that on the system after each block,
-    so that runs of one system in several threads do not see each other's halfway changes."""
+    per batch size (:meth:`Waves._layout`). Blocks a run's poses tie together are merged
+    (:meth:`Waves._merge`). A run changes a copy of its own and leaves a copy of that in the
+    cache after each block, so that runs of one system in several threads sharing a cache do not
+    see each other's halfway changes."""
 
     parts: list[Part]
-    key: bytes = b""
     decided: bool = False
     quiet: np.ndarray | None = None
     still: np.ndarray | None = None
@@ -89,6 +89,26 @@ class Compiled:
         """A copy to change (the layouts shared: each is never changed, only added or dropped)."""
         return dataclasses.replace(self, quiet=None if self.quiet is None else self.quiet.copy(),
                                    still=None if self.still is None else self.still.copy())
+
+
+class StructureCache:
+    """What solving one system compiles beyond the system — the waves' :class:`Compiled` and the
+    closed form's rules (:meth:`ClosedForm.compile`) — owned by the caller, who passes it to each
+    run of that system (``solve_run(system, t, cache=cache)``) so later runs start warm; the
+    system holds no solver state. It belongs to one system, unchanged since it was made (a
+    copy, or a system changed in place, needs a cache of its own)."""
+
+    def __init__(self, system: System) -> None:
+        self.system = system
+        #: the waves' compilation left by the last block solved (None: none yet)
+        self.waves: Compiled | None = None
+        self._closed: tuple[ClosedForm | None] | None = None  # compiled at first use
+
+    def closed_form(self) -> ClosedForm | None:
+        """The system's closed form (None: some member has none), compiled at first use."""
+        if self._closed is None:
+            self._closed = (ClosedForm.compile(self.system),)
+        return self._closed[0]
 
 
 class Blocks(BatchedEvaluation):

@@ -20,7 +20,7 @@ of steps can be solved together:
    between from the osculating polynomial through the rough poses around them (typically
    within 1e-10 of the size);
 3. Gauss–Newton on all of them as array operations to convergence: the elementary kinds'
-   kernels of :data:`linkedit.gcs.system.EVALUATE` run on B times their constraints, the
+   kernels of :data:`linkedit.gcs.kernels.EVALUATE` run on B times their constraints, the
    scaled Jacobians are placed straight from the kernels' arrays into dense blocks
    (B × rows × unknowns, one per diagonal block of J where it decouples, as a planar
    linkage's in-plane and out-of-plane unknowns do) and factorized by a batched Cholesky; a
@@ -42,14 +42,14 @@ parallel axes — planar linkages, in any plane — and links pinned between pla
 the rebuilt pose reproduces the solved one before the block (:meth:`ClosedForm.sides`), steps 1
 and 2 are replaced by the closed form's poses (exact to rounding: most converge at their first
 evaluation), in chunks, each up to the first step it cannot rebuild (a dyad that cannot close)
-or that the poses show would fail the acceptance test (:meth:`Waves._screened`: left to the
+or that the poses show would fail the acceptance test (:func:`~linkedit.gcs.rebuild.screened`: left to the
 continuation, not solved in vain); steps 3 and 4 are as above, so a closed form that misleads
 costs time, never a result.
 
 **A free direction** (one passive degree of freedom: J has rank N − 1, such as an RSSR
 coupler's idle spin): the corrections are least norm (nothing along J's null vector, taken by
 inverse iteration as the continuation does), and the steps are moved along their null vectors
-to their canonical pose, the one nearest the rest pose (:meth:`Waves.canonical`: the
+to their canonical pose, the one nearest the rest pose (:func:`~linkedit.gcs.free.canonical`: the
 continuation's Newton step of :mod:`linkedit.gcs.canonical`, for all of them at once, then
 solved again: converging quadratically over a few passes), with its velocity the canonical
 pose's tangent; the acceptance test adds that the last move is at most ``still_tol``. The rough
@@ -60,7 +60,7 @@ What this needs beyond the system — J's diagonal blocks and the parts that sta
 before the first wave from :data:`SPLIT_FROM` poses along the tangent of the last solved one,
 :meth:`Waves._survey`, or else from the first batch of as many), where each Jacobian entry
 goes, the layouts per batch size — is built at a system's first run and kept on it for the
-later ones (:attr:`System.batched`), as the system itself is compiled once. They are guesses
+later ones in the caller's :class:`~linkedit.gcs.structure.StructureCache`, as the system itself is compiled once. They are guesses
 that cost time only when wrong (every solved step is checked on every row and pivot, and on J
 zero off its blocks) and they correct themselves: blocks that a run's solved poses tie
 (entries off them beyond rounding, :data:`TIED`) are merged from its next block on, and still
@@ -74,7 +74,7 @@ Steps with an input outside its window, systems with custom constraints, more fr
 directions, and runs that ask for accelerations go step by step; so do systems with the sparse
 factorization (above 120 unknowns) unless the closed form rebuilds them: their rebuilt poses
 are then evaluated together and each factorized as the continuation's step is
-(:meth:`Waves.verify`), instead of step 3.
+(:func:`~linkedit.gcs.rebuild.verify`), instead of step 3.
 """
 
 from __future__ import annotations
@@ -84,15 +84,14 @@ import dataclasses
 import numpy as np
 
 from linkedit.gcs import accept
-from linkedit.gcs import canonical as canon
-from linkedit.gcs.acceleration import advanced
-from linkedit.gcs.closed_form import ClosedForm
 from linkedit.gcs.continuation import Solver
 from linkedit.gcs.evaluate import KEPT_POSES, _Layout
 from linkedit.gcs.factors import BatchedFactors, Factors
+from linkedit.gcs.free import canonical
 from linkedit.gcs.predict import NODES, Extrapolation, flat, lagrange
-from linkedit.gcs.structure import SPLIT_FROM, STRIDE, WIDEST_STRIDE, Compiled, Jacobians, Part, _take
-from linkedit.gcs.system import Evaluation, State, StepTable
+from linkedit.gcs.rebuild import screened, verify
+from linkedit.gcs.structure import SPLIT_FROM, STRIDE, WIDEST_STRIDE, Compiled, Part, StructureCache, _take
+from linkedit.gcs.system import StepTable
 
 #: steps of a block after a rejected step (doubling after each block accepted whole); the
 #: first block is the whole run
@@ -105,7 +104,7 @@ WIDEST = 16
 #: be predicted from
 CORRECTIONS = 2
 ROUGH = 1e-4
-#: passes moving the poses to their canonical pose along a free direction (:meth:`Waves.canonical`)
+#: passes moving the poses to their canonical pose along a free direction (:func:`~linkedit.gcs.free.canonical`)
 CANONICAL_PASSES = 4
 #: the largest prediction error (scaled) a wave's width aims for, and the first prediction
 #: error of a wave below which the spacing doubles and above which it halves; where J has a
@@ -140,7 +139,7 @@ class Solved:
     velocity: np.ndarray
     work: np.ndarray
     accepted: int
-    #: the rank of J at each step where it was read pose by pose (:meth:`Waves.verify`), else
+    #: the rank of J at each step where it was read pose by pose (:func:`~linkedit.gcs.rebuild.verify`), else
     #: None (full column rank less the free directions)
     rank: np.ndarray | None = None
 
@@ -148,20 +147,17 @@ class Solved:
 class Waves(Extrapolation, BatchedFactors):
     """Batched evaluation and solution of one system over a step table (module docstring)."""
 
-    def __init__(self, solver: Solver, table: StepTable) -> None:
+    def __init__(self, solver: Solver, table: StepTable, cache: StructureCache) -> None:
         self.solver = solver
         self.system = solver.system
         self.table = table
-        s = self.system
-        kept, key = s.batched.get("waves"), s.digest()
-        # (a system copied or changed in place since keeps what its first run compiled: not used)
-        if kept is not None and kept.key == key:
-            self.compiled = kept.copy()
-        else:
-            self.compiled = Compiled([self._whole()], key, closed=ClosedForm.of(s))
+        #: the caller's cache: what earlier runs compiled, and where this run leaves a copy of its own
+        self.cache = cache
+        kept = cache.waves
+        self.compiled = kept.copy() if kept is not None else Compiled([self._whole()], closed=cache.closed_form())
         #: the closed form predicting this run's poses (None: the waves' own predictions)
         self.closed = self.compiled.closed
-        #: layouts of more poses than are kept on the system, for this run
+        #: layouts of more poses than the cache keeps, for this run
         self._layouts: dict[int, _Layout] = {}
         self._kept_layouts = self.compiled.layouts
         #: pairs of blocks (K, 2) that Jacobian entries of this run's poses tied: merged before
@@ -176,12 +172,12 @@ class Waves(Extrapolation, BatchedFactors):
 
 
     @staticmethod
-    def applies(solver: Solver) -> bool:
+    def applies(solver: Solver, cache: StructureCache) -> bool:
         """Whether the system's structure allows waves (see the module docstring; the rank is
         checked at the first pose by the caller)."""
         o, s, normal = solver.options, solver.system, solver.normal
         return (o.solver == "lm" and not o.accelerations and not s.customs
-                and (normal.unique_entries if not normal.sparse else ClosedForm.of(s) is not None))
+                and (normal.unique_entries if not normal.sparse else cache.closed_form() is not None))
 
     # ---- batched evaluation ---------------------------------------------------------------
 
@@ -196,14 +192,14 @@ class Waves(Extrapolation, BatchedFactors):
         the poses before them (where J has a free direction, the polynomial through
         :data:`VALUES` poses); then all of them at once, the steps between from the polynomial
         through the poses around them, and where J has a free direction, passes moving them to
-        their canonical pose (:meth:`canonical`, converging quadratically: at most
+        their canonical pose  (:func:`~linkedit.gcs.free.canonical`, converging quadratically: at most
         :data:`CANONICAL_PASSES`); then the continuation's acceptance test."""
         col, M = self.solver.col, self.system.n_members
         if self.solver.normal.sparse:  # the closed form's poses, or none
             rebuilt = self.rebuilt(k, stop, pos, ori, vel) if self.closed is not None else None
             return rebuilt or Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
                                      np.zeros((0, self.system.n_unknowns)), np.zeros((0, 2), dtype=np.int32), 0)
-        if self.tied.size:  # the blocks kept on the system do not hold for this run's poses
+        if self.tied.size:  # the blocks kept in the cache do not hold for this run's poses
             self._merge()
         if not self.compiled.decided and not self.free and np.abs(vel[k - 1]).max() > 0.0:
             self._survey(pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col, k - 1)
@@ -271,7 +267,7 @@ class Waves(Extrapolation, BatchedFactors):
             far = (reach / max(error, 1e-16)) ** 0.2 * (1 if error > high else 0.5 if error < low else 1)
             width = int(np.clip(far, 1, WIDEST))
         if not coarse:
-            self.system.batched["waves"] = self.compiled.copy()
+            self.cache.waves = self.compiled.copy()
             return Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
                           np.zeros((0, self.system.n_unknowns)), np.zeros((0, 2), dtype=np.int32), 0)
         at = np.concatenate(coarse) - k
@@ -294,7 +290,7 @@ class Waves(Extrapolation, BatchedFactors):
         for i in range(CANONICAL_PASSES if self.free else 0):
             # the free direction moved to the canonical pose, then solved again there (until
             # the move is at most still_tol; the velocities the canonical pose's tangent)
-            V, move = self.canonical(P, Q, V, steps)
+            V, move = canonical(self, P, Q, V, steps)
             if np.abs(move).max() <= self.solver.options.still_tol or i == CANONICAL_PASSES - 1:
                 # the last moves need no correction (the constraints change by |move|²)
                 last = np.abs(move).max(axis=1) <= self.solver.options.still_tol
@@ -307,7 +303,7 @@ class Waves(Extrapolation, BatchedFactors):
             work += again
         before = (pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col)
         n = self.accepted(P, Q, V, ok, steps, before, float(t[k - 1]))
-        self.system.batched["waves"] = self.compiled.copy()  # for later runs (Compiled)
+        self.cache.waves = self.compiled.copy()  # for later runs (Compiled)
         return Solved(P, Q, R, V, work, n)
 
     def rebuilt(self, k: int, stop: int, pos: np.ndarray, ori: np.ndarray, vel: np.ndarray) -> Solved | None:
@@ -316,7 +312,7 @@ class Waves(Extrapolation, BatchedFactors):
         chunks (a dense system's of :data:`KEPT_POSES` steps; a sparse one's, each pose
         factorized, of :data:`CHUNK`)
         up to the first step it cannot rebuild, that fails the acceptance test, or that clearly
-        would (:meth:`_screened`: no pose is solved in vain); None where it solves none — or
+        would (:func:`~linkedit.gcs.rebuild.screened`: no pose is solved in vain); None where it solves none — or
         does not reproduce the solved pose k − 1 (:meth:`ClosedForm.sides`): its rules do not
         hold for this mechanism (this run's later blocks and the system's later runs go
         without it)."""
@@ -335,12 +331,12 @@ class Waves(Extrapolation, BatchedFactors):
         while here < stop:
             steps = np.arange(here, min(stop, here + chunk))
             P, Q, valid = closed.poses(self.table, steps, before[1], signs)
-            n = self._screened(P, Q, valid, steps, before, t_before)
+            n = screened(self, P, Q, valid, steps, before, t_before)
             if n == 0:
                 break
             steps, P, Q = steps[:n], P[:n], Q[:n]
             if sparse:
-                R, V, work, ok, rank = self.verify(P, Q, steps, before[2])
+                R, V, work, ok, rank = verify(self, P, Q, steps, before[2])
             else:
                 R, V, work, ok, _ = self.solve(P, Q, steps)
             a = self.accepted(P, Q, V, ok, steps, before, t_before)
@@ -352,104 +348,16 @@ class Waves(Extrapolation, BatchedFactors):
             before, t_before, here = (P[-1], Q[-1], V[-1]), float(t[steps[-1]]), int(steps[-1]) + 1
         if not kept:
             return None
-        self.system.batched["waves"] = self.compiled.copy()  # for later runs (Compiled)
+        self.cache.waves = self.compiled.copy()  # for later runs (Compiled)
         P, Q, R, V, work = (np.concatenate([part[i] for part in kept]) for i in range(5))
         return Solved(P, Q, R, V, work, len(P), np.concatenate(ranks) if sparse else None)
-
-    def _screened(self, P: np.ndarray, Q: np.ndarray, valid: np.ndarray, steps: np.ndarray,
-                  before: tuple[np.ndarray, np.ndarray, np.ndarray], t_before: float) -> int:
-        """How many of the closed form's consecutive poses P (B, M, 3), Q (B, M, 4) at the
-        table's ``steps`` (B,), after the solved pose ``before`` (position, quaternions, scaled
-        velocity) at ``t_before``, are rebuilt (``valid`` (B,)) and pass the acceptance test
-        (:meth:`accepted`) with the velocity before each taken from the poses around it
-        (secant over two steps; the first's exact): a step that fails it so is left to the
-        continuation, not factorized first (the test proper comes after the solve)."""
-        opt = self.solver.options
-        n = accept.leading(valid)
-        if n == 0:
-            return 0
-        P0 = np.concatenate([before[0][None], P[:n - 1]])
-        Q0 = np.concatenate([before[1][None], Q[:n - 1]])
-        moved = self.displacement(P[:n], Q[:n], P0, Q0)  # (n, N)
-        h = np.diff(np.concatenate([[t_before], self.table.t[steps[:n]]]))
-        v = np.empty_like(moved)
-        v[0] = before[2]
-        v[1:] = (moved[:-1] + moved[1:]) / (h[:-1] + h[1:])[:, None]
-        return accept.leading(accept.passes(moved, h, v, opt))
-
-    def verify(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
-               incoming: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The closed form's poses P (B, M, 3), Q (B, M, 4) at the table's ``steps`` (B,) of a
-        system with the sparse factorization: residuals and Jacobians evaluated for all at
-        once, then each pose that converged as it is (largest scaled residual row ≤ ``tol``)
-        linearized, factorized and given its exact velocity as the continuation's step does
-        (:meth:`Solver.linearize`: the same pivots, null space and rank). Returns the residuals
-        (B, R), scaled velocities (B, N), linear solves and factorizations (B, 2), whether each
-        is solved with no free direction (B,), and J's rank (B,) (−1 where the pivots cannot
-        tell, as for the continuation's steps). At a singular pose (a change point) the velocity
-        is the one nearest the step's before (``incoming``, scaled (N,): the solved pose's
-        before the first), as the continuation's (:meth:`Linear.continued`)."""
-        solver, B = self.solver, len(steps)
-        r, jacs = self.evaluate(P, Q, steps, True)
-        rt = self.time_derivative(Q, steps, jacs)
-        velocity = np.zeros((B, self.system.n_unknowns))
-        work = np.zeros((B, 2), dtype=np.int32)
-        ok = np.abs(r * solver.row).max(axis=1) <= solver.options.tol
-        rank = np.full(B, -1)
-        for b in np.flatnonzero(ok):
-            ev = Evaluation(r[b], [J[b] for J in jacs if J is not None])
-            linear = solver.linearize(State(P[b], Q[b]), self.table, int(steps[b]), ev)
-            velocity[b] = incoming = linear.continued(-rt[b] * solver.row, incoming)
-            ok[b], rank[b] = linear.null is None, linear.rank
-            work[b] = 1
-        return r, velocity, work, ok, rank
-
-    def canonical(self, P: np.ndarray, Q: np.ndarray, v0: np.ndarray, steps: np.ndarray,
-                  known: tuple["Jacobians", "Factors"] | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """For B solved poses (P (B, M, 3), Q (B, M, 4)) with one free direction, at the table's
-        ``steps`` (B,), with least-norm scaled velocities v0 (B, N): the canonical pose's
-        velocities (B, N) and the Newton moves (B, N) along J's null vectors towards it
-        (:mod:`linkedit.gcs.canonical`; zero at the canonical pose), as the continuation's
-        :meth:`Solver.canonical` and :meth:`Solver.velocity` take them; J and its
-        factorization at the poses are evaluated, or ``known`` (a rough pose's, nearby)."""
-        if known is None:
-            J = self.jacobian(self.evaluate(P, Q, steps, True)[1])
-            F = self._factor(J)
-        else:
-            J, F = known
-        assert F.null is not None
-        n = F.null
-        B = len(steps)
-        ref = self.solver.reference
-        d = self.displacement(P, Q, np.broadcast_to(ref.position, P.shape), np.broadcast_to(ref.orientation, Q.shape))
-        # λ = J⁺ᵀ d, block by block
-        flat = d - n * (n * d).sum(axis=1)[:, None]
-        y = self.least_norm(F, [flat[:, p.cols] for p in F.parts])
-        lam = [(Jp @ y[:, p.cols, None])[..., 0] for p, Jp in zip(F.parts, J.blocks)]
-        # λᵀ J̇ n by central differences along n, then along v0 with the inputs advanced in
-        # time, all 4B poses in one evaluation
-        hn = np.full(B, canon.STEP)
-        hv = canon.STEP / np.maximum(1.0, np.abs(v0).max(axis=1))
-        h = np.concatenate([hn, -hn, hv, -hv])
-        moves = np.concatenate([n, n, v0, v0]) * h[:, None]
-        four = np.tile(steps, 4)
-        Pm, Qm = self.moved(np.tile(P, (4, 1, 1)), np.tile(Q, (4, 1, 1)), moves)
-        tab = advanced(self.table, four, np.concatenate([0.0 * hn, 0.0 * hn, hv, -hv]))
-        Jm = self.jacobian(self.evaluate(Pm, Qm, np.arange(4 * B), True, table=tab)[1])
-        n4 = np.tile(n, (4, 1))
-        seen = sum(((np.tile(lp, (4, 1))[:, :, None] * Jp).sum(axis=1) * n4[:, p.cols]).sum(axis=1)
-                   for lp, p, Jp in zip(lam, J.parts, Jm.blocks)).reshape(4, B)
-        null = n[:, :, None]
-        G = canon.hessian(null, d, ((seen[0] - seen[1]) / (2 * hn))[:, None, None])
-        velocity = canon.velocity(v0, null, d, G, ((seen[2] - seen[3]) / (2 * hv))[:, None])
-        return velocity, canon.step(null, d, G)
 
     def correct(self, P: np.ndarray, Q: np.ndarray, steps: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
         """Rough poses at the table's ``steps`` (B,) from predictions P (B, M, 3), Q (B, M, 4)
         (moved in place), good enough to predict from: :data:`CORRECTIONS` least-norm
         Gauss–Newton steps (the error after each about the square of the one before); where J
         has a free direction, then one Newton step along it towards the canonical pose
-        (:meth:`canonical`, with the last linearization). Returns the scaled velocities (B, N)
+         (:func:`~linkedit.gcs.free.canonical`, with the last linearization). Returns the scaled velocities (B, N)
         at the last linearization (exact to about the size of the last correction), the first
         pose's prediction error (its first correction, or its move along the free direction),
         and which poses are good (B,): a sound factorization (:meth:`_factor`) and a last
@@ -473,7 +381,7 @@ class Waves(Extrapolation, BatchedFactors):
             P[:], Q[:] = self.moved(P, Q, step)
         velocity = self.least_norm(F, self._gradient(J, -rt * row))
         if F.null is not None:  # along the free direction, the canonical pose and its tangent
-            velocity, move = self.canonical(P, Q, velocity, steps, (J, F))
+            velocity, move = canonical(self, P, Q, velocity, steps, (J, F))
             P[:], Q[:] = self.moved(P, Q, move)
             # the prediction's error along it; a Newton move leaves about its square
             along = np.abs(move).max(axis=1)

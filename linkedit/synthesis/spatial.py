@@ -37,8 +37,9 @@ from linkedit.curves.descriptors import describe
 from linkedit.curves.distance import term_distances, weighted
 from linkedit.curves.sources import Curve
 from linkedit.errors import InputError, MechanismError
-from linkedit.gcs import GcsResult, check_solved, solve_spec, write_result
+from linkedit.gcs import GcsResult, check_solved, solve_spec
 from linkedit.io.atomic import write_text
+from linkedit.io.gcs_hdf5 import write_result
 from linkedit.planar.feasibility import works
 from linkedit.spec.mechanism3d import MAX_COORDINATE, MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate

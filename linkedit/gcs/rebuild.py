@@ -1,0 +1,61 @@
+"""The closed form's poses checked before and after they are solved in a wave
+(:mod:`linkedit.gcs.closed_form`): which would pass the acceptance test (:func:`screened`), and
+a sparse system's poses factorized one by one as the continuation's steps are (:func:`verify`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from linkedit.gcs import accept
+from linkedit.gcs.factors import BatchedFactors
+from linkedit.gcs.system import Evaluation, State
+
+
+def screened(batch: BatchedFactors, P: np.ndarray, Q: np.ndarray, valid: np.ndarray, steps: np.ndarray,
+              before: tuple[np.ndarray, np.ndarray, np.ndarray], t_before: float) -> int:
+    """How many of the closed form's consecutive poses P (B, M, 3), Q (B, M, 4) at the
+    table's ``steps`` (B,), after the solved pose ``before`` (position, quaternions, scaled
+    velocity) at ``t_before``, are rebuilt (``valid`` (B,)) and pass the acceptance test
+    (:meth:`Waves.accepted`) with the velocity before each taken from the poses around it
+    (secant over two steps; the first's exact): a step that fails it so is left to the
+    continuation, not factorized first (the test proper comes after the solve)."""
+    opt = batch.solver.options
+    n = accept.leading(valid)
+    if n == 0:
+        return 0
+    P0 = np.concatenate([before[0][None], P[:n - 1]])
+    Q0 = np.concatenate([before[1][None], Q[:n - 1]])
+    moved = batch.displacement(P[:n], Q[:n], P0, Q0)  # (n, N)
+    h = np.diff(np.concatenate([[t_before], batch.table.t[steps[:n]]]))
+    v = np.empty_like(moved)
+    v[0] = before[2]
+    v[1:] = (moved[:-1] + moved[1:]) / (h[:-1] + h[1:])[:, None]
+    return accept.leading(accept.passes(moved, h, v, opt))
+
+
+def verify(batch: BatchedFactors, P: np.ndarray, Q: np.ndarray, steps: np.ndarray,
+           incoming: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The closed form's poses P (B, M, 3), Q (B, M, 4) at the table's ``steps`` (B,) of a
+    system with the sparse factorization: residuals and Jacobians evaluated for all at
+    once, then each pose that converged as it is (largest scaled residual row ≤ ``tol``)
+    linearized, factorized and given its exact velocity as the continuation's step does
+    (:meth:`Solver.linearize`: the same pivots, null space and rank). Returns the residuals
+    (B, R), scaled velocities (B, N), linear solves and factorizations (B, 2), whether each
+    is solved with no free direction (B,), and J's rank (B,) (−1 where the pivots cannot
+    tell, as for the continuation's steps). At a singular pose (a change point) the velocity
+    is the one nearest the step's before (``incoming``, scaled (N,): the solved pose's
+    before the first), as the continuation's (:meth:`Linear.continued`)."""
+    solver, B = batch.solver, len(steps)
+    r, jacs = batch.evaluate(P, Q, steps, True)
+    rt = batch.time_derivative(Q, steps, jacs)
+    velocity = np.zeros((B, batch.system.n_unknowns))
+    work = np.zeros((B, 2), dtype=np.int32)
+    ok = np.abs(r * solver.row).max(axis=1) <= solver.options.tol
+    rank = np.full(B, -1)
+    for b in np.flatnonzero(ok):
+        ev = Evaluation(r[b], [J[b] for J in jacs if J is not None])
+        linear = solver.linearize(State(P[b], Q[b]), batch.table, int(steps[b]), ev)
+        velocity[b] = incoming = linear.continued(-rt[b] * solver.row, incoming)
+        ok[b], rank[b] = linear.null is None, linear.rank
+        work[b] = 1
+    return r, velocity, work, ok, rank
