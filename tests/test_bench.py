@@ -15,6 +15,9 @@ def test_bench_section_prints_figures(run_cli, section):
     assert r.exit_code == 0, r.output
     assert f"== {section}" in r.output
     assert re.search(r"\d+\.\d+", r.output)
+    if section == "synthesis":  # issue 23 §4: the spatial held-out rows, each family's, solved by solve3d
+        rows = re.findall(r"^  (spherical-four-bar|rssr) #1 .* % \(.*\) +\d+\.\d+$", r.output, re.MULTILINE)
+        assert rows == ["spherical-four-bar", "rssr"], r.output
 
 
 def test_unknown_section_exit_2(run_cli):

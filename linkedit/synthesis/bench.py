@@ -21,7 +21,9 @@
   Scotch-yoke-driven coupler point) synthesized against atlases of their specs (:func:`spec_families`);
 * precision points (6–25, drawn unevenly from held-out four-bars' curves): ours with ``--points`` against the
   same points synthesized as a curve and the generating linkage, by the mean point-to-curve distance over the
-  points' RMS radius, with CPU seconds.
+  points' RMS radius, with CPU seconds;
+* spatial targets (:func:`spatial`): held-out spherical four-bar and RSSR curves, turned, scaled and moved, synthesized
+  against an atlas of both families, with the error as placed, refined and of ``result.yaml`` solved by ``solve3d``.
 """
 
 from __future__ import annotations
@@ -245,13 +247,17 @@ def held_out_targets(per_family: int = 2) -> dict[str, tuple[np.ndarray, bool]]:
     return out
 
 
+def arrays(name: str, count: int, text: str | None = None) -> dict[str, np.ndarray]:
+    """An atlas's arrays of ``count`` linkages (seed 1) of family ``name`` (``text``: its spec, for a family made
+    from one), built in memory chunk by chunk."""
+    built = [atlas.build_chunk(name, 1, i, size, text) for i, size in atlas.chunk_sizes(count)]
+    return {key: np.concatenate([getattr(c, key) for c in built]) for key in ("params", "min_ds", "index", "curves")}
+
+
 def spec_atlas(path: Path, count: int) -> atlas.Atlas:
     """An in-memory atlas of ``count`` linkages (seed 1) of the family made from the linkage spec at ``path``."""
     name = families.spec_family(path)
-    text = families.SPEC_TEXTS[name]
-    built = [atlas.build_chunk(name, 1, i, size, text) for i, size in atlas.chunk_sizes(count)]
-    arrays = {key: np.concatenate([getattr(c, key) for c in built]) for key in ("params", "min_ds", "index", "curves")}
-    return atlas.Atlas(Path("memory"), {name: arrays}, 1)
+    return atlas.Atlas(Path("memory"), {name: arrays(name, count, families.SPEC_TEXTS[name])}, 1)
 
 
 def quality(echo: Callable[[str], None], four_bars: atlas.Atlas, index: Index, every: atlas.Atlas, quick: bool) -> None:
@@ -423,11 +429,10 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
     every = atlas.Atlas(Path("memory"), dict(book.families), 1)
     for name in _planar():
         if name != "four-bar":
-            built = [atlas.build_chunk(name, 1, i, size) for i, size in atlas.chunk_sizes(2_000 if quick else 20_000)]
-            every.families[name] = {key: np.concatenate([getattr(c, key) for c in built])
-                                    for key in ("params", "min_ds", "index", "curves")}
+            every.families[name] = arrays(name, 2_000 if quick else 20_000)
     quality(echo, book, index, every, quick)
     spec_families(echo, quick)
+    spatial(echo, quick)
 
 
 def spec_families(echo: Callable[[str], None], quick: bool) -> None:
@@ -440,10 +445,8 @@ def spec_families(echo: Callable[[str], None], quick: bool) -> None:
         text = example.text()
         fam = families.from_spec_text(example.build().name, text)
         t0, c0 = time.perf_counter(), time.process_time()
-        built = [atlas.build_chunk(fam.NAME, 1, i, size, text) for i, size in atlas.chunk_sizes(count)]
+        book = atlas.Atlas(Path("memory"), {fam.NAME: arrays(fam.NAME, count, text)}, 1)
         rate, cpu = count / (time.perf_counter() - t0), count / (time.process_time() - c0)
-        book = atlas.Atlas(Path("memory"), {fam.NAME: {key: np.concatenate([getattr(c, key) for c in built])
-                                                       for key in ("params", "min_ds", "index", "curves")}}, 1)
         row = atlas.build_chunk(fam.NAME, 987, 0, 1, text).params[0]
         z = 3 + 1j + 40 * np.exp(0.4j) * fam.curves(row[None], 256, 0.13)[0]
         curve = make_curve("target", np.stack([z.real, z.imag], axis=1), closed=True, origin="bench",
@@ -454,3 +457,42 @@ def spec_families(echo: Callable[[str], None], quick: bool) -> None:
         echo(f"spec family {file}: atlas build {rate:,.0f} linkages/s in-process ({cpu:,.0f} per CPU second, {count:,}); a held-out design's "
              f"path with --timing: {100 * timed[0]:.3g} % RMS ({100 * timed[1]:.3g} % max) at the target's times, "
              f"{time.perf_counter() - t0:.1f} s")
+
+
+#: The spatial families (``atlas build --family spherical-four-bar,rssr``) and the error the bench aims at.
+SPATIAL = ("spherical-four-bar", "rssr")
+SPATIAL_TARGET = 0.01  # normalized RMS
+
+
+def spatial(echo: Callable[[str], None], quick: bool) -> None:
+    """Held-out spatial curves: linkages of each spatial family drawn with another seed (987) than the atlas's,
+    turned by a random rotation, scaled and moved, synthesized (:func:`~linkedit.synthesis.spatial.synthesize3d`,
+    as ``linkedit synthesize target3d.csv``) against an in-memory atlas of both families; per target the found
+    family, the normalized RMS (max) error as placed from the atlas, refined, and of ``result.yaml`` solved by
+    ``solve3d``'s solver (what the CLI reports), and CPU seconds."""
+    from scipy.spatial.transform import Rotation
+
+    from linkedit.synthesis.spatial import synthesize3d
+
+    count, top, per_family = (1_500, 1, 1) if quick else (6_000, 5, 4)
+    book = atlas.Atlas(Path("memory"), {name: arrays(name, count) for name in SPATIAL}, 1)
+    echo(f"spatial targets, --top {top}, against {count:,} linkages of each of {', '.join(SPATIAL)} (held-out "
+         f"linkages, seed 987, turned, scaled ×25, moved; normalized RMS (max) error, target ≤ "
+         f"{100 * SPATIAL_TARGET:g} % RMS; solved: result.yaml by solve3d, as the CLI reports it):")
+    echo(f"  {'target':<24s} {'found':<19s} {'as placed':>17s}   {'refined':>17s}   {'solved':>17s}  CPU s")
+    worst = 0.0
+    for name in SPATIAL:
+        fam = families.family(name)
+        for k, row in enumerate(atlas.build_chunk(name, 987, 0, per_family).params):
+            matrix = Rotation.random(random_state=k).as_matrix()
+            points = np.array([40.0, -12.0, 7.0]) + 25.0 * fam.curves(row[None], 240, 0.3 + 0.2 * k)[0] @ matrix.T
+            target = make_curve(name, points, closed=True, origin="bench")
+            cpu = time.process_time()
+            result = synthesize3d(target, book, top=top)
+            cpu = time.process_time() - cpu
+            best, worst = result.best, max(worst, result.error[0])
+            echo(f"  {f'{name} #{k + 1}':<24s} {best.family:<19s} " + "   ".join(
+                f"{100 * e[0]:7.3f} % ({100 * e[1]:5.2f} %)" for e in (best.before, best.after, result.error)) +
+                f"  {cpu:5.2f}")
+    echo(f"  worst solved RMS {100 * worst:.3f} % ({'within' if worst <= SPATIAL_TARGET else 'ABOVE'} the "
+         f"{100 * SPATIAL_TARGET:g} % target)")
