@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import dataclasses
 import errno
 import hashlib
 import os
@@ -37,8 +38,34 @@ DISK_FULL = {errno.ENOSPC: "no space left", errno.EFBIG: "file size limit reache
 _PENDING: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar("pending", default=None)
 #: folders the writes of the enclosing :func:`together` block created (removed again, if empty, when it fails)
 _MADE: contextvars.ContextVar[list[Path] | None] = contextvars.ContextVar("made", default=None)
-#: releases of the :func:`locked` targets held until the outermost :func:`together` block ends.
-_HELD: contextvars.ContextVar[list[Callable[[], None]] | None] = contextvars.ContextVar("held", default=None)
+
+
+@dataclasses.dataclass
+class _Held:
+    """A lock taken inside :func:`together`: its release, and whether its update is written (its :func:`locked`
+    block ended; :func:`hold`'s lock stays until the block ends)."""
+
+    release: Callable[[], None]
+    written: bool = False
+
+
+@dataclasses.dataclass
+class _Locks:
+    """The locks taken inside the outermost :func:`together` block, whose renames wait in ``pending``."""
+
+    pending: list[tuple[Path, Path]]
+    held: list[_Held] = dataclasses.field(default_factory=list)
+
+    def release(self, written_only: bool) -> None:
+        """Release the locks (last taken first), or only those of written updates (their renames are done)."""
+        for lock in reversed(self.held):
+            if lock.written or not written_only:
+                lock.release()
+        self.held = [lock for lock in self.held if written_only and not lock.written]
+
+
+#: the locks of the outermost :func:`together` block, released after the renames of the writes they guard.
+_HELD: contextvars.ContextVar[_Locks | None] = contextvars.ContextVar("held", default=None)
 #: Seconds a writer waits for another process's lock on the same target before it gives up.
 LOCK_WAIT = 2.0
 
@@ -76,7 +103,7 @@ def together() -> Iterator[None]:
     token = _PENDING.set(pending)
     made: list[Path] = []
     made_token = _MADE.set(made)
-    held = _HELD.set([]) if outer is None else None
+    held = _HELD.set(_Locks(pending)) if outer is None else None
     try:
         try:
             yield
@@ -94,17 +121,23 @@ def together() -> Iterator[None]:
         _commit(pending)
     finally:
         if held is not None:  # the locks of the block's in-place updates, after their renames
-            for release in reversed(_HELD.get() or []):
-                release()
+            locks = _HELD.get()
+            if locks is not None:
+                locks.release(written_only=False)
             _HELD.reset(held)
 
 
 def commit() -> None:
     """Rename the writes of the enclosing :func:`together` blocks now (for a run that fails after
-    writing results it wants kept, e.g. an edit that stops at its last working linkage)."""
+    writing results it wants kept, e.g. an edit that stops at its last working linkage). In the
+    outermost block every write made so far is then in place: the locks of the updates written
+    (their :func:`locked` blocks ended) are released, so the run may update those files again."""
     pending = _PENDING.get()
     if pending:
         _commit(pending)
+    locks = _HELD.get()
+    if locks is not None and locks.pending is pending:
+        locks.release(written_only=True)
 
 
 def _commit(pending: list[tuple[Path, Path]]) -> None:
@@ -178,12 +211,17 @@ def locked(target: str | Path, wait: float | None = None) -> Iterator[None]:
     """Hold ``target`` for a read-modify-write (an atlas appended to, a result updated in place): an
     exclusive ``flock`` on ``.<name>.lock`` beside it, which records the holder's process ID. Another
     process holding it is waited for ``wait`` seconds (:data:`LOCK_WAIT`), then InputError (exit 2) naming it. Inside
-    :func:`together` the lock is kept until the block's renames are done (an update is read and
-    replaced under one lock); the lock file is removed when released.
+    :func:`together` the lock is kept until the renames of the block's writes are done (by the block's end, or
+    :func:`commit`): an update is read and replaced under one lock. It is not re-entrant: the same run updating
+    the file again before that would read it without the first update, and is refused like another process.
+    The lock file is removed when released.
     """
-    if _HELD.get() is not None:
-        hold(target, wait)
+    locks = _HELD.get()
+    if locks is not None:
+        lock = _Held(_lock(Path(target), LOCK_WAIT if wait is None else wait))
+        locks.held.append(lock)
         yield
+        lock.written = True
         return
     release = _lock(Path(target), LOCK_WAIT if wait is None else wait)
     try:
@@ -195,10 +233,10 @@ def locked(target: str | Path, wait: float | None = None) -> Iterator[None]:
 def hold(target: str | Path, wait: float | None = None) -> None:
     """Take ``target``'s lock (see :func:`locked`) until the enclosing :func:`together` block has
     renamed its writes: for a command that reads a file and replaces it (``solve3d --from R.h5``)."""
-    held = _HELD.get()
-    if held is None:
+    locks = _HELD.get()
+    if locks is None:
         raise RuntimeError("hold() needs an enclosing together() block")
-    held.append(_lock(Path(target), LOCK_WAIT if wait is None else wait))
+    locks.held.append(_Held(_lock(Path(target), LOCK_WAIT if wait is None else wait)))
 
 
 def _lock(target: Path, wait: float) -> Callable[[], None]:

@@ -3,10 +3,12 @@
 A target of precision points is not a polygon: its error is, for each point, the distance to the
 closest point of the linkage's whole curve (free timing), normalized by the points' RMS radius about
 their centroid. The closest point is found on the curve sampled densely (:data:`DENSE` samples per
-cycle), then refined on the crank phase by parabolas through three samples of the squared distance
-(twice, the second ``FINER`` times narrower) and the curve evaluated there, so the distance is exact
-to rounding. The atlas search places each candidate on the points by a similarity fit to its closest
-samples (iterated, 12 start rotations, mirrored or not) and ranks by the same measure.
+cycle): every sample closer to the point than both its neighbours brackets a local minimum of the squared
+distance over the crank phase (a curve passing the point several times, or fast, has several), each is
+refined by a safeguarded Newton iteration on the closed-form curve (bisection where a step would leave its
+bracket), and the closest wins, so the distance is exact to rounding. The atlas search places each candidate
+on the points by a similarity fit to its closest samples (iterated, 12 start rotations, mirrored or not) and
+ranks by the same measure.
 """
 
 from __future__ import annotations
@@ -21,8 +23,15 @@ DETECT_MAX = 25
 UNEVEN = 0.25
 #: Curve samples per cycle the closest point is searched among.
 DENSE = 720
-#: The second parabola's step is the first's over this.
-FINER = 64
+#: A sample's bracket is searched unless the sample is farther from the point than the closest sample by this
+#: many times the curve's longest chord between samples (an arc within a sample either side, turning less than
+#: a half turn, is at most π/2 times its chord).
+REACH = 2.0
+#: Newton steps at most per bracket; the phase is taken as found when a step moves it by at most PHASE_TOL.
+NEWTON = 60
+PHASE_TOL = 1e-14
+#: Crank-phase step (of a cycle) of the central differences giving the curve's velocity and acceleration.
+STEP = 1e-6
 #: Similarity-fit rounds and start rotations of the atlas ranking.
 FIT_ROUNDS = 8
 FIT_STARTS = 12
@@ -74,13 +83,15 @@ def _vertex(f: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[np.ndarray, n
 
 
 def closest(points: np.ndarray, dense: np.ndarray,
-            evaluate: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+            evaluate: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Distances (K, N) from ``points`` (N,) complex to curves sampled at equal phases, ``dense`` (K, T)
-    complex, and the closest phases (K, N) in [0, 1). With ``evaluate`` (phases (K, N) → curve points
-    (K, N) complex) the phase is refined by two parabolas and the curve evaluated there (exact to rounding);
-    without it, the squared distance's parabola through the closest sample and its neighbours gives it (to
-    ~h³·|c'|·|c''|/d for a curve passing at d ≪ its sample spacing h·|c'|: use ``evaluate`` there)."""
-    t = dense.shape[-1]
+    complex, and the closest phases (K, N) in [0, 1) (NaN where a curve has NaN samples). With ``evaluate``
+    (curve indices (L,), phases (L,) → curve points (L,) complex) every local minimum the samples bracket
+    near enough to hold the closest point (:data:`REACH`) is refined (:func:`_descend`) and the closest
+    taken (exact to rounding); without it, the squared distance's parabola through the closest sample and
+    its neighbours gives it (to ~h³·|c'|·|c''|/d for a curve passing at d ≪ its sample spacing h·|c'|: use
+    ``evaluate`` there)."""
+    k, n, t = len(dense), len(points), dense.shape[-1]
     gap = points[None, :, None] - dense[:, None, :]
     d2 = gap.real ** 2 + gap.imag ** 2  # (K, N, T)
     j = np.argmin(d2, axis=-1)
@@ -90,28 +101,69 @@ def closest(points: np.ndarray, dense: np.ndarray,
         hi = np.take_along_axis(d2, ((j + 1) % t)[..., None], axis=-1)[..., 0]
         offset, value = _vertex((lo, near, hi))
         return np.sqrt(np.clip(value, 0.0, near)), ((j + offset) / t) % 1.0
-    phase = j / t
-    for h in (1.0 / t, 1.0 / (t * FINER)):
-        f = tuple(np.abs(evaluate(phase + s * h) - points) ** 2 for s in (-1.0, 0.0, 1.0))
-        phase = phase + _vertex(f)[0] * h  # type: ignore[arg-type]
-    exact = np.abs(evaluate(phase) - points)
-    return np.minimum(exact, np.sqrt(near)), phase % 1.0
+    # Brackets: every sample no farther than the one before and nearer than the one after (and the closest),
+    # unless it is farther than the closest by REACH chords: within a sample of it the curve comes no nearer.
+    reach = REACH * np.abs(np.roll(dense, -1, axis=-1) - dense).max(axis=-1)  # (K,), NaN for a broken curve
+    curve, point, sample = np.nonzero(d2 <= ((np.sqrt(near) + reach[:, None]) ** 2)[..., None])
+    mid = d2[curve, point, sample]
+    keep = ((mid <= d2[curve, point, (sample - 1) % t]) & (mid < d2[curve, point, (sample + 1) % t])
+            | (sample == j[curve, point]))
+    curve, point, sample = curve[keep], point[keep], sample[keep]
+    phase, dist = _descend(evaluate, curve, points[point], (sample - 1) / t, (sample + 1) / t, sample / t)
+    dist = np.minimum(dist, np.sqrt(d2[curve, point, sample]))
+    pair = curve * n + point
+    order = np.lexsort((dist, pair))
+    best = order[np.unique(pair[order], return_index=True)[1]]  # each pair's closest bracket
+    out, at = np.full(k * n, np.nan), np.full(k * n, np.nan)
+    out[pair[best]], at[pair[best]] = dist[best], phase[best] % 1.0
+    return out.reshape(k, n), at.reshape(k, n)
+
+
+def _descend(evaluate: Callable[[np.ndarray, np.ndarray], np.ndarray], curve: np.ndarray, points: np.ndarray,
+             lo: np.ndarray, hi: np.ndarray, phase: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Local minima of the squared distance f(φ) = |c(φ) − p|² between curve ``curve`` (L,) (``evaluate``, see
+    :func:`closest`) and ``points`` (L,) complex over the phase φ, each in its bracket [``lo``, ``hi``] (L,) from
+    ``phase`` (L,): Newton steps on f' = 0 (c' and c'' by central differences of :data:`STEP`), a bisection where
+    a step would leave the bracket or f'' ≤ 0, the bracket narrowed to the side f' says; a minimum is found
+    where f' is zero to its rounding or a step moves φ by at most :data:`PHASE_TOL`. Returns the phases (L,)
+    and the distances there (L,); every iteration evaluates the brackets still searched at once."""
+    lo, hi, phase = lo.copy(), hi.copy(), phase.astype(float)
+    live = np.arange(len(curve))
+    eps = np.finfo(float).eps
+    for _ in range(NEWTON):
+        if not live.size:
+            break
+        at, p = phase[live], points[live]
+        c = evaluate(np.tile(curve[live], 3), np.concatenate([at - STEP, at, at + STEP])).reshape(3, -1)
+        velocity = (c[2] - c[0]) / (2.0 * STEP)
+        gap = c[1] - p
+        slope = gap.real * velocity.real + gap.imag * velocity.imag  # f'/2
+        accel = (c[2] - 2.0 * c[1] + c[0]) / STEP ** 2
+        curvature = np.abs(velocity) ** 2 + gap.real * accel.real + gap.imag * accel.imag  # f''/2
+        rounding = 4.0 * eps * (np.abs(c[1]) + np.abs(p)) * (np.abs(gap) / STEP + np.abs(velocity))  # of f'/2
+        low, high = np.where(slope < 0, at, lo[live]), np.where(slope > 0, at, hi[live])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = at - slope / curvature
+        step = np.where((curvature > 0) & (step >= low) & (step <= high), step, 0.5 * (low + high))
+        flat = ~(np.abs(slope) > rounding)  # (NaN: given up)
+        lo[live], hi[live] = low, high
+        phase[live] = np.where(flat, at, step)
+        live = live[~(flat | (np.abs(step - at) <= PHASE_TOL))]
+    return phase, np.abs(evaluate(curve, phase) - points)
 
 
 def family_closest(fam, params: np.ndarray, factor: np.ndarray, shift: np.ndarray, mirrored: bool,
                    points: np.ndarray) -> np.ndarray:
     """Exact distances (K, N) from ``points`` (N,) complex to family ``fam``'s curves of ``params`` (K, P),
     placed by z ↦ shift + factor·z (z conjugated when ``mirrored``), factor and shift (K,) complex."""
-    k, n = len(params), len(points)
 
-    def place(z: np.ndarray) -> np.ndarray:
-        return shift[:, None] + factor[:, None] * (np.conj(z) if mirrored else z)
+    def evaluate(rows: np.ndarray, phase: np.ndarray) -> np.ndarray:
+        z = fam.curves(params[rows], 1, phase)[:, 0]
+        return shift[rows] + factor[rows] * (np.conj(z) if mirrored else z)
 
-    def evaluate(phase: np.ndarray) -> np.ndarray:
-        return place(fam.curves(np.repeat(params, n, axis=0), 1, phase.reshape(-1)).reshape(k, n))
-
+    z = fam.curves(params, DENSE)
     with np.errstate(invalid="ignore"):
-        return closest(points, place(fam.curves(params, DENSE)), evaluate)[0]
+        return closest(points, shift[:, None] + factor[:, None] * (np.conj(z) if mirrored else z), evaluate)[0]
 
 
 def error(distances: np.ndarray, radius: float) -> tuple[float, float]:
