@@ -19,8 +19,11 @@ SLSQP_TOL = 1e-6
 #: the damping μ of the factorized JᵀJ + μI, as a fraction of its largest diagonal entry (at least 1)
 DAMPING = 1e-13
 #: a pivot of the factorized JᵀJ + μI below this fraction of its largest diagonal entry is a
-#: direction J does not see (a free degree of freedom)
-FREE_PIVOT = 1e-4
+#: direction J may not see (a free degree of freedom, a singular pose: both schedulers look
+#: closer there). Above it the damped solve errs by about μ / pivot ≲ 1e-8 (relative) along
+#: it: a badly conditioned but full-rank pose (a Jansen leg's J: smallest singular value ~5e-3
+#: of the largest, pivot ~6e-5) is solved as any other, in waves too
+FREE_PIVOT = 1e-5
 #: singular values of the scaled J below this fraction of the largest span its null space
 NULL_SINGULAR = 1e-8
 #: a null-space basis B from inverse iteration is clean when |J B| is below this fraction of
