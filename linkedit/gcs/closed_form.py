@@ -36,11 +36,12 @@ the other side, a mechanism only planar at some poses) costs time, never changes
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Iterator
 
 import numpy as np
 
 from linkedit.gcs import quaternions as quat
+from linkedit.gcs.closed_form_rules import PARALLEL, SIDED, Arm, Cone, Driven, Dyad, End, Hinged, Rule, Slider
 from linkedit.gcs.system import StepTable, System
 from linkedit.planar.law_of_cosines import dyad
 
@@ -48,120 +49,6 @@ from linkedit.planar.law_of_cosines import dyad
 #: hold there: √tol (a pose solved to the tolerance, 1e-12, is determined to about that even at
 #: a singular pose, where J does not see one direction; rules that do not hold miss by far more)
 REBUILT = 1e-6
-#: two placed axes are along one line where their cross product is at most this (radians), and
-#: a dyad's two placed joints lie in one plane across it within this fraction of its arms
-PARALLEL = 1e-9
-
-
-@dataclass(frozen=True)
-class End:
-    """A constraint of a block seen from ``member``: its index in the block, whether the member
-    is the constraint's side a (its vector ``sa``; else ``sb``), and the other member (M: the
-    world)."""
-
-    index: int
-    side_a: bool
-    other: int
-
-
-@dataclass(frozen=True)
-class Arm:
-    """A member's arm from one of its points to another, across its axis (in its space): the
-    unit axis (3,), the offset along it, the part across it (3,) and that part's length, and
-    the member's frame — the axis, the arm across it and their cross product — as rows (3, 3)."""
-
-    axis: np.ndarray
-    height: float
-    across: np.ndarray
-    length: float
-    frame: np.ndarray
-
-    @classmethod
-    def of(cls, axis: np.ndarray, start: np.ndarray, end: np.ndarray) -> "Arm":
-        a = axis / np.sqrt(axis @ axis)
-        arm = end - start
-        height = float(arm @ a)
-        across = arm - height * a
-        length = float(np.sqrt(across @ across))
-        p = across / length if length > 0.0 else across
-        return cls(a, height, across, length, np.stack([a, p, np.cross(a, p)]))
-
-
-@dataclass(frozen=True)
-class Driven:
-    """``member`` oriented by the orientation constraint ``turn`` and pinned by the location
-    constraint ``pin`` to placed members."""
-
-    member: int
-    turn: End
-    pin: End
-
-
-@dataclass(frozen=True)
-class Hinged:
-    """``member`` pinned by the location constraints ``pins`` to placed members and aligned by
-    the axis constraint ``axis`` with a placed member's axis; its ``arm`` from the first pin to
-    the second."""
-
-    member: int
-    pins: tuple[End, End]
-    axis: End
-    arm: Arm
-
-
-@dataclass(frozen=True)
-class Dyad:
-    """Members u and w, each pinned to a placed member (``pins``) and aligned with a placed
-    member's axis (``axes``), and pinned to each other by ``joint`` (seen from u); their
-    ``arms`` from their pins to the common joint."""
-
-    members: tuple[int, int]
-    pins: tuple[End, End]
-    axes: tuple[End, End]
-    joint: End
-    arms: tuple[Arm, Arm]
-
-
-@dataclass(frozen=True)
-class Cone:
-    """Members u and w, each pinned to a placed member (``pins``) and aligned with a placed
-    member's axis (``axes``), and pinned to each other (``joint``, seen from u) at their points
-    of those pins, their axes of ``hinge`` (seen from u) aligned: a spherical dyad. Each
-    member's ``arms`` (:class:`Arm`) from its placed axis to its hinge axis (unit: the height is
-    the cosine of the angle between them)."""
-
-    members: tuple[int, int]
-    pins: tuple[End, End]
-    axes: tuple[End, End]
-    joint: End
-    hinge: End
-    arms: tuple[Arm, Arm]
-
-
-@dataclass(frozen=True)
-class Slider:
-    """Member u (a rod) pinned by ``pin`` to a placed member and aligned by ``axis`` with a
-    placed member's axis, and member w (a slider) oriented by the orientation constraint
-    ``turn`` from a placed member with its point of the line constraint ``line`` on a placed
-    member's line, pinned to each other by ``joint`` (seen from u); the rod's ``arm`` from its
-    pin to the joint, and the slider's ``offset`` (3,) from its point on the line to the joint
-    (in its space)."""
-
-    members: tuple[int, int]
-    pin: End
-    axis: End
-    turn: End
-    line: End
-    joint: End
-    arm: Arm
-    offset: np.ndarray
-
-
-Rule = Driven | Hinged | Dyad | Cone | Slider
-#: the rules placing two members, each on a side (:meth:`ClosedForm.signs`)
-SIDED = (Dyad, Cone, Slider)
-
-
 class ClosedForm:
     """The rules placing every member of a system in order (module docstring)."""
 
@@ -210,16 +97,21 @@ class ClosedForm:
             other = next((e for e in pins[u] if e.other in placed and form._apart(pin, e)), None)
             return None if other is None else Hinged(u, (pin, other), axis, form._arm(axis, pin, other))
 
-        def dyad_of(u: int) -> Rule | None:
-            """A dyad of member u and an unplaced member."""
+        def partners(u: int, apart: bool) -> Iterator[tuple[End, End, End, int, End]]:
+            """Member u's first placed pin and axis, with each unplaced member w pinned to u (by
+            ``joint`` seen from u, ``back`` seen from w) at another point of u than that pin
+            (``apart``) or at the same one."""
             pin, axis = first(pins[u]), first(axes[u])
             if pin is None or axis is None:
-                return None
+                return
             for joint in pins[u]:
                 w = joint.other
-                if w in placed or not form._apart(pin, joint):
-                    continue
-                back = End(joint.index, not joint.side_a, u)
+                if w not in placed and form._apart(pin, joint) == apart:
+                    yield pin, axis, joint, w, End(joint.index, not joint.side_a, u)
+
+        def dyad_of(u: int) -> Rule | None:
+            """A dyad of member u and an unplaced member."""
+            for pin, axis, joint, w, back in partners(u, True):
                 pin_w, axis_w = first(pins[w]), first(axes[w])
                 if back in pins[w] and pin_w is not None and axis_w is not None and form._apart(pin_w, back):
                     return Dyad((u, w), (pin, pin_w), (axis, axis_w), joint,
@@ -228,14 +120,7 @@ class ClosedForm:
 
         def cone_of(u: int) -> Rule | None:
             """A spherical dyad of member u and an unplaced member."""
-            pin, axis = first(pins[u]), first(axes[u])
-            if pin is None or axis is None:
-                return None
-            for joint in pins[u]:
-                w = joint.other
-                if w in placed or form._apart(pin, joint):
-                    continue
-                back = End(joint.index, not joint.side_a, u)
+            for pin, axis, joint, w, back in partners(u, False):
                 pin_w, axis_w = first(pins[w]), first(axes[w])
                 if back not in pins[w] or pin_w is None or axis_w is None or form._apart(pin_w, back):
                     continue
@@ -248,14 +133,7 @@ class ClosedForm:
 
         def slider_of(u: int) -> Rule | None:
             """A rod u pinned to a placed member and a slider on a placed member's line."""
-            pin, axis = first(pins[u]), first(axes[u])
-            if pin is None or axis is None:
-                return None
-            for joint in pins[u]:
-                w = joint.other
-                if w in placed or not form._apart(pin, joint):
-                    continue
-                back = End(joint.index, not joint.side_a, u)
+            for pin, axis, joint, w, back in partners(u, True):
                 turn = first(turns[w])
                 line = next((e for e in lines[w] if e.side_a and e.other in placed), None)
                 if turn is None or line is None or back not in pins[w]:

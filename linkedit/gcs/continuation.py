@@ -317,15 +317,23 @@ class Solver:
             free = linear.null @ (linear.null.T @ d)
             if np.abs(free).max(initial=0.0) <= opt.still_tol:
                 break
-            x1 = self.moved(x, -free - linear.least_norm(r * self.row))
-            r1 = self._residual(x1, table, step)
-            self.iterations += 1
-            x1, r1, ok, _ = self.chord(x1, r1, anchor, linear, table, step)
-            if not ok:
+            done = self._corrected(self.moved(x, -free - linear.least_norm(r * self.row)), anchor, linear, table, step)
+            if done is None:
                 break  # best effort: the converged pose stands
-            x, r = x1, r1
-            linear = self.linearize(x, table, step)
+            x, r, linear = done
         return x, r, linear
+
+    def _corrected(self, x1: State, anchor: State | None, linear: Linear, table: StepTable,
+                   step: int) -> tuple[State, np.ndarray, Linear] | None:
+        """A pose moved off a converged one (along J's null space) brought back onto the
+        constraints by chord steps (one iteration counted), with its residual and linearization;
+        None where the correction fails."""
+        r1 = self._residual(x1, table, step)
+        self.iterations += 1
+        x1, r1, ok, _ = self.chord(x1, r1, anchor, linear, table, step)
+        if not ok:
+            return None
+        return x1, r1, self.linearize(x1, table, step)
 
     def canonical(self, x: State, r: np.ndarray, table: StepTable, step: int,
                   linear: Linear) -> tuple[State, np.ndarray, Linear]:
@@ -347,14 +355,10 @@ class Solver:
                 x = self.moved(x, e)
                 r = self._residual(x, table, step)
                 break
-            x1 = self.moved(x, e)
-            r1 = self._residual(x1, table, step)
-            self.iterations += 1
-            x1, r1, ok, _ = self.chord(x1, r1, None, linear, table, step)
-            if not ok:
+            done = self._corrected(self.moved(x, e), None, linear, table, step)
+            if done is None:
                 break  # best effort: the converged pose stands
-            x, r = x1, r1
-            linear = self.linearize(x, table, step)
+            x, r, linear = done
         return x, r, linear
 
     def pose(self, start: State, anchor: State, table: StepTable, step: int, linear: Linear | None = None,
