@@ -417,3 +417,19 @@ def test_ctrl_c_at_any_moment_is_one_line_and_exit_130(tmp_path, entry, delays):
         code, lines = _interrupt_after([*command, *LONG_RUN, out / "r.h5"], delay, tmp_path)
         assert (code, lines) == (130, ["linkedit: error: interrupted"]), delay
         assert list(out.iterdir()) == [], delay
+
+
+def test_an_interrupt_that_python_turns_into_another_error_is_still_an_interrupt():
+    """A signal landing inside a class's creation (a dataclass field's ``__set_name__``, as a command's
+    first import of a module runs it) reaches the command as ``RuntimeError: Error calling __set_name__``
+    (Python 3.11) wrapping the interrupt: it was printed as a traceback with exit 1, not 143."""
+    from linkedit.io.atomic import Interrupted, interruptible
+
+    class Kill:
+        def __set_name__(self, owner: type, name: str) -> None:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.01)  # the handler runs here
+
+    with pytest.raises(Interrupted) as info, interruptible():
+        type("Made", (), {"field": Kill()})
+    assert info.value.signum == signal.SIGTERM

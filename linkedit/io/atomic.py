@@ -317,7 +317,9 @@ def interruptible() -> Iterator[None]:
     files are cleaned up, and are remembered: one whose exception a finalizer swallowed ("Exception
     ignored", e.g. while h5py frees an object or in a garbage collector callback) is raised again by
     :func:`check_interrupt`, without Python's "Exception ignored" traceback on stderr. A signal
-    ignored when the block starts stays ignored; the previous handlers are restored after the block."""
+    ignored when the block starts stays ignored; the previous handlers are restored after the block. An
+    error the block ends with after a signal arrived is that signal's :class:`Interrupted` (Python wraps an
+    exception raised in some hooks, e.g. a dataclass field's ``__set_name__``, in a RuntimeError)."""
 
     def handler(signum: int, frame: object) -> None:
         _Signals.received.append(signum)
@@ -340,6 +342,10 @@ def interruptible() -> Iterator[None]:
     sys.unraisablehook = quiet
     try:
         yield
+    except Exception as exc:  # the interrupt as Python passed it on: e.g. RuntimeError from a class's
+        if _Signals.received:  # creation ("Error calling __set_name__"), which wraps what its hooks raise
+            raise Interrupted(_Signals.received[0]) from exc
+        raise
     finally:
         sys.unraisablehook = unraisable
         for sig, old in previous.items():
