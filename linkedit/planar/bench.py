@@ -8,15 +8,20 @@ second table times the new rule kinds at 360 samples against a dyadic four-bar o
 size: a closed-form slider (slider-crank) and a numeric group (the complex-loop six-bar:
 continued sequentially through a sample each time the crank pin has moved 8 % of the linkage's
 size, then every sample polished in one batch), with the ratio to the four-bar and its target.
+The third table, when pylinkage is installed (the ``bench`` extra), times the first table's
+linkages side by side with pylinkage's numba solver (``step_fast``, 360 steps) after checking
+that both give the same trajectories (:mod:`linkedit.planar.peer`).
 """
 
 from __future__ import annotations
 
+import statistics
+import time
 from collections.abc import Callable
 
 import numpy as np
 
-from linkedit.planar import catalog
+from linkedit.planar import catalog, peer
 from linkedit.planar.kinematics import Workspace, evaluate, positions
 from linkedit.planar.plan import Geometry, compile_plan
 from linkedit.planar.simulate import motor_angles
@@ -27,6 +32,8 @@ TARGETS_360 = {"Jansen leg": 0.3, "Strandbeest 3 pairs": 0.7, "Strandbeest 10 pa
 TARGET_RATIO = 3.0
 #: µs per step with derivatives, as a multiple of the dyadic four-bar's
 TARGET_RATIOS = {"complex-loop six-bar": 5.0}
+#: pylinkage's step_fast time over linkedit's positions, at least (360 samples)
+TARGET_PEER = 2.5
 
 
 def run(echo: Callable[[str], None], quick: bool = False) -> None:
@@ -47,6 +54,7 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
             echo(f"{name:<22}{plan.n_joints:>7}{plan.levels:>7}  {samples:>7}  {pos:>18.3f}  {full:>21.3f}  "
                  f"{full / pos:>5.2f}  {target}× ≤ {TARGET_RATIO:g}")
     rule_kinds(echo, budget)
+    pylinkage_side_by_side(echo, mechanisms, budget, quick)
 
 
 def rule_kinds(echo: Callable[[str], None], budget: float) -> None:
@@ -67,3 +75,33 @@ def rule_kinds(echo: Callable[[str], None], budget: float) -> None:
         kinds = ", ".join(sorted({r.kind for r in plan.rules if r.ds_count()}))
         target = f"≤ {TARGET_RATIOS[name]:g}" if name in TARGET_RATIOS else ""
         echo(f"{name:<24}{kinds:>24}  {pos:>18.3f}  {full:>21.3f}  {full / base:>10.1f}  {target}")
+
+
+def pylinkage_side_by_side(echo: Callable[[str], None], mechanisms: dict, budget: float, quick: bool) -> None:
+    """µs per step at 360 samples, linkedit's positions against pylinkage's ``step_fast`` (numba),
+    medians of alternating best-of runs, after checking both trace the same joints."""
+    echo("")
+    try:
+        import numba  # noqa: F401
+        import pylinkage  # noqa: F401
+    except ImportError:
+        echo("vs pylinkage: pylinkage with numba is not installed (pip install 'linkedit[bench]')")
+        return
+    samples, repeats = 360, 1 if quick else 5
+    echo(f"vs pylinkage {pylinkage.__version__} step_fast (numba), {samples} samples, µs per step, medians of {repeats}; "
+         f"target: pylinkage ÷ linkedit ≥ {TARGET_PEER:g}")
+    echo(f"{'mechanism':<22}{'linkedit':>10}{'pylinkage':>11}{'ratio':>8}  {'same path (of size)':>20}  first call (numba compile)")
+    for name, spec in mechanisms.items():
+        plan = compile_plan(spec)
+        geom, angle = plan.geometry(), motor_angles(spec, samples)[1]
+        work = Workspace(plan, samples)
+        linkage, joints = peer.build(plan, samples)
+        t0 = time.perf_counter()
+        theirs = linkage.step_fast(iterations=samples)
+        first = time.perf_counter() - t0
+        ours = positions(plan, geom, angle, work)[plan.row_of[joints]]  # (J, T) complex, in pylinkage's order
+        apart = np.max(np.abs(np.roll(ours, -1, axis=1).T - (theirs[..., 0] + 1j * theirs[..., 1]))) / plan.scale
+        rows = [(best_time(lambda: positions(plan, geom, angle, work), budget_s=budget),
+                 best_time(lambda: linkage.step_fast(iterations=samples), budget_s=budget)) for _ in range(repeats)]
+        a, b = (statistics.median(r[n] for r in rows) / samples * 1e6 for n in (0, 1))
+        echo(f"{name:<22}{a:>10.3f}{b:>11.3f}{b / a:>8.2f}  {apart:>20.1e}  {first:.2f} s")
