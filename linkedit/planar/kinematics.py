@@ -11,6 +11,7 @@ batch places all orders in one operation and a dyad batch differentiates its pla
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -65,6 +66,7 @@ class Workspace:
         self.z = self.orders[0]
         self.zi, self.zj, self.e, self.w, self.d2, self.u, self.a, self.b, self.scratch = Pool.carve(
             lambda pool: self._scratch(pool, plan, rows, order + 1, shape))
+        self._kernels: tuple[Plan, list[Callable[[tuple[Any, ...]], None]]] | None = None
 
     @staticmethod
     def _scratch(pool: Pool, plan: Plan, rows: int, orders: int, shape: tuple[int, ...]) -> tuple[Any, ...]:
@@ -76,6 +78,13 @@ class Workspace:
             pool.reset()
             scratch[id(rule)] = rule.scratch(pool, orders, shape)
         return (*own, scratch)
+
+    def kernels(self, plan: Plan) -> list[Callable[[tuple[Any, ...]], None]]:
+        """:func:`positions`' kernel of each rule of ``plan`` (:meth:`Rule.positions`), compiled on
+        the first call and kept."""
+        if self._kernels is None or self._kernels[0] is not plan:
+            self._kernels = (plan, [rule.positions(self) for rule in plan.rules])
+        return self._kernels[1]
 
     def fits(self, order: int, linkages: tuple[int, ...], samples: int) -> bool:
         """Whether it holds an evaluation of this derivative order and shape."""
@@ -97,8 +106,8 @@ def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | N
     np.multiply(geom.arm, np.exp(1j * (angle - geom.rest_angle)), out=z[plan.motor_row])
     z[plan.motor_row] += geom.pivot
     with np.errstate(invalid="ignore", divide="ignore"):
-        for rule, const in zip(plan.rules, geom.constants):
-            rule.positions(z, const, w)
+        for kernel, const in zip(w.kernels(plan), geom.constants):
+            kernel(const)
     return z
 
 

@@ -44,16 +44,18 @@ def dyad(zi: np.ndarray, zj: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray
     e = zj - zi
     shape = np.broadcast_shapes(e.shape, np.shape(half_diff))
     u, a, bsq, b = (np.empty(shape) for _ in range(4))
+    w = np.empty(shape, dtype=complex)
     with np.errstate(invalid="ignore"):
-        w = dyad_coefficient(e, half_diff, lik2, sign, np.empty(shape, dtype=complex), np.empty(shape), u, a, b, bsq)
+        dyad_coefficient(e, half_diff, lik2, sign, w, np.empty(shape), u, a, b, bsq)
     return zi + w * e, DyadTerms(e, u, a, b, bsq, w)
 
 
 def dyad_coefficient(e: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray, sign: np.ndarray,
-                     w: np.ndarray, d2: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray,
-                     bsq: np.ndarray | None = None) -> np.ndarray:
+                     w: np.ndarray | None, d2: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray,
+                     bsq: np.ndarray | None = None) -> None:
     """w = A + iB (the module docstring's formula, written once), computed into the given
-    buffers (no allocation); returns ``w``.
+    buffers (no allocation). With ``w`` None, ``a`` and ``b`` are the caller's
+    w.real and w.imag (views): w is then written in place with no copy.
 
     ``e`` = z_j − z_i (R, T) complex; ``w`` (R, T) complex and ``d2``, ``u``, ``a``, ``b`` (R, T)
     real buffers, left holding 1/d², A and B; ``bsq`` a buffer kept holding B² (else B² is
@@ -72,9 +74,9 @@ def dyad_coefficient(e: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray, sig
     bsq -= d2
     np.sqrt(bsq, out=b)
     b *= sign
-    w.real = a
-    w.imag = b
-    return w
+    if w is not None:
+        w.real = a
+        w.imag = b
 
 
 @dataclass

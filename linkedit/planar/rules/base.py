@@ -152,9 +152,10 @@ class Rule:
         derivative order and samples of ``shape`` (*L, T); None when it needs none."""
         return None
 
-    def positions(self, z: np.ndarray, const: tuple[Any, ...], work: Any) -> None:
-        """Positions only, into ``z`` (P, T) with ``work``'s buffers
-        (:class:`~linkedit.planar.kinematics.Workspace`: no allocation); the revolute kinds only."""
+    def positions(self, work: Any) -> Callable[[tuple[Any, ...]], None]:
+        """Its positions-only kernel, compiled once per :class:`~linkedit.planar.kinematics.Workspace`
+        ``work``: called with the geometry's constants, it writes its rows of ``work.z`` (P, T) into
+        the workspace's buffers (no allocation, every view and index bound); the revolute kinds only."""
         raise TypeError(f"a {type(self).__name__} rule is placed by evaluate()")
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:

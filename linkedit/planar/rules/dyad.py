@@ -7,6 +7,7 @@ velocities, accelerations and ``edit``'s rest-pose tangents differentiate the sa
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -34,14 +35,23 @@ class Dyad(Triangles):
             return a, c, 0.5 * (a - c), np.sign(((zj - zi).conjugate() * (zk - zi)).imag)
         return a[:, 0], c[:, 0], 0.5 * (a - c)[:, 0], self.sign
 
-    def positions(self, z: np.ndarray, const: tuple[Any, ...], work: Any) -> None:
-        r = self.stop - self.start
-        zi, zj, e = np.take(z, self.i, axis=0, out=work.zi[:r]), np.take(z, self.j, axis=0, out=work.zj[:r]), work.e[:r]
-        np.subtract(zj, zi, out=e)
-        lik2, _, half, sign = const
-        loc.dyad_coefficient(e, half, lik2, sign, work.w[:r], work.d2[:r], work.u[:r], work.a[:r], work.b[:r])
-        np.multiply(e, work.w[:r], out=e)
-        np.add(zi, e, out=z[self.start:self.stop])
+    def positions(self, work: Any) -> Callable[[tuple[Any, ...]], None]:
+        """z_k = z_i + w·(z_j − z_i), w from :func:`~linkedit.planar.law_of_cosines.dyad_coefficient`."""
+        r, i, j = self.stop - self.start, self.i, self.j
+        zi, zj, e, w, d2, u = work.zi[:r], work.zj[:r], work.e[:r], work.w[:r], work.d2[:r], work.u[:r]
+        a, b = w.real, w.imag
+        out, take, coefficient, subtract, multiply, add = (work.z[self.start:self.stop], work.z.take,
+                                                           loc.dyad_coefficient, np.subtract, np.multiply, np.add)
+
+        def kernel(const: tuple[Any, ...]) -> None:
+            take(i, 0, zi, "clip")
+            take(j, 0, zj, "clip")
+            subtract(zj, zi, out=e)
+            lik2, _, half, sign = const
+            coefficient(e, half, lik2, sign, None, d2, u, a, b)
+            multiply(e, w, out=e)
+            add(zi, e, out=out)
+        return kernel
 
     def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
         """The inputs (:meth:`Triangles.scratch`), w and z_k − z_i (complex), d², 1/d², A, B, B²

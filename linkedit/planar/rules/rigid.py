@@ -7,6 +7,7 @@ operation each). Exact by construction: its d_s is 1.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -29,12 +30,19 @@ class Rigid(Triangles):
         c = (zk - zi) / (zj - zi)
         return (c if many else c[:, 0],)
 
-    def positions(self, z: np.ndarray, const: tuple[Any, ...], work: Any) -> None:
-        r = self.stop - self.start
-        zi, zj, e = np.take(z, self.i, axis=0, out=work.zi[:r]), np.take(z, self.j, axis=0, out=work.zj[:r]), work.e[:r]
-        np.subtract(zj, zi, out=e)
-        np.multiply(e, const[0], out=e)
-        np.add(zi, e, out=z[self.start:self.stop])
+    def positions(self, work: Any) -> Callable[[tuple[Any, ...]], None]:
+        """z_k = z_i + c·(z_j − z_i)."""
+        r, z, i, j = self.stop - self.start, work.z, self.i, self.j
+        zi, zj, e, out, take, subtract, multiply, add = (work.zi[:r], work.zj[:r], work.e[:r], work.z[self.start:self.stop],
+                                                         work.z.take, np.subtract, np.multiply, np.add)
+
+        def kernel(const: tuple[Any, ...]) -> None:
+            take(i, 0, zi, "clip")
+            take(j, 0, zj, "clip")
+            subtract(zj, zi, out=e)
+            multiply(e, const[0], out=e)
+            add(zi, e, out=out)
+        return kernel
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Every derivative order at once: the rows of ``f.orders``."""
