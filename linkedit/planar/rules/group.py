@@ -174,7 +174,7 @@ def _newton(form: RealForm, x: np.ndarray, s: float, k: int, tol: float = GROUP_
     jac = np.zeros((form.m, k))
     for it in range(GROUP_ITERATIONS):
         f, jac = form.residual_jacobian(x, s, k)
-        size = float(np.abs(f).max())
+        size = float(np.maximum.reduce(np.abs(f)))
         if size <= tol:
             return True, first, jac
         if not size < np.inf:
@@ -192,13 +192,16 @@ def _newton(form: RealForm, x: np.ndarray, s: float, k: int, tol: float = GROUP_
 
 
 def _det_sign(jac: np.ndarray) -> float:
-    """The sign of det ``jac`` (k, k) (0: exactly singular), from LAPACK's LU without numpy's
-    per-call checks."""
+    """The sign of det ``jac`` (k, k) (0: exactly singular or NaN), from LAPACK's LU without
+    numpy's per-call checks."""
     from scipy.linalg import lapack
 
     lu, piv, _ = lapack.dgetrf(jac)
-    swaps = int(np.count_nonzero(piv != np.arange(piv.size)))
-    return float(np.sign(np.prod(np.sign(np.diagonal(lu))))) * (-1.0) ** swaps
+    diagonal = lu.diagonal().tolist()
+    if not all(abs(v) > 0.0 for v in diagonal):  # singular (or NaN)
+        return 0.0
+    flips = sum(v < 0.0 for v in diagonal) + sum(p != i for i, p in enumerate(piv.tolist()))
+    return -1.0 if flips % 2 else 1.0
 
 
 def _accepted(moved: np.ndarray | float, first: np.ndarray | float) -> np.ndarray | bool:
