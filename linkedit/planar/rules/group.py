@@ -30,8 +30,9 @@ GROUP_ITERATIONS = 12
 #: dense the samples; the samples between are predicted from those and polished all at once
 GROUP_STRIDE = 0.08
 #: the sequential continuation's tolerance before every sample is polished to GROUP_TOLERANCE:
-#: enough to follow the branch (Newton's next step from here is ~1e-16)
-COARSE_TOLERANCE = 1e-6
+#: enough to follow the branch; the polish takes its samples on in two Newton steps (1e-4 → 1e-8 →
+#: 1e-16), no more than the samples between need from their cubic predictor
+COARSE_TOLERANCE = 1e-4
 
 
 @dataclass(frozen=True)
@@ -124,6 +125,7 @@ class RealForm:
     twice: np.ndarray
     drive: np.ndarray
     driven: bool  # some row has a linear input
+    m: int  # rows
 
     @classmethod
     def of(cls, rows: Rows) -> "RealForm":
@@ -138,11 +140,7 @@ class RealForm:
         quad[:, -1, -1] -= rows.rhs
         twice = quad + np.swapaxes(quad, 1, 2)
         return cls(twice=np.ascontiguousarray(twice.reshape(-1, twice.shape[2])), drive=rows.drive,
-                   driven=bool(rows.drive.any()))
-
-    @property
-    def m(self) -> int:
-        return int(self.drive.size)
+                   driven=bool(rows.drive.any()), m=rows.m)
 
     def residual_jacobian(self, x: np.ndarray, s: np.ndarray | float, unknowns: int) -> tuple[np.ndarray, np.ndarray]:
         """F (…, m) and ∂F/∂X of the first ``unknowns`` real variables (…, m, unknowns) at X (…, W)
@@ -229,7 +227,7 @@ def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: in
             trial[k:] = X[t, k:] if f == 1.0 else X[prev, k:] + f * (X[t, k:] - X[prev, k:])
             ok, first, jac = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k, tol)
             if ok:
-                ok = bool(_accepted(np.abs(trial[:k] - x[:k]).max(), first))
+                ok = bool(_accepted(float(np.maximum.reduce(np.abs(trial[:k] - x[:k]))), first))
                 if ok and square and _det_sign(jac) != step.det_sign:
                     ok = False  # passed a singular position: another assembly branch
             if ok:
@@ -296,7 +294,7 @@ def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndar
     to = want[:, None] - at  # (N, p)
     apart = (at[:, :, None] - at[:, None, :] + np.eye(p)).prod(axis=2)  # ∏_{b≠a} (node a − node b)
     weight = to.prod(axis=1, keepdims=True) / to / apart  # (N, p) Lagrange basis at want
-    return np.einsum("np,npk->nk", weight, solved[nodes])
+    return (weight[:, None, :] @ solved[nodes])[:, 0]
 
 
 def _coarse(known: np.ndarray, s: np.ndarray) -> np.ndarray:
