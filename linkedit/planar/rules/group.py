@@ -336,7 +336,9 @@ def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) 
     if last >= 0:
         solved = coarse[coarse <= last]
         polished = X[: last + 1].copy()
-        inner = np.setdiff1d(np.arange(last + 1), solved)
+        between = np.ones(last + 1, dtype=bool)
+        between[solved] = False
+        inner = np.flatnonzero(between)
         polished[solved, :k] = out[solved]
         if inner.size:
             polished[inner, :k] = _predict(solved, out[solved], inner)
