@@ -5,7 +5,9 @@ Newton's method on the group's constraint rows at every sample (the samples are 
 time its inputs have moved GROUP_STRIDE, then every sample polished at once from a predictor and
 checked (:func:`solve_group`), keeping the rest pose's branch (the sign of the group Jacobian's
 determinant never changes; a change means the group passed a singular position, reported as a
-lock-up). Its singularity distance is (σ_min/σ_max)² of the row-scaled group Jacobian.
+lock-up). Its singularity distance is (σ_min/σ_max)² of the row-scaled group Jacobian; its
+velocities and accelerations come from the same Jacobian at the solution (the implicit function
+theorem on the rows' :class:`RealForm`, built once per step: :meth:`Group.evaluate`).
 """
 
 from __future__ import annotations
