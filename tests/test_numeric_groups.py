@@ -125,3 +125,32 @@ def test_the_rest_branch_is_kept_at_any_sampling():
         m = simulate(spec, samples)
         z = m.positions[..., 0] + 1j * m.positions[..., 1]
         assert np.abs(z[:, [m.plan.joint_names.index(k) for k in group]] - ref[:: 720 // samples]).max() <= 1e-12 * size_of(spec)
+
+
+def in_metres(spec: LinkageSpec) -> LinkageSpec:
+    """The same linkage with every joint divided by 1000 and its unit m."""
+    d = spec.model_dump()
+    d["units"], d["joints"] = "m", {k: [x / 1000, y / 1000] for k, (x, y) in d["joints"].items()}
+    return LinkageSpec.model_validate(d)
+
+
+@pytest.mark.parametrize("metres", [False, True])
+def test_complex_loop_derivatives_are_those_of_the_rest_branch(metres):
+    """At mm and m scales, every sample of the complex loop keeps each link's length (to 1e-12
+    of its size), and its velocities and accelerations (d/dθ, d²/dθ² of the motor angle) are the
+    central differences of the independent continuation at θ ± h."""
+    spec = catalog.complex_loop()
+    spec = in_metres(spec) if metres else spec
+    m = simulate(spec, 36)
+    size, names = size_of(spec), m.plan.joint_names
+    z = m.positions[..., 0] + 1j * m.positions[..., 1]
+    assert link_lengths_kept(spec, names, z) <= 1e-12 * size
+    h = 1e-3
+    theta = m.motor_angle - m.motor_angle[0]
+    group, ref, fold = rest_branch(spec, (theta[:, None] + np.array([-h, 0.0, h])).ravel())
+    assert fold == -1
+    ref = ref.reshape(theta.size, 3, -1)
+    cols = [names.index(k) for k in group]
+    v, a = (q[:, cols, 0] + 1j * q[:, cols, 1] for q in (m.velocity, m.acceleration))
+    assert np.abs(v - (ref[:, 2] - ref[:, 0]) / (2 * h)).max() <= 1e-6 * size
+    assert np.abs(a - (ref[:, 2] - 2 * ref[:, 1] + ref[:, 0]) / h**2).max() <= 1e-6 * size

@@ -67,6 +67,8 @@ class Workspace:
         self.zi, self.zj, self.e, self.w, self.d2, self.u, self.a, self.b, self.scratch = Pool.carve(
             lambda pool: self._scratch(pool, plan, rows, order + 1, shape))
         self._kernels: tuple[Plan, list[Callable[[tuple[Any, ...]], None]]] | None = None
+        #: a plan with numeric groups: the workspace of its continuation grid (:func:`evaluate`)
+        self.fine: Workspace | None = None
 
     @staticmethod
     def _scratch(pool: Pool, plan: Plan, rows: int, orders: int, shape: tuple[int, ...]) -> tuple[Any, ...]:
@@ -133,13 +135,19 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2, work
     the rest pose through every sample in order, at most GROUP_STEP_DEG (GROUP_STEP_LENGTH)
     apart: intermediate inputs are evaluated and dropped. With a :class:`Workspace` of this
     order and shape (``Workspace(plan, T, order, geom.linkages)``) nothing is allocated; the
-    state's arrays are then its buffers, overwritten by the next call.
+    state's arrays are then its buffers, overwritten by the next call (with numeric groups it
+    keeps the continuation grid's workspace instead, and the state's arrays are copies).
     """
     if not plan.has_groups:
         return _evaluate(plan, geom, angle, order, work)
     start, step = (0.0, GROUP_STEP_LENGTH) if plan.linear else (float(geom.rest_angle), np.radians(GROUP_STEP_DEG))
     fine, keep = continuation_grid(start, np.asarray(angle, dtype=float), step)
-    full = _evaluate(plan, geom, fine, order)
+    sub = None
+    if work is not None:
+        if work.fine is None or not work.fine.fits(order, geom.linkages, fine.size):
+            work.fine = Workspace(plan, fine.size, order, geom.linkages)
+        sub = work.fine
+    full = _evaluate(plan, geom, fine, order, sub)
 
     def pick(a: np.ndarray | None) -> np.ndarray | None:
         return None if a is None else a[:, keep]

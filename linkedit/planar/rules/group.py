@@ -5,12 +5,15 @@ Newton's method on the group's constraint rows at every sample (the samples are 
 time its inputs have moved GROUP_STRIDE, then every sample polished at once from a predictor and
 checked (:func:`solve_group`), keeping the rest pose's branch (the sign of the group Jacobian's
 determinant never changes; a change means the group passed a singular position, reported as a
-lock-up). Its singularity distance is (σ_min/σ_max)² of the row-scaled group Jacobian.
+lock-up). Its singularity distance is (σ_min/σ_max)² of the row-scaled group Jacobian; its
+velocities and accelerations come from the same Jacobian at the solution (the implicit function
+theorem on the rows' :class:`RealForm`, built once per step: :meth:`Group.evaluate`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -18,7 +21,7 @@ import numpy as np
 from linkedit.planar.constraints import Rows
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
-from linkedit.planar.rules.base import Step, loop_rows
+from linkedit.planar.rules.base import Frame, Step, loop_rows, solve, to_complex
 
 #: Newton's method stops when every row is within this of 0 (rows are in units of the
 #: linkage's characteristic length, squared for distance rows)
@@ -29,8 +32,9 @@ GROUP_ITERATIONS = 12
 #: dense the samples; the samples between are predicted from those and polished all at once
 GROUP_STRIDE = 0.08
 #: the sequential continuation's tolerance before every sample is polished to GROUP_TOLERANCE:
-#: enough to follow the branch (Newton's next step from here is ~1e-16)
-COARSE_TOLERANCE = 1e-6
+#: enough to follow the branch; the polish takes its samples on in two Newton steps (1e-4 → 1e-8 →
+#: 1e-16), no more than the samples between need from their cubic predictor
+COARSE_TOLERANCE = 1e-4
 
 
 @dataclass(frozen=True)
@@ -60,10 +64,49 @@ class Group(Step):
     def label(self) -> str:
         return f"numeric group {self.name}"
 
+    @cached_property
+    def form(self) -> RealForm:
+        """Its rows as real quadratics over (its joints, its inputs, 1): built once per step."""
+        return RealForm.of(self.rows.columns(np.concatenate([self.joints, self.inputs])))
+
     def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray,
               const: tuple[Any, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
-        out, ds, _ = solve_group(self, z, s, rest[self.joints])
-        return out, ds
+        x, fail = solve_group(self, z, s, rest[self.joints])
+        k = 2 * self.joints.size
+        return to_complex(x[:, :k].T), conditioning(self.form.residual_jacobian(x, s, k)[1], fail)
+
+    def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
+        """Place its joints in ``f`` (one linkage), then their velocities and accelerations from
+        the group's Jacobian at the solution (the same one as its d_s): J_S·ẋ_S = −J_K·ẋ_K + F_s·ṡ,
+        J_S·ẍ_S = −J_K·ẍ_K − Ẋᵀ·2Q·Ẋ (:class:`RealForm`), two batched solves."""
+        zj, out = f.z[f.joints], f.joints[self.joints]
+        x, fail = solve_group(self, zj, f.s, f.rest[self.joints])
+        form, k = self.form, 2 * self.joints.size
+        grad = form.residual_jacobian(x, f.s, x.shape[1])[1]  # (T, m, W): ∂F/∂X
+        jac = grad[..., :k]
+        f.z[out] = to_complex(x[:, :k].T)
+        f.ds[rows] = conditioning(jac, fail)
+        if f.dz is None:
+            return
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            dx = self._known(f.dz[f.joints], x.shape)
+            rhs = form.drive * f.drive - (grad @ dx[..., None])[..., 0]
+            dx[:, :k] = solve(jac, rhs.T).T
+            f.dz[out] = to_complex(dx[:, :k].T)
+            if f.ddz is None:
+                return
+            ddx = self._known(f.ddz[f.joints], x.shape)
+            rhs = -(grad @ ddx[..., None])[..., 0] - form.quadratic(dx)
+            f.ddz[out] = to_complex(solve(jac, rhs.T))
+
+    def _known(self, dz: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+        """X-rows (T, W) of the known joints' derivatives ``dz`` (J, T) complex, the group's own
+        columns and the last (the constant 1) zero."""
+        k = 2 * self.joints.size
+        out = np.zeros(shape)
+        known = dz[self.inputs]
+        out[:, k:-1:2], out[:, k + 1:-1:2] = known.real.T, known.imag.T
+        return out
 
     def lockup(self, names: list[str], toggle: bool) -> str:
         return (f"the numeric group {self.name} cannot be assembled on its rest-pose branch "
@@ -84,6 +127,7 @@ class RealForm:
     twice: np.ndarray
     drive: np.ndarray
     driven: bool  # some row has a linear input
+    m: int  # rows
 
     @classmethod
     def of(cls, rows: Rows) -> "RealForm":
@@ -98,11 +142,7 @@ class RealForm:
         quad[:, -1, -1] -= rows.rhs
         twice = quad + np.swapaxes(quad, 1, 2)
         return cls(twice=np.ascontiguousarray(twice.reshape(-1, twice.shape[2])), drive=rows.drive,
-                   driven=bool(rows.drive.any()))
-
-    @property
-    def m(self) -> int:
-        return int(self.drive.size)
+                   driven=bool(rows.drive.any()), m=rows.m)
 
     def residual_jacobian(self, x: np.ndarray, s: np.ndarray | float, unknowns: int) -> tuple[np.ndarray, np.ndarray]:
         """F (…, m) and ∂F/∂X of the first ``unknowns`` real variables (…, m, unknowns) at X (…, W)
@@ -118,6 +158,10 @@ class RealForm:
             f -= self.drive * np.asarray(s)[..., None]
         return f, grad[..., :unknowns]
 
+    def quadratic(self, v: np.ndarray) -> np.ndarray:
+        """d²F[V, V] = Vᵀ·2Q·V (T, m) along V (T, W)."""
+        return ((v @ self.twice.T).reshape(v.shape[0], self.m, -1) @ v[:, :, None])[..., 0]
+
 
 def _newton(form: RealForm, x: np.ndarray, s: float, k: int, tol: float = GROUP_TOLERANCE) -> tuple[bool, float, np.ndarray]:
     """Newton's method on the first ``k`` real variables of X (updated in place), one sample,
@@ -130,7 +174,7 @@ def _newton(form: RealForm, x: np.ndarray, s: float, k: int, tol: float = GROUP_
     jac = np.zeros((form.m, k))
     for it in range(GROUP_ITERATIONS):
         f, jac = form.residual_jacobian(x, s, k)
-        size = float(np.abs(f).max())
+        size = float(np.maximum.reduce(np.abs(f)))
         if size <= tol:
             return True, first, jac
         if not size < np.inf:
@@ -147,6 +191,19 @@ def _newton(form: RealForm, x: np.ndarray, s: float, k: int, tol: float = GROUP_
     return False, first, jac
 
 
+def _det_sign(jac: np.ndarray) -> float:
+    """The sign of det ``jac`` (k, k) (0: exactly singular or NaN), from LAPACK's LU without
+    numpy's per-call checks."""
+    from scipy.linalg import lapack
+
+    lu, piv, _ = lapack.dgetrf(jac)
+    diagonal = lu.diagonal().tolist()
+    if not all(abs(v) > 0.0 for v in diagonal):  # singular (or NaN)
+        return 0.0
+    flips = sum(v < 0.0 for v in diagonal) + sum(p != i for i, p in enumerate(piv.tolist()))
+    return -1.0 if flips % 2 else 1.0
+
+
 def _accepted(moved: np.ndarray | float, first: np.ndarray | float) -> np.ndarray | bool:
     """Whether Newton ended close to where it started: within 1.5× its first step, itself at most
     0.1 (of the linkage's size): it converged to the solution nearest its predictor."""
@@ -154,10 +211,10 @@ def _accepted(moved: np.ndarray | float, first: np.ndarray | float) -> np.ndarra
 
 
 def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int, x: np.ndarray,
-              path: np.ndarray, out: np.ndarray, jacs: np.ndarray, tol: float = GROUP_TOLERANCE) -> int:
+              path: np.ndarray, out: np.ndarray, tol: float = GROUP_TOLERANCE) -> int:
     """Continue the group sequentially from X-row ``x`` (known at sample ``path[0]``) through the
-    samples ``path`` in order, writing ``out``/``jacs`` rows. Each move from one sample to the next
-    is a homotopy in the known joints (interpolated linearly); Newton's first step is the tangent
+    samples ``path`` in order, writing ``out`` rows. Each move from one sample to the next is a
+    homotopy in the known joints (interpolated linearly); Newton's first step is the tangent
     predictor, and a move is accepted only when Newton converges close to it (:func:`_accepted`)
     without the Jacobian's determinant changing sign; otherwise it is halved (down to 1/256).
     Newton stops within ``tol``. Returns the position in ``path`` where it fails, or −1."""
@@ -166,15 +223,14 @@ def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: in
     prev = path[0]
     for n, t in enumerate(path):
         done, piece = 0.0, 1.0
-        jac = jacs[prev]
         while done < 1.0:
             f = min(done + piece, 1.0)
             trial = x.copy()
             trial[k:] = X[t, k:] if f == 1.0 else X[prev, k:] + f * (X[t, k:] - X[prev, k:])
             ok, first, jac = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k, tol)
             if ok:
-                ok = bool(_accepted(np.abs(trial[:k] - x[:k]).max(), first))
-                if ok and square and np.sign(np.linalg.det(jac)) != step.det_sign:
+                ok = bool(_accepted(float(np.maximum.reduce(np.abs(trial[:k] - x[:k]))), first))
+                if ok and square and _det_sign(jac) != step.det_sign:
                     ok = False  # passed a singular position: another assembly branch
             if ok:
                 x, done = trial, f
@@ -183,17 +239,15 @@ def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: in
                 piece *= 0.5
                 if piece < 1.0 / 256:
                     return n
-        jacs[t] = jac
         out[t] = x[:k]
         prev = t
     return -1
 
 
-def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int) -> np.ndarray:
     """Newton's method on every row of X (T, W) at once, from the predictor in X[:, :k] (updated in
-    place). Returns (accepted (T,) — converged, close to its predictor (:func:`_accepted`), on the
-    rest pose's side of every singular position (sign of det J) — and the Jacobians (T, m, k) at
-    the accepted rows)."""
+    place). Returns which rows (T,) are accepted: converged, close to their predictor
+    (:func:`_accepted`), on the rest pose's side of every singular position (sign of det J)."""
     square = form.m == k
     start = X[:, :k].copy()
     first = np.zeros(X.shape[0])
@@ -228,7 +282,7 @@ def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int)
     accept = done & _accepted(np.abs(X[:, :k] - start).max(axis=1), first)
     if square and accept.any():
         accept[accept] = np.sign(np.linalg.det(jac[accept])) == step.det_sign
-    return accept, jac
+    return accept
 
 
 def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndarray:
@@ -242,7 +296,7 @@ def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndar
     to = want[:, None] - at  # (N, p)
     apart = (at[:, :, None] - at[:, None, :] + np.eye(p)).prod(axis=2)  # ∏_{b≠a} (node a − node b)
     weight = to.prod(axis=1, keepdims=True) / to / apart  # (N, p) Lagrange basis at want
-    return np.einsum("np,npk->nk", weight, solved[nodes])
+    return (weight[:, None, :] @ solved[nodes])[:, 0]
 
 
 def _coarse(known: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -255,7 +309,7 @@ def _coarse(known: np.ndarray, s: np.ndarray) -> np.ndarray:
     return np.unique(np.concatenate([[0], first, [travel.size - 1]]))
 
 
-def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, int]:
     """Continue the group from ``start`` (n,) through the samples of ``z`` (J, T), in order.
 
     The samples :func:`_coarse` picks are continued sequentially (:func:`_continue`, to
@@ -263,58 +317,58 @@ def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) 
     method all at once (:func:`_polish`), the ones between from a cubic through those, each
     checked like a sequential move (converged near its predictor, the determinant's sign of the
     rest pose); a sample that fails the check is continued sequentially from the one before it.
-    Returns positions (n, T) (NaN from the first sample where it fails), the singularity distance
-    (T,) — (σ_min/σ_max)² of the row-scaled group Jacobian — and the index of the first failing
-    sample (−1: none).
+    Returns X (T, W) — :class:`RealForm`'s variables: the group's joints (NaN from the first
+    sample where it fails), its inputs, 1 — and the index of the first failing sample (−1: none).
     """
-    cols = np.concatenate([step.joints, step.inputs])
-    form = RealForm.of(step.rows.columns(cols))
+    form = step.form
     n = step.joints.size
     k = 2 * n
     T = z.shape[1]
-    known = z[cols[n:]]
-    X = np.ones((T, 2 * cols.size + 1))  # unknowns, known joints, 1
+    known = z[step.inputs]
+    X = np.ones((T, k + 2 * step.inputs.size + 1))  # unknowns, known joints, 1
     X[:, k:-1:2], X[:, k + 1:-1:2] = known.real.T, known.imag.T
     x0 = X[0].copy()
     start = np.asarray(start, dtype=complex)
     x0[0:k:2], x0[1:k:2] = start.real, start.imag
     out = np.full((T, k), np.nan)
-    jacs = np.zeros((T, form.m, k))
     coarse = _coarse(known, s)
-    stop = _continue(form, step, X, s, k, x0, coarse, out, jacs, COARSE_TOLERANCE)
+    stop = _continue(form, step, X, s, k, x0, coarse, out, COARSE_TOLERANCE)
     last = coarse[stop - 1] if stop > 0 else (coarse[-1] if stop < 0 else -1)
     fail = -1
     if last >= 0:
         solved = coarse[coarse <= last]
         polished = X[: last + 1].copy()
-        inner = np.setdiff1d(np.arange(last + 1), solved)
+        between = np.ones(last + 1, dtype=bool)
+        between[solved] = False
+        inner = np.flatnonzero(between)
         polished[solved, :k] = out[solved]
         if inner.size:
             polished[inner, :k] = _predict(solved, out[solved], inner)
-        accept, jac = _polish(form, step, polished, s[: last + 1], k)
+        accept = _polish(form, step, polished, s[: last + 1], k)
         out[: last + 1] = np.where(accept[:, None], polished[:, :k], np.nan)
-        jacs[: last + 1][accept] = jac[accept]
         for t in np.flatnonzero(~accept):  # a sequential move from the sample before
             x, path = (x0, np.array([0])) if t == 0 else (np.concatenate([out[t - 1], X[t - 1, k:]]), np.array([t - 1, t]))
-            if _continue(form, step, X, s, k, x, path, out, jacs) >= 0:
+            if _continue(form, step, X, s, k, x, path, out) >= 0:
                 fail = int(t)
                 break
     if fail < 0 and stop >= 0:  # the coarse continuation stopped: go on sample by sample
         x = x0 if last < 0 else np.concatenate([out[last], X[last, k:]])
         path = np.arange(max(last, 0), T)
-        at = _continue(form, step, X, s, k, x, path, out, jacs)
+        at = _continue(form, step, X, s, k, x, path, out)
         fail = int(path[at]) if at >= 0 else -1
     if fail >= 0:
         out[fail:] = np.nan
-    ds = np.full(T, np.nan)
-    _conditioning(jacs[: fail if fail >= 0 else T], ds)
-    return (out[:, 0::2] + 1j * out[:, 1::2]).T, ds, fail
+    X[:, :k] = out
+    return X, fail
 
 
-def _conditioning(jacs: np.ndarray, ds: np.ndarray) -> None:
-    """ds[:t] = (σ_min/σ_max)² of each row-scaled Jacobian of ``jacs`` (t, m, k), batched."""
-    if not len(jacs):
-        return
-    scaled = jacs / np.maximum(np.abs(jacs).max(axis=2, keepdims=True), 1e-300)
-    eig = np.linalg.eigvalsh(np.swapaxes(scaled, 1, 2) @ scaled)  # σ², ascending
-    ds[: len(jacs)] = np.maximum(eig[:, 0], 0.0) / eig[:, -1]
+def conditioning(jac: np.ndarray, fail: int) -> np.ndarray:
+    """d_s (T,): (σ_min/σ_max)² of each row-scaled group Jacobian ``jac`` (T, m, k), batched;
+    NaN from sample ``fail`` on (−1: none)."""
+    ds = np.full(jac.shape[0], np.nan)
+    jacs = jac[: fail if fail >= 0 else jac.shape[0]]
+    if len(jacs):
+        scaled = jacs / np.maximum(np.abs(jacs).max(axis=2, keepdims=True), 1e-300)
+        eig = np.linalg.eigvalsh(np.swapaxes(scaled, 1, 2) @ scaled)  # σ², ascending
+        ds[: len(jacs)] = np.maximum(eig[:, 0], 0.0) / eig[:, -1]
+    return ds
