@@ -84,6 +84,12 @@ class Plan:
         return np.array([rows.start for r, rows in zip(self.rules, self.ds_rows) if isinstance(r, Step)], dtype=int)
 
     @cached_property
+    def steps_rest(self) -> np.ndarray:
+        """(J,) complex: the rest joints in the normalized frame, where :attr:`steps` were compiled."""
+        p = self.normalized_points()[: self.n_joints]
+        return p[:, 0] + 1j * p[:, 1]
+
+    @cached_property
     def n_ds(self) -> int:
         """N: how many rows of singularity distance an evaluation has."""
         return self.ds_rows[-1].stop if self.ds_rows else 0
