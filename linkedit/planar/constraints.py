@@ -117,7 +117,9 @@ class _Builder:
         self.rows.append((imag, d, d0, e, e0, rhs, drive, label))
 
     def _stack(self, values: list, dtype: type) -> np.ndarray:
-        return np.array([np.broadcast_to(v, self.L) for v in values], dtype=dtype).reshape(len(values), *self.L)
+        if self.L:
+            values = [np.broadcast_to(v, self.L) for v in values]
+        return np.array(values, dtype=dtype).reshape(len(values), *self.L)
 
     def build(self) -> Rows:
         m = len(self.rows)
@@ -127,8 +129,12 @@ class _Builder:
                 dc[r, j] += c
             for j, c in e.items():
                 ec[r, j] += c
-        joints = tuple(frozenset(j for j in (*d, *e) if np.any(d.get(j, 0) != 0) or np.any(e.get(j, 0) != 0))
-                       for (_, d, _, e, *_r) in self.rows)
+        if self.L:  # a joint is in a row where any linkage's coefficient is not 0
+            joints = tuple(frozenset(j for j in (*d, *e) if np.any(d.get(j, 0) != 0) or np.any(e.get(j, 0) != 0))
+                           for (_, d, _, e, *_r) in self.rows)
+        else:
+            joints = tuple(frozenset(j for j in (*d, *e) if (d.get(j, 0) != 0 or e.get(j, 0) != 0))
+                           for (_, d, _, e, *_r) in self.rows)
         return Rows(imag=np.array([r[0] for r in self.rows], dtype=bool).reshape(m), dc=dc,
                     d0=self._stack([r[2] for r in self.rows], complex), ec=ec,
                     e0=self._stack([r[4] for r in self.rows], complex),
@@ -140,7 +146,7 @@ class _Builder:
 def _value(c: Coef) -> Coef:
     """One linkage's coefficient as a Python complex (its arithmetic, as the rows were always
     built), K linkages' (K,) as they are."""
-    return complex(c) if np.ndim(c) == 0 else c
+    return c if isinstance(c, np.ndarray) else complex(c)
 
 
 def _frame(graph: LinkageGraph, link: int, z: np.ndarray) -> tuple[int, int, Coef]:
