@@ -19,7 +19,7 @@ import numpy as np
 from linkedit.planar.constraints import Rows, linkage_rows
 from linkedit.planar.feasibility import assembles
 from linkedit.planar.plan import Geometry, Plan
-from linkedit.planar.rules import Frame, Triangles
+from linkedit.planar.rules import Frame
 from linkedit.planar.rules.base import Pool
 
 #: largest input change between two samples a numeric group is continued across: motor
@@ -58,7 +58,7 @@ class Workspace:
     """
 
     def __init__(self, plan: Plan, samples: int, order: int = 0, linkages: tuple[int, ...] = ()) -> None:
-        rows = max((r.stop - r.start for r in plan.rules if isinstance(r, Triangles)), default=0)
+        rows = max((r.batch_rows() for r in plan.rules), default=0)
         self.samples, self.order, self.linkages = samples, order, tuple(linkages)
         shape = (*self.linkages, samples)
         self.orders, self.ds = Pool.carve(lambda pool: (pool((order + 1, plan.n_points, *shape), complex),

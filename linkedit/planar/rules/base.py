@@ -154,6 +154,19 @@ class Rule:
         derivative order and samples of ``shape`` (*L, T); None when it needs none."""
         return None
 
+    def batch_rows(self) -> int:
+        """Rows of :meth:`positions`' shared buffers it needs (a level's revolute batch: its size)."""
+        return 0
+
+    def table_entries(self) -> np.ndarray:
+        """The triangle table's entries (``Plan.table``) its d_s rows are, in order (revolute kinds)."""
+        return np.zeros(0, dtype=int)
+
+    def kept(self, const: tuple[Any, ...], joints: int) -> np.ndarray | None:
+        """What :meth:`at_rest` keeps of the plan's own constants ``const`` at any rest pose (a rigid
+        batch: its tracked points' coefficients in their link's frame), or None."""
+        return None
+
     def positions(self, z: np.ndarray, const: tuple[Any, ...], work: Any) -> None:
         """Positions only, into ``z`` (P, T) with ``work``'s buffers
         (:class:`~linkedit.planar.kinematics.Workspace`: no allocation); the revolute kinds only."""
@@ -309,6 +322,17 @@ class Step(Rule):
     def lockup(self, names: list[str], toggle: bool) -> str:
         """Why the step cannot place its joint (``toggle``: its d_s is 0 within rounding)."""
         return f"slider {self.name} cannot place joint {names[self.joints[0]]}"
+
+    def closure(self, first: np.ndarray, last: np.ndarray, scale: float, units: str) -> str | None:
+        """Why its joints ``last`` (n,) complex after one full cycle are not back at ``first`` (n,)
+        (normalized frame; ``scale`` its unit in ``units``), or None. A closed form is back by
+        construction; a numeric group, continued along the cycle, is back unless it changed branch."""
+        if not (np.isfinite(first).all() and np.isfinite(last).all()):
+            return None  # a lock-up, reported as such
+        gap = float(np.abs(last - first).max())
+        if gap <= 1e-7:
+            return None
+        return f"the {self.label()} does not return to its start after one cycle (off by {gap * scale:.3g} {units})"
 
     def branch_change(self, new: "Step", names: list[str]) -> str | None:
         """Why ``new`` (this step compiled at another rest pose) left this one's assembly
