@@ -125,6 +125,42 @@ def test_numeric_groups_are_evaluated_one_linkage_at_a_time():
     rest = plan.normalized_points()
     with pytest.raises(ValueError, match="one linkage at a time"):
         _evaluate(plan, Geometry.of(plan, np.stack([rest, rest])), np.zeros((2, 3)), order=0)
+    with pytest.raises(ValueError, match="at the rest pose they were compiled at"):
+        _evaluate(plan, Geometry.of(plan, 1.01 * rest), np.zeros(3), order=0)  # its rows are the spec's
+
+
+def _inputs(plan, geom, samples: int) -> np.ndarray:
+    """(K, T) inputs over the cycle: motor angles, or strokes of ±0.1 (normalized frame)."""
+    if plan.linear:
+        return np.broadcast_to(np.linspace(-0.1, 0.1, samples), (geom.ground.shape[1], samples))
+    return geom.rest_angle + np.linspace(0.0, 2.0 * np.pi, samples, endpoint=False)
+
+
+@pytest.mark.parametrize("spec", [catalog.quick_return(), catalog.scotch_yoke_coupler(), catalog.two_slots(),
+                                  catalog.inverted_slider_crank(), LinkageSpec.model_validate(CYLINDER)],
+                         ids=lambda s: s.name)
+def test_slider_designs_derivatives_at_once_equal_each_alone_and_finite_differences(spec):
+    """Velocities and accelerations of K designs of a slider linkage (slider, slotted link
+    turning, yoke, two slots, linear input) in one call equal each design's own (one linkage
+    at its rest pose) and central differences of the positions in the input."""
+    plan = compile_plan(spec)
+    rest = plan.normalized_points()
+    many = rest[None] + 0.01 * np.random.default_rng(3).normal(size=(4, *rest.shape))
+    geom = Geometry.of(plan, many)
+    inp = _inputs(plan, geom, 48)
+    s = _evaluate(plan, geom, inp, order=2)
+    for k in range(4):
+        one = _evaluate(plan, Geometry.of(plan, many[k]), inp[k], order=2)
+        good = (one.ds > 1e-3).all(axis=0)  # away from lock-ups, where the derivatives blow up
+        for a, b in ((s.z, one.z), (s.dz, one.dz), (s.ddz, one.ddz), (s.ds, one.ds)):
+            assert np.abs(a[:, k, good] - b[:, good]).max() <= 1e-12 * np.abs(b[:, good]).max(), spec.name
+            assert np.array_equal(np.isnan(a[:, k]), np.isnan(b)), spec.name
+    h1, h2 = 1e-6, 1e-4
+    (p1, m1), (p2, m2) = ((_evaluate(plan, geom, inp + d, order=0).z.copy() for d in (h, -h)) for h in (h1, h2))
+    ok = np.isfinite(p2).all(axis=0) & np.isfinite(m2).all(axis=0) & (s.ds > 0.1).all(axis=0)  # away from lock-ups
+    assert ok.mean() > 0.3, spec.name  # two-slots turns through part of the cycle only
+    for d, fd, tol in ((s.dz, (p1 - m1) / (2 * h1), 1e-7), (s.ddz, (p2 - 2 * s.z + m2) / h2 ** 2, 1e-5)):
+        assert np.abs(d - fd)[:, ok].max() <= tol * np.abs(d[:, ok]).max(), spec.name
 
 
 # ---------------------------------------------------------------- atlas build --family SPEC, synthesize

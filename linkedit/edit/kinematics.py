@@ -25,7 +25,7 @@ from linkedit.edit.feasibility import failure
 from linkedit.errors import MechanismError
 from linkedit.planar.kinematics import GROUP_STEP_DEG, GROUP_STEP_LENGTH, continuation_grid
 from linkedit.planar.plan import Plan
-from linkedit.planar.rules import RestFrame, Rigid, Step
+from linkedit.planar.rules import RestFrame, Step
 
 
 @dataclass
@@ -75,8 +75,8 @@ class RestPoseKinematics:
         self.ground = np.array(g.ground)
         self.motor, self.pivot = g.motor, g.pivot
         # tracked points on links keep their coefficient in the frame of their two joints
-        self.fixed = {id(rule): rule.tracked(const[0], self.J) for rule, const in zip(plan.rules, plan.geometry().constants)
-                      if isinstance(rule, Rigid)}
+        self.fixed = {id(rule): kept for rule, const in zip(plan.rules, plan.geometry().constants)
+                      if (kept := rule.kept(const, self.J)) is not None}
         self.steps = es.RestPoseSteps(plan) if plan.steps else None
         #: (N,) rows of ``ds`` the barrier guards (dyad rules, slider rules) and the point row
         #: each depends through (its written joint)

@@ -13,10 +13,14 @@ linear input (Re: the joint's position along the slot equals s). Derivatives are
 batched over T samples: the gradient of row r with respect to z_n is
 E·conj(dc_rn) + D·conj(ec_rn) (Re) or i·(D·conj(ec_rn) − E·conj(dc_rn)) (Im), and the second
 directional derivative along v is 2·part(conj(dc @ v)·(ec @ v)).
+
+Rows of K linkages of one topology (:func:`linkage_rows` at K rest poses) carry a linkage axis
+on every coefficient (``dc`` (m, J, K), ``d0`` (m, K), …) and act on positions (J, K, T).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,14 +30,14 @@ from linkedit.planar.graph import LinkageGraph
 
 @dataclass(frozen=True)
 class Rows:
-    """m constraint rows over J joints (see module docstring)."""
+    """m constraint rows over J joints (see module docstring); L: an optional linkage axis (K,)."""
 
     imag: np.ndarray  # (m,) bool: Im rows (else Re)
-    dc: np.ndarray  # (m, J) complex
-    d0: np.ndarray  # (m,) complex
-    ec: np.ndarray  # (m, J) complex
-    e0: np.ndarray  # (m,) complex
-    rhs: np.ndarray  # (m,) float
+    dc: np.ndarray  # (m, J, *L) complex
+    d0: np.ndarray  # (m, *L) complex
+    ec: np.ndarray  # (m, J, *L) complex
+    e0: np.ndarray  # (m, *L) complex
+    rhs: np.ndarray  # (m, *L) float
     drive: np.ndarray  # (m,) float: coefficient of the linear input s
     joints: tuple[frozenset[int], ...]  # joints each row involves
     labels: tuple[str, ...]  # what each row keeps ("link rod", "slider piston", …)
@@ -54,73 +58,106 @@ class Rows:
                     self.joints, self.labels)
 
     def _part(self, w: np.ndarray) -> np.ndarray:
-        return np.where(self.imag[:, None], w.imag, w.real)
+        return np.where(_col(self.imag, w.ndim), w.imag, w.real)
+
+    @staticmethod
+    def _times(c: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """Σ_j c[:, j]·z[j]: (m, *L, T) from coefficients ``c`` (m, J, *L) and ``z`` (J, *L, T)."""
+        if z.ndim == 2:
+            return c @ z
+        if c.ndim == 2:
+            return np.tensordot(c, z, axes=(1, 0))
+        return np.einsum("mjk,jkt->mkt", c, z)
 
     def terms(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """D and E, (m, T) complex, at joint positions ``z`` (J, T)."""
-        return self.dc @ z + self.d0[:, None], self.ec @ z + self.e0[:, None]
+        """D and E, (m, *L, T) complex, at joint positions ``z`` (J, *L, T)."""
+        return self._times(self.dc, z) + _col(self.d0, z.ndim), self._times(self.ec, z) + _col(self.e0, z.ndim)
 
     def residual(self, z: np.ndarray, s: np.ndarray | float = 0.0) -> np.ndarray:
-        """F (m, T) at joint positions ``z`` (J, T) and input displacement ``s`` (T,)."""
+        """F (m, *L, T) at joint positions ``z`` (J, *L, T) and input displacement ``s`` (*L, T)."""
         d, e = self.terms(z)
-        return self._part(np.conj(d) * e) - self.rhs[:, None] - self.drive[:, None] * s
+        return self._part(np.conj(d) * e) - _col(self.rhs, z.ndim) - _col(self.drive, z.ndim) * s
 
     def first(self, z: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Directional derivative dF[v] (m, T) at ``z`` along joint velocities ``v`` (J, T)."""
+        """Directional derivative dF[v] (m, *L, T) at ``z`` along joint velocities ``v`` (J, *L, T)."""
         d, e = self.terms(z)
-        return self._part(np.conj(self.dc @ v) * e + np.conj(d) * (self.ec @ v))
+        return self._part(np.conj(self._times(self.dc, v)) * e + np.conj(d) * self._times(self.ec, v))
 
     def second(self, v: np.ndarray) -> np.ndarray:
-        """Second directional derivative d²F[v, v] (m, T) (constant in z: the rows are bilinear)."""
-        return 2.0 * self._part(np.conj(self.dc @ v) * (self.ec @ v))
+        """Second directional derivative d²F[v, v] (m, *L, T) (constant in z: the rows are bilinear)."""
+        return 2.0 * self._part(np.conj(self._times(self.dc, v)) * self._times(self.ec, v))
 
     def jacobian(self, z: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """∂F/∂(x, y) of the joints ``cols`` (n,), shape (T, m, 2n): columns x_0, y_0, x_1, …"""
+        """∂F/∂(x, y) of the joints ``cols`` (n,), shape (*L, T, m, 2n): columns x_0, y_0, x_1, …"""
         d, e = self.terms(z)
-        dcn, ecn = np.conj(self.dc[:, cols])[:, :, None], np.conj(self.ec[:, cols])[:, :, None]
-        g_re = e[:, None, :] * dcn + d[:, None, :] * ecn
-        g_im = 1j * (d[:, None, :] * ecn - e[:, None, :] * dcn)
-        g = np.where(self.imag[:, None, None], g_im, g_re)  # (m, n, T)
-        out = np.stack([g.real, g.imag], axis=2).reshape(self.m, 2 * len(cols), -1)
-        return np.moveaxis(out, -1, 0)
+        dcn, ecn = (_col(np.conj(c[:, cols]), z.ndim + 1) for c in (self.dc, self.ec))
+        g_re = e[:, None] * dcn + d[:, None] * ecn
+        g_im = 1j * (d[:, None] * ecn - e[:, None] * dcn)
+        g = np.where(_col(self.imag, z.ndim + 1), g_im, g_re)  # (m, n, *L, T)
+        out = np.stack([g.real, g.imag], axis=2).reshape(self.m, 2 * len(cols), *z.shape[1:])
+        return np.moveaxis(out, (0, 1), (-2, -1))
+
+
+def _col(a: np.ndarray, ndim: int) -> np.ndarray:
+    """``a`` with trailing axes of length 1 up to ``ndim`` axes (a row's constant over the samples)."""
+    return a.reshape(a.shape + (1,) * (ndim - a.ndim))
+
+
+Coef = complex | np.ndarray  #: a row's coefficient: one linkage's, or (K,) of K linkages'
 
 
 class _Builder:
-    def __init__(self, n_joints: int) -> None:
+    def __init__(self, n_joints: int, linkages: tuple[int, ...] = ()) -> None:
         self.J = n_joints
+        self.L = linkages  #: () or (K,): coefficients of K linkages
         self.rows: list[tuple] = []
 
-    def add(self, imag: bool, d: dict[int, complex], d0: complex, e: dict[int, complex], e0: complex,
-            label: str, rhs: float = 0.0, drive: float = 0.0) -> None:
+    def add(self, imag: bool, d: Mapping[int, Coef], d0: Coef, e: Mapping[int, Coef], e0: Coef,
+            label: str, rhs: float | np.ndarray = 0.0, drive: float = 0.0) -> None:
         self.rows.append((imag, d, d0, e, e0, rhs, drive, label))
+
+    def _stack(self, values: list, dtype: type) -> np.ndarray:
+        if self.L:
+            values = [np.broadcast_to(v, self.L) for v in values]
+        return np.array(values, dtype=dtype).reshape(len(values), *self.L)
 
     def build(self) -> Rows:
         m = len(self.rows)
-        dc, ec = np.zeros((m, self.J), dtype=complex), np.zeros((m, self.J), dtype=complex)
+        dc, ec = (np.zeros((m, self.J, *self.L), dtype=complex) for _ in range(2))
         for r, (_, d, _, e, *_rest) in enumerate(self.rows):
             for j, c in d.items():
                 dc[r, j] += c
             for j, c in e.items():
                 ec[r, j] += c
-        joints = tuple(frozenset(j for j in (*d, *e) if (d.get(j, 0) != 0 or e.get(j, 0) != 0))
-                       for (_, d, _, e, *_r) in self.rows)
+        if self.L:  # a joint is in a row where any linkage's coefficient is not 0
+            joints = tuple(frozenset(j for j in (*d, *e) if np.any(d.get(j, 0) != 0) or np.any(e.get(j, 0) != 0))
+                           for (_, d, _, e, *_r) in self.rows)
+        else:
+            joints = tuple(frozenset(j for j in (*d, *e) if (d.get(j, 0) != 0 or e.get(j, 0) != 0))
+                           for (_, d, _, e, *_r) in self.rows)
         return Rows(imag=np.array([r[0] for r in self.rows], dtype=bool).reshape(m), dc=dc,
-                    d0=np.array([r[2] for r in self.rows], dtype=complex).reshape(m), ec=ec,
-                    e0=np.array([r[4] for r in self.rows], dtype=complex).reshape(m),
-                    rhs=np.array([r[5] for r in self.rows], dtype=float).reshape(m),
+                    d0=self._stack([r[2] for r in self.rows], complex), ec=ec,
+                    e0=self._stack([r[4] for r in self.rows], complex),
+                    rhs=self._stack([r[5] for r in self.rows], float),
                     drive=np.array([r[6] for r in self.rows], dtype=float).reshape(m),
                     joints=joints, labels=tuple(r[7] for r in self.rows))
 
 
-def _frame(graph: LinkageGraph, link: int, z: np.ndarray) -> tuple[int, int, complex]:
+def _value(c: Coef) -> Coef:
+    """One linkage's coefficient as a Python complex (its arithmetic, as the rows were always
+    built), K linkages' (K,) as they are."""
+    return c if isinstance(c, np.ndarray) else complex(c)
+
+
+def _frame(graph: LinkageGraph, link: int, z: np.ndarray) -> tuple[int, int, Coef]:
     """(a, b, m): the frame pair of ``link`` and m = z̄_b − z̄_a; (−1, −1, 1) for the frame."""
     if graph.fixed(link):
         return -1, -1, 1.0 + 0j
     a, b = graph.frame_pair(link)
-    return a, b, complex(z[b] - z[a])
+    return a, b, _value(z[b] - z[a])
 
 
-def _on_guide(graph: LinkageGraph, guide: int, z: np.ndarray, point: complex, direction: complex):
+def _on_guide(graph: LinkageGraph, guide: int, z: np.ndarray, point: Coef, direction: complex):
     """D (the line direction) and E (offset of a point from the line's rest point) in the guide's frame.
 
     Returns (d, d0, e_guide, e0): dicts of joint coefficients for D and for the guide part of E
@@ -145,8 +182,8 @@ def link_rows(builder: _Builder, graph: LinkageGraph, z: np.ndarray, li: int) ->
     """A link as a rigid body: a distance row for its frame pair, two rigid rows per other joint."""
     name = graph.link_names[li]
     i, j = graph.frame_pair(li)
-    d = complex(z[i] - z[j])
-    builder.add(False, {i: 1, j: -1}, 0j, {i: 1, j: -1}, 0j, f"link {name}", rhs=abs(d) ** 2)
+    d = _value(z[i] - z[j])
+    builder.add(False, {i: 1, j: -1}, 0j, {i: 1, j: -1}, 0j, f"link {name}", rhs=abs(d) ** 2)  # type: ignore[operator]
     for k in graph.links[li]:
         if k in (i, j):
             continue
@@ -162,7 +199,7 @@ def slider_rows(builder: _Builder, graph: LinkageGraph, z: np.ndarray, n: int, w
     label = f"slider {s.name}"
     u = np.exp(1j * s.angle)
     if s.joint >= 0:
-        d, d0, eg, e0 = _on_guide(graph, s.guide, z, complex(z[s.joint]), u)
+        d, d0, eg, e0 = _on_guide(graph, s.guide, z, _value(z[s.joint]), u)
         e = _add(eg, {s.joint: 1.0})
         builder.add(True, d, d0, e, e0, label)
         if with_drive and n == graph.drive:
@@ -170,17 +207,18 @@ def slider_rows(builder: _Builder, graph: LinkageGraph, z: np.ndarray, n: int, w
         return
     i, j = graph.frame_pair(s.link)
     a, b, m = _frame(graph, s.guide, z)
-    lij = complex(z[j] - z[i])
+    lij = _value(z[j] - z[i])
     rot_d = ({b: 1 / m, a: -1 / m} if a >= 0 else {}), (0j if a >= 0 else 1.0 + 0j)
     builder.add(True, rot_d[0], rot_d[1], {j: 1 / lij, i: -1 / lij}, 0j, label)  # turns with its guide
-    d, d0, eg, e0 = _on_guide(graph, s.guide, z, complex(z[i]), u)
+    d, d0, eg, e0 = _on_guide(graph, s.guide, z, _value(z[i]), u)
     builder.add(True, d, d0, _add(eg, {i: 1.0}), e0, label)  # its frame joint stays on the line
 
 
-def linkage_rows(graph: LinkageGraph, with_drive: bool = True) -> Rows:
-    """Every constraint row of ``graph`` at its rest pose (links of ground joints only are skipped)."""
-    z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
-    builder = _Builder(graph.n_joints)
+def linkage_rows(graph: LinkageGraph, with_drive: bool = True, rest: np.ndarray | None = None) -> Rows:
+    """Every constraint row of ``graph`` at its rest pose (links of ground joints only are skipped),
+    or at the rest poses ``rest`` (J, K) complex of K linkages of its topology (rows with a linkage axis)."""
+    z = graph.rest[:, 0] + 1j * graph.rest[:, 1] if rest is None else rest
+    builder = _Builder(graph.n_joints, z.shape[1:])
     for li, link in enumerate(graph.links):
         if not graph.fixed(li):
             link_rows(builder, graph, z, li)
@@ -250,4 +288,4 @@ def rows_rest_derivative(rows: Rows, tangent: Rows, z: np.ndarray) -> np.ndarray
     d, e = rows.terms(z)
     dd, de = tangent.terms(z)
     w = np.conj(dd) * e + np.conj(d) * de
-    return np.where(rows.imag[:, None], w.imag, w.real) - tangent.rhs[:, None]
+    return rows._part(w) - _col(tangent.rhs, z.ndim)

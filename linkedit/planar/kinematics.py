@@ -17,9 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from linkedit.planar.constraints import Rows, linkage_rows
 from linkedit.planar.feasibility import assembles
 from linkedit.planar.plan import Geometry, Plan
-from linkedit.planar.rules import Frame, Triangles
+from linkedit.planar.rules import Frame
 from linkedit.planar.rules.base import Pool
 
 #: largest input change between two samples a numeric group is continued across: motor
@@ -58,7 +59,7 @@ class Workspace:
     """
 
     def __init__(self, plan: Plan, samples: int, order: int = 0, linkages: tuple[int, ...] = ()) -> None:
-        rows = max((r.stop - r.start for r in plan.rules if isinstance(r, Triangles)), default=0)
+        rows = max((r.batch_rows() for r in plan.rules), default=0)
         self.samples, self.order, self.linkages = samples, order, tuple(linkages)
         shape = (*self.linkages, samples)
         self.orders, self.ds = Pool.carve(lambda pool: (pool((order + 1, plan.n_points, *shape), complex),
@@ -156,14 +157,28 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2, work
     return State(z=full.z[:, keep], dz=pick(full.dz), ddz=pick(full.ddz), ds=full.ds[:, keep], between_ok=between_ok)
 
 
+def _step_rows(plan: Plan, geom: Geometry) -> dict[int, Rows]:
+    """Each step's constraint rows at ``geom``'s rest pose (each of K linkages'), by ``id`` of the
+    step (their derivatives come from these rows, :meth:`~linkedit.planar.rules.Step.velocity`)."""
+    rest = geom.rest[: plan.n_joints]
+    all_rows = linkage_rows(plan.graph, rest=rest)
+    return {id(st): st.rows_at(all_rows, rest) for st in plan.steps}
+
+
+def _moved(plan: Plan, geom: Geometry) -> bool:
+    """Whether ``geom`` has steps at a rest pose other than the one they were compiled at (K
+    linkages always): their derivatives then need their rows there (:func:`_step_rows`)."""
+    return bool(plan.steps) and (bool(geom.linkages) or not np.array_equal(geom.rest[: plan.n_joints], plan.steps_rest))
+
+
 def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: Workspace | None = None) -> State:
     """The one evaluation of a plan: every rule in order. With a geometry of K linkages
     (:attr:`Geometry.linkages`), arrays carry a linkage axis after the row: (P, K, T), and
-    ``angle`` may be (K, T); every rule but a numeric group places K linkages at once (the
-    non-revolute kinds their positions and d_s only: ``order`` 0). ``work``: see :func:`evaluate`."""
+    ``angle`` may be (K, T); every rule but a numeric group places K linkages at once, with
+    their derivatives. ``work``: see :func:`evaluate`."""
     lead = geom.linkages
-    if lead and (plan.has_groups or (plan.steps and order > 0)):
-        raise ValueError("numeric groups, and the derivatives of sliders, are evaluated one linkage at a time")
+    if plan.has_groups and _moved(plan, geom):
+        raise ValueError("numeric groups are evaluated one linkage at a time, at the rest pose they were compiled at")
     T = angle.shape[-1]
     if work is None or not work.fits(order, lead, T):
         work = Workspace(plan, T, order, lead)
@@ -183,7 +198,8 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: W
     s = angle if plan.linear else np.zeros_like(angle)
     dz, ddz = (Z[1] if order >= 1 else None), (Z[2] if order >= 2 else None)
     frame = Frame(z=Z[0], dz=dz, ddz=ddz, ds=ds, joints=plan.row_of[: plan.n_joints], s=s,
-                  drive=1.0 if plan.linear else 0.0, rest=geom.rest, orders=Z, scratch=work.scratch)
+                  drive=1.0 if plan.linear else 0.0, rest=geom.rest, orders=Z, scratch=work.scratch,
+                  rows=_step_rows(plan, geom) if order > 0 and _moved(plan, geom) else {})
     with np.errstate(invalid="ignore", divide="ignore"):
         for rule, rows, const in zip(plan.rules, plan.ds_rows, geom.constants):
             rule.evaluate(frame, const, rows)

@@ -24,7 +24,7 @@ import numpy as np
 from linkedit.errors import MechanismError
 from linkedit.planar.graph import LinkageGraph, Mobility, mobility
 from linkedit.planar.ordering import order_joints
-from linkedit.planar.rules import Dyad, Group, Rigid, Rule, Step, Triangles, compile_steps
+from linkedit.planar.rules import Dyad, Group, Rigid, Rule, Step, compile_steps
 from linkedit.spec.linkage import JointTrack, LinkageSpec, LinkTrack
 
 
@@ -82,6 +82,12 @@ class Plan:
     def step_rows(self) -> np.ndarray:
         """(X,) each of :attr:`steps`' row of the singularity distance."""
         return np.array([rows.start for r, rows in zip(self.rules, self.ds_rows) if isinstance(r, Step)], dtype=int)
+
+    @cached_property
+    def steps_rest(self) -> np.ndarray:
+        """(J,) complex: the rest joints in the normalized frame, where :attr:`steps` were compiled."""
+        p = self.normalized_points()[: self.n_joints]
+        return p[:, 0] + 1j * p[:, 1]
 
     @cached_property
     def n_ds(self) -> int:
@@ -342,8 +348,8 @@ def compile_plan(spec: LinkageSpec) -> Plan:
     table_row, first = np.zeros(len(rules), dtype=int), 0
     for rule in sequence:
         ds_rows.append(slice(first, first + rule.ds_count()))
-        if isinstance(rule, Triangles):
-            table_row[rule.rule[rule.listed]] = np.arange(first, ds_rows[-1].stop)
+        listed = rule.table_entries()
+        table_row[listed] = np.arange(first, first + listed.size)
         first = ds_rows[-1].stop
     table = TriangleTable(joints=np.array([(r.i, r.j, r.k) for r in rules], dtype=int).reshape(-1, 3),
                           level=np.array([r.level for r in rules], dtype=int),

@@ -17,7 +17,7 @@ from linkedit.planar.diagnostics import LockUp, lockups, transmission_angle, tri
 from linkedit.planar.feasibility import CHECK_SAMPLES, TOGGLE, assembles, lowest
 from linkedit.planar.kinematics import State, evaluate
 from linkedit.planar.plan import Geometry, Plan, compile_plan
-from linkedit.planar.rules import Failure, Group
+from linkedit.planar.rules import Failure
 from linkedit.spec.linkage import LinkageSpec, Motor
 
 DEFAULT_SAMPLES = 360
@@ -349,15 +349,9 @@ def _find_lockups(plan: Plan, pn: np.ndarray, ds: np.ndarray, shown: np.ndarray,
 
 
 def _check_closure(plan: Plan, state: State) -> None:
-    """After one full cycle a numeric group must be back where it started (same branch)."""
+    """After one full cycle every step must be back where it started (same branch, :meth:`Step.closure`)."""
     for step in plan.steps:
-        if not isinstance(step, Group):
-            continue
         z = state.z[plan.row_of[step.joints]]
-        if not (np.isfinite(z[:, -1]).all() and np.isfinite(z[:, 0]).all()):
-            continue  # a lock-up, reported as such
-        gap = float(np.abs(z[:, -1] - z[:, 0]).max())
-        if gap > 1e-7:
-            raise MechanismError(
-                f"{plan.spec.name}: the numeric group {step.name} does not return to its start after one cycle "
-                f"(off by {gap * plan.scale:.3g} {plan.spec.units}): it changed assembly branch")
+        why = step.closure(z[:, 0], z[:, -1], plan.scale, plan.spec.units)
+        if why is not None:
+            raise MechanismError(f"{plan.spec.name}: {why}: it changed assembly branch")

@@ -1,7 +1,8 @@
 """The families an atlas can hold: name → module with the family interface.
 
-Besides the built-in ones, any planar linkage spec driven by a full-turn crank and rebuilt in
-closed form (dyads, rigid links, sliders, slots, slotted links; no numeric group) is a family (:func:`spec_family`: ``atlas build --family examples/klann.yaml``): its rest pose is
+Besides the built-in ones, any planar linkage spec with a cyclic input (a full-turn crank, an
+oscillating crank, a linear input out and back) and rebuilt in closed form (dyads, rigid links,
+sliders, slots, slotted links; no numeric group) is a family (:func:`spec_family`: ``atlas build --family examples/klann.yaml``): its rest pose is
 sampled around the design like the catalog families (:class:`~linkedit.synthesis.legs.CatalogFamily`),
 its first joint track is the curve, and the atlas keeps its spec text so that synthesis (and a Dask
 worker) rebuilds it by name.
@@ -62,8 +63,9 @@ def spec_family(path: Path, field: str = "--family") -> str:
 
 
 def from_spec_text(name: str, text: str, *, field: str = "--family", file: str | None = None) -> CatalogFamily:
-    """The family ``name`` of the linkage spec ``text``: a crank turning a full revolution, rules
-    in closed form only, a joint track (its first) as the curve. InputError otherwise, or when a
+    """The family ``name`` of the linkage spec ``text``: a cyclic input (a crank's full turn or
+    swing, a linear input's stroke out and back), rules in closed form only, a joint track (its
+    first) as the curve. InputError (one line naming the spec and why) otherwise, or when a
     different spec was already made under that name or it is a built-in family's name."""
     where = file or field
     if name in FAMILIES:
@@ -74,20 +76,21 @@ def from_spec_text(name: str, text: str, *, field: str = "--family", file: str |
         return SPECS[name]
     data, lines = load_yaml(where, text)
     spec = validate(LinkageSpec, data, file=where, lines=lines)
-    motor = spec.motor
-    if motor.linear or motor.range_deg is not None or motor.oscillate_deg is not None:
-        raise InputError("a family needs a full-turn crank (no range_deg, oscillate_deg or linear input yet)",
-                         file=file, field=field)
+    cannot = f"linkage {name!r} cannot be a family"
+    if spec.motor.range_deg is not None:
+        raise InputError(f"{cannot}: its motor sweeps range_deg once, not a cycle (give oscillate_deg "
+                         "for a swing back and forth)", file=file, field=field)
     track = next((n for n, t in spec.tracks.items() if isinstance(t, JointTrack)), None)
     if track is None:
-        raise InputError("a family needs a track on a joint (its curve)", file=file, field=field)
+        raise InputError(f"{cannot}: it tracks no joint (a family's curve is its first joint track)",
+                         file=file, field=field)
     try:
         plan = compile_plan(spec)
     except LinkeditError as exc:
-        raise InputError(f"the linkage cannot be a family: {exc}", file=file, field=field) from None
+        raise InputError(f"{cannot}: {exc}", file=file, field=field) from None
     if plan.has_groups:
-        raise InputError("a family needs a linkage rebuilt in closed form (no numeric group yet)", file=file,
-                         field=field)
+        raise InputError(f"{cannot}: it has a numeric group (a complex loop, solved numerically one linkage at "
+                         "a time); a family is evaluated many linkages at once in closed form", file=file, field=field)
     fam = CatalogFamily(name, 1000 + zlib.crc32(text.encode()) % 100_000, lambda: spec, track)
     SPECS[name], SPEC_TEXTS[name] = fam, text
     return fam

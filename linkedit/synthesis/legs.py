@@ -1,9 +1,15 @@
 """Families built on a catalog linkage: Jansen's and Klann's legs, Watt and Stephenson six-bars.
 
 A family's parameters are the rest-pose coordinates of all joints (x₀, y₀, x₁, y₁, … in the
-catalog spec's joint order), in a family frame: the catalog linkage moved so its motor pivot is
-at the origin and scaled to a largest extent of 1. The distribution keeps the motor pivot and
-moves every other joint by N(0, s²) per coordinate, s log-uniform in [0.005, 0.08] per linkage.
+catalog spec's joint order), in a family frame: the catalog linkage moved so its motor pivot (a
+linear input's: its first ground joint) is at the origin and scaled to a largest extent of 1. The
+distribution keeps that joint and moves every other joint by N(0, s²) per coordinate, s
+log-uniform in [0.005, 0.08] per linkage.
+
+One cycle of the input: a crank's full turn; an oscillating crank's swing ``oscillate_deg`` [a, b]
+a → b → a as ``simulate`` has it, a + (b − a)·(1 − cos 2πt)/2; a linear input's stroke [s0, s1]
+out and back by the same law (its tracked point retraces its path: an open curve's, as
+``synthesize`` queries an open target).
 
 Evaluation is the planar engine's own (:func:`linkedit.planar.kinematics.evaluate` with a
 :class:`~linkedit.planar.plan.Geometry` of K linkages): every batch of the compiled plan is one
@@ -45,14 +51,21 @@ class CatalogFamily:
         names = self.plan.joint_names
         rest = np.array([spec.joints[n] for n in names], dtype=float)
         motor, tracked = spec.motor, spec.tracks[track]
-        if motor.joint is None or motor.pivot is None or not isinstance(tracked, JointTrack):
-            raise ValueError(f"family {name!r}: needs a crank and a tracked joint")
-        self.pivot = names.index(motor.pivot)
-        self.motor = names.index(motor.joint)
+        if motor.range_deg is not None or not isinstance(tracked, JointTrack):
+            raise ValueError(f"family {name!r}: needs a cyclic input (no range_deg) and a tracked joint")
+        #: the joint kept at the family frame's origin: the motor pivot, or a linear input's first ground joint
+        self.pivot = names.index(motor.pivot if motor.pivot is not None else spec.ground[0])
         self.track_joint = names.index(tracked.joint)
         self.ground = [names.index(g) for g in spec.ground]
         self.direction = 1.0 if spec.motor.direction == "ccw" else -1.0
         self.size = float(np.ptp(rest, axis=0).max())
+        #: a swing's input range from the rest pose: oscillate_deg (radians) or the stroke (family
+        #: frame); None for a full-turn crank
+        self.swing: tuple[float, float] | None = None
+        if motor.oscillate_deg is not None:
+            self.swing = (float(np.radians(motor.oscillate_deg[0])), float(np.radians(motor.oscillate_deg[1])))
+        elif motor.stroke is not None:
+            self.swing = (motor.stroke[0] / self.size, motor.stroke[1] / self.size)
         self.base = ((rest - rest[self.pivot]) / self.size).ravel()
         self.PARAMETERS = tuple(f"{n}_{axis}" for n in names for axis in "xy")
         #: the d_s rows the margin holds: every watched rule's (dyads, sliders, slotted links)
@@ -76,10 +89,18 @@ class CatalogFamily:
         count = len(params)
         rest = params.reshape(count, -1, 2)
         geom = Geometry.of(self.plan, rest)
-        turn = 2.0 * np.pi * (np.asarray(phase, dtype=float).reshape(-1, 1) + np.arange(samples)[None, :] / samples)
-        state = _evaluate(self.plan, geom, geom.rest_angle + self.direction * turn, order=0)
+        turn = self.turn(np.asarray(phase, dtype=float).reshape(-1, 1) + np.arange(samples)[None, :] / samples)
+        state = _evaluate(self.plan, geom, turn if self.plan.linear else geom.rest_angle + self.direction * turn, order=0)
         z = state.z[self.plan.row_of[: self.plan.n_joints]]  # (J, K, T)
         return z.transpose(1, 0, 2), state.ds[self.watched].transpose(1, 0, 2)
+
+    def turn(self, t: np.ndarray) -> np.ndarray:
+        """The input's change from the rest pose at phases ``t``: the crank's rotation (radians,
+        ccw-positive before the motor's direction), or a linear input's stroke (family frame)."""
+        if self.swing is None:
+            return 2.0 * np.pi * t
+        a, b = self.swing
+        return a + (b - a) * 0.5 * (1.0 - np.cos(2.0 * np.pi * t))
 
     def min_singularity(self, params: np.ndarray, margin: float | None = None) -> np.ndarray:
         """The lowest d_s over the cycle (K,): :func:`linkedit.planar.feasibility.lowest` of the dyads
@@ -111,8 +132,15 @@ class CatalogFamily:
         pose = self._evaluate(row[None], 1, phase)[0][0, :, 0]
         placed = shift + scale * turn * (np.conj(pose) if mirrored else pose)
         flip = {"ccw": "cw", "cw": "ccw"}
-        motor = self.spec.motor.model_copy(update={"direction": (self.spec.motor.direction if mirrored == reversed else
-                                                                 flip[self.spec.motor.direction])})
+        motor = self.spec.motor
+        if not self.plan.linear:  # a linear input has no sense of rotation
+            motor = motor.model_copy(update={"direction": (motor.direction if mirrored == reversed else
+                                                           flip[motor.direction])})
+        if self.swing is not None:  # the swing from the new rest pose (at ``phase``): its t = 0 stays phase 0
+            at = float(self.turn(np.array(phase)))
+            a, b = (v - at for v in self.swing)
+            motor = motor.model_copy(update={"stroke": (scale * a, scale * b)} if self.plan.linear else
+                                     {"oscillate_deg": (float(np.degrees(a)), float(np.degrees(b)))})
         data = self.spec.model_dump(mode="python")
         data.update(name=name, units=units, description=description,
                     joints={n: [float(p.real), float(p.imag)] for n, p in zip(self.plan.joint_names, placed)},

@@ -185,6 +185,11 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
     if points and (timing or smooth > 0):
         raise InputError("precision points are matched at any crank phase and not smoothed: --points takes "
                          "neither --timing nor --smooth", field="--points")
+    swings = [n for n in atlas.families if getattr(family(n), "swing", None) is not None] if timing else []
+    if swings:
+        raise InputError(f"family {swings[0]!r} swings its input out and back (an oscillating crank or a linear "
+                         "input): a spec's motion starts at the swing's start, not at a fitted phase; "
+                         "synthesize its path without --timing", field="--timing")
     mode = ("given (--points)" if points else None if points is False or timing or smooth > 0
             else precision.detect(z, target.closed))
     unit = replace(target, points=smooth_curve(np.stack([z.real, z.imag], axis=1), target.closed, smooth),

@@ -48,6 +48,8 @@ class Frame:
     orders: np.ndarray
     #: each rule's scratch buffers (:meth:`Rule.scratch`), by ``id`` of the rule
     scratch: dict[int, Any] = field(default_factory=dict)
+    #: K linkages' derivatives: each step's rows at every linkage's rest (:meth:`Step.rows_at`), by ``id``
+    rows: dict[int, Rows] = field(default_factory=dict)
 
 
 class Pool:
@@ -152,6 +154,19 @@ class Rule:
         derivative order and samples of ``shape`` (*L, T); None when it needs none."""
         return None
 
+    def batch_rows(self) -> int:
+        """Rows of :meth:`positions`' shared buffers it needs (a level's revolute batch: its size)."""
+        return 0
+
+    def table_entries(self) -> np.ndarray:
+        """The triangle table's entries (``Plan.table``) its d_s rows are, in order (revolute kinds)."""
+        return np.zeros(0, dtype=int)
+
+    def kept(self, const: tuple[Any, ...], joints: int) -> np.ndarray | None:
+        """What :meth:`at_rest` keeps of the plan's own constants ``const`` at any rest pose (a rigid
+        batch: its tracked points' coefficients in their link's frame), or None."""
+        return None
+
     def positions(self, work: Any) -> Callable[[tuple[Any, ...]], None]:
         """Its positions-only kernel, compiled once per :class:`~linkedit.planar.kinematics.Workspace`
         ``work``: called with the geometry's constants, it writes its rows of ``work.z`` (P, T) into
@@ -228,10 +243,11 @@ class Step(Rule):
         return self.joints[:1]
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
-        """Place its joints in ``f``, then (one linkage) their derivatives by :meth:`velocity`
-        and :meth:`acceleration`; K linkages (positions only) read their joints in place."""
+        """Place its joints in ``f``, then their derivatives by :meth:`velocity` and
+        :meth:`acceleration` (K linkages: with each linkage's rows, ``f.rows``); K linkages'
+        positions alone read their joints in place."""
         out_rows = f.joints[self.joints]
-        if f.z.ndim > 2:
+        if f.z.ndim > 2 and f.dz is None:
             joints = cast(np.ndarray, InPlace(f.z, f.joints))  # the closed-form kinds read z[k] only
             out, f.ds[rows] = self.place(joints, f.s, f.rest, const)
             f.z[out_rows] = out
@@ -240,10 +256,11 @@ class Step(Rule):
         out, f.ds[rows] = self.place(zj, f.s, f.rest, const)
         f.z[out_rows] = zj[self.joints] = out
         if f.dz is not None:
+            own = f.rows.get(id(self), self.rows)
             dzj = f.dz[f.joints]
-            f.dz[out_rows] = dzj[self.joints] = self.velocity(zj, dzj, f.drive)
+            f.dz[out_rows] = dzj[self.joints] = self.velocity(zj, dzj, f.drive, own)
             if f.ddz is not None:
-                f.ddz[out_rows] = self.acceleration(zj, dzj, f.ddz[f.joints])
+                f.ddz[out_rows] = self.acceleration(zj, dzj, f.ddz[f.joints], own)
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
         """Place its joints by the step compiled at ``f.rest``; tangents by :meth:`rest_tangent`
@@ -307,10 +324,26 @@ class Step(Rule):
         """Why the step cannot place its joint (``toggle``: its d_s is 0 within rounding)."""
         return f"slider {self.name} cannot place joint {names[self.joints[0]]}"
 
+    def closure(self, first: np.ndarray, last: np.ndarray, scale: float, units: str) -> str | None:
+        """Why its joints ``last`` (n,) complex after one full cycle are not back at ``first`` (n,)
+        (normalized frame; ``scale`` its unit in ``units``), or None. A closed form is back by
+        construction; a numeric group, continued along the cycle, is back unless it changed branch."""
+        if not (np.isfinite(first).all() and np.isfinite(last).all()):
+            return None  # a lock-up, reported as such
+        gap = float(np.abs(last - first).max())
+        if gap <= 1e-7:
+            return None
+        return f"the {self.label()} does not return to its start after one cycle (off by {gap * scale:.3g} {units})"
+
     def branch_change(self, new: "Step", names: list[str]) -> str | None:
         """Why ``new`` (this step compiled at another rest pose) left this one's assembly
         branch, naming it, or None."""
         return None
+
+    def rows_at(self, all_rows: Rows, rest: np.ndarray) -> Rows:
+        """Its rows at K rest poses: ``all_rows`` the linkage's rows there
+        (``linkage_rows(graph, rest=rest)``), ``rest`` (J, K) complex joints."""
+        return all_rows.take(self.source[self.source >= 0])
 
     def rows_tangent(self, graph: LinkageGraph, drest: np.ndarray) -> Rows:
         """d/dε of the step's rows when the rest pose moves along ``drest`` (J,) complex."""
@@ -321,18 +354,19 @@ class Step(Rule):
         step's joints filled in); only for :attr:`guarded` kinds."""
         raise TypeError(f"a {self.kind} step has no singularity barrier")
 
-    def velocity(self, z: np.ndarray, dz: np.ndarray, ds: float) -> np.ndarray:
-        """ż of the step's joints (n, T) from the known joints' ż in ``dz`` (J, T) (own rows ignored)."""
-        rows = self.rows
+    def velocity(self, z: np.ndarray, dz: np.ndarray, ds: float, rows: Rows | None = None) -> np.ndarray:
+        """ż of the step's joints (n, *L, T) from the known joints' ż in ``dz`` (J, *L, T) (own
+        rows ignored); ``rows``: its rows at each linkage's rest (:meth:`rows_at`), default its own."""
+        rows = self.rows if rows is None else rows
         known = dz.copy()
         known[self.joints] = 0.0
-        rhs = -rows.first(z, known) + rows.drive[:, None] * ds
+        rhs = -rows.first(z, known) + rows.drive.reshape(-1, *(1,) * (z.ndim - 1)) * ds
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             return to_complex(solve(rows.jacobian(z, self.joints), rhs))
 
-    def acceleration(self, z: np.ndarray, dz: np.ndarray, ddz: np.ndarray) -> np.ndarray:
-        """z̈ of the step's joints (n, T), given ż of all joints and z̈ of the known ones."""
-        rows = self.rows
+    def acceleration(self, z: np.ndarray, dz: np.ndarray, ddz: np.ndarray, rows: Rows | None = None) -> np.ndarray:
+        """z̈ of the step's joints (n, *L, T), given ż of all joints and z̈ of the known ones."""
+        rows = self.rows if rows is None else rows
         known = ddz.copy()
         known[self.joints] = 0.0
         rhs = -rows.first(z, known) - rows.second(dz)
@@ -416,11 +450,12 @@ def concat(a: Rows, b: Rows) -> Rows:
 
 
 def solve(jac: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Batched least-squares solve: jac (T, m, k), rhs (m, T) → (k, T)."""
-    if jac.shape[1] == jac.shape[2]:
-        return np.linalg.solve(jac, rhs.T[..., None])[..., 0].T
-    jt = np.swapaxes(jac, 1, 2)
-    return np.linalg.solve(jt @ jac, (jt @ rhs.T[..., None]))[..., 0].T
+    """Batched least-squares solve: jac (*L, T, m, k), rhs (m, *L, T) → (k, *L, T)."""
+    b = np.moveaxis(rhs, 0, -1)[..., None]
+    if jac.shape[-2] == jac.shape[-1]:
+        return np.moveaxis(np.linalg.solve(jac, b)[..., 0], -1, 0)
+    jt = np.swapaxes(jac, -1, -2)
+    return np.moveaxis(np.linalg.solve(jt @ jac, jt @ b)[..., 0], -1, 0)
 
 
 def to_complex(xy: np.ndarray) -> np.ndarray:

@@ -71,9 +71,9 @@ class Rigid(Triangles):
             dzi, dzj = f.dz[self.i], f.dz[self.j]
             f.dz[out] = dzi + dc[:, :, None] * e[:, None, :] + c[:, None, None] * (dzj - dzi)
 
-    def tracked(self, coef: np.ndarray, joints: int) -> np.ndarray:
-        """(R,) the plan's coefficients ``coef`` (its constants) of tracked points, NaN for joints."""
-        return np.where(self.k_point >= joints, coef[:, 0], np.nan)
+    def kept(self, const: tuple[Any, ...], joints: int) -> np.ndarray | None:
+        """(R,) the plan's coefficients (``const[0]``) of its tracked points, NaN for joints."""
+        return np.where(self.k_point >= joints, const[0][:, 0], np.nan)
 
     def move_tracks(self, old: np.ndarray, new: np.ndarray) -> None:
         m = ~self.listed

@@ -41,9 +41,7 @@ class Slider(Step):
         slot = all_rows.take(np.array(source))
         k, i, level = rule.joints[0], rule.i, rule.level
         l2 = abs(z[k] - z[i]) ** 2
-        b = _Builder(graph.n_joints)
-        b.add(False, {k: 1, i: -1}, 0j, {k: 1, i: -1}, 0j, f"slider {name} rod", rhs=l2)
-        rows = concat(slot, b.build())
+        rows = concat(slot, _rod(graph.n_joints, k, i, f"slider {name} rod", l2))
         line = Slot.of(graph, rule.slider)
         side = _side(z[k], z[i], line.u)
         if abs(side) <= 1e-9 * np.sqrt(l2):
@@ -89,6 +87,12 @@ class Slider(Step):
                     "of the rest pose's")
         return None
 
+    def rows_at(self, all_rows: Rows, rest: np.ndarray) -> Rows:
+        """The slot's rows, then the rod's at each rest pose."""
+        k, i = int(self.joints[0]), self.i
+        rod = _rod(rest.shape[0], k, i, self.rows.labels[-1], np.abs(rest[k] - rest[i]) ** 2)
+        return concat(super().rows_at(all_rows, rest), rod)
+
     def rows_tangent(self, graph: LinkageGraph, drest: np.ndarray) -> Rows:
         """The slot row's tangent, then the rod's: d/dε of its squared length."""
         z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
@@ -111,6 +115,13 @@ class Slider(Step):
         a = (np.conj(d) * w).real
         da = (np.conj(dd) * w + np.conj(d) * dw).real
         return 2.0 * da / a - 2.0 * (np.conj(d) * dd).real / np.abs(d) ** 2 - 2.0 * (np.conj(w) * dw).real / np.abs(w) ** 2
+
+
+def _rod(n_joints: int, k: int, i: int, label: str, l2: Any) -> Rows:
+    """The rod's row |z_k − z_i|² = l2 (one linkage's, or (K,) of K linkages')."""
+    b = _Builder(n_joints, np.shape(l2))
+    b.add(False, {k: 1, i: -1}, 0j, {k: 1, i: -1}, 0j, label, rhs=l2)
+    return b.build()
 
 
 def _side(zk: Any, zi: Any, u: complex) -> Any:

@@ -39,6 +39,12 @@ class Triangles(Rule):
     def ds_count(self) -> int:
         return int(self.listed.sum())
 
+    def batch_rows(self) -> int:
+        return self.stop - self.start
+
+    def table_entries(self) -> np.ndarray:
+        return self.rule[self.listed]
+
     def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
         """z_i and z_j − z_i with their derivatives, (orders, R, *shape) complex each."""
         one = (orders, self.stop - self.start, *shape)
