@@ -24,7 +24,7 @@ import numpy as np
 from linkedit.errors import MechanismError
 from linkedit.planar.graph import LinkageGraph, Mobility, mobility
 from linkedit.planar.ordering import order_joints
-from linkedit.planar.rules import Dyad, Group, Rigid, Rule, Step, compile_steps
+from linkedit.planar.rules import Dyad, Rigid, Rule, Step, compile_steps
 from linkedit.spec.linkage import JointTrack, LinkageSpec, LinkTrack
 
 
@@ -69,7 +69,7 @@ class Plan:
 
     @cached_property
     def has_groups(self) -> bool:
-        return any(isinstance(st, Group) for st in self.rules)
+        return any(rule.numeric for rule in self.rules)
 
     @cached_property
     def steps(self) -> tuple[Step, ...]:

@@ -127,6 +127,8 @@ class Rule:
     guarded: ClassVar[bool] = False
     #: exact by construction: its d_s rows are 1, never checked
     exact: ClassVar[bool] = False
+    #: solved numerically (Newton's method from the rest pose): one linkage at a time, at the rest pose it was compiled at
+    numeric: ClassVar[bool] = False
     level: int
 
     def ds_count(self) -> int:

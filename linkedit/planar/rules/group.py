@@ -43,6 +43,7 @@ class Group(Step):
 
     kind = "group"
     watched = True
+    numeric = True
 
     det_sign: float = 1.0
 
