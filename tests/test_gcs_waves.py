@@ -164,7 +164,7 @@ def test_a_repeated_time_repeats_its_pose_and_does_not_hang():
 
 @pytest.mark.parametrize("name, tol", [("crank-rocker", 1e-9), ("bennett", 1e-9), ("rssr", 1e-6)])
 def test_accelerations_keep_the_waves(name, tol):
-    """--accelerations used to switch the waves off (the run step by step: 19-47x its time):
+    """--accelerations used to switch the waves off (the run step by step: 8-31x its time at 361 steps):
     the run is solved in waves all the same, the poses and velocities unchanged, and the
     accelerations, batched after it, are the pose-by-pose ones at those poses: to 1e-9 (γ's
     central difference rounds to ~1e-11), and along the RSSR's free spin to the ~1e-7 that the
