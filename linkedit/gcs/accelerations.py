@@ -12,8 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from linkedit.gcs import quaternions as quat
-from linkedit.gcs.acceleration import NULL_STEP, STEP, acceleration, advanced
+from linkedit.gcs.acceleration import NULL_STEP, STEP, acceleration, advanced, along
 from linkedit.gcs.continuation import Solver
 from linkedit.gcs.factors import BatchedFactors
 from linkedit.gcs.free import canonical
@@ -46,13 +45,6 @@ def run_accelerations(solver: Solver, table: StepTable, pos: np.ndarray, ori: np
         out[k] = (acceleration(solver, x, table, int(k), solver.linearize(x, table, int(k)),
                                vel[k].ravel() / col) * col).reshape(M, 6)
     return out
-
-
-def along(P: np.ndarray, Q: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Poses P (B, M, 3), Q (B, M, 4) moved by real local coordinates ``delta`` (B, 6M) with the
-    exact exponential (as :func:`linkedit.gcs.acceleration._along`, batched)."""
-    d = delta.reshape(P.shape[0], -1, 6)
-    return P + d[..., :3], quat.multiply(quat.exp(d[..., 3:]), Q)
 
 
 def batched(batch: BatchedFactors, P: np.ndarray, Q: np.ndarray, V: np.ndarray,
