@@ -162,9 +162,33 @@ def test_a_repeated_time_repeats_its_pose_and_does_not_hang():
             assert (run.position[90] == run.position[91]).all() and (run.velocity[90] == run.velocity[91]).all()
 
 
-def test_accelerations_go_step_by_step():
-    run = solve_run(_system("crank-rocker"), np.arange(40) / 40, Options(accelerations=True))
-    assert not run.batched.any()
+@pytest.mark.parametrize("name, tol", [("crank-rocker", 1e-9), ("bennett", 1e-9), ("rssr", 1e-6)])
+def test_accelerations_keep_the_waves(name, tol):
+    """--accelerations used to switch the waves off (the run step by step: 8-31x its time at 361 steps):
+    the run is solved in waves all the same, the poses and velocities unchanged, and the
+    accelerations, batched after it, are the pose-by-pose ones at those poses: to 1e-9 (γ's
+    central difference rounds to ~1e-11), and along the RSSR's free spin to the ~1e-7 that the
+    central difference of its canonical velocity rounds to."""
+    from linkedit.gcs.acceleration import acceleration
+    from linkedit.gcs.continuation import Solver
+
+    system = _system(name)
+    t = np.linspace(0.0, 1.0, 181)
+    run = solve_run(system, t, Options(accelerations=True))
+    plain = solve_run(system, t, Options())
+    assert (run.status == 0).all() and run.batched.sum() >= 170
+    assert np.array_equal(run.position, plain.position) and np.array_equal(run.velocity, plain.velocity)
+    solver, table = Solver(system), system.step_table(t)
+    steps = np.arange(0, t.size, 12)
+    want = np.empty((steps.size,) + run.acceleration.shape[1:])
+    for i, k in enumerate(steps):
+        x = run.state(k)
+        a = acceleration(solver, x, table, k, solver.linearize(x, table, k), run.velocity[k].ravel() / solver.col)
+        want[i] = (a * solver.col).reshape(-1, 6)
+    got, L = run.acceleration[steps], system.length_scale
+    scale = max(np.abs(want[..., :3]).max(), L * np.abs(want[..., 3:]).max())
+    assert np.abs(got[..., :3] - want[..., :3]).max() < tol * scale
+    assert L * np.abs(got[..., 3:] - want[..., 3:]).max() < tol * scale
 
 
 def test_blas_runs_on_one_thread_inside_and_is_restored_after():

@@ -80,11 +80,17 @@ def jacobian_product(system: System, ev: Evaluation, v: np.ndarray) -> np.ndarra
     return out
 
 
+def along(P: np.ndarray, Q: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions P (..., M, 3) and quaternions Q (..., M, 4) moved by local coordinates ``delta``
+    (..., 6M) with the exact exponential (q ← exp(δθ) ⊗ q; :meth:`State.moved`'s retraction
+    agrees with it to second order only)."""
+    d = delta.reshape(P.shape[:-1] + (6,))
+    return P + d[..., :3], quat.multiply(quat.exp(d[..., 3:]), Q)
+
+
 def _along(x: State, delta: np.ndarray) -> State:
-    """x moved by local coordinates ``delta`` (6M,) with the exact exponential (q ← exp(δθ) ⊗ q;
-    :meth:`State.moved`'s retraction agrees with it to second order only)."""
-    d = delta.reshape(-1, 6)
-    return State(x.position + d[:, :3], quat.multiply(quat.exp(d[:, 3:]), x.orientation))
+    """x moved by local coordinates ``delta`` (6M,) (:func:`along`)."""
+    return State(*along(x.position, x.orientation, delta))
 
 
 def _first_order(solver, ev: Evaluation, x: State, table: StepTable, step: int, real: np.ndarray) -> np.ndarray:

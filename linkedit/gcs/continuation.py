@@ -42,8 +42,7 @@ solve from it).
 
 Each accepted pose is factorized once (at its first corrected iterate, when the later
 corrections moved it at most :data:`REUSE`, else afresh): that factorization gives its
-velocity, its null space and rank, the first correction of the next step and, with
-``Options.accelerations``, its acceleration (:mod:`linkedit.gcs.acceleration`).
+velocity, its null space and rank and the first correction of the next step.
 
 Status per step: **converged** (largest scaled residual row ≤ tol), **inconsistent** (the
 least-squares cost stopped decreasing above tol, or creeps where its gradient is small: the

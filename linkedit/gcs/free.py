@@ -10,18 +10,20 @@ from linkedit.gcs import canonical as canon
 from linkedit.gcs.acceleration import advanced
 from linkedit.gcs.factors import BatchedFactors, Factors
 from linkedit.gcs.structure import Jacobians
+from linkedit.gcs.system import StepTable
 
 
 def canonical(batch: BatchedFactors, P: np.ndarray, Q: np.ndarray, v0: np.ndarray, steps: np.ndarray,
-              known: tuple["Jacobians", "Factors"] | None = None) -> tuple[np.ndarray, np.ndarray]:
+              known: tuple["Jacobians", "Factors"] | None = None,
+              table: StepTable | None = None) -> tuple[np.ndarray, np.ndarray]:
     """For B solved poses (P (B, M, 3), Q (B, M, 4)) with one free direction, at the table's
     ``steps`` (B,), with least-norm scaled velocities v0 (B, N): the canonical pose's
     velocities (B, N) and the Newton moves (B, N) along J's null vectors towards it
     (:mod:`linkedit.gcs.canonical`; zero at the canonical pose), as the continuation's
     :meth:`Solver.canonical` and :meth:`Solver.velocity` take them; J and its
-    factorization at the poses are evaluated, or ``known`` (a rough pose's, nearby)."""
+    factorization at the poses are evaluated, or ``known`` (a rough pose's, nearby); ``steps`` of ``table`` when given (else the run's)."""
     if known is None:
-        J = batch.jacobian(batch.evaluate(P, Q, steps, True)[1])
+        J = batch.jacobian(batch.evaluate(P, Q, steps, True, table=table)[1])
         F = batch._factor(J)
     else:
         J, F = known
@@ -42,7 +44,7 @@ def canonical(batch: BatchedFactors, P: np.ndarray, Q: np.ndarray, v0: np.ndarra
     moves = np.concatenate([n, n, v0, v0]) * h[:, None]
     four = np.tile(steps, 4)
     Pm, Qm = batch.moved(np.tile(P, (4, 1, 1)), np.tile(Q, (4, 1, 1)), moves)
-    tab = advanced(batch.table, four, np.concatenate([0.0 * hn, 0.0 * hn, hv, -hv]))
+    tab = advanced(table or batch.table, four, np.concatenate([0.0 * hn, 0.0 * hn, hv, -hv]))
     Jm = batch.jacobian(batch.evaluate(Pm, Qm, np.arange(4 * B), True, table=tab)[1])
     n4 = np.tile(n, (4, 1))
     seen = sum(((np.tile(lp, (4, 1))[:, :, None] * Jp).sum(axis=1) * n4[:, p.cols]).sum(axis=1)

@@ -22,7 +22,7 @@ import numpy as np
 
 from linkedit.blas import single_threaded
 from linkedit.gcs.accept import curving, within_motion
-from linkedit.gcs.acceleration import acceleration
+from linkedit.gcs.accelerations import run_accelerations
 from linkedit.gcs.continuation import ARRIVED, Solver
 from linkedit.gcs.predict import PREDICT_ORDER, Pose
 from linkedit.gcs.structure import StructureCache
@@ -104,7 +104,7 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
     solver = Solver(system, options)
     T, M = t.size, system.n_members
     pos, ori = np.empty((T, M, 3)), np.empty((T, M, 4))
-    vel, acc = np.zeros((T, M, 6)), np.zeros((T, M, 6))
+    vel = np.zeros((T, M, 6))
     res = np.empty((T, system.n_rows))
     status = np.empty(T, dtype=np.int8)
     iters, facts = np.zeros(T, dtype=np.int32), np.zeros(T, dtype=np.int32)
@@ -116,7 +116,11 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
     solver.reference = rest
     # waves predict from the times of solved steps: they need them distinct, in one direction
     monotone = bool((np.diff(t) > 0).all() or (np.diff(t) < 0).all())
-    waves = Waves(solver, table, cache) if options.waves and Waves.applies(solver, cache) and monotone else None
+    waved = options.waves and monotone
+    # the batched evaluator: the waves' scheduler, and the accelerations' (after the run)
+    batch = Waves(solver, table, cache) if (waved or options.accelerations) and Waves.applies(solver, cache) else None
+    waves = batch if waved else None
+    solved = np.zeros(T, dtype=bool)  # a pose (and its velocity) at each step
     batched = np.zeros(T, dtype=bool)
     classified = False  # whether J's free directions at a pose with every input active were read
     streak = 0  #: the first of the converged steps just before k
@@ -160,7 +164,7 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
                 done = np.arange(k, k + n)
                 pos[done], ori[done], res[done] = wave.position[:n], wave.orientation[:n], wave.residual[:n]
                 vel[done] = (wave.velocity[:n] * solver.col).reshape(n, M, 6)
-                status[done], batched[done] = CONVERGED, True
+                status[done], batched[done], solved[done] = CONVERGED, True, True
                 rank[done] = system.n_unknowns - waves.free if wave.rank is None else wave.rank[:n]
                 iters[done], facts[done] = wave.work[:n, 0], wave.work[:n, 1]
                 wave_from = k if wave_from < 0 else wave_from
@@ -205,22 +209,20 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
                     st, pose = NOT_CONVERGED, None
                 elif pose is not None:
                     reached[k] = t[k]
-        if pose is not None and waves is not None and not classified and not table.partial[k]:
+        if pose is not None and batch is not None and not classified and not table.partial[k]:
             # what waves keep still is read at the first pose with every input active
             classified, null = True, pose.linear.null
             if null is not None and null.shape[1] == 1 and pose.linear.rank == system.n_unknowns - 1:
-                waves.free = 1  # one free direction (a passive degree of freedom), canonical
+                batch.free = 1  # one free direction (a passive degree of freedom), canonical
             elif null is not None or pose.linear.rank != system.n_unknowns and not solver.normal.sparse:
                 # more free directions, or a rank the pivots cannot tell: step by step (a sparse
                 # system's waves read it pose by pose, as the continuation does)
-                waves = None
+                waves = batch = None
         if pose is not None:
             good, stuck = pose, False
             vel[k] = (pose.velocity * solver.col).reshape(M, 6)
             rank[k] = pose.linear.rank
-            if options.accelerations:
-                a = acceleration(solver, pose.state, table, k, pose.linear, pose.velocity)
-                acc[k] = (a * solver.col).reshape(M, 6)
+            solved[k] = True
         pos[k], ori[k], res[k], status[k] = x.position, x.orientation, r, st
         if st != CONVERGED:
             streak = k + 1
@@ -230,8 +232,9 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
         k += 1
         if st != CONVERGED and options.stop_at_failure:
             break
-    run = Run(t=t, position=pos, orientation=ori, velocity=vel,
-              acceleration=acc if options.accelerations else None, residual=res, status=status,
+    acc = run_accelerations(solver, table, pos, ori, vel, solved & (np.arange(T) < k), batch) \
+        if options.accelerations else None
+    run = Run(t=t, position=pos, orientation=ori, velocity=vel, acceleration=acc, residual=res, status=status,
               iterations=iters, factorizations=facts, reached=reached, rank=rank, batched=batched)
     return run if k == T else run.take(np.arange(k))
 

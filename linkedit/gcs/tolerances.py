@@ -55,8 +55,8 @@ class Options:
     directions (to the canonical pose; where an input is outside its window, the largest
     component of a pose's change along them); ``solver``: one of :data:`SOLVERS` (a
     ``ValueError`` otherwise); ``accelerations``: compute them at every output step (two more
-    Jacobian evaluations per step, :mod:`linkedit.gcs.acceleration`; ``solve3d
-    --accelerations`` asks for them, step by step)."""
+    Jacobian evaluations per step, :mod:`linkedit.gcs.acceleration`, batched over the solved
+    steps after the run, :mod:`linkedit.gcs.accelerations`; ``solve3d --accelerations``)."""
 
     tol: float = 1e-12
     max_iterations: int = 100

@@ -70,8 +70,9 @@ extrapolation from the last pose keeps equal coordinates exact, and where the po
 differ there by rounding (steps solved step by step) they are held explicitly
 (:meth:`Waves._held`), or the extrapolation would amplify it wave after wave.
 
-Steps with an input outside its window, systems with custom constraints, more free
-directions, and runs that ask for accelerations go step by step; so do systems with the sparse
+Steps with an input outside its window, systems with custom constraints and more free
+directions go step by step (a run's accelerations are batched after it:
+:mod:`linkedit.gcs.accelerations`); so do systems with the sparse
 factorization (above 120 unknowns) unless the closed form rebuilds them: their rebuilt poses
 are then evaluated together and each factorized as the continuation's step is
 (:func:`~linkedit.gcs.rebuild.verify`), instead of step 3.
@@ -176,7 +177,7 @@ class Waves(Extrapolation, BatchedFactors):
         """Whether the system's structure allows waves (see the module docstring; the rank is
         checked at the first pose by the caller)."""
         o, s, normal = solver.options, solver.system, solver.normal
-        return (o.solver == "lm" and not o.accelerations and not s.customs
+        return (o.solver == "lm" and not s.customs
                 and (normal.unique_entries if not normal.sparse else cache.closed_form() is not None))
 
     # ---- batched evaluation ---------------------------------------------------------------
