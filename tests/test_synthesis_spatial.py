@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from linkedit.curves import distance
 from linkedit.gcs import check_solved, solve_spec
 from linkedit.io.gcs_hdf5 import read_result
 from linkedit.spec.mechanism3d import MechanismSpec
@@ -224,3 +225,26 @@ def test_dimension_mismatch_is_an_input_error(run_cli, tmp_path):
     result = run_cli("synthesize", spatial, "--atlas", path, "-o", tmp_path / "o", "--smooth", "0.1")
     assert result.exit_code == 2 and "--smooth applies to a planar target" in result.output
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("mirrored", [False, True])
+def test_a_3d_stretch_is_placed_by_the_similarity_that_made_it(mirrored):
+    """An open 3D curve made from a stretch of a closed one (one window of the partial grid: offset 0, the
+    fifth-largest fraction) by a known scale, rotation (or reflection) and shift: partial_rms finds it at ~0
+    (a reflection only with mirror), partial_placement3 gives back that similarity."""
+    t = np.linspace(0, 2 * np.pi, 500, endpoint=False)
+    closed = np.stack([np.cos(t) + 0.3 * np.cos(2 * t) + 0.2 * np.sin(2 * t), np.sin(t) + 0.1 * np.cos(3 * t),
+                       0.4 * np.sin(3 * t) + 0.2 * np.cos(t)], axis=1)  # no symmetry: one stretch fits
+    ring = distance._outline(closed[None], distance.PARTIAL_OUTLINE)[0]
+    k = np.arange(distance.PARTIAL_POINTS) / (distance.PARTIAL_POINTS - 1)
+    stretch = ring[np.round(distance.FINE[1][-5] * k * distance.PARTIAL_OUTLINE).astype(int)]
+    matrix = Rotation.random(random_state=4).as_matrix() @ np.diag([1.0, 1.0, -1.0 if mirrored else 1.0])
+    shift = np.array([2.0, -1.0, 0.5])
+    arc = shift + 3.0 * stretch @ matrix.T
+    rms, scale, found, moved = distance.partial_placement3(arc, closed, mirror=True)
+    assert rms < 1e-9 and scale == pytest.approx(3.0, rel=1e-9)
+    np.testing.assert_allclose(found, matrix, atol=1e-9)
+    np.testing.assert_allclose(moved, shift, atol=1e-9)
+    assert distance.partial_rms(arc[None], closed[None], mirror=True)[0, 0] < 1e-6 * 3.0
+    proper = distance.partial_rms(arc[None], closed[None], mirror=False)[0, 0]
+    assert (proper > 1e-2) if mirrored else (proper < 1e-6 * 3.0)

@@ -426,7 +426,8 @@ def partial_placement3(open_points: np.ndarray, closed_points: np.ndarray, *,
                        mirror: bool = False) -> tuple[float, float, np.ndarray, np.ndarray]:
     """The best stretch of one closed 3D curve (N', 3) for one open curve (N, 3) (:func:`partial_rms`):
     (RMS, scale, matrix (3, 3) orthogonal — det −1 only with ``mirror`` —, shift (3,)) with
-    open ≈ shift + scale·matrix·w for w the closed curve's points; RMS in the open curve's units."""
+    open ≈ shift + scale·matrix·w for w the closed curve's points; RMS (of that fit, exact) in the open
+    curve's units."""
     q, q_mean, index = _partial_setup(open_points[None])
     ring = _outline(closed_points[None], PARTIAL_OUTLINE)
     residual, cross, w_energy, w_mean = _partial_fits3(q, ring, index, mirror)
@@ -438,7 +439,8 @@ def partial_placement3(open_points: np.ndarray, closed_points: np.ndarray, *,
     matrix = vt.T @ np.diag(flip) @ u.T
     scale = float((sigma * flip).sum() / w_energy[0, k])
     shift = q_mean[0] - scale * matrix @ w_mean[0, k]
-    return float(np.sqrt(max(residual[0, 0, k], 0.0) / PARTIAL_POINTS)), scale, matrix, shift
+    gap = q[0] + q_mean[0] - shift - scale * ring[0, index.reshape(-1, index.shape[-1])[k]] @ matrix.T
+    return float(np.sqrt(np.mean(np.sum(gap * gap, axis=1)))), scale, matrix, shift
 
 
 def _outline(p: np.ndarray, count: int) -> np.ndarray:
