@@ -35,7 +35,6 @@ from typing import Any
 
 import numpy as np
 import yaml
-from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from linkedit import __version__
@@ -55,6 +54,7 @@ from linkedit.synthesis.atlas import Atlas, dimension
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.outputs import DRAWN, history_chart
+from linkedit.synthesis.refine import kept_least_squares
 from linkedit.synthesis.synthesize import MARGIN_DEG, POOR, SCREENED, diverse, margin_of, within
 
 FILES = ("result.yaml", "result.h5", "overlay.svg", "history.svg", "report.json")
@@ -319,29 +319,12 @@ def refine3d(fam: Any, c: Candidate3, target: np.ndarray, size: float, margin: f
         return ok, np.where(ok[:, None], r, WALL)
 
     x0 = np.concatenate([c.params[free], [np.log(c.placement.scale)], np.zeros(3), c.placement.shift])
-    best: dict[str, Any] = {"error": np.inf, "x": x0}
-
-    def fun(x: np.ndarray) -> np.ndarray:
-        ok, r = residuals(x[None])
-        error = float(np.sqrt(np.sum(r[0] ** 2)))
-        if ok[0] and error < best["error"]:
-            best["error"], best["x"] = error, x.copy()
-        c.history.append(best["error"])
-        return r[0]
-
-    def jac(x: np.ndarray) -> np.ndarray:
-        step = 1e-7 * np.maximum(1.0, np.abs(x))
-        _, r = residuals(np.vstack([x, x + np.diag(step)]))
-        return ((r[1:] - r[0]) / step[:, None]).T
-
-    fun(x0)
-    if np.isfinite(best["error"]):
-        least_squares(fun, x0, jac=jac, method="trf", x_scale="jac", max_nfev=iterations or ITERATIONS, xtol=1e-10,
-                      ftol=1e-10,
-                      gtol=1e-10)
-    if not np.isfinite(best["error"]):
+    kept = kept_least_squares(residuals, x0, iterations=iterations or ITERATIONS, tol=1e-10,
+                              error=lambda r: float(np.sqrt(np.sum(r ** 2))))
+    c.history = kept.history
+    if not np.isfinite(kept.error):
         return
-    p, scale, turn, shift = unpack(best["x"][None])
+    p, scale, turn, shift = unpack(kept.x[None])
     c.refined, c.refined_placement = p[0], Placement3(float(scale[0]), turn[0], shift[0])
     with np.errstate(invalid="ignore"):
         c.after = curve_error(target, c.refined_placement.apply(fam.curves(p, SAMPLES)[0]), size, closed)
