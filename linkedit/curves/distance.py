@@ -235,8 +235,8 @@ def term_distances(a: Descriptors, b: Descriptors | None = None, *, mirror: bool
                    partial: bool = False) -> dict[str, np.ndarray]:
     """Every term as a (Ca, Cb) matrix (``b=None``: ``a`` against itself); ``mirror``: mirror images count as equal.
 
-    ``partial`` (2D): an open curve against a closed one is compared by where it fits best along
-    the closed one (:func:`partial_rms`, the ``points`` term); the other terms describe whole
+    ``partial``: an open curve against a closed one is compared by where it fits best along
+    the closed one (:func:`partial_rms`, the ``points`` term; 2D or 3D); the other terms describe whole
     curves and count 0 for such pairs.
     """
     symmetric = b is None
@@ -253,7 +253,7 @@ def term_distances(a: Descriptors, b: Descriptors | None = None, *, mirror: bool
                                  a.closed, other.closed, reverse_sign=-1.0 if dim == 2 else 1.0, frame_flips=False,
                                  mirror=mirror and dim == 2)
     out["efd"] = efd_distance(a.efd, other.efd, mirror=mirror or dim == 3)
-    if partial and dim == 2:
+    if partial:
         mixed = a.closed[:, None] != other.closed[None, :]
         if mixed.any():
             for name in out:
