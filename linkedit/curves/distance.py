@@ -418,7 +418,8 @@ def partial_placement(open_points: np.ndarray, closed_points: np.ndarray, *,
         k = int(np.argmin(residual[0, 0]))
         rms = float(np.sqrt(max(residual[0, 0, k], 0.0) / PARTIAL_POINTS))
         if rms < best[0]:
-            best = (rms, complex(alpha[0, 0, k]), complex(_complex(q_mean[0]) - alpha[0, 0, k] * w_mean[0, k]), mirrored)
+            shift = _complex(q_mean[0]) - alpha[0, 0, k] * w_mean[0, k]
+            best = (rms, complex(alpha[0, 0, k]), complex(shift), mirrored)
     return best
 
 

@@ -6,8 +6,9 @@
 2. the atlas index (:func:`~linkedit.synthesis.atlas.index_efd`: the EFDs of the curve's projection onto its
    principal plane, the descriptor ``linkedit features`` computes for 3D curves; an open arc as closed by its
    chord: on held-out spherical arcs its pool held better stretches than the arc retraced there and back, as
-   planar open targets are queried) gives the nearest ``POOL`` (open: ``OPEN_POOL``) linkages of the atlas's spatial families
-   (:mod:`~linkedit.synthesis.spherical`, :mod:`~linkedit.synthesis.rssr`) that turn with the singularity margin;
+   planar open targets are queried) gives the nearest ``POOL`` (open: ``OPEN_POOL``) linkages of the atlas's
+   spatial families (:mod:`~linkedit.synthesis.spherical`, :mod:`~linkedit.synthesis.rssr`) that turn with the
+   singularity margin;
 3. they are re-ranked by the full 3D curve distance (:func:`linkedit.curves.distance.term_distances`, pose
    normalized: invariant to the target's rotation, translation and scale, mirror images included) and each
    of the best ``top`` distinct ones is placed on the target by its aligning similarity
