@@ -18,6 +18,8 @@ def test_bench_section_prints_figures(run_cli, section):
     if section == "synthesis":  # issue 23 §4: the spatial held-out rows, each family's, solved by solve3d
         rows = re.findall(r"^  (spherical-four-bar|rssr) #1 .* % \(.*\) +\d+\.\d+$", r.output, re.MULTILINE)
         assert rows == ["spherical-four-bar", "rssr"], r.output
+        arcs = re.findall(r"^  half arc of (spherical-four-bar|rssr) #1 .* % \(.*\) +\d+\.\d+$", r.output, re.MULTILINE)
+        assert arcs == ["spherical-four-bar", "rssr"], r.output
 
 
 def test_unknown_section_exit_2(run_cli):

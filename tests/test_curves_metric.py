@@ -197,3 +197,27 @@ def test_half_a_foot_path_matches_its_own_leg(run_cli, tmp_path, start):
     assert r.exit_code == 0, r.output
     ranking = report_of(r)["queries"][0]["ranking"]
     assert ranking[0]["curve"] == "jansen" and ranking[0]["distance"] < ranking[1]["distance"]
+
+
+def test_part_of_a_3d_cycle_matches_its_own_cycle(run_cli, tmp_path):
+    """--partial with 3D curves (it was ignored there: the part was compared as a whole curve and its own cycle
+    ranked last of six): 45 % of a spherical four-bar's cycle, turned, scaled and moved, against that cycle and
+    five other spatial linkages' cycles."""
+    from scipy.spatial.transform import Rotation
+
+    from linkedit.synthesis import atlas, rssr, spherical
+
+    (tmp_path / "lib").mkdir()
+    for name, fam in (("spherical-four-bar", spherical), ("rssr", rssr)):
+        params = atlas.build_chunk(name, 5, 0, 3).params
+        for j in range(3):
+            np.savetxt(tmp_path / "lib" / f"{name}{j}.csv", fam.curves(params[j:j + 1], 300)[0], delimiter=",",
+                       header="x,y,z", comments="")
+    part = spherical.curves(atlas.build_chunk("spherical-four-bar", 5, 0, 3).params[1:2], 300, 0.2)[0][:135]
+    np.savetxt(tmp_path / "part.csv", 5.0 + 2.0 * part @ Rotation.random(random_state=1).as_matrix().T,
+               delimiter=",", header="x,y,z", comments="")
+    r = run_cli("compare-curves", "--query", tmp_path / "part.csv", "--library", tmp_path / "lib", "--partial",
+                "--json")
+    assert r.exit_code == 0, r.output
+    ranking = report_of(r)["queries"][0]["ranking"]
+    assert ranking[0]["curve"] == "spherical-four-bar1" and ranking[0]["distance"] < ranking[1]["distance"]

@@ -4,11 +4,13 @@ their atlases, and ``linkedit synthesize target3d.csv`` on held-out linkages, ch
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from linkedit.curves import distance
 from linkedit.gcs import check_solved, solve_spec
 from linkedit.io.gcs_hdf5 import read_result
 from linkedit.spec.mechanism3d import MechanismSpec
@@ -96,28 +98,72 @@ def _check_round_trip(run_cli, tmp_path, out, points) -> dict:
     solved = run_cli("solve3d", out / "result.yaml", "-o", tmp_path / "again.h5")
     assert solved.exit_code == 0, solved.output
     track = read_result(tmp_path / "again.h5").tracks["target"].position[:-1]
-    again = curve_error(points, track, report["target"]["size"])
+    again = curve_error(points, track, report["target"]["size"], report["target"]["closed"])
     assert again[0] == pytest.approx(report["error"]["after"]["rms"], rel=1e-6)
     assert again[1] == pytest.approx(report["error"]["after"]["max"], rel=1e-6)
     return report
 
 
-def test_spatial_round_trip(run_cli, tmp_path):
-    """A small spherical atlas, a target drawn by one of its linkages with every length changed by ~2 % (not in
-    the atlas), turned, scaled and moved: found to ≤ 1 %, and solve3d reproduces the reported error."""
+def _texts(svg: str) -> list[str]:
+    return re.findall(r"<text[^>]*>([^<]*)</text>", svg)
+
+
+def _legend(svg: str) -> list[str]:
+    block = re.search(r'<g class="legend"[^>]*>(.*?)</g>', svg, re.S)
+    assert block, "no legend"
+    return _texts(block.group(1))
+
+
+def _small_spherical(tmp_path, samples: int, count: int):
+    """A 1,500-linkage spherical atlas and a target drawn by one of its linkages with every length changed by
+    ~2 % (not in the atlas), turned, scaled and moved, in metres: its first ``count`` of ``samples`` points."""
     path = tmp_path / "a.h5"
     atlas.build(path, ["spherical-four-bar"], 1500, seed=1)
     row = atlas.load(path).families["spherical-four-bar"]["params"][7].copy()
     row[:4] *= np.array([1.02, 0.98, 1.01, 0.985])
-    points = np.array([3.0, 1.0, -2.0]) + 0.4 * spherical.curves(row[None], 200, 0.1)[0] @ \
+    points = np.array([3.0, 1.0, -2.0]) + 0.4 * spherical.curves(row[None], samples, 0.1)[0][:count] @ \
         Rotation.random(random_state=5).as_matrix().T
     target = tmp_path / "t.csv"
     np.savetxt(target, points, delimiter=",", header="x (m),y (m),z (m)", comments="")
+    return path, target, points
+
+
+def test_spatial_round_trip(run_cli, tmp_path):
+    """A closed target near a small atlas's linkage: found to ≤ 1 %, and solve3d reproduces the reported error;
+    overlay.svg draws the target, the atlas candidate and the result face-on to the curves' plane, with named
+    axes in the target's units and one legend entry per thing; history.svg as for planar targets."""
+    path, target, points = _small_spherical(tmp_path, 200, 200)
     out = tmp_path / "out"
     result = run_cli("synthesize", target, "--atlas", path, "-o", out, "--top", "1")
     assert result.exit_code == 0, result.output
     report = _check_round_trip(run_cli, tmp_path, out, points)
     assert report["error"]["after"]["rms"] <= 0.01 and report["target"]["units"] == "m"
+    assert report["target"]["closed"] is True
+    overlay = (out / "overlay.svg").read_text()
+    names = _legend(overlay)
+    assert len(names) == len(set(names)), names
+    assert {"target", "atlas candidate as placed", "drawn by the linkage"} <= set(names), names
+    assert {"u (m)", "v (m)"} <= set(_texts(overlay))
+    assert re.findall(r'class="curve" data-name="([^"]*)"', overlay) == ["target", "atlas candidate as placed"]
+    history = (out / "history.svg").read_text()
+    words = _texts(history)
+    assert "evaluations" in words and not {"x", "y"} & set(words)
+    assert any("RMS error" in w and "% of the target's size" in w and "log" in w for w in words), words
+    assert _legend(history) == ["candidate 1 (kept)"]
+
+
+def test_open_spatial_arc(run_cli, tmp_path):
+    """Half the cycle of the curve of test_spatial_round_trip (its ends far apart against its spacing): taken
+    as an open arc, matched against a stretch of each candidate's cycle, found to ≤ 1 % RMS of its size, reported
+    open, and solve3d reproduces the reported (one-sided) error."""
+    path, target, points = _small_spherical(tmp_path, 400, 200)
+    out = tmp_path / "out"
+    result = run_cli("synthesize", target, "--atlas", path, "-o", out, "--top", "1")
+    assert result.exit_code == 0, result.output
+    report = _check_round_trip(run_cli, tmp_path, out, points)
+    assert report["target"]["closed"] is False and report["error"]["after"]["rms"] <= 0.01
+    assert "target→result distances (an open arc" in report["error"]["normalized_by"]
+    assert "target (open arc)" in _legend((out / "overlay.svg").read_text())
 
 
 @pytest.mark.slow
@@ -130,6 +176,24 @@ def test_held_out_spatial_curve(run_cli, tmp_path, spatial_atlas, name, row):
     result = run_cli("synthesize", target, "--atlas", spatial_atlas, "-o", out, "--top", "2")
     assert result.exit_code == 0, result.output
     assert _check_round_trip(run_cli, tmp_path, out, points)["error"]["after"]["rms"] <= 0.01
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("row, fraction, start", [(0, 0.5, 0.3), (2, 0.6, 0.5)])
+def test_held_out_spherical_arc(run_cli, tmp_path, spatial_atlas, row, fraction, start):
+    """An open arc (a fraction of the cycle from a start phase) of a held-out spherical four-bar curve, turned,
+    scaled and moved: recovered to ≤ 1 % RMS of its size, and result.yaml solved by `linkedit solve3d` draws it
+    with the error the report gives."""
+    params = atlas.build_chunk("spherical-four-bar", 99, 0, row + 1).params[row]
+    points = np.array([40.0, -12.0, 7.0]) + 25.0 * spherical.curves(params[None], 480, start)[0][
+        :int(480 * fraction)] @ Rotation.random(random_state=row).as_matrix().T
+    target = tmp_path / "arc.csv"
+    np.savetxt(target, points, delimiter=",", header="x,y,z", comments="")
+    out = tmp_path / "out"
+    result = run_cli("synthesize", target, "--atlas", spatial_atlas, "-o", out, "--top", "2")
+    assert result.exit_code == 0, result.output
+    report = _check_round_trip(run_cli, tmp_path, out, points)
+    assert report["target"]["closed"] is False and report["error"]["after"]["rms"] <= 0.01
 
 
 def test_atlas_of_spatial_families(run_cli, tmp_path):
@@ -161,3 +225,26 @@ def test_dimension_mismatch_is_an_input_error(run_cli, tmp_path):
     result = run_cli("synthesize", spatial, "--atlas", path, "-o", tmp_path / "o", "--smooth", "0.1")
     assert result.exit_code == 2 and "--smooth applies to a planar target" in result.output
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("mirrored", [False, True])
+def test_a_3d_stretch_is_placed_by_the_similarity_that_made_it(mirrored):
+    """An open 3D curve made from a stretch of a closed one (one window of the partial grid: offset 0, the
+    fifth-largest fraction) by a known scale, rotation (or reflection) and shift: partial_rms finds it at ~0
+    (a reflection only with mirror), partial_placement3 gives back that similarity."""
+    t = np.linspace(0, 2 * np.pi, 500, endpoint=False)
+    closed = np.stack([np.cos(t) + 0.3 * np.cos(2 * t) + 0.2 * np.sin(2 * t), np.sin(t) + 0.1 * np.cos(3 * t),
+                       0.4 * np.sin(3 * t) + 0.2 * np.cos(t)], axis=1)  # no symmetry: one stretch fits
+    ring = distance._outline(closed[None], distance.PARTIAL_OUTLINE)[0]
+    k = np.arange(distance.PARTIAL_POINTS) / (distance.PARTIAL_POINTS - 1)
+    stretch = ring[np.round(distance.FINE[1][-5] * k * distance.PARTIAL_OUTLINE).astype(int)]
+    matrix = Rotation.random(random_state=4).as_matrix() @ np.diag([1.0, 1.0, -1.0 if mirrored else 1.0])
+    shift = np.array([2.0, -1.0, 0.5])
+    arc = shift + 3.0 * stretch @ matrix.T
+    rms, scale, found, moved = distance.partial_placement3(arc, closed, mirror=True)
+    assert rms < 1e-9 and scale == pytest.approx(3.0, rel=1e-9)
+    np.testing.assert_allclose(found, matrix, atol=1e-9)
+    np.testing.assert_allclose(moved, shift, atol=1e-9)
+    assert distance.partial_rms(arc[None], closed[None], mirror=True)[0, 0] < 1e-6 * 3.0
+    proper = distance.partial_rms(arc[None], closed[None], mirror=False)[0, 0]
+    assert (proper > 1e-2) if mirrored else (proper < 1e-6 * 3.0)

@@ -235,8 +235,8 @@ def term_distances(a: Descriptors, b: Descriptors | None = None, *, mirror: bool
                    partial: bool = False) -> dict[str, np.ndarray]:
     """Every term as a (Ca, Cb) matrix (``b=None``: ``a`` against itself); ``mirror``: mirror images count as equal.
 
-    ``partial`` (2D): an open curve against a closed one is compared by where it fits best along
-    the closed one (:func:`partial_rms`, the ``points`` term); the other terms describe whole
+    ``partial``: an open curve against a closed one is compared by where it fits best along
+    the closed one (:func:`partial_rms`, the ``points`` term; 2D or 3D); the other terms describe whole
     curves and count 0 for such pairs.
     """
     symmetric = b is None
@@ -253,7 +253,7 @@ def term_distances(a: Descriptors, b: Descriptors | None = None, *, mirror: bool
                                  a.closed, other.closed, reverse_sign=-1.0 if dim == 2 else 1.0, frame_flips=False,
                                  mirror=mirror and dim == 2)
     out["efd"] = efd_distance(a.efd, other.efd, mirror=mirror or dim == 3)
-    if partial and dim == 2:
+    if partial:
         mixed = a.closed[:, None] != other.closed[None, :]
         if mixed.any():
             for name in out:
@@ -295,11 +295,10 @@ COARSE = (32, np.geomspace(0.1, 1.0, 12))
 
 def _partial_setup(open_points: np.ndarray, grid: tuple[int, np.ndarray] = FINE
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Query points (Ca, n) complex centred, their means (Ca,), and the window index (F, S, 2, n)."""
+    """Query points (Ca, n, D) centred, their means (Ca, D), and the window index (F, S, 2, n)."""
     offset_count, fractions = grid
     n = open_points.shape[1]
     q = open_points[:, np.linspace(0, n - 1, PARTIAL_POINTS).round().astype(int)]
-    q = q[..., 0] + 1j * q[..., 1]
     mean = q.mean(axis=1)
     k = np.arange(PARTIAL_POINTS) / (PARTIAL_POINTS - 1)
     offsets = np.arange(offset_count) * PARTIAL_OUTLINE // offset_count
@@ -309,8 +308,13 @@ def _partial_setup(open_points: np.ndarray, grid: tuple[int, np.ndarray] = FINE
     return q - mean[:, None], mean, np.round(index).astype(int) % PARTIAL_OUTLINE
 
 
+def _complex(p: np.ndarray) -> np.ndarray:
+    """Planar points (..., 2) as complex numbers (...)."""
+    return p[..., 0] + 1j * p[..., 1]
+
+
 def _partial_fits(q: np.ndarray, rings: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """For centred queries q (Ca, n) and closed outlines (B, L): residual² per window (B, Ca, W),
+    """For centred queries q (Ca, n) and closed outlines (B, L), complex: residual² per window (B, Ca, W),
     the best fits α (B, Ca, W) (q ≈ α (w − mean w)) and the window means (B, W)."""
     w = rings[:, index.reshape(-1, index.shape[-1])]  # (B, W, n)
     w_mean = w.mean(axis=-1)
@@ -324,28 +328,79 @@ def _partial_fits(q: np.ndarray, rings: np.ndarray, index: np.ndarray) -> tuple[
     return residual, alpha, w_mean
 
 
+def _partial_fits3(q: np.ndarray, rings: np.ndarray, index: np.ndarray, mirror: bool
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """For centred 3D queries q (Ca, n, 3) and closed outlines (B, L, 3): residual² per window (B, Ca, W) of
+    the best similarity q ≈ s·R·(w − mean w) (Umeyama: R orthogonal, proper unless ``mirror``; the singular
+    values of the 3×3 cross-covariances in closed form, :func:`_singular3`), the cross-covariances
+    A = Σ w qᵀ (B, Ca, W, 3, 3) (q is centred: w's mean drops out), the window energies |w − mean w|² (B, W)
+    and the window means (B, W, 3)."""
+    flat = index.reshape(-1, index.shape[-1])
+    w = rings[:, flat]  # (B, W, n, 3)
+    w_mean = w.mean(axis=2)
+    squares = np.einsum("bld,bld->bl", rings, rings)[:, flat].sum(axis=-1)
+    w_energy = np.maximum(squares - flat.shape[1] * np.einsum("bwd,bwd->bw", w_mean, w_mean), 1e-300)
+    cross = np.swapaxes(w, -1, -2)[:, None] @ q[None, :, None]
+    sigma = _singular3(cross)  # (B, Ca, W, 3), descending
+    if not mirror:  # a proper rotation: the smallest singular value counts with det's sign
+        sigma[..., 2] *= np.sign(_det3(cross))
+    fit = sigma.sum(axis=-1) ** 2 / w_energy[:, None, :]
+    residual = np.einsum("cnd,cnd->c", q, q)[None, :, None] - fit
+    return residual, cross, w_energy, w_mean
+
+
+def _det3(a: np.ndarray) -> np.ndarray:
+    """Determinants (...) of 3×3 matrices (..., 3, 3), by cofactors (vectorized: no per-matrix LAPACK call)."""
+    return (a[..., 0, 0] * (a[..., 1, 1] * a[..., 2, 2] - a[..., 1, 2] * a[..., 2, 1])
+            - a[..., 0, 1] * (a[..., 1, 0] * a[..., 2, 2] - a[..., 1, 2] * a[..., 2, 0])
+            + a[..., 0, 2] * (a[..., 1, 0] * a[..., 2, 1] - a[..., 1, 1] * a[..., 2, 0]))
+
+
+def _singular3(a: np.ndarray) -> np.ndarray:
+    """Singular values (..., 3), largest first, of 3×3 matrices ``a`` (..., 3, 3): the square roots of the
+    eigenvalues of aᵀa by the trigonometric solution of its characteristic cubic (no per-matrix LAPACK call;
+    accurate to ~1e-8 of the largest, enough to rank fits)."""
+    b = np.swapaxes(a, -1, -2) @ a
+    off = b[..., 0, 1] ** 2 + b[..., 0, 2] ** 2 + b[..., 1, 2] ** 2
+    mean = np.trace(b, axis1=-2, axis2=-1) / 3.0
+    diag = np.diagonal(b, axis1=-2, axis2=-1) - mean[..., None]
+    p = np.sqrt((np.sum(diag ** 2, axis=-1) + 2.0 * off) / 6.0)
+    safe = np.where(p > 0, p, 1.0)
+    c = (b - mean[..., None, None] * np.eye(3)) / safe[..., None, None]
+    phi = np.arccos(np.clip(_det3(c) / 2.0, -1.0, 1.0)) / 3.0
+    top = mean + 2.0 * p * np.cos(phi)
+    low = mean + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0)
+    lam = np.stack([top, 3.0 * mean - top - low, low], axis=-1)
+    return np.sqrt(np.maximum(lam, 0.0))
+
+
 #: Closed outlines compared together in :func:`partial_rms` (bounds the window arrays).
 PARTIAL_BATCH = 32
 
 
 def partial_rms(open_points: np.ndarray, closed_points: np.ndarray, *, mirror: bool = False,
                 grid: tuple[int, np.ndarray] = FINE) -> np.ndarray:
-    """RMS distance (units of the open curve's major extent) of open curves (Ca, N, 2) from the
-    best-fitting stretch of closed curves (Cb, N, 2) → (Ca, Cb).
+    """RMS distance (units of the open curve's major extent) of open curves (Ca, N, D) from the
+    best-fitting stretch of closed curves (Cb, N', D) → (Ca, Cb), D = 2 or 3.
 
     Over every stretch (start offset, fraction of the length, direction; with ``mirror`` also of
     the mirror image) of the closed curve, sampled at the open curve's relative arc lengths, the
-    best similarity transform (scale, rotation, translation: a complex least-squares fit) places
-    the stretch on the open curve; the smallest residual wins. ``grid``: :data:`FINE` or :data:`COARSE`.
+    best similarity transform (scale, rotation, translation: a complex least-squares fit in the plane,
+    Umeyama's in space) places the stretch on the open curve; the smallest residual wins. The open
+    curves are sampled evenly along their length. ``grid``: :data:`FINE` or :data:`COARSE`.
     """
     q, _, index = _partial_setup(open_points, grid)
-    outline = _outline(closed_points[..., 0] + 1j * closed_points[..., 1], PARTIAL_OUTLINE)  # (Cb, L)
+    outline = _outline(closed_points, PARTIAL_OUTLINE)  # (Cb, L, D)
     out = np.empty((len(q), len(outline)))
     for start in range(0, len(outline), PARTIAL_BATCH):
         rings = outline[start:start + PARTIAL_BATCH]
-        residual = _partial_fits(q, rings, index)[0].min(axis=2)  # (B, Ca)
-        if mirror:
-            residual = np.minimum(residual, _partial_fits(q, np.conj(rings), index)[0].min(axis=2))
+        if q.shape[-1] == 3:
+            residual = _partial_fits3(q, rings, index, mirror)[0].min(axis=2)
+        else:
+            qc, rc = _complex(q), _complex(rings)
+            residual = _partial_fits(qc, rc, index)[0].min(axis=2)  # (B, Ca)
+            if mirror:
+                residual = np.minimum(residual, _partial_fits(qc, np.conj(rc), index)[0].min(axis=2))
         out[:, start:start + PARTIAL_BATCH] = np.sqrt(np.maximum(residual, 0.0) / PARTIAL_POINTS).T
     return out
 
@@ -356,23 +411,46 @@ def partial_placement(open_points: np.ndarray, closed_points: np.ndarray, *,
     (RMS, α, β, mirrored) with open ≈ α·w + β for w the closed curve's points (conjugated when
     mirrored)."""
     q, q_mean, index = _partial_setup(open_points[None])
-    ring = _outline((closed_points[:, 0] + 1j * closed_points[:, 1])[None], PARTIAL_OUTLINE)
+    ring = _complex(_outline(closed_points[None], PARTIAL_OUTLINE))
     best = (np.inf, 0j, 0j, False)
     for mirrored, r in ((False, ring), (True, np.conj(ring)))[: 2 if mirror else 1]:
-        residual, alpha, w_mean = _partial_fits(q, r, index)
+        residual, alpha, w_mean = _partial_fits(_complex(q), r, index)
         k = int(np.argmin(residual[0, 0]))
         rms = float(np.sqrt(max(residual[0, 0, k], 0.0) / PARTIAL_POINTS))
         if rms < best[0]:
-            best = (rms, complex(alpha[0, 0, k]), complex(q_mean[0] - alpha[0, 0, k] * w_mean[0, k]), mirrored)
+            shift = _complex(q_mean[0]) - alpha[0, 0, k] * w_mean[0, k]
+            best = (rms, complex(alpha[0, 0, k]), complex(shift), mirrored)
     return best
 
 
-def _outline(z: np.ndarray, count: int) -> np.ndarray:
-    """Closed polylines z (C, N) resampled at ``count`` points equally spaced in arc length."""
-    ring = np.concatenate([z, z[:, :1]], axis=1)
-    s = np.concatenate([np.zeros((len(z), 1)), np.cumsum(np.abs(np.diff(ring, axis=1)), axis=1)], axis=1)
-    out = np.empty((len(z), count), dtype=complex)
-    for c in range(len(z)):
+def partial_placement3(open_points: np.ndarray, closed_points: np.ndarray, *,
+                       mirror: bool = False) -> tuple[float, float, np.ndarray, np.ndarray]:
+    """The best stretch of one closed 3D curve (N', 3) for one open curve (N, 3) (:func:`partial_rms`):
+    (RMS, scale, matrix (3, 3) orthogonal — det −1 only with ``mirror`` —, shift (3,)) with
+    open ≈ shift + scale·matrix·w for w the closed curve's points; RMS (of that fit, exact) in the open
+    curve's units."""
+    q, q_mean, index = _partial_setup(open_points[None])
+    ring = _outline(closed_points[None], PARTIAL_OUTLINE)
+    residual, cross, w_energy, w_mean = _partial_fits3(q, ring, index, mirror)
+    k = int(np.argmin(residual[0, 0]))
+    u, sigma, vt = np.linalg.svd(cross[0, 0, k])  # cross = Σ w qᵀ = U Σ Vᵀ: R = V Uᵀ
+    flip = np.ones(3)
+    if not mirror and np.linalg.det(vt.T @ u.T) < 0:
+        flip[2] = -1.0
+    matrix = vt.T @ np.diag(flip) @ u.T
+    scale = float((sigma * flip).sum() / w_energy[0, k])
+    shift = q_mean[0] - scale * matrix @ w_mean[0, k]
+    gap = q[0] + q_mean[0] - shift - scale * ring[0, index.reshape(-1, index.shape[-1])[k]] @ matrix.T
+    return float(np.sqrt(np.mean(np.sum(gap * gap, axis=1)))), scale, matrix, shift
+
+
+def _outline(p: np.ndarray, count: int) -> np.ndarray:
+    """Closed polylines p (C, N, D) resampled at ``count`` points equally spaced in arc length → (C, count, D)."""
+    ring = np.concatenate([p, p[:, :1]], axis=1)
+    s = np.concatenate([np.zeros((len(p), 1)), np.cumsum(np.linalg.norm(np.diff(ring, axis=1), axis=2), axis=1)],
+                       axis=1)
+    out = np.empty((len(p), count, p.shape[-1]))
+    for c in range(len(p)):
         at = np.arange(count) / count * s[c, -1]
-        out[c] = np.interp(at, s[c], ring[c].real) + 1j * np.interp(at, s[c], ring[c].imag)
+        out[c] = np.stack([np.interp(at, s[c], ring[c, :, i]) for i in range(p.shape[-1])], axis=1)
     return out

@@ -9,15 +9,18 @@ links (bars between consecutive points of each drawing line, plates for closed l
 first step (solid, labelled; nearer strokes darker and wider, drawn over farther ones) and a few
 later steps (faint); each track's curve in its colour, with optional velocity arrows scaled so
 the longest is a tenth of the drawing (the curve stays visible). Labels are placed apart by the
-figure (:func:`~linkedit.io.svg_figure.place_labels`).
+figure (:func:`~linkedit.io.svg_figure.place_labels`). :func:`overlay` draws curves over the
+mechanism (a synthesis target and candidate), face-on to the plane fitted to the curves.
 
 Elements carry ``class`` and ``data-name``: ``member`` / ``member-pose`` (faint poses) /
 ``member-label`` / ``track`` / ``track-point`` / ``velocity`` / ``ground-plane`` /
-``ground-tick`` / ``ground-axis`` / ``triad``.
+``ground-tick`` / ``ground-axis`` / ``triad`` / ``curve`` (an overlay's).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +29,7 @@ from linkedit.errors import InputError
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.result import GcsResult
 from linkedit.io.atomic import write_text
-from linkedit.io.svg_figure import INK, PALETTE, Figure, Stroke, nice_ticks, tick_label
+from linkedit.io.svg_figure import INK, PALETTE, Figure, Stroke, finite, nice_ticks, tick_label
 
 VIEWS = ("plane", "xy", "xz", "yz", "iso")
 _ISO = np.array([[np.cos(np.pi / 6), -np.cos(np.pi / 6), 0.0], [np.sin(np.pi / 6), np.sin(np.pi / 6), 1.0]])
@@ -109,10 +112,47 @@ def draw(path: str | Path | None, res: GcsResult, view: str | None = None, veloc
     :data:`VIEWS`, default :func:`default_view`; ``velocity``: draw velocity arrows on the tracks."""
     view = view or default_view(res)
     matrix, axis_names = projection(view, res)
+    caption = "plane (face-on)" if view == "plane" else view
+    fig = Figure(title=f"{res.name} — view {caption}, {res.t.size} steps", units=res.units, axis_names=axis_names)
+    return _finish(path, _scene(fig, res, matrix, view, velocity=velocity))
+
+
+@dataclass(frozen=True)
+class Curve3:
+    """A curve drawn over a solved mechanism (:func:`overlay`): world points ``(n, 3)``, one legend entry ``label``."""
+
+    label: str
+    points: np.ndarray
+    closed: bool
+    style: str = "dashed"  #: a :class:`~linkedit.io.svg_figure.Stroke` style: dashed, faint, solid
+
+
+def overlay(path: str | Path | None, res: GcsResult, curves: Sequence[Curve3], *, title: str,
+            track_labels: Mapping[str, str] | None = None) -> str:
+    """The mechanism of :func:`draw` with ``curves`` drawn over it and its tracks (each in the next colour after
+    the tracks', its own legend entry), seen face-on to the plane fitted to the curves and the tracks (the view
+    ``plane``: axes u, v in the mechanism's units, their world directions in the legend); ``track_labels``
+    renames tracks in the legend (track name → label). Written atomically to ``path`` if given."""
+    world = np.vstack([c.points for c in curves] + [tr.position for tr in res.tracks.values()])
+    matrix, axis_names = _face_on(world)
+    fig = Figure(title=title, units=res.units, axis_names=axis_names)
+    return _finish(path, _scene(fig, res, matrix, "plane", track_labels=track_labels or {}, curves=curves))
+
+
+def _finish(path: str | Path | None, fig: Figure) -> str:
+    svg = fig.render()
+    if path is not None:
+        write_text(path, svg)
+    return svg
+
+
+def _scene(fig: Figure, res: GcsResult, matrix: np.ndarray, view: str, *, velocity: bool = False,
+           track_labels: Mapping[str, str] | None = None, curves: Sequence[Curve3] = ()) -> Figure:
+    """Draw the solved mechanism into ``fig`` through the projection ``matrix`` of ``view``: faint later
+    poses, the depth-cued first pose, the tracks (legend: their names, or ``track_labels``), ``curves``
+    over them, labels, the legend and the triad."""
     T = res.t.size
     frames = np.unique(np.linspace(0, T - 1, min(POSES, T)).round().astype(int))
-    caption = "plane (face-on)" if view == "plane" else view
-    fig = Figure(title=f"{res.name} — view {caption}, {T} steps", units=res.units, axis_names=axis_names)
     world = _world_points(res)
     size = float(np.ptp(project(world, matrix), axis=0).max()) if world.size else 1.0
     if view == "iso" and world.size:
@@ -127,9 +167,14 @@ def draw(path: str | Path | None, res: GcsResult, view: str | None = None, veloc
     for n, (name, tr) in enumerate(res.tracks.items()):
         color = PALETTE[n % len(PALETTE)]
         stroke = Stroke(color, 2.2, "dashed" if n >= len(PALETTE) else "solid")
-        fig.polyline(project(tr.position, matrix), stroke, closed=tr.cyclic, cls="track", name=name, label=name)
+        label = (track_labels or {}).get(name, name)
+        fig.polyline(project(tr.position, matrix), stroke, closed=tr.cyclic, cls="track", name=name, label=label)
         fig.joints(project(tr.position[:1], matrix), names=[name], fill=color, stroke=Stroke(color, 1.0),
                    cls="track-point")
+    for k, c in enumerate(curves):
+        color = PALETTE[(len(res.tracks) + k) % len(PALETTE)]
+        fig.polyline(project(finite(c.label, c.points, (None, 3)), matrix), Stroke(color, 1.8, c.style),
+                     closed=c.closed, cls="curve", name=c.label, label=c.label)
     if gain is not None:
         fig.legend(f"velocity d/dt × {gain:.3g} (t in [0, 1]{f'; {res.units} per unit t' if res.units else ''})",
                    Stroke(INK, 1.2))
@@ -150,10 +195,7 @@ def draw(path: str | Path | None, res: GcsResult, view: str | None = None, veloc
     if view == "plane":
         fig.legend(f"u = {_vector(matrix[0])}, v = {_vector(matrix[1])}", Stroke("#ffffff", 0.0))
     fig.triad({a: matrix[:, i].tolist() for i, a in enumerate("xyz")})
-    svg = fig.render()
-    if path is not None:
-        write_text(path, svg)
-    return svg
+    return fig
 
 
 def _member(fig: Figure, name: str, xy: np.ndarray, closed: bool, style: dict, cls: str) -> None:

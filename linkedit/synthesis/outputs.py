@@ -146,17 +146,24 @@ def _named(kw: dict[str, Any]) -> dict[str, Any]:
 
 
 def _history(result: Synthesis) -> str:
+    """The history chart of the planar synthesis's refined candidates (:func:`history_chart`)."""
+    return history_chart([None if c.refined is None else c.refined.history for c in result.candidates],
+                         next(k for k, c in enumerate(result.candidates) if c is result.best))
+
+
+def history_chart(histories: list[list[float] | None], kept: int) -> str:
     """The history chart's SVG text: each refined candidate's best normalized RMS error so far (log₁₀ of
-    its percentage of the target's size) against evaluations of its residuals."""
-    longest = max((len(c.refined.history) for c in result.candidates if c.refined is not None), default=1)
+    its percentage of the target's size) against evaluations of its residuals; ``histories``: each
+    candidate's (numbered as report.json lists them; None or empty: not refined), ``kept``: the result's."""
+    longest = max((len(h) for h in histories if h), default=1)
     panel = Panel("log₁₀ RMS error (% of the target's size)", name="history")
-    for k, c in enumerate(result.candidates):  # numbered as report.json lists them
-        if c.refined is None or not c.refined.history:
+    for k, h in enumerate(histories):
+        if not h:
             continue
         values = np.full(longest, np.nan)
         with np.errstate(divide="ignore"):
-            values[:len(c.refined.history)] = np.log10(100.0 * np.asarray(c.refined.history, dtype=float))
-        panel.line(f"candidate {k + 1}" + (" (kept)" if c is result.best else ""),
+            values[:len(h)] = np.log10(100.0 * np.asarray(h, dtype=float))
+        panel.line(f"candidate {k + 1}" + (" (kept)" if k == kept else ""),
                    np.where(np.isfinite(values), values, np.nan))
     return chart(np.arange(1, max(longest, 1) + 1), [panel], xlabel="evaluations",
                  title="refinement: best RMS error so far, log scale")

@@ -23,6 +23,7 @@ point) with a one-sided shape distance; it polishes the refined result afterward
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from types import ModuleType
 
@@ -160,6 +161,49 @@ def timed_error(timed: TimedTarget, fam: ModuleType, params: np.ndarray, placeme
     return float(np.sqrt(np.mean(d * d))), float(d.max())
 
 
+@dataclass
+class Kept:
+    """The best working iterate of :func:`kept_least_squares`."""
+
+    x: np.ndarray
+    error: float  #: its error (inf: no working iterate)
+    history: list[float] = field(default_factory=list)  #: best error after each evaluation
+
+
+def kept_least_squares(residuals: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], x0: np.ndarray, *,
+                       iterations: int, tol: float, error: Callable[[np.ndarray], float],
+                       good_enough: float = 0.0) -> Kept:
+    """The refinement loop of planar and spatial synthesis: scipy's trust-region least squares from ``x0`` (n,)
+    on ``residuals`` (x (K, n) → working mask (K,), residuals (K, R); a batch, so the forward-difference
+    Jacobian evaluates every perturbed x in one call), keeping the best working iterate by ``error`` (of one
+    residual row; a non-working iterate is never kept), stopping once it is below ``good_enough``."""
+    best = Kept(x0, np.inf)
+
+    def fun(x: np.ndarray) -> np.ndarray:
+        ok, r = residuals(x[None])
+        e = error(r[0])
+        if ok[0] and e < best.error:
+            best.x, best.error = x.copy(), e
+        best.history.append(best.error)
+        if e < good_enough:
+            raise _Done
+        return r[0]
+
+    def jac(x: np.ndarray) -> np.ndarray:
+        step = 1e-7 * np.maximum(1.0, np.abs(x))
+        _, r = residuals(np.vstack([x, x + np.diag(step)]))
+        return ((r[1:] - r[0]) / step[:, None]).T
+
+    try:
+        fun(x0)
+        if np.isfinite(best.error):
+            least_squares(fun, x0, jac=jac, method="trf", x_scale="jac", max_nfev=iterations, xtol=tol, ftol=tol,
+                          gtol=tol)
+    except _Done:
+        pass
+    return best
+
+
 def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np.ndarray, closed: bool,
            size: float, *, margin: float, timed: TimedTarget | None = None, points: bool = False,
            iterations: int = ITERATIONS) -> Refined:
@@ -223,32 +267,13 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
     x0 = np.concatenate([params[free], [np.log(placement.scale), placement.angle,
                                         placement.shift.real / unit, placement.shift.imag / unit],
                          [] if timed is None else [placement.phase]])
-    best = Refined(params.copy(), placement, np.inf)
-
-    def fun(x: np.ndarray) -> np.ndarray:
-        p, ok, r = residuals(x[None])
-        error = float(np.sqrt(np.sum(r[0, :-1] ** 2)))
-        if ok[0] and error < best.error:
-            k, angle, sx, sy = x[n_free:n_free + 4]
-            best.params, best.error = p[0], error
-            best.placement = replace(placement, scale=float(np.exp(k)), angle=float(angle),
-                                     shift=complex(sx, sy) * unit,
-                                     phase=placement.phase if timed is None else float(x[-1] % 1.0))
-        best.history.append(best.error)
-        if error < GOOD_ENOUGH:
-            raise _Done
-        return r[0]
-
-    def jac(x: np.ndarray) -> np.ndarray:
-        step = 1e-7 * np.maximum(1.0, np.abs(x))
-        _, _, r = residuals(np.vstack([x, x + np.diag(step)]))
-        return ((r[1:] - r[0]) / step[:, None]).T
-
-    try:
-        fun(x0)
-        if np.isfinite(best.error):
-            least_squares(fun, x0, jac=jac, method="trf", x_scale="jac", max_nfev=iterations, xtol=1e-9,
-                          ftol=1e-9, gtol=1e-9)
-    except _Done:
-        pass
-    return best
+    kept = kept_least_squares(lambda x: residuals(x)[1:], x0, iterations=iterations, tol=1e-9, good_enough=GOOD_ENOUGH,
+                              error=lambda r: float(np.sqrt(np.sum(r[:-1] ** 2))))  # the barrier is no error
+    if not np.isfinite(kept.error):
+        return Refined(params.copy(), placement, np.inf, kept.history)
+    x = kept.x
+    k, angle, sx, sy = x[n_free:n_free + 4]
+    return Refined(unpack(x[None])[0][0], replace(placement, scale=float(np.exp(k)), angle=float(angle),
+                                                  shift=complex(sx, sy) * unit,
+                                                  phase=placement.phase if timed is None else float(x[-1] % 1.0)),
+                   kept.error, kept.history)

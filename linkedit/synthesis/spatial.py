@@ -1,21 +1,29 @@
 """``linkedit synthesize`` of a 3D target (x, y, z): which spatial linkage draws this curve?
 
-1. the target (a closed curve) is moved into its unit frame (centred on its bounding box, its largest side
-   1: the fit is scale-free);
+1. the target (a closed curve, or an open arc: closure is told from the geometry as for planar targets,
+   :func:`linkedit.curves.sources.is_closed`) is moved into its unit frame (centred on its bounding box, its
+   largest side 1: the fit is scale-free);
 2. the atlas index (:func:`~linkedit.synthesis.atlas.index_efd`: the EFDs of the curve's projection onto its
-   principal plane, the descriptor ``linkedit features`` computes for 3D curves) gives the nearest ``POOL``
-   linkages of the atlas's spatial families (:mod:`~linkedit.synthesis.spherical`,
-   :mod:`~linkedit.synthesis.rssr`) that turn with the singularity margin;
+   principal plane, the descriptor ``linkedit features`` computes for 3D curves; an open arc as closed by its
+   chord: on held-out spherical arcs its pool held better stretches than the arc retraced there and back, as
+   planar open targets are queried) gives the nearest ``POOL`` (open: ``OPEN_POOL``) linkages of the atlas's
+   spatial families (:mod:`~linkedit.synthesis.spherical`, :mod:`~linkedit.synthesis.rssr`) that turn with the
+   singularity margin;
 3. they are re-ranked by the full 3D curve distance (:func:`linkedit.curves.distance.term_distances`, pose
    normalized: invariant to the target's rotation, translation and scale, mirror images included) and each
    of the best ``top`` distinct ones is placed on the target by its aligning similarity
-   (:func:`linkedit.curves.compare.placements`: p ↦ shift + scale·matrix·p, matrix orthogonal);
+   (:func:`linkedit.curves.compare.placements`: p ↦ shift + scale·matrix·p, matrix orthogonal); an open arc
+   by the best-fitting stretch of each candidate's cycle instead (:func:`linkedit.curves.distance.partial_rms`,
+   :func:`~linkedit.curves.distance.partial_placement3`, as planar open targets);
 4. each is refined by least squares on the closed form: the family parameters (the branch stays) and the
-   placement (log scale, a rotation vector, the shift) against the two-sided point-to-curve distances,
-   every kept iterate turning with the margin (:func:`linkedit.planar.feasibility.works`);
+   placement (log scale, a rotation vector, the shift) against the two-sided point-to-curve distances (an open
+   arc: the arc's distances to the cycle only, it may be part of it), every kept iterate turning with the margin
+   (:func:`linkedit.planar.feasibility.works`);
 5. the best is written as a 3D mechanism spec (its rest pose at the crank phase nearest the target's
    first point, track ``target``), solved by ``solve3d``'s solver (:func:`linkedit.gcs.solve_spec`), and
-   its errors are measured on that solution: what ``linkedit solve3d result.yaml`` gives.
+   its errors are measured on that solution: what ``linkedit solve3d result.yaml`` gives; ``overlay.svg`` draws
+   the target, the atlas candidate as placed and the result face-on to the curves' plane
+   (:func:`linkedit.io.gcs_svg.overlay`), ``history.svg`` the refinement as for planar targets.
 """
 
 from __future__ import annotations
@@ -28,29 +36,34 @@ from typing import Any
 
 import numpy as np
 import yaml
-from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from linkedit import __version__
 from linkedit.curves.compare import placements
 from linkedit.curves.descriptors import describe
-from linkedit.curves.distance import term_distances, weighted
+from linkedit.curves.distance import COARSE, partial_placement3, partial_rms, term_distances, weighted
 from linkedit.curves.sources import Curve
 from linkedit.errors import InputError, MechanismError
 from linkedit.gcs import GcsResult, check_solved, solve_spec
 from linkedit.io.atomic import write_text
 from linkedit.io.gcs_hdf5 import write_result
+from linkedit.io.gcs_svg import Curve3, overlay
 from linkedit.planar.feasibility import works
 from linkedit.spec.mechanism3d import MAX_COORDINATE, MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
 from linkedit.synthesis.atlas import Atlas, dimension
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Index, target_variants
-from linkedit.synthesis.synthesize import MARGIN_DEG, POOR, diverse, margin_of, within
+from linkedit.synthesis.outputs import DRAWN, history_chart
+from linkedit.synthesis.refine import kept_least_squares
+from linkedit.synthesis.synthesize import MARGIN_DEG, POOR, SCREENED, diverse, margin_of, within
 
-FILES = ("result.yaml", "result.h5", "report.json")
-#: Candidates taken from the index for re-ranking.
+FILES = ("result.yaml", "result.h5", "overlay.svg", "history.svg", "report.json")
+#: Candidates taken from the index for re-ranking (closed targets; an open arc, whose index descriptor is that
+#: of the arc closed by its chord, takes more and re-ranks them by partial matching: the coarse grid, then the
+#: fine one on the best ``SCREENED``).
 POOL = 256
+OPEN_POOL = 512
 #: Crank samples of each candidate's curve when it is re-ranked.
 RANK_SAMPLES = 128
 #: Crank samples of the candidate curve during refinement, and points per curve where residuals are taken.
@@ -117,11 +130,12 @@ class SpatialSynthesis:
     margin_deg: float = MARGIN_DEG
 
 
-def arc_resample(p: np.ndarray, count: int) -> np.ndarray:
-    """``count`` points (count, 3) equally spaced in arc length along the closed polyline ``p`` (M, 3)."""
-    loop = np.concatenate([p, p[:1]])
+def arc_resample(p: np.ndarray, count: int, closed: bool = True) -> np.ndarray:
+    """``count`` points (count, 3) equally spaced in arc length along the polyline ``p`` (M, 3), closed or open
+    (then from its first point to its last)."""
+    loop = np.concatenate([p, p[:1]]) if closed else p
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(loop, axis=0), axis=1))])
-    at = np.linspace(0.0, s[-1], count, endpoint=False)
+    at = np.linspace(0.0, s[-1], count, endpoint=not closed)
     return np.stack([np.interp(at, s, loop[:, i]) for i in range(3)], axis=1)
 
 
@@ -152,11 +166,14 @@ def near_distances(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
     return best
 
 
-def curve_error(target: np.ndarray, curve: np.ndarray, size: float) -> tuple[float, float]:
-    """(RMS, max) distance between the closed target (M, 3) and a closed curve (T, 3), over ``size``:
-    both ways, each curve sampled evenly along its length (4·POINTS points)."""
-    d = np.concatenate([distances(arc_resample(target, 4 * POINTS), curve),
-                        distances(arc_resample(curve, 4 * POINTS), target)]) / size
+def curve_error(target: np.ndarray, curve: np.ndarray, size: float, closed: bool = True) -> tuple[float, float]:
+    """(RMS, max) distance between the target (M, 3) and a closed curve (T, 3), over ``size``, each curve
+    sampled evenly along its length (4·POINTS points): target → curve and, for a ``closed`` target, curve →
+    target (an open arc may be part of the cycle)."""
+    parts = [distances(arc_resample(target, 4 * POINTS, closed), curve)]
+    if closed:
+        parts.append(distances(arc_resample(curve, 4 * POINTS), target))
+    d = np.concatenate(parts) / size
     return float(np.sqrt(np.mean(d * d))), float(d.max())
 
 
@@ -176,41 +193,35 @@ def _frame(target: Curve) -> tuple[np.ndarray, float]:
 
 def synthesize3d(target: Curve, atlas: Atlas, *, top: int = 5, margin_deg: float = MARGIN_DEG,
                  name: str = "synthesized", units: str = "mm") -> SpatialSynthesis:
-    """Find, place and refine spatial linkages drawing the closed 3D ``target``; write nothing. MechanismError
-    if none survives, or if the written spec does not solve."""
-    if not target.closed:
-        raise InputError("spatial synthesis takes a closed target (a whole cycle of the coupler point)",
-                         file=target.origin)
+    """Find, place and refine spatial linkages drawing the 3D ``target`` (a closed curve or an open arc); write
+    nothing. MechanismError if none survives, or if the written spec does not solve."""
     margin = margin_of(margin_deg)
     clock = {"start": time.perf_counter()}
     centre, side = _frame(target)
     unit = (target.points - centre) / side
+    closed = target.closed
     spatial = restrict(atlas, 3)
-    hits = within(Index(spatial).query(target_variants(unit), POOL), spatial, margin, margin_deg)
+    hits = within(Index(spatial).query(target_variants(unit), POOL if closed else OPEN_POOL), spatial, margin,
+                  margin_deg)
     clock["query"] = time.perf_counter()
-    t_desc = describe(unit[None], True)
+    t_desc = describe(unit[None], closed)
     size = float(t_desc.normalized.scale[0])  # unit frame
-    ranked: list[Candidate3] = []
-    for fam_name in dict.fromkeys(h.family for h in hits):
-        mine = [h for h in hits if h.family == fam_name]
-        params = spatial.families[fam_name]["params"][[h.row for h in mine]]
-        desc = describe(family(fam_name).curves(params, RANK_SAMPLES), True)
-        terms = term_distances(t_desc, desc, mirror=True)
-        dist = weighted(terms, dict.fromkeys(terms, 1.0))[0]
-        for k, (h, p, d) in enumerate(zip(mine, params, dist)):
-            c = Candidate3(fam_name, h.row, p, h.distance, float(d))
-            place = placements(t_desc, desc.take([k]), mirror=True)[0]
-            c.placement = Placement3(place["scale"], np.array(place["matrix"]), np.array(place["translation"]))
-            ranked.append(c)
+    ranked = (_ranked if closed else _ranked_open)(t_desc, unit, size, hits, spatial)
     ranked.sort(key=lambda c: c.distance)
     chosen = diverse(ranked, top)
+    if not closed:
+        for c in chosen:
+            _, scale, matrix, shift = partial_placement3(arc_resample(unit, POINTS, False),
+                                                        family(c.family).curves(c.params[None], RANK_SAMPLES)[0],
+                                                        mirror=True)
+            c.placement = Placement3(scale, matrix, shift)
     clock["rank"] = time.perf_counter()
     for c in chosen:
         fam = family(c.family)
         assert c.placement is not None
         with np.errstate(invalid="ignore"):
-            c.before = curve_error(unit, c.placement.apply(fam.curves(c.params[None], SAMPLES)[0]), size)
-        refine3d(fam, c, unit, size, margin)
+            c.before = curve_error(unit, c.placement.apply(fam.curves(c.params[None], SAMPLES)[0]), size, closed)
+        refine3d(fam, c, unit, size, margin, closed=closed)
     clock["refine"] = time.perf_counter()
     working = [c for c in chosen if c.refined is not None and np.isfinite(c.after[0])]
     if not working:
@@ -228,7 +239,7 @@ def synthesize3d(target: Curve, atlas: Atlas, *, top: int = 5, margin_deg: float
     solved = solve_spec(spec, spec_text=text)
     check_solved(solved)
     size_in = size * side
-    error = curve_error(target.points, solved.tracks["target"].position[:-1], size_in)
+    error = curve_error(target.points, solved.tracks["target"].position[:-1], size_in, closed)
     clock["check"] = time.perf_counter()
     note = "" if error[0] <= POOR else (f"no spatial family in the atlas draws this curve well: the best found is off "
                                          f"by {100 * error[0]:.1f} % of the target's size (RMS)")
@@ -238,17 +249,52 @@ def synthesize3d(target: Curve, atlas: Atlas, *, top: int = 5, margin_deg: float
     return SpatialSynthesis(target, size_in, chosen, best, text, solved, error, seconds, note, margin_deg)
 
 
+def _ranked(t_desc: Any, unit: np.ndarray, size: float, hits: list[Any], spatial: Atlas) -> list[Candidate3]:
+    """The hits ranked by the full 3D curve distance to the closed target, each placed by its aligning similarity."""
+    ranked: list[Candidate3] = []
+    for fam_name in dict.fromkeys(h.family for h in hits):
+        mine = [h for h in hits if h.family == fam_name]
+        params = spatial.families[fam_name]["params"][[h.row for h in mine]]
+        desc = describe(family(fam_name).curves(params, RANK_SAMPLES), True)
+        terms = term_distances(t_desc, desc, mirror=True)
+        dist = weighted(terms, dict.fromkeys(terms, 1.0))[0]
+        for k, (h, p, d) in enumerate(zip(mine, params, dist)):
+            c = Candidate3(fam_name, h.row, p, h.distance, float(d))
+            place = placements(t_desc, desc.take([k]), mirror=True)[0]
+            c.placement = Placement3(place["scale"], np.array(place["matrix"]), np.array(place["translation"]))
+            ranked.append(c)
+    return ranked
+
+
+def _ranked_open(t_desc: Any, unit: np.ndarray, size: float, hits: list[Any], spatial: Atlas) -> list[Candidate3]:
+    """The hits ranked by the RMS distance (over ``size``) of the open arc ``unit`` (M, 3) from the best-fitting
+    stretch of each one's cycle: the coarse partial grid, then the fine one on the best ``SCREENED``."""
+    arc = arc_resample(unit, POINTS, False)[None]
+    ranked: list[Candidate3] = []
+    for fam_name in dict.fromkeys(h.family for h in hits):
+        mine = [h for h in hits if h.family == fam_name]
+        params = spatial.families[fam_name]["params"][[h.row for h in mine]]
+        with np.errstate(invalid="ignore"):
+            curves = family(fam_name).curves(params, RANK_SAMPLES)
+        dist = partial_rms(arc, curves, mirror=True, grid=COARSE)[0]
+        best = np.argsort(dist)[:SCREENED]
+        dist[best] = partial_rms(arc, curves[best], mirror=True)[0]
+        dist[np.setdiff1d(np.arange(len(dist)), best)] = np.inf
+        ranked += [Candidate3(fam_name, h.row, p, h.distance, float(d) / size) for h, p, d in zip(mine, params, dist)]
+    return ranked
+
+
 def refine3d(fam: Any, c: Candidate3, target: np.ndarray, size: float, margin: float,
-             iterations: int | None = None) -> None:
-    """Refine candidate ``c`` (its parameters, the branch fixed, and its placement) against the closed
-    ``target`` (M, 3) by scipy's trust-region least squares on the two-sided point-to-curve distances over
-    ``size``; sets ``c.refined``, ``c.refined_placement``, ``c.after`` and ``c.history`` (the best working
-    iterate's; an iterate that does not turn with ``margin`` is a wall, never kept)."""
+             iterations: int | None = None, closed: bool = True) -> None:
+    """Refine candidate ``c`` (its parameters, the branch fixed, and its placement) against ``target`` (M, 3)
+    by scipy's trust-region least squares on the point-to-curve distances over ``size`` (both ways; an open
+    target's to the curve only); sets ``c.refined``, ``c.refined_placement``, ``c.after`` and ``c.history``
+    (the best working iterate's; an iterate that does not turn with ``margin`` is a wall, never kept)."""
     assert c.placement is not None
     free = np.array([n != "branch" for n in fam.PARAMETERS])
     n_free = int(free.sum())
-    goal = arc_resample(target, POINTS)
-    outline = arc_resample(target, 4 * POINTS)
+    goal = arc_resample(target, POINTS, closed)
+    outline = arc_resample(target, 4 * POINTS) if closed else goal  # the target as the reverse distances see it
     base = c.placement.matrix
 
     def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -264,40 +310,25 @@ def refine3d(fam: Any, c: Candidate3, target: np.ndarray, size: float, margin: f
         with np.errstate(invalid="ignore", over="ignore"):
             curve = shift[:, None] + scale[:, None, None] * fam.curves(p, SAMPLES) @ turn.transpose(0, 2, 1)
             ok = works(fam.min_singularity(p, margin), margin) & np.isfinite(curve).all(axis=(1, 2))
-            back = np.stack([arc_resample(k, POINTS) if good else goal for k, good in zip(curve, ok)])
-            r = np.concatenate([near_distances(np.broadcast_to(goal, (len(x), *goal.shape)), curve),
-                                near_distances(back, np.broadcast_to(outline, (len(x), *outline.shape)))], axis=1)
+            r = near_distances(np.broadcast_to(goal, (len(x), *goal.shape)), curve)
+            if closed:
+                back = np.stack([arc_resample(k, POINTS) if good else goal for k, good in zip(curve, ok)])
+                r = np.concatenate([r, near_distances(back, np.broadcast_to(outline, (len(x), *outline.shape)))],
+                                   axis=1)
         r = r / (size * np.sqrt(r.shape[1]))
         ok &= np.isfinite(r).all(axis=1)
         return ok, np.where(ok[:, None], r, WALL)
 
     x0 = np.concatenate([c.params[free], [np.log(c.placement.scale)], np.zeros(3), c.placement.shift])
-    best: dict[str, Any] = {"error": np.inf, "x": x0}
-
-    def fun(x: np.ndarray) -> np.ndarray:
-        ok, r = residuals(x[None])
-        error = float(np.sqrt(np.sum(r[0] ** 2)))
-        if ok[0] and error < best["error"]:
-            best["error"], best["x"] = error, x.copy()
-        c.history.append(best["error"])
-        return r[0]
-
-    def jac(x: np.ndarray) -> np.ndarray:
-        step = 1e-7 * np.maximum(1.0, np.abs(x))
-        _, r = residuals(np.vstack([x, x + np.diag(step)]))
-        return ((r[1:] - r[0]) / step[:, None]).T
-
-    fun(x0)
-    if np.isfinite(best["error"]):
-        least_squares(fun, x0, jac=jac, method="trf", x_scale="jac", max_nfev=iterations or ITERATIONS, xtol=1e-10,
-                      ftol=1e-10,
-                      gtol=1e-10)
-    if not np.isfinite(best["error"]):
+    kept = kept_least_squares(residuals, x0, iterations=iterations or ITERATIONS, tol=1e-10,
+                              error=lambda r: float(np.sqrt(np.sum(r ** 2))))
+    c.history = kept.history
+    if not np.isfinite(kept.error):
         return
-    p, scale, turn, shift = unpack(best["x"][None])
+    p, scale, turn, shift = unpack(kept.x[None])
     c.refined, c.refined_placement = p[0], Placement3(float(scale[0]), turn[0], shift[0])
     with np.errstate(invalid="ignore"):
-        c.after = curve_error(target, c.refined_placement.apply(fam.curves(p, SAMPLES)[0]), size)
+        c.after = curve_error(target, c.refined_placement.apply(fam.curves(p, SAMPLES)[0]), size, closed)
 
 
 def result_text(c: Candidate3, target: Curve, *, name: str, units: str) -> str:
@@ -326,13 +357,35 @@ class _Dumper(yaml.SafeDumper):
 
 
 def write_all(out: Path, result: SpatialSynthesis, options: dict[str, Any]) -> dict[str, Any]:
-    """result.yaml, result.h5 (its solution, ``specs/gcs-hdf5.md``) and report.json into ``out``; returns the report."""
+    """result.yaml, result.h5 (its solution, ``specs/gcs-hdf5.md``), overlay.svg, history.svg and report.json
+    into ``out`` (every text made before the first file is written); returns the report."""
     report = _report(result, options)
     report_text = json.dumps(report, indent=2, allow_nan=False) + "\n"
+    pictures = {"overlay.svg": _overlay(result),
+                "history.svg": history_chart([c.history for c in result.candidates],
+                                             next(k for k, c in enumerate(result.candidates) if c is result.best))}
     write_text(out / "result.yaml", result.text)
     write_result(out / "result.h5", result.result)
+    for name, text in pictures.items():
+        write_text(out / name, text)
     write_text(out / "report.json", report_text)
     return report
+
+
+def _overlay(result: SpatialSynthesis) -> str:
+    """overlay.svg: the target dashed, the atlas candidate as placed faint and result.yaml solved (its members and
+    the curve its track draws), face-on to the plane of the curves, in the target's units."""
+    best = result.best
+    assert best.placement is not None
+    with np.errstate(invalid="ignore"):
+        placed = best.placement.apply(family(best.family).curves(best.params[None], SAMPLES)[0])
+    closed = result.target.closed
+    curves = [Curve3("target" if closed else "target (open arc)", result.target.points, closed, "dashed")]
+    if np.isfinite(placed).all():
+        curves.append(Curve3("atlas candidate as placed", placed, True, "faint"))
+    return overlay(None, result.result, curves, track_labels={"target": DRAWN},
+                   title=f"{best.family}: RMS error {100 * best.before[0]:.2g} % → {100 * result.error[0]:.2g} % "
+                         f"of the target's size")
 
 
 def _row(c: Candidate3) -> dict[str, Any]:
@@ -355,15 +408,19 @@ def _report(result: SpatialSynthesis, options: dict[str, Any]) -> dict[str, Any]
     solved = result.result
     return {
         "generator": f"linkedit {__version__}",
-        "target": {"origin": result.target.origin, "points": len(result.target.points), "closed": True,
+        "target": {"origin": result.target.origin, "points": len(result.target.points),
+                   "closed": bool(result.target.closed),
                    "size": result.size, "units": solved.units, "dimensions": 3},
         "options": options,
         "family": best.family,
         "error": {"before": {"rms": best.before[0], "max": best.before[1]},
                   "refined": {"rms": best.after[0], "max": best.after[1]},
                   "after": {"rms": result.error[0], "max": result.error[1]},
-                  "normalized_by": "target size (major extent); RMS over target→result and result→target distances, "
-                                   "both curves sampled evenly along their length; after: result.yaml solved "
+                  "normalized_by": "target size (major extent); RMS over "
+                                   + ("target→result and result→target distances, each curve"
+                                      if result.target.closed else "target→result distances (an open arc: part of "
+                                                                   "the cycle), the target")
+                                   + " sampled evenly along its length; after: result.yaml solved "
                                    "(linkedit solve3d), its track 'target'"},
         "note": result.note,
         "margin_deg": result.margin_deg,
