@@ -171,6 +171,19 @@ def _moved(plan: Plan, geom: Geometry) -> bool:
     return bool(plan.steps) and (bool(geom.linkages) or not np.array_equal(geom.rest[: plan.n_joints], plan.steps_rest))
 
 
+def turn_arm(geom: Geometry, angle: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """The motor arm turned to absolute angles ``angle``: arm·e^{i(angle − rest angle)} into ``out``
+    (*L, T) complex. K linkages at common angles (T,) take K + T exponentials, not K·T; otherwise
+    e^{iφ} is written as cos φ + i sin φ into ``out`` (numpy's complex exp gives the same bits, at
+    twice the cost)."""
+    if geom.linkages and angle.ndim == 1:
+        return np.multiply(geom.arm * np.exp(-1j * geom.rest_angle), np.exp(1j * angle), out=out)
+    phi = np.subtract(angle, geom.rest_angle)
+    np.cos(phi, out=out.real)
+    np.sin(phi, out=out.imag)
+    return np.multiply(out, geom.arm, out=out)
+
+
 def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: Workspace | None = None) -> State:
     """The one evaluation of a plan: every rule in order. With a geometry of K linkages
     (:attr:`Geometry.linkages`), arrays carry a linkage axis after the row: (P, K, T), and
@@ -189,12 +202,13 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: W
     Z[0, plan.ground_rows] = geom.ground
     Z[1:, plan.ground_rows] = 0.0
     if not plan.linear:
-        arm = geom.arm * np.exp(1j * (angle - geom.rest_angle))
-        Z[0, plan.motor_row] = geom.pivot + arm
+        arm = Z[0, plan.motor_row]
+        turn_arm(geom, angle, arm)
         if order >= 1:
-            Z[1, plan.motor_row] = 1j * arm
+            np.multiply(arm, 1j, out=Z[1, plan.motor_row])
         if order >= 2:
-            Z[2, plan.motor_row] = -arm
+            np.negative(arm, out=Z[2, plan.motor_row])
+        arm += geom.pivot
     s = angle if plan.linear else np.zeros_like(angle)
     dz, ddz = (Z[1] if order >= 1 else None), (Z[2] if order >= 2 else None)
     frame = Frame(z=Z[0], dz=dz, ddz=ddz, ds=ds, joints=plan.row_of[: plan.n_joints], s=s,

@@ -2,10 +2,12 @@
 
 Family frame (ground length 1): crank axle O = 0, rocker pivot D = 1, crank pin
 A = a·e^{iθ} turning counter-clockwise (θ = 2π t, t = 0 the rest pose), coupler pin B at
-distances b from A and c from D on the side ``branch`` = ±1 of A→D (the law of cosines,
-:mod:`linkedit.planar.law_of_cosines`), coupler point P = A + (u + iv)(B − A).
+distances b from A and c from D on the side ``branch`` = ±1 of A→D, coupler point
+P = A + (u + iv)(B − A).
 
-Parameters per linkage, columns of a (K, 6) array: a, b, c, u, v, branch.
+Parameters per linkage, columns of a (K, 6) array: a, b, c, u, v, branch. They are the constants
+of one compiled plan (dyad A, D → B, P rigid on the coupler): curves and poses are the planar
+engine's evaluation of K linkages (:class:`~linkedit.synthesis.legs.CatalogFamily`), as for every family.
 
 The crank turns the full cycle with a transmission angle μ (the angle at B, d_s = sin²μ)
 inside [MU_MIN, 180° − MU_MIN] exactly when cos μ = (b² + c² − |A − D|²)/(2bc) stays within
@@ -18,8 +20,9 @@ from __future__ import annotations
 import numpy as np
 
 from linkedit.planar.feasibility import margin_of
-from linkedit.planar.law_of_cosines import dyad
+from linkedit.planar.plan import Geometry
 from linkedit.spec.linkage import LinkageSpec
+from linkedit.synthesis.legs import CatalogFamily, constant_geometry, expect_rules
 
 NAME = "four-bar"
 ID = 1
@@ -81,28 +84,37 @@ def sample(rng: np.random.Generator, count: int) -> np.ndarray:
     return out
 
 
+class _Core(CatalogFamily):
+    """The four-bar's topology (:func:`_topology`) evaluated by the planar engine: a parameter row
+    gives the plan's constants directly (dyad A, D → B with l_AB = b, l_DB = c on the side
+    ``branch``; P = A + (u + iv)(B − A) rigid on the coupler)."""
+
+    def geometry(self, params: np.ndarray) -> Geometry:
+        """The constants of K rows (K, 6)."""
+        a, b, c, u, v, branch = (params[None, :, i:i + 1] for i in range(6))  # (1, K, 1) each
+        b2, c2 = b * b, c * c
+        return constant_geometry(self.plan, pivot=0.0, arm=a[0], ground=(0.0, 1.0),
+                                 constants=((b2, c2, 0.5 * (b2 - c2), branch), (u + 1j * v,)))
+
+
+def _topology() -> LinkageSpec:
+    """O, A, B, D and the coupler point P (a joint of the coupler, tracked as ``target``): the
+    topology only, every linkage's dimensions come from its row."""
+    return LinkageSpec.model_validate({
+        "name": NAME, "units": "1", "joints": {"O": [0, 0], "A": [0.5, 0], "B": [1, 1], "D": [1, 0], "P": [0.5, 1]},
+        "ground": ["O", "D"], "links": {"crank": ["O", "A"], "coupler": ["A", "B", "P"], "rocker": ["D", "B"]},
+        "motor": {"joint": "A", "pivot": "O"}, "tracks": {"target": {"joint": "P"}}})
+
+
+CORE = _Core(NAME, ID, _topology, "target")
+expect_rules(CORE.plan, ("dyad", ("A", "D", "B")), ("rigid", ("A", "B", "P")))
+
+
 def curves(params: np.ndarray, samples: int, phase: np.ndarray | float = 0.0) -> np.ndarray:
-    """Coupler-point curves (K, T) complex in the family frame at θ = 2π(phase + t/T), t = 0..T−1.
-
-    One array evaluation over linkages and samples; NaN where B cannot be placed.
-    """
-    a, b, c, u, v, branch = (params[:, i:i + 1] for i in range(6))
-    turn = np.exp(2j * np.pi * np.arange(samples) / samples)[None, :]
-    pin = (a * np.exp(2j * np.pi * np.asarray(phase, dtype=float).reshape(-1, 1))) * turn
-    # B from A (i) and D (j): law of cosines with l_ik = b, l_jk = c; orientation = branch
-    with np.errstate(invalid="ignore", divide="ignore"):
-        coupler_pin, _ = dyad(pin, np.ones_like(pin), 0.5 * (b * b - c * c), b * b, branch)
-    return pin + (u + 1j * v) * (coupler_pin - pin)
-
-
-def rest_pose(row: np.ndarray, phase: float = 0.0) -> dict[str, complex]:
-    """Joints O, A, B, D and the coupler point P at crank phase ``phase`` (family frame)."""
-    a, b, c, u, v, branch = row
-    pin = a * np.exp(2j * np.pi * phase)
-    coupler_pin, _ = dyad(np.array([[pin]]), np.array([[1.0 + 0j]]), np.array([[0.5 * (b * b - c * c)]]),
-                          np.array([[b * b]]), np.array([[branch]]))
-    B = complex(coupler_pin[0, 0])
-    return {"O": 0j, "A": complex(pin), "B": B, "D": 1 + 0j, "P": complex(pin + (u + 1j * v) * (B - pin))}
+    """Coupler-point curves (K, T) complex in the family frame at θ = 2π(phase + t/T), t = 0..T−1
+    (``phase`` a number or (K,)): the planar engine's one evaluation of K linkages; NaN where B
+    cannot be placed."""
+    return CORE.curves(params, samples, phase)
 
 
 def to_spec(row: np.ndarray, *, phase: float, scale: float, turn: complex, shift: complex, mirrored: bool,
@@ -113,7 +125,7 @@ def to_spec(row: np.ndarray, *, phase: float, scale: float, turn: complex, shift
 
     ``turn`` is a unit complex number (the rotation).
     """
-    pose = rest_pose(row, phase)
+    pose = dict(zip(CORE.plan.joint_names, CORE.pose(row, phase)))
 
     def place(z: complex) -> list[float]:
         w = shift + scale * turn * (z.conjugate() if mirrored else z)

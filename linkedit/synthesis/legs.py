@@ -18,18 +18,24 @@ orientations (its branch). A linkage works
 by the one planar predicate (:mod:`linkedit.planar.feasibility`): it assembles at every one of
 its ``CHECK_SAMPLES`` crank samples, and the lower bound of d_s between them stays at or above
 the margin (sin² 20° in an atlas).
+
+The built-in four-bar and slider-crank families evaluate the same way: their parameters (lengths,
+side, coupler point) give the constants of their plan directly (:meth:`CatalogFamily.geometry`,
+:func:`constant_geometry`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 from linkedit.planar import catalog, compile_plan
 from linkedit.planar.feasibility import CHECK_SAMPLES, assembles, lowest, margin_of, works
-from linkedit.planar.kinematics import _evaluate
-from linkedit.planar.plan import Geometry
+from linkedit.planar.kinematics import State, _evaluate
+from linkedit.planar.plan import Geometry, Plan
+from linkedit.planar.rules import Slider, Triangles
 from linkedit.spec.linkage import JointTrack, LinkageSpec
 
 MU_MIN_DEG = 20.0
@@ -83,16 +89,35 @@ class CatalogFamily:
         rows[:, 2 * self.pivot:2 * self.pivot + 2] = 0.0
         return rows
 
+    def geometry(self, params: np.ndarray) -> Geometry:
+        """The plan's constants for K parameter rows (K, P): here the rows are rest poses."""
+        return Geometry.of(self.plan, params.reshape(len(params), -1, 2))
+
+    def _state(self, params: np.ndarray, samples: int, phase: np.ndarray | float) -> State:
+        """The planar engine's one evaluation with a linkage axis: rows (P, K, T) at motor phases
+        ``phase`` + t/T, t = 0..T−1 (``phase`` a number or (K,); a swinging input: :meth:`turn`). Linkages that share their rest
+        angle and phase turn through common angles (T,) (cheaper: :func:`~linkedit.planar.kinematics.turn_arm`)."""
+        geom = self.geometry(params)
+        turn = self.turn(np.asarray(phase, dtype=float).reshape(-1, 1) + np.arange(samples)[None, :] / samples)
+        rest = np.asarray(geom.rest_angle)
+        if self.plan.linear:
+            angle = turn
+        elif turn.shape[0] == 1 and (rest == rest.flat[0]).all():
+            angle = rest.flat[0] + self.direction * turn[0]
+        else:
+            angle = geom.rest_angle + self.direction * turn
+        return _evaluate(self.plan, geom, angle, order=0)
+
     def _evaluate(self, params: np.ndarray, samples: int, phase: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """Joint positions (K, J, T) complex and d_s (K, D, T) of the D watched rule rows (NaN or < 0
-        where a joint cannot be placed): the planar engine's one evaluation with a linkage axis."""
-        count = len(params)
-        rest = params.reshape(count, -1, 2)
-        geom = Geometry.of(self.plan, rest)
-        turn = self.turn(np.asarray(phase, dtype=float).reshape(-1, 1) + np.arange(samples)[None, :] / samples)
-        state = _evaluate(self.plan, geom, turn if self.plan.linear else geom.rest_angle + self.direction * turn, order=0)
+        where a joint cannot be placed)."""
+        state = self._state(params, samples, phase)
         z = state.z[self.plan.row_of[: self.plan.n_joints]]  # (J, K, T)
         return z.transpose(1, 0, 2), state.ds[self.watched].transpose(1, 0, 2)
+
+    def pose(self, row: np.ndarray, phase: float) -> list[complex]:
+        """The joints of parameter ``row`` at motor phase ``phase``, family frame (plan joint order)."""
+        return [complex(z) for z in self._evaluate(row[None], 1, phase)[0][0, :, 0]]
 
     def turn(self, t: np.ndarray) -> np.ndarray:
         """The input's change from the rest pose at phases ``t``: the crank's rotation (radians,
@@ -124,12 +149,12 @@ class CatalogFamily:
 
     def curves(self, params: np.ndarray, samples: int, phase: np.ndarray | float = 0.0) -> np.ndarray:
         """The tracked joint's curves (K, T) complex, family frame."""
-        return self._evaluate(params, samples, phase)[0][:, self.track_joint, :]
+        return self._state(params, samples, phase).z[self.plan.row_of[self.track_joint]].copy()
 
     def to_spec(self, row: np.ndarray, *, phase: float, scale: float, turn: complex, shift: complex, mirrored: bool,
                 name: str, units: str, description: str, reversed: bool = False) -> LinkageSpec:
         """The linkage of ``row`` at crank phase ``phase``, placed like :func:`linkedit.synthesis.fourbar.to_spec`."""
-        pose = self._evaluate(row[None], 1, phase)[0][0, :, 0]
+        pose = np.array(self.pose(row, phase))
         placed = shift + scale * turn * (np.conj(pose) if mirrored else pose)
         flip = {"ccw": "cw", "cw": "ccw"}
         motor = self.spec.motor
@@ -164,6 +189,39 @@ class CatalogFamily:
             out[name] = slider.model_copy(update={"angle_deg": float(np.degrees(np.angle(direction)))}).model_dump(
                 mode="python")
         return out
+
+
+def constant_geometry(plan: Plan, *, pivot: complex, arm: np.ndarray, ground: tuple[complex, ...],
+                      constants: tuple[tuple[Any, ...], ...]) -> Geometry:
+    """The :class:`~linkedit.planar.plan.Geometry` of K linkages of ``plan`` given by their
+    constants rather than a rest pose: the motor ``pivot`` (one for all), ``arm`` (K, 1) the crank
+    pin − pivot at rest, the ground joints' positions (in ``plan.graph.ground`` order) and each
+    rule's constants (:meth:`~linkedit.planar.rules.base.Rule.constants`' shapes, K linkages).
+    Its ``rest`` is NaN: an evaluation of K linkages reads only the constants (a numeric group,
+    the one rule that starts from rest points, is evaluated one linkage at a time)."""
+    count = len(arm)
+    arm = np.asarray(arm, dtype=complex)
+    return Geometry(rest=np.full((plan.n_points, count), np.nan, dtype=complex),
+                    pivot=np.full((count, 1), pivot, dtype=complex), arm=arm, rest_angle=np.angle(arm),
+                    ground=np.array(ground, dtype=complex)[:, None, None] * np.ones((1, count, 1)), constants=constants)
+
+
+def expect_rules(plan: Plan, *rules: tuple[str, tuple[str, ...]]) -> None:
+    """Check that ``plan`` is the sequence ``rules`` (kind, joints read then the joint written) a
+    family's :meth:`CatalogFamily.geometry` gives the constants of; ValueError otherwise."""
+    joints = plan.joint_names
+    names = [joints[p] if p < len(joints) else f"point {p}" for p in range(plan.n_points)]
+    have: list[tuple[str, tuple[str, ...]]] = []
+    for rule in plan.rules:
+        if isinstance(rule, Triangles):
+            have += [(rule.kind, tuple(names[p] for p in (i, j, k)))
+                     for i, j, k in zip(rule.i_point, rule.j_point, rule.k_point)]
+        elif isinstance(rule, Slider):
+            have.append((rule.kind, (names[rule.i], names[rule.joints[0]])))
+        else:
+            have.append((rule.kind, ()))
+    if have != list(rules):
+        raise ValueError(f"family {plan.spec.name!r}: its plan is {have}, not {list(rules)}")
 
 
 JANSEN = CatalogFamily("jansen", 2, catalog.jansen_leg, "foot")

@@ -5,7 +5,9 @@ counter-clockwise (θ = 2π t, t = 0 the rest pose), slider pin B on the slot li
 (direction +x) at distance 1 from A, on the side ``branch`` = ±1 (B_x − A_x = branch·sqrt(1 − p²),
 p = e − A_y: :mod:`linkedit.planar.rules.slider`), coupler point P = A + (u + iv)(B − A).
 
-Parameters per linkage, columns of a (K, 5) array: a, e, u, v, branch.
+Parameters per linkage, columns of a (K, 5) array: a, e, u, v, branch. They are the constants
+of one compiled plan (slider A → B, P rigid on the rod): curves and poses are the planar engine's
+evaluation of K linkages (:class:`~linkedit.synthesis.legs.CatalogFamily`), as for every family.
 
 The rod reaches the line at every crank angle with d_s = 1 − p² (the engine's slider d_s:
 sin² of the angle between rod and slot normal) at least sin² MU_MIN exactly when
@@ -17,7 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 from linkedit.planar.feasibility import margin_of
+from linkedit.planar.plan import Geometry
 from linkedit.spec.linkage import LinkageSpec
+from linkedit.synthesis.legs import CatalogFamily, constant_geometry, expect_rules
 
 NAME = "slider-crank"
 ID = 6
@@ -63,24 +67,38 @@ def sample(rng: np.random.Generator, count: int) -> np.ndarray:
     return out
 
 
-def _pins(params: np.ndarray, angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Crank pins A and slider pins B (K, T) complex at crank angles ``angle`` (K or 1, T)."""
-    a, e, branch = params[:, 0:1], params[:, 1:2], params[:, 4:5]
-    pin = a * np.exp(1j * angle)
-    p = e - pin.imag
-    with np.errstate(invalid="ignore"):
-        slider = pin.real + branch * np.sqrt(1.0 - p * p) + 1j * e
-    return pin, slider
+class _Core(CatalogFamily):
+    """The slider-crank's topology (:func:`_topology`) evaluated by the planar engine: a parameter row
+    gives the plan's constants directly (B on the slot y = e, direction +x, at distance 1 from A on
+    the side ``branch``; P = A + (u + iv)(B − A) rigid on the rod)."""
+
+    def geometry(self, params: np.ndarray) -> Geometry:
+        """The constants of K rows (K, 5)."""
+        a, e, u, v, branch = (params[:, i:i + 1] for i in range(5))  # (K, 1) each
+        one = np.ones_like(a)
+        return constant_geometry(self.plan, pivot=0.0, arm=a, ground=(0.0,),
+                                 constants=((one + 0j, 1j * e, one, branch), (u[None] + 1j * v[None],)))
+
+
+def _topology() -> LinkageSpec:
+    """O, A, the slider pin B and the coupler point P (a joint of the rod, tracked as ``target``):
+    the topology only, every linkage's dimensions come from its row."""
+    return LinkageSpec.model_validate({
+        "name": NAME, "units": "1", "joints": {"O": [0, 0], "A": [0.5, 0], "B": [1.5, 0.2], "P": [1, 1]},
+        "ground": ["O"], "links": {"crank": ["O", "A"], "rod": ["A", "B", "P"]},
+        "sliders": {"piston": {"joint": "B", "guide": "ground", "angle_deg": 0.0}},
+        "motor": {"joint": "A", "pivot": "O"}, "tracks": {"target": {"joint": "P"}}})
+
+
+CORE = _Core(NAME, ID, _topology, "target")
+expect_rules(CORE.plan, ("slider", ("A", "B")), ("rigid", ("A", "B", "P")))
 
 
 def curves(params: np.ndarray, samples: int, phase: np.ndarray | float = 0.0) -> np.ndarray:
-    """Coupler-point curves (K, T) complex in the family frame at θ = 2π(phase + t/T), t = 0..T−1.
-
-    One array evaluation over linkages and samples; NaN where the rod cannot reach the line.
-    """
-    angle = 2.0 * np.pi * (np.asarray(phase, dtype=float).reshape(-1, 1) + np.arange(samples)[None, :] / samples)
-    pin, slider = _pins(params, angle)
-    return pin + (params[:, 2:3] + 1j * params[:, 3:4]) * (slider - pin)
+    """Coupler-point curves (K, T) complex in the family frame at θ = 2π(phase + t/T), t = 0..T−1
+    (``phase`` a number or (K,)): the planar engine's one evaluation of K linkages; NaN where the
+    rod cannot reach the line."""
+    return CORE.curves(params, samples, phase)
 
 
 def to_spec(row: np.ndarray, *, phase: float, scale: float, turn: complex, shift: complex, mirrored: bool,
@@ -91,8 +109,7 @@ def to_spec(row: np.ndarray, *, phase: float, scale: float, turn: complex, shift
 
     ``turn`` is a unit complex number (the rotation); the slot's direction is turn·1 (a mirror keeps the x axis).
     """
-    pin, slider = (complex(z[0, 0]) for z in _pins(row[None], np.array([[2.0 * np.pi * phase]])))
-    point = pin + complex(row[2], row[3]) * (slider - pin)
+    _, pin, slider, point = CORE.pose(row, phase)
 
     def place(z: complex) -> list[float]:
         w = shift + scale * turn * (z.conjugate() if mirrored else z)

@@ -67,7 +67,7 @@ class Dyad(Triangles):
         lik2, ljk2, half, sign = const
         zi, e, w, fk, d2, u, a, b, bsq, rates = f.scratch[id(self)]
         Z = f.orders
-        self.inputs(Z, zi, e)
+        zi = self.inputs(Z, zi, e)
         loc.dyad_coefficient(e[0], half, lik2, sign, w, d2, u, a, b, bsq)
         np.multiply(w, e[0], out=fk)
         np.add(zi[0], fk, out=Z[0, self.start:self.stop])

@@ -47,7 +47,7 @@ class Rigid(Triangles):
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Every derivative order at once: the rows of ``f.orders``."""
         zi, e = f.scratch[id(self)]
-        self.inputs(f.orders, zi, e)
+        zi = self.inputs(f.orders, zi, e)
         np.multiply(const[0], e, out=e)
         np.add(zi, e, out=f.orders[:, self.start:self.stop])
 

@@ -9,6 +9,7 @@ a tracked point on a link, which a rigid rule places but no table lists).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -50,11 +51,25 @@ class Triangles(Rule):
         one = (orders, self.stop - self.start, *shape)
         return pool(one, complex), pool(one, complex)
 
-    def inputs(self, Z: np.ndarray, zi: np.ndarray, e: np.ndarray) -> None:
-        """Fill ``zi`` with the rows ``i`` of ``Z`` (orders, P, *S) and ``e`` with rows ``j`` − rows ``i``."""
-        np.take(Z, self.i, axis=1, out=zi, mode="clip")  # indices are valid: clip skips take's buffering
-        np.take(Z, self.j, axis=1, out=e, mode="clip")
-        e -= zi
+    @cached_property
+    def runs(self) -> tuple[slice | None, slice | None]:
+        """The rows ``i`` and ``j`` as slices where they are consecutive (a batch of one always), else None."""
+        return _run(self.i), _run(self.j)
+
+    def inputs(self, Z: np.ndarray, zi: np.ndarray, e: np.ndarray) -> np.ndarray:
+        """The rows ``i`` of ``Z`` (orders, P, *S), and ``e`` filled with rows ``j`` − rows ``i``: consecutive
+        rows are read in place (a view of ``Z``: the rule writes other rows), others copied into ``zi``."""
+        i, j = self.runs
+        if i is None:
+            np.take(Z, self.i, axis=1, out=zi, mode="clip")  # indices are valid: clip skips take's buffering
+        else:
+            zi = Z[:, i]
+        if j is None:
+            np.take(Z, self.j, axis=1, out=e, mode="clip")
+            e -= zi
+        else:
+            np.subtract(Z[:, j], zi, out=e)
+        return zi
 
     def written(self) -> np.ndarray:
         return self.k_point
@@ -95,3 +110,9 @@ class Triangles(Rule):
 
     def culprit(self, names: list[str], n: int) -> str:
         return f"joint {names[self.placed()[n]]}"
+
+
+def _run(rows: np.ndarray) -> slice | None:
+    """``rows`` (R,) as a slice when they are consecutive, else None."""
+    first = int(rows[0])
+    return slice(first, first + rows.size) if np.array_equal(rows, np.arange(first, first + rows.size)) else None

@@ -1,0 +1,94 @@
+"""The built-in four-bar and slider-crank families are evaluated by the one planar core (the plan's
+K-linkage evaluation, like every catalog and spec family), and agree with closed forms derived here."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from linkedit.planar.kinematics import Workspace, _evaluate
+from linkedit.planar.plan import Geometry, compile_plan
+from linkedit.planar.rules import Dyad, Rigid, Slider
+from linkedit.synthesis import fourbar, slidercrank
+from linkedit.synthesis.legs import CatalogFamily
+
+
+def working(fam, count: int, seed: int) -> np.ndarray:
+    rows = fam.sample(np.random.default_rng(seed), 20 * count)
+    return rows[fam.min_singularity(rows) >= fam.margin()][:count]
+
+
+def four_bar_point(row: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """P by angles: B = A + b·e^{i(arg(D − A) + branch·α)}, α the angle at A of triangle A, D, B."""
+    a, b, c, u, v, branch = row
+    pin = a * np.exp(1j * theta)
+    d = np.abs(1 - pin)
+    alpha = np.arccos((b * b + d * d - c * c) / (2 * b * d))
+    coupler = pin + b * np.exp(1j * (np.angle(1 - pin) + branch * alpha))
+    return pin + complex(u, v) * (coupler - pin)
+
+
+def slider_crank_point(row: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """P with B on y = e at distance 1 from A: B_x = A_x + branch·sqrt(1 − (e − A_y)²)."""
+    a, e, u, v, branch = row
+    pin = a * np.exp(1j * theta)
+    slider = pin.real + branch * np.sqrt(1 - (e - pin.imag) ** 2) + 1j * e
+    return pin + complex(u, v) * (slider - pin)
+
+
+@pytest.mark.parametrize("fam, closed", [(fourbar, four_bar_point), (slidercrank, slider_crank_point)],
+                         ids=["four-bar", "slider-crank"])
+def test_family_curves_are_the_closed_form(fam, closed):
+    """Curves of K linkages at one phase and at a phase each equal the closed form to 1e-12."""
+    rows = working(fam, 40, seed=11)
+    phase = np.random.default_rng(2).uniform(0, 1, len(rows))
+    for ph in (0.0, 0.37, phase):
+        z = fam.curves(rows, 90, ph)
+        assert z.shape == (len(rows), 90)
+        for k, row in enumerate(rows):
+            theta = 2 * np.pi * (np.broadcast_to(ph, len(rows))[k] + np.arange(90) / 90)
+            assert np.abs(z[k] - closed(row, theta)).max() <= 1e-12 * max(1.0, np.abs(z[k]).max())
+
+
+@pytest.mark.parametrize("fam, kinds", [(fourbar, (Dyad, Rigid)), (slidercrank, (Slider, Rigid))],
+                         ids=["four-bar", "slider-crank"])
+def test_built_in_families_are_evaluated_by_the_planar_core(fam, kinds, monkeypatch):
+    """A family's curves are the rules of one compiled plan placing K linkages (no evaluator of its own)."""
+    assert isinstance(fam.CORE, CatalogFamily)
+    assert tuple(type(r) for r in fam.CORE.plan.rules) == kinds
+    calls = []
+    for kind in kinds:
+        method = "place" if kind is Slider else "evaluate"
+        original = getattr(kind, method)
+
+        def spy(self, *args, _original=original, **kwargs):
+            calls.append(type(self))
+            return _original(self, *args, **kwargs)
+
+        monkeypatch.setattr(kind, method, spy)
+    fam.curves(working(fam, 5, seed=1), 16)
+    assert calls == list(kinds)
+
+
+def test_a_row_that_cannot_assemble_is_nan():
+    """|b − c| > |A − D| = 0.5 at θ = 0: B cannot be placed there (NaN), but can at θ = π (|A − D| = 1.5)."""
+    z = fourbar.curves(np.array([[0.5, 1.5, 0.5, 0.3, 0.1, 1.0]]), 2)
+    assert np.isnan(z[0, 0]) and np.isfinite(z[0, 1])
+    z = slidercrank.curves(np.array([[0.5, 0.8, 0.5, 0.0, 1.0]]), 4)  # |e − A_y| = 1.3 at θ = 270°
+    assert np.isfinite(z[0, :3]).all() and np.isnan(z[0, 3])
+
+
+def test_linkages_at_common_angles_turn_like_each_at_its_own():
+    """K linkages turned through common angles (T,) (K + T exponentials) equal the same angles given
+    per linkage (K, T) to rounding, and one linkage's motor is arm·e^{i(angle − rest)} bit for bit."""
+    plan = compile_plan(fourbar.CORE.spec)
+    rng = np.random.default_rng(6)
+    rest = plan.rest_points[None] + 0.02 * rng.normal(size=(7, *plan.rest_points.shape))
+    geom = Geometry.of(plan, rest)
+    angle = np.linspace(-2.0, 5.0, 33)
+    common = _evaluate(plan, geom, angle, 0).z
+    each = _evaluate(plan, geom, np.broadcast_to(angle, (7, 33)).copy(), 0).z
+    assert np.abs(common - each).max() <= 1e-14
+    one = plan.geometry()
+    z = _evaluate(plan, one, angle, 0, Workspace(plan, 33)).z[plan.motor_row]
+    assert np.array_equal(z, one.pivot + one.arm * np.exp(1j * (angle - one.rest_angle)))
