@@ -203,7 +203,7 @@ class Waves(Extrapolation, BatchedFactors):
             self._merge()
         if not self.compiled.decided and not self.free and np.abs(vel[k - 1]).max() > 0.0:
             self._survey(pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col, k - 1)
-        if self.closed is not None and not self.free:
+        if self.closed is not None and (not self.free or self.closed.spins):
             rebuilt = self.rebuilt(k, stop, pos, ori, vel)
             if rebuilt is not None:
                 return rebuilt
@@ -318,7 +318,7 @@ class Waves(Extrapolation, BatchedFactors):
         without it)."""
         closed, col, t = self.closed, self.solver.col, self.table.t
         assert closed is not None
-        signs = closed.sides(pos[k - 1], ori[k - 1], self.table, k - 1)
+        signs = closed.sides(pos[k - 1], ori[k - 1], self.table, k - 1, self.solver.reference)
         if signs is None:
             self.closed = self.compiled.closed = None
             return None
@@ -330,7 +330,7 @@ class Waves(Extrapolation, BatchedFactors):
         ranks: list[np.ndarray] = []
         while here < stop:
             steps = np.arange(here, min(stop, here + chunk))
-            P, Q, valid = closed.poses(self.table, steps, before[1], signs)
+            P, Q, valid = closed.poses(self.table, steps, before[1], signs, self.solver.reference)
             n = screened(self, P, Q, valid, steps, before, t_before)
             if n == 0:
                 break
@@ -339,6 +339,9 @@ class Waves(Extrapolation, BatchedFactors):
                 R, V, work, ok, rank = verify(self, P, Q, steps, before[2])
             else:
                 R, V, work, ok, _ = self.solve(P, Q, steps)
+            if self.free:  # a link's spin: the canonical pose's, checked, and its tangent
+                V, move = canonical(self, P, Q, V, steps)
+                ok &= np.abs(move).max(axis=1) <= self.solver.options.still_tol
             a = self.accepted(P, Q, V, ok, steps, before, t_before)
             kept.append((P[:a], Q[:a], R[:a], V[:a], work[:a]))
             if sparse:
