@@ -89,7 +89,7 @@ from linkedit.gcs.evaluate import KEPT_POSES, _Layout
 from linkedit.gcs.factors import BatchedFactors, Factors
 from linkedit.gcs.free import canonical
 from linkedit.gcs.predict import NODES, Extrapolation, flat, lagrange
-from linkedit.gcs.rebuild import screened, verify
+from linkedit.gcs.rebuild import canonical_as_is, screened, verify
 from linkedit.gcs.structure import SPLIT_FROM, STRIDE, WIDEST_STRIDE, Compiled, Part, StructureCache, _take
 from linkedit.gcs.system import StepTable
 
@@ -337,11 +337,10 @@ class Waves(Extrapolation, BatchedFactors):
             steps, P, Q = steps[:n], P[:n], Q[:n]
             if sparse:
                 R, V, work, ok, rank = verify(self, P, Q, steps, before[2])
+            elif self.free:  # a link's spin: the canonical pose, checked as it is
+                R, V, work, ok = canonical_as_is(self, closed, P, Q, steps)
             else:
                 R, V, work, ok, _ = self.solve(P, Q, steps)
-            if self.free:  # a link's spin: the canonical pose's, checked, and its tangent
-                V, move = canonical(self, P, Q, V, steps)
-                ok &= np.abs(move).max(axis=1) <= self.solver.options.still_tol
             a = self.accepted(P, Q, V, ok, steps, before, t_before)
             kept.append((P[:a], Q[:a], R[:a], V[:a], work[:a]))
             if sparse:
