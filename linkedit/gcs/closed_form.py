@@ -542,22 +542,27 @@ class ClosedForm:
         P[:, u] = X1 - R[:, u] @ a1
         return (np.abs(step) <= SPUN) & (f2 > 0.0)
 
+    @property
+    def spun(self) -> int:
+        """The member of the (first) spun link (:class:`Spun`)."""
+        return next(r.member for r in self.rules if isinstance(r, Spun))
+
     def spin_slope(self, P: np.ndarray, Q: np.ndarray, rest: State) -> np.ndarray:
-        """The derivative (B,) of the scaled distance of poses P (B, M, 3), Q (B, M, 4) from
-        ``rest`` (:meth:`_spun`'s f) along the spun link's spin (unit rate about the line of
-        its ball joints): zero at the canonical pose. Only the link's own pose enters (the
-        line is its own: the spin leaves every constraint and every other member as it is);
-        the rotation part is 2 φ·u (φ the rotation vector from rest, as (J_l⁻¹ φ)·u = φ·u)."""
+        """The derivative (B,) of the scaled distance from ``rest`` (:meth:`_spun`'s f) of the
+        spun link at positions P (B, 3), quaternions Q (B, 4) along its spin (unit rate about
+        the line of its ball joints): zero at the canonical pose. Only the link's own pose
+        enters (the line is its own: the spin leaves every constraint and every other member
+        as it is); the rotation part is 2 φ·u (φ the rotation vector from rest, as
+        (J_l⁻¹ φ)·u = φ·u)."""
         rule = next(r for r in self.rules if isinstance(r, Spun))
         u, (one, two) = rule.member, rule.pins
         a1 = self._mine("location", one)
-        R = quat.to_matrix(Q[:, u])
+        R = quat.to_matrix(Q)
         axis = R @ (self._mine("location", two) - a1)
         axis /= np.sqrt(quat.dot(axis, axis))[:, None]
-        phi = quat.log(quat.multiply(Q[:, u], quat.conjugate(rest.orientation[u])))
+        phi = quat.log(quat.multiply(Q, quat.conjugate(rest.orientation[u])))
         moving = quat.cross(R @ a1, axis)  # the link's origin about its first ball joint
-        return 2.0 * (quat.dot(P[:, u] - rest.position[u], moving) / self.system.length_scale ** 2
-                      + quat.dot(phi, axis))
+        return 2.0 * (quat.dot(P - rest.position[u], moving) / self.system.length_scale ** 2 + quat.dot(phi, axis))
 
     def sides(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int,
               rest: State | None = None) -> list[float] | None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from linkedit.gcs import accept
+from linkedit.gcs import quaternions as quat
 from linkedit.gcs.factors import BatchedFactors
 from linkedit.gcs import canonical as canon
 from linkedit.gcs.closed_form import ClosedForm
@@ -89,7 +90,10 @@ def canonical_as_is(batch: BatchedFactors, closed: ClosedForm, P: np.ndarray, Q:
     hn = np.full(B, canon.STEP)
     hv = canon.STEP / np.maximum(1.0, np.abs(v0).max(axis=1))
     h = np.concatenate([0.0 * hn, hn, -hn, hv, -hv])
-    moved = batch.moved(np.tile(P, (5, 1, 1)), np.tile(Q, (5, 1, 1)), np.concatenate([n, n, n, v0, v0]) * h[:, None])
+    u = closed.spun  # the link alone moved
+    link = slice(6 * u, 6 * u + 6)
+    e = np.concatenate([n[:, link], n[:, link], n[:, link], v0[:, link], v0[:, link]]) * h[:, None] * solver.col[link]
+    moved = np.tile(P[:, u], (5, 1)) + e[:, :3], quat.turned(np.tile(Q[:, u], (5, 1)), e[:, 3:])
     slope = closed.spin_slope(*moved, solver.reference).reshape(5, B)
     along_n, along_v = (slope[1] - slope[2]) / (2 * hn), (slope[3] - slope[4]) / (2 * hv)
     move = np.abs(slope[0] / along_n)[:, None] * np.abs(n)
