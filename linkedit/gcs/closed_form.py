@@ -21,7 +21,16 @@ first) by one of five rules —
   by an orientation constraint from a placed one with a point on a placed member's line (a
   slider), pinned to each other: the slider stands where the rod's joint is at its arm from its
   pin, on the side of the foot of the perpendicular from the pin to the line that it is on at
-  a solved pose (a slider-crank's rod and slider) —
+  a solved pose (a slider-crank's rod and slider);
+* **swing** / **reach**: a member turning about a placed axis (a rocker) or oriented from a
+  placed member with a point on a placed line or on two placed planes (a slider), whose joint
+  is a ball joint of a link (a member held by two ball joints alone, the other at a placed
+  point): the joint where the rocker's circle, or the slider's line, meets the sphere of the
+  link's length about the link's placed joint, on the side it is on at a solved pose;
+* **spun**: such a link, between two placed ball joints: its spin about the line through them
+  is free (a passive degree of freedom), and it is placed at its canonical pose (the spin
+  nearest the rest pose in the solver's scaled metric, :mod:`linkedit.gcs.canonical`) by
+  Newton's method on the spin angle —
 
 every member's pose at every step follows as array code over the steps. A member's rotation
 is the one taking its local axis and the perpendicular part of its local arm (from its placed

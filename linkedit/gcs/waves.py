@@ -44,7 +44,9 @@ and 2 are replaced by the closed form's poses (exact to rounding: most converge 
 evaluation), in chunks, each up to the first step it cannot rebuild (a dyad that cannot close)
 or that the poses show would fail the acceptance test (:func:`~linkedit.gcs.rebuild.screened`: left to the
 continuation, not solved in vain); steps 3 and 4 are as above, so a closed form that misleads
-costs time, never a result.
+costs time, never a result. Where J has a free direction, a link's spin placed at its canonical
+pose (the RSSR's coupler), the rebuilt poses are checked as they are, with one evaluation and
+factorization each (:func:`~linkedit.gcs.rebuild.canonical_as_is`).
 
 **A free direction** (one passive degree of freedom: J has rank N − 1, such as an RSSR
 coupler's idle spin): the corrections are least norm (nothing along J's null vector, taken by
