@@ -51,11 +51,13 @@ def _assert_same(P, Q, run, size):
     ("crank-rocker", ["Driven", "Dyad"]), ("six-bar", ["Driven", "Dyad", "Dyad"]),
     ("compound-crank-rocker", ["Driven", "Dyad", "Driven"]), ("jansen", ["Driven", "Dyad", "Dyad", "Dyad"]),
     ("klann", ["Driven", "Dyad", "Dyad"]), ("bennett", ["Driven", "Dyad"]),
-    ("rssr", None), ("spherical-four-bar", ["Driven", "Cone"]), ("spatial-slider-crank", None), ("luffing-arm", None)])
+    ("rssr", ["Driven", "Swing", "Spun"]), ("spherical-four-bar", ["Driven", "Cone"]),
+    ("spatial-slider-crank", ["Driven", "Reach", "Spun"]), ("luffing-arm", None)])
 def test_the_rules_that_place_each_member(name, rules):
     """Revolute chains get rules (the Bennett linkage's too: its axes are not parallel, which
-    only its poses tell), a spherical four-bar a spherical dyad (cone); ball joints (a passive
-    spin), a slider on a line driven through ball joints and distance inputs do not."""
+    only its poses tell), a spherical four-bar a spherical dyad (cone), a rocker or a slider on
+    a line (or two planes) reaching a link with ball joints a swing or a reach and the link its
+    canonical spin; distance inputs do not."""
     form = ClosedForm.compile(_system(name))
     assert (None if form is None else [type(r).__name__ for r in form.rules]) == rules
 

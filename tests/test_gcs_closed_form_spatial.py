@@ -133,3 +133,106 @@ def test_a_random_offset_slider_crank_is_rebuilt_on_its_line(seed):
                         wrist - np.asarray(data["members"]["slider"]["position"]))
     at = P[:, slider] + quat.rotate(Q[:, slider], local)
     assert np.abs(at - (pivot + x[:, None] * u + e * v)).max() < 1e-12 * scale * 10
+
+
+def _spin_is_nearest_rest(system, P, Q, link: str, one: np.ndarray, two: np.ndarray) -> None:
+    """The link's pose at each step is, of its spins about the line through its ball joints
+    (world points one, two (T, 3)), the one nearest its rest pose in the scaled metric
+    |ΔP|²/L² + |log(R R_restᵀ)|² (a grid of 720 spins, then ±1e-4 rad about the pose)."""
+    m, L = system.member_names.index(link), system.length_scale
+    rest_p, rest_q = system.rest.position[m], system.rest.orientation[m]
+    u = _unit(two - one)
+
+    def distance(angle: np.ndarray) -> np.ndarray:  # (T, K) for spins (K,) away from the pose
+        turn = np.concatenate([np.cos(angle / 2)[None, :, None] * np.ones((len(u), 1, 1)),
+                               np.sin(angle / 2)[None, :, None] * u[:, None, :]], axis=2)
+        q = quat.multiply(turn, np.broadcast_to(Q[:, m, None], turn.shape))
+        p = one[:, None] + quat.rotate(turn, (P[:, m] - one)[:, None])
+        phi = quat.log(quat.multiply(q, quat.conjugate(np.broadcast_to(rest_q, q.shape))))
+        return ((p - rest_p) ** 2).sum(axis=2) / L**2 + (phi**2).sum(axis=2)
+
+    here = distance(np.zeros(1))
+    assert (here <= distance(np.linspace(-np.pi, np.pi, 720)).min(axis=1)[:, None] + 1e-12).all()
+    assert (here < distance(np.array([-1e-4, 1e-4]))).all()
+
+
+def _ball_points(P, Q, system, data, member: str, point: np.ndarray) -> np.ndarray:
+    """A member's point (given in the world at rest) at each step (T, 3)."""
+    m = system.member_names.index(member)
+    spec = data["members"][member]
+    local = quat.rotate(quat.conjugate(np.asarray(spec["orientation"])), point - np.asarray(spec["position"]))
+    return P[:, m] + quat.rotate(Q[:, m], local)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_random_rssr_coupler_is_spun_to_its_canonical_pose(seed):
+    """A rocker reaching a link with ball joints at both ends (a random RSSR, the coupler's
+    frame off the line of its balls) is rebuilt where the rocker's circle meets the sphere about
+    the crank tip, the link at its canonical spin: the nearest its rest pose."""
+    rng = np.random.default_rng(20 + seed)
+    scale = 10.0 ** rng.uniform(-3, 3)
+    frame = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    pivot, z = scale * rng.normal(size=3), frame[:, 2]
+    tip = pivot + scale * frame[:, 0]
+    rocker_axis = _unit(frame @ np.array([1.0, 0.0, 0.0]) + 0.3 * rng.normal(size=3))
+    rocker_pivot = pivot + scale * (frame @ np.array([4.0, 0.0, 2.0]))
+    # the rocker's tip 3 from its pivot across its axis, on the side where the coupler is 5.5 long
+    across = _unit(np.cross(rocker_axis, rng.normal(size=3)))
+    arm = 3.0 * scale * np.array([np.cos(a) * across + np.sin(a) * np.cross(rocker_axis, across)
+                                  for a in np.linspace(0, 2 * np.pi, 3601)])
+    reach = np.linalg.norm(rocker_pivot + arm - tip, axis=1)
+    length = 0.5 * (reach.min() + reach.max())
+    rocker_tip = rocker_pivot + arm[np.argmin(np.abs(reach - length) + 10 * (arm @ frame[:, 2] < 0))]
+    data = {"name": "rssr", "units": "m",
+            "members": _members(rng, ["crank", "rocker", "coupler"], pivot, scale),
+            "joints": {"A": {"type": "revolute", "members": ["crank", "world"], "at": pivot.tolist(), "axis": z.tolist()},
+                       "D": {"type": "revolute", "members": ["rocker", "world"], "at": rocker_pivot.tolist(),
+                             "axis": rocker_axis.tolist()},
+                       "B": {"type": "spherical", "members": ["coupler", "crank"], "at": tip.tolist()},
+                       "C": {"type": "spherical", "members": ["coupler", "rocker"], "at": rocker_tip.tolist()}},
+            "inputs": {"drive": {"type": "orientation", "member": "crank",
+                                 "rotation": {"axis": z.tolist(), "angles_deg": [0, 25, -25, 0]}}},
+            "outputs": {"steps": T}}
+    system, form, t, P, Q = _solve(data)
+    assert [type(r).__name__ for r in form.rules] == ["Driven", "Swing", "Spun"]
+    one = _ball_points(P, Q, system, data, "crank", tip)
+    two = _ball_points(P, Q, system, data, "rocker", rocker_tip)
+    assert np.abs(np.linalg.norm(two - one, axis=1) - np.linalg.norm(rocker_tip - tip)).max() < 1e-12 * scale * 10
+    _spin_is_nearest_rest(system, P, Q, "coupler", one, two)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_random_spatial_slider_crank_rod_is_spun_to_its_canonical_pose(seed):
+    """A slider on a line skew to the crank's plane reaching a rod with ball joints at both
+    ends: the slider where the line meets the sphere about the crank tip (the independent
+    quadratic), the rod at its canonical spin."""
+    rng = np.random.default_rng(30 + seed)
+    scale = 10.0 ** rng.uniform(-3, 3)
+    frame = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    pivot, z = scale * rng.normal(size=3), frame[:, 2]
+    tip = pivot + scale * frame[:, 0]
+    direction = _unit(frame @ np.array([1.0, 0.2, 0.3]))
+    base = pivot + scale * (frame @ np.array([2.5, 0.5, 1.0]))
+    rod = 3.0 * scale
+    b = (base - tip) @ direction
+    slide0 = -b + np.sqrt(b * b - (base - tip) @ (base - tip) + rod**2)
+    wrist = base + slide0 * direction
+    data = {"name": "spatial-slider-crank", "units": "m",
+            "members": _members(rng, ["crank", "rod", "slider"], pivot, scale),
+            "joints": {"A": {"type": "revolute", "members": ["crank", "world"], "at": pivot.tolist(), "axis": z.tolist()},
+                       "B": {"type": "spherical", "members": ["rod", "crank"], "at": tip.tolist()},
+                       "C": {"type": "spherical", "members": ["rod", "slider"], "at": wrist.tolist()},
+                       "guide": {"type": "prismatic", "members": ["slider", "world"], "at": wrist.tolist(),
+                                 "axis": direction.tolist()}},
+            "inputs": {"drive": {"type": "orientation", "member": "crank",
+                                 "rotation": {"axis": z.tolist(), "angles_deg": [0, 360]}}},
+            "outputs": {"steps": T}}
+    system, form, t, P, Q = _solve(data)
+    assert [type(r).__name__ for r in form.rules] == ["Driven", "Reach", "Spun"]
+    theta = 2 * np.pi * t
+    crank_tip = pivot + _turn(z, theta, tip - pivot)
+    b = (base - crank_tip) @ direction
+    s = -b + np.sqrt(b * b - ((base - crank_tip) ** 2).sum(axis=1) + rod**2)
+    slider = _ball_points(P, Q, system, data, "slider", wrist)
+    assert np.abs(slider - (base + s[:, None] * direction)).max() < 1e-12 * scale * 10
+    _spin_is_nearest_rest(system, P, Q, "rod", crank_tip, slider)

@@ -123,3 +123,23 @@ def test_rssr_velocities_are_the_canonical_motion(run_cli, tmp_path):
     W = (R[0][0] - 8 * R[1][0] + 8 * R[2][0] - R[3][0]) / (12 * e) @ np.swapaxes(_rssr_canonical(t)[0], 1, 2)
     coupler = res.member_names.index("coupler")  # Ṙ Rᵀ = [ω]×
     assert np.abs(res.velocity[k, coupler, 3:] - np.stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]], axis=1)).max() < 1e-9
+
+
+@pytest.mark.slow
+def test_waves_without_the_closed_form_split_j_inside_the_canonical_step():
+    """Extrapolated waves of a passive DOF (the closed form off) whose first many-pose Jacobian
+    is the canonical step's at 4B moved poses: J's blocks split there, the step's J taken before
+    in one block (main: a broadcast ValueError traceback from ``solve3d
+    examples/3d/spatial-slider-crank.yaml --steps 1000``); the run is the step-by-step one."""
+    from linkedit.gcs.solve import solve_run
+    from linkedit.gcs.structure import StructureCache
+    from linkedit.gcs.tolerances import Options
+
+    system = compile_mechanism(load_model(MechanismSpec, EXAMPLES / "3d" / "spatial-slider-crank.yaml"))[0]
+    t = np.linspace(0.0, 1.0, 1000)
+    cache = StructureCache(system)
+    cache._closed = (None,)  # the waves' own predictions
+    run = solve_run(system, t, cache=cache)
+    assert (run.status == 0).all() and run.batched.sum() > 900 and cache.waves is not None and cache.waves.closed is None
+    off = solve_run(system, t[:100], Options(waves=False))
+    assert np.abs(run.position[:100] - off.position).max() <= 1e-9 * system.length_scale

@@ -21,7 +21,16 @@ first) by one of five rules —
   by an orientation constraint from a placed one with a point on a placed member's line (a
   slider), pinned to each other: the slider stands where the rod's joint is at its arm from its
   pin, on the side of the foot of the perpendicular from the pin to the line that it is on at
-  a solved pose (a slider-crank's rod and slider) —
+  a solved pose (a slider-crank's rod and slider);
+* **swing** / **reach**: a member turning about a placed axis (a rocker) or oriented from a
+  placed member with a point on a placed line or on two placed planes (a slider), whose joint
+  is a ball joint of a link (a member held by two ball joints alone, the other at a placed
+  point): the joint where the rocker's circle, or the slider's line, meets the sphere of the
+  link's length about the link's placed joint, on the side it is on at a solved pose;
+* **spun**: such a link, between two placed ball joints: its spin about the line through them
+  is free (a passive degree of freedom), and it is placed at its canonical pose (the spin
+  nearest the rest pose in the solver's scaled metric, :mod:`linkedit.gcs.canonical`) by
+  Newton's method on the spin angle —
 
 every member's pose at every step follows as array code over the steps. A member's rotation
 is the one taking its local axis and the perpendicular part of its local arm (from its placed
@@ -41,14 +50,20 @@ from collections.abc import Iterator
 import numpy as np
 
 from linkedit.gcs import quaternions as quat
-from linkedit.gcs.closed_form_rules import PARALLEL, SIDED, Arm, Cone, Driven, Dyad, End, Hinged, Rule, Slider
-from linkedit.gcs.system import StepTable, System
+from linkedit.gcs.closed_form_rules import (PARALLEL, SIDED, Arm, Cone, Driven, Dyad, End, Hinged, Reach,
+                                            Rule, Slider, Spun, Swing)
+from linkedit.gcs.system import State, StepTable, System
 from linkedit.planar.law_of_cosines import dyad
 
 #: the largest difference (scaled) of the closed form's pose from a solved one for its rules to
 #: hold there: √tol (a pose solved to the tolerance, 1e-12, is determined to about that even at
 #: a singular pose, where J does not see one direction; rules that do not hold miss by far more)
 REBUILT = 1e-6
+#: Newton steps on a link's spin (:meth:`ClosedForm._spun`), at most, and the largest last one
+#: (radians) for its pose to be rebuilt
+SPIN_ITERATIONS, SPUN = 12, 1e-12
+
+
 class ClosedForm:
     """The rules placing every member of a system in order (module docstring)."""
 
@@ -56,6 +71,8 @@ class ClosedForm:
         self.system = system
         self.rules = rules
         self._blocks = {blk.kind: blk for blk in system.blocks}
+        #: whether a link spins freely (:class:`Spun`): its pose is the canonical one
+        self.spins = any(isinstance(rule, Spun) for rule in rules)
         #: the driven member vectors and relative orientations: their columns in the step table
         self._driven = {int(g): j for j, g in enumerate(system.driven_vectors)}
         self._driven_rel = {int(i): j for j, i in enumerate(system.driven_rel)}
@@ -79,7 +96,11 @@ class ClosedForm:
                     if b < M and not (own_b and blk.vectors[1].start + i in driven):
                         per[int(b)].append(End(i, False, int(a)))
         none: dict[int, list[End]] = {m: [] for m in range(M)}
-        pins, axes, turns, lines = (ends.get(k, none) for k in ("location", "axis", "orientation", "line"))
+        pins, axes, turns, lines, planes = (ends.get(k, none)
+                                            for k in ("location", "axis", "orientation", "line", "plane"))
+        # the constraints each member takes part in (a link's are its two ball joints only)
+        touching = np.bincount(np.concatenate([np.r_[blk.a, blk.b] for blk in system.blocks] or [np.zeros(0, int)]),
+                               minlength=M + 1)
         form = cls(system, [])
         placed = {M}
 
@@ -143,16 +164,65 @@ class ClosedForm:
                               form._mine("location", back) - form._mine("line", line))
             return None
 
+        def link(u: int, joint: End) -> tuple[End, float] | None:
+            """The link that u's location constraint ``joint`` pins it to (unplaced, held by
+            that and one more location constraint alone, to a placed member at another of its
+            points): that one (seen from the link) and the length between the two points."""
+            w, back = joint.other, End(joint.index, not joint.side_a, u)
+            if w in placed or touching[w] != 2 or back not in pins[w]:
+                return None
+            far = next((e for e in pins[w] if e != back and e.other in placed), None)
+            if far is None or not form._apart(back, far):
+                return None
+            return far, float(np.linalg.norm(form._mine("location", far) - form._mine("location", back)))
+
+        def swing_of(u: int) -> Rule | None:
+            """A rocker u whose joint is a link's ball joint."""
+            pin, axis = first(pins[u]), first(axes[u])
+            if pin is None or axis is None:
+                return None
+            for joint in pins[u]:
+                found = link(u, joint) if form._apart(pin, joint) else None
+                if found is not None:
+                    return Swing(u, pin, axis, form._arm(axis, pin, joint), joint, *found)
+            return None
+
+        def reach_of(u: int) -> Rule | None:
+            """A slider u whose joint is a link's ball joint."""
+            turn = first(turns[u])
+            line = next((e for e in lines[u] if e.side_a and e.other in placed), None)
+            flat = [e for e in planes[u] if e.side_a and e.other in placed]
+            two = next(((p, q) for i, p in enumerate(flat) for q in flat[i + 1:]
+                        if form._mine("plane", p).tolist() == form._mine("plane", q).tolist()), None)
+            guide, kind = ((line,), "line") if line is not None else (two, "plane")
+            if turn is None or guide is None:
+                return None
+            for joint in pins[u]:
+                found = link(u, joint)
+                if found is not None:
+                    offset = form._mine("location", joint) - form._mine(kind, guide[0])
+                    return Reach(u, turn, guide, kind, joint, *found, offset)
+            return None
+
+        def spun_of(u: int) -> Rule | None:
+            """A link u between two placed ball joints."""
+            held = [e for e in pins[u] if e.other in placed]
+            if touching[u] != 2 or len(held) != 2 or not form._apart(*held):
+                return None
+            return Spun(u, (held[0], held[1]))
+
         while len(placed) <= M:
-            # the members placed directly first, then dyads, spherical dyads, sliders
+            # the members placed directly first, then dyads, spherical dyads, sliders, rockers
+            # and sliders reaching a link, links between ball joints
             rule = None
-            for find in (direct, dyad_of, cone_of, slider_of):
+            for find in (direct, dyad_of, cone_of, slider_of, swing_of, reach_of, spun_of):
                 rule = next((r for u in range(M) if u not in placed for r in (find(u),) if r is not None), None)
                 if rule is not None:
                     break
             if rule is None:
                 return None
             form.rules.append(rule)
+            form.spins |= isinstance(rule, Spun)
             placed |= set(rule.members) if isinstance(rule, SIDED) else {rule.member}
         return form
 
@@ -196,9 +266,10 @@ class ClosedForm:
         n = _turn(R[:, end.other], self._theirs("axis", end, table, steps))
         return n / np.sqrt(quat.dot(n, n))[:, None]
 
-    def _direction(self, R: np.ndarray, end: End) -> np.ndarray:
-        """The other member's direction of a line constraint in the world, unit (B, 3)."""
-        n = _turn(R[:, end.other], self._blocks["line"].nb[end.index])
+    def _direction(self, R: np.ndarray, end: End, kind: str = "line") -> np.ndarray:
+        """The other member's direction of a line (or normal of a plane) constraint in the
+        world, unit (B, 3)."""
+        n = _turn(R[:, end.other], self._blocks[kind].nb[end.index])
         return n / np.sqrt(quat.dot(n, n))[:, None]
 
     def _turned(self, Q: np.ndarray, end: End, table: StepTable, steps: np.ndarray) -> np.ndarray:
@@ -216,12 +287,14 @@ class ClosedForm:
 
     # ---- poses ----------------------------------------------------------------------------
 
-    def poses(self, table: StepTable, steps: np.ndarray, anchor: np.ndarray,
-              signs: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def poses(self, table: StepTable, steps: np.ndarray, anchor: np.ndarray, signs: list[float],
+              rest: State | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions (B, M, 3), quaternions (B, M, 4) (each of the sign nearest the step
         before it, the first nearest the quaternions ``anchor`` (M, 4)) and whether each pose
         could be rebuilt (B,), at the table's ``steps`` (B,), the dyads on the sides ``signs``
-        (:meth:`signs`)."""
+        (:meth:`signs`), links spun to the canonical pose about ``rest`` (default: the
+        system's rest pose)."""
+        rest = rest or self.system.rest
         B, M = len(steps), self.system.n_members
         P, R = np.zeros((B, M + 1, 3)), np.zeros((B, M + 1, 3, 3))
         Q = np.empty((B, M + 1, 4))
@@ -248,6 +321,17 @@ class ClosedForm:
                 elif isinstance(rule, Cone):
                     valid &= self._cone(rule, P, R, table, steps, next(side))
                     Q[:, list(rule.members)] = quat.from_matrix(R[:, list(rule.members)])
+                elif isinstance(rule, Swing):
+                    valid &= self._swing(rule, P, R, table, steps, next(side))
+                    Q[:, rule.member] = quat.from_matrix(R[:, rule.member])
+                elif isinstance(rule, Reach):
+                    w = rule.member
+                    Q[:, w] = self._turned(Q, rule.turn, table, steps)
+                    R[:, w] = quat.to_matrix(Q[:, w])
+                    valid &= self._reach(rule, P, R, table, steps, next(side))
+                elif isinstance(rule, Spun):
+                    valid &= self._spun(rule, P, R, table, steps, rest)
+                    Q[:, rule.member] = quat.from_matrix(R[:, rule.member])
                 else:
                     u, w = rule.members
                     Q[:, w] = self._turned(Q, rule.turn, table, steps)
@@ -356,14 +440,148 @@ class ClosedForm:
         ok = (np.abs(quat.dot(l, n)) <= PARALLEL) & (np.abs(quat.dot(c, n)) <= PARALLEL * self.system.length_scale)
         return X, A, n, L0, l, c, ok
 
-    def sides(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int) -> list[float] | None:
+    def _swing(self, rule: Swing, P: np.ndarray, R: np.ndarray, table: StepTable, steps: np.ndarray,
+               sign: float) -> np.ndarray:
+        """Place a rocker (into P, R as :meth:`_dyad`) with its joint where the circle of its
+        arm about its placed axis meets the sphere of the link's length about the link's placed
+        joint, on the side ``sign`` (:meth:`_circle`); whether each step could (B,) (else NaN)."""
+        u, arm = rule.member, rule.arm
+        X, n, C, across, k3, m = self._circle(rule, P, R, table, steps)
+        c = k3 / m
+        J = arm.length * (c[:, None] * across + (sign * np.sqrt(1.0 - c * c))[:, None] * quat.cross(n, across))
+        R[:, u] = _rotation(arm.frame, n, J)
+        P[:, u] = X - R[:, u] @ self._mine("location", rule.pin)
+        return np.ones(len(steps), dtype=bool)
+
+    def _circle(self, rule: Swing, P: np.ndarray, R: np.ndarray, table: StepTable,
+                steps: np.ndarray) -> tuple[np.ndarray, ...]:
+        """A rocker's placed joint X (B, 3) and axis n (B, 3), the centre C (B, 3) of its arm's
+        circle, the unit direction (B, 3) across n from C to the link's placed joint D, and
+        k3, m (B,): the joint J on the circle has (J − C)·(D − C) = rho k3, m = |D − C| across n."""
+        n = self._axis(R, rule.axis, table, steps)
+        X = self._point(P, R, rule.pin, table, steps)
+        C = X + rule.arm.height * n
+        D = self._point(P, R, rule.far, table, steps) - C
+        rho = rule.arm.length
+        k3 = (quat.dot(D, D) + rho * rho - rule.length ** 2) / (2.0 * rho)
+        D -= quat.dot(D, n)[:, None] * n
+        m = np.sqrt(quat.dot(D, D))
+        return X, n, C, D / m[:, None], k3, m
+
+    def _reach(self, rule: Reach, P: np.ndarray, R: np.ndarray, table: StepTable, steps: np.ndarray,
+               sign: float) -> np.ndarray:
+        """Place a slider (into P as :meth:`_dyad`; its rotation placed) with its joint at the
+        link's length from the link's placed joint, on the side ``sign`` along its line;
+        whether each step could (B,) (the line's planes not parallel; else NaN)."""
+        w = rule.member
+        L0, l, c, ok = self._guide(rule, P, R, table, steps)
+        b = quat.dot(c, l)
+        s = -b + sign * np.sqrt(b * b - quat.dot(c, c) + rule.length ** 2)
+        P[:, w] = L0 + s[:, None] * l - R[:, w] @ self._mine(rule.kind, rule.guide[0])
+        return ok
+
+    def _guide(self, rule: Reach, P: np.ndarray, R: np.ndarray, table: StepTable,
+               steps: np.ndarray) -> tuple[np.ndarray, ...]:
+        """A slider's line (a point L0 and unit direction l, (B, 3) each: its line constraint's,
+        or where its two planes meet), c (B, 3): its joint with its point of the line at L0,
+        less the link's placed joint (the slider's rotation placed), and whether the planes
+        meet in a line (B,) (to :data:`PARALLEL`)."""
+        if rule.kind == "line":
+            L0 = self._point(P, R, rule.guide[0], table, steps, "line")
+            l = self._direction(R, rule.guide[0])
+            ok = np.ones(len(steps), dtype=bool)
+        else:
+            # the point of both planes p·nᵢ = dᵢ on their line l = n₁ × n₂: (d₁ n₂ × l + d₂ l × n₁)/|l|²
+            n1, n2 = (self._direction(R, e, "plane") for e in rule.guide)
+            d1, d2 = (quat.dot(self._point(P, R, e, table, steps, "plane"), n) for e, n in zip(rule.guide, (n1, n2)))
+            l = quat.cross(n1, n2)
+            ll = quat.dot(l, l)
+            L0 = (d1[:, None] * quat.cross(n2, l) + d2[:, None] * quat.cross(l, n1)) / ll[:, None]
+            l = l / np.sqrt(ll)[:, None]
+            ok = ll > PARALLEL ** 2
+        c = L0 + _turn(R[:, rule.member], rule.offset) - self._point(P, R, rule.far, table, steps)
+        return L0, l, c, ok
+
+    def _spun(self, rule: Spun, P: np.ndarray, R: np.ndarray, table: StepTable, steps: np.ndarray,
+              rest: State) -> np.ndarray:
+        """Place a link between two placed ball joints (into P, R as :meth:`_dyad`) at its
+        canonical spin: the one minimizing its part of the scaled distance from ``rest``,
+        f(θ) = |P − P_rest|²/L² + α² (α the angle of R R_restᵀ), by Newton's method on the
+        angle θ about the line of its joints from its rest pose turned the least way onto that
+        line (f is A cos θ + B sin θ plus α², cos α = (tr(R R_restᵀ) − 1)/2 also sinusoidal in
+        θ); whether each step converged (B,)."""
+        u, (one, two) = rule.member, rule.pins
+        a1, a2 = self._mine("location", one), self._mine("location", two)
+        X1 = self._point(P, R, one, table, steps)
+        n = self._point(P, R, two, table, steps) - X1
+        n /= np.sqrt(quat.dot(n, n))[:, None]
+        Rr = quat.to_matrix(rest.orientation[u])
+        v = Rr @ (a2 - a1) / np.linalg.norm(a2 - a1)
+        k, cos = np.cross(v, n), n @ v
+        K = _skew(k)
+        S = np.eye(3) + K + K @ K / (1.0 + cos)[:, None, None]  # v onto n, the least turn
+        R0 = S @ Rr
+        w, c = R0 @ a1, X1 - rest.position[u]
+        # the position part −2(kc cos theta + ks sin theta)/L², the trace t0 + tc cos theta + ts sin theta
+        L2 = self.system.length_scale ** 2
+        kc, ks = (quat.dot(c, w) - quat.dot(c, n) * quat.dot(n, w)) / L2, quat.dot(c, quat.cross(n, w)) / L2
+        t0 = np.einsum("bi,bij,bj->b", n, S, n)
+        tc, ts = np.einsum("bii->b", S) - t0, np.einsum("bij,bji->b", _skew(n), S)
+        theta, step = np.zeros(len(steps)), np.ones(len(steps))
+        for _ in range(SPIN_ITERATIONS):
+            ctheta, stheta = np.cos(theta), np.sin(theta)
+            ca = np.clip(0.5 * (t0 + tc * ctheta + ts * stheta - 1.0), -1.0, 1.0)
+            alpha = np.arccos(ca)
+            sa = np.sqrt(1.0 - ca * ca)
+            # dg/dc and d²g/dc² of g = α² (c = cos α): the second by its series near α = 0,
+            # where it cancels (it sets the rate of convergence only, not the root)
+            small = sa < 1e-2
+            gc = np.where(sa > 0.0, -2.0 * alpha / np.where(sa > 0.0, sa, 1.0), -2.0)
+            gcc = np.where(small, 2.0 / 3.0 + 4.0 * alpha * alpha / 15.0,
+                           2.0 * (sa - alpha * ca) / np.where(small, 1.0, sa) ** 3)
+            c1, c2 = 0.5 * (ts * ctheta - tc * stheta), -0.5 * (tc * ctheta + ts * stheta)
+            f1 = 2.0 * (kc * stheta - ks * ctheta) + gc * c1
+            f2 = 2.0 * (kc * ctheta + ks * stheta) + gcc * c1 * c1 + gc * c2
+            # Newton where f is convex there, else downhill by at most half a radian
+            step = np.where(f2 > 0.0, np.clip(-f1 / np.where(f2 > 0.0, f2, 1.0), -0.5, 0.5), -0.5 * np.sign(f1))
+            theta = theta + step
+            if np.abs(step).max() <= 1e-15:
+                break
+        R[:, u] = _spin(n, theta) @ R0
+        P[:, u] = X1 - R[:, u] @ a1
+        return (np.abs(step) <= SPUN) & (f2 > 0.0)
+
+    @property
+    def spun(self) -> int:
+        """The member of the (first) spun link (:class:`Spun`)."""
+        return next(r.member for r in self.rules if isinstance(r, Spun))
+
+    def spin_slope(self, P: np.ndarray, Q: np.ndarray, rest: State) -> np.ndarray:
+        """The derivative (B,) of the scaled distance from ``rest`` (:meth:`_spun`'s f) of the
+        spun link at positions P (B, 3), quaternions Q (B, 4) along its spin (unit rate about
+        the line of its ball joints): zero at the canonical pose. Only the link's own pose
+        enters (the line is its own: the spin leaves every constraint and every other member
+        as it is); the rotation part is 2 φ·u (φ the rotation vector from rest, as
+        (J_l⁻¹ φ)·u = φ·u)."""
+        rule = next(r for r in self.rules if isinstance(r, Spun))
+        u, (one, two) = rule.member, rule.pins
+        a1 = self._mine("location", one)
+        R = quat.to_matrix(Q)
+        axis = R @ (self._mine("location", two) - a1)
+        axis /= np.sqrt(quat.dot(axis, axis))[:, None]
+        phi = quat.log(quat.multiply(Q, quat.conjugate(rest.orientation[u])))
+        moving = quat.cross(R @ a1, axis)  # the link's origin about its first ball joint
+        return 2.0 * (quat.dot(P - rest.position[u], moving) / self.system.length_scale ** 2 + quat.dot(phi, axis))
+
+    def sides(self, position: np.ndarray, orientation: np.ndarray, table: StepTable, step: int,
+              rest: State | None = None) -> list[float] | None:
         """The dyads' sides (:meth:`signs`) at a solved pose (positions (M, 3), quaternions
         (M, 4)) at the table's ``step``, or None where the closed form rebuilds another pose
         there (by more than :data:`REBUILT`) or finds a dyad's axes not along one line: its
         rules do not hold for the mechanism. (A dyad that cannot close there by rounding, at its
         dead point, tells nothing.)"""
         signs = self.signs(position, orientation, table, step)
-        P, Q, valid = self.poses(table, np.array([step]), orientation, signs)
+        P, Q, valid = self.poses(table, np.array([step]), orientation, signs, rest)
         if not valid[0]:
             return signs if np.isnan(P[0]).any() else None
         error = max(np.abs(P[0] - position).max() / self.system.length_scale, np.abs(Q[0] - orientation).max())
@@ -391,6 +609,12 @@ class ClosedForm:
                 _, foot, axis, _, line, _, _ = self._slide(rule, P, R, table, steps)
                 J = self._point(P, R, rule.joint, table, steps)  # the slider's point of the joint
                 side = quat.dot(J - foot, line - quat.dot(line, axis)[:, None] * axis)
+            elif isinstance(rule, Swing):
+                _, n, C, across, _, _ = self._circle(rule, P, R, table, steps)
+                side = quat.dot(self._point(P, R, rule.joint, table, steps) - C, quat.cross(n, across))
+            elif isinstance(rule, Reach):
+                _, l, _, _ = self._guide(rule, P, R, table, steps)
+                side = quat.dot(self._point(P, R, rule.joint, table, steps) - self._point(P, R, rule.far, table, steps), l)
             else:
                 continue
             out.append(1.0 if float(side[0]) >= 0.0 else -1.0)
@@ -400,6 +624,19 @@ class ClosedForm:
 def _turn(R: np.ndarray, v: np.ndarray) -> np.ndarray:
     """R v for rotations R (B, 3, 3) and vectors v (3,) or (B, 3): (B, 3)."""
     return R @ v if v.ndim == 1 else (R @ v[:, :, None])[:, :, 0]
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    """The cross-product matrices [v]× (B, 3, 3) of vectors v (B, 3)."""
+    K = np.zeros(v.shape + (3,))
+    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
+    return K - np.swapaxes(K, 1, 2)
+
+
+def _spin(n: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """The rotations (B, 3, 3) by the angles theta (B,) about the unit axes n (B, 3) (Rodrigues)."""
+    K = _skew(n)
+    return np.eye(3) + np.sin(theta)[:, None, None] * K + (1.0 - np.cos(theta))[:, None, None] * (K @ K)
 
 
 def _rotation(frame: np.ndarray, n: np.ndarray, j: np.ndarray) -> np.ndarray:

@@ -1,5 +1,5 @@
 """The rules of :mod:`linkedit.gcs.closed_form`: how each member is rebuilt from placed ones
-(driven, hinged, dyad, cone, slider; their docstrings), the constraint ends they read and a
+(driven, hinged, dyad, cone, slider, swing, reach, spun; their docstrings), the constraint ends they read and a
 member's arm across its axis."""
 
 from __future__ import annotations
@@ -117,6 +117,51 @@ class Slider:
     offset: np.ndarray
 
 
-Rule = Driven | Hinged | Dyad | Cone | Slider
+@dataclass(frozen=True)
+class Swing:
+    """``member`` pinned by ``pin`` to a placed member and aligned by ``axis`` with a placed
+    member's axis (a rocker), its point of ``joint`` (seen from it) a ball joint of a link:
+    a member held by that and by ``far`` (seen from the link) alone, at its points ``length``
+    apart, to a placed point (the link is :class:`Spun`, placed next); the member's ``arm`` from
+    its pin to the joint."""
+
+    member: int
+    pin: End
+    axis: End
+    arm: Arm
+    joint: End
+    far: End
+    length: float
+
+
+@dataclass(frozen=True)
+class Reach:
+    """``member`` oriented by ``turn`` from a placed member, its point of ``guide`` on a placed
+    member's line (one line constraint, or two plane constraints at that point: ``kind``) (a
+    slider), and its point of ``joint`` a link's ball joint as :class:`Swing`'s (``far``,
+    ``length``); its ``offset`` (3,) from its point on the line to the joint (in its space)."""
+
+    member: int
+    turn: End
+    guide: tuple[End, ...]
+    kind: str
+    joint: End
+    far: End
+    length: float
+    offset: np.ndarray
+
+
+@dataclass(frozen=True)
+class Spun:
+    """``member`` held only by the location constraints ``pins`` at two of its points apart to
+    placed members (a link with ball joints at both ends): free to spin about the line through
+    them (a passive degree of freedom), placed at the spin nearest the rest pose in the scaled
+    metric (the canonical pose of :mod:`linkedit.gcs.canonical`)."""
+
+    member: int
+    pins: tuple[End, End]
+
+
+Rule = Driven | Hinged | Dyad | Cone | Slider | Swing | Reach | Spun
 #: the rules placing two members, each on a side (:meth:`ClosedForm.signs`)
 SIDED = (Dyad, Cone, Slider)

@@ -46,6 +46,8 @@ def canonical(batch: BatchedFactors, P: np.ndarray, Q: np.ndarray, v0: np.ndarra
     Pm, Qm = batch.moved(np.tile(P, (4, 1, 1)), np.tile(Q, (4, 1, 1)), moves)
     tab = advanced(table or batch.table, four, np.concatenate([0.0 * hn, 0.0 * hn, hv, -hv]))
     Jm = batch.jacobian(batch.evaluate(Pm, Qm, np.arange(4 * B), True, table=tab)[1])
+    if Jm.parts is not J.parts:  # J's blocks were first split at these many poses: J again in them
+        return canonical(batch, P, Q, v0, steps)
     n4 = np.tile(n, (4, 1))
     seen = sum(((np.tile(lp, (4, 1))[:, :, None] * Jp).sum(axis=1) * n4[:, p.cols]).sum(axis=1)
                for lp, p, Jp in zip(lam, J.parts, Jm.blocks)).reshape(4, B)

@@ -44,7 +44,9 @@ and 2 are replaced by the closed form's poses (exact to rounding: most converge 
 evaluation), in chunks, each up to the first step it cannot rebuild (a dyad that cannot close)
 or that the poses show would fail the acceptance test (:func:`~linkedit.gcs.rebuild.screened`: left to the
 continuation, not solved in vain); steps 3 and 4 are as above, so a closed form that misleads
-costs time, never a result.
+costs time, never a result. Where J has a free direction, a link's spin placed at its canonical
+pose (the RSSR's coupler), the rebuilt poses are checked as they are, with one evaluation and
+factorization each (:func:`~linkedit.gcs.rebuild.canonical_as_is`).
 
 **A free direction** (one passive degree of freedom: J has rank N − 1, such as an RSSR
 coupler's idle spin): the corrections are least norm (nothing along J's null vector, taken by
@@ -90,7 +92,7 @@ from linkedit.gcs.evaluate import KEPT_POSES, _Layout
 from linkedit.gcs.factors import BatchedFactors, Factors
 from linkedit.gcs.free import canonical
 from linkedit.gcs.predict import NODES, Extrapolation, flat, lagrange
-from linkedit.gcs.rebuild import screened, verify
+from linkedit.gcs.rebuild import canonical_as_is, screened, verify
 from linkedit.gcs.structure import SPLIT_FROM, STRIDE, WIDEST_STRIDE, Compiled, Part, StructureCache, _take
 from linkedit.gcs.system import StepTable
 
@@ -204,7 +206,7 @@ class Waves(Extrapolation, BatchedFactors):
             self._merge()
         if not self.compiled.decided and not self.free and np.abs(vel[k - 1]).max() > 0.0:
             self._survey(pos[k - 1], ori[k - 1], vel[k - 1].ravel() / col, k - 1)
-        if self.closed is not None and not self.free:
+        if self.closed is not None and (not self.free or self.closed.spins):
             rebuilt = self.rebuilt(k, stop, pos, ori, vel)
             if rebuilt is not None:
                 return rebuilt
@@ -319,7 +321,7 @@ class Waves(Extrapolation, BatchedFactors):
         without it)."""
         closed, col, t = self.closed, self.solver.col, self.table.t
         assert closed is not None
-        signs = closed.sides(pos[k - 1], ori[k - 1], self.table, k - 1)
+        signs = closed.sides(pos[k - 1], ori[k - 1], self.table, k - 1, self.solver.reference)
         if signs is None:
             self.closed = self.compiled.closed = None
             return None
@@ -331,13 +333,15 @@ class Waves(Extrapolation, BatchedFactors):
         ranks: list[np.ndarray] = []
         while here < stop:
             steps = np.arange(here, min(stop, here + chunk))
-            P, Q, valid = closed.poses(self.table, steps, before[1], signs)
+            P, Q, valid = closed.poses(self.table, steps, before[1], signs, self.solver.reference)
             n = screened(self, P, Q, valid, steps, before, t_before)
             if n == 0:
                 break
             steps, P, Q = steps[:n], P[:n], Q[:n]
             if sparse:
                 R, V, work, ok, rank = verify(self, P, Q, steps, before[2])
+            elif self.free:  # a link's spin: the canonical pose, checked as it is
+                R, V, work, ok = canonical_as_is(self, closed, P, Q, steps)
             else:
                 R, V, work, ok, _ = self.solve(P, Q, steps)
             a = self.accepted(P, Q, V, ok, steps, before, t_before)
