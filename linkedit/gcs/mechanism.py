@@ -26,7 +26,8 @@ def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "
     ``velocity``: "exact" (from J v = −∂r/∂t at each pose) or "parabola" (the paper's
     three-point rule on the positions); ``accelerations``: also the exact member accelerations
     (:mod:`linkedit.gcs.acceleration`); ``stop_at_failure``: end at the first step that fails
-    (the result holds the steps up to it, for :func:`check_solved`); ``progress(k, T)`` is
+    (the result holds the steps up to it, for :func:`check_solved`; one at an input window's
+    edge between two steps is held at its own time); ``progress(k, T)`` is
     called after each step.
 
     Raises :class:`MechanismError` when a step's state or residual is not finite (overflow):
@@ -42,7 +43,7 @@ def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "
         start = time.perf_counter()
         run = solve_run(system, t, options, table=table, progress=progress)
         seconds = time.perf_counter() - start
-        if run.t.size < t.size:  # stopped at a failed step
+        if not np.array_equal(run.t, t):  # stopped at a failed step (or input window's edge: solve_run)
             t, table = run.t, system.step_table(run.t)
         check_run_finite(spec.name, system, run)
         diag = run_diagnostics(system, run, table, rank=rank, unsatisfied_tol=options.satisfied_tol)
@@ -105,7 +106,10 @@ def check_solved(res: GcsResult) -> None:
         return
     k = int(bad[0])
     more = f" (and {bad.size - 1} more steps)" if bad.size > 1 else ""
-    head = f"{res.name}: {STATUS_NAMES[d.status[k]]} at step {k} (t = {res.t[k]:.4f}){more}: "
+    grid = np.linspace(0.0, 1.0, int(res.options.get("steps", res.t.size)))
+    where = f"step {k} (t = {res.t[k]:.4f})" if k >= grid.size or res.t[k] == grid[k] else \
+        f"t = {res.t[k]:.4f}, an input window's edge between steps {k - 1} and {k}"
+    head = f"{res.name}: {STATUS_NAMES[d.status[k]]} at {where}{more}: "
     if not d.unsatisfied[k]:  # a pose was found, but not on the branch of the step before
         raise MechanismError(head + "no pose on the previous step's assembly branch (the step could not be cut "
                              "small enough: a lock-up or a singular pose before this time)")

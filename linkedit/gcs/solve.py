@@ -72,14 +72,15 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
     many steps at once where :mod:`linkedit.gcs.waves` applies (the same poses), BLAS on one
     thread (:mod:`linkedit.blas`); ``progress(k, T)`` is called after each step. The system is
     left as it was; what the waves compile for it is kept in ``cache`` (the caller's, for its
-    later runs of this system; a fresh one when None)."""
+    later runs of this system; a fresh one when None). An input window's edge between two
+    steps is solved too; its failure is returned (:func:`_requested`), never dropped."""
     t = np.asarray(t, dtype=float)
     if cache is None:
         cache = StructureCache(system)
     elif cache.system is not system:
         raise ValueError("the structure cache belongs to another system")
-    # an input's window ending between two steps is solved at its edge too (not returned): the
-    # member it leaves holds the input's last value there, whatever the steps
+    # an input's window ending between two steps is solved at its edge too (not returned unless
+    # it failed: _requested): the member it leaves holds the input's last value there, whatever the steps
     edges = np.unique([e for blk in system.blocks for sc in blk.schedules for e in sc.window
                        if t.size and min(t[0], t[-1]) < e < max(t[0], t[-1])])
     edges = edges[~np.isin(edges, t)]
@@ -93,7 +94,23 @@ def solve_run(system: System, t: np.ndarray, options: Options | None = None, sta
     told = None if progress is None else (lambda k, T: progress(where[k], t.size) if k in where else None)
     with single_threaded():
         run = _solve_run(system, full, options, start, None, told, cache)
-    return run.take(keep[keep < run.t.size])
+    return _requested(run, keep)
+
+
+def _requested(run: Run, keep: np.ndarray) -> Run:
+    """The run at its requested steps ``keep`` (ascending indices into ``run``, whose other
+    steps are input-window edges), with the edges' failures in sight: a requested step after an
+    edge that failed did not converge (the continuation to it went through the edge; its pose
+    is a restart's, not one holding the edge's), and an edge where the run stopped at failure
+    is its last step, at its own time."""
+    kept = keep[keep < run.t.size]
+    failed = np.setdiff1d(np.flatnonzero(run.status != CONVERGED), kept)  # failed edges, ascending
+    after = np.searchsorted(kept, failed)  # each one's requested step after it (kept.size: none solved)
+    out = run.take(np.append(kept, failed[after == kept.size]))
+    late = np.unique(after[after < kept.size])
+    late = late[out.status[late] == CONVERGED]
+    out.status[late], out.rank[late] = NOT_CONVERGED, -1
+    return out
 
 
 def _solve_run(system: System, t: np.ndarray, options: Options | None, start: State | None,
