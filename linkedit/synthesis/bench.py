@@ -303,8 +303,7 @@ def quality(echo: Callable[[str], None], four_bars: atlas.Atlas, index: Index, e
 
 
 #: Precision-point problems: (points, seed of the uneven draw) from held-out four-bars (atlas seed 4242, not the
-#: atlas's). Published problems (Kunjur & Krishnamurty 1997, Cabrera et al. 2002, ...) with the authors' linkage
-#: were not found in a form to encode reliably, so the reference is the generating linkage (error 0).
+#: atlas's); the reference is the generating linkage (error 0). Published problems: :func:`published_points`.
 PRECISION_PROBLEMS = ((6, 1), (8, 2), (10, 3), (12, 4), (18, 5), (25, 6))
 
 
@@ -335,6 +334,57 @@ def precision_points(echo: Callable[[str], None], book: atlas.Atlas, index: Inde
         generating = distances_to(z, truth[:, 0] + 1j * truth[:, 1], True) / radius
         echo(f"  {count:>6d}  {d.mean():10.2e} ({d.max():8.2e})  {polygon.mean():10.2e} ({polygon.max():8.2e})  "
              f"{generating.mean():10.1e}  {cpu:5.2f}")
+
+
+#: The published problem also run with a 10° band (its exact crank-rocker's transmission angle falls to 12.1°).
+WIDE_BAND_PROBLEM = "Wampler et al. 1992, nine points on two circles"
+
+
+def published_points(echo: Callable[[str], None], book: atlas.Atlas, index: Index, quick: bool) -> None:
+    """Published precision-point problems (:mod:`linkedit.synthesis.published`): ours (``--points``, --top 5, the
+    20° band) by the mean distance of the points to the written result's curve over their RMS radius (max in
+    parentheses), against the published solutions' (exact: 0), with CPU seconds."""
+    from linkedit.synthesis.published import PROBLEMS
+
+    echo("published precision-point problems, --points --top 5 (mean point-to-curve distance over the points' RMS "
+         "radius, max in parentheses; published: the authors' solutions, scored the same way; sources: "
+         "linkedit/synthesis/published.py):")
+    echo(f"  {'problem':<52s} {'ours':>21s}  {'published':>9s}  CPU s  published solution")
+    rows = [(p, MARGIN_DEG) for p in PROBLEMS[: 2 if quick else None]]
+    if not quick:
+        rows += [(p, WIDE_BAND_DEG) for p in PROBLEMS if p.name == WIDE_BAND_PROBLEM]
+    for problem, margin_deg in rows:
+        z = problem.array()
+        target = make_curve("points", np.stack([z.real, z.imag], axis=1), closed=True, origin="bench")
+        cpu = time.process_time()
+        ours = synthesize(target, book, index, top=1 if quick else 5, points=True, margin_deg=margin_deg)
+        cpu = time.process_time() - cpu
+        assert ours.point_distances is not None
+        d = ours.point_distances / ours.size
+        name = problem.name + ("" if margin_deg == MARGIN_DEG else f", --margin {margin_deg:g}")
+        echo(f"  {name:<52s} {d.mean():9.2e} ({d.max():8.2e})  {0.0:9.1g}  {cpu:5.2f}  {problem.published}")
+
+
+def function_generation(echo: Callable[[str], None], quick: bool) -> None:
+    """``synthesize --function`` on y = log10 x and a square law, x in [1, 10] (25 pairs) mapped to 60° of crank and
+    60° of rocker, with relative angles: max (RMS) output error with the output's sense free and prescribed (the
+    rocker turning the way the pairs do), in the 20° and (not ``quick``) 10° transmission bands."""
+    from linkedit.synthesis import function
+
+    x = np.linspace(1.0, 10.0, 25)
+    echo("function generation over 60° (25 pairs, --relative; max (RMS) output error, degrees; target ≤ 0.5° max):")
+    for name, y in (("log10 x", np.log10(x)), ("((x − 1)/9)²", ((x - 1.0) / 9.0) ** 2)):
+        phi, psi = np.radians(60 * (x - 1) / 9), np.radians(60 * (y - y.min()) / (y.max() - y.min()))
+        cells = []
+        for margin_deg in (MARGIN_DEG,) if quick else (MARGIN_DEG, WIDE_BAND_DEG):
+            found = function.fit(phi, psi, relative=True, margin_deg=margin_deg)
+            same = function.fit(phi, psi, relative=True, margin_deg=margin_deg, sense=1.0)
+            for fit in (found, same):
+                e = np.degrees(np.abs(fit.errors)) if fit is not None else np.array([np.nan])
+                sense = "" if fit is None or fit is same else " same" if fit.sense > 0 else " opposite"
+                cells.append(f"{e.max():.3f}° ({np.sqrt(np.mean(e * e)):.3f}°){sense}")
+        wide = "" if quick else f"; band 10°: sense free {cells[2]}, same sense {cells[3]}"
+        echo(f"  {name:<13s} band 20°: sense free {cells[0]}, same sense {cells[1]}{wide}")
 
 
 def lists_figures(echo: Callable[[str], None], parts: list[atlas.Chunk], repeats: int) -> None:
@@ -426,6 +476,8 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
          f"{statistics.median(t for t, _ in runs):.2f} s median (target ≤ {SYNTHESIZE_TARGET:g} s); "
          f"normalized RMS error after refinement: max {max(e for _, e in runs):.2g}")
     precision_points(echo, book, index, quick)
+    published_points(echo, book, index, quick)
+    function_generation(echo, quick)
     every = atlas.Atlas(Path("memory"), dict(book.families), 1)
     for name in _planar():
         if name != "four-bar":

@@ -191,14 +191,16 @@ def _refine(rows: np.ndarray, phi: np.ndarray, psi: np.ndarray, relative: bool, 
     return unpack(x, np.arange(len(rows)))
 
 
-def fit(phi: np.ndarray, psi: np.ndarray, *, relative: bool, margin_deg: float) -> FunctionFit | None:
+def fit(phi: np.ndarray, psi: np.ndarray, *, relative: bool, margin_deg: float,
+        sense: float | None = None) -> FunctionFit | None:
     """The working four-bar (transmission within [margin_deg, 180° − margin_deg] over the input
     range) whose output best follows ψ(φ) (N,) each, radians, in the least-squares sense; with
-    relative angles the output may turn either way (``sense``). None when no start works."""
+    relative angles the output may turn either way (``sense``) unless ``sense`` (+1 or −1) prescribes it.
+    None when no start works."""
     margin = margin_of(margin_deg)
     found = []
-    for sense in (1.0, -1.0) if relative else (1.0,):
-        goal = sense * psi
+    for way in (1.0, -1.0) if relative and sense is None else (sense or 1.0,):
+        goal = way * psi
         rows = _starts(phi, goal, relative)
         score = _score(rows, phi, goal, margin)
         rows = rows[np.argsort(score)[:STARTS]]
@@ -206,12 +208,12 @@ def fit(phi: np.ndarray, psi: np.ndarray, *, relative: bool, margin_deg: float) 
         if len(rows):
             refined = _refine(rows, phi, goal, relative, margin)
             score = _score(refined, phi, goal, margin)
-            tie = 0.0 if sense > 0 else 1e-9  # the prescribed way unless the other way fits better
-            found.append((float(score.min()) + tie, sense, refined[int(np.argmin(score))]))
+            tie = 0.0 if way > 0 else 1e-9  # the prescribed way unless the other way fits better
+            found.append((float(score.min()) + tie, way, refined[int(np.argmin(score))]))
     if not found or not np.isfinite(min(found, key=lambda f: f[0])[0]):
         return None
-    _, sense, best = min(found, key=lambda f: f[0])
+    _, way, best = min(found, key=lambda f: f[0])
     if relative:
         best[4:] = wrap(best[4:])
-    errors = sense * wrap(output_angles(best[None], phi)[0] - sense * psi)
-    return FunctionFit(best, sense, errors, float(lowest_singularity(best[None], phi.min(), phi.max())[0]))
+    errors = way * wrap(output_angles(best[None], phi)[0] - way * psi)
+    return FunctionFit(best, way, errors, float(lowest_singularity(best[None], phi.min(), phi.max())[0]))

@@ -17,6 +17,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from linkedit.planar.feasibility import works
+
 #: A closed target with at most this many points and uneven spacing is taken for precision points.
 DETECT_MAX = 25
 #: Uneven spacing: the coefficient of variation of the chord lengths above this.
@@ -35,6 +37,11 @@ STEP = 1e-6
 #: Similarity-fit rounds and start rotations of the atlas ranking.
 FIT_ROUNDS = 8
 FIT_STARTS = 12
+#: Gauss–Newton steps at most of the exact polish (:func:`newton`), halvings per step, and the RMS gap (over the
+#: points' RMS radius, times √(2N)) below which it stops: the points are met to rounding.
+NEWTON_STEPS = 40
+HALVINGS = 30
+NEWTON_TOL = 1e-13
 
 
 def rms_radius(z: np.ndarray) -> float:
@@ -164,6 +171,79 @@ def family_closest(fam, params: np.ndarray, factor: np.ndarray, shift: np.ndarra
     z = fam.curves(params, DENSE)
     with np.errstate(invalid="ignore"):
         return closest(points, shift[:, None] + factor[:, None] * (np.conj(z) if mirrored else z), evaluate)[0]
+
+
+def family_phases(fam, params: np.ndarray, factor: complex, shift: complex, mirrored: bool,
+                  points: np.ndarray) -> np.ndarray:
+    """The crank phases (N,) in [0, 1) of the curve points closest to ``points`` (N,) complex (one linkage
+    ``params`` (P,) placed as in :func:`family_closest`)."""
+
+    def evaluate(rows: np.ndarray, phase: np.ndarray) -> np.ndarray:
+        z = fam.curves(np.repeat(params[None], len(rows), axis=0), 1, phase)[:, 0]
+        return shift + factor * (np.conj(z) if mirrored else z)
+
+    z = fam.curves(params[None], DENSE)
+    with np.errstate(invalid="ignore"):
+        return closest(points, shift + factor * (np.conj(z) if mirrored else z), evaluate)[1][0]
+
+
+def newton(fam, params: np.ndarray, factor: complex, shift: complex, mirrored: bool, points: np.ndarray,
+           margin: float) -> tuple[np.ndarray, complex, complex] | None:
+    """Gauss–Newton on the precision points ``points`` (N,) complex from a placed linkage (``params`` (P,), the
+    branch fixed; ``factor``, ``shift``, ``mirrored`` as in :func:`family_closest`): the unknowns are the free
+    parameters, the placement and each point's crank phase (from its closest curve point), the residuals the
+    gaps c(φᵢ) − pᵢ, x and y apart (2N). Each step is the least-squares one (the smallest for fewer than the
+    unknowns: an exact linkage through the points is reached quadratically where one lies near), halved until
+    the gaps shrink with the linkage still working with ``margin`` (min d_s ≥ margin over the whole cycle).
+    Returns (params, factor, shift) of the last kept iterate, or None when no step was kept."""
+    free = np.array([name != "branch" for name in fam.PARAMETERS])
+    n_free, n = int(free.sum()), len(points)
+    scale = rms_radius(points)
+    phases = family_phases(fam, params, factor, shift, mirrored, points)
+    x = np.concatenate([params[free], [np.log(abs(factor)), np.angle(factor), (shift / scale).real,
+                                       (shift / scale).imag], phases])
+
+    def unpack(xs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        p = np.repeat(params[None], len(xs), axis=0)
+        p[:, free] = xs[:, :n_free]
+        k, angle, sx, sy = xs[:, n_free:n_free + 4].T
+        return p, np.exp(k + 1j * angle), (sx + 1j * sy) * scale
+
+    def gaps(xs: np.ndarray) -> np.ndarray:
+        """Residuals (K, 2N) over the points' RMS radius of unknowns xs (K, n)."""
+        p, f, s = unpack(xs)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            z = fam.curves(np.repeat(p, n, axis=0), 1, xs[:, n_free + 4:].ravel())[:, 0].reshape(len(xs), n)
+        g = (s[:, None] + f[:, None] * (np.conj(z) if mirrored else z) - points[None]) / scale
+        return np.concatenate([g.real, g.imag], axis=1)
+
+    def fine(xs: np.ndarray) -> bool:
+        return bool(works(fam.min_singularity(unpack(xs[None])[0], margin)[0], margin))
+
+    r = gaps(x[None])[0]
+    norm, kept = float(np.linalg.norm(r)), False
+    for _ in range(NEWTON_STEPS):
+        if not np.isfinite(norm) or norm < NEWTON_TOL:
+            break
+        step = 1e-7 * np.maximum(1.0, np.abs(x))
+        jac = ((gaps(x[None] + np.diag(step)) - r[None]) / step[:, None]).T
+        if not np.isfinite(jac).all():
+            break
+        dx = np.linalg.lstsq(jac, -r, rcond=None)[0]
+        for _ in range(HALVINGS):
+            trial = x + dx
+            r_trial = gaps(trial[None])[0]
+            now = float(np.linalg.norm(r_trial))
+            if now < norm and fine(trial):
+                break
+            dx *= 0.5
+        else:
+            break
+        x, r, norm, kept = trial, r_trial, now, True
+    if not kept:
+        return None
+    p, f, s = unpack(x[None])
+    return p[0], complex(f[0]), complex(s[0])
 
 
 def error(distances: np.ndarray, radius: float) -> tuple[float, float]:

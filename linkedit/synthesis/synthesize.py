@@ -24,6 +24,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from types import ModuleType
 from typing import Protocol, TypeVar
 
 import numpy as np
@@ -308,6 +309,24 @@ def _point_error(fam_name: str, params: np.ndarray, place: Placement, z: np.ndar
     return precision.error(d[0], size) if np.isfinite(d).all() else (np.inf, np.inf)
 
 
+def _exact(fam: ModuleType, refined: Refined, z: np.ndarray, size: float, margin: float) -> Refined:
+    """The refined linkage polished by Gauss–Newton onto the precision points ``z`` (N,) complex
+    (:func:`linkedit.synthesis.points.newton`), kept working with ``margin``, where that lowers its exact RMS point
+    distance; else ``refined`` itself."""
+    place = refined.placement
+    found = precision.newton(fam, refined.params, place.scale * np.exp(1j * place.angle), place.shift, place.mirrored,
+                             z, margin)
+    if found is None:
+        return refined
+    params, factor, shift = found
+    polished = replace(place, scale=abs(factor), angle=float(np.angle(factor)), shift=shift)
+    rms = _point_error(fam.NAME, params, polished, z, size)[0]
+    before = _point_error(fam.NAME, refined.params, place, z, size)[0]
+    if not rms < before:
+        return refined
+    return Refined(params, polished, rms, refined.history + [rms])
+
+
 def _timed_candidates(timed: TimedTarget, hits: list, atlas: Atlas, top: int) -> list[Candidate]:
     """The index hits re-ranked and placed by the timed distance; the best ``top`` distinct ones."""
     candidates: list[Candidate] = []
@@ -344,6 +363,8 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
         c.refined = refine(fam, start.params, start.placement, z_target, target.closed, size, margin=margin,
                            timed=timed, points=points, iterations=POINT_ITERATIONS if points else ITERATIONS)
         c.refined.history[:0] = start.history
+        if points and np.isfinite(c.refined.error):
+            c.refined = _exact(fam, c.refined, z_target, size, margin)
         if np.isfinite(c.refined.error):
             curve = c.refined.placement.apply(fam.curves(c.refined.params[None], RESULT_SAMPLES)[0])
             c.after = (_point_error(c.family, c.refined.params, c.refined.placement, z_target, size) if points
