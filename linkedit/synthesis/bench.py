@@ -45,6 +45,7 @@ from linkedit.curves.sources import make_curve
 from linkedit.io.atomic import commit
 from linkedit.planar import catalog, compile_plan, simulate
 from linkedit.synthesis import atlas, families, fourbar
+from linkedit.synthesis.cluster import local_cluster
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.refine import distances_to
 from linkedit.synthesis.synthesize import MARGIN_DEG, synthesize
@@ -125,7 +126,7 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
     spawn = multiprocessing.get_context("spawn")  # no fork of a process running the cluster's threads
     runs: dict[str, list[tuple[float, float, float, int]]] = {"in-process": [], "side by side": [], "dask": []}
     t0 = time.perf_counter()
-    with (atlas.local_cluster(DASK_WORKERS) as cluster, tempfile.TemporaryDirectory() as tmp,
+    with (local_cluster(DASK_WORKERS) as cluster, tempfile.TemporaryDirectory() as tmp,
           ProcessPoolExecutor(DASK_WORKERS, mp_context=spawn) as pool):
         start = time.perf_counter() - t0
         paths = [Path(tmp) / f"bench-{k}.h5" for k in range(DASK_WORKERS)]

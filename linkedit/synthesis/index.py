@@ -26,7 +26,8 @@ import numpy as np
 
 from linkedit.blas import single_threaded
 from linkedit.curves.efd import variant_signs
-from linkedit.synthesis.atlas import HARMONICS, Atlas, index_efd, index_vector
+from linkedit.synthesis.atlas import Atlas
+from linkedit.synthesis.chunks import HARMONICS, index_efd, index_vector
 
 
 @dataclass(frozen=True)
@@ -38,7 +39,7 @@ class Hit:
 
 def target_variants(z: np.ndarray) -> np.ndarray:
     """Index descriptors (8, D) float32 of a closed target polyline z (M,) complex, or (M, 3) for a spatial
-    atlas (:func:`~linkedit.synthesis.atlas.index_efd`): every sign variant."""
+    atlas (:func:`~linkedit.synthesis.chunks.index_efd`): every sign variant."""
     efd = index_efd(z[None])[0]
     signs = variant_signs(HARMONICS)
     signs = np.concatenate([signs, signs * np.array([1.0, 1.0, -1.0, -1.0])])  # and mirrored

@@ -29,9 +29,10 @@ from linkedit.io.atomic import deferred_interrupts, durable_path, locked
 from linkedit.io.h5read import open_result
 from linkedit.io.hdf5 import writing
 from linkedit.resources import require_disk
-from linkedit.synthesis.atlas import (CHUNK, CONNECT_TIMEOUT, HARMONICS, SAMPLES, Atlas, Chunk, build_chunk,
-                                      check_options, chunk_runner, chunk_sizes)
+from linkedit.synthesis.atlas import Atlas, check_options
 from linkedit.synthesis.atlas import load as load_file
+from linkedit.synthesis.chunks import CHUNK, HARMONICS, SAMPLES, Chunk, build_chunk, chunk_sizes
+from linkedit.synthesis.cluster import CONNECT_TIMEOUT, chunk_runner
 from linkedit.synthesis.families import SPEC_TEXTS, family
 from linkedit.synthesis.index import cells_of
 

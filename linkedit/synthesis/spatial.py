@@ -2,7 +2,7 @@
 
 1. the target (a closed curve) is moved into its unit frame (centred on its bounding box, its largest side
    1: the fit is scale-free);
-2. the atlas index (:func:`~linkedit.synthesis.atlas.index_efd`: the EFDs of the curve's projection onto its
+2. the atlas index (:func:`~linkedit.synthesis.chunks.index_efd`: the EFDs of the curve's projection onto its
    principal plane, the descriptor ``linkedit features`` computes for 3D curves) gives the nearest ``POOL``
    linkages of the atlas's spatial families (:mod:`~linkedit.synthesis.spherical`,
    :mod:`~linkedit.synthesis.rssr`) that turn with the singularity margin;
@@ -43,7 +43,8 @@ from linkedit.io.gcs_hdf5 import write_result
 from linkedit.planar.feasibility import works
 from linkedit.spec.mechanism3d import MAX_COORDINATE, MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
-from linkedit.synthesis.atlas import Atlas, dimension
+from linkedit.synthesis.atlas import Atlas
+from linkedit.synthesis.chunks import dimension
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.synthesize import MARGIN_DEG, POOR, diverse, margin_of, within
