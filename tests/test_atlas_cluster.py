@@ -1,13 +1,33 @@
-"""An atlas on a Dask cluster: a build streams (a few tasks ahead of the client, never all of them)."""
+"""An atlas on a Dask cluster: a build streams (a few tasks ahead of the client, never all of them), and
+`synthesize --atlas FOLDER --scheduler ADDRESS` searches the shards on the workers and finds what the
+in-process search finds."""
 
 from __future__ import annotations
 
+import json
 import time
 
 import numpy as np
+import pytest
+import yaml
 
-from linkedit.synthesis import chunks
+from linkedit.synthesis import atlas, chunks, fourbar, shards
 from linkedit.synthesis import cluster as runner
+from linkedit.synthesis.index import Index, target_variants
+from linkedit.synthesis.shard_search import remote_atlas
+
+SMALL = 1000  # linkages per chunk here (a chunk is a pure function of its index and size)
+
+
+@pytest.fixture
+def folder(run_cli, tmp_path, monkeypatch):
+    """A sharded atlas of 7,500 four-bars in 8 shards (the last partial), built in-process."""
+    for module in (atlas, chunks, shards):
+        monkeypatch.setattr(module, "CHUNK", SMALL)
+    out = tmp_path / "atlas"
+    result = run_cli("atlas", "build", "--family", "four-bar", "-n", "7500", "-o", out, "--seed", "8")
+    assert result.exit_code == 0, result.output
+    return out
 
 
 def test_a_dask_build_streams(cluster):
@@ -25,3 +45,57 @@ def test_a_dask_build_streams(cluster):
     assert [index for index, _ in [first, *rest]] == list(range(40))
     for index, chunk in [first, *rest][::13]:
         np.testing.assert_array_equal(chunk.index, chunks.build_chunk("four-bar", 3, index, 10).index)
+
+
+def _variants(count: int) -> list[np.ndarray]:
+    held = atlas.build_chunk("four-bar", 990, 0, count).params
+    return [target_variants(fourbar.curves(row[None], 300, 0.1 * k)[0]) for k, row in enumerate(held)]
+
+
+@pytest.mark.parametrize("scan_limit", [10**6, 0], ids=["scanned whole", "stored quantizers"])
+def test_the_cluster_search_equals_the_in_process_one(folder, cluster, scan_limit):
+    """The shards searched on 2 workers, the union ranked on the client: the in-process search's hits (rows, and
+    squared distances to the in-process float32 rounding), whether the family is scanned whole or through its shards'
+    quantizers (2 runs of shards, as 2 in-process threads group them); the hits' params are the atlas's."""
+    book = shards.load(folder)
+    local = Index(book, scan_limit=scan_limit, threads=2)
+    with remote_atlas(folder, cluster.scheduler_address, scan_limit=scan_limit) as (remote, index):
+        assert remote.size == book.size == 7500
+        for v in _variants(6):
+            near, far = local.query(v, 40), index.query(v, 40)
+            d_near, d_far = (np.array([h.distance for h in hits]) ** 2 for hits in (near, far))
+            np.testing.assert_allclose(d_far, d_near, rtol=0, atol=1e-6)  # in-process: float32 |x|² − 2 v·x
+            for inner, outer, d in ((far, near, d_far), (near, far, d_near)):  # float32 near-ties may swap rows
+                sure = {h.row for h, dh in zip(inner, d) if dh < d[-1] - 1e-6}
+                assert len(sure) >= 20 and sure <= {h.row for h in outer}
+            rows = [h.row for h in far]
+            np.testing.assert_array_equal(remote.families["four-bar"]["params"][rows],
+                                          book.families["four-bar"]["params"][rows])
+
+
+def test_synthesize_with_a_scheduler_writes_the_in_process_result(run_cli, folder, cluster, tmp_path):
+    """`synthesize --atlas FOLDER --scheduler ADDRESS`: the same linkage (result.yaml) and errors as without
+    --scheduler, the scheduler recorded; an atlas file, a 3D target and --function are refused (exit 2)."""
+    z = 3 - 2j + 25 * np.exp(0.7j) * fourbar.curves(atlas.build_chunk("four-bar", 991, 0, 1).params, 150, 0.2)[0]
+    target = tmp_path / "target.csv"
+    target.write_text("x,y\n" + "\n".join(f"{float(p.real)!r},{float(p.imag)!r}" for p in z) + "\n")
+    here = run_cli("synthesize", target, "--atlas", folder, "-o", tmp_path / "here", "--top", "1")
+    there = run_cli("synthesize", target, "--atlas", folder, "-o", tmp_path / "there", "--top", "1",
+                    "--scheduler", cluster.scheduler_address)
+    assert here.exit_code == 0 and there.exit_code == 0, there.output
+    assert yaml.safe_load((tmp_path / "there" / "result.yaml").read_text()) == \
+        yaml.safe_load((tmp_path / "here" / "result.yaml").read_text())
+    a, b = (json.loads((tmp_path / out / "report.json").read_text()) for out in ("here", "there"))
+    assert b["error"] == a["error"] and b["options"]["scheduler"] == cluster.scheduler_address
+    assert [c["atlas_row"] for c in b["candidates"]] == [c["atlas_row"] for c in a["candidates"]]
+    file = tmp_path / "file.h5"
+    assert run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", file).exit_code == 0
+    refused = run_cli("synthesize", target, "--atlas", file, "-o", tmp_path / "no", "--scheduler",
+                      cluster.scheduler_address)
+    assert refused.exit_code == 2 and "sharded atlas" in refused.output
+    spatial = tmp_path / "t3.csv"
+    spatial.write_text("x,y,z\n" + "\n".join(f"{np.cos(t)},{np.sin(t)},{0.1 * np.sin(2 * t)}"
+                                             for t in np.linspace(0, 2 * np.pi, 60, endpoint=False)) + "\n")
+    refused = run_cli("synthesize", spatial, "--atlas", folder, "-o", tmp_path / "no", "--scheduler",
+                      cluster.scheduler_address)
+    assert refused.exit_code == 2 and "--scheduler" in refused.output

@@ -285,7 +285,7 @@ def load(path: str | Path, threads: int | None = None) -> Atlas:
         for name, entry in manifest["families"].items():
             if not entry["shards"]:
                 continue
-            families[name] = merge(list(pool.map(partial(_read_shard, path, name, manifest["seed"]), entry["shards"])))
+            families[name] = merge(list(pool.map(partial(read_shard, path, name, manifest["seed"]), entry["shards"])))
     if not families:
         raise InputError("the atlas is empty", file=str(path))
     return Atlas(path, families, manifest["seed"])
@@ -305,7 +305,7 @@ def merge(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     return arrays
 
 
-def _read_shard(folder: Path, name: str, seed: int, shard: dict[str, Any]) -> dict[str, np.ndarray]:
+def read_shard(folder: Path, name: str, seed: int, shard: dict[str, Any]) -> dict[str, np.ndarray]:
     """One shard's arrays, checked against its manifest entry (layout, rows, checksum)."""
     file, rows = folder / shard["file"], shard["rows"]
     if not file.is_file():
