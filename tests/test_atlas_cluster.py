@@ -99,3 +99,30 @@ def test_synthesize_with_a_scheduler_writes_the_in_process_result(run_cli, folde
     refused = run_cli("synthesize", spatial, "--atlas", folder, "-o", tmp_path / "no", "--scheduler",
                       cluster.scheduler_address)
     assert refused.exit_code == 2 and "--scheduler" in refused.output
+
+
+@pytest.mark.parametrize("out", ["atlas", "atlas.h5"])
+def test_a_100_million_build_that_does_not_fit_is_refused_up_front(run_cli, tmp_path, monkeypatch, out):
+    """`atlas build -n 100000000` on a disk of 10 GiB free (shards: 172 B, a file: 428 B per four-bar) or in
+    64 MiB of memory (a build holds one chunk's working arrays, 256 MiB allowed, and 1 KiB per chunk): exit 2
+    naming the bytes, nothing written; -n 10**12 into a folder was a MemoryError traceback (its 10⁸ chunks were
+    planned before the disk was checked)."""
+    from linkedit import resources
+
+    target = tmp_path / out
+    per = shards.shard_bytes("four-bar") if out == "atlas" else atlas.stored_bytes("four-bar")
+    monkeypatch.setattr(resources, "available_disk", lambda path: 10 * 2**30)
+    line = run_cli("atlas", "build", "--family", "four-bar", "-n", 10**8, "-o", target).output.strip()
+    assert line == (f"linkedit: error: --count: 100,000,000 linkages would need about {10**8 * per / 2**30:,.1f} GiB of "
+                    f"disk at {target / shards.MANIFEST if out == 'atlas' else target}; 10.0 GiB are free")
+    monkeypatch.setattr(resources, "available_disk", lambda path: 2**50)
+    monkeypatch.setattr(resources, "available_memory", lambda: 64 * 2**20)
+    result = run_cli("atlas", "build", "--family", "four-bar", "-n", 10**8, "-o", target)
+    need = (chunks.CHUNK_MEMORY + 10**4 * chunks.PLAN_MEMORY) / 2**20
+    assert result.exit_code == 2 and result.output.strip() == (
+        f"linkedit: error: --count: 100,000,000 linkages would need about {need:,.0f} MiB of memory; 64 MiB are "
+        "available")
+    monkeypatch.undo()
+    huge = run_cli("atlas", "build", "--family", "four-bar", "-n", 10**12, "-o", target)
+    assert huge.exit_code == 2 and "GiB of disk" in huge.output
+    assert list(tmp_path.iterdir()) == []

@@ -23,8 +23,9 @@ from linkedit.errors import InputError
 from linkedit.io.atomic import atomic_path, deferred_interrupts, locked
 from linkedit.io.h5read import ResultReader, open_result
 from linkedit.io.hdf5 import writing
-from linkedit.resources import require_disk
-from linkedit.synthesis.chunks import CHUNK, COARSE_STEP, HARMONICS, SAMPLES, Chunk, chunk_sizes, dimension
+from linkedit.resources import require_disk, require_memory
+from linkedit.synthesis.chunks import (CHUNK, COARSE_STEP, HARMONICS, SAMPLES, Chunk, build_memory, chunk_sizes,
+                                      dimension)
 from linkedit.synthesis.chunks import build_chunk as build_chunk  # re-exported: callers build chunks through atlas
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, Runner, chunk_runner, scheduler_address
 from linkedit.synthesis.families import SPEC_TEXTS, family
@@ -57,8 +58,9 @@ def build(path: str | Path, names: list[str], count: int, *, seed: int = 1, sche
 
     An existing atlas is grown with the next chunks of its own seed (``seed`` must match), under the
     target's lock (:func:`linkedit.io.atomic.locked`: a concurrent append waits, then is refused); the
-    new file replaces the old one only when complete. A build whose file would not fit on the disk is
-    refused (InputError) before any work. Returns the linkage count per family.
+    new file replaces the old one only when complete. A build whose file would not fit on the disk (or
+    whose working memory, :func:`~linkedit.synthesis.chunks.build_memory`, not in memory) is refused
+    (InputError) before any work. Returns the linkage count per family.
     ``progress(done, total, seconds)`` is called after every chunk; ``scheduler``, ``workers``,
     ``connect_timeout``, ``verbose``: see :func:`linkedit.synthesis.cluster.chunk_runner`.
     """
@@ -71,6 +73,7 @@ def build(path: str | Path, names: list[str], count: int, *, seed: int = 1, sche
             _check_existing(path, seed)
             old = path.stat().st_size
         require_disk(old + count * sum(map(stored_bytes, names)), path, f"{total:,} linkages", field="--count")
+        require_memory(build_memory(total), f"{total:,} linkages", field="--count")
         with chunk_runner(scheduler, workers, connect_timeout=connect_timeout, verbose=verbose) as run:
             return _grow(path, names, count, seed, run, progress)
 

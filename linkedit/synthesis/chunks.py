@@ -91,6 +91,18 @@ def build_chunk(name: str, seed: int, index: int, size: int = CHUNK, spec: str |
     return Chunk(params, np.concatenate(kept_ds)[:size], desc, coarse)
 
 
+#: Bytes a build holds whatever its size (it streams): the working arrays of one chunk being built (peak 17 MB
+#: for four-bars, 50–75 MB for the catalog six- and eight-bars at 2,000 rows: tracemalloc), with room to spare,
+#: and per chunk of the build the client's plan and manifest entry (:func:`build_memory`).
+CHUNK_MEMORY = 256 << 20
+PLAN_MEMORY = 1024
+
+
+def build_memory(count: int) -> int:
+    """Bytes of memory a build of ``count`` linkages (one family) needs in the client's process."""
+    return CHUNK_MEMORY + PLAN_MEMORY * -(-count // CHUNK)
+
+
 def chunk_sizes(count: int, first: int = 0) -> list[tuple[int, int]]:
     """(index, size) of the chunks holding ``count`` linkages, numbered from ``first``."""
     return [(first + k, min(CHUNK, count - k * CHUNK)) for k in range((count + CHUNK - 1) // CHUNK)]
