@@ -5,6 +5,7 @@ in-process search finds."""
 from __future__ import annotations
 
 import json
+import re
 import time
 
 import numpy as np
@@ -126,3 +127,28 @@ def test_a_100_million_build_that_does_not_fit_is_refused_up_front(run_cli, tmp_
     huge = run_cli("atlas", "build", "--family", "four-bar", "-n", 10**12, "-o", target)
     assert huge.exit_code == 2 and "GiB of disk" in huge.output
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.slow  # a minute on 2 loaded cores (a build and 3 × 50 queries)
+def test_the_bench_times_a_query_over_a_large_sharded_atlas(cluster, monkeypatch):
+    """`bench -s synthesis --large N` (here its section on 20 shards of 1,000, on the 2-worker cluster): bytes per
+    linkage on disk, the query at the first 5 shards and at N, in threads and on the cluster, the recall of the
+    exact top 10, the extrapolation to 100M through both figures."""
+    from linkedit.synthesis import bench_scale
+
+    for module in (atlas, chunks, shards, bench_scale):
+        monkeypatch.setattr(module, "CHUNK", SMALL)
+    monkeypatch.setattr(bench_scale, "SMALL", 5 * SMALL)
+    lines: list[str] = []
+    bench_scale.run(lines.append, 20 * SMALL, scheduler=cluster.scheduler_address)
+    text = "\n".join(lines)
+    assert re.search(r"sharded atlas of 20,000 four-bars .* 1\d\d bytes per linkage on disk \(1\d\d stored", text), text
+    recall = float(re.search(r"recall of the exact top 10 (\d\.\d+)", text).group(1))
+    assert recall >= 0.9 and re.search(r"\d+ ms at 5,000, \d+ ms at 20,000", text), text
+    assert re.search(r"on the cluster at 20,000: \d+ ms median \(2 workers", text), text
+    assert "extrapolated to 100,000,000: " in text and "the line through the 5,000 and 20,000 figures" in text
+
+
+def test_bench_large_applies_to_the_synthesis_section(run_cli):
+    refused = run_cli("bench", "-s", "planar", "--large", "5")
+    assert refused.exit_code == 2 and refused.output.strip() == "linkedit: error: --large: applies to the synthesis section (-s synthesis)"

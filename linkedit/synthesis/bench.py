@@ -44,7 +44,7 @@ import numpy as np
 from linkedit.curves.sources import make_curve
 from linkedit.io.atomic import commit
 from linkedit.planar import catalog, compile_plan, simulate
-from linkedit.synthesis import atlas, families, fourbar
+from linkedit.synthesis import atlas, bench_scale, families, fourbar
 from linkedit.synthesis.cluster import local_cluster
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.refine import distances_to
@@ -382,7 +382,9 @@ def lists_figures(echo: Callable[[str], None], parts: list[atlas.Chunk], repeats
          f"{np.mean(shard_recall):.3f} (target ≥ 0.99)")
 
 
-def run(echo: Callable[[str], None], quick: bool = False) -> None:
+def run(echo: Callable[[str], None], quick: bool = False, large: int | None = None) -> None:
+    """The section's figures; ``large``: also the query at scale over a sharded atlas of that many four-bars
+    (:mod:`linkedit.synthesis.bench_scale`, opt-in: minutes to build)."""
     chunks, big, repeats = (1, 2 * atlas.CHUNK, 1) if quick else (10, 1_000_000, 5)
     atlas.build_chunk("four-bar", 1, 0)  # warm up
     t_chunks = _median_time(lambda: [atlas.build_chunk("four-bar", 1, i) for i in range(chunks)], repeats)
@@ -416,6 +418,8 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
          f"{1e3 * t_query:.1f} ms median (target ≤ {1e3 * QUERY_TARGET:.0f} ms)")
     if not quick:
         lists_figures(echo, parts, repeats)
+    if large:
+        bench_scale.run(echo, large)
 
     runs = []
     for z in targets[: 1 if quick else 4]:
