@@ -151,4 +151,5 @@ def test_the_bench_times_a_query_over_a_large_sharded_atlas(cluster, monkeypatch
 
 def test_bench_large_applies_to_the_synthesis_section(run_cli):
     refused = run_cli("bench", "-s", "planar", "--large", "5")
-    assert refused.exit_code == 2 and refused.output.strip() == "linkedit: error: --large: applies to the synthesis section (-s synthesis)"
+    assert refused.exit_code == 2
+    assert refused.output.strip() == "linkedit: error: --large: applies to the synthesis section (-s synthesis)"

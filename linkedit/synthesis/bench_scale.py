@@ -61,8 +61,9 @@ def run(echo: Callable[[str], None], count: int, workers: int = 2, scheduler: st
     dask = importlib.util.find_spec("distributed") is not None
     if dask:
         from linkedit.synthesis.cluster import dask_logs, local_cluster
+    start = dask and scheduler is None
     with (dask_logs(False) if dask else contextlib.nullcontext()), \
-            (local_cluster(workers, verbose=False) if dask and scheduler is None else contextlib.nullcontext()) as cluster, \
+            (local_cluster(workers, verbose=False) if start else contextlib.nullcontext()) as cluster, \
             tempfile.TemporaryDirectory() as tmp:
         address = scheduler or (cluster.scheduler_address if cluster is not None else None)
         folder = Path(tmp) / "atlas"
@@ -104,11 +105,12 @@ def run(echo: Callable[[str], None], count: int, workers: int = 2, scheduler: st
          f"disk ({shards.shard_bytes('four-bar')} stored + HDF5 overhead; an atlas file: "
          f"{stored_bytes('four-bar')}), loaded in {t_load:.1f} s")
     echo(f"  query through the shards' quantizers in {cores} threads, median of {TARGETS} held-out targets: "
-         f"{f'{1e3 * t_small:.0f} ms at {small:,}, ' if count > small else ''}{1e3 * t_large:.0f} ms at {count:,} (recall of the exact top 10 "
+         f"{f'{1e3 * t_small:.0f} ms at {small:,}, ' if count > small else ''}{1e3 * t_large:.0f} ms at {count:,} "
+         f"(recall of the exact top 10 "
          f"{np.mean(recall):.3f}, target ≥ 0.99); on the cluster at {count:,}: {remote}")
     echo(f"  extrapolated to {HUNDRED_MILLION:,}: {t_100m:.2f} s in-process on these {cores} cores (target ≤ "
          f"{LARGE_QUERY_TARGET:g} s), on c cores or worker threads ≈ {t_100m * cores:.1f} s / c — basis: the time "
          f"grows linearly with the shards searched (each: its {shards.shard_cells(CHUNK)} centroids and "
-         f"{PROBE} cells ≈ {PROBE * CHUNK // shards.shard_cells(CHUNK):,} rows scanned) and divides among threads that "
-         f"scale: {basis}; memory in-process ≈ 300 bytes per linkage (30 GB at 100M: specs/atlas-hdf5.md), spread "
+         f"{PROBE} cells ≈ {PROBE * CHUNK // shards.shard_cells(CHUNK):,} rows scanned) and divides among "
+         f"threads that scale: {basis}; memory in-process ≈ 300 bytes per linkage (30 GB at 100M: specs/atlas-hdf5.md), spread "
          f"over the workers on a cluster")

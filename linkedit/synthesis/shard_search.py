@@ -27,7 +27,7 @@ from linkedit.synthesis.chunks import dimension
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, connected
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import SCAN_LIMIT, Hit, nearest_rows, stored_lists
-from linkedit.synthesis.shards import MANIFEST, read_shard, merge, read_manifest
+from linkedit.synthesis.shards import MANIFEST, merge, read_manifest, read_shard
 
 #: Shard runs a worker keeps read between queries (a worker of a cluster serves many ``synthesize`` runs).
 KEEP = 64
