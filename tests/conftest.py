@@ -38,7 +38,7 @@ def cluster():
     """One local Dask cluster of 2 single-threaded worker processes (what ``--workers 2`` starts)
     for every Dask test of the session: a cluster takes about 10 s to start."""
     pytest.importorskip("dask.distributed")
-    from linkedit.synthesis import atlas
+    from linkedit.synthesis.cluster import local_cluster
 
-    with atlas.local_cluster(2) as cluster:
+    with local_cluster(2) as cluster:
         yield cluster

@@ -11,7 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
-from linkedit.synthesis import atlas, fourbar, shards
+from linkedit.synthesis import atlas, chunks, fourbar, shards
 from linkedit.synthesis.index import Index, nearest_rows, stored_lists, target_variants
 
 SMALL = 1000  # linkages per chunk in these tests (a chunk is a pure function of its index and size)
@@ -20,6 +20,7 @@ SMALL = 1000  # linkages per chunk in these tests (a chunk is a pure function of
 @pytest.fixture
 def small_chunks(monkeypatch):
     monkeypatch.setattr(atlas, "CHUNK", SMALL)
+    monkeypatch.setattr(chunks, "CHUNK", SMALL)
     monkeypatch.setattr(shards, "CHUNK", SMALL)
 
 

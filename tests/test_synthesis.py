@@ -12,7 +12,8 @@ import pytest
 from linkedit.curves.efd import efd_coefficients, normalize_efd, polyline_efd
 from linkedit.errors import InputError
 from linkedit.planar import compile_plan, simulate
-from linkedit.synthesis import atlas, fourbar
+from linkedit.synthesis import atlas, chunks, fourbar
+from linkedit.synthesis import cluster as cluster_runner
 from linkedit.synthesis.index import Index, target_variants
 
 
@@ -200,13 +201,14 @@ def test_dask_and_in_process_atlases_are_identical(run_cli, tmp_path, monkeypatc
     33 chunks, the last one partial, built two per Dask task (chunks of 1,000: a chunk is a pure
     function of its index and size, which the client sends; 10,000 took 30 s here)."""
     monkeypatch.setattr(atlas, "CHUNK", 1000)
+    monkeypatch.setattr(chunks, "CHUNK", 1000)
     count = str(32 * atlas.CHUNK + atlas.CHUNK // 2)
-    assert [len(task) for task in atlas.dask_tasks(atlas.chunk_sizes(int(count)), 2)] == [2] * 16 + [1]
+    assert [len(task) for task in cluster_runner.dask_tasks(atlas.chunk_sizes(int(count)), 2)] == [2] * 16 + [1]
     result = run_cli("atlas", "build", "--family", "four-bar", "-n", count, "-o",
                      tmp_path / "dask.h5", "--seed", "8", "--scheduler", cluster.scheduler_address)
     # workers the client cannot reach: their results come through the scheduler, the same
-    monkeypatch.setattr(atlas, "reaches", lambda client, address: False)
-    relayed = dict(atlas.run_chunks("four-bar", 8, [(0, 2500)], scheduler=cluster.scheduler_address))
+    monkeypatch.setattr(cluster_runner, "reaches", lambda client, address: False)
+    relayed = dict(cluster_runner.run_chunks("four-bar", 8, [(0, 2500)], scheduler=cluster.scheduler_address))
     assert result.exit_code == 0, result.output
     local = run_cli("atlas", "build", "--family", "four-bar", "-n", count, "-o", tmp_path / "local.h5", "--seed", "8")
     assert local.exit_code == 0, local.output
@@ -221,16 +223,16 @@ def test_a_dask_server_is_reached_or_not(cluster):
     from dask.distributed import Client
 
     with Client(cluster) as client:
-        assert atlas.reaches(client, next(iter(client.nthreads())))
-        assert not atlas.reaches(client, "tcp://127.0.0.1:1", timeout=0.5)  # nothing listens there
+        assert cluster_runner.reaches(client, next(iter(client.nthreads())))
+        assert not cluster_runner.reaches(client, "tcp://127.0.0.1:1", timeout=0.5)  # nothing listens there
 
 
 def test_dask_tasks_are_runs_of_consecutive_chunks():
     jobs = atlas.chunk_sizes(100 * atlas.CHUNK, first=3)
-    for threads, per_task in ((1, atlas.TASK_CHUNKS), (4, 3), (15, 1), (0, atlas.TASK_CHUNKS)):
-        tasks = atlas.dask_tasks(jobs, threads)
+    for threads, per_task in ((1, cluster_runner.TASK_CHUNKS), (4, 3), (15, 1), (0, cluster_runner.TASK_CHUNKS)):
+        tasks = cluster_runner.dask_tasks(jobs, threads)
         assert sum(tasks, []) == jobs and {len(task) for task in tasks[:-1]} == {per_task}
-    assert atlas.dask_tasks(jobs[:1], 2) == [jobs[:1]] and atlas.dask_tasks([], 2) == []
+    assert cluster_runner.dask_tasks(jobs[:1], 2) == [jobs[:1]] and cluster_runner.dask_tasks([], 2) == []
 
 
 def _refused(result, code: int, tmp_path) -> str:

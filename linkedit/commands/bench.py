@@ -27,17 +27,22 @@ def register(app: typer.Typer) -> None:
     def bench(
         section: list[str] = typer.Option(None, "--section", "-s", help=f"Only these sections: {', '.join(SECTIONS)}."),
         quick: bool = typer.Option(False, "--quick", help="Tiny sizes and few repeats: checks the benchmark runs."),
+        large: int = typer.Option(None, "--large", metavar="N", min=1, max=10**9,
+                                  help="synthesis: also build a sharded atlas of N four-bars and time the query over "
+                                       "it, with the extrapolation to 100M (opt-in: 10M take minutes)."),
         as_json: bool = JSON,
         quiet: bool = QUIET,
     ) -> None:
         """Print benchmark figures (µs per step, ratios against baselines measured in the same run)."""
+        from linkedit.errors import InputError
+
         chosen = section or list(SECTIONS)
         figures: dict[str, list[str]] = {}
         for name in chosen:
             if name not in SECTIONS:
-                from linkedit.errors import InputError
-
                 raise InputError(f"unknown section {name!r} (choose from {', '.join(SECTIONS)})", field="--section")
+        if large is not None and "synthesis" not in chosen:
+            raise InputError("applies to the synthesis section (-s synthesis)", field="--large")
         for name in chosen:
             try:
                 module = importlib.import_module(SECTIONS[name])
@@ -52,5 +57,5 @@ def register(app: typer.Typer) -> None:
                 lines.append(text)
                 say(text)
 
-            module.run(line, quick=quick)
+            module.run(line, quick=quick, **({"large": large} if name == "synthesis" and large else {}))
         report({"sections": figures})

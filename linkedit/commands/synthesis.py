@@ -146,6 +146,11 @@ def register(app: typer.Typer) -> None:
                                                                    "sampled curve [default: points for a closed "
                                                                    "target of ≤ 25 unevenly spaced points]."),
         seed: int = typer.Option(1, "--seed", min=0, max=2**63 - 1, help="Recorded with the result (the search is deterministic)."),
+        scheduler: str = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786): search the "
+                                                                "--atlas folder of shards on its workers (the folder "
+                                                                "at the same path on every worker)."),
+        connect_timeout: float = typer.Option(10.0, "--connect-timeout", metavar="SECONDS", min=0.1, max=3600.0,
+                                              help="Seconds the --scheduler has to answer (and its first worker to join)."),
         units: str = typer.Option(None, "--units", help="The target's length units, written into the result "
                                                         "[default: the target's own (a CSV header's `x (m)`, a "
                                                         "result's or curve set's units), else mm]."),
@@ -156,7 +161,7 @@ def register(app: typer.Typer) -> None:
         or, with --function or --motion, a four-bar function or motion generator."""
         curve_only = {"--top": top != 5, "--closed/--open": closed is not None, "--smooth": smooth != 0.0,
                       "--timing": timing, "--seed": seed != 1, "--units": units is not None,
-                      "--points/--curve": points is not None}
+                      "--points/--curve": points is not None, "--scheduler": scheduler is not None}
         if pairs is None and relative:
             raise InputError("--relative applies to --function", field="--relative")
         if pairs is not None or poses is not None:
@@ -193,17 +198,26 @@ def register(app: typer.Typer) -> None:
         if units is not None and curve.units is not None and units != curve.units:
             raise InputError(f"--units {units} contradicts the target's own units, {curve.units}", file=curve.origin)
         if curve.points.shape[1] == 3:
+            if scheduler is not None:
+                raise InputError("--scheduler searches the planar families of a sharded atlas; a 3D (x, y, z) target "
+                                 "is searched in-process", field="--scheduler")
             _spatial(curve, target, atlas, output, top=top, margin=margin, seed=seed, units=units,
                      planar_only={"--smooth": smooth != 0.0, "--timing": timing, "--points/--curve": points is not None})
             return
+        from linkedit.synthesis.shard_search import remote_atlas
         from linkedit.synthesis.spatial import restrict
 
-        found = restrict(open_atlas(atlas), 2)
-        result = run(curve, found, top=top, smooth=smooth, timing=timing, margin_deg=margin, seed=seed,
-                     units=units or curve.units or "mm", points=points)
+        settings: dict[str, Any] = {"top": top, "smooth": smooth, "timing": timing, "margin_deg": margin, "seed": seed,
+                                    "units": units or curve.units or "mm", "points": points}
+        if scheduler is not None:  # the shards searched on the cluster's workers, the hits ranked here
+            with remote_atlas(atlas, scheduler, dim=2, connect_timeout=connect_timeout) as (found, index):
+                result = run(curve, found, index, **settings)
+        else:
+            found = restrict(open_atlas(atlas), 2)
+            result = run(curve, found, **settings)
         options = {"target": target, "atlas": str(atlas), "top": top, "smooth": smooth, "timing": timing,
                    "margin_deg": margin, "seed": seed, "closed": curve.closed, "atlas_size": found.size,
-                   "units": units, "points": points}
+                   "units": units, "points": points} | ({"scheduler": scheduler} if scheduler is not None else {})
         done = write_all(output, result, options)
         report({k: v for k, v in done.items() if k != "result"} | {"output": str(output)})
         before, after = done["error"]["before"], done["error"]["after"]

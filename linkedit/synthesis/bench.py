@@ -44,7 +44,8 @@ import numpy as np
 from linkedit.curves.sources import make_curve
 from linkedit.io.atomic import commit
 from linkedit.planar import catalog, compile_plan, simulate
-from linkedit.synthesis import atlas, families, fourbar
+from linkedit.synthesis import atlas, bench_scale, families, fourbar
+from linkedit.synthesis.cluster import local_cluster
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.refine import distances_to
 from linkedit.synthesis.synthesize import MARGIN_DEG, synthesize
@@ -125,7 +126,7 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
     spawn = multiprocessing.get_context("spawn")  # no fork of a process running the cluster's threads
     runs: dict[str, list[tuple[float, float, float, int]]] = {"in-process": [], "side by side": [], "dask": []}
     t0 = time.perf_counter()
-    with (atlas.local_cluster(DASK_WORKERS) as cluster, tempfile.TemporaryDirectory() as tmp,
+    with (local_cluster(DASK_WORKERS) as cluster, tempfile.TemporaryDirectory() as tmp,
           ProcessPoolExecutor(DASK_WORKERS, mp_context=spawn) as pool):
         start = time.perf_counter() - t0
         paths = [Path(tmp) / f"bench-{k}.h5" for k in range(DASK_WORKERS)]
@@ -431,7 +432,9 @@ def lists_figures(echo: Callable[[str], None], parts: list[atlas.Chunk], repeats
          f"{np.mean(shard_recall):.3f} (target ≥ 0.99)")
 
 
-def run(echo: Callable[[str], None], quick: bool = False) -> None:
+def run(echo: Callable[[str], None], quick: bool = False, large: int | None = None) -> None:
+    """The section's figures; ``large``: also the query at scale over a sharded atlas of that many four-bars
+    (:mod:`linkedit.synthesis.bench_scale`, opt-in: minutes to build)."""
     chunks, big, repeats = (1, 2 * atlas.CHUNK, 1) if quick else (10, 1_000_000, 5)
     atlas.build_chunk("four-bar", 1, 0)  # warm up
     t_chunks = _median_time(lambda: [atlas.build_chunk("four-bar", 1, i) for i in range(chunks)], repeats)
@@ -465,6 +468,8 @@ def run(echo: Callable[[str], None], quick: bool = False) -> None:
          f"{1e3 * t_query:.1f} ms median (target ≤ {1e3 * QUERY_TARGET:.0f} ms)")
     if not quick:
         lists_figures(echo, parts, repeats)
+    if large:
+        bench_scale.run(echo, large)
 
     runs = []
     for z in targets[: 1 if quick else 4]:

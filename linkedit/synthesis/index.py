@@ -26,7 +26,8 @@ import numpy as np
 
 from linkedit.blas import single_threaded
 from linkedit.curves.efd import variant_signs
-from linkedit.synthesis.atlas import HARMONICS, Atlas, index_efd, index_vector
+from linkedit.synthesis.atlas import Atlas
+from linkedit.synthesis.chunks import HARMONICS, index_efd, index_vector
 
 
 @dataclass(frozen=True)
@@ -38,7 +39,7 @@ class Hit:
 
 def target_variants(z: np.ndarray) -> np.ndarray:
     """Index descriptors (8, D) float32 of a closed target polyline z (M,) complex, or (M, 3) for a spatial
-    atlas (:func:`~linkedit.synthesis.atlas.index_efd`): every sign variant."""
+    atlas (:func:`~linkedit.synthesis.chunks.index_efd`): every sign variant."""
     efd = index_efd(z[None])[0]
     signs = variant_signs(HARMONICS)
     signs = np.concatenate([signs, signs * np.array([1.0, 1.0, -1.0, -1.0])])  # and mirrored
@@ -54,12 +55,24 @@ PROBE = 32
 
 def nearest_rows(variants: np.ndarray, columns: np.ndarray, norms: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
     """The ``count`` rows of descriptors ``columns`` (D, K) nearest to any of ``variants`` (V, D),
-    and their squared distances less |q|² (|x|² − 2·max_v v·x), nearest first: the one exact ranking."""
+    and their squared distances less |q|² (|x|² − 2·max_v v·x), nearest first: the one exact ranking.
+    The product in the descriptors' float32 screens the rows within float32's rounding bound of the
+    ``count``-th; those are ranked in float64. (Ranked in float32, whose rounding, ~1e-7, exceeds the
+    distances of near neighbours in a large atlas, 7 % of the exact top 10 of 400,000 four-bars were
+    swapped out.)"""
     d2 = norms - 2.0 * (variants @ columns).max(axis=0)
     k = min(count, d2.size)
-    rows = np.argpartition(d2, k - 1)[:k] if k else np.zeros(0, dtype=int)
-    rows = rows[np.argsort(d2[rows], kind="stable")]
-    return rows, d2[rows]
+    if not k:
+        return np.zeros(0, dtype=int), np.zeros(0)
+    kth = np.partition(d2, k - 1)[k - 1]
+    big = float(norms.max(initial=0.0))
+    bound = columns.shape[0] * float(np.finfo(np.float32).eps) * \
+        (big + 2.0 * np.sqrt(big * float(np.einsum("vd,vd->v", variants, variants).max())))
+    rows = np.flatnonzero(d2 <= kth + 2.0 * bound)
+    x = columns[:, rows].astype(np.float64)
+    exact = np.einsum("dk,dk->k", x, x) - 2.0 * (variants.astype(np.float64) @ x).max(axis=0)
+    best = np.argsort(exact, kind="stable")[:k]
+    return rows[best], exact[best]
 
 
 def cells_of(vectors: np.ndarray, cells: int | None = None, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -28,10 +28,11 @@ from linkedit.errors import InputError
 from linkedit.io.atomic import deferred_interrupts, durable_path, locked
 from linkedit.io.h5read import open_result
 from linkedit.io.hdf5 import writing
-from linkedit.resources import require_disk
-from linkedit.synthesis.atlas import (CHUNK, CONNECT_TIMEOUT, HARMONICS, SAMPLES, Atlas, Chunk, build_chunk,
-                                      check_options, chunk_runner, chunk_sizes)
+from linkedit.resources import require_disk, require_memory
+from linkedit.synthesis.atlas import Atlas, check_options
 from linkedit.synthesis.atlas import load as load_file
+from linkedit.synthesis.chunks import CHUNK, HARMONICS, SAMPLES, Chunk, build_chunk, build_memory, chunk_sizes
+from linkedit.synthesis.cluster import CONNECT_TIMEOUT, chunk_runner
 from linkedit.synthesis.families import SPEC_TEXTS, family
 from linkedit.synthesis.index import cells_of
 
@@ -195,19 +196,33 @@ def build(path: str | Path, names: list[str], count: int | None, *, seed: int = 
     if not (path / MANIFEST).is_file() and path.exists() and (not path.is_dir() or any(path.iterdir())):
         raise InputError(f"exists and is not a sharded atlas (no {MANIFEST}); refusing to write into it",
                          file=str(path))
-    with locked(path / MANIFEST):
-        manifest = read_manifest(path) if (path / MANIFEST).is_file() else _new_manifest(seed)
-        if manifest["seed"] != seed:
-            raise InputError(f"this atlas was built with --seed {manifest['seed']}; use the same seed",
-                             file=str(path), field="--seed")
-        jobs = _plan(path, manifest, names, count, resume)
-        left = {name: sum(size for _, size in jobs[name]) for name in jobs}
-        require_disk(sum(n * shard_bytes(name) for name, n in left.items()), path / MANIFEST,
-                     f"{sum(left.values()):,} linkages", field="--count")
-        save(path, manifest)
-        _run(path, manifest, jobs, seed, progress, chunk_runner(scheduler, workers, connect_timeout=connect_timeout,
-                                                                verbose=verbose))
+    if not resume and count is not None:  # before the plan: a list of 10⁸ chunks would not fit either
+        _require_room(path, {name: count for name in names})
+    new = not path.exists()
+    try:
+        with locked(path / MANIFEST):
+            manifest = read_manifest(path) if (path / MANIFEST).is_file() else _new_manifest(seed)
+            if manifest["seed"] != seed:
+                raise InputError(f"this atlas was built with --seed {manifest['seed']}; use the same seed",
+                                 file=str(path), field="--seed")
+            jobs = _plan(path, manifest, names, count, resume)
+            if resume:
+                _require_room(path, {name: sum(size for _, size in jobs[name]) for name in jobs})
+            save(path, manifest)
+            _run(path, manifest, jobs, seed, progress, chunk_runner(scheduler, workers, connect_timeout=connect_timeout,
+                                                                    verbose=verbose))
+    finally:
+        if new and path.is_dir() and not any(path.iterdir()):  # refused before anything was written
+            path.rmdir()
     return {name: sum(s["rows"] for s in entry["shards"]) for name, entry in manifest["families"].items()}
+
+
+def _require_room(path: Path, left: dict[str, int]) -> None:
+    """InputError (exit 2) unless the disk holds the shards of ``left`` (linkages per family) and the memory
+    the build (:func:`~linkedit.synthesis.chunks.build_memory`): checked before anything is planned or written."""
+    what = f"{sum(left.values()):,} linkages"
+    require_disk(sum(n * shard_bytes(name) for name, n in left.items()), path / MANIFEST, what, field="--count")
+    require_memory(build_memory(sum(left.values())), what, field="--count")
 
 
 def _plan(path: Path, manifest: dict[str, Any], names: list[str], count: int | None,
@@ -284,7 +299,7 @@ def load(path: str | Path, threads: int | None = None) -> Atlas:
         for name, entry in manifest["families"].items():
             if not entry["shards"]:
                 continue
-            families[name] = merge(list(pool.map(partial(_read_shard, path, name, manifest["seed"]), entry["shards"])))
+            families[name] = merge(list(pool.map(partial(read_shard, path, name, manifest["seed"]), entry["shards"])))
     if not families:
         raise InputError("the atlas is empty", file=str(path))
     return Atlas(path, families, manifest["seed"])
@@ -304,7 +319,7 @@ def merge(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     return arrays
 
 
-def _read_shard(folder: Path, name: str, seed: int, shard: dict[str, Any]) -> dict[str, np.ndarray]:
+def read_shard(folder: Path, name: str, seed: int, shard: dict[str, Any]) -> dict[str, np.ndarray]:
     """One shard's arrays, checked against its manifest entry (layout, rows, checksum)."""
     file, rows = folder / shard["file"], shard["rows"]
     if not file.is_file():

@@ -3,7 +3,7 @@
 1. the target (a closed curve, or an open arc: closure is told from the geometry as for planar targets,
    :func:`linkedit.curves.sources.is_closed`) is moved into its unit frame (centred on its bounding box, its
    largest side 1: the fit is scale-free);
-2. the atlas index (:func:`~linkedit.synthesis.atlas.index_efd`: the EFDs of the curve's projection onto its
+2. the atlas index (:func:`~linkedit.synthesis.chunks.index_efd`: the EFDs of the curve's projection onto its
    principal plane, the descriptor ``linkedit features`` computes for 3D curves; an open arc as closed by its
    chord: on held-out spherical arcs its pool held better stretches than the arc retraced there and back, as
    planar open targets are queried) gives the nearest ``POOL`` (open: ``OPEN_POOL``) linkages of the atlas's
@@ -51,7 +51,8 @@ from linkedit.io.gcs_svg import Curve3, overlay
 from linkedit.planar.feasibility import works
 from linkedit.spec.mechanism3d import MAX_COORDINATE, MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
-from linkedit.synthesis.atlas import Atlas, dimension
+from linkedit.synthesis.atlas import Atlas
+from linkedit.synthesis.chunks import dimension
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.outputs import DRAWN, history_chart

@@ -1,0 +1,291 @@
+"""The Dask runner: where an atlas's chunks are built (in-process, on a scheduler's workers, or on a
+local cluster), and the checks of a scheduler address before anything is sent there.
+
+A task runs a pure function of (family, seed, chunks) (:func:`linkedit.synthesis.chunks.build_chunks`,
+or :func:`linkedit.synthesis.shards.store_chunks`, which also stores each chunk as a shard), so the
+results are the same wherever it runs; the client reads them back in chunk order.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import logging
+import os
+import sys
+from collections import deque
+from collections.abc import Callable, Iterator
+from typing import Any, Protocol
+
+from linkedit.errors import InputError, LinkeditError
+from linkedit.synthesis.chunks import build_chunks
+from linkedit.synthesis.families import SPEC_TEXTS
+
+#: Seconds a Dask scheduler has to answer (``--connect-timeout``).
+CONNECT_TIMEOUT = 10.0
+
+#: Most chunks one Dask task builds. A task costs the scheduler, the client and the worker ~10 ms
+#: of CPU whatever its size (a chunk of four-bars is ~70 ms of work), so consecutive chunks go
+#: together, as long as every worker thread still gets 8 tasks (see :func:`dask_tasks`).
+TASK_CHUNKS = 4
+
+
+def dask_tasks(jobs: list[tuple[int, int]], threads: int) -> list[list[tuple[int, int]]]:
+    """``jobs`` cut into runs of consecutive chunks, one per Dask task: at most :data:`TASK_CHUNKS`
+    each, and at least 8 runs per worker thread while that allows more than one chunk per run (a
+    worker that finishes first idles for about one task at the end)."""
+    per_task = max(1, min(TASK_CHUNKS, len(jobs) // (8 * max(threads, 1))))
+    return [jobs[k:k + per_task] for k in range(0, len(jobs), per_task)]
+
+
+def run_chunks(name: str, seed: int, jobs: list[tuple[int, int]], *, scheduler: str | None = None,
+               workers: int | None = None, connect_timeout: float = CONNECT_TIMEOUT,
+               verbose: bool = False) -> Iterator[tuple[int, Any]]:
+    """Chunks in order of ``jobs``: in-process, or on Dask (see :func:`chunk_runner`); results are the
+    same either way."""
+    with chunk_runner(scheduler, workers, connect_timeout=connect_timeout, verbose=verbose) as run:
+        yield from run(name, seed, jobs)
+
+
+#: one task: chunks ``jobs`` of family ``name`` from ``seed`` (``spec``: as :func:`~linkedit.synthesis.chunks.build_chunk`'s) → one result
+#: per chunk (:func:`~linkedit.synthesis.chunks.build_chunks`: the chunks; :func:`linkedit.synthesis.shards.store_chunks`: their shard entries)
+Task = Callable[[str, int, list[tuple[int, int]], "str | None"], list[Any]]
+
+
+class Runner(Protocol):
+    """Runs ``task`` over chunks ``jobs`` of family ``name`` from ``seed``: (index, result) in order of ``jobs``."""
+
+    def __call__(self, name: str, seed: int, jobs: list[tuple[int, int]], task: Task = ...) -> Iterator[tuple[int, Any]]:
+        ...
+
+
+#: Tasks per worker thread submitted ahead of the one read next: the workers always have work queued,
+#: and hold at most this many results per thread that the client has not read (a build streams: the
+#: chunks of a 100-million atlas never sit in memory together, on the client or on the workers).
+IN_FLIGHT = 3
+
+
+@contextlib.contextmanager
+def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
+                 connect_timeout: float = CONNECT_TIMEOUT, verbose: bool = False) -> Iterator[Runner]:
+    """Where chunks are built for the block: in-process, or on Dask (:func:`connected`): a build
+    streams, :data:`IN_FLIGHT` tasks per worker thread submitted ahead of the one read."""
+    if scheduler is None and not workers:
+        def here(name: str, seed: int, jobs: list[tuple[int, int]], task: Task = build_chunks) -> Iterator[tuple[int, Any]]:
+            spec = SPEC_TEXTS.get(name)
+            return ((index, task(name, seed, [(index, size)], spec)[0]) for index, size in jobs)
+
+        yield here
+        return
+    with connected(scheduler, workers, connect_timeout=connect_timeout, verbose=verbose) as (client, nthreads, direct):
+        def run(name: str, seed: int, jobs: list[tuple[int, int]], task: Task = build_chunks
+                ) -> Iterator[tuple[int, Any]]:
+            threads = sum(nthreads.values())
+            runs = dask_tasks(jobs, threads)
+            spec = SPEC_TEXTS.get(name)
+            ahead = IN_FLIGHT * max(threads, 1)
+            futures: deque[Any] = deque()
+            later = iter(runs)
+            for part in runs:
+                for ahead_part in itertools.islice(later, ahead - len(futures)):
+                    futures.append(client.submit(task, name, seed, ahead_part, spec, pure=True))
+                yield from zip([index for index, _ in part], client.gather(futures.popleft(), direct=direct))
+
+        yield run
+
+
+@contextlib.contextmanager
+def connected(scheduler: str | None = None, workers: int | None = None, *, connect_timeout: float = CONNECT_TIMEOUT,
+              verbose: bool = False) -> Iterator[tuple[Any, dict[str, int], bool]]:
+    """A Dask client for the block: of the scheduler at ``scheduler`` (checked by :func:`scheduler_address`
+    and :func:`probe`: a ClusterError when it does not answer within ``connect_timeout`` seconds) or of a
+    local cluster of ``workers`` processes, closed with the block; with its threads per worker and whether
+    results can come straight from the workers. Dask's own log lines stay off the terminal unless ``verbose``."""
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise InputError("the Dask path needs dask.distributed: pip install 'linkedit[cluster]'",
+                         field="--scheduler" if scheduler is not None else "--workers") from None
+    with dask_logs(verbose):
+        address = None
+        if scheduler is not None:
+            address = scheduler_address(scheduler)
+            probe(address, connect_timeout)
+        cluster = None if address is not None else local_cluster(workers or 1, verbose=verbose)
+        try:
+            with Client(address or cluster, timeout=connect_timeout) as client:
+                nthreads = _workers_of(client, connect_timeout)
+                # results come straight from the workers when one of them can be reached (relayed by the
+                # scheduler, they cost twice the CPU); each is released once read
+                first = next(iter(nthreads), None)
+                yield client, nthreads, cluster is not None or (first is not None and reaches(client, first))
+        finally:
+            if cluster is not None:
+                cluster.close()
+
+
+class ClusterError(LinkeditError):
+    """The Dask scheduler cannot be reached, does not answer, or has no workers (exit 1)."""
+
+
+#: Address schemes ``--scheduler`` takes (``inproc://`` lives inside one process; ``ucx://`` needs UCX).
+SCHEMES = ("tcp", "tls")
+
+
+def scheduler_address(text: str) -> str:
+    """``text`` as a Dask scheduler address ``tcp://HOST:PORT`` (``HOST:PORT`` means tcp); InputError
+    (exit 2) for anything else, and for ``tls://`` without Dask's TLS settings."""
+    scheme, sep, rest = text.strip().partition("://")
+    if not sep:
+        scheme, rest = "tcp", text.strip()
+    host, colon, port = rest.rpartition(":")
+    if scheme not in SCHEMES:
+        raise InputError(f"{text!r}: {scheme}:// is not a scheduler address linkedit can reach "
+                         "(tcp://HOST:PORT or tls://HOST:PORT)", field="--scheduler")
+    if not colon or not host.strip("[]") or not port.isdigit() or not 0 < int(port) < 65536 or \
+            any(c.isspace() or c in "/?#@" for c in host):
+        raise InputError(f"{text!r}: expected tcp://HOST:PORT (a port 1..65535), e.g. tcp://10.0.0.5:8786",
+                         field="--scheduler")
+    if scheme == "tls":
+        from distributed.security import Security
+
+        if Security().get_connection_args("client").get("ssl_context") is None:
+            raise InputError(f"{text!r}: tls:// needs Dask's TLS settings (distributed.comm.tls.ca-file, "
+                             "distributed.comm.tls.client.cert and .key in the Dask config or environment)",
+                             field="--scheduler")
+    return f"{scheme}://{host}:{int(port)}"
+
+
+def probe(address: str, timeout: float) -> None:
+    """ClusterError unless a Dask scheduler answers at ``address`` within ``timeout`` seconds in all
+    (Dask's own connect waits forever for a server that accepts and never answers)."""
+    import asyncio
+    import threading
+
+    from distributed.comm import connect
+    from distributed.core import send_recv
+    from distributed.security import Security
+
+    async def ask() -> object:
+        comm = await connect(address, timeout=timeout, **Security().get_connection_args("client"))
+        try:
+            return await send_recv(comm, op="identity")
+        finally:
+            comm.abort()
+
+    outcome: dict[str, object] = {}
+
+    def run() -> None:  # a thread of its own: the caller may run an event loop (a notebook)
+        try:
+            outcome["reply"] = asyncio.run(asyncio.wait_for(ask(), timeout))
+        except BaseException as exc:  # noqa: BLE001 - whatever answered there, reported below
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=run, name="linkedit-dask-probe", daemon=True)
+    thread.start()
+    thread.join(timeout + 5.0)
+    error, reply = outcome.get("error"), outcome.get("reply")
+    if "reply" not in outcome and (error is None or isinstance(error, (asyncio.TimeoutError, TimeoutError))):
+        raise ClusterError(f"--scheduler {address}: no answer within {timeout:g} s (--connect-timeout)")
+    if isinstance(error, OSError):  # refused, unreachable, a TLS handshake that failed
+        reason = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise ClusterError(f"--scheduler {address}: cannot connect ({reason})")
+    # else an answer in another protocol (its first bytes read as a frame length of exabytes), or a worker
+    if error is not None or not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        what = reply.get("type") if isinstance(reply, dict) else None
+        raise ClusterError(f"--scheduler {address}: {f'a Dask {what}' if what else 'what answers'} is not a Dask "
+                           "scheduler")
+
+
+def _workers_of(client, timeout: float) -> dict[str, int]:
+    """Threads per worker of ``client``'s cluster, once there is one (ClusterError after ``timeout`` s)."""
+    nthreads = client.nthreads()
+    if not nthreads:
+        try:
+            client.wait_for_workers(1, timeout=timeout)
+        except Exception:  # a timeout (or the scheduler going away meanwhile)
+            raise ClusterError(f"--scheduler {client.scheduler.address}: no worker joined within {timeout:g} s "
+                               "(start workers with `dask worker ADDRESS`)") from None
+        nthreads = client.nthreads()
+    return nthreads
+
+
+#: loggers whose lines Dask, tornado and asyncio print while a cluster starts, works and stops
+DASK_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+@contextlib.contextmanager
+def dask_logs(verbose: bool) -> Iterator[None]:
+    """Dask's log lines (worker warnings, "Task exception was never retrieved" at an interrupt) off the
+    terminal inside the block unless ``verbose``: linkedit reports what went wrong in one line."""
+    if verbose:
+        yield
+        return
+    loggers = [logging.getLogger(name) for name in DASK_LOGGERS]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels):
+            logger.setLevel(level)
+
+
+def reaches(client, address: str, timeout: float = 2.0) -> bool:
+    """Whether ``client`` connects to the Dask server at ``address`` within ``timeout`` seconds
+    (workers behind a gateway are reachable only through their scheduler)."""
+    from distributed.comm import connect
+
+    async def probe() -> None:
+        comm = await connect(address, timeout=timeout, **client.connection_args)
+        await comm.close()
+
+    try:
+        client.sync(probe)
+    except Exception:  # refused, timed out, or something else answering there: relay through the scheduler
+        return False
+    return True
+
+
+#: glibc malloc settings for Dask workers. Dask's nannies set MALLOC_TRIM_THRESHOLD_=65536,
+#: which also switches off glibc's adaptive mmap threshold: every temporary array above 128 KiB
+#: is then mmapped and page-faulted afresh, and a chunk builds ~2.5× slower than in-process.
+#: Fixed thresholds of 1 GiB keep the temporaries in the heap. Start remote workers with them too
+#: (``MALLOC_TRIM_THRESHOLD_=1073741824 MALLOC_MMAP_THRESHOLD_=1073741824 dask worker …``).
+WORKER_MALLOC = {"MALLOC_TRIM_THRESHOLD_": 1 << 30, "MALLOC_MMAP_THRESHOLD_": 1 << 30}
+#: Dask settings of the local cluster: no statistical profile of the workers (a stack sample every
+#: 10 ms) and the event-loop latency check every second instead of every 20 ms in every server.
+#: Both feed a dashboard nobody watches here; they cost an idle 2-worker cluster ~90 ms of CPU per second
+#: (40 without them), taken from the cores the chunks are built on. Remote workers: the environment
+#: ``DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False DASK_DISTRIBUTED__ADMIN__TICK__INTERVAL=1s``.
+LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s"}
+
+
+def local_cluster(workers: int, verbose: bool = True):
+    """A local Dask cluster of ``workers`` single-threaded processes, with :data:`WORKER_MALLOC`
+    in their environment and :data:`LOCAL_CLUSTER_CONFIG`; its processes print nothing unless ``verbose``.
+    The workers are child processes that end with this one (Dask's nannies watch their parent)."""
+    import dask
+    from dask.distributed import LocalCluster
+
+    environ = {f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_MALLOC.items()}
+    with dask.config.set({**environ, **LOCAL_CLUSTER_CONFIG}), contextlib.nullcontext() if verbose else _no_stderr():
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
+
+
+@contextlib.contextmanager
+def _no_stderr() -> Iterator[None]:
+    """File descriptor 2 on /dev/null inside the block: processes started there (Dask's workers and
+    multiprocessing's resource tracker) print nothing on the terminal, whenever they stop."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(null)
+

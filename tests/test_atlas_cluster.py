@@ -1,0 +1,172 @@
+"""An atlas on a Dask cluster: a build streams (a few tasks ahead of the client, never all of them), and
+`synthesize --atlas FOLDER --scheduler ADDRESS` searches the shards on the workers and finds what the
+in-process search finds."""
+
+from __future__ import annotations
+
+import json
+import re
+import time
+
+import numpy as np
+import pytest
+import yaml
+
+from linkedit.synthesis import atlas, chunks, fourbar, shards
+from linkedit.synthesis import cluster as runner
+from linkedit.synthesis.index import Index, target_variants
+from linkedit.synthesis.shard_search import remote_atlas
+
+SMALL = 1000  # linkages per chunk here (a chunk is a pure function of its index and size)
+
+
+@pytest.fixture
+def folder(run_cli, tmp_path, monkeypatch):
+    """A sharded atlas of 7,500 four-bars in 8 shards (the last partial), built in-process."""
+    for module in (atlas, chunks, shards):
+        monkeypatch.setattr(module, "CHUNK", SMALL)
+    out = tmp_path / "atlas"
+    result = run_cli("atlas", "build", "--family", "four-bar", "-n", "7500", "-o", out, "--seed", "8")
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_a_dask_build_streams(cluster):
+    """When the first chunk comes back, the scheduler knows only the tasks submitted ahead (IN_FLIGHT per
+    worker thread), not all 20 of the build (the old runner submitted every task at once: a 100-million
+    build's chunks piled up on the workers); the chunks are the in-process ones, in order."""
+    jobs = [(k, 10) for k in range(40)]
+    with runner.chunk_runner(cluster.scheduler_address) as run:
+        built = run("four-bar", 3, jobs)
+        first = next(built)
+        time.sleep(0.5)  # whatever the client submitted has reached the scheduler
+        known = len(cluster.scheduler.tasks)
+        rest = list(built)
+    assert len(runner.dask_tasks(jobs, 2)) == 20 and known <= 6 == runner.IN_FLIGHT * 2
+    assert [index for index, _ in [first, *rest]] == list(range(40))
+    for index, chunk in [first, *rest][::13]:
+        np.testing.assert_array_equal(chunk.index, chunks.build_chunk("four-bar", 3, index, 10).index)
+
+
+def _variants(count: int) -> list[np.ndarray]:
+    held = atlas.build_chunk("four-bar", 990, 0, count).params
+    return [target_variants(fourbar.curves(row[None], 300, 0.1 * k)[0]) for k, row in enumerate(held)]
+
+
+@pytest.mark.parametrize("scan_limit", [10**6, 0], ids=["scanned whole", "stored quantizers"])
+def test_the_cluster_search_equals_the_in_process_one(folder, cluster, scan_limit):
+    """The shards searched on 2 workers, the union ranked on the client: the in-process search's hits (rows, and
+    squared distances to the in-process float32 rounding), whether the family is scanned whole or through its shards'
+    quantizers (2 runs of shards, as 2 in-process threads group them); the hits' params are the atlas's."""
+    book = shards.load(folder)
+    local = Index(book, scan_limit=scan_limit, threads=2)
+    with remote_atlas(folder, cluster.scheduler_address, scan_limit=scan_limit) as (remote, index):
+        assert remote.size == book.size == 7500
+        for v in _variants(6):
+            near, far = local.query(v, 40), index.query(v, 40)
+            d_near, d_far = (np.array([h.distance for h in hits]) ** 2 for hits in (near, far))
+            np.testing.assert_allclose(d_far, d_near, rtol=0, atol=1e-6)  # in-process: float32 |x|² − 2 v·x
+            for inner, outer, d in ((far, near, d_far), (near, far, d_near)):  # float32 near-ties may swap rows
+                sure = {h.row for h, dh in zip(inner, d) if dh < d[-1] - 1e-6}
+                assert len(sure) >= 20 and sure <= {h.row for h in outer}
+            rows = [h.row for h in far]
+            np.testing.assert_array_equal(remote.families["four-bar"]["params"][rows],
+                                          book.families["four-bar"]["params"][rows])
+
+
+def test_synthesize_with_a_scheduler_writes_the_in_process_result(run_cli, folder, cluster, tmp_path):
+    """`synthesize --atlas FOLDER --scheduler ADDRESS`: the same linkage (result.yaml) and errors as without
+    --scheduler, the scheduler recorded; an atlas file, a 3D target and --function are refused (exit 2)."""
+    z = 3 - 2j + 25 * np.exp(0.7j) * fourbar.curves(atlas.build_chunk("four-bar", 991, 0, 1).params, 150, 0.2)[0]
+    target = tmp_path / "target.csv"
+    target.write_text("x,y\n" + "\n".join(f"{float(p.real)!r},{float(p.imag)!r}" for p in z) + "\n")
+    here = run_cli("synthesize", target, "--atlas", folder, "-o", tmp_path / "here", "--top", "1")
+    there = run_cli("synthesize", target, "--atlas", folder, "-o", tmp_path / "there", "--top", "1",
+                    "--scheduler", cluster.scheduler_address)
+    assert here.exit_code == 0 and there.exit_code == 0, there.output
+    assert yaml.safe_load((tmp_path / "there" / "result.yaml").read_text()) == \
+        yaml.safe_load((tmp_path / "here" / "result.yaml").read_text())
+    a, b = (json.loads((tmp_path / out / "report.json").read_text()) for out in ("here", "there"))
+    assert b["error"] == a["error"] and b["options"]["scheduler"] == cluster.scheduler_address
+    assert [c["atlas_row"] for c in b["candidates"]] == [c["atlas_row"] for c in a["candidates"]]
+    file = tmp_path / "file.h5"
+    assert run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", file).exit_code == 0
+    refused = run_cli("synthesize", target, "--atlas", file, "-o", tmp_path / "no", "--scheduler",
+                      cluster.scheduler_address)
+    assert refused.exit_code == 2 and "sharded atlas" in refused.output
+    spatial = tmp_path / "t3.csv"
+    spatial.write_text("x,y,z\n" + "\n".join(f"{np.cos(t)},{np.sin(t)},{0.1 * np.sin(2 * t)}"
+                                             for t in np.linspace(0, 2 * np.pi, 60, endpoint=False)) + "\n")
+    refused = run_cli("synthesize", spatial, "--atlas", folder, "-o", tmp_path / "no", "--scheduler",
+                      cluster.scheduler_address)
+    assert refused.exit_code == 2 and "--scheduler" in refused.output
+
+
+@pytest.mark.parametrize("out", ["atlas", "atlas.h5"])
+def test_a_100_million_build_that_does_not_fit_is_refused_up_front(run_cli, tmp_path, monkeypatch, out):
+    """`atlas build -n 100000000` on a disk of 10 GiB free (shards: 172 B, a file: 428 B per four-bar) or in
+    64 MiB of memory (a build holds one chunk's working arrays, 256 MiB allowed, and 1 KiB per chunk): exit 2
+    naming the bytes, nothing written; -n 10**12 into a folder was a MemoryError traceback (its 10⁸ chunks were
+    planned before the disk was checked)."""
+    from linkedit import resources
+
+    target = tmp_path / out
+    per = shards.shard_bytes("four-bar") if out == "atlas" else atlas.stored_bytes("four-bar")
+    monkeypatch.setattr(resources, "available_disk", lambda path: 10 * 2**30)
+    line = run_cli("atlas", "build", "--family", "four-bar", "-n", 10**8, "-o", target).output.strip()
+    assert line == (f"linkedit: error: --count: 100,000,000 linkages would need about {10**8 * per / 2**30:,.1f} GiB of "
+                    f"disk at {target / shards.MANIFEST if out == 'atlas' else target}; 10.0 GiB are free")
+    monkeypatch.setattr(resources, "available_disk", lambda path: 2**50)
+    monkeypatch.setattr(resources, "available_memory", lambda: 64 * 2**20)
+    result = run_cli("atlas", "build", "--family", "four-bar", "-n", 10**8, "-o", target)
+    need = (chunks.CHUNK_MEMORY + 10**4 * chunks.PLAN_MEMORY) / 2**20
+    assert result.exit_code == 2 and result.output.strip() == (
+        f"linkedit: error: --count: 100,000,000 linkages would need about {need:,.0f} MiB of memory; 64 MiB are "
+        "available")
+    monkeypatch.undo()
+    huge = run_cli("atlas", "build", "--family", "four-bar", "-n", 10**12, "-o", target)
+    assert huge.exit_code == 2 and "GiB of disk" in huge.output
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.slow  # a minute on 2 loaded cores (a build and 3 × 50 queries)
+def test_the_bench_times_a_query_over_a_large_sharded_atlas(cluster, monkeypatch):
+    """`bench -s synthesis --large N` (here its section on 20 shards of 1,000, on the 2-worker cluster): bytes per
+    linkage on disk, the query at the first 5 shards and at N, in threads and on the cluster, the recall of the
+    exact top 10, the extrapolation to 100M through both figures."""
+    from linkedit.synthesis import bench_scale
+
+    for module in (atlas, chunks, shards, bench_scale):
+        monkeypatch.setattr(module, "CHUNK", SMALL)
+    monkeypatch.setattr(bench_scale, "SMALL", 5 * SMALL)
+    lines: list[str] = []
+    bench_scale.run(lines.append, 20 * SMALL, scheduler=cluster.scheduler_address)
+    text = "\n".join(lines)
+    assert re.search(r"sharded atlas of 20,000 four-bars .* 1\d\d bytes per linkage on disk \(1\d\d stored", text), text
+    recall = float(re.search(r"recall of the exact top 10 (\d\.\d+)", text).group(1))
+    assert recall >= 0.9 and re.search(r"\d+ ms at 5,000, \d+ ms at 20,000", text), text
+    assert re.search(r"on the cluster at 20,000: \d+ ms median \(2 workers", text), text
+    assert "extrapolated to 100,000,000: " in text and "the line through the 5,000 and 20,000 figures" in text
+
+
+def test_bench_large_applies_to_the_synthesis_section(run_cli):
+    refused = run_cli("bench", "-s", "planar", "--large", "5")
+    assert refused.exit_code == 2
+    assert refused.output.strip() == "linkedit: error: --large: applies to the synthesis section (-s synthesis)"
+
+
+@pytest.mark.slow  # 15 s on 2 loaded cores (the float64 brute force)
+def test_the_exact_ranking_is_exact_for_near_neighbours():
+    """Held-out targets lie ~1e-7 (squared) from their nearest of 100,000 four-bars, float32's rounding of
+    |x|² − 2 v·x: nearest_rows ranked in float32 swapped the exact top 10's rows out (its float32 ranks reached 73); its top 10
+    is the float64 brute force's |x − v|²."""
+    from linkedit.synthesis.index import nearest_rows
+
+    vectors = np.concatenate([chunks.build_chunk("four-bar", 1, i).index for i in range(10)])
+    columns, norms = np.ascontiguousarray(vectors.T), np.einsum("kd,kd->k", vectors, vectors)
+    wide = vectors.astype(np.float64)
+    for k, row in enumerate(chunks.build_chunk("four-bar", 988, 0, 30).params):
+        v = target_variants(fourbar.curves(row[None], 300, 0.1 * k)[0])
+        exact = ((wide[:, None, :] - v.astype(np.float64)[None]) ** 2).sum(axis=2).min(axis=1)
+        rows, _ = nearest_rows(v, columns, norms, 10)
+        assert sorted(rows.tolist()) == sorted(np.argsort(exact)[:10].tolist()), k
