@@ -36,12 +36,17 @@ def test_rest_tangent_of_every_new_rule_matches_central_differences(build):
     assert steps
     rng = np.random.default_rng(7)
     size = np.abs(graph.rest).max()
-    drest = size * (rng.normal(size=graph.n_joints) + 1j * rng.normal(size=graph.n_joints))
+    drest = size * (rng.normal(size=(graph.n_joints, 3)) + 1j * rng.normal(size=(graph.n_joints, 3)))  # 3 directions at once
     h = 1e-7
     samples = 24
     z = complex_positions(spec, samples)
-    dz = (complex_positions(moved(spec, drest, h), samples) - complex_positions(moved(spec, drest, -h), samples)) / (2 * h)
+    dz = np.stack([(complex_positions(moved(spec, d, h), samples) - complex_positions(moved(spec, d, -h), samples)) / (2 * h)
+                   for d in drest.T], axis=1)  # (J, C, T)
     for step in steps:
         got = step.rest_tangent(graph, z, dz, drest)
-        want = dz[step.joints]
-        assert np.abs(got - want).max() <= 1e-5 * np.abs(want).max(), (step.kind, step.name)
+        for c in range(drest.shape[1]):
+            want = dz[step.joints, c]
+            assert np.abs(got[:, c] - want).max() <= 1e-5 * np.abs(want).max(), (step.kind, step.name, c)
+            # all directions at once give each one's tangent as along it alone, bit for bit (edit's steps)
+            alone = step.rest_tangent(graph, z, dz[:, c:c + 1], drest[:, c:c + 1])
+            assert np.array_equal(got[:, c:c + 1], alone), (step.kind, step.name, c)

@@ -5,8 +5,8 @@ come from the rest pose, so they are compiled again at every evaluation with the
 engine's own :func:`~linkedit.planar.rules.compile_steps`, in the plan's normalized frame
 (origin and unit of the *original* plan: constants, so a tangent only scales by 1/unit).
 Positions come from the engine's rules (:meth:`~linkedit.planar.rules.Step.at_rest`); tangents
-along each rest-pose direction from the implicit function theorem (:meth:`~linkedit.planar.rules.Step.rest_tangent`: one batched solve per
-direction); the guarded kinds (a slider, a joint in two slots, a turning slotted link) give the
+along every rest-pose direction at once from the implicit function theorem (:meth:`~linkedit.planar.rules.Step.rest_tangent`:
+the rows' derivatives built once for all directions, one Jacobian, one batched solve); the guarded kinds (a slider, a joint in two slots, a turning slotted link) give the
 tangent of ln d_s too (:meth:`~linkedit.planar.rules.Step.dlnds`), for the barrier. A numeric group has no barrier: the predicate
 keeps it solvable and on its rest branch (sign of its Jacobian's determinant).
 """

@@ -15,7 +15,9 @@ E·conj(dc_rn) + D·conj(ec_rn) (Re) or i·(D·conj(ec_rn) − E·conj(dc_rn)) (
 directional derivative along v is 2·part(conj(dc @ v)·(ec @ v)).
 
 Rows of K linkages of one topology (:func:`linkage_rows` at K rest poses) carry a linkage axis
-on every coefficient (``dc`` (m, J, K), ``d0`` (m, K), …) and act on positions (J, K, T).
+on every coefficient (``dc`` (m, J, K), ``d0`` (m, K), …) and act on positions (J, K, T). The
+rows' derivatives along C rest-pose directions (:func:`linkage_rows_tangent`) carry a direction
+axis the same way (``dc`` (m, J, C)) and act on one linkage's positions (J, T): terms (m, C, T).
 """
 
 from __future__ import annotations
@@ -62,7 +64,11 @@ class Rows:
 
     @staticmethod
     def _times(c: np.ndarray, z: np.ndarray) -> np.ndarray:
-        """Σ_j c[:, j]·z[j]: (m, *L, T) from coefficients ``c`` (m, J, *L) and ``z`` (J, *L, T)."""
+        """Σ_j c[:, j]·z[j]: (m, *L, T) from coefficients ``c`` (m, J, *L) and ``z`` (J, *L, T), or
+        (m, C, T) from C directions' ``c`` (m, J, C) and one linkage's ``z`` (J, T) (a matrix
+        product per direction: the bits of each direction alone)."""
+        if z.ndim == 2 and c.ndim == 3:
+            return np.moveaxis(np.ascontiguousarray(np.moveaxis(c, 2, 0)) @ z, 0, 1)
         if z.ndim == 2:
             return c @ z
         if c.ndim == 2:
@@ -71,17 +77,25 @@ class Rows:
 
     def terms(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """D and E, (m, *L, T) complex, at joint positions ``z`` (J, *L, T)."""
-        return self._times(self.dc, z) + _col(self.d0, z.ndim), self._times(self.ec, z) + _col(self.e0, z.ndim)
+        d, e = self._times(self.dc, z), self._times(self.ec, z)
+        return d + _col(self.d0, d.ndim), e + _col(self.e0, e.ndim)
 
     def residual(self, z: np.ndarray, s: np.ndarray | float = 0.0) -> np.ndarray:
         """F (m, *L, T) at joint positions ``z`` (J, *L, T) and input displacement ``s`` (*L, T)."""
         d, e = self.terms(z)
         return self._part(np.conj(d) * e) - _col(self.rhs, z.ndim) - _col(self.drive, z.ndim) * s
 
-    def first(self, z: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Directional derivative dF[v] (m, *L, T) at ``z`` along joint velocities ``v`` (J, *L, T)."""
+    def first(self, z: np.ndarray, v: np.ndarray, along: bool = False) -> np.ndarray:
+        """Directional derivative dF[v] (m, *L, T) at ``z`` along joint velocities ``v`` (J, *L, T);
+        with ``along``, along each of C directions' ``v`` (C, J, T) at one linkage's ``z`` (J, T):
+        (m, C, T) (a matrix product per direction)."""
         d, e = self.terms(z)
-        return self._part(np.conj(self._times(self.dc, v)) * e + np.conj(d) * self._times(self.ec, v))
+        if along:
+            dv, ev = (np.moveaxis(c @ v, 0, 1) for c in (self.dc, self.ec))
+            d, e = d[:, None], e[:, None]
+        else:
+            dv, ev = self._times(self.dc, v), self._times(self.ec, v)
+        return self._part(np.conj(dv) * e + np.conj(d) * ev)
 
     def second(self, v: np.ndarray) -> np.ndarray:
         """Second directional derivative d²F[v, v] (m, *L, T) (constant in z: the rows are bilinear)."""
@@ -227,39 +241,48 @@ def linkage_rows(graph: LinkageGraph, with_drive: bool = True, rest: np.ndarray 
     return builder.build()
 
 
+def _product(a: Coef, b: np.ndarray) -> np.ndarray:
+    """a·b (C,) complex as a complex scalar times each b_c (no fused multiply-add): a tangent along
+    C directions at once has the bits of each direction's alone."""
+    out = np.empty(b.shape, dtype=complex)
+    out.real = a.real * b.real - a.imag * b.imag
+    out.imag = a.real * b.imag + a.imag * b.real
+    return out
+
+
 def _on_guide_tangent(graph: LinkageGraph, guide: int, z: np.ndarray, dz: np.ndarray, point: complex,
-                      dpoint: complex, direction: complex):
-    """Derivative of :func:`_on_guide`'s coefficients along the rest-pose tangent ``dz``."""
+                      dpoint: np.ndarray, direction: complex):
+    """Derivative of :func:`_on_guide`'s coefficients along the rest-pose tangents ``dz`` (J, C)."""
     a, b, m = _frame(graph, guide, z)
     if a < 0:
         return {}, 0j, {}, -dpoint
-    dm = complex(dz[b] - dz[a])
+    dm = dz[b] - dz[a]
     c = (point - z[a]) / m
-    dc = ((dpoint - dz[a]) - c * dm) / m
-    dalpha = -direction / m * dm / m
+    dc = ((dpoint - dz[a]) - _product(c, dm)) / m
+    dalpha = _product(-direction / m, dm) / m
     return {b: dalpha, a: -dalpha}, 0j, {a: dc, b: -dc}, 0j
 
 
 def linkage_rows_tangent(graph: LinkageGraph, drest: np.ndarray, with_drive: bool = True) -> Rows:
-    """d/dε of every coefficient of :func:`linkage_rows` when the rest pose moves along ``drest``
-    (J,) complex; row for row (``rhs`` holds d rhs/dε). With F = part(conj(D)·E) − rhs, the
-    rows' derivative at fixed joint positions z is part(conj(D′)·E + conj(D)·E′) − rhs′
-    (:func:`rows_rest_derivative`)."""
+    """d/dε of every coefficient of :func:`linkage_rows` when the rest pose moves along each of the
+    C directions ``drest`` (J, C) complex: rows with a direction axis (``dc`` (m, J, C), …), row
+    for row (``rhs`` holds d rhs/dε). With F = part(conj(D)·E) − rhs, the rows' derivative at
+    fixed joint positions z is part(conj(D′)·E + conj(D)·E′) − rhs′ (:func:`rows_rest_derivative`)."""
     z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
     dz = np.asarray(drest, dtype=complex)
-    builder = _Builder(graph.n_joints)
+    builder = _Builder(graph.n_joints, dz.shape[1:])
     for li, link in enumerate(graph.links):
         if graph.fixed(li):
             continue
         name = graph.link_names[li]
         i, j = graph.frame_pair(li)
         d = complex(z[i] - z[j])
-        builder.add(False, {}, 0j, {}, 0j, f"link {name}", rhs=2.0 * (np.conj(d) * (dz[i] - dz[j])).real)
+        builder.add(False, {}, 0j, {}, 0j, f"link {name}", rhs=2.0 * _product(d.conjugate(), dz[i] - dz[j]).real)
         for k in link:
             if k in (i, j):
                 continue
             c = (z[k] - z[i]) / (z[j] - z[i])
-            dc = ((dz[k] - dz[i]) - c * (dz[j] - dz[i])) / (z[j] - z[i])
+            dc = ((dz[k] - dz[i]) - _product(c, dz[j] - dz[i])) / (z[j] - z[i])
             e = {i: dc, j: -dc}
             builder.add(False, {}, 0j, e, 0j, f"link {name}")
             builder.add(True, {}, 0j, e, 0j, f"link {name}")
@@ -267,25 +290,26 @@ def linkage_rows_tangent(graph: LinkageGraph, drest: np.ndarray, with_drive: boo
         label = f"slider {s.name}"
         u = np.exp(1j * s.angle)
         if s.joint >= 0:
-            d, d0, e, e0 = _on_guide_tangent(graph, s.guide, z, dz, complex(z[s.joint]), complex(dz[s.joint]), u)
+            d, d0, e, e0 = _on_guide_tangent(graph, s.guide, z, dz, complex(z[s.joint]), dz[s.joint], u)
             builder.add(True, d, d0, e, e0, label)
             if with_drive and n == graph.drive:
                 builder.add(False, d, d0, e, e0, f"linear input {s.name}")
             continue
         i, j = graph.frame_pair(s.link)
         a, b, m = _frame(graph, s.guide, z)
-        lij, dlij = complex(z[j] - z[i]), complex(dz[j] - dz[i])
+        lij = complex(z[j] - z[i])
+        turn = np.array([complex(v) / lij / lij for v in dz[j] - dz[i]])  # Python's complex quotient, as always
         rot = {b: -(dz[b] - dz[a]) / m / m, a: (dz[b] - dz[a]) / m / m} if a >= 0 else {}
-        builder.add(True, rot, 0j, {j: -dlij / lij / lij, i: dlij / lij / lij}, 0j, label)
-        d, d0, e, e0 = _on_guide_tangent(graph, s.guide, z, dz, complex(z[i]), complex(dz[i]), u)
+        builder.add(True, rot, 0j, {j: -turn, i: turn}, 0j, label)
+        d, d0, e, e0 = _on_guide_tangent(graph, s.guide, z, dz, complex(z[i]), dz[i], u)
         builder.add(True, d, d0, e, e0, label)
     return builder.build()
 
 
 def rows_rest_derivative(rows: Rows, tangent: Rows, z: np.ndarray) -> np.ndarray:
-    """∂F/∂(rest pose)·ṙ (m, T) at joint positions ``z`` (J, T): ``tangent`` from
-    :func:`linkage_rows_tangent` (aligned with ``rows``)."""
+    """∂F/∂(rest pose)·ṙ (m, C, T) along C directions at joint positions ``z`` (J, T): ``tangent``
+    from :func:`linkage_rows_tangent` (aligned with ``rows``)."""
     d, e = rows.terms(z)
     dd, de = tangent.terms(z)
-    w = np.conj(dd) * e + np.conj(d) * de
-    return rows._part(w) - _col(tangent.rhs, z.ndim)
+    w = np.conj(dd) * e[:, None] + np.conj(d)[:, None] * de
+    return rows._part(w) - _col(tangent.rhs, w.ndim)

@@ -110,6 +110,15 @@ class RestFrame:
     steps: dict[int, "Step"]
     #: rigid rules: coefficients of tracked points kept in their link's frame, by ``id`` of the rule
     fixed: dict[int, np.ndarray]
+    #: the linkage's rows' derivatives along ``D`` (:meth:`tangent`), built once for all steps
+    tangents: Rows | None = None
+
+    def tangent(self) -> Rows:
+        """:func:`~linkedit.planar.constraints.linkage_rows_tangent` at ``graph`` along ``D`` (steps only)."""
+        if self.tangents is None:
+            assert self.graph is not None
+            self.tangents = linkage_rows_tangent(self.graph, self.D)
+        return self.tangents
 
 
 class Rule:
@@ -265,8 +274,8 @@ class Step(Rule):
                 f.ddz[out_rows] = self.acceleration(zj, dzj, f.ddz[f.joints], own)
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
-        """Place its joints by the step compiled at ``f.rest``; tangents by :meth:`rest_tangent`
-        (one batched solve per direction), ∂ln d_s by :meth:`dlnds` when guarded."""
+        """Place its joints by the step compiled at ``f.rest``; tangents along every direction at
+        once by :meth:`rest_tangent`, ∂ln d_s by :meth:`dlnds` when guarded."""
         new = f.steps[id(self)]
         zj = f.z[f.joints]
         out, f.ds[rows] = new.place(zj, f.s, f.rest, new.constants(f.rest[:, None], False))
@@ -274,10 +283,9 @@ class Step(Rule):
         if f.dz is None or f.graph is None:
             return
         dzj = f.dz[f.joints]
-        tangent = np.stack([new.rest_tangent(f.graph, zj, dzj[:, c], f.D[:, c]) for c in range(f.D.shape[1])], axis=1)
-        f.dz[f.joints[self.joints]] = dzj[self.joints] = tangent
+        f.dz[f.joints[self.joints]] = dzj[self.joints] = new.rest_tangent(f.graph, zj, dzj, f.D, f.tangent())
         if self.guarded and f.dlnds is not None:
-            f.dlnds[rows] = new.dlnds(f.graph, zj, dzj, f.D)
+            f.dlnds[rows] = new.dlnds(f.graph, zj, dzj, f.D, f.tangent())
 
     def needs(self) -> np.ndarray:
         """Joints (indices) whose rest positions its constants depend on."""
@@ -347,13 +355,15 @@ class Step(Rule):
         (``linkage_rows(graph, rest=rest)``), ``rest`` (J, K) complex joints."""
         return all_rows.take(self.source[self.source >= 0])
 
-    def rows_tangent(self, graph: LinkageGraph, drest: np.ndarray) -> Rows:
-        """d/dε of the step's rows when the rest pose moves along ``drest`` (J,) complex."""
-        return linkage_rows_tangent(graph, drest).take(self.source[self.source >= 0])
+    def rows_tangent(self, graph: LinkageGraph, drest: np.ndarray, tangent: Rows) -> Rows:
+        """d/dε of the step's rows (direction axis (C,)) when the rest pose moves along each of
+        ``drest`` (J, C) complex; ``tangent``: the linkage's rows' (``linkage_rows_tangent(graph, drest)``)."""
+        return tangent.take(self.source[self.source >= 0])
 
-    def dlnds(self, graph: LinkageGraph, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray) -> np.ndarray:
+    def dlnds(self, graph: LinkageGraph, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray,
+              tangent: Rows) -> np.ndarray:
         """∂ln d_s (C, T) along the rest-pose directions ``drest`` (J, C) (``dzj`` (J, C, T) with the
-        step's joints filled in); only for :attr:`guarded` kinds."""
+        step's joints filled in; ``tangent`` as in :meth:`rows_tangent`); only for :attr:`guarded` kinds."""
         raise TypeError(f"a {self.kind} step has no singularity barrier")
 
     def velocity(self, z: np.ndarray, dz: np.ndarray, ds: float, rows: Rows | None = None) -> np.ndarray:
@@ -375,19 +385,25 @@ class Step(Rule):
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             return to_complex(solve(rows.jacobian(z, self.joints), rhs))
 
-    def rest_tangent(self, graph: LinkageGraph, z: np.ndarray, dz: np.ndarray, drest: np.ndarray) -> np.ndarray:
-        """Tangent (n, T) of the step's joints when the rest pose moves along ``drest`` (J,) complex.
+    def rest_tangent(self, graph: LinkageGraph, z: np.ndarray, dz: np.ndarray, drest: np.ndarray,
+                     tangent: Rows | None = None) -> np.ndarray:
+        """Tangents (n, C, T) of the step's joints when the rest pose moves along each of the C
+        directions ``drest`` (J, C) complex.
 
-        ``z`` (J, T): joint positions (the step's own filled in); ``dz`` (J, T): the tangents of the
-        joints known before the step (its own rows ignored). By the implicit function theorem,
-        J_S·ż_S = −dF[ż_K] − ∂F/∂r̄·ṙ: one batched solve; for the closed-form rules this is the
-        exact derivative of their formulas, for a numeric group the derivative of its solution.
+        ``z`` (J, T): joint positions (the step's own filled in); ``dz`` (J, C, T): the tangents of
+        the joints known before the step (its own rows ignored); ``tangent``: the linkage's rows'
+        along ``drest`` when already built (:func:`~linkedit.planar.constraints.linkage_rows_tangent`).
+        By the implicit function theorem, J_S·ż_S = −dF[ż_K] − ∂F/∂r̄·ṙ: the rows' derivatives
+        built once for all directions, the Jacobian once, one batched solve (each direction's
+        tangent the same, bit for bit, as along it alone); for the closed-form rules this is
+        the exact derivative of their formulas, for a numeric group the derivative of its solution.
         Everything in the frame ``graph`` is given in (the plan's normalized frame for its steps).
         """
         rows = self.rows
-        known = dz.copy()
-        known[self.joints] = 0.0
-        rhs = -rows.first(z, known) - rows_rest_derivative(rows, self.rows_tangent(graph, drest), z)
+        tangent = linkage_rows_tangent(graph, drest) if tangent is None else tangent
+        known = np.moveaxis(dz, 1, 0).copy()  # (C, J, T): a matrix product per direction
+        known[:, self.joints] = 0.0
+        rhs = -rows.first(z, known, along=True) - rows_rest_derivative(rows, self.rows_tangent(graph, drest, tangent), z)
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             return to_complex(solve(rows.jacobian(z, self.joints), rhs))
 
@@ -452,7 +468,10 @@ def concat(a: Rows, b: Rows) -> Rows:
 
 
 def solve(jac: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Batched least-squares solve: jac (*L, T, m, k), rhs (m, *L, T) → (k, *L, T)."""
+    """Batched least-squares solve: jac (*L, T, m, k), rhs (m, *L, T) → (k, *L, T); or C
+    right-hand sides rhs (m, C, T) of one jac (T, m, k) → (k, C, T), jac broadcast over them:
+    each solved bit for bit as alone (one factorization with C right-hand sides changes the last
+    bits, and with them ``edit``'s iteration counts)."""
     b = np.moveaxis(rhs, 0, -1)[..., None]
     if jac.shape[-2] == jac.shape[-1]:
         return np.moveaxis(np.linalg.solve(jac, b)[..., 0], -1, 0)

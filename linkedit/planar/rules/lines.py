@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from linkedit.planar.constraints import Rows, linkage_rows_tangent
+from linkedit.planar.constraints import Rows
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
 from linkedit.planar.rules.base import Slot, Step, labelled
@@ -61,15 +61,15 @@ class Lines(Step):
         return (f"sliders {self.name}: the two slots of joint {names[self.joints[0]]} are parallel (d_s = 0): "
                 "they do not cross at one point")
 
-    def dlnds(self, graph: LinkageGraph, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray) -> np.ndarray:
+    def dlnds(self, graph: LinkageGraph, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray,
+              tangent: Rows) -> np.ndarray:
         """d_s = Im(D̄₂D₁)² / (|D₁|²|D₂|²), D_r = dc_r·z + d0_r of its two slot rows."""
         rows = self.rows
         d = [rows.dc[r] @ zj + rows.d0[r] for r in (0, 1)]
         dd = [np.einsum("j,jct->ct", rows.dc[r], dzj) for r in (0, 1)]
-        for c in range(drest.shape[1]):
-            slots = linkage_rows_tangent(graph, drest[:, c]).take(self.source)
-            for r in (0, 1):
-                dd[r][c] += slots.dc[r] @ zj + slots.d0[r]
+        slots, _ = tangent.take(self.source).terms(zj)
+        for r in (0, 1):
+            dd[r] += slots[r]
         cross = (np.conj(d[1]) * d[0]).imag
         dcross = (np.conj(dd[1]) * d[0] + np.conj(d[1]) * dd[0]).imag
         return 2.0 * dcross / cross - sum(2.0 * (np.conj(d[r]) * dd[r]).real / np.abs(d[r]) ** 2 for r in (0, 1))

@@ -75,7 +75,8 @@ class Rotate(Step):
                     "of the rest pose's")
         return None
 
-    def dlnds(self, graph: LinkageGraph, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray) -> np.ndarray:
+    def dlnds(self, graph: LinkageGraph, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray,
+              tangent: Rows) -> np.ndarray:
         """d_s = 1 − h²/|w|², w = z_pin − z_i, h = Im(ū·(r̄_pin − r̄_i)) (the slot's offset from i)."""
         w, dw = zj[self.pin] - zj[self.i], dzj[self.pin] - dzj[self.i]
         h = self.h

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from linkedit.errors import MechanismError
-from linkedit.planar.constraints import Rows, _Builder, linkage_rows_tangent
+from linkedit.planar.constraints import Rows, _Builder, _product
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
 from linkedit.planar.rules.base import Slot, Step, concat, keep, labelled
@@ -93,25 +93,24 @@ class Slider(Step):
         rod = _rod(rest.shape[0], k, i, self.rows.labels[-1], np.abs(rest[k] - rest[i]) ** 2)
         return concat(super().rows_at(all_rows, rest), rod)
 
-    def rows_tangent(self, graph: LinkageGraph, drest: np.ndarray) -> Rows:
+    def rows_tangent(self, graph: LinkageGraph, drest: np.ndarray, tangent: Rows) -> Rows:
         """The slot row's tangent, then the rod's: d/dε of its squared length."""
         z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
         k, i = int(self.joints[0]), self.i
-        b = _Builder(graph.n_joints)
-        b.add(False, {}, 0j, {}, 0j, "rod", rhs=2.0 * float((np.conj(z[k] - z[i]) * (drest[k] - drest[i])).real))
-        return concat(super().rows_tangent(graph, drest), b.build())
+        b = _Builder(graph.n_joints, drest.shape[1:])
+        b.add(False, {}, 0j, {}, 0j, "rod", rhs=2.0 * _product(np.conj(z[k] - z[i]), drest[k] - drest[i]).real)
+        return concat(super().rows_tangent(graph, drest, tangent), b.build())
 
-    def dlnds(self, graph: LinkageGraph, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray) -> np.ndarray:
+    def dlnds(self, graph: LinkageGraph, zj: np.ndarray, dzj: np.ndarray, drest: np.ndarray,
+              tangent: Rows) -> np.ndarray:
         """d_s = Re(D̄w)² / (|D|²|w|²), w = z_k − z_i, D = dc·z + d0 (0: the rod perpendicular to the slot)."""
         k, i = self.joints[0], self.i
         rows, source = self.rows, self.source
         d = rows.dc[0] @ zj + rows.d0[0]
         w, dw = zj[k] - zj[i], dzj[k] - dzj[i]
         dd = np.einsum("j,jct->ct", rows.dc[0], dzj)
-        for c in range(drest.shape[1]):
-            if source[0] >= 0:
-                slot = linkage_rows_tangent(graph, drest[:, c]).take(np.array([source[0]]))
-                dd[c] += slot.dc[0] @ zj + slot.d0[0]
+        if source[0] >= 0:
+            dd += tangent.take(np.array([source[0]])).terms(zj)[0][0]
         a = (np.conj(d) * w).real
         da = (np.conj(dd) * w + np.conj(d) * dw).real
         return 2.0 * da / a - 2.0 * (np.conj(d) * dd).real / np.abs(d) ** 2 - 2.0 * (np.conj(w) * dw).real / np.abs(w) ** 2
