@@ -10,6 +10,8 @@ import pytest
 import yaml
 
 from linkedit.planar import catalog
+from linkedit.planar.catalog.four_bars import CRANK_ROCKER
+from linkedit.planar.catalog.legs import HOLY, KLANN
 from linkedit.planar.graph import LinkageGraph, mobility
 from linkedit.planar.ordering import order_joints
 from linkedit.spec.linkage import JointTrack, LinkageSpec
@@ -44,9 +46,9 @@ JANSEN_PAIRS = {("O", "A"): "m", ("A", "C"): "j", ("A", "D"): "k", ("B", "C"): "
 def test_jansen_lengths_are_the_holy_numbers():
     spec = catalog.jansen_leg()
     for (a, b), letter in JANSEN_PAIRS.items():
-        assert dist(spec, a, b) == pytest.approx(catalog.HOLY[letter], abs=1e-12), (a, b)
+        assert dist(spec, a, b) == pytest.approx(HOLY[letter], abs=1e-12), (a, b)
     assert spec.joints["O"] == (0.0, 0.0)
-    assert spec.joints["B"] == (-catalog.HOLY["a"], -catalog.HOLY["l"])
+    assert spec.joints["B"] == (-HOLY["a"], -HOLY["l"])
 
 
 def test_jansen_rest_pose_is_the_issues():
@@ -84,7 +86,7 @@ def test_strandbeest_legs_are_jansen_legs_and_their_mirror_images(pairs):
                 return {"O": "O", "A": f"A_{p}", "B": f"B_{side}"}.get(j, f"{j}_{p}_{side}")
 
             for (a, b), letter in JANSEN_PAIRS.items():
-                assert dist(spec, name(a), name(b)) == pytest.approx(catalog.HOLY[letter], abs=1e-12)
+                assert dist(spec, name(a), name(b)) == pytest.approx(HOLY[letter], abs=1e-12)
             for tri in (("A", "B", "C"), ("A", "B", "D"), ("B", "C", "E"), ("E", "D", "F"), ("D", "F", "G")):
                 assert np.sign(cross(spec, *map(name, tri))) == mirror * np.sign(cross(jansen, *tri)), (p, side, tri)
             members = {tuple(m) for n, m in spec.links.items() if n.endswith(f"_{p}_{side}")}
@@ -97,7 +99,7 @@ def test_strandbeest_needs_a_pair():
 
 
 def test_klann_lengths():
-    spec, k = catalog.klann_leg(), catalog.KLANN
+    spec, k = catalog.klann_leg(), KLANN
     assert dist(spec, "A", "C") == pytest.approx(k["crank"], abs=1e-12)
     for pair in ("BH", "CF", "CH", "DE", "EF", "EG", "FG", "FH"):
         assert dist(spec, pair[0], pair[1]) == pytest.approx(k[pair], abs=1e-12), pair
@@ -123,7 +125,7 @@ def test_crank_rocker_is_grashof_with_the_crank_shortest():
     spec = catalog.crank_rocker()
     lengths = {"crank": dist(spec, "O", "A"), "coupler": dist(spec, "A", "B"), "rocker": dist(spec, "D", "B"),
                "ground": dist(spec, "O", "D")}
-    assert lengths == pytest.approx(catalog.CRANK_ROCKER, abs=1e-12)
+    assert lengths == pytest.approx(CRANK_ROCKER, abs=1e-12)
     assert grashof(lengths) == (True, True)
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from linkedit.edit.feasibility import failure
-from linkedit.edit.objectives import build_problem
+from linkedit.edit.operation import build_problem
 from linkedit.edit.runner import with_rest_pose
 from linkedit.edit.variables import parametrize
 from linkedit.planar import catalog, compile_plan

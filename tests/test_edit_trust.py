@@ -425,7 +425,7 @@ def test_the_same_edit_in_metres_gives_the_same_linkage_scaled(run_cli, tmp_path
 
 
 def test_frame_pivot_distances_are_regularized():
-    from linkedit.edit.objectives import regularized_pairs
+    from linkedit.edit.operation import regularized_pairs
 
     plan = compile_plan(catalog.jansen_leg())
     names = plan.joint_names

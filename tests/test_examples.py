@@ -9,6 +9,8 @@ import pytest
 
 from linkedit.errors import MechanismError
 from linkedit.planar import Motion, catalog, compile_plan, simulate
+from linkedit.planar.catalog.four_bars import HOEKENS_STRAIGHT
+from linkedit.planar.catalog.legs import KLANN
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.yamlload import load_model
 from tests.conftest import EXAMPLES
@@ -93,7 +95,7 @@ def test_jansen_poses_at_0_and_90_degrees():
 def test_hoekens_tracer_is_straight_over_the_half_cycle_from_90_to_270_degrees():
     m = cycle("hoekens.yaml")
     tracer = m.tracks["tracer"].position
-    lo, hi = catalog.HOEKENS_STRAIGHT
+    lo, hi = HOEKENS_STRAIGHT
     straight = (m.t >= lo) & (m.t <= hi)
     assert straight.sum() == 181
     # the best-fit line through the straight half, and the distances from it
@@ -132,8 +134,8 @@ def test_klann_foot_walks_a_flat_stride():
     foot = cycle("klann.yaml").tracks["foot"].position
     low = foot[:, 1] < foot[:, 1].min() + 5.0  # within 5 mm of the lowest point
     stride = np.ptp(foot[low, 0])
-    assert stride > 3.5 * catalog.KLANN["crank"]  # a long flat stride, about 4 crank lengths
-    assert np.ptp(foot[:, 1]) > 1.5 * catalog.KLANN["crank"]  # the foot lifts on the way back
+    assert stride > 3.5 * KLANN["crank"]  # a long flat stride, about 4 crank lengths
+    assert np.ptp(foot[:, 1]) > 1.5 * KLANN["crank"]  # the foot lifts on the way back
 
 
 @pytest.mark.parametrize("file", ["crank-rocker.yaml", "watt-six-bar.yaml", "stephenson-six-bar.yaml",

@@ -246,7 +246,7 @@ def test_features_on_a_position_that_is_not_real_numbers(run_cli, tmp_path, data
 # --- 3D specs ------------------------------------------------------------------------------------
 
 def test_3d_huge_quaternion_and_axis_are_normalized_without_overflow():
-    from linkedit.spec.mechanism3d import _nonzero_quaternion, _nonzero_vector
+    from linkedit.spec.geometry3d import _nonzero_quaternion, _nonzero_vector
 
     q = _nonzero_quaternion((1e300, 1e300, 0.0, 0.0))
     assert np.allclose(q, (2**-0.5, 2**-0.5, 0, 0))

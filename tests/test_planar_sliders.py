@@ -11,6 +11,7 @@ import pytest
 
 from linkedit.errors import MechanismError
 from linkedit.planar import catalog, compile_plan, simulate
+from linkedit.planar.catalog.sliders import QUICK_RETURN, SLIDER_CRANK, TWO_SLOTS
 from linkedit.planar.graph import LinkageGraph, mobility
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.linkage_yaml import dump_linkage
@@ -37,7 +38,7 @@ def slider_crank_x(theta: np.ndarray, r: float, l: float, e: float) -> np.ndarra
 
 
 def test_offset_slider_crank_matches_the_textbook_formula_over_a_full_turn():
-    n = catalog.SLIDER_CRANK
+    n = SLIDER_CRANK
     m = simulate(catalog.slider_crank(), 360)
     theta = m.motor_angle
     b = joint(m, "B")
@@ -69,7 +70,7 @@ def test_slotted_links_are_closed_form_rules():
 
 
 def test_quick_return_rocker_follows_the_crank_pin_and_drives_the_ram():
-    n = catalog.QUICK_RETURN
+    n = QUICK_RETURN
     m = simulate(catalog.quick_return(), 360)
     a, c, r = joint(m, "A"), joint(m, "C"), joint(m, "R")
     phi = np.angle(a)  # the slot passes through O2 = origin: the rocker points at the pin
@@ -247,7 +248,7 @@ def test_linear_input_result_file_has_the_stroke(run_cli, tmp_path):
 
 def test_slider_that_runs_off_its_reach_names_the_slider_and_angles(run_cli, tmp_path):
     spec = catalog.slider_crank().model_dump()
-    n = catalog.SLIDER_CRANK
+    n = SLIDER_CRANK
     spec["joints"]["B"] = (n["r"] + np.sqrt(25.0**2 - n["e"] ** 2), n["e"])  # rod 25: too short below
     spec["joints"]["C"] = (30.0, 8.0)
     path = tmp_path / "short.yaml"
@@ -407,7 +408,7 @@ def test_joint_in_two_slots_is_their_crossing_with_velocity_and_acceleration():
     y = h: x_P = h·cot θ, dx/dθ = −h/sin²θ, d²x/dθ² = 2h·cos θ/sin³θ; Q on the column x = c at
     the rod's length below P: y_Q = h − sqrt(l² − (c − x_P)²)."""
     spec = catalog.two_slots()
-    n = catalog.TWO_SLOTS
+    n = TWO_SLOTS
     h, c, rod = n["h"], n["column"], n["rod"]
     plan = compile_plan(spec)
     assert [(st.kind, st.name) for st in plan.steps] == [("lines", "arm and rail"), ("slider", "column")]

@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from linkedit.io.svg import MAX_FRAMES
-from linkedit.io.svg_figure import BLOCK_PX
+from linkedit.io.figure_style import BLOCK_PX
 from tests.conftest import EXAMPLES
 from tests.test_svg import NS, find, joint_pixels
 

@@ -15,7 +15,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from linkedit.io.svg import MAX_FRAMES, animated_motion, edit_overlay, motion_plot
-from linkedit.io.svg_figure import Figure, Stroke, nice_ticks, tick_label
+from linkedit.io.figure_layout import nice_ticks, tick_label
+from linkedit.io.figure_style import Stroke
+from linkedit.io.svg_figure import Figure
 from tests.conftest import ROOT
 
 NS = "{http://www.w3.org/2000/svg}"

@@ -28,7 +28,7 @@ def parse_track(text: str) -> tuple[str, str, str | tuple[float, float, float]]:
     parts = point.split(",")
     if len(parts) == 1:
         return name, member, point
-    from linkedit.spec.mechanism3d import MAX_COORDINATE  # pydantic models: loaded when needed (start-up)
+    from linkedit.spec.geometry3d import MAX_COORDINATE  # pydantic models: loaded when needed (start-up)
 
     try:
         xyz = tuple(float(p) for p in parts)

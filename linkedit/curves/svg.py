@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from linkedit.io.svg_figure import INK, PALETTE, Figure, Stroke
+from linkedit.io.figure_style import INK, PALETTE, Stroke
+from linkedit.io.svg_figure import Figure
 
 MAX_LEGEND = 30  # legend rows at most; the rest are summarized in one row
 

@@ -19,7 +19,8 @@ from linkedit.edit import bfgs, gauss_newton
 from linkedit.edit.bfgs import BfgsResult as SolverResult
 from linkedit.edit.feasibility import failure
 from linkedit.edit.steps import check as check_steps
-from linkedit.edit.objectives import Problem, build_problem
+from linkedit.edit.objectives import Problem
+from linkedit.edit.operation import build_problem
 from linkedit.edit.variables import parametrize
 from linkedit.errors import InputError, MechanismError
 from linkedit.planar.plan import Plan, compile_plan

@@ -4,7 +4,7 @@ Members keep their spec order. Each named constraint (and each input) becomes on
 elementary constraints owned by its name: pin = location + axis, weld = location +
 orientation, a group = all its parts under the group's name; perpendicular = an angle of 90°,
 an angle of 0° or 180° = an axis constraint (aligned or opposite). Each joint becomes named
-constraints ``joint.part`` (:data:`~linkedit.spec.mechanism3d.JOINT_PARTS`), its world
+constraints ``joint.part`` (:data:`~linkedit.spec.joints3d.JOINT_PARTS`), its world
 placement turned into each member's space at rest (the world always second). Defaults that
 refer to "the rest pose" (a weld's relative orientation, a pin's other axis, a rotation
 input's base) are taken from the members' spec positions and orientations.
@@ -23,6 +23,10 @@ from linkedit.gcs import quaternions as quat
 from linkedit.gcs.inputs import Schedule, half_turn_keyframe
 from linkedit.gcs.kernels import Custom
 from linkedit.gcs.system import WORLD, Elementary, State, System
+from linkedit.spec import constraints3d as sc
+from linkedit.spec import geometry3d as sg
+from linkedit.spec import inputs3d as si
+from linkedit.spec import joints3d as sj
 from linkedit.spec import mechanism3d as ms
 
 
@@ -37,7 +41,7 @@ class TrackDef:
 
 def orientation_quaternion(o: Any) -> np.ndarray:
     """A spec orientation ([w, x, y, z] or axis + angle_deg) as a unit quaternion (4,)."""
-    if isinstance(o, ms.AxisAngle):
+    if isinstance(o, sg.AxisAngle):
         axis = np.asarray(o.axis, dtype=float)
         return quat.from_axis_angle(axis / np.linalg.norm(axis), np.radians(o.angle_deg))
     q = np.asarray(o, dtype=float)
@@ -90,28 +94,28 @@ class _Builder:
         self.elems.append(Elementary(kind=kind, owner=owner, a=self.index[member], b=b, **params))
 
     def constraint(self, c: Any, owner: int) -> None:
-        if isinstance(c, ms.Group):
+        if isinstance(c, sc.Group):
             for sub in c.constraints.values():
                 self.constraint(sub, owner)
             return
-        if isinstance(c, ms.CustomC):
+        if isinstance(c, sc.CustomC):
             if not self.allow_python:
                 raise InputError("a custom constraint runs Python code: pass --allow-python to allow it",
                                  field=("constraints", self.names[owner], "python"))
-            fn = ms.load_function(c.python, ("constraints", self.names[owner], "python"))
+            fn = sc.load_function(c.python, ("constraints", self.names[owner], "python"))
             self.customs.append(Custom(owner=owner, members=tuple(self.index[m] for m in c.members),
                                        fn=fn, size=c.size))
             return
         other = c.other
-        if isinstance(c, (ms.Location, ms.Pin, ms.Weld)):
+        if isinstance(c, (sc.Location, sc.Pin, sc.Weld)):
             sb = c.world if other is None else self.point(other, c.other_point)
             self.add("location", owner, c.member, other, sa=self.point(c.member, c.point), sb=_vec3(sb))
-        if isinstance(c, ms.Pin):
+        if isinstance(c, sc.Pin):
             axis = _unit(c.axis)
             target = self.axis_target(c.member, axis, other, c.world_axis if other is None else c.other_axis)
             self.add("axis", owner, c.member, other, sa=axis, sb=target)
-        if isinstance(c, (ms.OrientationC, ms.Weld)):
-            world = c.world if isinstance(c, ms.OrientationC) else c.world_orientation
+        if isinstance(c, (sc.OrientationC, sc.Weld)):
+            world = c.world if isinstance(c, sc.OrientationC) else c.world_orientation
             given = world if other is None else c.relative
             if given is not None:
                 rel = orientation_quaternion(given)
@@ -120,20 +124,20 @@ class _Builder:
             else:
                 rel = self.rest_relative(c.member, other)
             self.add("orientation", owner, c.member, other, rel=tuple(rel))
-        if isinstance(c, ms.AxisC):
+        if isinstance(c, sc.AxisC):
             self.add("axis", owner, c.member, other, sa=_unit(c.axis),
                      sb=_unit(c.world if other is None else c.other_axis))
-        if isinstance(c, ms.OnPlane):
+        if isinstance(c, sc.OnPlane):
             self.add("plane", owner, c.member, other, sa=self.point(c.member, c.point),
                      sb=tuple(float(x) for x in c.plane.point), nb=_unit(c.plane.normal))
-        if isinstance(c, ms.OnLine):
+        if isinstance(c, sc.OnLine):
             self.add("line", owner, c.member, other, sa=self.point(c.member, c.point),
                      sb=tuple(float(x) for x in c.line.point), nb=_unit(c.line.direction))
-        if isinstance(c, ms.Distance):
+        if isinstance(c, sc.Distance):
             sb = c.world if other is None else self.point(other, c.other_point)
             self.add("distance", owner, c.member, other, sa=self.point(c.member, c.point), sb=_vec3(sb),
                      value=float(c.value))
-        if isinstance(c, (ms.Angle, ms.Parallel)):
+        if isinstance(c, (sc.Angle, sc.Parallel)):
             sa, sb = _unit(c.axis), _unit(c.world if other is None else c.other_axis)
             degrees = 90.0 if c.type == "perpendicular" else getattr(c, "angle_deg", None)
             if degrees is None:
@@ -147,9 +151,9 @@ class _Builder:
         """The named constraints ``name.part`` of a joint placed in the world at rest."""
         m1, m2 = j.members
         axes = tuple(getattr(j, "axes", ()))
-        if m1 == ms.WORLD:
+        if m1 == sj.WORLD:
             m1, m2, axes = m2, m1, axes[::-1]
-        other = None if m2 == ms.WORLD else m2
+        other = None if m2 == sj.WORLD else m2
 
         def point(member: str | None) -> tuple[float, float, float]:
             if member is None:
@@ -184,7 +188,7 @@ class _Builder:
         name = self.names[owner]
         t0, t1 = inp.window
         other = inp.other
-        if isinstance(inp, ms.OrientationInput) and inp.rotation is not None:
+        if isinstance(inp, si.OrientationInput) and inp.rotation is not None:
             rot = inp.rotation
             if rot.base is not None:
                 base = orientation_quaternion(rot.base)
@@ -195,15 +199,15 @@ class _Builder:
             values = np.radians(np.asarray(rot.angles_deg, dtype=float))
             sched = dict(mode="rotation", values=values, axis=np.asarray(_unit(rot.axis)), base=base)
             count = len(values)
-        elif isinstance(inp, ms.OrientationInput) and inp.keyframes is not None:
+        elif isinstance(inp, si.OrientationInput) and inp.keyframes is not None:
             values = np.array([orientation_quaternion(o) for o in inp.keyframes])
             sched = dict(mode="orientation", values=values)
             count = len(values)
-        elif isinstance(inp, ms.AxisInput):
+        elif isinstance(inp, si.AxisInput):
             values = np.array([_unit(v) for v in inp.keyframes])
             sched = dict(mode="direction", values=values)
             count = len(values)
-        elif isinstance(inp, ms.DistanceInput):
+        elif isinstance(inp, si.DistanceInput):
             values = np.asarray(inp.keyframes, dtype=float)[:, None]
             sched = dict(mode="scalar", values=values)
             count = len(values)
@@ -219,11 +223,11 @@ class _Builder:
             np.linspace(t0, t1, count) if count > 1 else np.array([t0]))
         schedule = Schedule(window=(t0, t1), times=times, **sched)
         first = schedule.evaluate(np.array([t0]))[0]
-        if isinstance(inp, ms.OrientationInput):
+        if isinstance(inp, si.OrientationInput):
             self.add("orientation", owner, inp.member, other, rel=tuple(first), schedule=schedule)
-        elif isinstance(inp, ms.AxisInput):
+        elif isinstance(inp, si.AxisInput):
             self.add("axis", owner, inp.member, other, sa=_unit(inp.axis), sb=tuple(first), schedule=schedule)
-        elif isinstance(inp, ms.DistanceInput):
+        elif isinstance(inp, si.DistanceInput):
             sb = inp.world if other is None else self.point(other, inp.other_point)
             self.add("distance", owner, inp.member, other, sa=self.point(inp.member, inp.point), sb=_vec3(sb),
                      value=float(first[0]), schedule=schedule)

@@ -9,7 +9,7 @@ links (bars between consecutive points of each drawing line, plates for closed l
 first step (solid, labelled; nearer strokes darker and wider, drawn over farther ones) and a few
 later steps (faint); each track's curve in its colour, with optional velocity arrows scaled so
 the longest is a tenth of the drawing (the curve stays visible). Labels are placed apart by the
-figure (:func:`~linkedit.io.svg_figure.place_labels`). :func:`overlay` draws curves over the
+figure (:func:`~linkedit.io.figure_layout.place_labels`). :func:`overlay` draws curves over the
 mechanism (a synthesis target and candidate), face-on to the plane fitted to the curves.
 
 Elements carry ``class`` and ``data-name``: ``member`` / ``member-pose`` (faint poses) /
@@ -29,7 +29,9 @@ from linkedit.errors import InputError
 from linkedit.gcs import quaternions as quat
 from linkedit.gcs.result import GcsResult
 from linkedit.io.atomic import write_text
-from linkedit.io.svg_figure import INK, PALETTE, Figure, Stroke, finite, nice_ticks, tick_label
+from linkedit.io.figure_layout import finite, nice_ticks, tick_label
+from linkedit.io.figure_style import INK, PALETTE, Stroke
+from linkedit.io.svg_figure import Figure
 
 VIEWS = ("plane", "xy", "xz", "yz", "iso")
 _ISO = np.array([[np.cos(np.pi / 6), -np.cos(np.pi / 6), 0.0], [np.sin(np.pi / 6), np.sin(np.pi / 6), 1.0]])
@@ -124,7 +126,7 @@ class Curve3:
     label: str
     points: np.ndarray
     closed: bool
-    style: str = "dashed"  #: a :class:`~linkedit.io.svg_figure.Stroke` style: dashed, faint, solid
+    style: str = "dashed"  #: a :class:`~linkedit.io.figure_style.Stroke` style: dashed, faint, solid
 
 
 def overlay(path: str | Path | None, res: GcsResult, curves: Sequence[Curve3], *, title: str,

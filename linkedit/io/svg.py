@@ -23,8 +23,10 @@ import numpy as np
 
 from linkedit.io import slides
 from linkedit.io.atomic import write_text
+from linkedit.io.figure_layout import finite
+from linkedit.io.figure_style import ENVELOPE_GREEN, INK, PALETTE, PATH_GREY, Stroke
 from linkedit.io.slides import Slide
-from linkedit.io.svg_figure import ENVELOPE_GREEN, INK, PALETTE, PATH_GREY, Figure, Stroke, finite
+from linkedit.io.svg_figure import Figure
 
 MAX_FRAMES = 120          # animation frames per cycle at most (file size)
 MAX_NAMED_JOINTS = 24     # joint names are written beside the joints up to this many joints

@@ -2,9 +2,9 @@
 
 Unlike :class:`~linkedit.io.svg_figure.Figure` (equal aspect, world coordinates) each panel
 has its own y scale. Ticks, labels, colours and the ``class``/``data-name`` attributes are the
-figure module's (:mod:`linkedit.io.svg_figure`). Non-finite samples break a line (never drawn
+figure modules' (:mod:`linkedit.io.figure_style`, :mod:`linkedit.io.figure_layout`). Non-finite samples break a line (never drawn
 across); a value band (``band``) shades a range of y and marks (``marks``) point at samples, their
-labels placed apart (:func:`~linkedit.io.svg_figure.place_labels`). Spikes (a toggle's velocity,
+labels placed apart (:func:`~linkedit.io.figure_layout.place_labels`). Spikes (a toggle's velocity,
 acceleration, jerk) do not set the y range: where the values reach :data:`SPIKE` times further
 than the 2nd–98th percentiles, the range is those percentiles (plus a margin), lines are cut at
 the panel's edge and each clipped run is marked there (class ``clipped``, ``data-y`` its peak).
@@ -16,8 +16,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from linkedit.io.svg_figure import (FONT, INK, PALETTE, SVG_NS, attr, attrs, nice_ticks, place_labels, points_text, text,
-                                    text_box, tick_label)
+from linkedit.io.figure_layout import nice_ticks, place_labels, text_box, tick_label
+from linkedit.io.figure_style import FONT, INK, PALETTE, SVG_NS
+from linkedit.io.marks import attr, attrs, points_text, text
 
 PANEL_W, PANEL_H, LEFT, GAP = 620.0, 150.0, 78.0, 46.0
 SPIKE = 4.0  #: a panel's values spanning this many times their 2nd–98th percentile range are clipped

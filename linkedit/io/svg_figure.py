@@ -21,160 +21,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from linkedit.io.marks import Mark, attr, attrs, mark, path, points_text, still, svg, text
-
-__all__ = ["Figure", "Stroke", "View", "attr", "attrs", "points_text", "text", "place_labels", "nice_ticks",
-           "tick_label", "finite"]
-
-SVG_NS = "http://www.w3.org/2000/svg"
-PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
-           "#bcbd22", "#7f7f7f")
-INK = "#2d3748"
-LINK_FILL = "#8fa8d0"
-FRAME_FILL = "#e2e8f0"
-PATH_GREY = "#8a939e"
-ENVELOPE_GREEN = "#276749"
-FAINT_OPACITY = 0.3
-DASH = "6 4"
-FONT = "font-family=\"Helvetica, Arial, sans-serif\""
-_FONT = {"font-family": "Helvetica, Arial, sans-serif"}
-#: a white outline under label text, so labels stay readable over links and symbols
-HALO = " stroke=\"#ffffff\" stroke-width=\"3\" stroke-opacity=\"0.85\" paint-order=\"stroke\" stroke-linejoin=\"round\""
-_HALO = {"stroke": "#ffffff", "stroke-width": "3", "stroke-opacity": "0.85", "paint-order": "stroke",
-         "stroke-linejoin": "round"}
-#: a slider's block (length along its guide, height across) and its guide's opening, px
-BLOCK_PX = (20.0, 10.0)
+from linkedit.io import symbols
+from linkedit.io.figure_layout import View, axis_ticks, finite, place_labels, text_box, tick_label
+from linkedit.io.figure_style import (ENVELOPE_GREEN, FAINT_OPACITY, FONT_ATTRS, HALO_ATTRS, INK, LINK_FILL, SVG_NS,
+                                      Stroke)
+from linkedit.io.marks import Mark, mark, path, still, svg, text
 
 _PAD_PX = 18.0          # room inside the plot area for symbols drawn around points
 _MIN_PLOT_PX = 160.0    # smallest plot side, so ticks and labels fit
-_CHAR_EM = 0.6          # width of a character of the label font, in font sizes (generous)
-
-
-def finite(name: str, a: object, shape: tuple[int | None, ...]) -> np.ndarray:
-    """``a`` as a float array of ``shape`` (``None`` = any length); ValueError if not finite."""
-    arr = np.asarray(a, dtype=float)
-    if arr.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, arr.shape)):
-        want = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
-        raise ValueError(f"{name}: expected an array of shape {want}, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: contains NaN or infinite values")
-    return arr
-
-
-def nice_ticks(lo: float, hi: float, target: float = 6.0) -> tuple[float, np.ndarray]:
-    """Round tick step (1, 2, 2.5 or 5 × 10^k) and the ticks ``k·step`` inside ``[lo, hi]``."""
-    span = hi - lo
-    if not span > 0:
-        raise ValueError(f"tick range must have hi > lo, got [{lo}, {hi}]")
-    raw = span / max(target, 1.0)
-    magnitude = 10.0 ** math.floor(math.log10(raw))
-    step = next(m * magnitude for m in (1.0, 2.0, 2.5, 5.0, 10.0) if m * magnitude >= raw * (1 - 1e-12))
-    first, last = math.ceil(lo / step - 1e-9), math.floor(hi / step + 1e-9)
-    # a tick within rounding of an end is that end (k·step may land a few ulps outside [lo, hi])
-    return step, np.clip(np.arange(first, last + 1) * step, lo, hi)
-
-
-def axis_ticks(lo: float, hi: float, extent_px: float) -> tuple[float, np.ndarray]:
-    """Ticks for an axis ``extent_px`` pixels long: about one per 90 px (see :func:`nice_ticks`)."""
-    return nice_ticks(lo, hi, target=max(2.0, extent_px / 90.0))
-
-
-def tick_label(value: float, step: float) -> str:
-    """A tick value with just the decimals its step needs (``0.25``, ``2.5``, ``40``), never ``-0``."""
-    mantissa = step / 10.0 ** math.floor(math.log10(step) + 1e-12)
-    decimals = max(0, -math.floor(math.log10(step) + 1e-12) + (1 if abs(mantissa - 2.5) < 1e-9 else 0))
-    out = f"{value:.{decimals}f}"
-    return "0" if float(out) == 0 else out
-
-
-def text_box(x: float, y: float, words: str, size: float, anchor: str = "start") -> np.ndarray:
-    """Pixel box ``(x0, y0, x1, y1)`` a label of ``size`` px with its baseline at ``(x, y)`` covers (an
-    upper bound of its width: :data:`_CHAR_EM` per character)."""
-    w = _CHAR_EM * size * len(words)
-    x0 = x - {"start": 0.0, "middle": w / 2, "end": w}[anchor]
-    return np.array([x0, y - 0.8 * size, x0 + w, y + 0.25 * size])
-
-
-def place_labels(anchors: np.ndarray, boxes: np.ndarray, area: Sequence[float],
-                 avoid: np.ndarray = np.zeros((0, 2))) -> tuple[np.ndarray, np.ndarray]:
-    """Greedy label placement, in pixels: label n's ``boxes[n]`` (x0, y0, x1, y1) at its preferred
-    place, or the first place on rings around ``anchors[n]`` (2,) where it overlaps no label placed
-    before it, covers no point of ``avoid`` (m, 2) and stays inside ``area`` (x0, y0, x1, y1).
-
-    Returns the shift of each box (n, 2) and whether it moved off its preferred place (n,): such a
-    label gets a leader line to its anchor. A label with no free place keeps its preferred one.
-    """
-    placed: list[np.ndarray] = []
-    shifts, moved = np.zeros((len(anchors), 2)), np.zeros(len(anchors), dtype=bool)
-    angles = np.radians([45, 0, 90, 135, 180, 270, 315, 225, 22.5, 67.5, 112.5, 157.5, 202.5, 247.5, 292.5, 337.5])
-    for n, (a, box) in enumerate(zip(np.asarray(anchors, float), np.asarray(boxes, float))):
-        half = (box[2:] - box[:2]) / 2
-        centre = (box[:2] + box[2:]) / 2
-        tries = [np.zeros(2)] + [a + np.array([math.cos(t) * (half[0] + r), -math.sin(t) * (half[1] + r)]) - centre
-                                 for r in (4.0, 12.0, 22.0, 34.0, 48.0, 64.0) for t in angles]
-        for k, s in enumerate(tries):
-            b = box + np.r_[s, s]
-            inside = b[0] >= area[0] and b[1] >= area[1] and b[2] <= area[2] and b[3] <= area[3]
-            free = not any(b[0] < q[2] + 1 and q[0] < b[2] + 1 and b[1] < q[3] + 1 and q[1] < b[3] + 1 for q in placed)
-            clear = not np.any((avoid[:, 0] > b[0] - 2) & (avoid[:, 0] < b[2] + 2)
-                               & (avoid[:, 1] > b[1] - 2) & (avoid[:, 1] < b[3] + 2)) if len(avoid) else True
-            if inside and free and clear:
-                shifts[n], moved[n] = s, k > 0
-                break
-        placed.append(box + np.r_[shifts[n], shifts[n]])
-    return shifts, moved
-
-
-@dataclass(frozen=True)
-class Stroke:
-    """Line style: ``color``, ``width`` in px, ``style`` solid | faint (translucent) | dashed."""
-
-    color: str = INK
-    width: float = 1.5
-    style: str = "solid"
-
-    def __post_init__(self) -> None:
-        if self.style not in ("solid", "faint", "dashed"):
-            raise ValueError(f"stroke style must be solid, faint or dashed, got {self.style!r}")
-
-    def svg(self) -> str:
-        return attrs(**self.kw())
-
-    def kw(self) -> dict[str, object]:
-        """The stroke's presentation attributes, as :func:`~linkedit.io.marks.mark` keywords."""
-        return dict(stroke=self.color, stroke_width=float(self.width),
-                    stroke_dasharray=DASH if self.style == "dashed" else None,
-                    stroke_opacity=FAINT_OPACITY if self.style == "faint" else None)
-
-
-@dataclass(frozen=True)
-class View:
-    """The world → pixel map: window lower-left ``(x0, y0)``, ``scale`` px per unit, plot area."""
-
-    x0: float
-    y0: float
-    scale: float
-    left: float
-    top: float
-    width: float
-    height: float
-
-    def px(self, p: np.ndarray) -> np.ndarray:
-        """World points ``(..., 2)`` → pixel points ``(..., 2)`` (y flipped)."""
-        p = np.asarray(p, dtype=float)
-        x = self.left + (p[..., 0] - self.x0) * self.scale
-        y = self.top + self.height - (p[..., 1] - self.y0) * self.scale
-        return np.stack([x, y], axis=-1)
-
-    @property
-    def window(self) -> tuple[float, float, float, float]:
-        """World ``(xmin, xmax, ymin, ymax)`` of the plot area."""
-        return (self.x0, self.x0 + self.width / self.scale, self.y0, self.y0 + self.height / self.scale)
-
-    @property
-    def area(self) -> tuple[float, float, float, float]:
-        """Pixel ``(x0, y0, x1, y1)`` of the plot area."""
-        return (self.left, self.top, self.left + self.width, self.top + self.height)
 
 
 @dataclass
@@ -281,7 +135,7 @@ class Figure:
             ends = p if p.shape[1] == 2 else p[:, [int(np.argmin(along)), int(np.argmax(along))]]
 
             def draw(v: View) -> Mark:
-                return _bar(v.px(ends), cls=cls, data_name=name, stroke=color, stroke_width=f"{width:g}",
+                return symbols.bar(v.px(ends), cls=cls, data_name=name, stroke=color, stroke_width=f"{width:g}",
                             stroke_linecap="round", stroke_opacity=opacity or 0.85)
         else:
             order = np.argsort(np.arctan2(first[:, 1], first[:, 0]))
@@ -302,16 +156,7 @@ class Figure:
         e = finite(f"rail {name}" if name else "rail", ends, (2, 2))
         s = finite("rail side", side, (2,))
 
-        def draw(v: View) -> Mark:
-            a, b, u, n = _frame_px(v, e, s)
-            a, b = a - u * BLOCK_PX[0] / 2 - 4 * u, b + u * BLOCK_PX[0] / 2 + 4 * u
-            a, b = a + n * BLOCK_PX[1] / 2, b + n * BLOCK_PX[1] / 2
-            count = max(2, int(np.hypot(*(b - a)) // 7))
-            hatch = [np.array([a + (b - a) * k / count, a + (b - a) * k / count + 6 * n - 5 * u]) for k in range(count + 1)]
-            return path([np.array([a, b])] + hatch, cls=cls, data_name=name, fill="none", stroke=INK,
-                        stroke_width="1.3", stroke_linecap="round")
-
-        self._add(e, draw)
+        self._add(e, lambda v: symbols.rail(v.px(e), s, name=name, cls=cls))
 
     def slot(self, ends: np.ndarray, *, name: str | None = None, color: str = INK, cls: str = "slot") -> None:
         """A slot in a moving link: an opening a block (:data:`BLOCK_PX`) wide with rounded ends, a
@@ -321,18 +166,7 @@ class Figure:
         if e.shape[1] != 2:
             raise ValueError(f"slot {name}: expected 2 ends, got {e.shape[1]}")
 
-        def draw(v: View) -> Mark:
-            q = v.px(e)
-            d = q[:, 1] - q[:, 0]
-            u = d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
-            grow = (BLOCK_PX[0] - BLOCK_PX[1]) / 2 + 2
-            q = np.stack([q[:, 0] - grow * u, q[:, 1] + grow * u], axis=1)
-            body = _bar(q, stroke=color, stroke_width=f"{BLOCK_PX[1] + 5:g}", stroke_linecap="round",
-                        stroke_opacity=0.85)
-            opening = _bar(q, stroke="#ffffff", stroke_width=f"{BLOCK_PX[1] + 1:g}", stroke_linecap="round")
-            return mark("g", cls=cls, data_name=name, kids=[body, opening])
-
-        self._add(e.reshape(-1, 2), draw)
+        self._add(e.reshape(-1, 2), lambda v: symbols.slot(v.px(e), name=name, color=color, cls=cls))
 
     def block(self, centre: np.ndarray, direction: np.ndarray, *, name: str | None = None,
               cls: str = "block") -> None:
@@ -344,18 +178,7 @@ class Figure:
         if np.any(np.hypot(d[:, 0], d[:, 1]) == 0):
             raise ValueError(f"block {name}: zero direction")
 
-        def draw(v: View) -> Mark:
-            q = v.px(c)
-            u = d * [1.0, -1.0] / np.hypot(d[:, 0], d[:, 1])[:, None]
-            n = np.stack([-u[:, 1], u[:, 0]], axis=1)
-            hl, hw = BLOCK_PX[0] / 2, BLOCK_PX[1] / 2
-            corners = np.stack([q - hl * u - hw * n, q + hl * u - hw * n, q + hl * u + hw * n, q - hl * u + hw * n], 1)
-            m = mark("polygon", cls=cls, data_name=name, fill=FRAME_FILL, stroke=INK, stroke_width="1.3",
-                     stroke_linejoin="round")
-            m.geom = {"points": corners}
-            return m
-
-        self._add(c, draw)
+        self._add(c, lambda v: symbols.block(v.px(c), d, name=name, cls=cls))
 
     def arrow(self, start: Sequence[float], end: Sequence[float], stroke: Stroke = Stroke(), *, cls: str = "arrow",
               name: str | None = None) -> None:
@@ -381,40 +204,13 @@ class Figure:
         """The ground (frame) symbol under world ``point`` ``(2,)``: hatched base with a support triangle."""
         p = finite(f"ground {name}" if name else "ground", point, (2,))
 
-        def draw(v: View) -> Mark:
-            x, y = v.px(p)
-            tri = still("polygon", {"points": [(x, y), (x - 8, y + 12), (x + 8, y + 12)]}, fill=FRAME_FILL)
-            hatch = [np.array([(x - 11 + 5 * i, y + 12), (x - 16 + 5 * i, y + 18)]) for i in range(5)]
-            base = path([np.array([(x - 14, y + 12), (x + 14, y + 12)])] + hatch, fill="none")
-            return mark("g", cls="ground", data_name=name, stroke=INK, stroke_width="1.3", kids=[tri, base])
-
-        self._add(p[None], draw, p[None])
+        self._add(p[None], lambda v: symbols.ground(*v.px(p), name=name), p[None])
 
     def motor(self, pivot: Sequence[float], *, ccw: bool = True, name: str | None = None) -> None:
         """The motor symbol at world ``pivot`` ``(2,)``: a circle with an arc arrow turning ``ccw`` or cw."""
         p = finite("motor pivot", pivot, (2,))
 
-        def draw(v: View) -> Mark:
-            c = v.px(p)
-            r, turn = 14.0, 1.0 if ccw else -1.0
-            a0 = math.radians(-60.0)
-            a1 = a0 + turn * math.radians(280.0)
-
-            def at(a: float | np.ndarray) -> np.ndarray:  # visual angle, counter-clockwise on screen
-                return c + r * np.stack([np.cos(a), -np.sin(a)], axis=-1)
-
-            s, e = at(a0), at(a1)
-            tangent = turn * np.array([-math.sin(a1), -math.cos(a1)])
-            radial = np.array([math.cos(a1), -math.sin(a1)])
-            sweep = 0 if ccw else 1
-            arc = path([at(np.linspace(a0, a1, 40))], d=f"M{s[0]:.2f},{s[1]:.2f} A{r:g},{r:g} 0 1 {sweep} {e[0]:.2f},{e[1]:.2f}",
-                       fill="none")
-            head = still("polygon", {"points": [e + 5 * tangent, e - 2 * tangent + 4 * radial, e - 2 * tangent - 4 * radial]},
-                         fill=PALETTE[1], stroke="none")
-            hub = still("circle", {"cx": c[0], "cy": c[1]}, r=f"{r - 6:g}", fill="none")
-            return mark("g", cls="motor", data_name=name, stroke=PALETTE[1], stroke_width="1.6", kids=[hub, arc, head])
-
-        self._add(p[None], draw, p[None])
+        self._add(p[None], lambda v: symbols.motor(v.px(p), ccw=ccw, name=name), p[None])
 
     def box(self, xmin: float | None, xmax: float | None, ymin: float | None, ymax: float | None, *,
             stroke: Stroke = Stroke(ENVELOPE_GREEN, 1.8, "dashed"), fill: str = ENVELOPE_GREEN, cls: str = "envelope",
@@ -471,7 +267,7 @@ class Figure:
                 near = np.clip(a, box[:2], box[2:])
                 out.append(still("line", dict(zip(("x1", "y1", "x2", "y2"), [*a, *near])), cls="leader",
                                  stroke=color, stroke_width="0.8", stroke_opacity="0.7"))
-            t = still("text", {"x": x, "y": y}, cls=cls, font_size=f"{size:g}", fill=color, **_HALO, **_FONT)
+            t = still("text", {"x": x, "y": y}, cls=cls, font_size=f"{size:g}", fill=color, **HALO_ATTRS, **FONT_ATTRS)
             t.words = label.words
             return out + [t]
 
@@ -488,7 +284,7 @@ class Figure:
             q = v.px(p) + np.asarray(offset_px)
             out = []
             for n, w in enumerate(words):
-                t = mark("text", cls=cls, data_name=w, font_size=f"{size:g}", fill=color, **_HALO, **_FONT)
+                t = mark("text", cls=cls, data_name=w, font_size=f"{size:g}", fill=color, **HALO_ATTRS, **FONT_ATTRS)
                 t.geom, t.words = {"x": q[:, n, 0], "y": q[:, n, 1]}, str(w)
                 out.append(t)
             return out
@@ -515,7 +311,7 @@ class Figure:
             for n, d in dirs.items():
                 tip = c + length_px * np.array([d[0], -d[1]])
                 if float(np.hypot(*d)) < 0.05:  # seen end-on: a dot in a ring
-                    word = still("text", {"x": c[0] + 6, "y": c[1] + 12}, **_HALO)
+                    word = still("text", {"x": c[0] + 6, "y": c[1] + 12}, **HALO_ATTRS)
                     word.words = n
                     out.append(mark("g", data_name=n, kids=[
                         still("circle", {"cx": c[0], "cy": c[1]}, r="4", fill="none"),
@@ -524,13 +320,13 @@ class Figure:
                 u = (tip - c) / float(np.hypot(*(tip - c)))
                 nrm = np.array([-u[1], u[0]])
                 at = tip + 9 * u
-                word = still("text", {"x": at[0], "y": at[1] + 4}, text_anchor="middle", **_HALO)
+                word = still("text", {"x": at[0], "y": at[1] + 4}, text_anchor="middle", **HALO_ATTRS)
                 word.words = n
                 out.append(mark("g", data_name=n, kids=[
                     still("line", dict(zip(("x1", "y1", "x2", "y2"), [*c, *tip]))),
                     still("polygon", {"points": [tip, tip - 7 * u + 3 * nrm, tip - 7 * u - 3 * nrm]}, stroke="none"),
                     word]))
-            return mark("g", cls=cls, font_size="11", fill=INK, stroke=INK, stroke_width="1.4", **_FONT, kids=out)
+            return mark("g", cls=cls, font_size="11", fill=INK, stroke=INK, stroke_width="1.4", **FONT_ATTRS, kids=out)
 
         self._items.append(_Item(np.zeros(0), np.zeros(0), draw))
 
@@ -565,7 +361,7 @@ class Figure:
             out.append(self._caption_marks(view.left + 6.0, view.top + 16.0))
         if self.title:
             t = still("text", {"x": view.left + view.width / 2, "y": 22.0}, cls="title", text_anchor="middle",
-                      font_size="15", font_weight="bold", fill=INK, **_FONT)
+                      font_size="15", font_weight="bold", fill=INK, **FONT_ATTRS)
             t.words = self.title
             out.append(t)
         return width, height, out
@@ -641,7 +437,7 @@ class Figure:
         vt = still("text", {"x": 16.0, "y": mid_y}, cls="unit", text_anchor="middle", stroke="none",
                    transform=f"rotate(-90 16 {mid_y:.2f})")
         h.words, vt.words = hname + unit, vname + unit
-        return mark("g", cls="axes", font_size="11", fill="#4a5568", stroke="#4a5568", **_FONT,
+        return mark("g", cls="axes", font_size="11", fill="#4a5568", stroke="#4a5568", **FONT_ATTRS,
                     kids=[path(grid, cls="grid", stroke="#edf2f7", stroke_width="1", fill="none")] + marks + [h, vt])
 
     def _legend_marks(self, x: float, y: float) -> Mark:
@@ -658,7 +454,7 @@ class Figure:
             word = still("text", {"x": x + 34, "y": cy + 4}, fill=INK)
             word.words = e.label
             rows.append(word)
-        return mark("g", cls="legend", font_size="12", **_FONT, kids=rows)
+        return mark("g", cls="legend", font_size="12", **FONT_ATTRS, kids=rows)
 
     def _caption_marks(self, x: float, y: float) -> Mark:
         """One text per frame, each shown only during its frame."""
@@ -668,7 +464,7 @@ class Figure:
             t = still("text", {"x": x, "y": y})
             t.words, t.frame, t.frames = w, k, len(words)
             out.append(t)
-        return mark("g", cls=cls, font_size="12", fill=INK, **_HALO, **_FONT, kids=out)
+        return mark("g", cls=cls, font_size="12", fill=INK, **HALO_ATTRS, **FONT_ATTRS, kids=out)
 
     # -- helpers -------------------------------------------------------------------------------
 
@@ -694,20 +490,3 @@ class Figure:
             raise ValueError(f"{name}: frames given but the figure has no duration_s (not animated)")
         return p
 
-
-def _bar(q: np.ndarray, **style: object) -> Mark:
-    """A straight ``line`` mark between pixel ends ``q`` ``(F, 2, 2)``."""
-    m = mark("line", **style)
-    m.geom = {"x1": q[:, 0, 0], "y1": q[:, 0, 1], "x2": q[:, 1, 0], "y2": q[:, 1, 1]}
-    return m
-
-
-def _frame_px(v: View, ends: np.ndarray, side: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Pixel ends of a world segment, its unit direction and its unit normal towards world ``side``."""
-    a, b = v.px(ends)
-    d = b - a
-    u = d / max(float(np.hypot(*d)), 1e-9)
-    n = np.array([-u[1], u[0]])
-    if float(n @ (side * [1.0, -1.0])) < 0:
-        n = -n
-    return a, b, u, n

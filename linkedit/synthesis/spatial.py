@@ -49,7 +49,8 @@ from linkedit.io.atomic import write_text
 from linkedit.io.gcs_hdf5 import write_result
 from linkedit.io.gcs_svg import Curve3, overlay
 from linkedit.planar.feasibility import works
-from linkedit.spec.mechanism3d import MAX_COORDINATE, MechanismSpec
+from linkedit.spec.geometry3d import MAX_COORDINATE
+from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
 from linkedit.synthesis.atlas import Atlas
 from linkedit.synthesis.chunks import dimension

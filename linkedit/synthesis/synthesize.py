@@ -37,8 +37,8 @@ from linkedit.curves.sources import Curve
 from linkedit.errors import InputError, MechanismError
 from linkedit.planar import compile_plan, feasibility, simulate
 from linkedit.planar.simulate import Motion
+from linkedit.spec.geometry3d import MAX_COORDINATE
 from linkedit.spec.linkage import LinkageSpec, LinkTrack
-from linkedit.spec.mechanism3d import MAX_COORDINATE
 from linkedit.synthesis import points as precision
 from linkedit.synthesis.atlas import Atlas
 from linkedit.synthesis.families import family
