@@ -184,11 +184,13 @@ def turn_arm(geom: Geometry, angle: np.ndarray, out: np.ndarray) -> np.ndarray:
     return np.multiply(out, geom.arm, out=out)
 
 
-def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: Workspace | None = None) -> State:
+def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: Workspace | None = None,
+              distances: bool = True) -> State:
     """The one evaluation of a plan: every rule in order. With a geometry of K linkages
     (:attr:`Geometry.linkages`), arrays carry a linkage axis after the row: (P, K, T), and
     ``angle`` may be (K, T); every rule but a numeric group places K linkages at once, with
-    their derivatives. ``work``: see :func:`evaluate`."""
+    their derivatives. ``work``: see :func:`evaluate`. Without ``distances`` the dyads' d_s are
+    not formed (a caller that wants positions alone): the state's ``ds`` then has no rows."""
     lead = geom.linkages
     if plan.has_groups and _moved(plan, geom):
         raise ValueError("numeric groups are evaluated one linkage at a time, at the rest pose they were compiled at")
@@ -196,9 +198,11 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: W
     if work is None or not work.fits(order, lead, T):
         work = Workspace(plan, T, order, lead)
     Z, ds = work.orders, work.ds
-    if plan.steps or plan.linear:
-        Z.fill(0.0)  # step rows multiply not-yet-known joints by 0
-    ds.fill(1.0)
+    if (plan.steps or plan.linear) and (order > 0 or not lead):
+        Z.fill(0.0)  # a step's derivative rows multiply not-yet-known joints by 0 (K linkages' positions alone
+        # read only the joints placed before them: every row is written before it is read)
+    if distances:
+        ds.fill(1.0)
     Z[0, plan.ground_rows] = geom.ground
     Z[1:, plan.ground_rows] = 0.0
     if not plan.linear:
@@ -213,8 +217,8 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: W
     dz, ddz = (Z[1] if order >= 1 else None), (Z[2] if order >= 2 else None)
     frame = Frame(z=Z[0], dz=dz, ddz=ddz, ds=ds, joints=plan.row_of[: plan.n_joints], s=s,
                   drive=1.0 if plan.linear else 0.0, rest=geom.rest, orders=Z, scratch=work.scratch,
-                  rows=_step_rows(plan, geom) if order > 0 and _moved(plan, geom) else {})
+                  rows=_step_rows(plan, geom) if order > 0 and _moved(plan, geom) else {}, distances=distances)
     with np.errstate(invalid="ignore", divide="ignore"):
         for rule, rows, const in zip(plan.rules, plan.ds_rows, geom.constants):
             rule.evaluate(frame, const, rows)
-    return State(z=Z[0], dz=dz, ddz=ddz, ds=ds)
+    return State(z=Z[0], dz=dz, ddz=ddz, ds=ds if distances else ds[:0])

@@ -93,10 +93,11 @@ class CatalogFamily:
         """The plan's constants for K parameter rows (K, P): here the rows are rest poses."""
         return Geometry.of(self.plan, params.reshape(len(params), -1, 2))
 
-    def _state(self, params: np.ndarray, samples: int, phase: np.ndarray | float) -> State:
+    def _state(self, params: np.ndarray, samples: int, phase: np.ndarray | float, distances: bool = True) -> State:
         """The planar engine's one evaluation with a linkage axis: rows (P, K, T) at motor phases
         ``phase`` + t/T, t = 0..T−1 (``phase`` a number or (K,); a swinging input: :meth:`turn`). Linkages that share their rest
-        angle and phase turn through common angles (T,) (cheaper: :func:`~linkedit.planar.kinematics.turn_arm`)."""
+        angle and phase turn through common angles (T,) (cheaper: :func:`~linkedit.planar.kinematics.turn_arm`).
+        Without ``distances``: positions alone (the state's ``ds`` has no rows)."""
         geom = self.geometry(params)
         turn = self.turn(np.asarray(phase, dtype=float).reshape(-1, 1) + np.arange(samples)[None, :] / samples)
         rest = np.asarray(geom.rest_angle)
@@ -106,7 +107,7 @@ class CatalogFamily:
             angle = rest.flat[0] + self.direction * turn[0]
         else:
             angle = geom.rest_angle + self.direction * turn
-        return _evaluate(self.plan, geom, angle, order=0)
+        return _evaluate(self.plan, geom, angle, order=0, distances=distances)
 
     def _evaluate(self, params: np.ndarray, samples: int, phase: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """Joint positions (K, J, T) complex and d_s (K, D, T) of the D watched rule rows (NaN or < 0
@@ -149,7 +150,7 @@ class CatalogFamily:
 
     def curves(self, params: np.ndarray, samples: int, phase: np.ndarray | float = 0.0) -> np.ndarray:
         """The tracked joint's curves (K, T) complex, family frame."""
-        return self._state(params, samples, phase).z[self.plan.row_of[self.track_joint]].copy()
+        return self._state(params, samples, phase, distances=False).z[self.plan.row_of[self.track_joint]].copy()
 
     def to_spec(self, row: np.ndarray, *, phase: float, scale: float, turn: complex, shift: complex, mirrored: bool,
                 name: str, units: str, description: str, reversed: bool = False) -> LinkageSpec:

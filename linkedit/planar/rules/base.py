@@ -50,6 +50,8 @@ class Frame:
     scratch: dict[int, Any] = field(default_factory=dict)
     #: K linkages' derivatives: each step's rows at every linkage's rest (:meth:`Step.rows_at`), by ``id``
     rows: dict[int, Rows] = field(default_factory=dict)
+    #: whether the dyads form their d_s rows (False: positions alone are wanted, ``ds`` is scratch)
+    distances: bool = True
 
 
 class Pool:
@@ -259,9 +261,7 @@ class Step(Rule):
         positions alone read their joints in place."""
         out_rows = f.joints[self.joints]
         if f.z.ndim > 2 and f.dz is None:
-            joints = cast(np.ndarray, InPlace(f.z, f.joints))  # the closed-form kinds read z[k] only
-            out, f.ds[rows] = self.place(joints, f.s, f.rest, const)
-            f.z[out_rows] = out
+            self.place_in(f, const, rows)
             return
         zj = f.z[f.joints]
         out, f.ds[rows] = self.place(zj, f.s, f.rest, const)
@@ -272,6 +272,13 @@ class Step(Rule):
             f.dz[out_rows] = dzj[self.joints] = self.velocity(zj, dzj, f.drive, own)
             if f.ddz is not None:
                 f.ddz[out_rows] = self.acceleration(zj, dzj, f.ddz[f.joints], own)
+
+    def place_in(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
+        """K linkages' positions alone: :meth:`place` reading its joints where ``f`` holds them (the
+        closed-form kinds read z[k] only), writing its rows of ``f.z`` and ``f.ds``."""
+        joints = cast(np.ndarray, InPlace(f.z, f.joints))
+        out, f.ds[rows] = self.place(joints, f.s, f.rest, const)
+        f.z[f.joints[self.joints]] = out
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
         """Place its joints by the step compiled at ``f.rest``; tangents along every direction at

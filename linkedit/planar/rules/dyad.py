@@ -71,7 +71,8 @@ class Dyad(Triangles):
         loc.dyad_coefficient(e[0], half, lik2, sign, w, d2, u, a, b, bsq)
         np.multiply(w, e[0], out=fk)
         np.add(zi[0], fk, out=Z[0, self.start:self.stop])
-        loc.singularity_distance(bsq, u, lik2, ljk2, d2, f.ds[rows])
+        if f.distances:
+            loc.singularity_distance(bsq, u, lik2, ljk2, d2, f.ds[rows])
         if rates is not None:
             loc.dyad_rates(e, zi, fk, u, a, b, lik2, Z[1:, self.start:self.stop], rates)
 

@@ -17,7 +17,7 @@ from linkedit.errors import MechanismError
 from linkedit.planar.constraints import Rows, _Builder, _product
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
-from linkedit.planar.rules.base import Slot, Step, concat, keep, labelled
+from linkedit.planar.rules.base import Frame, InPlace, Pool, Slot, Step, concat, keep, labelled
 
 
 @dataclass(frozen=True)
@@ -65,14 +65,39 @@ class Slider(Step):
 
     def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray,
               const: tuple[Any, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
+        shape = np.broadcast_shapes(np.shape(z[self.i]), np.shape(const[1]))
+        out, ds = np.empty((1, *shape), dtype=complex), np.empty(shape)
+        with np.errstate(invalid="ignore"):
+            self._circle_line(z, const, out[0], ds, (np.empty(shape, dtype=complex), np.empty(shape)))
+        return out, ds
+
+    def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
+        """:meth:`_circle_line`'s buffers: q (complex) and x (real), ``shape`` each."""
+        return pool(shape, complex), pool(shape)
+
+    def place_in(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
+        """Into ``f``'s rows through its scratch (no allocation)."""
+        self._circle_line(InPlace(f.z, f.joints), const, f.z[f.joints[self.joints[0]]], f.ds[rows.start],
+                          f.scratch[id(self)])
+
+    def _circle_line(self, z: Any, const: tuple[Any, ...], out: np.ndarray, ds: np.ndarray,
+                     buffers: tuple[np.ndarray, np.ndarray]) -> None:
+        """The module docstring's z_k into ``out`` and d_s into ``ds`` (*L, T) from joints ``z``
+        (z[k]: (*L, T) complex), through ``buffers`` (q complex, x real, that shape)."""
         alpha, c, l2, sign = const
+        q, x = buffers
         p, d = self.slot.line(z, (alpha, c))
         d = d / np.abs(d)
-        q = np.conj(d) * (z[self.i] - p)
-        h2 = l2 - q.imag * q.imag
-        with np.errstate(invalid="ignore"):
-            x = q.real + sign * np.sqrt(h2)
-        return (p + d * x)[None], h2 / l2
+        np.subtract(z[self.i], p, out=q)
+        np.multiply(np.conj(d), q, out=q)
+        np.multiply(q.imag, q.imag, out=ds)
+        np.subtract(l2, ds, out=ds)  # h² = l² − p²
+        np.sqrt(ds, out=x)
+        np.multiply(sign, x, out=x)
+        np.add(q.real, x, out=x)
+        np.multiply(d, x, out=out)
+        np.add(p, out, out=out)
+        np.divide(ds, l2, out=ds)
 
     def lockup(self, names: list[str], toggle: bool) -> str:
         k = names[self.joints[0]]
