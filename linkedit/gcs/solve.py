@@ -10,7 +10,10 @@ far fewer Python calls. The first rejected step is solved by the continuation, w
 then resume from. Waves begin at the first pose with every input active (where J's free
 directions are read), and stop at every input keyframe (the input's rate jumps there); none
 starts where the last two velocities show that the next step's second-order move takes half
-the acceptance test's bound (steps that coarse are sub-stepped by the continuation).
+the acceptance test's bound (steps that coarse are sub-stepped by the continuation). Where the
+closed form predicts the steps (:meth:`Waves.start`), they may start right after the first
+pose (its branch read there, its poses screened by the acceptance test before they are
+solved); a try there that keeps none leaves the schedule as it was.
 """
 
 from __future__ import annotations
@@ -166,9 +169,10 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
     piece_start = starts[np.searchsorted(starts, np.arange(T), side="right") - 1]  # (T,) first step of each one's piece
     while k < T:
         since = max(streak, int(piece_start[k]))  # the converged steps just before k on k's piece
-        if waves is not None and classified and k - since >= START and k >= resting and not table.partial[k] \
+        early = waves is not None and k - since < START  # after one step: the closed form's waves only
+        if waves is not None and classified and k - since >= waves.start() and k >= resting and not table.partial[k] \
                 and within_motion(np.abs(vel[k - 1].ravel() / solver.col).max(), t[k] - t[k - 1], options) \
-                and curving(t, vel, k, solver.col) <= 0.5 * options.predictor_tol:
+                and (early or curving(t, vel, k, solver.col) <= 0.5 * options.predictor_tol):
             # many steps at once from the accepted ones before them (not where the first of them
             # would move or turn too far for the acceptance test, nor for a while after a wave that
             # accepted none), up to the next keyframe or input window's edge
@@ -192,8 +196,9 @@ def _solve_run(system: System, t: np.ndarray, options: Options | None, start: St
                 width = 2 * width if k == stop else SHORTEST
                 pause = SHORTEST
                 continue
-            width = SHORTEST
-            resting, pause = k + pause, 2 * pause
+            if not early:  # (an early try that fails leaves the waves' schedule as it was)
+                width = SHORTEST
+                resting, pause = k + pause, 2 * pause
         if wave_from >= 0:  # step by step again, from the last pose a wave accepted
             good, stuck, wave_from = resume(k - 1), False, -1
         it0, f0 = solver.iterations, solver.factorizations

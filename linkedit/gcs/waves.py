@@ -118,7 +118,7 @@ REACH_FREE, LOW_FREE, HIGH_FREE = 1e-1, 1e-7, 1e-4
 #: ... where J has a free direction: poses only, for the polynomial through them (a rough
 #: pose's velocity is taken before its move to the canonical pose)
 VALUES = 6
-#: converged steps a block starts from
+#: converged steps a block starts from (one where the closed form predicts: :meth:`Waves.start`)
 START = 2
 #: largest scaled move of a pose since its factorization for the factorization to serve its
 #: velocity (by two refinements: error ~REFINE³ relative); at most FRESH, one refinement; none
@@ -182,6 +182,19 @@ class Waves(Extrapolation, BatchedFactors):
         return (o.solver == "lm" and not s.customs
                 and (normal.unique_entries if not normal.sparse else cache.closed_form() is not None))
 
+    def start(self) -> int:
+        """The converged steps a block starts from: one where the closed form predicts its
+        steps (it reads its branch from the pose before them and needs no curve through
+        earlier ones: :meth:`rebuilt`), else :data:`START`."""
+        closed = self.closed is not None and (self.solver.normal.sparse or not self.free or self.closed.spins)
+        return 1 if closed else START
+
+    def _none(self) -> Solved:
+        """A block that solved no step."""
+        M, R, N = self.system.n_members, self.system.n_rows, self.system.n_unknowns
+        return Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, R)), np.zeros((0, N)),
+                      np.zeros((0, 2), dtype=np.int32), 0)
+
     # ---- batched evaluation ---------------------------------------------------------------
 
 
@@ -190,7 +203,7 @@ class Waves(Extrapolation, BatchedFactors):
     def block(self, k: int, stop: int, pos: np.ndarray, ori: np.ndarray, vel: np.ndarray, first: int) -> Solved:
         """Solve the steps k … stop − 1 given the accepted ones before k (positions (T, M, 3),
         quaternions (T, M, 4), real velocities (T, M, 6) of the run, converged from step
-        ``first`` on, k − first ≥ :data:`START`): steps about :data:`STRIDE` apart (and the
+        ``first`` on, k − first ≥ :meth:`start`): steps about :data:`STRIDE` apart (and the
         last) first, roughly (:meth:`correct`), in waves from the osculating polynomial through
         the poses before them (where J has a free direction, the polynomial through
         :data:`VALUES` poses); then all of them at once, the steps between from the polynomial
@@ -200,8 +213,7 @@ class Waves(Extrapolation, BatchedFactors):
         col, M = self.solver.col, self.system.n_members
         if self.solver.normal.sparse:  # the closed form's poses, or none
             rebuilt = self.rebuilt(k, stop, pos, ori, vel) if self.closed is not None else None
-            return rebuilt or Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
-                                     np.zeros((0, self.system.n_unknowns)), np.zeros((0, 2), dtype=np.int32), 0)
+            return rebuilt or self._none()
         if self.tied.size:  # the blocks kept in the cache do not hold for this run's poses
             self._merge()
         if not self.compiled.decided and not self.free and np.abs(vel[k - 1]).max() > 0.0:
@@ -210,6 +222,8 @@ class Waves(Extrapolation, BatchedFactors):
             rebuilt = self.rebuilt(k, stop, pos, ori, vel)
             if rebuilt is not None:
                 return rebuilt
+        if k - first < START:  # too few poses before to predict from
+            return self._none()
         t = self.table.t
         coarse: list[np.ndarray] = []
         rough: list[tuple[np.ndarray, np.ndarray]] = []
@@ -271,8 +285,7 @@ class Waves(Extrapolation, BatchedFactors):
             width = int(np.clip(far, 1, WIDEST))
         if not coarse:
             self.cache.waves = self.compiled.copy()
-            return Solved(np.zeros((0, M, 3)), np.zeros((0, M, 4)), np.zeros((0, self.system.n_rows)),
-                          np.zeros((0, self.system.n_unknowns)), np.zeros((0, 2), dtype=np.int32), 0)
+            return self._none()
         at = np.concatenate(coarse) - k
         steps = np.arange(k, k + int(at[-1]) + 1)
         B = steps.size
