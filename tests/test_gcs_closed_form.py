@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from linkedit.gcs import quaternions as quat
-from linkedit.gcs.closed_form import ClosedForm, Driven, Dyad
+from linkedit.gcs.closed_form import ClosedForm
+from linkedit.gcs.closed_form_rules import Driven, Dyad
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.planar_bridge import planar_model
 from linkedit.gcs.solve import solve_run

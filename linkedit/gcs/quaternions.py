@@ -4,6 +4,9 @@ A rotation vector ``v`` (radians) is the axis times the angle; ``exp`` maps it t
 quaternion and ``log`` back (choosing the sign of q so that w ≥ 0: q and −q are the same
 orientation). Orientation increments are applied in the world frame: ``q ← exp(δ) ⊗ q``, or
 by the cheaper :func:`turned`, which agrees with it to second order in |δ|.
+
+The rotation matrices the closed form (:mod:`linkedit.gcs.closed_form`) builds are here too:
+:func:`rotated`, :func:`spin_matrix` and :func:`frame_rotation`.
 """
 
 from __future__ import annotations
@@ -250,3 +253,26 @@ def left_jacobian_inverse(phi: np.ndarray) -> np.ndarray:
     c = left_jacobian_coefficient(theta2)
     k2 = (outer(phi, phi) * c[..., None]).reshape(phi.shape[:-1] + (3, 3))
     return k2 + (1.0 - c * theta2)[..., None, None] * _EYE - 0.5 * skew(phi)
+
+
+def rotated(R: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """R v for rotation matrices R (B, 3, 3) and vectors v (3,) or (B, 3): (B, 3)."""
+    return R @ v if v.ndim == 1 else (R @ v[:, :, None])[:, :, 0]
+
+
+def spin_matrix(n: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """The rotation matrices (B, 3, 3) by the angles theta (B,) about the unit axes n (B, 3)
+    (Rodrigues)."""
+    K = skew(n)
+    return np.eye(3) + np.sin(theta)[:, None, None] * K + (1.0 - np.cos(theta))[:, None, None] * (K @ K)
+
+
+def frame_rotation(frame: np.ndarray, n: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """The rotation matrices (B, 3, 3) taking a frame (rows (3, 3): a unit axis, a unit
+    direction across it and their cross product) onto the unit axis n (B, 3) and the direction
+    of j across n (B, 3)."""
+    world = np.empty(n.shape + (3,))
+    world[:, :, 0] = n
+    world[:, :, 1] = j / np.sqrt(dot(j, j))[:, None]
+    world[:, :, 2] = cross(n, world[:, :, 1])
+    return world @ frame
