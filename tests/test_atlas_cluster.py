@@ -170,3 +170,33 @@ def test_the_exact_ranking_is_exact_for_near_neighbours():
         exact = ((wide[:, None, :] - v.astype(np.float64)[None]) ** 2).sum(axis=2).min(axis=1)
         rows, _ = nearest_rows(v, columns, norms, 10)
         assert sorted(rows.tolist()) == sorted(np.argsort(exact)[:10].tolist()), k
+
+
+def test_an_in_process_build_has_the_workers_malloc_thresholds():
+    """The in-process runner sets WORKER_MALLOC's fixed glibc thresholds (as the Dask workers have them), so
+    its chunks' temporaries stay in the heap rather than being mmapped and page-faulted afresh, whatever the
+    process allocated before: a 256 MiB array then comes from the heap (glibc's adaptive mmap threshold
+    stops at 32 MiB: the old runner mmapped it). In a fresh process: the setting is process-wide."""
+    import ctypes
+    import subprocess
+    import sys
+
+    if not sys.platform.startswith("linux") or not hasattr(ctypes.CDLL(None), "mallinfo2"):
+        pytest.skip("glibc ≥ 2.33 on Linux only")
+    probe = """
+import ctypes, numpy as np
+from linkedit.synthesis.cluster import chunk_runner
+
+class Info(ctypes.Structure):
+    _fields_ = [(k, ctypes.c_size_t) for k in
+                ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks", "fsmblks", "uordblks", "fordblks", "keepcost")]
+
+mallinfo2 = ctypes.CDLL(None).mallinfo2
+mallinfo2.restype = Info
+with chunk_runner() as run:
+    list(run("four-bar", 1, [(0, 10)]))
+big = np.empty(256 << 20, dtype=np.uint8)
+print(mallinfo2().hblkhd)
+"""
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    assert int(out.stdout) < 256 << 20, "the 256 MiB array was mmapped: no fixed mmap threshold in-process"

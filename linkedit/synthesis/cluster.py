@@ -71,6 +71,8 @@ def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
     """Where chunks are built for the block: in-process, or on Dask (:func:`connected`): a build
     streams, :data:`IN_FLIGHT` tasks per worker thread submitted ahead of the one read."""
     if scheduler is None and not workers:
+        heap_malloc()
+
         def here(name: str, seed: int, jobs: list[tuple[int, int]], task: Task = build_chunks) -> Iterator[tuple[int, Any]]:
             spec = SPEC_TEXTS.get(name)
             return ((index, task(name, seed, [(index, size)], spec)[0]) for index, size in jobs)
@@ -254,6 +256,24 @@ def reaches(client, address: str, timeout: float = 2.0) -> bool:
 #: Fixed thresholds of 1 GiB keep the temporaries in the heap. Start remote workers with them too
 #: (``MALLOC_TRIM_THRESHOLD_=1073741824 MALLOC_MMAP_THRESHOLD_=1073741824 dask worker …``).
 WORKER_MALLOC = {"MALLOC_TRIM_THRESHOLD_": 1 << 30, "MALLOC_MMAP_THRESHOLD_": 1 << 30}
+#: mallopt(3) parameter numbers of :data:`WORKER_MALLOC`'s settings (glibc's malloc.h)
+MALLOPT = {"MALLOC_TRIM_THRESHOLD_": -1, "MALLOC_MMAP_THRESHOLD_": -3}
+
+
+def heap_malloc() -> bool:
+    """:data:`WORKER_MALLOC` set in this process (mallopt) for an in-process build, whose speed otherwise
+    depends on what the process allocated before (glibc's adaptive thresholds); whether it was set
+    (glibc on Linux only; elsewhere nothing changes). Chunks are the same bytes either way."""
+    if not sys.platform.startswith("linux"):
+        return False
+    import ctypes
+
+    try:
+        mallopt = ctypes.CDLL(None).mallopt
+    except AttributeError:  # another C library (musl has no mallopt)
+        return False
+    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
+    return all(mallopt(MALLOPT[k], v) == 1 for k, v in WORKER_MALLOC.items())
 #: Dask settings of the local cluster: no statistical profile of the workers (a stack sample every
 #: 10 ms) and the event-loop latency check every second instead of every 20 ms in every server.
 #: Both feed a dashboard nobody watches here; they cost an idle 2-worker cluster ~90 ms of CPU per second
