@@ -106,7 +106,7 @@ def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | N
     w = work if work is not None and work.samples == angle.shape[0] else Workspace(plan, angle.shape[0])
     z = w.z
     z[plan.ground_rows] = geom.ground
-    np.multiply(geom.arm, np.exp(1j * (angle - geom.rest_angle)), out=z[plan.motor_row])
+    turn_arm(geom, angle, z[plan.motor_row])
     z[plan.motor_row] += geom.pivot
     with np.errstate(invalid="ignore", divide="ignore"):
         for kernel, const in zip(w.kernels(plan), geom.constants):

@@ -1,0 +1,105 @@
+"""The synthesis bench's point tasks (``linkedit bench -s synthesis``): precision points drawn from held-out
+four-bars, the published precision-point problems (:mod:`linkedit.synthesis.published`) and function
+generation, each scored as the user's result is (the written linkage's curve or output)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from linkedit.curves.sources import make_curve
+from linkedit.planar import compile_plan, simulate
+from linkedit.synthesis import atlas, fourbar
+from linkedit.synthesis.index import Index
+from linkedit.synthesis.refine import distances_to
+from linkedit.synthesis.synthesize import MARGIN_DEG, synthesize
+
+#: the figure-eight's and the published problems' extra row: --margin 10
+WIDE_BAND_DEG = 10.0
+
+
+#: Precision-point problems: (points, seed of the uneven draw) from held-out four-bars (atlas seed 4242, not the
+#: atlas's); the reference is the generating linkage (error 0). Published problems: :func:`published_points`.
+PRECISION_PROBLEMS = ((6, 1), (8, 2), (10, 3), (12, 4), (18, 5), (25, 6))
+
+
+def precision_points(echo: Callable[[str], None], book: atlas.Atlas, index: Index, quick: bool) -> None:
+    """Precision points drawn unevenly from held-out four-bars' curves: the mean distance of the points to the
+    written result's curve over their RMS radius (max in parentheses), the generating linkage's by the same
+    measure, the same points synthesized as a curve (the polygon; scored by the points), and CPU seconds."""
+    rows = atlas.build_chunk("four-bar", 4242, 0, len(PRECISION_PROBLEMS)).params
+    echo("precision points, --top 5 (mean point-to-curve distance over the points' RMS radius, max in parentheses; "
+         "held-out four-bars, points drawn unevenly; reference: the generating linkage):")
+    echo(f"  {'points':>6s}  {'ours (--points)':>22s}  {'as a curve (polygon)':>22s}  {'generating':>10s}  CPU s")
+    for (count, seed), row in list(zip(PRECISION_PROBLEMS, rows))[: 2 if quick else None]:
+        curve = 5 - 2j + 30 * np.exp(0.7j * seed) * fourbar.curves(row[None], 3600)[0]
+        z = curve[np.sort(np.random.default_rng(seed).choice(len(curve), count, replace=False))]
+        radius = float(np.sqrt(np.mean(np.abs(z - z.mean()) ** 2)))
+        target = make_curve("points", np.stack([z.real, z.imag], axis=1), closed=True, origin="bench")
+        cpu = time.process_time()
+        ours = synthesize(target, book, index, top=1 if quick else 5, points=True)
+        cpu = time.process_time() - cpu
+        assert ours.point_distances is not None
+        d = ours.point_distances / ours.size
+        drawn = simulate(compile_plan(synthesize(target, book, index, top=1 if quick else 5, points=False).spec), 20000)
+        p = drawn.tracks["target"].position
+        polygon = distances_to(z, p[:, 0] + 1j * p[:, 1], True) / radius
+        truth = simulate(compile_plan(fourbar.to_spec(row, phase=0.0, scale=30.0, turn=np.exp(0.7j * seed),
+                                                      shift=5 - 2j, mirrored=False, name="generating", units="mm",
+                                                      description="")), 20000).tracks["target"].position
+        generating = distances_to(z, truth[:, 0] + 1j * truth[:, 1], True) / radius
+        echo(f"  {count:>6d}  {d.mean():10.2e} ({d.max():8.2e})  {polygon.mean():10.2e} ({polygon.max():8.2e})  "
+             f"{generating.mean():10.1e}  {cpu:5.2f}")
+
+
+#: The published problem also run with a 10° band (its exact crank-rocker's transmission angle falls to 12.1°).
+WIDE_BAND_PROBLEM = "Wampler et al. 1992, nine points on two circles"
+
+
+def published_points(echo: Callable[[str], None], book: atlas.Atlas, index: Index, quick: bool) -> None:
+    """Published precision-point problems (:mod:`linkedit.synthesis.published`): ours (``--points``, --top 5, the
+    20° band) by the mean distance of the points to the written result's curve over their RMS radius (max in
+    parentheses), against the published solutions' (exact: 0), with CPU seconds."""
+    from linkedit.synthesis.published import PROBLEMS
+
+    echo("published precision-point problems, --points --top 5 (mean point-to-curve distance over the points' RMS "
+         "radius, max in parentheses; published: the authors' solutions, scored the same way; sources: "
+         "linkedit/synthesis/published.py):")
+    echo(f"  {'problem':<52s} {'ours':>21s}  {'published':>9s}  CPU s  published solution")
+    rows = [(p, MARGIN_DEG) for p in PROBLEMS[: 2 if quick else None]]
+    if not quick:
+        rows += [(p, WIDE_BAND_DEG) for p in PROBLEMS if p.name == WIDE_BAND_PROBLEM]
+    for problem, margin_deg in rows:
+        z = problem.array()
+        target = make_curve("points", np.stack([z.real, z.imag], axis=1), closed=True, origin="bench")
+        cpu = time.process_time()
+        ours = synthesize(target, book, index, top=1 if quick else 5, points=True, margin_deg=margin_deg)
+        cpu = time.process_time() - cpu
+        assert ours.point_distances is not None
+        d = ours.point_distances / ours.size
+        name = problem.name + ("" if margin_deg == MARGIN_DEG else f", --margin {margin_deg:g}")
+        echo(f"  {name:<52s} {d.mean():9.2e} ({d.max():8.2e})  {0.0:9.1g}  {cpu:5.2f}  {problem.published}")
+
+
+def function_generation(echo: Callable[[str], None], quick: bool) -> None:
+    """``synthesize --function`` on y = log10 x and a square law, x in [1, 10] (25 pairs) mapped to 60° of crank and
+    60° of rocker, with relative angles: max (RMS) output error with the output's sense free and prescribed (the
+    rocker turning the way the pairs do), in the 20° and (not ``quick``) 10° transmission bands."""
+    from linkedit.synthesis import function
+
+    x = np.linspace(1.0, 10.0, 25)
+    echo("function generation over 60° (25 pairs, --relative; max (RMS) output error, degrees; target ≤ 0.5° max):")
+    for name, y in (("log10 x", np.log10(x)), ("((x − 1)/9)²", ((x - 1.0) / 9.0) ** 2)):
+        phi, psi = np.radians(60 * (x - 1) / 9), np.radians(60 * (y - y.min()) / (y.max() - y.min()))
+        cells = []
+        for margin_deg in (MARGIN_DEG,) if quick else (MARGIN_DEG, WIDE_BAND_DEG):
+            found = function.fit(phi, psi, relative=True, margin_deg=margin_deg)
+            same = function.fit(phi, psi, relative=True, margin_deg=margin_deg, sense=1.0)
+            for fit in (found, same):
+                e = np.degrees(np.abs(fit.errors)) if fit is not None else np.array([np.nan])
+                sense = "" if fit is None or fit is same else " same" if fit.sense > 0 else " opposite"
+                cells.append(f"{e.max():.3f}° ({np.sqrt(np.mean(e * e)):.3f}°){sense}")
+        wide = "" if quick else f"; band 10°: sense free {cells[2]}, same sense {cells[3]}"
+        echo(f"  {name:<13s} band 20°: sense free {cells[0]}, same sense {cells[1]}{wide}")
