@@ -61,7 +61,8 @@ WIDE_BAND_PROBLEM = "Wampler et al. 1992, nine points on two circles"
 def published_points(echo: Callable[[str], None], book: atlas.Atlas, index: Index, quick: bool) -> None:
     """Published precision-point problems (:mod:`linkedit.synthesis.published`): ours (``--points``, --top 5, the
     20° band) by the mean distance of the points to the written result's curve over their RMS radius (max in
-    parentheses), against the published solutions' (exact: 0), with CPU seconds."""
+    parentheses), against the best published linkage's by the same measure (exact solutions: 0), with CPU
+    seconds."""
     from linkedit.synthesis.published import PROBLEMS
 
     echo("published precision-point problems, --points --top 5 (mean point-to-curve distance over the points' RMS "
@@ -80,7 +81,10 @@ def published_points(echo: Callable[[str], None], book: atlas.Atlas, index: Inde
         assert ours.point_distances is not None
         d = ours.point_distances / ours.size
         name = problem.name + ("" if margin_deg == MARGIN_DEG else f", --margin {margin_deg:g}")
-        echo(f"  {name:<52s} {d.mean():9.2e} ({d.max():8.2e})  {0.0:9.1g}  {cpu:5.2f}  {problem.published}")
+        best = problem.best()
+        published = "0 (exact)" if best is None else f"{best[1].mean():9.2e}"
+        solution = problem.published if best is None else f"{best[0].label}; of {problem.published}"
+        echo(f"  {name:<52s} {d.mean():9.2e} ({d.max():8.2e})  {published:>9s}  {cpu:5.2f}  {solution}")
 
 
 def function_generation(echo: Callable[[str], None], quick: bool) -> None:
