@@ -66,7 +66,7 @@ def published_points(echo: Callable[[str], None], book: atlas.Atlas, index: Inde
     from linkedit.synthesis.published import PROBLEMS
 
     echo("published precision-point problems, --points --top 5 (mean point-to-curve distance over the points' RMS "
-         "radius, max in parentheses; published: the authors' solutions, scored the same way; sources: "
+         "radius, max in parentheses; published: the best published linkage, scored the same way; sources: "
          "linkedit/synthesis/published.py):")
     echo(f"  {'problem':<52s} {'ours':>21s}  {'published':>9s}  CPU s  published solution")
     rows = [(p, MARGIN_DEG) for p in PROBLEMS[: 2 if quick else None]]
@@ -82,7 +82,7 @@ def published_points(echo: Callable[[str], None], book: atlas.Atlas, index: Inde
         d = ours.point_distances / ours.size
         name = problem.name + ("" if margin_deg == MARGIN_DEG else f", --margin {margin_deg:g}")
         best = problem.best()
-        published = "0 (exact)" if best is None else f"{best[1].mean():9.2e}"
+        published = f"{0.0:9.1g}" if best is None else f"{best[1].mean():9.2e}"
         solution = problem.published if best is None else f"{best[0].label}; of {problem.published}"
         echo(f"  {name:<52s} {d.mean():9.2e} ({d.max():8.2e})  {published:>9s}  {cpu:5.2f}  {solution}")
 
