@@ -154,6 +154,12 @@ def test_same_sense_log_over_60_degrees_by_a_watt_six_bar(run_cli, tmp_path):
     z = {n: p[:, i, 0] + 1j * p[:, i, 1] for i, n in enumerate(names)}
     for i, j in ("DB", "DC", "BC", "AB", "CE", "FE", "OA"):
         assert np.ptp(np.abs(z[i] - z[j])) <= 1e-9 * np.abs(z[i] - z[j]).max()
+    # both dyads' transmission angles (at B and E), as the planar core measures them over result.h5's sweep
+    with h5py.File(out / "result.h5") as f:
+        rules = [n.decode() if isinstance(n, bytes) else n for n in f["rule"][()]]
+        mu = np.degrees(f["diagnostics/transmission_angle"][()][:, [rules.index("B"), rules.index("E")]])
+    lo, hi = report["transmission_deg"]["min"], report["transmission_deg"]["max"]
+    assert lo - 1e-9 <= mu.min() and mu.max() <= hi + 1e-9
 
 
 def test_pairs_no_four_bar_meets_get_the_best_and_a_note(run_cli, tmp_path):
