@@ -109,6 +109,59 @@ def test_a_function_over_60_degrees_within_half_a_degree(run_cli, tmp_path, name
     assert max(map(abs, errors)) == pytest.approx(report["error"]["max_deg"])
 
 
+def simulated_output(run_cli, spec, samples: int, tmp_path, tip: str, pivot: str) -> np.ndarray:
+    """`linkedit simulate spec -n samples`: the angle of pivot→tip (degrees) at each sample."""
+    sim = run_cli("simulate", spec, "-n", str(samples), "-o", tmp_path / "again.h5")
+    assert sim.exit_code == 0, sim.output
+    with h5py.File(tmp_path / "again.h5") as f:
+        names = [n.decode() if isinstance(n, bytes) else n for n in f["joint"][()]]
+        p = f["joints/position"][()]
+    z = p[:, :, 0] + 1j * p[:, :, 1]
+    return np.degrees(np.angle(z[:, names.index(tip)] - z[:, names.index(pivot)]))
+
+
+def test_same_sense_log_over_60_degrees_by_a_watt_six_bar(run_cli, tmp_path):
+    """y = log10 x over 60°, the output turning the crank's way in the 20° band: the four-bar's best is
+    1.65° (its transmission angle on the band's edge; its note points to the six-bar); the Watt II
+    six-bar meets it within 0.5°, and `linkedit simulate result.yaml` turns its output F→E through
+    the pairs to the reported error."""
+    x = np.linspace(1, 10, 25)
+    inputs, outputs = 60 * (x - 1) / 9, 60 * np.log10(x)
+    write_pairs(tmp_path / "log.csv", inputs, outputs)
+    four = run_cli("synthesize", "--function", tmp_path / "log.csv", "--relative", "--sense", "same", "-o",
+                   tmp_path / "four", "--json")
+    assert four.exit_code == 0, four.output
+    report = json.loads(four.stdout)["result"]
+    assert report["family"] == "four-bar" and report["angles"]["output_sense"] == "same"
+    assert report["error"]["max_deg"] > 1.0 and "--family six-bar" in report["note"]
+
+    out = tmp_path / "six"
+    result = run_cli("synthesize", "--function", tmp_path / "log.csv", "--relative", "--sense", "same",
+                     "--family", "six-bar", "-o", out)
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    assert report["family"] == "six-bar" and report["angles"]["output_sense"] == "same" and not report["note"]
+    assert report["error"]["max_deg"] <= 0.5
+    assert 20 <= report["transmission_deg"]["min"] and report["transmission_deg"]["max"] <= 160
+    # the user's next step: simulate result.yaml, 25 samples over [0°, 60°] land on the pairs' inputs
+    output = simulated_output(run_cli, out / "result.yaml", 25, tmp_path, "E", "F")
+    error = (output - report["angles"]["rocker_at_output_0_deg"] - outputs + 180) % 360 - 180
+    assert np.abs(error).max() == pytest.approx(report["error"]["max_deg"], abs=1e-6)
+    # the bell crank D-B-C stays rigid, the six links keep their lengths (the simulation is a Watt II)
+    with h5py.File(tmp_path / "again.h5") as f:
+        names = [n.decode() if isinstance(n, bytes) else n for n in f["joint"][()]]
+        p = f["joints/position"][()]
+    z = {n: p[:, i, 0] + 1j * p[:, i, 1] for i, n in enumerate(names)}
+    for i, j in ("DB", "DC", "BC", "AB", "CE", "FE", "OA"):
+        assert np.ptp(np.abs(z[i] - z[j])) <= 1e-9 * np.abs(z[i] - z[j]).max()
+    # both dyads' transmission angles (at B and E), as the planar core measures them over result.h5's sweep
+    with h5py.File(out / "result.h5") as f:
+        rules = [n.decode() if isinstance(n, bytes) else n for n in f["rule"][()]]
+        mu = np.degrees(f["diagnostics/transmission_angle"][()][:, [rules.index("B"), rules.index("E")]])
+    lo, hi = report["transmission_deg"]["min"], report["transmission_deg"]["max"]
+    assert lo - 1e-9 <= mu.min() and mu.max() <= hi + 1e-9
+
+
 def test_pairs_no_four_bar_meets_get_the_best_and_a_note(run_cli, tmp_path):
     """An output that swings back and forth three times over half a turn of the crank."""
     inputs = np.linspace(0, 180, 37)
@@ -150,4 +203,13 @@ def test_function_takes_no_atlas_and_a_curve_needs_one(run_cli, tmp_path):
     assert curve_option.exit_code == 2 and "--timing applies to a target curve, not to --function" in curve_option.output
     stray = run_cli("synthesize", "--motion", tmp_path / "p.csv", "--relative", "-o", tmp_path / "o")
     assert stray.exit_code == 2 and "--relative applies to --function" in stray.output
+    for options, message in ((["--family", "six-bar"], "--family six-bar needs --relative"),
+                             (["--sense", "same"], "--sense needs --relative"),
+                             (["--relative", "--family", "five-bar"], "unknown family 'five-bar'"),
+                             (["--relative", "--sense", "up"], "unknown sense 'up'")):
+        wrong = run_cli("synthesize", "--function", tmp_path / "p.csv", *options, "-o", tmp_path / "o")
+        assert wrong.exit_code == 2 and len(wrong.output.strip().splitlines()) == 1, wrong.output
+        assert message in wrong.output
+    stray = run_cli("synthesize", "--motion", tmp_path / "p.csv", "--family", "six-bar", "-o", tmp_path / "o")
+    assert stray.exit_code == 2 and "--family applies to --function" in stray.output
     assert not (tmp_path / "o").exists()

@@ -118,8 +118,9 @@ def register(app: typer.Typer) -> None:
         output: Path = typer.Option(..., "-o", "--output", help="Output folder: result.yaml, result.h5, overlay.svg, "
                                                                 "history.svg, report.json."),
         pairs: Path = typer.Option(None, "--function", metavar="PAIRS.csv",
-                                   help="Function generation instead: a four-bar whose rocker turns as the CSV's "
-                                        "input_deg, output_deg pairs prescribe (no target, no --atlas)."),
+                                   help="Function generation instead: a four-bar (or --family six-bar) whose output "
+                                        "link turns as the CSV's input_deg, output_deg pairs prescribe (no target, "
+                                        "no --atlas)."),
         poses: Path = typer.Option(None, "--motion", metavar="POSES.csv",
                                    help="Motion generation instead: a four-bar whose coupler passes through the "
                                         "CSV's poses x, y, angle_deg[, t] in order (no target, no --atlas)."),
@@ -127,6 +128,12 @@ def register(app: typer.Typer) -> None:
                                                                 "rest angles the synthesis chooses (and the output "
                                                                 "may turn either way) [default: absolute, from the "
                                                                 "ground line]."),
+        family: str = typer.Option(None, "--family", metavar="FAMILY",
+                                   help="With --function: four-bar, or six-bar (a Watt II: two four-bars in series, "
+                                        "more freedom; with --relative) [default: four-bar]."),
+        sense: str = typer.Option(None, "--sense", metavar="WAY",
+                                  help="With --function --relative: the output turns the crank's way (same) or "
+                                       "the other way (opposite) [default: whichever fits better]."),
         tolerance: float = typer.Option(0.5, "--tolerance", metavar="DEG", min=0.0,
                                         help="With --function or --motion: a larger max output (coupler) angle "
                                              "error gets a note."),
@@ -162,8 +169,9 @@ def register(app: typer.Typer) -> None:
         curve_only = {"--top": top != 5, "--closed/--open": closed is not None, "--smooth": smooth != 0.0,
                       "--timing": timing, "--seed": seed != 1, "--units": units is not None,
                       "--points/--curve": points is not None, "--scheduler": scheduler is not None}
-        if pairs is None and relative:
-            raise InputError("--relative applies to --function", field="--relative")
+        for option, given in (("--relative", relative), ("--family", family is not None), ("--sense", sense is not None)):
+            if pairs is None and given:
+                raise InputError(f"{option} applies to --function", field=option)
         if pairs is not None or poses is not None:
             mode = "--function" if pairs is not None else "--motion"
             if target is not None or atlas is not None or (pairs is not None and poses is not None):
@@ -173,7 +181,8 @@ def register(app: typer.Typer) -> None:
                 if given:
                     raise InputError(f"{option} applies to a target curve, not to {mode}", field=option)
             if pairs is not None:
-                _function(pairs, output, relative=relative, margin=margin, tolerance=tolerance)
+                _function(pairs, output, relative=relative, margin=margin, tolerance=tolerance, family=family,
+                          sense=sense)
             else:
                 _motion(poses, output, margin=margin, tolerance=tolerance)
             return
@@ -254,21 +263,32 @@ def _spatial(curve, target: str, atlas: Path, output: Path, *, top: int, margin:
         say(f"note: {done['note']}")
 
 
-def _function(pairs: Path, output: Path, *, relative: bool, margin: float, tolerance: float) -> None:
+def _function(pairs: Path, output: Path, *, relative: bool, margin: float, tolerance: float, family: str | None,
+              sense: str | None) -> None:
     """``synthesize --function``: fit, write the output folder, say the errors."""
     from linkedit.synthesis.generate import FILES, run_function
 
+    if family not in (None, "four-bar", "six-bar"):
+        raise InputError(f"unknown family {family!r} (four-bar or six-bar)", field="--family")
+    if sense not in (None, "same", "opposite"):
+        raise InputError(f"unknown sense {sense!r} (same or opposite)", field="--sense")
+    for option, given in (("--family six-bar", family == "six-bar"), ("--sense", sense is not None)):
+        if given and not relative:
+            raise InputError(f"{option} needs --relative (angles as changes from fitted rest angles)", field=option)
     check_outputs([("--output", output / name) for name in FILES], [pairs])
-    options = {"function": str(pairs), "relative": relative, "margin_deg": margin, "tolerance_deg": tolerance}
-    done = run_function(pairs, output, relative=relative, margin_deg=margin, tolerance_deg=tolerance, options=options)
+    options = {"function": str(pairs), "relative": relative, "margin_deg": margin, "tolerance_deg": tolerance,
+               "family": family or "four-bar", "sense": sense}
+    done = run_function(pairs, output, relative=relative, margin_deg=margin, tolerance_deg=tolerance, options=options,
+                        family=family or "four-bar", sense=None if sense is None else 1.0 if sense == "same" else -1.0)
     report(done | {"output": str(output)})
     link = done["linkage"]
-    say(f"function generator: output error max {done['error']['max_deg']:.3g}°, RMS {done['error']['rms_deg']:.3g}° "
-        f"over {done['pairs']['count']} pairs; crank {link['crank']:.4g}, coupler {link['coupler']:.4g}, rocker "
-        f"{link['rocker']:.4g}, ground {link['ground']:.4g} {link['units']}; transmission "
-        f"{done['transmission_deg']['min']:.1f}°…{done['transmission_deg']['max']:.1f}° → {output}/")
+    lengths = ", ".join(f"{name} {value:.4g}" for name, value in link.items() if name != "units")
+    say(f"{done['family']} function generator: output error max {done['error']['max_deg']:.3g}°, RMS "
+        f"{done['error']['rms_deg']:.3g}° over {done['pairs']['count']} pairs; {lengths} {link['units']}; "
+        f"transmission {done['transmission_deg']['min']:.1f}°…{done['transmission_deg']['max']:.1f}° → {output}/")
     if done["angles"]["output_sense"] == "opposite":
-        say("the rocker turns clockwise as the output angle grows (the other way fits better)")
+        say("the output link turns clockwise as the output angle grows"
+            + (" (the other way fits better)" if sense is None else ""))
     if done["note"]:
         say(f"note: {done['note']}")
 

@@ -90,20 +90,24 @@ def published_points(echo: Callable[[str], None], book: atlas.Atlas, index: Inde
 def function_generation(echo: Callable[[str], None], quick: bool) -> None:
     """``synthesize --function`` on y = log10 x and a square law, x in [1, 10] (25 pairs) mapped to 60° of crank and
     60° of rocker, with relative angles: max (RMS) output error with the output's sense free and prescribed (the
-    rocker turning the way the pairs do), in the 20° and (not ``quick``) 10° transmission bands."""
-    from linkedit.synthesis import function
+    output turning the way the pairs do), in the 20° and (not ``quick``) 10° transmission bands; and the Watt II
+    six-bar (``--family six-bar``) with the sense prescribed in the 20° band."""
+    from linkedit.synthesis import function, function_six
 
     x = np.linspace(1.0, 10.0, 25)
     echo("function generation over 60° (25 pairs, --relative; max (RMS) output error, degrees; target ≤ 0.5° max):")
+
+    def cell(fit: function.FunctionFit | function_six.SixBarFit | None, sense: str) -> str:
+        e = np.degrees(np.abs(fit.errors)) if fit is not None else np.array([np.nan])
+        way = "" if fit is None or not sense else " same" if fit.sense > 0 else " opposite"
+        return f"{e.max():.3f}° ({np.sqrt(np.mean(e * e)):.3f}°){way}"
+
     for name, y in (("log10 x", np.log10(x)), ("((x − 1)/9)²", ((x - 1.0) / 9.0) ** 2)):
         phi, psi = np.radians(60 * (x - 1) / 9), np.radians(60 * (y - y.min()) / (y.max() - y.min()))
         cells = []
         for margin_deg in (MARGIN_DEG,) if quick else (MARGIN_DEG, WIDE_BAND_DEG):
-            found = function.fit(phi, psi, relative=True, margin_deg=margin_deg)
-            same = function.fit(phi, psi, relative=True, margin_deg=margin_deg, sense=1.0)
-            for fit in (found, same):
-                e = np.degrees(np.abs(fit.errors)) if fit is not None else np.array([np.nan])
-                sense = "" if fit is None or fit is same else " same" if fit.sense > 0 else " opposite"
-                cells.append(f"{e.max():.3f}° ({np.sqrt(np.mean(e * e)):.3f}°){sense}")
+            cells.append(cell(function.fit(phi, psi, relative=True, margin_deg=margin_deg), "free"))
+            cells.append(cell(function.fit(phi, psi, relative=True, margin_deg=margin_deg, sense=1.0), ""))
+        six = cell(function_six.fit(phi, psi, margin_deg=MARGIN_DEG, sense=1.0), "")
         wide = "" if quick else f"; band 10°: sense free {cells[2]}, same sense {cells[3]}"
-        echo(f"  {name:<13s} band 20°: sense free {cells[0]}, same sense {cells[1]}{wide}")
+        echo(f"  {name:<13s} band 20°: sense free {cells[0]}, same sense {cells[1]}, six-bar same sense {six}{wide}")

@@ -67,10 +67,10 @@ def wrap(angle: np.ndarray) -> np.ndarray:
 
 
 def output_angles(params: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """ψ = arg(B − D) − β, (K, N) radians, of linkages ``params`` (K, 6) at inputs ``phi`` (N,)
-    (not wrapped); NaN where B cannot be placed."""
+    """ψ = arg(B − D) − β, (K, N) radians, of linkages ``params`` (K, 6) at inputs ``phi`` (N,), or
+    (K, N) each its own (not wrapped); NaN where B cannot be placed."""
     a, b, c, s, alpha, beta = (params[:, i:i + 1] for i in range(6))
-    pin = a * np.exp(1j * (alpha + phi[None, :]))
+    pin = a * np.exp(1j * (alpha + np.atleast_2d(phi)))
     with np.errstate(invalid="ignore", divide="ignore"):
         tip, _ = dyad(pin, np.ones_like(pin), 0.5 * (b * b - c * c), b * b, s)
     return np.angle(tip - 1.0) - beta

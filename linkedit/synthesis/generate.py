@@ -28,7 +28,7 @@ from linkedit.planar.law_of_cosines import dyad
 from linkedit.planar.simulate import Motion
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.linkage_yaml import dump_linkage
-from linkedit.synthesis import function, motion
+from linkedit.synthesis import function, function_six, motion
 
 FILES = ("result.yaml", "result.h5", "report.json")
 #: the ground link's length of a function generator, in UNITS (angles do not depend on it)
@@ -97,49 +97,95 @@ def function_spec(found: function.FunctionFit, rest_deg: float, span_deg: float,
     })
 
 
+def six_bar_spec(found: function_six.SixBarFit, rest_deg: float, span_deg: float, name: str) -> LinkageSpec:
+    """The fitted Watt II six-bar at the crank's rest (input ``rest_deg``): ground O = 0, D = (GROUND, 0),
+    F = (2·GROUND, 0), the motor sweeping ``range_deg`` [0, span_deg], track ``target`` = the output's tip E."""
+    first, second = function_six.stages(found.params[None])
+    a, b, c, s, alpha, _ = first[0]
+    pin = np.array([[a * np.exp(1j * (alpha + np.radians(rest_deg)))]])
+    tip, _ = dyad(pin, np.array([[1.0 + 0j]]), np.array([[0.5 * (b * b - c * c)]]), np.array([[b * b]]),
+                  np.array([[s]]))
+    a2, b2, c2, s2, arm, _ = second[0]
+    arm_pin = np.array([[a2 * np.exp(1j * (arm + np.angle(tip[0, 0] - 1.0)))]])  # C − D
+    out, _ = dyad(arm_pin, np.array([[1.0 + 0j]]), np.array([[0.5 * (b2 * b2 - c2 * c2)]]), np.array([[b2 * b2]]),
+                  np.array([[s2]]))
+    joints = {"O": 0j, "A": pin[0, 0], "B": tip[0, 0], "C": 1.0 + arm_pin[0, 0], "D": 1.0 + 0j,
+              "E": 1.0 + out[0, 0], "F": 2.0 + 0j}
+    return LinkageSpec.model_validate({
+        "name": name, "units": UNITS,
+        "description": "Watt II six-bar function generator: the output F-E turns as the pairs prescribe when the "
+                       "crank O-A turns; the rocker D-B-C is a bell crank driving it through the link C-E "
+                       "(linkedit synthesize --function --family six-bar)",
+        "joints": {k: [GROUND * z.real, GROUND * z.imag] for k, z in joints.items()},
+        "ground": ["O", "D", "F"],
+        "links": {"crank": ["O", "A"], "coupler": ["A", "B"], "bell_crank": ["D", "B", "C"], "link": ["C", "E"],
+                  "output": ["F", "E"]},
+        "motor": {"joint": "A", "pivot": "O", "direction": "ccw", "range_deg": [0.0, span_deg]},
+        "tracks": {"target": {"joint": "E"}},
+    })
+
+
 def run_function(path: Path, out: Path, *, relative: bool, margin_deg: float, tolerance_deg: float,
-                 options: dict[str, Any]) -> dict[str, Any]:
-    """Synthesize a function generator for the pairs in ``path`` and write it into ``out``;
-    returns the report. MechanismError (exit 1) when no four-bar works over the input range."""
+                 options: dict[str, Any], family: str = "four-bar", sense: float | None = None) -> dict[str, Any]:
+    """Synthesize a function generator (``family`` "four-bar" or "six-bar", the Watt II; ``sense`` +1/−1
+    prescribes the output's turning way with relative angles) for the pairs in ``path`` and write it into
+    ``out``; returns the report. MechanismError (exit 1) when no linkage works over the input range."""
     start = time.perf_counter()
     phi_deg, psi_deg, lines = read_pairs(path)
     phi, psi = np.radians(phi_deg), np.radians(psi_deg)
-    found = function.fit(phi, psi, relative=relative, margin_deg=margin_deg)
+    six = family == "six-bar"
+    found = (function_six.fit(phi, psi, margin_deg=margin_deg, sense=sense) if six else
+             function.fit(phi, psi, relative=relative, margin_deg=margin_deg, sense=sense))
     if found is None:
-        raise MechanismError(f"{path}: no four-bar turns through the input range {phi_deg.min():.6g}°…"
-                             f"{phi_deg.max():.6g}° with its transmission angle within [{margin_deg:g}°, "
-                             f"{180 - margin_deg:g}°] (try a smaller --margin or a shorter input range)")
+        raise MechanismError(f"{path}: no {family} turns through the input range {phi_deg.min():.6g}°…"
+                             f"{phi_deg.max():.6g}° with its transmission angle{'s' if six else ''} within "
+                             f"[{margin_deg:g}°, {180 - margin_deg:g}°] (try a smaller --margin or a shorter input "
+                             "range)")
     fitted = time.perf_counter()
     rest, span = float(phi_deg.min()), float(np.ptp(phi_deg))
-    spec = function_spec(found, rest, span, Path(path).stem)
-    _, _, _, _, alpha, beta = found.params
+    p = found.params
+    if isinstance(found, function_six.SixBarFit):
+        spec = six_bar_spec(found, rest, span, Path(path).stem)
+        alpha, beta, tip, pivot = p[4], p[10], "E", "F"
+        first, second = function_six.stages(p[None])
+        ranges = [function.transmission_range(first, phi.min(), phi.max()),
+                  function.transmission_range(second, *function_six.bell_crank_range(p[None], phi))]
+        names = ("crank", "coupler", "rocker", "arm", "link", "output")
+        lengths = dict(zip(names, (float(v) * GROUND for v in (*p[:3], *p[5:8]))))
+        arm: dict[str, float] = {"arm_deg": float(np.degrees(p[9]))}  # the bell crank's arm D→C from D→B
+    else:
+        spec = function_spec(found, rest, span, Path(path).stem)
+        alpha, beta, tip, pivot = p[4], p[5], "B", "D"
+        ranges = [function.transmission_range(p[None], phi.min(), phi.max())]
+        lengths = dict(zip(("crank", "coupler", "rocker"), (float(v) * GROUND for v in p[:3])))
+        arm = {}
     at = at_inputs(spec, alpha + phi)  # the written spec, evaluated at each pair's input
-    result = found.sense * function.wrap(np.angle(at["B"] - at["D"]) - beta - found.sense * psi) + psi
+    result = found.sense * function.wrap(np.angle(at[tip] - at[pivot]) - beta - found.sense * psi) + psi
     errors = np.degrees(result - psi)
     if not np.isfinite(errors).all():
         raise MechanismError(f"{spec.name}: the written linkage does not assemble at every pair's input")
     motion = simulate(spec, RESULT_SAMPLES)
-    lo, hi = function.transmission_range(found.params[None], phi.min(), phi.max())
+    lo, hi = min(r[0] for r in ranges), max(r[1] for r in ranges)
     worst = float(np.abs(errors).max())
-    a, b, c = (float(v) * GROUND for v in found.params[:3])
     note = "" if worst <= tolerance_deg else (
-        f"no four-bar found meets the pairs within {tolerance_deg:g}°: the best is off by {worst:.3g}° (max)"
+        f"no {family} found meets the pairs within {tolerance_deg:g}°: the best is off by {worst:.3g}° (max)"
         + (f"; its transmission angle reaches the band's edge ({margin_deg:g}°): a smaller --margin trades "
-           "transmission quality for accuracy" if min(lo, 180 - hi) < margin_deg + 0.5 else ""))
+           "transmission quality for accuracy" if min(lo, 180 - hi) < margin_deg + 0.5 else "")
+        + ("; a Watt II six-bar (--family six-bar) has more freedom" if relative and not six else ""))
     report = {
-        "generator": f"linkedit {__version__}", "mode": "function",
+        "generator": f"linkedit {__version__}", "mode": "function", "family": family,
         "pairs": {"origin": str(path), "count": int(len(phi)), "angles": "relative" if relative else "absolute"},
         "options": options,
         "error": {"max_deg": worst, "rms_deg": float(np.sqrt(np.mean(errors ** 2))), "tolerance_deg": tolerance_deg,
                   "measured": "result.yaml evaluated at each pair's input (linkedit.planar): output angle − prescribed"},
-        "linkage": {"units": UNITS, "ground": GROUND, "crank": a, "coupler": b, "rocker": c},
+        "linkage": {"units": UNITS, "ground": GROUND, **lengths},
         "angles": {"crank_at_input_0_deg": float(np.degrees(alpha)),
                    "rocker_at_output_0_deg": float(np.degrees(beta)),
                    "output_sense": "same" if found.sense > 0 else "opposite",
-                   "rest_input_deg": rest},
-        "transmission_deg": {"min": lo, "max": hi},
+                   "rest_input_deg": rest} | arm,
+        "transmission_deg": {"min": lo, "max": hi} | ({"stages": [list(r) for r in ranges]} if six else {}),
         "margin_deg": margin_deg,
-        "min_singularity": found.lowest,
+        "min_singularity": float(np.min(found.lowest)),
         "points": [{"line": ln, "input_deg": float(x), "output_deg": float(y), "result_deg": float(np.degrees(r)),
                     "error_deg": float(e), "motor_angle_deg": float(np.degrees(alpha) + x), "t": float((x - rest) / span)}
                    for ln, x, y, r, e in zip(lines, phi_deg, psi_deg, result, errors)],
@@ -147,8 +193,10 @@ def run_function(path: Path, out: Path, *, relative: bool, margin_deg: float, to
         "result": {"spec": "result.yaml", "simulation": "result.h5", "track": "target", "samples": RESULT_SAMPLES},
         "seconds": {"fit": fitted - start, "total": time.perf_counter() - start},
     }
+    link = "the link F-E is the output; track 'target' is its tip E" if six else (
+        "the rocker D-B is the output; track 'target' is its tip B")
     header = ("Synthesized by linkedit synthesize --function; simulate it with:\n"
-              "  linkedit simulate result.yaml   (the rocker D-B is the output; track 'target' is its tip B)")
+              f"  linkedit simulate result.yaml   ({link})")
     _write(out, spec, motion, header, report, options | {"command": "synthesize", "mode": "function"})
     return report
 
