@@ -5,9 +5,10 @@ Newton's method on the group's constraint rows at every sample (the samples are 
 time its inputs have moved GROUP_STRIDE, then every sample polished at once from a predictor and
 checked (:func:`solve_group`), keeping the rest pose's branch (the sign of the group Jacobian's
 determinant never changes; a change means the group passed a singular position, reported as a
-lock-up). Its singularity distance is (σ_min/σ_max)² of the row-scaled group Jacobian; its
-velocities and accelerations come from the same Jacobian at the solution (the implicit function
-theorem on the rows' :class:`RealForm`, built once per step: :meth:`Group.evaluate`).
+lock-up). Its singularity distance is the Hadamard ratio (det J / ∏ ‖row‖)² of the group
+Jacobian J (:func:`conditioning`: the dyad's sin²α generalized); its velocities and
+accelerations come from the same Jacobian at the solution (the implicit function theorem on
+the rows' :class:`RealForm`, built once per step: :meth:`Group.evaluate`).
 """
 
 from __future__ import annotations
@@ -72,21 +73,21 @@ class Group(Step):
 
     def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray,
               const: tuple[Any, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
-        x, fail = solve_group(self, z, s, rest[self.joints])
+        x, fail, det = solve_group(self, z, s, rest[self.joints])
         k = 2 * self.joints.size
-        return to_complex(x[:, :k].T), conditioning(self.form.residual_jacobian(x, s, k)[1], fail)
+        return to_complex(x[:, :k].T), conditioning(self.form.residual_jacobian(x, s, k)[1], fail, det)
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Place its joints in ``f`` (one linkage), then their velocities and accelerations from
         the group's Jacobian at the solution (the same one as its d_s): J_S·ẋ_S = −J_K·ẋ_K + F_s·ṡ,
         J_S·ẍ_S = −J_K·ẍ_K − Ẋᵀ·2Q·Ẋ (:class:`RealForm`), two batched solves."""
         zj, out = f.z[f.joints], f.joints[self.joints]
-        x, fail = solve_group(self, zj, f.s, f.rest[self.joints])
+        x, fail, det = solve_group(self, zj, f.s, f.rest[self.joints])
         form, k = self.form, 2 * self.joints.size
         grad = form.residual_jacobian(x, f.s, x.shape[1])[1]  # (T, m, W): ∂F/∂X
         jac = grad[..., :k]
         f.z[out] = to_complex(x[:, :k].T)
-        f.ds[rows] = conditioning(jac, fail)
+        f.ds[rows] = conditioning(jac, fail, det)
         if f.dz is None:
             return
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
@@ -245,10 +246,11 @@ def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: in
     return -1
 
 
-def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int) -> np.ndarray:
+def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Newton's method on every row of X (T, W) at once, from the predictor in X[:, :k] (updated in
     place). Returns which rows (T,) are accepted: converged, close to their predictor
-    (:func:`_accepted`), on the rest pose's side of every singular position (sign of det J)."""
+    (:func:`_accepted`), on the rest pose's side of every singular position (sign of det J); and
+    det J (T,) at each accepted row's solution (NaN elsewhere, and for a non-square group)."""
     square = form.m == k
     start = X[:, :k].copy()
     first = np.zeros(X.shape[0])
@@ -281,9 +283,12 @@ def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int)
             going = size > GROUP_TOLERANCE  # neither converged nor NaN
             live, x, f, a = live[going], x[going], f[going], a[going]
     accept = done & _accepted(np.abs(X[:, :k] - start).max(axis=1), first)
+    det = np.full(X.shape[0], np.nan)
     if square and accept.any():
-        accept[accept] = np.sign(np.linalg.det(jac[accept])) == step.det_sign
-    return accept
+        det[accept] = np.linalg.det(jac[accept])
+        accept &= np.sign(det) == step.det_sign
+        det[~accept] = np.nan
+    return accept, det
 
 
 def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndarray:
@@ -310,7 +315,7 @@ def _coarse(known: np.ndarray, s: np.ndarray) -> np.ndarray:
     return np.unique(np.concatenate([[0], first, [travel.size - 1]]))
 
 
-def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, int]:
+def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, int, np.ndarray]:
     """Continue the group from ``start`` (n,) through the samples of ``z`` (J, T), in order.
 
     The samples :func:`_coarse` picks are continued sequentially (:func:`_continue`, to
@@ -319,7 +324,9 @@ def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) 
     checked like a sequential move (converged near its predictor, the determinant's sign of the
     rest pose); a sample that fails the check is continued sequentially from the one before it.
     Returns X (T, W) — :class:`RealForm`'s variables: the group's joints (NaN from the first
-    sample where it fails), its inputs, 1 — and the index of the first failing sample (−1: none).
+    sample where it fails), its inputs, 1 —, the index of the first failing sample (−1: none) and
+    det J (T,) of the group Jacobian at each placed sample (NaN elsewhere, and for a non-square
+    group): the polish's, for :func:`conditioning`.
     """
     form = step.form
     n = step.joints.size
@@ -332,6 +339,7 @@ def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) 
     start = np.asarray(start, dtype=complex)
     x0[0:k:2], x0[1:k:2] = start.real, start.imag
     out = np.full((T, k), np.nan)
+    det = np.full(T, np.nan)
     coarse = _coarse(known, s)
     stop = _continue(form, step, X, s, k, x0, coarse, out, COARSE_TOLERANCE)
     last = coarse[stop - 1] if stop > 0 else (coarse[-1] if stop < 0 else -1)
@@ -345,7 +353,7 @@ def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) 
         polished[solved, :k] = out[solved]
         if inner.size:
             polished[inner, :k] = _predict(solved, out[solved], inner)
-        accept = _polish(form, step, polished, s[: last + 1], k)
+        accept, det[: last + 1] = _polish(form, step, polished, s[: last + 1], k)
         out[: last + 1] = np.where(accept[:, None], polished[:, :k], np.nan)
         for t in np.flatnonzero(~accept):  # a sequential move from the sample before
             x, path = (x0, np.array([0])) if t == 0 else (np.concatenate([out[t - 1], X[t - 1, k:]]), np.array([t - 1, t]))
@@ -360,16 +368,30 @@ def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) 
     if fail >= 0:
         out[fail:] = np.nan
     X[:, :k] = out
-    return X, fail
+    placed = fail if fail >= 0 else T
+    det[placed:] = np.nan
+    missing = np.flatnonzero(np.isnan(det[:placed]))  # continued sequentially
+    if form.m == k and missing.size:
+        det[missing] = np.linalg.det(form.residual_jacobian(X[missing], s[missing], k)[1])
+    return X, fail, det
 
 
-def conditioning(jac: np.ndarray, fail: int) -> np.ndarray:
-    """d_s (T,): (σ_min/σ_max)² of each row-scaled group Jacobian ``jac`` (T, m, k), batched;
-    NaN from sample ``fail`` on (−1: none)."""
+def conditioning(jac: np.ndarray, fail: int, det: np.ndarray) -> np.ndarray:
+    """d_s (T,) of the group Jacobians ``jac`` (T, m, k) at the solution; NaN from sample ``fail``
+    on (−1: none). A square group's is (det J / ∏ ‖row‖)² (``det`` (T,) given: the Hadamard
+    ratio, the dyad's sin² of the angle between its two rows generalized: 1 for orthogonal rows,
+    0 exactly at a singular position); a least-squares group's (m > k) is (σ_min/σ_max)² of its
+    row-scaled Jacobian."""
     ds = np.full(jac.shape[0], np.nan)
-    jacs = jac[: fail if fail >= 0 else jac.shape[0]]
-    if len(jacs):
+    n = fail if fail >= 0 else jac.shape[0]
+    jacs = jac[:n]
+    if not n:
+        return ds
+    if jac.shape[1] == jac.shape[2]:
+        rows = np.maximum((jacs * jacs).sum(axis=2).prod(axis=1), 1e-300)
+        ds[:n] = np.minimum(det[:n] * det[:n] / rows, 1.0)
+    else:
         scaled = jacs / np.maximum(np.abs(jacs).max(axis=2, keepdims=True), 1e-300)
         eig = np.linalg.eigvalsh(np.swapaxes(scaled, 1, 2) @ scaled)  # σ², ascending
-        ds[: len(jacs)] = np.maximum(eig[:, 0], 0.0) / eig[:, -1]
+        ds[:n] = np.maximum(eig[:, 0], 0.0) / eig[:, -1]
     return ds
