@@ -165,40 +165,42 @@ class RealForm:
         return ((v @ self.twice.T).reshape(v.shape[0], self.m, -1) @ v[:, :, None])[..., 0]
 
 
-def _newton(form: RealForm, x: np.ndarray, s: float, k: int, tol: float = GROUP_TOLERANCE) -> tuple[bool, float, np.ndarray]:
+def _newton(form: RealForm, x: np.ndarray, s: float, k: int, tol: float = GROUP_TOLERANCE) -> tuple[bool, float, float]:
     """Newton's method on the first ``k`` real variables of X (updated in place), one sample,
-    until every row is within ``tol`` of 0. Returns (converged, size of the first step, last
-    Jacobian)."""
+    until every row is within ``tol`` of 0. Returns (converged, size of the first step, sign of
+    det J (square groups; 0: singular) from the LU of its last step — at the iterate one step from
+    the end, on the same side of every singular position unless one lies within that step,
+    which :func:`_polish` checks again at the solution — or of J at the start when it took none)."""
     from scipy.linalg import lapack  # LAPACK's solver without numpy's per-call checks: 5× less overhead
 
     first = 0.0
     square = form.m == k
-    jac = np.zeros((form.m, k))
+    lu: tuple[np.ndarray, np.ndarray] | None = None
     for it in range(GROUP_ITERATIONS):
         f, jac = form.residual_jacobian(x, s, k)
         size = float(np.maximum.reduce(np.abs(f)))
         if size <= tol:
-            return True, first, jac
+            if not square:
+                return True, first, 1.0
+            return True, first, _lu_sign(*(lu or lapack.dgetrf(jac)[:2]))
         if not size < np.inf:
-            return False, first, jac
+            return False, first, 0.0
         if square:
-            step, singular = lapack.dgesv(jac, -f)[2:]
+            factors, pivots, step, singular = lapack.dgesv(jac, -f)
             if singular:
-                return False, first, jac
+                return False, first, 0.0
+            lu = factors, pivots
         else:
             step = np.linalg.lstsq(jac, -f, rcond=None)[0]
         if it == 0:
             first = float(np.abs(step).max())
         x[:k] += step
-    return False, first, jac
+    return False, first, 0.0
 
 
-def _det_sign(jac: np.ndarray) -> float:
-    """The sign of det ``jac`` (k, k) (0: exactly singular or NaN), from LAPACK's LU without
-    numpy's per-call checks."""
-    from scipy.linalg import lapack
-
-    lu, piv, _ = lapack.dgetrf(jac)
+def _lu_sign(lu: np.ndarray, piv: np.ndarray) -> float:
+    """The sign of det A (0: exactly singular or NaN) from LAPACK's LU of A (k, k): ``lu`` and
+    its row interchanges ``piv`` (0-based)."""
     diagonal = lu.diagonal().tolist()
     if not all(abs(v) > 0.0 for v in diagonal):  # singular (or NaN)
         return 0.0
@@ -229,10 +231,10 @@ def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: in
             f = min(done + piece, 1.0)
             trial = x.copy()
             trial[k:] = X[t, k:] if f == 1.0 else X[prev, k:] + f * (X[t, k:] - X[prev, k:])
-            ok, first, jac = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k, tol)
+            ok, first, sign = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k, tol)
             if ok:
                 ok = bool(_accepted(float(np.maximum.reduce(np.abs(trial[:k] - x[:k]))), first))
-                if ok and square and _det_sign(jac) != step.det_sign:
+                if ok and square and sign != step.det_sign:
                     ok = False  # passed a singular position: another assembly branch
             if ok:
                 x, done = trial, f
@@ -256,7 +258,7 @@ def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int)
     first = np.zeros(X.shape[0])
     f, jac = form.residual_jacobian(X, s, k)
     with np.errstate(invalid="ignore", over="ignore"):
-        done = np.abs(f).max(axis=1) <= GROUP_TOLERANCE
+        done = _largest(f) <= GROUP_TOLERANCE
         live = np.flatnonzero(~done)  # the rows still iterated, and their X, F, J:
         x, f, a = X[live], f[live], jac[live]
         for it in range(GROUP_ITERATIONS):
@@ -273,22 +275,31 @@ def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int)
                 live, x, a, b = live[regular], x[regular], a[regular], b[regular]
                 delta = np.linalg.solve(a, b[..., None])[..., 0]
             if it == 0:
-                first[live] = np.abs(delta).max(axis=1)
+                first[live] = _largest(delta)
             x[:, :k] += delta
             f, a = form.residual_jacobian(x, s[live], k)
-            size = np.abs(f).max(axis=1)
+            size = _largest(f)
             conv = size <= GROUP_TOLERANCE
             rows = live[conv]
             X[rows], jac[rows], done[rows] = x[conv], a[conv], True
             going = size > GROUP_TOLERANCE  # neither converged nor NaN
             live, x, f, a = live[going], x[going], f[going], a[going]
-    accept = done & _accepted(np.abs(X[:, :k] - start).max(axis=1), first)
+    accept = done & _accepted(_largest(X[:, :k] - start), first)
     det = np.full(X.shape[0], np.nan)
     if square and accept.any():
         det[accept] = np.linalg.det(jac[accept])
         accept &= np.sign(det) == step.det_sign
         det[~accept] = np.nan
     return accept, det
+
+
+def _largest(a: np.ndarray) -> np.ndarray:
+    """max |a| (N,) along the last axis of ``a`` (N, c) (NaN where any is NaN), column by column:
+    a few columns, many rows — a reduction along the short axis costs several times more."""
+    out = np.abs(a[:, 0])
+    for n in range(1, a.shape[1]):
+        np.maximum(out, np.abs(a[:, n]), out=out)
+    return out
 
 
 def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndarray:
@@ -388,8 +399,11 @@ def conditioning(jac: np.ndarray, fail: int, det: np.ndarray) -> np.ndarray:
     if not n:
         return ds
     if jac.shape[1] == jac.shape[2]:
-        rows = np.maximum((jacs * jacs).sum(axis=2).prod(axis=1), 1e-300)
-        ds[:n] = np.minimum(det[:n] * det[:n] / rows, 1.0)
+        norms = np.einsum("tij,tij->it", jacs, jacs)  # (m, T) squared row norms
+        rows = norms[0].copy()
+        for more in norms[1:]:  # their product (a few rows: faster than a reduction along them)
+            rows *= more
+        ds[:n] = np.minimum(det[:n] * det[:n] / np.maximum(rows, 1e-300), 1.0)
     else:
         scaled = jacs / np.maximum(np.abs(jacs).max(axis=2, keepdims=True), 1e-300)
         eig = np.linalg.eigvalsh(np.swapaxes(scaled, 1, 2) @ scaled)  # σ², ascending
