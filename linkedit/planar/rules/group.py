@@ -309,11 +309,13 @@ def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndar
     p = min(4, known.size)
     first = np.clip(np.searchsorted(known, want) - p // 2, 0, known.size - p)
     nodes = first[:, None] + np.arange(p)  # (N, p) the stencil of each wanted sample
-    at = known[nodes].astype(float)
-    to = want[:, None] - at  # (N, p)
-    apart = (at[:, :, None] - at[:, None, :] + np.eye(p)).prod(axis=2)  # ∏_{b≠a} (node a − node b)
-    weight = to.prod(axis=1, keepdims=True) / to / apart  # (N, p) Lagrange basis at want
-    return (weight[:, None, :] @ solved[nodes])[:, 0]
+    at = known[nodes].T.astype(float)  # (p, N): stencil point by stencil point
+    weight = np.ones((p, want.size))  # the Lagrange basis at want: ∏_{b≠a} (want − b)/(a − b)
+    for a in range(p):
+        for b in range(p):
+            if b != a:
+                weight[a] *= (want - at[b]) / (at[a] - at[b])
+    return np.einsum("pn,npk->nk", weight, solved[nodes])
 
 
 def _coarse(known: np.ndarray, s: np.ndarray) -> np.ndarray:
