@@ -75,7 +75,7 @@ class Group(Step):
               const: tuple[Any, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
         x, fail, det = solve_group(self, z, s, rest[self.joints])
         k = 2 * self.joints.size
-        return to_complex(x[:, :k].T), conditioning(self.form.residual_jacobian(x, s, k)[1], fail, det)
+        return to_complex(x[:, :k].T), conditioning(self.form.gradient(x)[..., :k], fail, det)
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Place its joints in ``f`` (one linkage), then their velocities and accelerations from
@@ -84,7 +84,7 @@ class Group(Step):
         zj, out = f.z[f.joints], f.joints[self.joints]
         x, fail, det = solve_group(self, zj, f.s, f.rest[self.joints])
         form, k = self.form, 2 * self.joints.size
-        grad = form.residual_jacobian(x, f.s, x.shape[1])[1]  # (T, m, W): ∂F/∂X
+        grad = form.gradient(x)  # (T, m, W): ∂F/∂X
         jac = grad[..., :k]
         f.z[out] = to_complex(x[:, :k].T)
         f.ds[rows] = conditioning(jac, fail, det)
@@ -149,16 +149,18 @@ class RealForm:
     def residual_jacobian(self, x: np.ndarray, s: np.ndarray | float, unknowns: int) -> tuple[np.ndarray, np.ndarray]:
         """F (…, m) and ∂F/∂X of the first ``unknowns`` real variables (…, m, unknowns) at X (…, W)
         and input s (…): one sample (X (W,), s a float) or a batch (X (T, W), s (T,))."""
-        m, width = self.m, self.twice.shape[1]
-        if x.ndim == 1:
-            grad = (self.twice @ x).reshape(m, width)  # 2·Q·X by row (Q symmetric)
-            f = 0.5 * (grad @ x)
-        else:
-            grad = (x @ self.twice.T).reshape(x.shape[0], m, width)
-            f = 0.5 * (grad @ x[:, :, None])[..., 0]
+        grad = self.gradient(x)
+        f = 0.5 * (grad @ x) if x.ndim == 1 else 0.5 * (grad @ x[:, :, None])[..., 0]
         if self.driven:
             f -= self.drive * np.asarray(s)[..., None]
         return f, grad[..., :unknowns]
+
+    def gradient(self, x: np.ndarray) -> np.ndarray:
+        """∂F/∂X (…, m, W) at X (…, W) (one sample or a batch): 2·Q·X by row (Q symmetric)."""
+        m, width = self.m, self.twice.shape[1]
+        if x.ndim == 1:
+            return (self.twice @ x).reshape(m, width)
+        return (x @ self.twice.T).reshape(x.shape[0], m, width)
 
     def quadratic(self, v: np.ndarray) -> np.ndarray:
         """d²F[V, V] = Vᵀ·2Q·V (T, m) along V (T, W)."""
