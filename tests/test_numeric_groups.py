@@ -154,3 +154,35 @@ def test_complex_loop_derivatives_are_those_of_the_rest_branch(metres):
     v, a = (q[:, cols, 0] + 1j * q[:, cols, 1] for q in (m.velocity, m.acceleration))
     assert np.abs(v - (ref[:, 2] - ref[:, 0]) / (2 * h)).max() <= 1e-6 * size
     assert np.abs(a - (ref[:, 2] - 2 * ref[:, 1] + ref[:, 0]) / h**2).max() <= 1e-6 * size
+
+
+def test_a_groups_singularity_distance_is_the_hadamard_ratio_of_its_rows():
+    """The complex loop's d_s at every sample is (det J / ∏ ‖row‖)² of its constraint rows' J
+    built here at ``simulate``'s positions — |z_a − z_b|² of each binary link and of the body's
+    frame pair T1, T2; Re and Im of z_T3 − z_T1 − c·(z_T2 − z_T1), c from the rest pose, placing
+    its third joint (:mod:`linkedit.planar.constraints`) — the dyad's sin² of the angle between
+    its two rows generalized: within (0, 1]."""
+    spec = catalog.complex_loop()
+    m = simulate(spec, 72)
+    names = m.plan.joint_names
+    z = m.positions[..., 0] + 1j * m.positions[..., 1]  # (T, J)
+    at = {k: z[:, names.index(k)] for k in spec.joints}
+    rest = {k: complex(*p) for k, p in spec.joints.items()}
+    c = (rest["T3"] - rest["T1"]) / (rest["T2"] - rest["T1"])
+    one = np.ones(z.shape[0])
+    # per row: joint → w (T,) with d(row) = Re(w·dz), dz = dx + i·dy: w.real·dx − w.imag·dy
+    rows = [{a: 2 * np.conj(at[a] - at[b]), b: 2 * np.conj(at[b] - at[a])}
+            for a, b in [("P1", "T1"), ("P2", "T2"), ("A", "T3"), ("T1", "T2")]]
+    rigid = {"T3": one, "T1": -(1 - c) * one, "T2": -c * one}
+    rows += [rigid, {k: -1j * w for k, w in rigid.items()}]  # Re and Im (Im q = Re(−i·q))
+    group = ["T1", "T2", "T3"]
+    jac = np.zeros((z.shape[0], len(rows), 2 * len(group)))
+    for r, row in enumerate(rows):
+        for k, w in row.items():
+            if k in group:
+                n = 2 * group.index(k)
+                jac[:, r, n], jac[:, r, n + 1] = w.real, -w.imag
+    want = (np.linalg.det(jac) / np.linalg.norm(jac, axis=2).prod(axis=1)) ** 2
+    (ds,) = m.step_singularity.T
+    assert np.abs(ds - want).max() <= 1e-12
+    assert 0.0 < ds.min() and ds.max() <= 1.0

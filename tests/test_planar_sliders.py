@@ -178,9 +178,9 @@ def test_complex_loop_polish_rejects_a_wrong_prediction_and_continues_sequential
     rejected = []
 
     def counting(*args):
-        accept = polish(*args)
+        accept, det = polish(*args)
         rejected.append(int((~accept).sum()))
-        return accept
+        return accept, det
 
     monkeypatch.setattr(steps, "_predict", wrong)
     monkeypatch.setattr(steps, "_polish", counting)

@@ -49,7 +49,7 @@ class Motion:
     assembled: np.ndarray  #: (T,) bool
     lockups: list[LockUp] = field(default_factory=list)
     #: (T, X) singularity distance of each of ``plan.steps`` (slider: sin² of the rod's angle to
-    #: the slot normal; numeric group: (σ_min/σ_max)² of its Jacobian; 1 otherwise)
+    #: the slot normal; numeric group: (det J / ∏ ‖row‖)² of its Jacobian; 1 otherwise)
     step_singularity: np.ndarray | None = None
 
     @property

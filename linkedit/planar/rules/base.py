@@ -487,8 +487,11 @@ def solve(jac: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 
 
 def to_complex(xy: np.ndarray) -> np.ndarray:
-    """Interleaved real rows (x₀, y₀, x₁, …) → complex rows."""
-    return xy[0::2] + 1j * xy[1::2]
+    """Interleaved real rows (x₀, y₀, x₁, …) → complex rows (written into their parts: no
+    complex temporaries)."""
+    out = np.empty((xy.shape[0] // 2, *xy.shape[1:]), dtype=complex)
+    out.real, out.imag = xy[0::2], xy[1::2]
+    return out
 
 
 def loop_rows(all_rows: Rows, known: set[int], joints: tuple[int, ...]) -> tuple[Rows, np.ndarray, np.ndarray]:

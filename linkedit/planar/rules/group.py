@@ -5,9 +5,10 @@ Newton's method on the group's constraint rows at every sample (the samples are 
 time its inputs have moved GROUP_STRIDE, then every sample polished at once from a predictor and
 checked (:func:`solve_group`), keeping the rest pose's branch (the sign of the group Jacobian's
 determinant never changes; a change means the group passed a singular position, reported as a
-lock-up). Its singularity distance is (σ_min/σ_max)² of the row-scaled group Jacobian; its
-velocities and accelerations come from the same Jacobian at the solution (the implicit function
-theorem on the rows' :class:`RealForm`, built once per step: :meth:`Group.evaluate`).
+lock-up). Its singularity distance is the Hadamard ratio (det J / ∏ ‖row‖)² of the group
+Jacobian J (:func:`conditioning`: the dyad's sin²α generalized); its velocities and
+accelerations come from the same Jacobian at the solution (the implicit function theorem on
+the rows' :class:`RealForm`, built once per step: :meth:`Group.evaluate`).
 """
 
 from __future__ import annotations
@@ -72,21 +73,21 @@ class Group(Step):
 
     def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray,
               const: tuple[Any, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
-        x, fail = solve_group(self, z, s, rest[self.joints])
+        x, fail, det = solve_group(self, z, s, rest[self.joints])
         k = 2 * self.joints.size
-        return to_complex(x[:, :k].T), conditioning(self.form.residual_jacobian(x, s, k)[1], fail)
+        return to_complex(x[:, :k].T), conditioning(self.form.gradient(x)[..., :k], fail, det)
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Place its joints in ``f`` (one linkage), then their velocities and accelerations from
         the group's Jacobian at the solution (the same one as its d_s): J_S·ẋ_S = −J_K·ẋ_K + F_s·ṡ,
         J_S·ẍ_S = −J_K·ẍ_K − Ẋᵀ·2Q·Ẋ (:class:`RealForm`), two batched solves."""
         zj, out = f.z[f.joints], f.joints[self.joints]
-        x, fail = solve_group(self, zj, f.s, f.rest[self.joints])
+        x, fail, det = solve_group(self, zj, f.s, f.rest[self.joints])
         form, k = self.form, 2 * self.joints.size
-        grad = form.residual_jacobian(x, f.s, x.shape[1])[1]  # (T, m, W): ∂F/∂X
+        grad = form.gradient(x)  # (T, m, W): ∂F/∂X
         jac = grad[..., :k]
         f.z[out] = to_complex(x[:, :k].T)
-        f.ds[rows] = conditioning(jac, fail)
+        f.ds[rows] = conditioning(jac, fail, det)
         if f.dz is None:
             return
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
@@ -148,56 +149,60 @@ class RealForm:
     def residual_jacobian(self, x: np.ndarray, s: np.ndarray | float, unknowns: int) -> tuple[np.ndarray, np.ndarray]:
         """F (…, m) and ∂F/∂X of the first ``unknowns`` real variables (…, m, unknowns) at X (…, W)
         and input s (…): one sample (X (W,), s a float) or a batch (X (T, W), s (T,))."""
-        m, width = self.m, self.twice.shape[1]
-        if x.ndim == 1:
-            grad = (self.twice @ x).reshape(m, width)  # 2·Q·X by row (Q symmetric)
-            f = 0.5 * (grad @ x)
-        else:
-            grad = (x @ self.twice.T).reshape(x.shape[0], m, width)
-            f = 0.5 * (grad @ x[:, :, None])[..., 0]
+        grad = self.gradient(x)
+        f = 0.5 * (grad @ x) if x.ndim == 1 else 0.5 * (grad @ x[:, :, None])[..., 0]
         if self.driven:
             f -= self.drive * np.asarray(s)[..., None]
         return f, grad[..., :unknowns]
+
+    def gradient(self, x: np.ndarray) -> np.ndarray:
+        """∂F/∂X (…, m, W) at X (…, W) (one sample or a batch): 2·Q·X by row (Q symmetric)."""
+        m, width = self.m, self.twice.shape[1]
+        if x.ndim == 1:
+            return (self.twice @ x).reshape(m, width)
+        return (x @ self.twice.T).reshape(x.shape[0], m, width)
 
     def quadratic(self, v: np.ndarray) -> np.ndarray:
         """d²F[V, V] = Vᵀ·2Q·V (T, m) along V (T, W)."""
         return ((v @ self.twice.T).reshape(v.shape[0], self.m, -1) @ v[:, :, None])[..., 0]
 
 
-def _newton(form: RealForm, x: np.ndarray, s: float, k: int, tol: float = GROUP_TOLERANCE) -> tuple[bool, float, np.ndarray]:
+def _newton(form: RealForm, x: np.ndarray, s: float, k: int, tol: float = GROUP_TOLERANCE) -> tuple[bool, float, float]:
     """Newton's method on the first ``k`` real variables of X (updated in place), one sample,
-    until every row is within ``tol`` of 0. Returns (converged, size of the first step, last
-    Jacobian)."""
+    until every row is within ``tol`` of 0. Returns (converged, size of the first step, sign of
+    det J (square groups; 0: singular) from the LU of its last step — at the iterate one step from
+    the end, on the same side of every singular position unless one lies within that step,
+    which :func:`_polish` checks again at the solution — or of J at the start when it took none)."""
     from scipy.linalg import lapack  # LAPACK's solver without numpy's per-call checks: 5× less overhead
 
     first = 0.0
     square = form.m == k
-    jac = np.zeros((form.m, k))
+    lu: tuple[np.ndarray, np.ndarray] | None = None
     for it in range(GROUP_ITERATIONS):
         f, jac = form.residual_jacobian(x, s, k)
         size = float(np.maximum.reduce(np.abs(f)))
         if size <= tol:
-            return True, first, jac
+            if not square:
+                return True, first, 1.0
+            return True, first, _lu_sign(*(lu or lapack.dgetrf(jac)[:2]))
         if not size < np.inf:
-            return False, first, jac
+            return False, first, 0.0
         if square:
-            step, singular = lapack.dgesv(jac, -f)[2:]
+            factors, pivots, step, singular = lapack.dgesv(jac, -f)
             if singular:
-                return False, first, jac
+                return False, first, 0.0
+            lu = factors, pivots
         else:
             step = np.linalg.lstsq(jac, -f, rcond=None)[0]
         if it == 0:
             first = float(np.abs(step).max())
         x[:k] += step
-    return False, first, jac
+    return False, first, 0.0
 
 
-def _det_sign(jac: np.ndarray) -> float:
-    """The sign of det ``jac`` (k, k) (0: exactly singular or NaN), from LAPACK's LU without
-    numpy's per-call checks."""
-    from scipy.linalg import lapack
-
-    lu, piv, _ = lapack.dgetrf(jac)
+def _lu_sign(lu: np.ndarray, piv: np.ndarray) -> float:
+    """The sign of det A (0: exactly singular or NaN) from LAPACK's LU of A (k, k): ``lu`` and
+    its row interchanges ``piv`` (0-based)."""
     diagonal = lu.diagonal().tolist()
     if not all(abs(v) > 0.0 for v in diagonal):  # singular (or NaN)
         return 0.0
@@ -228,10 +233,10 @@ def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: in
             f = min(done + piece, 1.0)
             trial = x.copy()
             trial[k:] = X[t, k:] if f == 1.0 else X[prev, k:] + f * (X[t, k:] - X[prev, k:])
-            ok, first, jac = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k, tol)
+            ok, first, sign = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k, tol)
             if ok:
                 ok = bool(_accepted(float(np.maximum.reduce(np.abs(trial[:k] - x[:k]))), first))
-                if ok and square and _det_sign(jac) != step.det_sign:
+                if ok and square and sign != step.det_sign:
                     ok = False  # passed a singular position: another assembly branch
             if ok:
                 x, done = trial, f
@@ -245,16 +250,17 @@ def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: in
     return -1
 
 
-def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int) -> np.ndarray:
+def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Newton's method on every row of X (T, W) at once, from the predictor in X[:, :k] (updated in
     place). Returns which rows (T,) are accepted: converged, close to their predictor
-    (:func:`_accepted`), on the rest pose's side of every singular position (sign of det J)."""
+    (:func:`_accepted`), on the rest pose's side of every singular position (sign of det J); and
+    det J (T,) at each accepted row's solution (NaN elsewhere, and for a non-square group)."""
     square = form.m == k
     start = X[:, :k].copy()
     first = np.zeros(X.shape[0])
     f, jac = form.residual_jacobian(X, s, k)
     with np.errstate(invalid="ignore", over="ignore"):
-        done = np.abs(f).max(axis=1) <= GROUP_TOLERANCE
+        done = _largest(f) <= GROUP_TOLERANCE
         live = np.flatnonzero(~done)  # the rows still iterated, and their X, F, J:
         x, f, a = X[live], f[live], jac[live]
         for it in range(GROUP_ITERATIONS):
@@ -271,19 +277,31 @@ def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int)
                 live, x, a, b = live[regular], x[regular], a[regular], b[regular]
                 delta = np.linalg.solve(a, b[..., None])[..., 0]
             if it == 0:
-                first[live] = np.abs(delta).max(axis=1)
+                first[live] = _largest(delta)
             x[:, :k] += delta
             f, a = form.residual_jacobian(x, s[live], k)
-            size = np.abs(f).max(axis=1)
+            size = _largest(f)
             conv = size <= GROUP_TOLERANCE
             rows = live[conv]
             X[rows], jac[rows], done[rows] = x[conv], a[conv], True
             going = size > GROUP_TOLERANCE  # neither converged nor NaN
             live, x, f, a = live[going], x[going], f[going], a[going]
-    accept = done & _accepted(np.abs(X[:, :k] - start).max(axis=1), first)
+    accept = done & _accepted(_largest(X[:, :k] - start), first)
+    det = np.full(X.shape[0], np.nan)
     if square and accept.any():
-        accept[accept] = np.sign(np.linalg.det(jac[accept])) == step.det_sign
-    return accept
+        det[accept] = np.linalg.det(jac[accept])
+        accept &= np.sign(det) == step.det_sign
+        det[~accept] = np.nan
+    return accept, det
+
+
+def _largest(a: np.ndarray) -> np.ndarray:
+    """max |a| (N,) along the last axis of ``a`` (N, c) (NaN where any is NaN), column by column:
+    a few columns, many rows — a reduction along the short axis costs several times more."""
+    out = np.abs(a[:, 0])
+    for n in range(1, a.shape[1]):
+        np.maximum(out, np.abs(a[:, n]), out=out)
+    return out
 
 
 def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndarray:
@@ -293,11 +311,13 @@ def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndar
     p = min(4, known.size)
     first = np.clip(np.searchsorted(known, want) - p // 2, 0, known.size - p)
     nodes = first[:, None] + np.arange(p)  # (N, p) the stencil of each wanted sample
-    at = known[nodes].astype(float)
-    to = want[:, None] - at  # (N, p)
-    apart = (at[:, :, None] - at[:, None, :] + np.eye(p)).prod(axis=2)  # ∏_{b≠a} (node a − node b)
-    weight = to.prod(axis=1, keepdims=True) / to / apart  # (N, p) Lagrange basis at want
-    return (weight[:, None, :] @ solved[nodes])[:, 0]
+    at = known[nodes].T.astype(float)  # (p, N): stencil point by stencil point
+    weight = np.ones((p, want.size))  # the Lagrange basis at want: ∏_{b≠a} (want − b)/(a − b)
+    for a in range(p):
+        for b in range(p):
+            if b != a:
+                weight[a] *= (want - at[b]) / (at[a] - at[b])
+    return np.einsum("pn,npk->nk", weight, solved[nodes])
 
 
 def _coarse(known: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -310,7 +330,7 @@ def _coarse(known: np.ndarray, s: np.ndarray) -> np.ndarray:
     return np.unique(np.concatenate([[0], first, [travel.size - 1]]))
 
 
-def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, int]:
+def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, int, np.ndarray]:
     """Continue the group from ``start`` (n,) through the samples of ``z`` (J, T), in order.
 
     The samples :func:`_coarse` picks are continued sequentially (:func:`_continue`, to
@@ -319,7 +339,9 @@ def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) 
     checked like a sequential move (converged near its predictor, the determinant's sign of the
     rest pose); a sample that fails the check is continued sequentially from the one before it.
     Returns X (T, W) — :class:`RealForm`'s variables: the group's joints (NaN from the first
-    sample where it fails), its inputs, 1 — and the index of the first failing sample (−1: none).
+    sample where it fails), its inputs, 1 —, the index of the first failing sample (−1: none) and
+    det J (T,) of the group Jacobian at each placed sample (NaN elsewhere, and for a non-square
+    group): the polish's, for :func:`conditioning`.
     """
     form = step.form
     n = step.joints.size
@@ -332,6 +354,7 @@ def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) 
     start = np.asarray(start, dtype=complex)
     x0[0:k:2], x0[1:k:2] = start.real, start.imag
     out = np.full((T, k), np.nan)
+    det = np.full(T, np.nan)
     coarse = _coarse(known, s)
     stop = _continue(form, step, X, s, k, x0, coarse, out, COARSE_TOLERANCE)
     last = coarse[stop - 1] if stop > 0 else (coarse[-1] if stop < 0 else -1)
@@ -345,7 +368,7 @@ def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) 
         polished[solved, :k] = out[solved]
         if inner.size:
             polished[inner, :k] = _predict(solved, out[solved], inner)
-        accept = _polish(form, step, polished, s[: last + 1], k)
+        accept, det[: last + 1] = _polish(form, step, polished, s[: last + 1], k)
         out[: last + 1] = np.where(accept[:, None], polished[:, :k], np.nan)
         for t in np.flatnonzero(~accept):  # a sequential move from the sample before
             x, path = (x0, np.array([0])) if t == 0 else (np.concatenate([out[t - 1], X[t - 1, k:]]), np.array([t - 1, t]))
@@ -360,16 +383,33 @@ def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) 
     if fail >= 0:
         out[fail:] = np.nan
     X[:, :k] = out
-    return X, fail
+    placed = fail if fail >= 0 else T
+    det[placed:] = np.nan
+    missing = np.flatnonzero(np.isnan(det[:placed]))  # continued sequentially
+    if form.m == k and missing.size:
+        det[missing] = np.linalg.det(form.residual_jacobian(X[missing], s[missing], k)[1])
+    return X, fail, det
 
 
-def conditioning(jac: np.ndarray, fail: int) -> np.ndarray:
-    """d_s (T,): (σ_min/σ_max)² of each row-scaled group Jacobian ``jac`` (T, m, k), batched;
-    NaN from sample ``fail`` on (−1: none)."""
+def conditioning(jac: np.ndarray, fail: int, det: np.ndarray) -> np.ndarray:
+    """d_s (T,) of the group Jacobians ``jac`` (T, m, k) at the solution; NaN from sample ``fail``
+    on (−1: none). A square group's is (det J / ∏ ‖row‖)² (``det`` (T,) given: the Hadamard
+    ratio, the dyad's sin² of the angle between its two rows generalized: 1 for orthogonal rows,
+    0 exactly at a singular position); a least-squares group's (m > k) is (σ_min/σ_max)² of its
+    row-scaled Jacobian."""
     ds = np.full(jac.shape[0], np.nan)
-    jacs = jac[: fail if fail >= 0 else jac.shape[0]]
-    if len(jacs):
+    n = fail if fail >= 0 else jac.shape[0]
+    jacs = jac[:n]
+    if not n:
+        return ds
+    if jac.shape[1] == jac.shape[2]:
+        norms = np.einsum("tij,tij->it", jacs, jacs)  # (m, T) squared row norms
+        rows = norms[0].copy()
+        for more in norms[1:]:  # their product (a few rows: faster than a reduction along them)
+            rows *= more
+        ds[:n] = np.minimum(det[:n] * det[:n] / np.maximum(rows, 1e-300), 1.0)
+    else:
         scaled = jacs / np.maximum(np.abs(jacs).max(axis=2, keepdims=True), 1e-300)
         eig = np.linalg.eigvalsh(np.swapaxes(scaled, 1, 2) @ scaled)  # σ², ascending
-        ds[: len(jacs)] = np.maximum(eig[:, 0], 0.0) / eig[:, -1]
+        ds[:n] = np.maximum(eig[:, 0], 0.0) / eig[:, -1]
     return ds
