@@ -15,7 +15,7 @@ from linkedit.gcs import check_solved, solve_spec
 from linkedit.io.gcs_hdf5 import read_result
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.synthesis import atlas, rssr, spherical
-from linkedit.synthesis.spatial import curve_error
+from linkedit.synthesis.refine import curve_error
 
 FAMILIES = {"spherical-four-bar": spherical, "rssr": rssr}
 
@@ -98,7 +98,7 @@ def _check_round_trip(run_cli, tmp_path, out, points) -> dict:
     solved = run_cli("solve3d", out / "result.yaml", "-o", tmp_path / "again.h5")
     assert solved.exit_code == 0, solved.output
     track = read_result(tmp_path / "again.h5").tracks["target"].position[:-1]
-    again = curve_error(points, track, report["target"]["size"], report["target"]["closed"])
+    again = curve_error(points, report["target"]["closed"], track, report["target"]["size"])
     assert again[0] == pytest.approx(report["error"]["after"]["rms"], rel=1e-6)
     assert again[1] == pytest.approx(report["error"]["after"]["max"], rel=1e-6)
     return report
@@ -248,3 +248,26 @@ def test_a_3d_stretch_is_placed_by_the_similarity_that_made_it(mirrored):
     assert distance.partial_rms(arc[None], closed[None], mirror=True)[0, 0] < 1e-6 * 3.0
     proper = distance.partial_rms(arc[None], closed[None], mirror=False)[0, 0]
     assert (proper > 1e-2) if mirrored else (proper < 1e-6 * 3.0)
+
+
+def test_polyline_helpers_take_spatial_points():
+    """The refinement's arc-length resampling and point-to-polyline distances, on real (N, 3) points: a unit
+    square in the plane z = 1 (closed: 8 points at its corners and midpoints; open: from its first corner to its
+    last), and closed-form distances to it and to a dense circle."""
+    from linkedit.synthesis.refine import arc_resample, distances_to, near_distances
+
+    square = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0]])
+    np.testing.assert_allclose(arc_resample(square, 8, True)[1::2], (square + np.roll(square, -1, axis=0)) / 2)
+    np.testing.assert_allclose(arc_resample(square, 4, False), [[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])
+    points = np.array([[0.5, 0.5, 3.0], [2.0, 0.5, 1.0], [0.5, 2.0, 1.0]])
+    np.testing.assert_allclose(distances_to(points, square, True), [np.sqrt(0.25 + 4.0), 1.0, 1.0])
+    np.testing.assert_allclose(distances_to(points, square, False), [np.sqrt(0.25 + 4.0), 1.0, 1.0])
+    np.testing.assert_allclose(distances_to(np.array([[-0.5, 0.5, 1.0]]), square, False), [np.sqrt(0.5)])
+    phi = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
+    circle = np.stack([np.cos(phi), np.sin(phi), np.zeros_like(phi)], axis=1)
+    rng = np.random.default_rng(3)
+    probe = rng.normal(size=(2, 50, 3))
+    exact = np.hypot(np.hypot(probe[..., 0], probe[..., 1]) - 1.0, probe[..., 2])
+    near = near_distances(probe, np.broadcast_to(circle, (2, *circle.shape)))
+    np.testing.assert_allclose(near, distances_to(probe, np.broadcast_to(circle, (2, *circle.shape)), True))
+    np.testing.assert_allclose(near, exact, atol=2e-5)  # the chords sag 1 - cos(π/720) < 1e-5

@@ -284,23 +284,25 @@ def nearest(dist: np.ndarray) -> np.ndarray:
     return np.argmin(d, axis=1)
 
 
-#: Partial matching: points of the open curve compared, samples of the closed curve's outline,
-#: offsets along it and fractions of its length the open curve may cover (geometric, 10 % to all);
-#: the coarse grid screens many candidates, the fine one ranks and places the best.
+#: Partial matching: points of the open curve compared, samples of the closed curve's outline;
+#: a grid: offsets along the outline, fractions of its length the open curve may cover (geometric,
+#: 10 % to all) and points of the open curve compared. The coarse grid screens many candidates, the
+#: fine one ranks and places the best; the screening grid is the cheapest (a whole atlas's pool).
 PARTIAL_POINTS = 32
 PARTIAL_OUTLINE = 256
-FINE = (96, np.geomspace(0.1, 1.0, 24))
-COARSE = (32, np.geomspace(0.1, 1.0, 12))
+Grid = tuple[int, np.ndarray, int]
+FINE: Grid = (96, np.geomspace(0.1, 1.0, 24), PARTIAL_POINTS)
+COARSE: Grid = (32, np.geomspace(0.1, 1.0, 12), PARTIAL_POINTS)
+SCREEN: Grid = (16, np.geomspace(0.1, 1.0, 6), 12)
 
 
-def _partial_setup(open_points: np.ndarray, grid: tuple[int, np.ndarray] = FINE
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _partial_setup(open_points: np.ndarray, grid: Grid = FINE) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Query points (Ca, n, D) centred, their means (Ca, D), and the window index (F, S, 2, n)."""
-    offset_count, fractions = grid
+    offset_count, fractions, count = grid
     n = open_points.shape[1]
-    q = open_points[:, np.linspace(0, n - 1, PARTIAL_POINTS).round().astype(int)]
+    q = open_points[:, np.linspace(0, n - 1, count).round().astype(int)]
     mean = q.mean(axis=1)
-    k = np.arange(PARTIAL_POINTS) / (PARTIAL_POINTS - 1)
+    k = np.arange(count) / (count - 1)
     offsets = np.arange(offset_count) * PARTIAL_OUTLINE // offset_count
     steps = fractions[:, None] * k[None, :] * PARTIAL_OUTLINE  # (F, n)
     index = np.stack([offsets[None, :, None] + steps[:, None, :],
@@ -379,7 +381,7 @@ PARTIAL_BATCH = 32
 
 
 def partial_rms(open_points: np.ndarray, closed_points: np.ndarray, *, mirror: bool = False,
-                grid: tuple[int, np.ndarray] = FINE) -> np.ndarray:
+                grid: Grid = FINE) -> np.ndarray:
     """RMS distance (units of the open curve's major extent) of open curves (Ca, N, D) from the
     best-fitting stretch of closed curves (Cb, N', D) → (Ca, Cb), D = 2 or 3.
 
@@ -387,7 +389,7 @@ def partial_rms(open_points: np.ndarray, closed_points: np.ndarray, *, mirror: b
     the mirror image) of the closed curve, sampled at the open curve's relative arc lengths, the
     best similarity transform (scale, rotation, translation: a complex least-squares fit in the plane,
     Umeyama's in space) places the stretch on the open curve; the smallest residual wins. The open
-    curves are sampled evenly along their length. ``grid``: :data:`FINE` or :data:`COARSE`.
+    curves are sampled evenly along their length. ``grid``: :data:`FINE`, :data:`COARSE` or :data:`SCREEN`.
     """
     q, _, index = _partial_setup(open_points, grid)
     outline = _outline(closed_points, PARTIAL_OUTLINE)  # (Cb, L, D)
@@ -401,7 +403,7 @@ def partial_rms(open_points: np.ndarray, closed_points: np.ndarray, *, mirror: b
             residual = _partial_fits(qc, rc, index)[0].min(axis=2)  # (B, Ca)
             if mirror:
                 residual = np.minimum(residual, _partial_fits(qc, np.conj(rc), index)[0].min(axis=2))
-        out[:, start:start + PARTIAL_BATCH] = np.sqrt(np.maximum(residual, 0.0) / PARTIAL_POINTS).T
+        out[:, start:start + PARTIAL_BATCH] = np.sqrt(np.maximum(residual, 0.0) / q.shape[1]).T
     return out
 
 

@@ -101,50 +101,78 @@ class Refined:
     history: list[float] = field(default_factory=list)  #: best error after each evaluation
 
 
+def _inner(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products of points: planar (...) complex or spatial (..., D) real → (...)."""
+    return a.real * b.real + a.imag * b.imag if np.iscomplexobj(a) else np.sum(a * b, axis=-1)
+
+
+def _norm(a: np.ndarray) -> np.ndarray:
+    """Lengths of points: planar (...) complex or spatial (..., D) real → (...)."""
+    return np.abs(a) if np.iscomplexobj(a) else np.sqrt(np.sum(a * a, axis=-1))
+
+
+def _scaled(t: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """t (...) times the points e: planar (...) complex or spatial (..., D)."""
+    return t * e if np.iscomplexobj(e) else t[..., None] * e
+
+
 def arc_resample(z: np.ndarray, count: int, closed: bool) -> np.ndarray:
-    """``count`` points equally spaced in arc length along the polyline z (M,) complex."""
+    """``count`` points equally spaced in arc length along the polyline z: planar (M,) complex or spatial
+    (M, D) real; a closed one from z[0] round to it, an open one from its first point to its last."""
     pts = np.concatenate([z, z[:1]]) if closed else z
-    s = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(pts)))])
+    s = np.concatenate([[0.0], np.cumsum(_norm(np.diff(pts, axis=0)))])
     at = np.linspace(0.0, s[-1], count, endpoint=not closed)
-    return np.interp(at, s, pts.real) + 1j * np.interp(at, s, pts.imag)
+    if np.iscomplexobj(pts):
+        return np.interp(at, s, pts.real) + 1j * np.interp(at, s, pts.imag)
+    return np.stack([np.interp(at, s, pts[:, i]) for i in range(pts.shape[1])], axis=1)
 
 
 def distances_to(points: np.ndarray, curve: np.ndarray, closed: bool) -> np.ndarray:
-    """Distance of each of ``points`` (..., N) complex to the polyline ``curve`` (..., M) complex → (..., N)."""
-    a = curve if closed else curve[..., :-1]
-    b = np.roll(curve, -1, axis=-1) if closed else curve[..., 1:]
-    e = (b - a)[..., None, :]
-    length2 = np.maximum(e.real ** 2 + e.imag ** 2, 1e-300)
-    rel = points[..., :, None] - a[..., None, :]
-    t = np.clip((rel.real * e.real + rel.imag * e.imag) / length2, 0.0, 1.0)
-    return np.abs(rel - t * e).min(axis=-1)
+    """Distance of each of ``points`` to the polyline ``curve``: planar (..., N) and (..., M) complex, or spatial
+    (..., N, D) and (..., M, D) real → (..., N)."""
+    ax = -1 if np.iscomplexobj(curve) else -2  # the axis along the polyline
+    m = curve.shape[ax]
+    a = curve if closed else np.take(curve, np.arange(m - 1), axis=ax)
+    b = np.roll(curve, -1, axis=ax) if closed else np.take(curve, np.arange(1, m), axis=ax)
+    e = np.expand_dims(b - a, ax - 1)
+    length2 = np.maximum(_inner(e, e), 1e-300)
+    rel = np.expand_dims(points, ax) - np.expand_dims(a, ax - 1)
+    t = np.clip(_inner(rel, e) / length2, 0.0, 1.0)
+    return _norm(rel - _scaled(t, e)).min(axis=-1)
 
 
 def near_distances(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
-    """Distance of ``points`` (..., N) to a densely sampled closed curve (..., M), both complex → (..., N):
-    the nearest vertex, then the two segments that meet there (the refinement's fast version of
-    :func:`distances_to`, exact unless a segment passes nearer than both its ends and the next vertex)."""
-    dx = points.real[..., :, None] - curve.real[..., None, :]
-    dy = points.imag[..., :, None] - curve.imag[..., None, :]
-    dx *= dx
-    dy *= dy
-    dx += dy
+    """Distance of ``points`` to a densely sampled closed curve, planar (..., N) and (..., M) complex or spatial
+    (..., N, D) and (..., M, D) real → (..., N): the nearest vertex, then the two segments that meet there (the
+    refinement's fast version of :func:`distances_to`, exact unless a segment passes nearer than both its ends
+    and the next vertex)."""
+    planar = np.iscomplexobj(curve)
+    if planar:
+        dx = points.real[..., :, None] - curve.real[..., None, :]
+        dy = points.imag[..., :, None] - curve.imag[..., None, :]
+        dx *= dx
+        dy *= dy
+        dx += dy
+    else:
+        gap = points[..., :, None, :] - curve[..., None, :, :]
+        dx = np.einsum("...d,...d->...", gap, gap)
     j = np.argmin(dx, axis=-1)  # (..., N)
-    m = curve.shape[-1]
+    m = curve.shape[-1 if planar else -2]
     best = np.full(j.shape, np.inf)
     for k in (j - 1, j):
-        a = np.take_along_axis(curve, k % m, axis=-1)
-        e = np.take_along_axis(curve, (k + 1) % m, axis=-1) - a
+        at, after = (k % m, (k + 1) % m) if planar else ((k % m)[..., None], ((k + 1) % m)[..., None])
+        a = np.take_along_axis(curve, at, axis=-1 if planar else -2)
+        e = np.take_along_axis(curve, after, axis=-1 if planar else -2) - a
         rel = points - a
-        t = np.clip((rel.real * e.real + rel.imag * e.imag) / np.maximum(e.real ** 2 + e.imag ** 2, 1e-300), 0, 1)
-        d = np.abs(rel - t * e)
-        best = np.minimum(best, d)
+        t = np.clip(_inner(rel, e) / np.maximum(_inner(e, e), 1e-300), 0, 1)
+        best = np.minimum(best, _norm(rel - _scaled(t, e)))
     return best
 
 
 def curve_error(target: np.ndarray, closed: bool, curve: np.ndarray, size: float) -> tuple[float, float]:
-    """(RMS, max) distance between a target polyline and a closed candidate curve, over ``size``:
-    target → curve and, for a closed target, curve → target."""
+    """(RMS, max) distance between a target polyline and a closed candidate curve (planar (M,) and (T,) complex,
+    or spatial (M, D) and (T, D) real), over ``size``, each curve sampled evenly along its length: target → curve
+    and, for a closed target, curve → target (an open arc may be part of the cycle)."""
     there = distances_to(arc_resample(target, 4 * POINTS, closed), curve, True)
     parts = [there]
     if closed:

@@ -4,11 +4,12 @@
    :func:`linkedit.curves.sources.is_closed`) is moved into its unit frame (centred on its bounding box, its
    largest side 1: the fit is scale-free);
 2. the atlas index (:func:`~linkedit.synthesis.chunks.index_efd`: the EFDs of the curve's projection onto its
-   principal plane, the descriptor ``linkedit features`` computes for 3D curves; an open arc as closed by its
-   chord: on held-out spherical arcs its pool held better stretches than the arc retraced there and back, as
-   planar open targets are queried) gives the nearest ``POOL`` (open: ``OPEN_POOL``) linkages of the atlas's
-   spatial families (:mod:`~linkedit.synthesis.spherical`, :mod:`~linkedit.synthesis.rssr`) that turn with the
-   singularity margin;
+   principal plane, the descriptor ``linkedit features`` computes for 3D curves) gives the nearest ``POOL``
+   linkages of the atlas's spatial families (:mod:`~linkedit.synthesis.spherical`, :mod:`~linkedit.synthesis.rssr`)
+   that turn with the singularity margin; an open arc, whose whole-cycle descriptor says little about which
+   cycles hold a stretch like it, takes ``SCREEN_POOL`` for each of its descriptors (closed by its chord,
+   retraced there and back) and keeps the ``OPEN_POOL`` best by partial matching on the atlas's stored coarse
+   curves (:data:`~linkedit.curves.distance.SCREEN`);
 3. they are re-ranked by the full 3D curve distance (:func:`linkedit.curves.distance.term_distances`, pose
    normalized: invariant to the target's rotation, translation and scale, mirror images included) and each
    of the best ``top`` distinct ones is placed on the target by its aligning similarity
@@ -41,7 +42,7 @@ from scipy.spatial.transform import Rotation
 from linkedit import __version__
 from linkedit.curves.compare import placements
 from linkedit.curves.descriptors import describe
-from linkedit.curves.distance import COARSE, partial_placement3, partial_rms, term_distances, weighted
+from linkedit.curves.distance import COARSE, SCREEN, partial_placement3, partial_rms, term_distances, weighted
 from linkedit.curves.sources import Curve
 from linkedit.errors import InputError, MechanismError
 from linkedit.gcs import GcsResult, check_solved, solve_spec
@@ -57,7 +58,8 @@ from linkedit.synthesis.chunks import dimension
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.outputs import DRAWN, history_chart
-from linkedit.synthesis.refine import kept_least_squares
+from linkedit.synthesis.refine import (POINTS, SAMPLES, WALL, arc_resample, curve_error, kept_least_squares,
+                                      near_distances)
 from linkedit.synthesis.synthesize import MARGIN_DEG, POOR, SCREENED, diverse, margin_of, within
 
 FILES = ("result.yaml", "result.h5", "overlay.svg", "history.svg", "report.json")
@@ -66,13 +68,13 @@ FILES = ("result.yaml", "result.h5", "overlay.svg", "history.svg", "report.json"
 #: fine one on the best ``SCREENED``).
 POOL = 256
 OPEN_POOL = 512
+#: An open arc's index candidates (each of its two descriptors: closed by its chord, retraced there and back),
+#: screened by partial matching on the atlas's stored coarse curves (:data:`~linkedit.curves.distance.SCREEN`)
+#: down to the ``OPEN_POOL`` re-ranked: the index describes whole cycles, and the linkages with the best
+#: stretch for an arc are often far down its ranking.
+SCREEN_POOL = 2048
 #: Crank samples of each candidate's curve when it is re-ranked.
 RANK_SAMPLES = 128
-#: Crank samples of the candidate curve during refinement, and points per curve where residuals are taken.
-SAMPLES = 256
-POINTS = 120
-#: Residual of an iterate that does not work (a wall for the trust region).
-WALL = 10.0
 #: Trust-region evaluations per candidate.
 ITERATIONS = 60
 #: Time steps of the written spec (t = 0 and 1 both: 360 distinct crank angles).
@@ -132,53 +134,6 @@ class SpatialSynthesis:
     margin_deg: float = MARGIN_DEG
 
 
-def arc_resample(p: np.ndarray, count: int, closed: bool = True) -> np.ndarray:
-    """``count`` points (count, 3) equally spaced in arc length along the polyline ``p`` (M, 3), closed or open
-    (then from its first point to its last)."""
-    loop = np.concatenate([p, p[:1]]) if closed else p
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(loop, axis=0), axis=1))])
-    at = np.linspace(0.0, s[-1], count, endpoint=not closed)
-    return np.stack([np.interp(at, s, loop[:, i]) for i in range(3)], axis=1)
-
-
-def distances(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
-    """Distance of each of ``points`` (..., N, 3) to the closed polyline ``curve`` (..., M, 3) → (..., N)."""
-    a = curve[..., None, :, :]
-    e = np.roll(curve, -1, axis=-2)[..., None, :, :] - a
-    rel = points[..., :, None, :] - a
-    t = np.clip(np.sum(rel * e, axis=-1) / np.maximum(np.sum(e * e, axis=-1), 1e-300), 0.0, 1.0)
-    gap = rel - t[..., None] * e
-    return np.sqrt(np.min(np.sum(gap * gap, axis=-1), axis=-1))
-
-
-def near_distances(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
-    """Distance of ``points`` (..., N, 3) to a densely sampled closed curve (..., M, 3) → (..., N): the nearest
-    vertex (one matrix product), then the two segments that meet there (the refinement's fast version of
-    :func:`distances`, exact unless a segment passes nearer than both its ends and the next vertex)."""
-    d2 = np.sum(curve * curve, axis=-1)[..., None, :] - 2.0 * points @ np.swapaxes(curve, -1, -2)
-    j = np.argmin(d2, axis=-1)  # (..., N)
-    m = curve.shape[-2]
-    best = np.full(j.shape, np.inf)
-    for k in (j - 1, j):
-        a = np.take_along_axis(curve, (k % m)[..., None], axis=-2)
-        e = np.take_along_axis(curve, ((k + 1) % m)[..., None], axis=-2) - a
-        rel = points - a
-        t = np.clip(np.sum(rel * e, axis=-1) / np.maximum(np.sum(e * e, axis=-1), 1e-300), 0.0, 1.0)
-        best = np.minimum(best, np.linalg.norm(rel - t[..., None] * e, axis=-1))
-    return best
-
-
-def curve_error(target: np.ndarray, curve: np.ndarray, size: float, closed: bool = True) -> tuple[float, float]:
-    """(RMS, max) distance between the target (M, 3) and a closed curve (T, 3), over ``size``, each curve
-    sampled evenly along its length (4·POINTS points): target → curve and, for a ``closed`` target, curve →
-    target (an open arc may be part of the cycle)."""
-    parts = [distances(arc_resample(target, 4 * POINTS, closed), curve)]
-    if closed:
-        parts.append(distances(arc_resample(curve, 4 * POINTS), target))
-    d = np.concatenate(parts) / size
-    return float(np.sqrt(np.mean(d * d))), float(d.max())
-
-
 def _frame(target: Curve) -> tuple[np.ndarray, float]:
     """The target's bounding-box centre (3,) and largest side; InputError naming the magnitude if the
     written mechanism's coordinates would leave the range a spec takes."""
@@ -203,8 +158,8 @@ def synthesize3d(target: Curve, atlas: Atlas, *, top: int = 5, margin_deg: float
     unit = (target.points - centre) / side
     closed = target.closed
     spatial = restrict(atlas, 3)
-    hits = within(Index(spatial).query(target_variants(unit), POOL if closed else OPEN_POOL), spatial, margin,
-                  margin_deg)
+    hits = (within(Index(spatial).query(target_variants(unit), POOL), spatial, margin, margin_deg) if closed
+            else _screened(unit, spatial, margin, margin_deg))
     clock["query"] = time.perf_counter()
     t_desc = describe(unit[None], closed)
     size = float(t_desc.normalized.scale[0])  # unit frame
@@ -222,7 +177,7 @@ def synthesize3d(target: Curve, atlas: Atlas, *, top: int = 5, margin_deg: float
         fam = family(c.family)
         assert c.placement is not None
         with np.errstate(invalid="ignore"):
-            c.before = curve_error(unit, c.placement.apply(fam.curves(c.params[None], SAMPLES)[0]), size, closed)
+            c.before = curve_error(unit, closed, c.placement.apply(fam.curves(c.params[None], SAMPLES)[0]), size)
         refine3d(fam, c, unit, size, margin, closed=closed)
     clock["refine"] = time.perf_counter()
     working = [c for c in chosen if c.refined is not None and np.isfinite(c.after[0])]
@@ -241,7 +196,7 @@ def synthesize3d(target: Curve, atlas: Atlas, *, top: int = 5, margin_deg: float
     solved = solve_spec(spec, spec_text=text)
     check_solved(solved)
     size_in = size * side
-    error = curve_error(target.points, solved.tracks["target"].position[:-1], size_in, closed)
+    error = curve_error(target.points, closed, solved.tracks["target"].position[:-1], size_in)
     clock["check"] = time.perf_counter()
     note = "" if error[0] <= POOR else (f"no spatial family in the atlas draws this curve well: the best found is off "
                                          f"by {100 * error[0]:.1f} % of the target's size (RMS)")
@@ -266,6 +221,25 @@ def _ranked(t_desc: Any, unit: np.ndarray, size: float, hits: list[Any], spatial
             c.placement = Placement3(place["scale"], np.array(place["matrix"]), np.array(place["translation"]))
             ranked.append(c)
     return ranked
+
+
+def _screened(unit: np.ndarray, spatial: Atlas, margin: float, margin_deg: float) -> list[Any]:
+    """The open arc ``unit`` (M, 3)'s index hits (``SCREEN_POOL`` for each of its descriptors) that turn with the
+    margin, the best ``OPEN_POOL`` by partial matching (:data:`~linkedit.curves.distance.SCREEN`) on the atlas's
+    stored coarse curves, best first."""
+    index = Index(spatial)
+    found: dict[tuple[str, int], Any] = {}
+    for closure in (unit, np.concatenate([unit, unit[-2:0:-1]])):
+        for h in index.query(target_variants(closure), SCREEN_POOL):
+            found.setdefault((h.family, h.row), h)
+    hits = within(list(found.values()), spatial, margin, margin_deg)
+    arc = arc_resample(unit, POINTS, False)[None]
+    score = np.empty(len(hits))
+    for fam_name in dict.fromkeys(h.family for h in hits):
+        mine = np.array([k for k, h in enumerate(hits) if h.family == fam_name])
+        stored = np.asarray(spatial.families[fam_name]["curves"][[hits[k].row for k in mine]], dtype=float)
+        score[mine] = partial_rms(arc, stored, mirror=True, grid=SCREEN)[0]
+    return [hits[k] for k in np.argsort(score, kind="stable")[:OPEN_POOL]]
 
 
 def _ranked_open(t_desc: Any, unit: np.ndarray, size: float, hits: list[Any], spatial: Atlas) -> list[Candidate3]:
@@ -296,7 +270,7 @@ def refine3d(fam: Any, c: Candidate3, target: np.ndarray, size: float, margin: f
     free = np.array([n != "branch" for n in fam.PARAMETERS])
     n_free = int(free.sum())
     goal = arc_resample(target, POINTS, closed)
-    outline = arc_resample(target, 4 * POINTS) if closed else goal  # the target as the reverse distances see it
+    outline = arc_resample(target, 4 * POINTS, True) if closed else goal  # the target as the reverse distances see it
     base = c.placement.matrix
 
     def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -314,7 +288,7 @@ def refine3d(fam: Any, c: Candidate3, target: np.ndarray, size: float, margin: f
             ok = works(fam.min_singularity(p, margin), margin) & np.isfinite(curve).all(axis=(1, 2))
             r = near_distances(np.broadcast_to(goal, (len(x), *goal.shape)), curve)
             if closed:
-                back = np.stack([arc_resample(k, POINTS) if good else goal for k, good in zip(curve, ok)])
+                back = np.stack([arc_resample(k, POINTS, True) if good else goal for k, good in zip(curve, ok)])
                 r = np.concatenate([r, near_distances(back, np.broadcast_to(outline, (len(x), *outline.shape)))],
                                    axis=1)
         r = r / (size * np.sqrt(r.shape[1]))
@@ -330,7 +304,7 @@ def refine3d(fam: Any, c: Candidate3, target: np.ndarray, size: float, margin: f
     p, scale, turn, shift = unpack(kept.x[None])
     c.refined, c.refined_placement = p[0], Placement3(float(scale[0]), turn[0], shift[0])
     with np.errstate(invalid="ignore"):
-        c.after = curve_error(target, c.refined_placement.apply(fam.curves(p, SAMPLES)[0]), size, closed)
+        c.after = curve_error(target, closed, c.refined_placement.apply(fam.curves(p, SAMPLES)[0]), size)
 
 
 def result_text(c: Candidate3, target: Curve, *, name: str, units: str) -> str:
