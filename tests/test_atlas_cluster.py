@@ -200,3 +200,50 @@ print(mallinfo2().hblkhd)
 """
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
     assert int(out.stdout) < 256 << 20, "the 256 MiB array was mmapped: no fixed mmap threshold in-process"
+
+
+def _kept_runs(cluster, folder) -> int:
+    """Runs of shards of ``folder`` the cluster's workers hold read (each read once per worker)."""
+    from dask.distributed import Client
+
+    from linkedit.synthesis import shard_search
+
+    with Client(cluster.scheduler_address) as client:
+        held = client.run(lambda: [key[0] for key in shard_search._kept])
+    return sum(place == str(folder.absolute()) for places in held.values() for place in places)
+
+
+def test_a_query_goes_to_the_worker_holding_its_shards(folder, cluster):
+    """Two queries from two clients (two `synthesize` runs) on 2 workers, one of them busy for a second when the
+    second query comes: each run of shards is read once, by the worker its tasks are pinned to, which the second
+    query waits for (the scheduler sent both tasks to the free worker, which read the other's shards again);
+    both equal the in-process search's rows."""
+    from dask.distributed import Client
+
+    v = _variants(1)[0]
+    local = [h.row for h in Index(shards.load(folder), threads=2).query(v, 10)]
+    with remote_atlas(folder, cluster.scheduler_address) as (_, index):
+        assert [h.row for h in index.query(v, 10)] == local
+    with Client(cluster.scheduler_address) as client:
+        busy = client.submit(time.sleep, 1.5, workers=sorted(client.nthreads())[:1], pure=False)
+        while busy.status == "pending" and not any(client.processing().values()):
+            time.sleep(0.01)
+        with remote_atlas(folder, cluster.scheduler_address) as (_, index):
+            assert [h.row for h in index.query(v, 10)] == local
+        busy.result()
+    assert _kept_runs(cluster, folder) == 2
+
+
+def test_a_query_pinned_to_a_worker_that_left_runs_elsewhere(folder, cluster, monkeypatch):
+    """A run of the shards pinned to a worker no longer in the cluster (it left after the client counted the
+    workers): its task is submitted again to any worker within a REPIN_CHECK, and the hits are the in-process ones."""
+    from linkedit.synthesis import shard_search
+
+    monkeypatch.setattr(shard_search, "REPIN_CHECK", 0.2)
+    v = _variants(1)[0]
+    local = [h.row for h in Index(shards.load(folder), threads=2).query(v, 10)]
+    with remote_atlas(folder, cluster.scheduler_address) as (book, index):
+        gone = shard_search.ClusterIndex(index.client, {"tcp://127.0.0.1:9": 1} | index.client.nthreads(), folder,
+                                         shards.read_manifest(folder), book, index.direct)
+        assert "tcp://127.0.0.1:9" in gone.slots and len(gone.runs["four-bar"]) == 3
+        assert [h.row for h in gone.query(v, 10)] == local
