@@ -193,17 +193,19 @@ def _frame(target: Curve) -> tuple[np.ndarray, float]:
     return 0.5 * p.min(axis=0) + 0.5 * p.max(axis=0), side
 
 
-def synthesize3d(target: Curve, atlas: Atlas, *, top: int = 5, margin_deg: float = MARGIN_DEG,
-                 name: str = "synthesized", units: str = "mm") -> SpatialSynthesis:
+def synthesize3d(target: Curve, atlas: Atlas, index: Index | None = None, *, top: int = 5,
+                 margin_deg: float = MARGIN_DEG, name: str = "synthesized", units: str = "mm") -> SpatialSynthesis:
     """Find, place and refine spatial linkages drawing the 3D ``target`` (a closed curve or an open arc); write
-    nothing. MechanismError if none survives, or if the written spec does not solve."""
+    nothing. ``index``: the search of ``atlas`` (a cluster's, :mod:`~linkedit.synthesis.shard_search`), else an
+    in-process :class:`Index` of its spatial families. MechanismError if none survives, or if the written spec
+    does not solve."""
     margin = margin_of(margin_deg)
     clock = {"start": time.perf_counter()}
     centre, side = _frame(target)
     unit = (target.points - centre) / side
     closed = target.closed
     spatial = restrict(atlas, 3)
-    hits = within(Index(spatial).query(target_variants(unit), POOL if closed else OPEN_POOL), spatial, margin,
+    hits = within((index or Index(spatial)).query(target_variants(unit), POOL if closed else OPEN_POOL), spatial, margin,
                   margin_deg)
     clock["query"] = time.perf_counter()
     t_desc = describe(unit[None], closed)
