@@ -243,7 +243,7 @@ def _spatial(curve, target: str, atlas: Path, output: Path, *, top: int, margin:
     settings: dict[str, Any] = {"top": top, "margin_deg": margin, "units": units or curve.units or "mm"}
     if scheduler is not None:  # the shards searched on the cluster's workers, the hits ranked here
         with remote_atlas(atlas, scheduler, dim=3, connect_timeout=connect_timeout) as (found, index):
-            result = synthesize3d(curve, found, index, **settings)  # type: ignore[arg-type]  # ClusterIndex: an Index's query
+            result = synthesize3d(curve, found, index, **settings)  # type: ignore[arg-type]
     else:
         found = restrict(open_atlas(atlas), 3)
         result = synthesize3d(curve, found, **settings)

@@ -133,7 +133,8 @@ def save(folder: Path, manifest: dict[str, Any]) -> None:
 def manifest_text(manifest: dict[str, Any]) -> str:
     """``manifest`` as JSON, indented, each shard entry and pending chunk on a line of its own. The two lists
     (thousands of items) are written by json's C encoder, their items split into lines after (their strings,
-    file names and hex digests, hold no brackets): json's indenting encoder is pure Python (~5× slower)."""
+    file names and hex digests, hold no brackets): json's indenting encoder is pure Python (3× slower: 0.2 s
+    for 10,000 shards)."""
     lists: dict[str, str] = {}
 
     def placeholder(items: list[Any], between: str) -> str:  # a string no JSON text of the manifest's own contains
