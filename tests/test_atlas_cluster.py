@@ -76,7 +76,7 @@ def test_the_cluster_search_equals_the_in_process_one(folder, cluster, scan_limi
 
 def test_synthesize_with_a_scheduler_writes_the_in_process_result(run_cli, folder, cluster, tmp_path):
     """`synthesize --atlas FOLDER --scheduler ADDRESS`: the same linkage (result.yaml) and errors as without
-    --scheduler, the scheduler recorded; an atlas file, a 3D target and --function are refused (exit 2)."""
+    --scheduler, the scheduler recorded; an atlas file and a 3D target on a planar-only atlas are refused (exit 2)."""
     z = 3 - 2j + 25 * np.exp(0.7j) * fourbar.curves(atlas.build_chunk("four-bar", 991, 0, 1).params, 150, 0.2)[0]
     target = tmp_path / "target.csv"
     target.write_text("x,y\n" + "\n".join(f"{float(p.real)!r},{float(p.imag)!r}" for p in z) + "\n")
@@ -99,7 +99,7 @@ def test_synthesize_with_a_scheduler_writes_the_in_process_result(run_cli, folde
                                              for t in np.linspace(0, 2 * np.pi, 60, endpoint=False)) + "\n")
     refused = run_cli("synthesize", spatial, "--atlas", folder, "-o", tmp_path / "no", "--scheduler",
                       cluster.scheduler_address)
-    assert refused.exit_code == 2 and "--scheduler" in refused.output
+    assert refused.exit_code == 2 and "holds no spatial linkages" in refused.output
 
 
 @pytest.mark.parametrize("out", ["atlas", "atlas.h5"])
@@ -200,3 +200,89 @@ print(mallinfo2().hblkhd)
 """
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
     assert int(out.stdout) < 256 << 20, "the 256 MiB array was mmapped: no fixed mmap threshold in-process"
+
+
+def _kept_runs(cluster, folder) -> int:
+    """Runs of shards of ``folder`` the cluster's workers hold read (each read once per worker)."""
+    from dask.distributed import Client
+
+    from linkedit.synthesis import shard_search
+
+    with Client(cluster.scheduler_address) as client:
+        held = client.run(lambda: [key[0] for key in shard_search._kept])
+    return sum(place == str(folder.absolute()) for places in held.values() for place in places)
+
+
+def test_a_query_goes_to_the_worker_holding_its_shards(folder, cluster):
+    """Two queries from two clients (two `synthesize` runs) on 2 workers, one of them busy for a second when the
+    second query comes: each run of shards is read once, by the worker its tasks are pinned to, which the second
+    query waits for (the scheduler sent both tasks to the free worker, which read the other's shards again);
+    both equal the in-process search's rows."""
+    from dask.distributed import Client
+
+    v = _variants(1)[0]
+    local = [h.row for h in Index(shards.load(folder), threads=2).query(v, 10)]
+    with remote_atlas(folder, cluster.scheduler_address) as (_, index):
+        assert [h.row for h in index.query(v, 10)] == local
+    with Client(cluster.scheduler_address) as client:
+        busy = client.submit(time.sleep, 1.5, workers=sorted(client.nthreads())[:1], pure=False)
+        while busy.status == "pending" and not any(client.processing().values()):
+            time.sleep(0.01)
+        with remote_atlas(folder, cluster.scheduler_address) as (_, index):
+            assert [h.row for h in index.query(v, 10)] == local
+        busy.result()
+    assert _kept_runs(cluster, folder) == 2
+
+
+def test_a_query_pinned_to_a_worker_that_left_runs_elsewhere(folder, cluster, monkeypatch):
+    """A run of the shards pinned to a worker no longer in the cluster (it left after the client counted the
+    workers): its task is submitted again to any worker within a REPIN_CHECK, and the hits are the in-process ones."""
+    from linkedit.synthesis import shard_search
+
+    monkeypatch.setattr(shard_search, "REPIN_CHECK", 0.2)
+    v = _variants(1)[0]
+    local = [h.row for h in Index(shards.load(folder), threads=2).query(v, 10)]
+    with remote_atlas(folder, cluster.scheduler_address) as (book, index):
+        gone = shard_search.ClusterIndex(index.client, {"tcp://127.0.0.1:9": 1} | index.client.nthreads(), folder,
+                                         shards.read_manifest(folder), book, index.direct)
+        assert "tcp://127.0.0.1:9" in gone.slots and len(gone.runs["four-bar"]) == 3
+        assert [h.row for h in gone.query(v, 10)] == local
+
+
+@pytest.mark.parametrize("closed", [True, False], ids=["closed", "open-arc"])
+def test_synthesize_a_3d_target_with_a_scheduler_writes_the_in_process_result(run_cli, tmp_path, cluster, monkeypatch,
+                                                                              closed):
+    """A 3D target (a closed curve, or an open arc: its hits screened on their stored coarse curves, fetched from
+    the workers) against a sharded atlas of 1,500 spherical four-bars (3 shards) with --scheduler: its spatial
+    shards searched on the workers (the command refused 3D targets with --scheduler), the same result.yaml,
+    errors and candidates as in-process, the scheduler recorded; result.yaml draws the target (solve3d)."""
+    from scipy.spatial.transform import Rotation
+
+    from linkedit.io.gcs_hdf5 import read_result
+    from linkedit.synthesis import spherical
+    from linkedit.synthesis.spatial import curve_error
+
+    for module in (atlas, chunks, shards):
+        monkeypatch.setattr(module, "CHUNK", 500)
+    folder = tmp_path / "spatial"
+    assert run_cli("atlas", "build", "--family", "spherical-four-bar", "-n", "1500", "-o", folder).exit_code == 0
+    row = shards.load(folder).families["spherical-four-bar"]["params"][7].copy()
+    row[:4] *= np.array([1.02, 0.98, 1.01, 0.985])  # not in the atlas
+    points = np.array([3.0, 1.0, -2.0]) + 0.4 * spherical.curves(row[None], 200, 0.1)[0] @ \
+        Rotation.random(random_state=5).as_matrix().T
+    points = points if closed else points[:110]
+    target = tmp_path / "t.csv"
+    np.savetxt(target, points, delimiter=",", header="x,y,z", comments="")
+    here = run_cli("synthesize", target, "--atlas", folder, "-o", tmp_path / "here", "--top", "1")
+    there = run_cli("synthesize", target, "--atlas", folder, "-o", tmp_path / "there", "--top", "1",
+                    "--scheduler", cluster.scheduler_address)
+    assert here.exit_code == 0 and there.exit_code == 0, there.output
+    assert (tmp_path / "there" / "result.yaml").read_text() == (tmp_path / "here" / "result.yaml").read_text()
+    a, b = (json.loads((tmp_path / out / "report.json").read_text()) for out in ("here", "there"))
+    assert b["error"] == a["error"] and b["options"] == a["options"] | {"scheduler": cluster.scheduler_address}
+    assert b["candidates"] == a["candidates"] and b["error"]["after"]["rms"] < 0.01
+    assert run_cli("solve3d", tmp_path / "there" / "result.yaml", "-o", tmp_path / "s.h5").exit_code == 0
+    track = read_result(tmp_path / "s.h5").tracks["target"].position[:-1]
+    assert b["target"]["closed"] is closed
+    assert curve_error(points, closed, track, b["target"]["size"])[0] == pytest.approx(b["error"]["after"]["rms"],
+                                                                                        rel=1e-6)

@@ -207,10 +207,8 @@ def register(app: typer.Typer) -> None:
         if units is not None and curve.units is not None and units != curve.units:
             raise InputError(f"--units {units} contradicts the target's own units, {curve.units}", file=curve.origin)
         if curve.points.shape[1] == 3:
-            if scheduler is not None:
-                raise InputError("--scheduler searches the planar families of a sharded atlas; a 3D (x, y, z) target "
-                                 "is searched in-process", field="--scheduler")
             _spatial(curve, target, atlas, output, top=top, margin=margin, seed=seed, units=units,
+                     scheduler=scheduler, connect_timeout=connect_timeout,
                      planar_only={"--smooth": smooth != 0.0, "--timing": timing, "--points/--curve": points is not None})
             return
         from linkedit.synthesis.shard_search import remote_atlas
@@ -241,18 +239,26 @@ def register(app: typer.Typer) -> None:
 
 
 def _spatial(curve, target: str, atlas: Path, output: Path, *, top: int, margin: float, seed: int, units: str | None,
-             planar_only: dict[str, bool]) -> None:
-    """``synthesize`` of a 3D (x, y, z) target: search the atlas's spatial families, refine, write a 3D spec."""
+             scheduler: str | None, connect_timeout: float, planar_only: dict[str, bool]) -> None:
+    """``synthesize`` of a 3D (x, y, z) target: search the atlas's spatial families (on the cluster at
+    ``scheduler``, as for a planar target), refine, write a 3D spec."""
+    from linkedit.synthesis.shard_search import remote_atlas
     from linkedit.synthesis.shards import open_atlas
-    from linkedit.synthesis.spatial import synthesize3d, write_all
+    from linkedit.synthesis.spatial import restrict, synthesize3d, write_all
 
     for option, given in planar_only.items():
         if given:
             raise InputError(f"{option} applies to a planar target, not to a 3D (x, y, z) one", field=option)
-    found = open_atlas(atlas)
-    result = synthesize3d(curve, found, top=top, margin_deg=margin, units=units or curve.units or "mm")
+    settings: dict[str, Any] = {"top": top, "margin_deg": margin, "units": units or curve.units or "mm"}
+    if scheduler is not None:  # the shards searched on the cluster's workers, the hits ranked here
+        with remote_atlas(atlas, scheduler, dim=3, connect_timeout=connect_timeout) as (found, index):
+            result = synthesize3d(curve, found, index, **settings)  # type: ignore[arg-type]
+    else:
+        found = restrict(open_atlas(atlas), 3)
+        result = synthesize3d(curve, found, **settings)
     options = {"target": target, "atlas": str(atlas), "top": top, "margin_deg": margin, "seed": seed,
-               "closed": curve.closed, "atlas_size": found.size, "units": units}
+               "closed": curve.closed, "atlas_size": found.size, "units": units} | (
+        {"scheduler": scheduler} if scheduler is not None else {})
     done = write_all(output, result, options)
     report({k: v for k, v in done.items() if k != "result"} | {"output": str(output)})
     before, after = done["error"]["before"], done["error"]["after"]

@@ -86,9 +86,15 @@ def build_chunk(name: str, seed: int, index: int, size: int = CHUNK, spec: str |
     for start in range(0, size, BLOCK):
         z = fam.curves(params[start:start + BLOCK], SAMPLES)
         desc[start:start + BLOCK] = index_vector(index_efd(z))
-        part = z[:, ::COARSE_STEP]
-        coarse[start:start + BLOCK] = part if part.ndim == 3 else np.stack([part.real, part.imag], axis=2)
+        coarse[start:start + BLOCK] = coarse_curves(z)
     return Chunk(params, np.concatenate(kept_ds)[:size], desc, coarse)
+
+
+def coarse_curves(z: np.ndarray) -> np.ndarray:
+    """The coarse curves an atlas stores (K, SAMPLES / COARSE_STEP, 2 or 3) of curves ``z`` at SAMPLES samples:
+    planar (K, SAMPLES) complex or spatial (K, SAMPLES, 3); float64 (the atlas stores them as float32)."""
+    part = z[:, ::COARSE_STEP]
+    return part if part.ndim == 3 else np.stack([part.real, part.imag], axis=2)
 
 
 #: Bytes a build holds whatever its size (it streams): the working arrays of one chunk being built (peak 17 MB

@@ -87,12 +87,18 @@ class FetchedParams:
 
 class ClusterIndex:
     """An :class:`~linkedit.synthesis.index.Index` whose search runs on the workers of ``client``'s cluster
-    (``threads`` in all): :meth:`query` as the in-process one's, the hits' params stored in ``atlas``."""
+    (``nthreads``: threads per worker address): :meth:`query` as the in-process one's, the hits' params stored
+    in ``atlas``. Run k of a family's shards is pinned to the worker of thread slot k (the workers in address
+    order, each as many slots as it has threads): the same worker for every query and every client while the
+    workers stay, so it reads the run once and keeps it (:data:`KEEP`); a query waits for a busy worker rather
+    than have another read its shards again, and goes elsewhere only if that worker has left."""
 
-    def __init__(self, client: Any, threads: int, folder: Path, manifest: dict[str, Any], atlas: Atlas,
+    def __init__(self, client: Any, nthreads: dict[str, int], folder: Path, manifest: dict[str, Any], atlas: Atlas,
                  direct: bool, scan_limit: int = SCAN_LIMIT) -> None:
         self.client, self.direct, self.atlas = client, direct, atlas
         self.folder, self.seed = str(folder.absolute()), manifest["seed"]
+        self.slots = [worker for worker in sorted(nthreads) for _ in range(nthreads[worker])]
+        threads = len(self.slots)
         self.runs: dict[str, list[tuple[list[dict[str, Any]], int]]] = {}
         self.exact: dict[str, bool] = {}
         self.specs = {name: manifest["families"][name]["spec"] for name in atlas.families}
@@ -106,12 +112,15 @@ class ClusterIndex:
     def query(self, variants: np.ndarray, count: int) -> list[Hit]:
         """The ``count`` nearest linkages over all families, nearest first (exactly ranked on the client)."""
         q2 = float(np.sum(variants[0].astype(float) ** 2))
-        futures = {name: [self.client.submit(search_shards, self.folder, name, self.specs[name], self.seed, shards, base,
-                                             variants, count, self.exact[name], pure=False) for shards, base in runs]
-                   for name, runs in self.runs.items()}
+        calls = {name: [(self.slots[k % len(self.slots)], (self.folder, name, self.specs[name], self.seed, shards, base,
+                                                            variants, count, self.exact[name]))
+                        for k, (shards, base) in enumerate(runs)]
+                 for name, runs in self.runs.items()}
+        futures = {name: [self.client.submit(search_shards, *args, pure=False, workers=worker) for worker, args in part]
+                   for name, part in calls.items()}  # pinned: a loose restriction lets Dask's work stealing move them
         hits: list[Hit] = []
         for name, parts in futures.items():
-            found = self.client.gather(parts, direct=self.direct)
+            found = self._gather(parts, calls[name])
             rows = np.concatenate([f["rows"] for f in found])
             vectors = np.concatenate([f["index"] for f in found]).astype(np.float64)  # exact: no float32 cancellation
             best, d2 = nearest_rows(variants.astype(np.float64), np.ascontiguousarray(vectors.T),
@@ -123,6 +132,26 @@ class ClusterIndex:
             hits += [Hit(name, int(rows[k]), float(np.sqrt(max(d + q2, 0.0)))) for k, d in zip(best, d2)]
         hits.sort(key=lambda h: h.distance)
         return hits[:count]
+
+    def _gather(self, futures: list[Any], calls: list[tuple[str, tuple[Any, ...]]]) -> list[Any]:
+        """The results of ``futures`` (``calls``: each one's worker and arguments), any whose worker has left the
+        cluster submitted again to any worker (checked every :data:`REPIN_CHECK` seconds)."""
+        from distributed import wait
+
+        while True:
+            try:
+                wait(futures, timeout=REPIN_CHECK)
+                return cast(list[Any], self.client.gather(futures, direct=self.direct))
+            except TimeoutError:
+                present = self.client.nthreads()
+                for k, (worker, args) in enumerate(calls):
+                    if worker not in present and not futures[k].done():
+                        futures[k] = self.client.submit(search_shards, *args, pure=False)
+                        calls[k] = ("", args)
+
+
+#: Seconds between checks that the workers a query's tasks are pinned to are still there.
+REPIN_CHECK = 1.0
 
 
 @contextlib.contextmanager
@@ -149,4 +178,4 @@ def remote_atlas(path: str | Path, scheduler: str, *, dim: int | None = None,
         raise InputError(f"the atlas holds no {kinds}linkages", file=str(path))
     book = Atlas(path, families, manifest["seed"])
     with connected(scheduler, connect_timeout=connect_timeout, verbose=verbose) as (client, nthreads, direct):
-        yield book, ClusterIndex(client, sum(nthreads.values()), path, manifest, book, direct, scan_limit)
+        yield book, ClusterIndex(client, nthreads, path, manifest, book, direct, scan_limit)

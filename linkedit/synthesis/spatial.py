@@ -54,7 +54,7 @@ from linkedit.spec.geometry3d import MAX_COORDINATE
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
 from linkedit.synthesis.atlas import Atlas
-from linkedit.synthesis.chunks import dimension
+from linkedit.synthesis.chunks import SAMPLES, coarse_curves, dimension
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.outputs import DRAWN, history_chart
@@ -148,18 +148,21 @@ def _frame(target: Curve) -> tuple[np.ndarray, float]:
     return 0.5 * p.min(axis=0) + 0.5 * p.max(axis=0), side
 
 
-def synthesize3d(target: Curve, atlas: Atlas, *, top: int = 5, margin_deg: float = MARGIN_DEG,
-                 name: str = "synthesized", units: str = "mm") -> SpatialSynthesis:
+def synthesize3d(target: Curve, atlas: Atlas, index: Index | None = None, *, top: int = 5,
+                 margin_deg: float = MARGIN_DEG, name: str = "synthesized", units: str = "mm") -> SpatialSynthesis:
     """Find, place and refine spatial linkages drawing the 3D ``target`` (a closed curve or an open arc); write
-    nothing. MechanismError if none survives, or if the written spec does not solve."""
+    nothing. ``index``: the search of ``atlas`` (a cluster's, :mod:`~linkedit.synthesis.shard_search`), else an
+    in-process :class:`Index` of its spatial families. MechanismError if none survives, or if the written spec
+    does not solve."""
     margin = margin_of(margin_deg)
     clock = {"start": time.perf_counter()}
     centre, side = _frame(target)
     unit = (target.points - centre) / side
     closed = target.closed
     spatial = restrict(atlas, 3)
-    hits = (within(Index(spatial).query(target_variants(unit), POOL), spatial, margin, margin_deg) if closed
-            else _screened(unit, spatial, margin, margin_deg))
+    index = index or Index(spatial)
+    hits = (within(index.query(target_variants(unit), POOL), spatial, margin, margin_deg) if closed
+            else _screened(unit, spatial, index, margin, margin_deg))
     clock["query"] = time.perf_counter()
     t_desc = describe(unit[None], closed)
     size = float(t_desc.normalized.scale[0])  # unit frame
@@ -223,11 +226,11 @@ def _ranked(t_desc: Any, unit: np.ndarray, size: float, hits: list[Any], spatial
     return ranked
 
 
-def _screened(unit: np.ndarray, spatial: Atlas, margin: float, margin_deg: float) -> list[Any]:
-    """The open arc ``unit`` (M, 3)'s index hits (``SCREEN_POOL`` for each of its descriptors) that turn with the
-    margin, the best ``OPEN_POOL`` by partial matching (:data:`~linkedit.curves.distance.SCREEN`) on the atlas's
-    stored coarse curves, best first."""
-    index = Index(spatial)
+def _screened(unit: np.ndarray, spatial: Atlas, index: Any, margin: float, margin_deg: float) -> list[Any]:
+    """The open arc ``unit`` (M, 3)'s hits in ``index`` (``SCREEN_POOL`` for each of its descriptors) that turn with
+    the margin, the best ``OPEN_POOL`` by partial matching (:data:`~linkedit.curves.distance.SCREEN`) on the atlas's
+    coarse curves (stored in an atlas file; a sharded atlas stores none: made from the params as a build makes
+    them), best first."""
     found: dict[tuple[str, int], Any] = {}
     for closure in (unit, np.concatenate([unit, unit[-2:0:-1]])):
         for h in index.query(target_variants(closure), SCREEN_POOL):
@@ -237,7 +240,10 @@ def _screened(unit: np.ndarray, spatial: Atlas, margin: float, margin_deg: float
     score = np.empty(len(hits))
     for fam_name in dict.fromkeys(h.family for h in hits):
         mine = np.array([k for k, h in enumerate(hits) if h.family == fam_name])
-        stored = np.asarray(spatial.families[fam_name]["curves"][[hits[k].row for k in mine]], dtype=float)
+        rows = [hits[k].row for k in mine]
+        book = spatial.families[fam_name]
+        stored = (np.asarray(book["curves"][rows], dtype=float) if "curves" in book  # an atlas file's
+                  else coarse_curves(family(fam_name).curves(book["params"][rows], SAMPLES)).astype(np.float32))
         score[mine] = partial_rms(arc, stored, mirror=True, grid=SCREEN)[0]
     return [hits[k] for k in np.argsort(score, kind="stable")[:OPEN_POOL]]
 
