@@ -159,32 +159,55 @@ def _descend(evaluate: Callable[[np.ndarray, np.ndarray], np.ndarray], curve: np
     return phase, np.abs(evaluate(curve, phase) - points)
 
 
-def family_closest(fam, params: np.ndarray, factor: np.ndarray, shift: np.ndarray, mirrored: bool,
-                   points: np.ndarray) -> np.ndarray:
-    """Exact distances (K, N) from ``points`` (N,) complex to family ``fam``'s curves of ``params`` (K, P),
-    placed by z ↦ shift + factor·z (z conjugated when ``mirrored``), factor and shift (K,) complex."""
+def _placed(fam, params: np.ndarray, factor: np.ndarray, shift: np.ndarray, mirrored: bool,
+            ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """Curve rows (L,), phases (L,) → points (L,) complex of family ``fam``'s curves of ``params`` (K, P), placed
+    by z ↦ shift + factor·z (z conjugated when ``mirrored``), factor and shift (K,) complex."""
 
     def evaluate(rows: np.ndarray, phase: np.ndarray) -> np.ndarray:
         z = fam.curves(params[rows], 1, phase)[:, 0]
         return shift[rows] + factor[rows] * (np.conj(z) if mirrored else z)
 
+    return evaluate
+
+
+def family_nearest(fam, params: np.ndarray, factor: np.ndarray, shift: np.ndarray, mirrored: bool,
+                   points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Exact distances (K, N) from ``points`` (N,) complex to family ``fam``'s curves of ``params`` (K, P),
+    placed by z ↦ shift + factor·z (z conjugated when ``mirrored``), factor and shift (K,) complex, and the
+    closest crank phases (K, N) in [0, 1) (NaN where a curve breaks)."""
     z = fam.curves(params, DENSE)
     with np.errstate(invalid="ignore"):
-        return closest(points, shift[:, None] + factor[:, None] * (np.conj(z) if mirrored else z), evaluate)[0]
+        return closest(points, shift[:, None] + factor[:, None] * (np.conj(z) if mirrored else z),
+                       _placed(fam, params, factor, shift, mirrored))
+
+
+def family_closest(fam, params: np.ndarray, factor: np.ndarray, shift: np.ndarray, mirrored: bool,
+                   points: np.ndarray) -> np.ndarray:
+    """The distances (K, N) of :func:`family_nearest`."""
+    return family_nearest(fam, params, factor, shift, mirrored, points)[0]
 
 
 def family_phases(fam, params: np.ndarray, factor: complex, shift: complex, mirrored: bool,
                   points: np.ndarray) -> np.ndarray:
     """The crank phases (N,) in [0, 1) of the curve points closest to ``points`` (N,) complex (one linkage
-    ``params`` (P,) placed as in :func:`family_closest`)."""
+    ``params`` (P,) placed as in :func:`family_nearest`)."""
+    return family_nearest(fam, params[None], np.array([factor]), np.array([shift]), mirrored, points)[1][0]
 
-    def evaluate(rows: np.ndarray, phase: np.ndarray) -> np.ndarray:
-        z = fam.curves(np.repeat(params[None], len(rows), axis=0), 1, phase)[:, 0]
-        return shift + factor * (np.conj(z) if mirrored else z)
 
-    z = fam.curves(params[None], DENSE)
+def family_at(fam, params: np.ndarray, factor: np.ndarray, shift: np.ndarray, mirrored: bool, points: np.ndarray,
+              phases: np.ndarray) -> np.ndarray:
+    """Signed distances (K, N) from ``points`` (N,) complex to the curves of :func:`family_nearest`, where
+    ``phases`` (N,) are the first curve's closest: each curve's gap at those phases projected on the first
+    curve's gap direction (the curve's normal there). The first row is its distances; the others, for curves
+    whose parameters differ from it by little (a finite-difference Jacobian's), their distances to first order
+    (the closest phase's own change moves them only to second order), smooth where a distance reaches 0."""
+    k, n = len(params), len(points)
     with np.errstate(invalid="ignore"):
-        return closest(points, shift + factor * (np.conj(z) if mirrored else z), evaluate)[1][0]
+        gap = _placed(fam, params, factor, shift, mirrored)(np.repeat(np.arange(k), n), np.tile(phases, k))
+    gap = gap.reshape(k, n) - points[None]
+    normal = gap[0] / np.where(gap[0] != 0, np.abs(gap[0]), 1.0)
+    return gap.real * normal.real + gap.imag * normal.imag
 
 
 def newton(fam, params: np.ndarray, factor: complex, shift: complex, mirrored: bool, points: np.ndarray,

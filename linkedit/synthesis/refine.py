@@ -31,7 +31,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from linkedit.planar.feasibility import works
-from linkedit.synthesis.points import family_closest
+from linkedit.synthesis.points import family_at, family_nearest
 from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
 from linkedit.synthesis.timed import VELOCITY_WEIGHT, TimedTarget, central, timed_sequence
 
@@ -200,11 +200,13 @@ class Kept:
 
 def kept_least_squares(residuals: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], x0: np.ndarray, *,
                        iterations: int, tol: float, error: Callable[[np.ndarray], float],
-                       good_enough: float = 0.0) -> Kept:
+                       good_enough: float = 0.0,
+                       perturbed: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None) -> Kept:
     """The refinement loop of planar and spatial synthesis: scipy's trust-region least squares from ``x0`` (n,)
     on ``residuals`` (x (K, n) → working mask (K,), residuals (K, R); a batch, so the forward-difference
     Jacobian evaluates every perturbed x in one call), keeping the best working iterate by ``error`` (of one
-    residual row; a non-working iterate is never kept), stopping once it is below ``good_enough``."""
+    residual row; a non-working iterate is never kept), stopping once it is below ``good_enough``.
+    ``perturbed``: the Jacobian's residuals instead (of x and its perturbations, (1 + n, n); to first order)."""
     best = Kept(x0, np.inf)
 
     def fun(x: np.ndarray) -> np.ndarray:
@@ -219,7 +221,7 @@ def kept_least_squares(residuals: Callable[[np.ndarray], tuple[np.ndarray, np.nd
 
     def jac(x: np.ndarray) -> np.ndarray:
         step = 1e-7 * np.maximum(1.0, np.abs(x))
-        _, r = residuals(np.vstack([x, x + np.diag(step)]))
+        _, r = (perturbed or residuals)(np.vstack([x, x + np.diag(step)]))
         return ((r[1:] - r[0]) / step[:, None]).T
 
     try:
@@ -256,12 +258,21 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
         k, angle, sx, sy = x[:, n_free:n_free + 4].T
         return p, np.exp(k + 1j * angle), (sx + 1j * sy) * unit
 
-    def distances(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Parameter rows (K, P), min d_s (K,) and residuals (K, R): point-to-curve distances."""
+    last = [np.zeros(0), np.zeros(0)]  # precision points: the last residuals' x (n,) and its closest phases (N,)
+
+    def distances(x: np.ndarray, linear: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Parameter rows (K, P), min d_s (K,) and residuals (K, R): point-to-curve distances; ``linear``
+        (precision points, the Jacobian's batch): every row's at the closest phases of the first row's curve."""
         p, factor, shift = unpack(x)
         ds = fam.min_singularity(p, margin)
+        if points and linear:
+            if not np.array_equal(x[0], last[0]):  # the trust region asks the Jacobian where it asked the residuals
+                last[:] = x[0], family_nearest(fam, p[:1], factor[:1], shift[:1], placement.mirrored, target)[1][0]
+            return p, ds, family_at(fam, p, factor, shift, placement.mirrored, target, last[1])
         if points:
-            return p, ds, family_closest(fam, p, factor, shift, placement.mirrored, target)
+            d, phases = family_nearest(fam, p, factor, shift, placement.mirrored, target)
+            last[:] = x[0], phases[0]
+            return p, ds, d
         z = fam.curves(p, SAMPLES)
         curve = shift[:, None] + factor[:, None] * (np.conj(z) if placement.mirrored else z)
         with np.errstate(invalid="ignore"):
@@ -281,10 +292,10 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
         gap = np.concatenate([timed.points - curve, VELOCITY_WEIGHT * (timed.velocities - central(curve))], axis=1)
         return p, fam.min_singularity(p, margin), np.concatenate([gap.real, gap.imag], axis=1) * np.sqrt(2.0)
 
-    def residuals(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def residuals(x: np.ndarray, linear: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Parameter rows (K, P), working mask (K,) and residuals (K, R + 1) of x (K, n): the
         distances over the target's size and √R, then the barrier (R: the distance count)."""
-        p, ds, r = (distances if timed is None else timed_residuals)(x)
+        p, ds, r = distances(x, linear) if timed is None else timed_residuals(x)
         with np.errstate(invalid="ignore", divide="ignore"):
             wall = BAND * margin / (ds - margin)
             barrier = BARRIER * np.log(np.maximum(wall, 1.0))
@@ -296,7 +307,8 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
                                         placement.shift.real / unit, placement.shift.imag / unit],
                          [] if timed is None else [placement.phase]])
     kept = kept_least_squares(lambda x: residuals(x)[1:], x0, iterations=iterations, tol=1e-9, good_enough=GOOD_ENOUGH,
-                              error=lambda r: float(np.sqrt(np.sum(r[:-1] ** 2))))  # the barrier is no error
+                              error=lambda r: float(np.sqrt(np.sum(r[:-1] ** 2))),  # the barrier is no error
+                              perturbed=(lambda x: residuals(x, True)[1:]) if points else None)
     if not np.isfinite(kept.error):
         return Refined(params.copy(), placement, np.inf, kept.history)
     x = kept.x
