@@ -29,6 +29,10 @@ GROUP_STEP_DEG = 1.0
 GROUP_STEP_LENGTH = 0.005
 
 
+#: :meth:`Workspace.kernels`: each rule's positions kernel, the motor row, the ground rows or None
+Compiled = tuple[list[Callable[[tuple[Any, ...]], None]], np.ndarray, np.ndarray | None]
+
+
 @dataclass
 class State:
     """Evaluated plan. ``z``, ``dz``, ``ddz``: (P, T) complex in internal rows; ``ds``: (N, T)."""
@@ -65,9 +69,9 @@ class Workspace:
         self.orders, self.ds = Pool.carve(lambda pool: (pool((order + 1, plan.n_points, *shape), complex),
                                                         pool((plan.n_ds, *shape))))
         self.z = self.orders[0]
-        self.zi, self.zj, self.e, self.w, self.d2, self.u, self.a, self.b, self.scratch = Pool.carve(
+        self.pair, self.e, self.w, self.d2, self.u, self.scratch = Pool.carve(
             lambda pool: self._scratch(pool, plan, rows, order + 1, shape))
-        self._kernels: tuple[Plan, list[Callable[[tuple[Any, ...]], None]]] | None = None
+        self._kernels: tuple[Plan, Compiled] | None = None
         #: a plan with numeric groups: the workspace of its continuation grid (:func:`evaluate`)
         self.fine: Workspace | None = None
 
@@ -75,18 +79,23 @@ class Workspace:
     def _scratch(pool: Pool, plan: Plan, rows: int, orders: int, shape: tuple[int, ...]) -> tuple[Any, ...]:
         """:func:`positions`' buffers, then each rule's scratch by ``id`` of the rule, all
         overlapping (never used at the same time)."""
-        own = [pool((rows, shape[-1]), complex) for _ in range(4)] + [pool((rows, shape[-1])) for _ in range(4)]
+        own = [pool((2 * rows, shape[-1]), complex)] + [pool((rows, shape[-1]), complex) for _ in range(2)] + [
+            pool((rows, shape[-1])) for _ in range(2)]
         scratch: dict[int, Any] = {}
         for rule in plan.rules:
             pool.reset()
             scratch[id(rule)] = rule.scratch(pool, orders, shape)
         return (*own, scratch)
 
-    def kernels(self, plan: Plan) -> list[Callable[[tuple[Any, ...]], None]]:
-        """:func:`positions`' kernel of each rule of ``plan`` (:meth:`Rule.positions`), compiled on
-        the first call and kept."""
+    def kernels(self, plan: Plan) -> Compiled:
+        """:func:`positions`' kernel of each rule of ``plan`` (:meth:`Rule.positions`), the motor
+        row of ``z`` ((T,) view) and its ground rows ((G, T) view where consecutive, else None),
+        made on the first call and kept."""
         if self._kernels is None or self._kernels[0] is not plan:
-            self._kernels = (plan, [rule.positions(self) for rule in plan.rules])
+            g, z = plan.ground_rows, self.z
+            run = bool(g.size) and np.array_equal(g, np.arange(g[0], g[0] + g.size))
+            self._kernels = (plan, ([rule.positions(self) for rule in plan.rules], z[plan.motor_row],
+                                    z[g[0]:g[0] + g.size] if run else None))
         return self._kernels[1]
 
     def fits(self, order: int, linkages: tuple[int, ...], samples: int) -> bool:
@@ -104,12 +113,14 @@ def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | N
     if plan.steps:
         return evaluate(plan, geom, angle, order=0).z
     w = work if work is not None and work.samples == angle.shape[0] else Workspace(plan, angle.shape[0])
-    z = w.z
-    z[plan.ground_rows] = geom.ground
-    turn_arm(geom, angle, z[plan.motor_row])
-    z[plan.motor_row] += geom.pivot
+    z, (kernels, arm, ground) = w.z, w.kernels(plan)
+    if ground is None:
+        z[plan.ground_rows] = geom.ground
+    else:
+        np.copyto(ground, geom.ground)
+    np.add(turn_arm(geom, angle, arm), geom.pivot, out=arm)
     with np.errstate(invalid="ignore", divide="ignore"):
-        for kernel, const in zip(w.kernels(plan), geom.constants):
+        for kernel, const in zip(kernels, geom.constants):
             kernel(const)
     return z
 

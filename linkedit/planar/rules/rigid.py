@@ -14,7 +14,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from linkedit.planar.rules.base import Frame, RestFrame
-from linkedit.planar.rules.triangles import Triangles
+from linkedit.planar.rules.triangles import Spread, Triangles, frozen
 
 
 @dataclass(frozen=True, eq=False)
@@ -28,19 +28,19 @@ class Rigid(Triangles):
         """(c,): (R, 1) complex, (R, K, 1) with ``many``."""
         zi, zj, zk = z[self.i_point, :, None], z[self.j_point, :, None], z[self.k_point, :, None]
         c = (zk - zi) / (zj - zi)
-        return (c if many else c[:, 0],)
+        return (c,) if many else frozen(c[:, 0])
 
     def positions(self, work: Any) -> Callable[[tuple[Any, ...]], None]:
         """z_k = z_i + c·(z_j − z_i)."""
-        r, z, i, j = self.stop - self.start, work.z, self.i, self.j
-        zi, zj, e, out, take, subtract, multiply, add = (work.zi[:r], work.zj[:r], work.e[:r], work.z[self.start:self.stop],
-                                                         work.z.take, np.subtract, np.multiply, np.add)
+        zi, zj, gather = self.operands(work)
+        r, subtract, multiply, add = self.stop - self.start, np.subtract, np.multiply, np.add
+        e, out, spread = work.e[:r], work.z[self.start:self.stop], Spread(1, r, work.samples, complex)
 
         def kernel(const: tuple[Any, ...]) -> None:
-            take(i, 0, zi, "clip")
-            take(j, 0, zj, "clip")
+            if gather is not None:
+                gather()
             subtract(zj, zi, out=e)
-            multiply(e, const[0], out=e)
+            multiply(e, spread.of(const, const[0])[0], out=e)
             add(zi, e, out=out)
         return kernel
 
