@@ -72,6 +72,9 @@ class Workspace:
         self.pair, self.e, self.w, self.d2, self.u, self.scratch = Pool.carve(
             lambda pool: self._scratch(pool, plan, rows, order + 1, shape))
         self._kernels: tuple[Plan, Compiled] | None = None
+        self._ground: tuple[Plan, slice | None] | None = None
+        self._zeros = np.zeros(0)
+        self._motor: tuple[Geometry | None, tuple[Any, Any, Any]] = (None, (0.0, 0.0, 0.0))
         #: a plan with numeric groups: the workspace of its continuation grid (:func:`evaluate`)
         self.fine: Workspace | None = None
 
@@ -92,11 +95,32 @@ class Workspace:
         row of ``z`` ((T,) view) and its ground rows ((G, T) view where consecutive, else None),
         made on the first call and kept."""
         if self._kernels is None or self._kernels[0] is not plan:
-            g, z = plan.ground_rows, self.z
-            run = bool(g.size) and np.array_equal(g, np.arange(g[0], g[0] + g.size))
-            self._kernels = (plan, ([rule.positions(self) for rule in plan.rules], z[plan.motor_row],
-                                    z[g[0]:g[0] + g.size] if run else None))
+            ground = self.ground(plan)
+            self._kernels = (plan, ([rule.positions(self) for rule in plan.rules], self.z[plan.motor_row],
+                                    None if ground is None else self.z[ground]))
         return self._kernels[1]
+
+    def ground(self, plan: Plan) -> slice | None:
+        """``plan``'s ground rows as a slice where they are consecutive (a view, not a gather), else None."""
+        if self._ground is None or self._ground[0] is not plan:
+            g = plan.ground_rows
+            run = bool(g.size) and np.array_equal(g, np.arange(g[0], g[0] + g.size))
+            self._ground = (plan, slice(int(g[0]), int(g[0]) + g.size) if run else None)
+        return self._ground[1]
+
+    def motor(self, geom: Geometry) -> tuple[Any, Any, Any]:
+        """``geom``'s rest angle, arm and pivot as 0-d arrays for one linkage (a Python scalar
+        operand costs numpy a conversion per call), kept for the last geometry; as they are for K."""
+        if self._motor[0] is not geom:
+            many = bool(geom.linkages)
+            self._motor = (geom, tuple(v if many else np.array(v) for v in (geom.rest_angle, geom.arm, geom.pivot)))
+        return self._motor[1]
+
+    def zeros(self, shape: tuple[int, ...]) -> np.ndarray:
+        """Zeros of ``shape`` (the linear input of a rotary plan), kept."""
+        if self._zeros.shape != shape:
+            self._zeros = np.zeros(shape)
+        return self._zeros
 
     def fits(self, order: int, linkages: tuple[int, ...], samples: int) -> bool:
         """Whether it holds an evaluation of this derivative order and shape."""
@@ -118,7 +142,8 @@ def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | N
         z[plan.ground_rows] = geom.ground
     else:
         np.copyto(ground, geom.ground)
-    np.add(turn_arm(geom, angle, arm), geom.pivot, out=arm)
+    rest_angle, turn, pivot = w.motor(geom)
+    np.add(turn_arm(geom, angle, arm, rest_angle, turn), pivot, out=arm)
     with np.errstate(invalid="ignore", divide="ignore"):
         for kernel, const in zip(kernels, geom.constants):
             kernel(const)
@@ -182,17 +207,17 @@ def _moved(plan: Plan, geom: Geometry) -> bool:
     return bool(plan.steps) and (bool(geom.linkages) or not np.array_equal(geom.rest[: plan.n_joints], plan.steps_rest))
 
 
-def turn_arm(geom: Geometry, angle: np.ndarray, out: np.ndarray) -> np.ndarray:
+def turn_arm(geom: Geometry, angle: np.ndarray, out: np.ndarray, rest_angle: Any = None, arm: Any = None) -> np.ndarray:
     """The motor arm turned to absolute angles ``angle``: arm·e^{i(angle − rest angle)} into ``out``
     (*L, T) complex. K linkages at common angles (T,) take K + T exponentials, not K·T; otherwise
     e^{iφ} is written as cos φ + i sin φ into ``out`` (numpy's complex exp gives the same bits, at
-    twice the cost)."""
+    twice the cost). ``rest_angle``, ``arm``: ``geom``'s, as :meth:`Workspace.motor` keeps them."""
     if geom.linkages and angle.ndim == 1:
         return np.multiply(geom.arm * np.exp(-1j * geom.rest_angle), np.exp(1j * angle), out=out)
-    phi = np.subtract(angle, geom.rest_angle)
+    phi = np.subtract(angle, geom.rest_angle if rest_angle is None else rest_angle)
     np.cos(phi, out=out.real)
     np.sin(phi, out=out.imag)
-    return np.multiply(out, geom.arm, out=out)
+    return np.multiply(out, geom.arm if arm is None else arm, out=out)
 
 
 def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: Workspace | None = None,
@@ -214,17 +239,20 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: W
         # read only the joints placed before them: every row is written before it is read)
     if distances:
         ds.fill(1.0)
-    Z[0, plan.ground_rows] = geom.ground
-    Z[1:, plan.ground_rows] = 0.0
+    ground = work.ground(plan)
+    rows = plan.ground_rows if ground is None else ground
+    Z[0, rows] = geom.ground
+    Z[1:, rows] = 0.0
     if not plan.linear:
         arm = Z[0, plan.motor_row]
-        turn_arm(geom, angle, arm)
+        rest_angle, turn, pivot = work.motor(geom)
+        turn_arm(geom, angle, arm, rest_angle, turn)
         if order >= 1:
             np.multiply(arm, 1j, out=Z[1, plan.motor_row])
         if order >= 2:
             np.negative(arm, out=Z[2, plan.motor_row])
-        arm += geom.pivot
-    s = angle if plan.linear else np.zeros_like(angle)
+        np.add(arm, pivot, out=arm)
+    s = angle if plan.linear else work.zeros(angle.shape)
     dz, ddz = (Z[1] if order >= 1 else None), (Z[2] if order >= 2 else None)
     frame = Frame(z=Z[0], dz=dz, ddz=ddz, ds=ds, joints=plan.row_of[: plan.n_joints], s=s,
                   drive=1.0 if plan.linear else 0.0, rest=geom.rest, orders=Z, scratch=work.scratch,

@@ -71,14 +71,15 @@ def coefficient(e: np.ndarray, w: np.ndarray, d2: np.ndarray, u: np.ndarray,
     """
     squares, parts, a, b = e.view(float), w.view(float), w.real, w.imag
     bsq = b if bsq is None else bsq
+    one, half = np.array(1.0), np.array(0.5)  # 0-d arrays: a Python float operand costs a conversion per call
     square, add, divide, multiply, subtract, sqrt = np.square, np.add, np.divide, np.multiply, np.subtract, np.sqrt
 
     def kernel(half_diff: np.ndarray, lik2: np.ndarray, sign: np.ndarray) -> None:
         square(squares, out=parts)
         add(a, b, out=d2)  # |e|² = Re² + Im²
-        divide(1.0, d2, out=u)
+        divide(one, d2, out=u)
         multiply(half_diff, u, out=a)
-        add(a, 0.5, out=a)
+        add(a, half, out=a)
         multiply(lik2, u, out=bsq)
         multiply(a, a, out=d2)
         subtract(bsq, d2, out=bsq)

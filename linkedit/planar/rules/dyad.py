@@ -57,7 +57,8 @@ class Dyad(Triangles):
         the derivatives add (orders, R, *shape) complex, w (complex), d², 1/d², B² (real): (R,
         *shape) each, and the kernels of w (:func:`~linkedit.planar.law_of_cosines.coefficient`)
         and of the rates (:func:`~linkedit.planar.law_of_cosines.rates`, None without
-        derivatives) on them; None while the pool measures."""
+        derivatives) on them; one linkage's constants spread over the samples (:class:`Spread`,
+        outside the pool; None for K linkages); None while the pool measures."""
         one, n = (self.stop - self.start, *shape), orders - 1
         r = loc.Rates(pool(one, complex), pool(one, complex), pool(one, complex), pool((n, *one), complex),
                       *(pool(one) for _ in range(4))) if n else None
@@ -66,12 +67,13 @@ class Dyad(Triangles):
         if pool.buffer is None:  # measuring: the arrays are empty
             return None
         rates = None if r is None else loc.rates(e, fk[0], u, w.real, w.imag, fk[1:], r)
-        return zi, e, fk, w, d2, u, bsq, loc.coefficient(e[0], w, d2, u, bsq), rates
+        spread = Spread(4, *one) if len(shape) == 1 else None
+        return zi, e, fk, w, d2, u, bsq, loc.coefficient(e[0], w, d2, u, bsq), rates, spread
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Positions, d_s and the derivatives of ``f.orders``, each one array operation over the batch."""
-        lik2, ljk2, half, sign = const
-        zi, e, fk, w, d2, u, bsq, coefficient, rates = f.scratch[id(self)]
+        zi, e, fk, w, d2, u, bsq, coefficient, rates, spread = f.scratch[id(self)]
+        lik2, ljk2, half, sign = const if spread is None else spread.of(const, *const)
         Z = f.orders
         zi = self.inputs(Z, zi, e)
         coefficient(half, lik2, sign)

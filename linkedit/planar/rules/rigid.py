@@ -13,7 +13,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from linkedit.planar.rules.base import Frame, RestFrame
+from linkedit.planar.rules.base import Frame, Pool, RestFrame
 from linkedit.planar.rules.triangles import Spread, Triangles, frozen
 
 
@@ -44,11 +44,18 @@ class Rigid(Triangles):
             add(zi, e, out=out)
         return kernel
 
+    def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
+        """The inputs (:meth:`Triangles.scratch`) and one linkage's c spread over the samples
+        (:class:`Spread`, outside the pool; None for K linkages)."""
+        zi, e = super().scratch(pool, orders, shape)
+        one = len(shape) == 1 and pool.buffer is not None
+        return zi, e, Spread(1, self.stop - self.start, shape[0], complex) if one else None
+
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Every derivative order at once: the rows of ``f.orders``."""
-        zi, e = f.scratch[id(self)]
+        zi, e, spread = f.scratch[id(self)]
         zi = self.inputs(f.orders, zi, e)
-        np.multiply(const[0], e, out=e)
+        np.multiply(const[0] if spread is None else spread.of(const, const[0])[0], e, out=e)
         np.add(zi, e, out=f.orders[:, self.start:self.stop])
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
