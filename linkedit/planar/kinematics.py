@@ -27,6 +27,7 @@ from linkedit.planar.rules.base import Pool
 #: degrees, or a fraction of the characteristic length for a linear input
 GROUP_STEP_DEG = 1.0
 GROUP_STEP_LENGTH = 0.005
+_I = np.array(1j)  # a 0-d operand: a Python scalar costs numpy a conversion per call
 
 
 #: :meth:`Workspace.kernels`: each rule's positions kernel, the motor row, the ground rows or None
@@ -75,6 +76,8 @@ class Workspace:
         self._ground: tuple[Plan, slice | None] | None = None
         self._zeros = np.zeros(0)
         self._motor: tuple[Geometry | None, tuple[Any, Any, Any]] = (None, (0.0, 0.0, 0.0))
+        #: :func:`_evaluate`'s frame on these buffers, kept for the last (plan, geometry, distances)
+        self.frame: tuple[Plan, Geometry, bool, Frame] | None = None
         #: a plan with numeric groups: the workspace of its continuation grid (:func:`evaluate`)
         self.fine: Workspace | None = None
 
@@ -248,15 +251,21 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: W
         rest_angle, turn, pivot = work.motor(geom)
         turn_arm(geom, angle, arm, rest_angle, turn)
         if order >= 1:
-            np.multiply(arm, 1j, out=Z[1, plan.motor_row])
+            np.multiply(arm, _I, out=Z[1, plan.motor_row])
         if order >= 2:
             np.negative(arm, out=Z[2, plan.motor_row])
         np.add(arm, pivot, out=arm)
     s = angle if plan.linear else work.zeros(angle.shape)
     dz, ddz = (Z[1] if order >= 1 else None), (Z[2] if order >= 2 else None)
-    frame = Frame(z=Z[0], dz=dz, ddz=ddz, ds=ds, joints=plan.row_of[: plan.n_joints], s=s,
-                  drive=1.0 if plan.linear else 0.0, rest=geom.rest, orders=Z, scratch=work.scratch,
-                  rows=_step_rows(plan, geom) if order > 0 and _moved(plan, geom) else {}, distances=distances)
+    held = work.frame
+    if held is None or held[0] is not plan or held[1] is not geom or held[2] != distances:
+        frame = Frame(z=Z[0], dz=dz, ddz=ddz, ds=ds, joints=plan.row_of[: plan.n_joints], s=s,
+                      drive=1.0 if plan.linear else 0.0, rest=geom.rest, orders=Z, scratch=work.scratch,
+                      rows=_step_rows(plan, geom) if order > 0 and _moved(plan, geom) else {}, distances=distances)
+        work.frame = (plan, geom, distances, frame)
+    else:
+        frame = held[3]
+        frame.s = s
     with np.errstate(invalid="ignore", divide="ignore"):
         for rule, rows, const in zip(plan.rules, plan.ds_rows, geom.constants):
             rule.evaluate(frame, const, rows)

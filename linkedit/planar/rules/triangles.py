@@ -62,11 +62,11 @@ class Triangles(Rule):
         rows are read in place (a view of ``Z``: the rule writes other rows), others copied into ``zi``."""
         i, j = self.runs
         if i is None:
-            np.take(Z, self.i, axis=1, out=zi, mode="clip")  # indices are valid: clip skips take's buffering
+            Z.take(self.i, 1, zi, "clip")  # indices are valid: clip skips take's buffering
         else:
             zi = Z[:, i]
         if j is None:
-            np.take(Z, self.j, axis=1, out=e, mode="clip")
+            Z.take(self.j, 1, e, "clip")
             e -= zi
         else:
             np.subtract(Z[:, j], zi, out=e)
