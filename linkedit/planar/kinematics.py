@@ -70,7 +70,7 @@ class Workspace:
         self.orders, self.ds = Pool.carve(lambda pool: (pool((order + 1, plan.n_points, *shape), complex),
                                                         pool((plan.n_ds, *shape))))
         self.z = self.orders[0]
-        self.pair, self.e, self.w, self.d2, self.u, self.scratch = Pool.carve(
+        self.pair, self.e, self.w, self.d2, self.u, self.a, self.b, self.scratch = Pool.carve(
             lambda pool: self._scratch(pool, plan, rows, order + 1, shape))
         self._kernels: tuple[Plan, Compiled] | None = None
         self._ground: tuple[Plan, slice | None] | None = None
@@ -86,7 +86,7 @@ class Workspace:
         """:func:`positions`' buffers, then each rule's scratch by ``id`` of the rule, all
         overlapping (never used at the same time)."""
         own = [pool((2 * rows, shape[-1]), complex)] + [pool((rows, shape[-1]), complex) for _ in range(2)] + [
-            pool((rows, shape[-1])) for _ in range(2)]
+            pool((rows, shape[-1])) for _ in range(4)]
         scratch: dict[int, Any] = {}
         for rule in plan.rules:
             pool.reset()

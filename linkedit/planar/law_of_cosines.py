@@ -44,39 +44,35 @@ def dyad(zi: np.ndarray, zj: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray
     """
     e = zj - zi
     shape = np.broadcast_shapes(e.shape, np.shape(half_diff))
-    u, bsq, d2 = (np.empty(shape) for _ in range(3))
+    u, bsq, d2, a, b = (np.empty(shape) for _ in range(5))
     w = np.empty(shape, dtype=complex)
     with np.errstate(invalid="ignore"):
-        dyad_coefficient(np.ascontiguousarray(np.broadcast_to(e, shape)), half_diff, lik2, sign, w, d2, u, bsq)
-    return zi + w * e, DyadTerms(e, u, w.real, w.imag, bsq, w)
+        coefficient(np.ascontiguousarray(np.broadcast_to(e, shape)), w, d2, u, a, b, bsq)(half_diff, lik2, sign)
+    return zi + w * e, DyadTerms(e, u, a, b, bsq, w)
 
 
-def dyad_coefficient(e: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray, sign: np.ndarray,
-                     w: np.ndarray, d2: np.ndarray, u: np.ndarray, bsq: np.ndarray | None = None) -> None:
-    """w = A + iB (the module docstring's formula) into the given buffers, no allocation: one
-    call of :func:`coefficient`'s kernel."""
-    coefficient(e, w, d2, u, bsq)(half_diff, lik2, sign)
-
-
-def coefficient(e: np.ndarray, w: np.ndarray, d2: np.ndarray, u: np.ndarray,
+def coefficient(e: np.ndarray, w: np.ndarray, d2: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray,
                 bsq: np.ndarray | None = None) -> Callable[[np.ndarray, np.ndarray, np.ndarray], None]:
     """The kernel computing w = A + iB (the module docstring's formula, written once) from
-    ``e`` = z_j − z_i, every view bound once: called with ``(half_diff, lik2, sign)`` (R, 1)
-    each, it writes A and B into ``w.real`` and ``w.imag`` in place.
+    ``e`` = z_j − z_i, every view bound once: called with ``(half_diff, lik2, sign)`` (R, T)
+    or (R, 1) each, it forms A and B in ``a`` and ``b`` and copies them into ``w`` (numpy's
+    loops over w.real and w.imag, every other double, cost more than the two copies, from a
+    few values on).
 
-    ``e``, ``w`` (R, T) complex, C-contiguous (``w`` is scratch for |e|² first); ``d2``, ``u``
-    (R, T) real buffers, left holding A² and 1/d²; ``bsq`` a buffer kept holding B² (else B²
-    is formed in ``w.imag``). NaN where the triangle cannot be closed (the caller silences
-    numpy's warning: an ``np.errstate`` per call would cost more than a small batch).
+    ``e``, ``w`` (R, T) complex, C-contiguous (``w`` is scratch for |e|² first); ``d2``, ``u``,
+    ``a``, ``b`` (R, T) real buffers, left holding A², 1/d², A and B; ``bsq`` a buffer kept
+    holding B² (else B² is formed in ``b``). NaN where the triangle cannot be closed (the
+    caller silences numpy's warning: an ``np.errstate`` per call would cost more than a small batch).
     """
-    squares, parts, a, b = e.view(float), w.view(float), w.real, w.imag
+    squares, parts, wr, wi = e.view(float), w.view(float), w.real, w.imag
     bsq = b if bsq is None else bsq
+    copyto = np.copyto
     one, half = np.array(1.0), np.array(0.5)  # 0-d arrays: a Python float operand costs a conversion per call
     square, add, divide, multiply, subtract, sqrt = np.square, np.add, np.divide, np.multiply, np.subtract, np.sqrt
 
     def kernel(half_diff: np.ndarray, lik2: np.ndarray, sign: np.ndarray) -> None:
         square(squares, out=parts)
-        add(a, b, out=d2)  # |e|² = Re² + Im²
+        add(wr, wi, out=d2)  # |e|² = Re² + Im²
         divide(one, d2, out=u)
         multiply(half_diff, u, out=a)
         add(a, half, out=a)
@@ -85,6 +81,8 @@ def coefficient(e: np.ndarray, w: np.ndarray, d2: np.ndarray, u: np.ndarray,
         subtract(bsq, d2, out=bsq)
         sqrt(bsq, out=b)
         multiply(b, sign, out=b)
+        copyto(wr, a)
+        copyto(wi, b)
     return kernel
 
 

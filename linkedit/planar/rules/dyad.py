@@ -40,7 +40,8 @@ class Dyad(Triangles):
         r = self.stop - self.start
         zi, zj, gather = self.operands(work)
         e, w, out, subtract, multiply, add = work.e[:r], work.w[:r], work.z[self.start:self.stop], np.subtract, np.multiply, np.add
-        coefficient, spread = loc.coefficient(e, w, work.d2[:r], work.u[:r]), Spread(3, r, work.samples)
+        coefficient = loc.coefficient(e, w, work.d2[:r], work.u[:r], work.a[:r], work.b[:r])
+        spread = Spread(3, r, work.samples)
 
         def kernel(const: tuple[Any, ...]) -> None:
             if gather is not None:
@@ -54,8 +55,8 @@ class Dyad(Triangles):
 
     def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
         """The inputs (:meth:`Triangles.scratch`), the joints' offsets from z_i: z_k − z_i and what
-        the derivatives add (orders, R, *shape) complex, w (complex), d², 1/d², B² (real): (R,
-        *shape) each, and the kernels of w (:func:`~linkedit.planar.law_of_cosines.coefficient`)
+        the derivatives add (orders, R, *shape) complex, w (complex), d², 1/d², B², A, B (real):
+        (R, *shape) each, and the kernels of w (:func:`~linkedit.planar.law_of_cosines.coefficient`)
         and of the rates (:func:`~linkedit.planar.law_of_cosines.rates`, None without
         derivatives) on them; one linkage's constants spread over the samples (:class:`Spread`,
         outside the pool; None for K linkages); None while the pool measures."""
@@ -64,11 +65,12 @@ class Dyad(Triangles):
                       *(pool(one) for _ in range(4))) if n else None
         zi, e = super().scratch(pool, orders, shape)
         fk, w, d2, u, bsq = pool((orders, *one), complex), pool(one, complex), pool(one), pool(one), pool(one)
+        a, b = pool(one), pool(one)
         if pool.buffer is None:  # measuring: the arrays are empty
             return None
-        rates = None if r is None else loc.rates(e, fk[0], u, w.real, w.imag, fk[1:], r)
+        rates = None if r is None else loc.rates(e, fk[0], u, a, b, fk[1:], r)
         spread = Spread(4, *one) if len(shape) == 1 else None
-        return zi, e, fk, w, d2, u, bsq, loc.coefficient(e[0], w, d2, u, bsq), rates, spread
+        return zi, e, fk, w, d2, u, bsq, loc.coefficient(e[0], w, d2, u, a, b, bsq), rates, spread
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Positions, d_s and the derivatives of ``f.orders``, each one array operation over the batch."""
