@@ -116,7 +116,8 @@ class Workspace:
         operand costs numpy a conversion per call), kept for the last geometry; as they are for K."""
         if self._motor[0] is not geom:
             many = bool(geom.linkages)
-            self._motor = (geom, tuple(v if many else np.array(v) for v in (geom.rest_angle, geom.arm, geom.pivot)))
+            rest_angle, arm, pivot = (v if many else np.array(v) for v in (geom.rest_angle, geom.arm, geom.pivot))
+            self._motor = (geom, (rest_angle, arm, pivot))
         return self._motor[1]
 
     def zeros(self, shape: tuple[int, ...]) -> np.ndarray:

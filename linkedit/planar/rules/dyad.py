@@ -69,7 +69,7 @@ class Dyad(Triangles):
         if pool.buffer is None:  # measuring: the arrays are empty
             return None
         rates = None if r is None else loc.rates(e, fk[0], u, a, b, fk[1:], r)
-        spread = Spread(4, *one) if len(shape) == 1 else None
+        spread = Spread(4, one[0], shape[0]) if len(shape) == 1 else None
         return zi, e, fk, w, d2, u, bsq, loc.coefficient(e[0], w, d2, u, a, b, bsq), rates, spread
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:

@@ -133,7 +133,7 @@ class Spread:
     constants are read-only (:meth:`Triangles.constants`), so the same tuple holds the same values."""
 
     def __init__(self, n: int, rows: int, samples: int, dtype: type = float) -> None:
-        self.tiles = np.empty((n, rows, samples), dtype=dtype)
+        self.tiles: np.ndarray = np.empty((n, rows, samples), dtype=dtype)
         self.held: tuple[Any, ...] | None = None
 
     def of(self, const: tuple[Any, ...], *parts: np.ndarray) -> np.ndarray:
