@@ -243,10 +243,10 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: W
         # read only the joints placed before them: every row is written before it is read)
     if distances:
         ds.fill(1.0)
-    ground = work.ground(plan)
-    rows = plan.ground_rows if ground is None else ground
-    Z[0, rows] = geom.ground
-    Z[1:, rows] = 0.0
+    run = work.ground(plan)
+    ground = plan.ground_rows if run is None else run
+    Z[0, ground] = geom.ground
+    Z[1:, ground] = 0.0
     if not plan.linear:
         arm = Z[0, plan.motor_row]
         rest_angle, turn, pivot = work.motor(geom)
