@@ -110,7 +110,7 @@ def test_curves_allocate_only_their_workspace_and_result(fam):
     rows, samples = working(fam, 256, seed=3), 64
     fam.curves(rows, samples)
     work = Workspace(fam.CORE.plan, samples, 0, (len(rows),))
-    budget = _buffer(work.orders).nbytes + _buffer(work.zi).nbytes + len(rows) * samples * 16 + (64 << 10)
+    budget = _buffer(work.orders).nbytes + _buffer(work.pair).nbytes + len(rows) * samples * 16 + (64 << 10)
     tracemalloc.start()
     try:
         fam.curves(rows, samples)

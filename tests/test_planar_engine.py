@@ -47,7 +47,8 @@ def test_dyad_derivatives_match_central_differences():
     out = np.empty((2, 3, 1), dtype=complex)
     real, cplx = (lambda: np.empty((3, 1))), (lambda: np.empty((3, 1), dtype=complex))
     rates = loc.Rates(cplx(), cplx(), cplx(), np.empty((2, 3, 1), dtype=complex), real(), real(), real(), real())
-    loc.dyad_rates(E, Zi, z - z0i, terms.u, terms.a, terms.b, lik2, out, rates)
+    loc.dyad_rates(E, z - z0i, terms.u, terms.a, terms.b, lik2, out, rates)
+    out += Zi[1:]  # dyad_rates gives what joint k adds to joint i's derivatives
     h = 1e-4
     assert np.allclose(out[0], (at(h) - at(-h)) / (2 * h), atol=1e-7)
     assert np.allclose(out[1], (at(h) - 2 * z + at(-h)) / h**2, atol=1e-5)

@@ -27,6 +27,11 @@ from linkedit.planar.rules.base import Pool
 #: degrees, or a fraction of the characteristic length for a linear input
 GROUP_STEP_DEG = 1.0
 GROUP_STEP_LENGTH = 0.005
+_I = np.array(1j)  # a 0-d operand: a Python scalar costs numpy a conversion per call
+
+
+#: :meth:`Workspace.kernels`: each rule's positions kernel, the motor row, the ground rows or None
+Compiled = tuple[list[Callable[[tuple[Any, ...]], None]], np.ndarray, np.ndarray | None]
 
 
 @dataclass
@@ -65,9 +70,14 @@ class Workspace:
         self.orders, self.ds = Pool.carve(lambda pool: (pool((order + 1, plan.n_points, *shape), complex),
                                                         pool((plan.n_ds, *shape))))
         self.z = self.orders[0]
-        self.zi, self.zj, self.e, self.w, self.d2, self.u, self.a, self.b, self.scratch = Pool.carve(
+        self.pair, self.e, self.w, self.d2, self.u, self.a, self.b, self.scratch = Pool.carve(
             lambda pool: self._scratch(pool, plan, rows, order + 1, shape))
-        self._kernels: tuple[Plan, list[Callable[[tuple[Any, ...]], None]]] | None = None
+        self._kernels: tuple[Plan, Compiled] | None = None
+        self._ground: tuple[Plan, slice | None] | None = None
+        self._zeros = np.zeros(0)
+        self._motor: tuple[Geometry | None, tuple[Any, Any, Any]] = (None, (0.0, 0.0, 0.0))
+        #: :func:`_evaluate`'s frame on these buffers, kept for the last (plan, geometry, distances)
+        self.frame: tuple[Plan, Geometry, bool, Frame] | None = None
         #: a plan with numeric groups: the workspace of its continuation grid (:func:`evaluate`)
         self.fine: Workspace | None = None
 
@@ -75,19 +85,46 @@ class Workspace:
     def _scratch(pool: Pool, plan: Plan, rows: int, orders: int, shape: tuple[int, ...]) -> tuple[Any, ...]:
         """:func:`positions`' buffers, then each rule's scratch by ``id`` of the rule, all
         overlapping (never used at the same time)."""
-        own = [pool((rows, shape[-1]), complex) for _ in range(4)] + [pool((rows, shape[-1])) for _ in range(4)]
+        own = [pool((2 * rows, shape[-1]), complex)] + [pool((rows, shape[-1]), complex) for _ in range(2)] + [
+            pool((rows, shape[-1])) for _ in range(4)]
         scratch: dict[int, Any] = {}
         for rule in plan.rules:
             pool.reset()
             scratch[id(rule)] = rule.scratch(pool, orders, shape)
         return (*own, scratch)
 
-    def kernels(self, plan: Plan) -> list[Callable[[tuple[Any, ...]], None]]:
-        """:func:`positions`' kernel of each rule of ``plan`` (:meth:`Rule.positions`), compiled on
-        the first call and kept."""
+    def kernels(self, plan: Plan) -> Compiled:
+        """:func:`positions`' kernel of each rule of ``plan`` (:meth:`Rule.positions`), the motor
+        row of ``z`` ((T,) view) and its ground rows ((G, T) view where consecutive, else None),
+        made on the first call and kept."""
         if self._kernels is None or self._kernels[0] is not plan:
-            self._kernels = (plan, [rule.positions(self) for rule in plan.rules])
+            ground = self.ground(plan)
+            self._kernels = (plan, ([rule.positions(self) for rule in plan.rules], self.z[plan.motor_row],
+                                    None if ground is None else self.z[ground]))
         return self._kernels[1]
+
+    def ground(self, plan: Plan) -> slice | None:
+        """``plan``'s ground rows as a slice where they are consecutive (a view, not a gather), else None."""
+        if self._ground is None or self._ground[0] is not plan:
+            g = plan.ground_rows
+            run = bool(g.size) and np.array_equal(g, np.arange(g[0], g[0] + g.size))
+            self._ground = (plan, slice(int(g[0]), int(g[0]) + g.size) if run else None)
+        return self._ground[1]
+
+    def motor(self, geom: Geometry) -> tuple[Any, Any, Any]:
+        """``geom``'s rest angle, arm and pivot as 0-d arrays for one linkage (a Python scalar
+        operand costs numpy a conversion per call), kept for the last geometry; as they are for K."""
+        if self._motor[0] is not geom:
+            many = bool(geom.linkages)
+            rest_angle, arm, pivot = (v if many else np.array(v) for v in (geom.rest_angle, geom.arm, geom.pivot))
+            self._motor = (geom, (rest_angle, arm, pivot))
+        return self._motor[1]
+
+    def zeros(self, shape: tuple[int, ...]) -> np.ndarray:
+        """Zeros of ``shape`` (the linear input of a rotary plan), kept."""
+        if self._zeros.shape != shape:
+            self._zeros = np.zeros(shape)
+        return self._zeros
 
     def fits(self, order: int, linkages: tuple[int, ...], samples: int) -> bool:
         """Whether it holds an evaluation of this derivative order and shape."""
@@ -104,12 +141,15 @@ def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | N
     if plan.steps:
         return evaluate(plan, geom, angle, order=0).z
     w = work if work is not None and work.samples == angle.shape[0] else Workspace(plan, angle.shape[0])
-    z = w.z
-    z[plan.ground_rows] = geom.ground
-    turn_arm(geom, angle, z[plan.motor_row])
-    z[plan.motor_row] += geom.pivot
+    z, (kernels, arm, ground) = w.z, w.kernels(plan)
+    if ground is None:
+        z[plan.ground_rows] = geom.ground
+    else:
+        np.copyto(ground, geom.ground)
+    rest_angle, turn, pivot = w.motor(geom)
+    np.add(turn_arm(geom, angle, arm, rest_angle, turn), pivot, out=arm)
     with np.errstate(invalid="ignore", divide="ignore"):
-        for kernel, const in zip(w.kernels(plan), geom.constants):
+        for kernel, const in zip(kernels, geom.constants):
             kernel(const)
     return z
 
@@ -171,17 +211,17 @@ def _moved(plan: Plan, geom: Geometry) -> bool:
     return bool(plan.steps) and (bool(geom.linkages) or not np.array_equal(geom.rest[: plan.n_joints], plan.steps_rest))
 
 
-def turn_arm(geom: Geometry, angle: np.ndarray, out: np.ndarray) -> np.ndarray:
+def turn_arm(geom: Geometry, angle: np.ndarray, out: np.ndarray, rest_angle: Any = None, arm: Any = None) -> np.ndarray:
     """The motor arm turned to absolute angles ``angle``: arm·e^{i(angle − rest angle)} into ``out``
     (*L, T) complex. K linkages at common angles (T,) take K + T exponentials, not K·T; otherwise
     e^{iφ} is written as cos φ + i sin φ into ``out`` (numpy's complex exp gives the same bits, at
-    twice the cost)."""
+    twice the cost). ``rest_angle``, ``arm``: ``geom``'s, as :meth:`Workspace.motor` keeps them."""
     if geom.linkages and angle.ndim == 1:
         return np.multiply(geom.arm * np.exp(-1j * geom.rest_angle), np.exp(1j * angle), out=out)
-    phi = np.subtract(angle, geom.rest_angle)
+    phi = np.subtract(angle, geom.rest_angle if rest_angle is None else rest_angle)
     np.cos(phi, out=out.real)
     np.sin(phi, out=out.imag)
-    return np.multiply(out, geom.arm, out=out)
+    return np.multiply(out, geom.arm if arm is None else arm, out=out)
 
 
 def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: Workspace | None = None,
@@ -203,21 +243,30 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: W
         # read only the joints placed before them: every row is written before it is read)
     if distances:
         ds.fill(1.0)
-    Z[0, plan.ground_rows] = geom.ground
-    Z[1:, plan.ground_rows] = 0.0
+    run = work.ground(plan)
+    ground = plan.ground_rows if run is None else run
+    Z[0, ground] = geom.ground
+    Z[1:, ground] = 0.0
     if not plan.linear:
         arm = Z[0, plan.motor_row]
-        turn_arm(geom, angle, arm)
+        rest_angle, turn, pivot = work.motor(geom)
+        turn_arm(geom, angle, arm, rest_angle, turn)
         if order >= 1:
-            np.multiply(arm, 1j, out=Z[1, plan.motor_row])
+            np.multiply(arm, _I, out=Z[1, plan.motor_row])
         if order >= 2:
             np.negative(arm, out=Z[2, plan.motor_row])
-        arm += geom.pivot
-    s = angle if plan.linear else np.zeros_like(angle)
+        np.add(arm, pivot, out=arm)
+    s = angle if plan.linear else work.zeros(angle.shape)
     dz, ddz = (Z[1] if order >= 1 else None), (Z[2] if order >= 2 else None)
-    frame = Frame(z=Z[0], dz=dz, ddz=ddz, ds=ds, joints=plan.row_of[: plan.n_joints], s=s,
-                  drive=1.0 if plan.linear else 0.0, rest=geom.rest, orders=Z, scratch=work.scratch,
-                  rows=_step_rows(plan, geom) if order > 0 and _moved(plan, geom) else {}, distances=distances)
+    held = work.frame
+    if held is None or held[0] is not plan or held[1] is not geom or held[2] != distances:
+        frame = Frame(z=Z[0], dz=dz, ddz=ddz, ds=ds, joints=plan.row_of[: plan.n_joints], s=s,
+                      drive=1.0 if plan.linear else 0.0, rest=geom.rest, orders=Z, scratch=work.scratch,
+                      rows=_step_rows(plan, geom) if order > 0 and _moved(plan, geom) else {}, distances=distances)
+        work.frame = (plan, geom, distances, frame)
+    else:
+        frame = held[3]
+        frame.s = s
     with np.errstate(invalid="ignore", divide="ignore"):
         for rule, rows, const in zip(plan.rules, plan.ds_rows, geom.constants):
             rule.evaluate(frame, const, rows)

@@ -18,6 +18,7 @@ per-rule constants have shape (R, 1). Derivatives are with respect to the motor 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,40 +44,46 @@ def dyad(zi: np.ndarray, zj: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray
     """
     e = zj - zi
     shape = np.broadcast_shapes(e.shape, np.shape(half_diff))
-    u, a, bsq, b = (np.empty(shape) for _ in range(4))
+    u, bsq, d2, a, b = (np.empty(shape) for _ in range(5))
     w = np.empty(shape, dtype=complex)
     with np.errstate(invalid="ignore"):
-        dyad_coefficient(e, half_diff, lik2, sign, w, np.empty(shape), u, a, b, bsq)
+        coefficient(np.ascontiguousarray(np.broadcast_to(e, shape)), w, d2, u, a, b, bsq)(half_diff, lik2, sign)
     return zi + w * e, DyadTerms(e, u, a, b, bsq, w)
 
 
-def dyad_coefficient(e: np.ndarray, half_diff: np.ndarray, lik2: np.ndarray, sign: np.ndarray,
-                     w: np.ndarray | None, d2: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray,
-                     bsq: np.ndarray | None = None) -> None:
-    """w = A + iB (the module docstring's formula, written once), computed into the given
-    buffers (no allocation). With ``w`` None, ``a`` and ``b`` are the caller's
-    w.real and w.imag (views): w is then written in place with no copy.
+def coefficient(e: np.ndarray, w: np.ndarray, d2: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray,
+                bsq: np.ndarray | None = None) -> Callable[[np.ndarray, np.ndarray, np.ndarray], None]:
+    """The kernel computing w = A + iB (the module docstring's formula, written once) from
+    ``e`` = z_j − z_i, every view bound once: called with ``(half_diff, lik2, sign)`` (R, T)
+    or (R, 1) each, it forms A and B in ``a`` and ``b`` and copies them into ``w`` (numpy's
+    loops over w.real and w.imag, every other double, cost more than the two copies, from a
+    few values on).
 
-    ``e`` = z_j − z_i (R, T) complex; ``w`` (R, T) complex and ``d2``, ``u``, ``a``, ``b`` (R, T)
-    real buffers, left holding 1/d², A and B; ``bsq`` a buffer kept holding B² (else B² is
-    formed in ``b``). NaN where the triangle cannot be closed (the caller silences numpy's
-    warning: an ``np.errstate`` per call would cost more than a small batch).
+    ``e``, ``w`` (R, T) complex, C-contiguous (``w`` is scratch for |e|² first); ``d2``, ``u``,
+    ``a``, ``b`` (R, T) real buffers, left holding A², 1/d², A and B; ``bsq`` a buffer kept
+    holding B² (else B² is formed in ``b``). NaN where the triangle cannot be closed (the
+    caller silences numpy's warning: an ``np.errstate`` per call would cost more than a small batch).
     """
+    squares, parts, wr, wi = e.view(float), w.view(float), w.real, w.imag
     bsq = b if bsq is None else bsq
-    np.multiply(e.real, e.real, out=d2)
-    np.multiply(e.imag, e.imag, out=u)
-    d2 += u
-    np.divide(1.0, d2, out=u)
-    np.multiply(half_diff, u, out=a)
-    a += 0.5
-    np.multiply(lik2, u, out=bsq)
-    np.multiply(a, a, out=d2)
-    bsq -= d2
-    np.sqrt(bsq, out=b)
-    b *= sign
-    if w is not None:
-        w.real = a
-        w.imag = b
+    copyto = np.copyto
+    one, half = np.array(1.0), np.array(0.5)  # 0-d arrays: a Python float operand costs a conversion per call
+    square, add, divide, multiply, subtract, sqrt = np.square, np.add, np.divide, np.multiply, np.subtract, np.sqrt
+
+    def kernel(half_diff: np.ndarray, lik2: np.ndarray, sign: np.ndarray) -> None:
+        square(squares, out=parts)
+        add(wr, wi, out=d2)  # |e|² = Re² + Im²
+        divide(one, d2, out=u)
+        multiply(half_diff, u, out=a)
+        add(a, half, out=a)
+        multiply(lik2, u, out=bsq)
+        multiply(a, a, out=d2)
+        subtract(bsq, d2, out=bsq)
+        sqrt(bsq, out=b)
+        multiply(b, sign, out=b)
+        copyto(wr, a)
+        copyto(wi, b)
+    return kernel
 
 
 @dataclass
@@ -95,13 +102,21 @@ class Rates:
     q: np.ndarray
 
 
-def dyad_rates(E: np.ndarray, Zi: np.ndarray, f: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray,
+def dyad_rates(E: np.ndarray, f: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray,
                lik2: np.ndarray, out: np.ndarray, r: Rates) -> None:
-    """Velocities (and accelerations) of a dyad batch's rebuilt joints, into ``out`` (no allocation).
+    """What the rebuilt joints' velocities (and accelerations) add to joint i's, into ``out``
+    (no allocation): one call of :func:`rates`' kernel."""
+    rates(E, f, u, a, b, out, r)(lik2)
 
-    ``E`` (n+1, R, *S): e = z_j − z_i and its first n derivatives; ``Zi`` (n+1, R, *S): z_i and
-    its derivatives; ``f`` = z_k − z_i, ``u`` = 1/d², ``a`` = A, ``b`` = B (R, *S) from the
-    positions, ``lik2`` = l_ik²; ``out`` (n, R, *S) complex receives ż_k (and z̈_k); n = 1 or 2.
+
+def rates(E: np.ndarray, f: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray, out: np.ndarray,
+          r: Rates) -> Callable[[np.ndarray], None]:
+    """The kernel of a dyad batch's rates, every view bound once: called with ``lik2`` = l_ik²,
+    it writes ż_k − ż_i (and z̈_k − z̈_i) into ``out``.
+
+    ``E`` (n+1, R, *S): e = z_j − z_i and its first n derivatives; ``f`` = z_k − z_i, ``u`` =
+    1/d², ``a`` = A, ``b`` = B (R, *S) from the positions; ``out`` (n, R, *S) complex; n = 1 or
+    2; ``r``'s complex buffers C-contiguous.
 
     Joint k turns with link (i, k) at the rate ω: ż_k = ż_i + iω·f. With g = z_k − z_j, whose
     length is kept too (g·ġ = 0, · the dot product of the plane), ω = s·(g·ė) with s = u/B,
@@ -110,32 +125,39 @@ def dyad_rates(E: np.ndarray, Zi: np.ndarray, f: np.ndarray, u: np.ndarray, a: n
     derivatives; every product is complex × complex or real × real (numpy casts mixed ones
     through a buffer, twice as slow).
     """
-    D, P, c = E[1:], r.P[: E.shape[0] - 1], r.c
-    np.subtract(f, E[0], out=r.g)
-    np.conjugate(r.g, out=r.g)
-    np.multiply(r.g, D, out=P)  # Re P = g·ė (, g·ë)
-    np.divide(u, b, out=r.s)
-    np.multiply(P[0].real, r.s, out=c.imag)  # c = iω
-    c.real.fill(0.0)
-    np.multiply(c, f, out=r.t)
-    np.add(Zi[1], r.t, out=out[0])
+    D, e0, P, c, g, s = E[1:], E[0], r.P[: E.shape[0] - 1], r.c, r.g, r.s
+    dot, omega, spin, first = P[0].real, c.imag, c.real, out[0]
+    subtract, conjugate, multiply, divide, add, square = (np.subtract, np.conjugate, np.multiply, np.divide,
+                                                          np.add, np.square)
+
+    def velocity() -> None:
+        subtract(f, e0, out=g)
+        conjugate(g, out=g)
+        multiply(g, D, out=P)  # Re P = g·ė (, g·ë)
+        divide(u, b, out=s)
+        multiply(dot, s, out=omega)  # c = iω
+        spin.fill(0.0)
+        multiply(c, f, out=first)
     if D.shape[0] < 2:
-        return
-    dg, q, w2 = r.t, r.q, r.w2
-    dg -= D[0]  # ġ = iω·f − ė
-    np.multiply(dg.real, dg.real, out=q)
-    np.multiply(dg.imag, dg.imag, out=w2)
-    q += w2  # |ġ|²
-    np.divide(a, u, out=r.gf)
-    np.subtract(lik2, r.gf, out=r.gf)  # g·f
-    np.multiply(c.imag, c.imag, out=w2)  # ω²
-    r.gf *= w2
-    r.gf += P[1].real
-    r.gf -= q
-    np.multiply(r.gf, r.s, out=c.imag)  # ω̇
-    np.negative(w2, out=c.real)
-    np.multiply(c, f, out=r.t)
-    np.add(Zi[2], r.t, out=out[1])
+        return lambda lik2: velocity()
+    dg, q, w2, gf, d1, squares, parts, gr, gi = r.t, r.q, r.w2, r.gf, D[0], r.t.view(float), g.view(float), g.real, g.imag
+    dot2, second = P[1].real, out[1]
+
+    def kernel(lik2: np.ndarray) -> None:
+        velocity()
+        subtract(first, d1, out=dg)  # ġ = iω·f − ė
+        square(squares, out=parts)
+        add(gr, gi, out=q)  # |ġ|²
+        divide(a, u, out=gf)
+        subtract(lik2, gf, out=gf)  # g·f
+        multiply(omega, omega, out=w2)  # ω²
+        multiply(gf, w2, out=gf)
+        add(gf, dot2, out=gf)
+        subtract(gf, q, out=gf)
+        multiply(gf, s, out=omega)  # ω̇
+        np.negative(w2, out=spin)
+        multiply(c, f, out=second)
+    return kernel
 
 
 def singularity_distance(bsq: np.ndarray, u: np.ndarray, lik2: np.ndarray, ljk2: np.ndarray,

@@ -15,7 +15,7 @@ import numpy as np
 
 from linkedit.planar import law_of_cosines as loc
 from linkedit.planar.rules.base import Frame, Pool, RestFrame
-from linkedit.planar.rules.triangles import Triangles
+from linkedit.planar.rules.triangles import Spread, Triangles, frozen
 
 
 @dataclass(frozen=True, eq=False)
@@ -33,48 +33,58 @@ class Dyad(Triangles):
         a, c = np.abs(zk - zi) ** 2, np.abs(zk - zj) ** 2
         if many:
             return a, c, 0.5 * (a - c), np.sign(((zj - zi).conjugate() * (zk - zi)).imag)
-        return a[:, 0], c[:, 0], 0.5 * (a - c)[:, 0], self.sign
+        return (*frozen(a[:, 0], c[:, 0], 0.5 * (a - c)[:, 0]), self.sign)
 
     def positions(self, work: Any) -> Callable[[tuple[Any, ...]], None]:
-        """z_k = z_i + w·(z_j − z_i), w from :func:`~linkedit.planar.law_of_cosines.dyad_coefficient`."""
-        r, i, j = self.stop - self.start, self.i, self.j
-        zi, zj, e, w, d2, u = work.zi[:r], work.zj[:r], work.e[:r], work.w[:r], work.d2[:r], work.u[:r]
-        a, b = w.real, w.imag
-        out, take, coefficient, subtract, multiply, add = (work.z[self.start:self.stop], work.z.take,
-                                                           loc.dyad_coefficient, np.subtract, np.multiply, np.add)
+        """z_k = z_i + w·(z_j − z_i), w from :func:`~linkedit.planar.law_of_cosines.coefficient`."""
+        r = self.stop - self.start
+        zi, zj, gather = self.operands(work)
+        e, w, out, subtract, multiply, add = work.e[:r], work.w[:r], work.z[self.start:self.stop], np.subtract, np.multiply, np.add
+        coefficient = loc.coefficient(e, w, work.d2[:r], work.u[:r], work.a[:r], work.b[:r])
+        spread = Spread(3, r, work.samples)
 
         def kernel(const: tuple[Any, ...]) -> None:
-            take(i, 0, zi, "clip")
-            take(j, 0, zj, "clip")
+            if gather is not None:
+                gather()
             subtract(zj, zi, out=e)
-            lik2, _, half, sign = const
-            coefficient(e, half, lik2, sign, None, d2, u, a, b)
+            half, lik2, sign = spread.of(const, const[2], const[0], const[3])
+            coefficient(half, lik2, sign)
             multiply(e, w, out=e)
             add(zi, e, out=out)
         return kernel
 
     def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
-        """The inputs (:meth:`Triangles.scratch`), w and z_k − z_i (complex), d², 1/d², A, B, B²
-        (real), and :func:`~linkedit.planar.law_of_cosines.dyad_rates`' buffers: (R, *shape) each."""
+        """The inputs (:meth:`Triangles.scratch`), the joints' offsets from z_i: z_k − z_i and what
+        the derivatives add (orders, R, *shape) complex, w (complex), d², 1/d², B², A, B (real):
+        (R, *shape) each, and the kernels of w (:func:`~linkedit.planar.law_of_cosines.coefficient`)
+        and of the rates (:func:`~linkedit.planar.law_of_cosines.rates`, None without
+        derivatives) on them; one linkage's constants spread over the samples (:class:`Spread`,
+        outside the pool; None for K linkages); None while the pool measures."""
         one, n = (self.stop - self.start, *shape), orders - 1
-        rates = loc.Rates(pool(one, complex), pool(one, complex), pool(one, complex), pool((n, *one), complex),
-                          *(pool(one) for _ in range(4))) if n else None
-        return (*super().scratch(pool, orders, shape), pool(one, complex), pool(one, complex),
-                *(pool(one) for _ in range(5)), rates)
+        r = loc.Rates(pool(one, complex), pool(one, complex), pool(one, complex), pool((n, *one), complex),
+                      *(pool(one) for _ in range(4))) if n else None
+        zi, e = super().scratch(pool, orders, shape)
+        fk, w, d2, u, bsq = pool((orders, *one), complex), pool(one, complex), pool(one), pool(one), pool(one)
+        a, b = pool(one), pool(one)
+        if pool.buffer is None:  # measuring: the arrays are empty
+            return None
+        rates = None if r is None else loc.rates(e, fk[0], u, a, b, fk[1:], r)
+        spread = Spread(4, one[0], shape[0]) if len(shape) == 1 else None
+        return zi, e, fk, w, d2, u, bsq, loc.coefficient(e[0], w, d2, u, a, b, bsq), rates, spread
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Positions, d_s and the derivatives of ``f.orders``, each one array operation over the batch."""
-        lik2, ljk2, half, sign = const
-        zi, e, w, fk, d2, u, a, b, bsq, rates = f.scratch[id(self)]
+        zi, e, fk, w, d2, u, bsq, coefficient, rates, spread = f.scratch[id(self)]
+        lik2, ljk2, half, sign = const if spread is None else spread.of(const, *const)
         Z = f.orders
         zi = self.inputs(Z, zi, e)
-        loc.dyad_coefficient(e[0], half, lik2, sign, w, d2, u, a, b, bsq)
-        np.multiply(w, e[0], out=fk)
-        np.add(zi[0], fk, out=Z[0, self.start:self.stop])
+        coefficient(half, lik2, sign)
+        np.multiply(w, e[0], out=fk[0])
         if f.distances:
             loc.singularity_distance(bsq, u, lik2, ljk2, d2, f.ds[rows])
         if rates is not None:
-            loc.dyad_rates(e, zi, fk, u, a, b, lik2, Z[1:, self.start:self.stop], rates)
+            rates(lik2)
+        np.add(zi, fk, out=Z[:, self.start:self.stop])
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
         """Lengths from the rest pose ``f.rest``; with tangents, ∂z_k and ∂ln d_s along ``f.D``."""

@@ -13,8 +13,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from linkedit.planar.rules.base import Frame, RestFrame
-from linkedit.planar.rules.triangles import Triangles
+from linkedit.planar.rules.base import Frame, Pool, RestFrame
+from linkedit.planar.rules.triangles import Spread, Triangles, frozen
 
 
 @dataclass(frozen=True, eq=False)
@@ -28,27 +28,34 @@ class Rigid(Triangles):
         """(c,): (R, 1) complex, (R, K, 1) with ``many``."""
         zi, zj, zk = z[self.i_point, :, None], z[self.j_point, :, None], z[self.k_point, :, None]
         c = (zk - zi) / (zj - zi)
-        return (c if many else c[:, 0],)
+        return (c,) if many else frozen(c[:, 0])
 
     def positions(self, work: Any) -> Callable[[tuple[Any, ...]], None]:
         """z_k = z_i + c·(z_j − z_i)."""
-        r, z, i, j = self.stop - self.start, work.z, self.i, self.j
-        zi, zj, e, out, take, subtract, multiply, add = (work.zi[:r], work.zj[:r], work.e[:r], work.z[self.start:self.stop],
-                                                         work.z.take, np.subtract, np.multiply, np.add)
+        zi, zj, gather = self.operands(work)
+        r, subtract, multiply, add = self.stop - self.start, np.subtract, np.multiply, np.add
+        e, out, spread = work.e[:r], work.z[self.start:self.stop], Spread(1, r, work.samples, complex)
 
         def kernel(const: tuple[Any, ...]) -> None:
-            take(i, 0, zi, "clip")
-            take(j, 0, zj, "clip")
+            if gather is not None:
+                gather()
             subtract(zj, zi, out=e)
-            multiply(e, const[0], out=e)
+            multiply(e, spread.of(const, const[0])[0], out=e)
             add(zi, e, out=out)
         return kernel
 
+    def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
+        """The inputs (:meth:`Triangles.scratch`) and one linkage's c spread over the samples,
+        once per derivative order (:class:`Spread`, outside the pool; None for K linkages)."""
+        zi, e = super().scratch(pool, orders, shape)
+        one = len(shape) == 1 and pool.buffer is not None
+        return zi, e, Spread(orders, self.stop - self.start, shape[0], complex) if one else None
+
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Every derivative order at once: the rows of ``f.orders``."""
-        zi, e = f.scratch[id(self)]
+        zi, e, spread = f.scratch[id(self)]
         zi = self.inputs(f.orders, zi, e)
-        np.multiply(const[0], e, out=e)
+        np.multiply(const[0] if spread is None else spread.of(const, *const * len(e)), e, out=e)
         np.add(zi, e, out=f.orders[:, self.start:self.stop])
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:

@@ -8,8 +8,9 @@ a tracked point on a link, which a rigid rule places but no table lists).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, partial
 from typing import Any
 
 import numpy as np
@@ -61,15 +62,28 @@ class Triangles(Rule):
         rows are read in place (a view of ``Z``: the rule writes other rows), others copied into ``zi``."""
         i, j = self.runs
         if i is None:
-            np.take(Z, self.i, axis=1, out=zi, mode="clip")  # indices are valid: clip skips take's buffering
+            Z.take(self.i, 1, zi, "clip")  # indices are valid: clip skips take's buffering
         else:
             zi = Z[:, i]
         if j is None:
-            np.take(Z, self.j, axis=1, out=e, mode="clip")
+            Z.take(self.j, 1, e, "clip")
             e -= zi
         else:
             np.subtract(Z[:, j], zi, out=e)
         return zi
+
+    def operands(self, work: Any) -> tuple[np.ndarray, np.ndarray, Callable[[], Any] | None]:
+        """:meth:`positions`' inputs: the rows ``i`` and ``j`` of ``work.z`` (P, T), read in place
+        where consecutive, else gathered into ``work.pair`` by the returned call (one ``take``
+        for both when neither is consecutive; None when both are)."""
+        r, z, pair = self.stop - self.start, work.z, work.pair
+        i, j = self.runs
+        if i is not None and j is not None:
+            return z[i], z[j], None
+        if i is None and j is None:
+            return pair[:r], pair[r:2 * r], partial(z.take, np.concatenate([self.i, self.j]), 0, pair[:2 * r], "clip")
+        gather = partial(z.take, self.i if i is None else self.j, 0, pair[:r], "clip")
+        return (pair[:r], z[j], gather) if i is None else (z[i], pair[:r], gather)
 
     def written(self) -> np.ndarray:
         return self.k_point
@@ -110,6 +124,32 @@ class Triangles(Rule):
 
     def culprit(self, names: list[str], n: int) -> str:
         return f"joint {names[self.placed()[n]]}"
+
+
+class Spread:
+    """A rule's constants (R, 1) spread over the samples, (n, R, T) of ``dtype``, copied again
+    only when the rule is called with another constants tuple: numpy's loop over an (R, 1)
+    operand broadcast against (R, T) costs a few times a same-shape one. The one-linkage
+    constants are read-only (:meth:`Triangles.constants`), so the same tuple holds the same values."""
+
+    def __init__(self, n: int, rows: int, samples: int, dtype: type = float) -> None:
+        self.tiles: np.ndarray = np.empty((n, rows, samples), dtype=dtype)
+        self.held: tuple[Any, ...] | None = None
+
+    def of(self, const: tuple[Any, ...], *parts: np.ndarray) -> np.ndarray:
+        """The tiles of ``parts`` (R, 1) each, taken from the constants tuple ``const``."""
+        if const is not self.held:
+            for tile, part in zip(self.tiles, parts):
+                np.copyto(tile, part)
+            self.held = const
+        return self.tiles
+
+
+def frozen(*parts: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``parts`` made read-only (one linkage's constants, see :class:`Spread`)."""
+    for p in parts:
+        p.flags.writeable = False
+    return parts
 
 
 def _run(rows: np.ndarray) -> slice | None:
