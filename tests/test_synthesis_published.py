@@ -9,11 +9,11 @@ import h5py
 import numpy as np
 import pytest
 
+from linkedit.curves.polyline import distances_to
 from linkedit.planar import compile_plan, simulate
 from linkedit.synthesis import atlas, fourbar
 from linkedit.synthesis import points as precision
 from linkedit.synthesis.published import PROBLEMS
-from linkedit.synthesis.refine import distances_to
 
 #: The sources' lines, as printed (PHCpack fourbar.rst; HomotopyContinuation.jl 9point.md; FourBarLinkages.jl
 #: examples.jl example2–4).

@@ -11,6 +11,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from linkedit.curves import distance
+from linkedit.curves.polyline import arc_resample
 from linkedit.gcs import check_solved, solve_spec
 from linkedit.io.gcs_hdf5 import read_result
 from linkedit.spec.mechanism3d import MechanismSpec
@@ -235,7 +236,7 @@ def test_a_3d_stretch_is_placed_by_the_similarity_that_made_it(mirrored):
     t = np.linspace(0, 2 * np.pi, 500, endpoint=False)
     closed = np.stack([np.cos(t) + 0.3 * np.cos(2 * t) + 0.2 * np.sin(2 * t), np.sin(t) + 0.1 * np.cos(3 * t),
                        0.4 * np.sin(3 * t) + 0.2 * np.cos(t)], axis=1)  # no symmetry: one stretch fits
-    ring = distance._outline(closed[None], distance.PARTIAL_OUTLINE)[0]
+    ring = arc_resample(closed, distance.PARTIAL_OUTLINE, True)
     k = np.arange(distance.PARTIAL_POINTS) / (distance.PARTIAL_POINTS - 1)
     stretch = ring[np.round(distance.FINE[1][-5] * k * distance.PARTIAL_OUTLINE).astype(int)]
     matrix = Rotation.random(random_state=4).as_matrix() @ np.diag([1.0, 1.0, -1.0 if mirrored else 1.0])
@@ -248,26 +249,3 @@ def test_a_3d_stretch_is_placed_by_the_similarity_that_made_it(mirrored):
     assert distance.partial_rms(arc[None], closed[None], mirror=True)[0, 0] < 1e-6 * 3.0
     proper = distance.partial_rms(arc[None], closed[None], mirror=False)[0, 0]
     assert (proper > 1e-2) if mirrored else (proper < 1e-6 * 3.0)
-
-
-def test_polyline_helpers_take_spatial_points():
-    """The refinement's arc-length resampling and point-to-polyline distances, on real (N, 3) points: a unit
-    square in the plane z = 1 (closed: 8 points at its corners and midpoints; open: from its first corner to its
-    last), and closed-form distances to it and to a dense circle."""
-    from linkedit.synthesis.refine import arc_resample, distances_to, near_distances
-
-    square = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0]])
-    np.testing.assert_allclose(arc_resample(square, 8, True)[1::2], (square + np.roll(square, -1, axis=0)) / 2)
-    np.testing.assert_allclose(arc_resample(square, 4, False), [[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])
-    points = np.array([[0.5, 0.5, 3.0], [2.0, 0.5, 1.0], [0.5, 2.0, 1.0]])
-    np.testing.assert_allclose(distances_to(points, square, True), [np.sqrt(0.25 + 4.0), 1.0, 1.0])
-    np.testing.assert_allclose(distances_to(points, square, False), [np.sqrt(0.25 + 4.0), 1.0, 1.0])
-    np.testing.assert_allclose(distances_to(np.array([[-0.5, 0.5, 1.0]]), square, False), [np.sqrt(0.5)])
-    phi = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
-    circle = np.stack([np.cos(phi), np.sin(phi), np.zeros_like(phi)], axis=1)
-    rng = np.random.default_rng(3)
-    probe = rng.normal(size=(2, 50, 3))
-    exact = np.hypot(np.hypot(probe[..., 0], probe[..., 1]) - 1.0, probe[..., 2])
-    near = near_distances(probe, np.broadcast_to(circle, (2, *circle.shape)))
-    np.testing.assert_allclose(near, distances_to(probe, np.broadcast_to(circle, (2, *circle.shape)), True))
-    np.testing.assert_allclose(near, exact, atol=2e-5)  # the chords sag 1 - cos(π/720) < 1e-5

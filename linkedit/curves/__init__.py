@@ -5,7 +5,9 @@
   descriptor in one batched pass;
 * :func:`~linkedit.curves.distance.term_distances` and :func:`~linkedit.curves.distance.weighted`
   compare them (FFT cross-correlation over cyclic shifts and both directions);
-* :func:`~linkedit.curves.learn.learn_weights` fits the weights from labelled pairs.
+* :func:`~linkedit.curves.learn.learn_weights` fits the weights from labelled pairs;
+* :mod:`~linkedit.curves.polyline` resamples polylines by arc length and measures point-to-polyline
+  distances (one or many curves at once), for every package.
 """
 
 from linkedit.curves.descriptors import Descriptors, describe, describe_ragged

@@ -32,6 +32,7 @@ import scipy.fft
 from linkedit.curves.descriptors import Descriptors
 from linkedit.curves.efd import efd_distance
 from linkedit.curves.features import ANGULAR
+from linkedit.curves.polyline import arc_resample
 
 PAIRWISE = ("points", "turning", "efd")
 #: Bytes of complex spectra processed per block (bounds memory, keeps blocks cache friendly).
@@ -392,7 +393,7 @@ def partial_rms(open_points: np.ndarray, closed_points: np.ndarray, *, mirror: b
     curves are sampled evenly along their length. ``grid``: :data:`FINE`, :data:`COARSE` or :data:`SCREEN`.
     """
     q, _, index = _partial_setup(open_points, grid)
-    outline = _outline(closed_points, PARTIAL_OUTLINE)  # (Cb, L, D)
+    outline = arc_resample(closed_points, PARTIAL_OUTLINE, True)  # (Cb, L, D)
     out = np.empty((len(q), len(outline)))
     for start in range(0, len(outline), PARTIAL_BATCH):
         rings = outline[start:start + PARTIAL_BATCH]
@@ -413,7 +414,7 @@ def partial_placement(open_points: np.ndarray, closed_points: np.ndarray, *,
     (RMS, α, β, mirrored) with open ≈ α·w + β for w the closed curve's points (conjugated when
     mirrored)."""
     q, q_mean, index = _partial_setup(open_points[None])
-    ring = _complex(_outline(closed_points[None], PARTIAL_OUTLINE))
+    ring = _complex(arc_resample(closed_points[None], PARTIAL_OUTLINE, True))
     best = (np.inf, 0j, 0j, False)
     for mirrored, r in ((False, ring), (True, np.conj(ring)))[: 2 if mirror else 1]:
         residual, alpha, w_mean = _partial_fits(_complex(q), r, index)
@@ -432,7 +433,7 @@ def partial_placement3(open_points: np.ndarray, closed_points: np.ndarray, *,
     open ≈ shift + scale·matrix·w for w the closed curve's points; RMS (of that fit, exact) in the open
     curve's units."""
     q, q_mean, index = _partial_setup(open_points[None])
-    ring = _outline(closed_points[None], PARTIAL_OUTLINE)
+    ring = arc_resample(closed_points[None], PARTIAL_OUTLINE, True)
     residual, cross, w_energy, w_mean = _partial_fits3(q, ring, index, mirror)
     k = int(np.argmin(residual[0, 0]))
     u, sigma, vt = np.linalg.svd(cross[0, 0, k])  # cross = Σ w qᵀ = U Σ Vᵀ: R = V Uᵀ
@@ -444,15 +445,3 @@ def partial_placement3(open_points: np.ndarray, closed_points: np.ndarray, *,
     shift = q_mean[0] - scale * matrix @ w_mean[0, k]
     gap = q[0] + q_mean[0] - shift - scale * ring[0, index.reshape(-1, index.shape[-1])[k]] @ matrix.T
     return float(np.sqrt(np.mean(np.sum(gap * gap, axis=1)))), scale, matrix, shift
-
-
-def _outline(p: np.ndarray, count: int) -> np.ndarray:
-    """Closed polylines p (C, N, D) resampled at ``count`` points equally spaced in arc length → (C, count, D)."""
-    ring = np.concatenate([p, p[:, :1]], axis=1)
-    s = np.concatenate([np.zeros((len(p), 1)), np.cumsum(np.linalg.norm(np.diff(ring, axis=1), axis=2), axis=1)],
-                       axis=1)
-    out = np.empty((len(p), count, p.shape[-1]))
-    for c in range(len(p)):
-        at = np.arange(count) / count * s[c, -1]
-        out[c] = np.stack([np.interp(at, s[c], ring[c, :, i]) for i in range(p.shape[-1])], axis=1)
-    return out

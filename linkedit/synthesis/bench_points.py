@@ -9,11 +9,11 @@ from collections.abc import Callable
 
 import numpy as np
 
+from linkedit.curves.polyline import distances_to
 from linkedit.curves.sources import make_curve
 from linkedit.planar import compile_plan, simulate
 from linkedit.synthesis import atlas, fourbar
 from linkedit.synthesis.index import Index
-from linkedit.synthesis.refine import distances_to
 from linkedit.synthesis.synthesize import MARGIN_DEG, synthesize
 
 #: the figure-eight's and the published problems' extra row: --margin 10

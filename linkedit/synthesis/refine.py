@@ -30,6 +30,7 @@ from types import ModuleType
 import numpy as np
 from scipy.optimize import least_squares
 
+from linkedit.curves.polyline import arc_resample, distances_to, near_distances
 from linkedit.planar.feasibility import works
 from linkedit.synthesis.points import family_at, family_nearest
 from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
@@ -99,74 +100,6 @@ class Refined:
     placement: Placement
     error: float  #: RMS of the residuals (normalized by the target's size)
     history: list[float] = field(default_factory=list)  #: best error after each evaluation
-
-
-def _inner(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Dot products of points: planar (...) complex or spatial (..., D) real → (...)."""
-    return a.real * b.real + a.imag * b.imag if np.iscomplexobj(a) else np.sum(a * b, axis=-1)
-
-
-def _norm(a: np.ndarray) -> np.ndarray:
-    """Lengths of points: planar (...) complex or spatial (..., D) real → (...)."""
-    return np.abs(a) if np.iscomplexobj(a) else np.sqrt(np.sum(a * a, axis=-1))
-
-
-def _scaled(t: np.ndarray, e: np.ndarray) -> np.ndarray:
-    """t (...) times the points e: planar (...) complex or spatial (..., D)."""
-    return t * e if np.iscomplexobj(e) else t[..., None] * e
-
-
-def arc_resample(z: np.ndarray, count: int, closed: bool) -> np.ndarray:
-    """``count`` points equally spaced in arc length along the polyline z: planar (M,) complex or spatial
-    (M, D) real; a closed one from z[0] round to it, an open one from its first point to its last."""
-    pts = np.concatenate([z, z[:1]]) if closed else z
-    s = np.concatenate([[0.0], np.cumsum(_norm(np.diff(pts, axis=0)))])
-    at = np.linspace(0.0, s[-1], count, endpoint=not closed)
-    if np.iscomplexobj(pts):
-        return np.interp(at, s, pts.real) + 1j * np.interp(at, s, pts.imag)
-    return np.stack([np.interp(at, s, pts[:, i]) for i in range(pts.shape[1])], axis=1)
-
-
-def distances_to(points: np.ndarray, curve: np.ndarray, closed: bool) -> np.ndarray:
-    """Distance of each of ``points`` to the polyline ``curve``: planar (..., N) and (..., M) complex, or spatial
-    (..., N, D) and (..., M, D) real → (..., N)."""
-    ax = -1 if np.iscomplexobj(curve) else -2  # the axis along the polyline
-    m = curve.shape[ax]
-    a = curve if closed else np.take(curve, np.arange(m - 1), axis=ax)
-    b = np.roll(curve, -1, axis=ax) if closed else np.take(curve, np.arange(1, m), axis=ax)
-    e = np.expand_dims(b - a, ax - 1)
-    length2 = np.maximum(_inner(e, e), 1e-300)
-    rel = np.expand_dims(points, ax) - np.expand_dims(a, ax - 1)
-    t = np.clip(_inner(rel, e) / length2, 0.0, 1.0)
-    return _norm(rel - _scaled(t, e)).min(axis=-1)
-
-
-def near_distances(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
-    """Distance of ``points`` to a densely sampled closed curve, planar (..., N) and (..., M) complex or spatial
-    (..., N, D) and (..., M, D) real → (..., N): the nearest vertex, then the two segments that meet there (the
-    refinement's fast version of :func:`distances_to`, exact unless a segment passes nearer than both its ends
-    and the next vertex)."""
-    planar = np.iscomplexobj(curve)
-    if planar:
-        dx = points.real[..., :, None] - curve.real[..., None, :]
-        dy = points.imag[..., :, None] - curve.imag[..., None, :]
-        dx *= dx
-        dy *= dy
-        dx += dy
-    else:
-        gap = points[..., :, None, :] - curve[..., None, :, :]
-        dx = np.einsum("...d,...d->...", gap, gap)
-    j = np.argmin(dx, axis=-1)  # (..., N)
-    m = curve.shape[-1 if planar else -2]
-    best = np.full(j.shape, np.inf)
-    for k in (j - 1, j):
-        at, after = (k % m, (k + 1) % m) if planar else ((k % m)[..., None], ((k + 1) % m)[..., None])
-        a = np.take_along_axis(curve, at, axis=-1 if planar else -2)
-        e = np.take_along_axis(curve, after, axis=-1 if planar else -2) - a
-        rel = points - a
-        t = np.clip(_inner(rel, e) / np.maximum(_inner(e, e), 1e-300), 0, 1)
-        best = np.minimum(best, _norm(rel - _scaled(t, e)))
-    return best
 
 
 def curve_error(target: np.ndarray, closed: bool, curve: np.ndarray, size: float) -> tuple[float, float]:

@@ -43,6 +43,7 @@ from linkedit import __version__
 from linkedit.curves.compare import placements
 from linkedit.curves.descriptors import describe
 from linkedit.curves.distance import COARSE, SCREEN, partial_placement3, partial_rms, term_distances, weighted
+from linkedit.curves.polyline import arc_resample, near_distances
 from linkedit.curves.sources import Curve
 from linkedit.errors import InputError, MechanismError
 from linkedit.gcs import GcsResult, check_solved, solve_spec
@@ -58,8 +59,7 @@ from linkedit.synthesis.chunks import SAMPLES, coarse_curves, dimension
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.outputs import DRAWN, history_chart
-from linkedit.synthesis.refine import (POINTS, SAMPLES, WALL, arc_resample, curve_error, kept_least_squares,
-                                      near_distances)
+from linkedit.synthesis.refine import POINTS, SAMPLES, WALL, curve_error, kept_least_squares
 from linkedit.synthesis.synthesize import MARGIN_DEG, POOR, SCREENED, diverse, margin_of, within
 
 FILES = ("result.yaml", "result.h5", "overlay.svg", "history.svg", "report.json")
@@ -294,7 +294,8 @@ def refine3d(fam: Any, c: Candidate3, target: np.ndarray, size: float, margin: f
             ok = works(fam.min_singularity(p, margin), margin) & np.isfinite(curve).all(axis=(1, 2))
             r = near_distances(np.broadcast_to(goal, (len(x), *goal.shape)), curve)
             if closed:
-                back = np.stack([arc_resample(k, POINTS, True) if good else goal for k, good in zip(curve, ok)])
+                good = ok[:, None, None]  # a failed curve (NaN) is resampled as a point and replaced by the goal
+                back = np.where(good, arc_resample(np.where(good, curve, 0.0), POINTS, True), goal)
                 r = np.concatenate([r, near_distances(back, np.broadcast_to(outline, (len(x), *outline.shape)))],
                                    axis=1)
         r = r / (size * np.sqrt(r.shape[1]))
