@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 from linkedit.planar import catalog, simulate
+from linkedit.planar.kinematics import evaluate
+from linkedit.planar.plan import Geometry, compile_plan
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.yamlload import load_model
 from tests.conftest import EXAMPLES
@@ -186,3 +188,56 @@ def test_a_groups_singularity_distance_is_the_hadamard_ratio_of_its_rows():
     (ds,) = m.step_singularity.T
     assert np.abs(ds - want).max() <= 1e-12
     assert 0.0 < ds.min() and ds.max() <= 1.0
+
+
+def perturbed(spec: LinkageSpec, rng: np.random.Generator, spread: float, **moved: tuple[float, float]) -> LinkageSpec:
+    """``spec`` with every moving joint shifted by N(0, (spread·size)²) per coordinate (ground
+    joints kept), and the joints ``moved`` put where given."""
+    d = spec.model_dump()
+    size = size_of(spec)
+    d["joints"] = {k: (list(moved[k]) if k in moved else [x, y] if k in spec.ground else
+                       [x + spread * size * rng.normal(), y + spread * size * rng.normal()])
+                   for k, (x, y) in d["joints"].items()}
+    return LinkageSpec.model_validate(d)
+
+
+@pytest.mark.parametrize("example", ["complex-loop", "lifting-arm"])
+def test_k_linkages_through_a_group_in_one_evaluation_are_each_linkage_alone(example):
+    """K perturbations of the example, each at its own rest pose (own link lengths, own rest
+    angle), evaluated in one call with a linkage axis, give every linkage's positions,
+    velocities, accelerations and d_s of its evaluation alone (to 1e-12); the batch's group
+    joints are the independent continuation's (rest_branch) of each perturbed spec. One linkage
+    that cannot assemble the whole cycle (a longer crank: it folds at 37.5°; for the lifting arm driven over twice
+    its stroke, a boom pivoted nearer its rod end) is NaN from its fold on, alone: the others are whole."""
+    spec = load_model(LinkageSpec, EXAMPLES / f"{example}.yaml")
+    plan = compile_plan(spec)
+    rng = np.random.default_rng(7)
+    specs = [perturbed(spec, rng, 0.01) for _ in range(4)]
+    # one the group cannot follow through the cycle: a longer crank; a boom pivoted nearer its cylinder's rod end
+    specs.append(perturbed(spec, rng, 0.0, **({"A": (18.5, 0.0)} if example == "complex-loop" else {"R": (20.0, 0.0)})))
+    names = plan.joint_names
+    points = np.stack([plan.normalized_points(plan.points_for(np.array([s.joints[n] for n in names], dtype=float)))
+                       for s in specs])
+    K, T = len(specs), 48
+    geom = Geometry.of(plan, points)
+    turn = np.linspace(0.0, 2.0 * np.pi, T, endpoint=False)
+    if plan.linear:
+        turn = np.linspace(0.0, 2.0 * spec.motor.stroke[1] / plan.scale, T)  # twice the stroke
+    both = evaluate(plan, geom, turn if plan.linear else geom.rest_angle + turn, order=2)
+    assert both.z.shape == (plan.n_points, K, T)
+    folds = 0
+    for k in range(K):
+        one = Geometry.of(plan, points[k])
+        alone = evaluate(plan, one, turn if plan.linear else one.rest_angle + turn, order=2)
+        for a in ("z", "dz", "ddz", "ds"):
+            mine, ref = getattr(both, a)[:, k], getattr(alone, a)
+            assert np.array_equal(np.isnan(mine), np.isnan(ref))
+            assert np.nanmax(np.abs(mine - ref)) <= 1e-12 * max(1.0, np.nanmax(np.abs(ref)))
+        placed = np.isfinite(both.z[:, k]).all(axis=0)
+        folds += not placed.all()
+        if not plan.linear and k in (0, K - 1):  # the independent continuation of the perturbed spec, in its units
+            group, ref, fold = rest_branch(specs[k], turn)
+            assert placed.sum() == (fold if fold >= 0 else T) and placed[: placed.sum()].all()
+            z = both.z[plan.row_of[[names.index(g) for g in group]], k].T * plan.scale + plan.origin
+            assert np.abs(z[placed] - ref[placed]).max() <= 1e-12 * size_of(specs[k])
+    assert folds == 1

@@ -154,16 +154,24 @@ def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | N
     return z
 
 
-def continuation_grid(start: float, values: np.ndarray, max_step: float) -> tuple[np.ndarray, np.ndarray]:
+def continuation_grid(start: float | np.ndarray, values: np.ndarray, max_step: float) -> tuple[np.ndarray, np.ndarray]:
     """Input values from ``start`` through ``values`` (T,) at most ``max_step`` apart, and where
-    each of ``values`` is in them (T,)."""
-    path = np.concatenate([[start], values])
-    parts = np.maximum(np.ceil(np.abs(np.diff(path)) / max_step - 1e-9), 1).astype(int)
+    each of ``values`` is in them (T,). K linkages' (``start`` (K, 1) or ``values`` (K, T)):
+    one grid (K, T') each, a move cut into as many pieces for all of them (the most any needs),
+    so that ``values`` sit at the same places (T,) in every one."""
+    if np.ndim(start) or values.ndim > 1:
+        count = max(np.size(start), values.shape[0] if values.ndim > 1 else 1)
+        path = np.concatenate([np.broadcast_to(np.reshape(start, (-1, 1)), (count, 1)),
+                               np.broadcast_to(values, (count, values.shape[-1]))], axis=1)
+    else:
+        path = np.concatenate([[start], values])
+    parts = np.ceil(np.abs(np.diff(path)) / max_step - 1e-9).reshape(-1, values.shape[-1]).max(axis=0)
+    parts = np.maximum(parts, 1).astype(int)
     first = np.concatenate([[0], np.cumsum(parts)])
-    piece = np.repeat(np.arange(values.size), parts)  # the move each fine value belongs to
+    piece = np.repeat(np.arange(values.shape[-1]), parts)  # the move each fine value belongs to
     within = np.arange(first[-1]) - first[piece]
-    fine = np.append(path[piece] + (path[piece + 1] - path[piece]) * within / parts[piece], path[-1])
-    return fine, first[1:]
+    fine = path[..., piece] + (path[..., piece + 1] - path[..., piece]) * within / parts[piece]
+    return np.concatenate([fine, path[..., -1:]], axis=-1), first[1:]
 
 
 def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2, work: Workspace | None = None) -> State:
@@ -181,20 +189,25 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2, work
     """
     if not plan.has_groups:
         return _evaluate(plan, geom, angle, order, work)
-    start, step = (0.0, GROUP_STEP_LENGTH) if plan.linear else (float(geom.rest_angle), np.radians(GROUP_STEP_DEG))
-    fine, keep = continuation_grid(start, np.asarray(angle, dtype=float), step)
+    angle = np.asarray(angle, dtype=float)
+    rest = np.asarray(geom.rest_angle, dtype=float)
+    start: float | np.ndarray = 0.0
+    if not plan.linear:  # K linkages at different rest angles: a grid each (K, T')
+        start = float(rest.flat[0]) if angle.ndim == 1 and (rest == rest.flat[0]).all() else rest
+    step = GROUP_STEP_LENGTH if plan.linear else np.radians(GROUP_STEP_DEG)
+    fine, keep = continuation_grid(start, angle, step)
     sub = None
     if work is not None:
-        if work.fine is None or not work.fine.fits(order, geom.linkages, fine.size):
-            work.fine = Workspace(plan, fine.size, order, geom.linkages)
+        if work.fine is None or not work.fine.fits(order, geom.linkages, fine.shape[-1]):
+            work.fine = Workspace(plan, fine.shape[-1], order, geom.linkages)
         sub = work.fine
     full = _evaluate(plan, geom, fine, order, sub)
 
     def pick(a: np.ndarray | None) -> np.ndarray | None:
-        return None if a is None else a[:, keep]
+        return None if a is None else a[..., keep]
 
     between_ok = bool(np.isfinite(full.z).all() and assembles(full.ds).all())
-    return State(z=full.z[:, keep], dz=pick(full.dz), ddz=pick(full.ddz), ds=full.ds[:, keep], between_ok=between_ok)
+    return State(z=full.z[..., keep], dz=pick(full.dz), ddz=pick(full.ddz), ds=full.ds[..., keep], between_ok=between_ok)
 
 
 def _step_rows(plan: Plan, geom: Geometry) -> dict[int, Rows]:
@@ -232,8 +245,6 @@ def _evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int, work: W
     their derivatives. ``work``: see :func:`evaluate`. Without ``distances`` the dyads' d_s are
     not formed (a caller that wants positions alone): the state's ``ds`` then has no rows."""
     lead = geom.linkages
-    if plan.has_groups and _moved(plan, geom):
-        raise ValueError("numeric groups are evaluated one linkage at a time, at the rest pose they were compiled at")
     T = angle.shape[-1]
     if work is None or not work.fits(order, lead, T):
         work = Workspace(plan, T, order, lead)

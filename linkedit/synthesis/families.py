@@ -1,8 +1,9 @@
 """The families an atlas can hold: name → module with the family interface.
 
 Besides the built-in ones, any planar linkage spec with a cyclic input (a full-turn crank, an
-oscillating crank, a linear input out and back) and rebuilt in closed form (dyads, rigid links,
-sliders, slots, slotted links; no numeric group) is a family (:func:`spec_family`: ``atlas build --family examples/klann.yaml``): its rest pose is
+oscillating crank, a linear input out and back) — dyads, rigid links, sliders, slots, slotted links, or
+numeric groups (complex loops: each linkage continued from its own rest pose, K linkages per call,
+:func:`~linkedit.planar.rules.group.solve_group`) — is a family (:func:`spec_family`: ``atlas build --family examples/klann.yaml``): its rest pose is
 sampled around the design like the catalog families (:class:`~linkedit.synthesis.legs.CatalogFamily`),
 its first joint track is the curve, and the atlas keeps its spec text so that synthesis (and a Dask
 worker) rebuilds it by name.
@@ -64,7 +65,7 @@ def spec_family(path: Path, field: str = "--family") -> str:
 
 def from_spec_text(name: str, text: str, *, field: str = "--family", file: str | None = None) -> CatalogFamily:
     """The family ``name`` of the linkage spec ``text``: a cyclic input (a crank's full turn or
-    swing, a linear input's stroke out and back), rules in closed form only, a joint track (its
+    swing, a linear input's stroke out and back), a joint track (its
     first) as the curve. InputError (one line naming the spec and why) otherwise, or when a
     different spec was already made under that name or it is a built-in family's name."""
     where = file or field
@@ -85,12 +86,9 @@ def from_spec_text(name: str, text: str, *, field: str = "--family", file: str |
         raise InputError(f"{cannot}: it tracks no joint (a family's curve is its first joint track)",
                          file=file, field=field)
     try:
-        plan = compile_plan(spec)
+        compile_plan(spec)
     except LinkeditError as exc:
         raise InputError(f"{cannot}: {exc}", file=file, field=field) from None
-    if plan.has_groups:
-        raise InputError(f"{cannot}: it has a numeric group (a complex loop, solved numerically one linkage at "
-                         "a time); a family is evaluated many linkages at once in closed form", file=file, field=field)
     fam = CatalogFamily(name, 1000 + zlib.crc32(text.encode()) % 100_000, lambda: spec, track)
     SPECS[name], SPEC_TEXTS[name] = fam, text
     return fam

@@ -27,13 +27,14 @@ side, coupler point) give the constants of their plan directly (:meth:`CatalogFa
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
 from linkedit.planar import catalog, compile_plan
 from linkedit.planar.feasibility import CHECK_SAMPLES, assembles, lowest, margin_of, works
-from linkedit.planar.kinematics import State, _evaluate
+from linkedit.planar.kinematics import State, _evaluate, evaluate
 from linkedit.planar.plan import Geometry, Plan
 from linkedit.planar.rules import Slider, Triangles
 from linkedit.spec.linkage import JointTrack, LinkageSpec
@@ -79,7 +80,15 @@ class CatalogFamily:
                                  for r in range(rows.start, rows.stop)], dtype=int)
 
     def margin(self) -> float:
-        return margin_of(MU_MIN_DEG)
+        """sin² MU_MIN_DEG; with a numeric group (whose d_s is the Hadamard ratio of its Jacobian, not a
+        transmission angle's sin²), at most its design's own lowest d_s: linkages as far from singular as it."""
+        band = margin_of(MU_MIN_DEG)
+        return min(band, self.design_margin) if self.plan.has_groups and self.design_margin > 0.0 else band
+
+    @cached_property
+    def design_margin(self) -> float:
+        """The design's lowest d_s over its cycle (:meth:`min_singularity`; −1: it does not assemble)."""
+        return float(self.min_singularity(self.base[None])[0])
 
     def sample(self, rng: np.random.Generator, count: int) -> np.ndarray:
         """Rest poses around the catalog design: every coordinate but the motor pivot's moved by
@@ -107,6 +116,8 @@ class CatalogFamily:
             angle = rest.flat[0] + self.direction * turn[0]
         else:
             angle = geom.rest_angle + self.direction * turn
+        if self.plan.has_groups:  # a complex loop: each linkage continued from its rest pose (evaluate's grid)
+            return evaluate(self.plan, geom, angle, order=0)
         return _evaluate(self.plan, geom, angle, order=0, distances=distances)
 
     def _evaluate(self, params: np.ndarray, samples: int, phase: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
@@ -198,8 +209,8 @@ def constant_geometry(plan: Plan, *, pivot: complex, arm: np.ndarray, ground: tu
     constants rather than a rest pose: the motor ``pivot`` (one for all), ``arm`` (K, 1) the crank
     pin − pivot at rest, the ground joints' positions (in ``plan.graph.ground`` order) and each
     rule's constants (:meth:`~linkedit.planar.rules.base.Rule.constants`' shapes, K linkages).
-    Its ``rest`` is NaN: an evaluation of K linkages reads only the constants (a numeric group,
-    the one rule that starts from rest points, is evaluated one linkage at a time)."""
+    Its ``rest`` is NaN: an evaluation of K linkages reads only the constants (a plan without a
+    numeric group, the one rule that starts from rest points)."""
     count = len(arm)
     arm = np.asarray(arm, dtype=complex)
     return Geometry(rest=np.full((plan.n_points, count), np.nan, dtype=complex),

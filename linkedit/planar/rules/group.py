@@ -13,13 +13,13 @@ the rows' :class:`RealForm`, built once per step: :meth:`Group.evaluate`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
 
 import numpy as np
 
-from linkedit.planar.constraints import Rows
+from linkedit.planar.constraints import Rows, linkage_rows
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
 from linkedit.planar.rules.base import Frame, Step, loop_rows, solve, to_complex
@@ -40,13 +40,19 @@ COARSE_TOLERANCE = 1e-4
 
 @dataclass(frozen=True)
 class Group(Step):
-    """The joints of a complex loop, on the side ``det_sign`` of its Jacobian's determinant at rest."""
+    """The joints of a complex loop, on the side ``det_sign`` of its Jacobian's determinant at rest.
+
+    Its constants (:meth:`constants`) are its rows at each linkage's rest pose as a
+    :class:`RealForm` (the link lengths live in its Q) and each one's determinant sign there: K
+    linkages of one topology are solved in one :meth:`evaluate` (:func:`solve_group`)."""
 
     kind = "group"
     watched = True
     numeric = True
 
     det_sign: float = 1.0
+    #: the linkage graph it was compiled from (its rows at other rest poses: :meth:`constants`)
+    graph: LinkageGraph | None = field(default=None, compare=False, repr=False)
 
     @classmethod
     def compile(cls, graph: LinkageGraph, rule: StepRule, all_rows: Rows, known: set[int]) -> "Group":
@@ -54,11 +60,9 @@ class Group(Step):
         rows, source, inputs = loop_rows(all_rows, known, rule.joints)
         joints, level = np.array(rule.joints, dtype=int), rule.level
         z = graph.rest[:, 0] + 1j * graph.rest[:, 1]
-        jac = rows.jacobian(z[:, None], joints)[0]
-        det = np.linalg.det(jac) if jac.shape[0] == jac.shape[1] else 1.0
         names = graph.joint_names
         return cls(level, joints, inputs, ", ".join(names[k] for k in joints), rows, source,
-                   det_sign=float(np.sign(det)) or 1.0)
+                   det_sign=float(_det_signs(rows, z[:, None], joints)[0]), graph=graph)
 
     def what(self) -> str:
         return "numeric group"
@@ -68,46 +72,75 @@ class Group(Step):
 
     @cached_property
     def form(self) -> RealForm:
-        """Its rows as real quadratics over (its joints, its inputs, 1): built once per step."""
-        return RealForm.of(self.rows.columns(np.concatenate([self.joints, self.inputs])))
+        """Its rows as real quadratics over (its joints, its inputs, 1), at the rest pose it was
+        compiled at (one linkage)."""
+        return RealForm.of(self.rows.columns(self._columns))
+
+    @property
+    def _columns(self) -> np.ndarray:
+        return np.concatenate([self.joints, self.inputs])
+
+    def constants(self, z: np.ndarray, many: bool) -> tuple[Any, ...]:
+        """(its :class:`RealForm` at each of the K rest poses ``z`` (P, K) complex, twice (K, m·W, W);
+        the sign (K,) of its Jacobian's determinant at each): each linkage's own rows and branch."""
+        assert self.graph is not None
+        rest = z[: self.graph.n_joints]
+        rows = self.rows_at(linkage_rows(self.graph, rest=rest), rest)
+        return RealForm.of(rows.columns(self._columns)), _det_signs(rows, rest[:, :, None], self.joints)
 
     def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray,
               const: tuple[Any, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
-        x, fail, det = solve_group(self, z, s, rest[self.joints])
+        form, signs = const or (self.form, np.array([self.det_sign]))
+        x, det, placed = solve_group(form, signs, z[self.inputs][:, None], np.broadcast_to(s, (1, z.shape[-1])),
+                                     rest[self.joints][:, None])
         k = 2 * self.joints.size
-        return to_complex(x[:, :k].T), conditioning(self.form.gradient(x)[..., :k], fail, det)
+        return to_complex(np.moveaxis(x[0, :, :k], -1, 0)), conditioning(form.gradient(x)[..., :k], det, placed)[0]
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
-        """Place its joints in ``f`` (one linkage), then their velocities and accelerations from
-        the group's Jacobian at the solution (the same one as its d_s): J_S·ẋ_S = −J_K·ẋ_K + F_s·ṡ,
-        J_S·ẍ_S = −J_K·ẍ_K − Ẋᵀ·2Q·Ẋ (:class:`RealForm`), two batched solves."""
-        zj, out = f.z[f.joints], f.joints[self.joints]
-        x, fail, det = solve_group(self, zj, f.s, f.rest[self.joints])
-        form, k = self.form, 2 * self.joints.size
-        grad = form.gradient(x)  # (T, m, W): ∂F/∂X
+        """Place its joints in ``f`` (one linkage, or K: ``f.z`` (P, K, T), each with its own rows,
+        branch and rest pose, ``const``), then their velocities and accelerations from the group's
+        Jacobian at the solution (the same one as its d_s): J_S·ẋ_S = −J_K·ẋ_K + F_s·ṡ,
+        J_S·ẍ_S = −J_K·ẍ_K − Ẋᵀ·2Q·Ẋ (:class:`RealForm`), two solves batched over (K·T) rows."""
+        many = f.z.ndim > 2
+        form, signs = const or (self.form, np.array([self.det_sign]))
+
+        def lift(a: np.ndarray) -> np.ndarray:  # (…, T) → (…, K, T)
+            return a if many else a[..., None, :]
+
+        zj, out = lift(f.z[f.joints]), f.joints[self.joints]
+        K, T = zj.shape[1:]
+        rest = f.rest[self.joints]
+        x, det, placed = solve_group(form, signs, zj[self.inputs], np.broadcast_to(f.s, (K, T)),
+                                     rest if many else rest[:, None])
+        k = 2 * self.joints.size
+        grad = form.gradient(x)  # (K, T, m, W): ∂F/∂X
         jac = grad[..., :k]
-        f.z[out] = to_complex(x[:, :k].T)
-        f.ds[rows] = conditioning(jac, fail, det)
+
+        def put(target: np.ndarray, xy: np.ndarray) -> None:  # (K, T, k) real → rows (n, *L, T)
+            target[out] = to_complex(np.moveaxis(xy, -1, 0)) if many else to_complex(np.moveaxis(xy[0], -1, 0))
+
+        put(f.z, x[..., :k])
+        f.ds[rows] = conditioning(jac, det, placed) if many else conditioning(jac, det, placed)[0]
         if f.dz is None:
             return
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            dx = self._known(f.dz[f.joints], x.shape)
+            dx = self._known(lift(f.dz[f.joints]), x.shape)
             rhs = form.drive * f.drive - (grad @ dx[..., None])[..., 0]
-            dx[:, :k] = solve(jac, rhs.T).T
-            f.dz[out] = to_complex(dx[:, :k].T)
+            dx[..., :k] = np.moveaxis(solve(jac, np.moveaxis(rhs, -1, 0)), 0, -1)
+            put(f.dz, dx[..., :k])
             if f.ddz is None:
                 return
-            ddx = self._known(f.ddz[f.joints], x.shape)
+            ddx = self._known(lift(f.ddz[f.joints]), x.shape)
             rhs = -(grad @ ddx[..., None])[..., 0] - form.quadratic(dx)
-            f.ddz[out] = to_complex(solve(jac, rhs.T))
+            put(f.ddz, np.moveaxis(solve(jac, np.moveaxis(rhs, -1, 0)), 0, -1))
 
     def _known(self, dz: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-        """X-rows (T, W) of the known joints' derivatives ``dz`` (J, T) complex, the group's own
-        columns and the last (the constant 1) zero."""
+        """X-rows (K, T, W) of the known joints' derivatives ``dz`` (J, K, T) complex, the group's
+        own columns and the last (the constant 1) zero."""
         k = 2 * self.joints.size
         out = np.zeros(shape)
-        known = dz[self.inputs]
-        out[:, k:-1:2], out[:, k + 1:-1:2] = known.real.T, known.imag.T
+        known = np.moveaxis(dz[self.inputs], 0, -1)
+        out[..., k:-1:2], out[..., k + 1:-1:2] = known.real, known.imag
         return out
 
     def lockup(self, names: list[str], toggle: bool) -> str:
@@ -120,11 +153,22 @@ class Group(Step):
         return None
 
 
+def _det_signs(rows: Rows, z: np.ndarray, joints: np.ndarray) -> np.ndarray:
+    """The sign (K,) of the group Jacobian's determinant at each rest pose ``z`` (J, *L, 1) of its
+    ``rows`` (1 for a non-square group, and where it is singular)."""
+    jac = rows.jacobian(z, joints)[..., 0, :, :].reshape(-1, rows.m, 2 * joints.size)
+    if jac.shape[1] != jac.shape[2]:
+        return np.ones(jac.shape[0])
+    sign = np.sign(np.linalg.det(jac))
+    return np.where(sign == 0.0, 1.0, sign)
+
+
 @dataclass(frozen=True)
 class RealForm:
     """The group's rows as real quadratics in X = (x_0, y_0, x_1, …, 1) of its local joints (and a
     last entry 1): F(X) = Xᵀ·Q·X − drive·s, Q (m, W, W) symmetric, stored as ``twice`` = 2·Q
-    (m·W, W) so that one product gives the Jacobian 2·Q·X; drive (m,)."""
+    (m·W, W) so that one product gives the Jacobian 2·Q·X; drive (m,). K linkages' forms stack
+    their Q: ``twice`` (K, m·W, W), acting on X (K, T, W); :meth:`linkage` is one of them."""
 
     twice: np.ndarray
     drive: np.ndarray
@@ -133,38 +177,58 @@ class RealForm:
 
     @classmethod
     def of(cls, rows: Rows) -> "RealForm":
+        """The form of ``rows``: of K linkages ((K, m·W, W)) when they have a linkage axis, else of one."""
+        many = rows.dc.ndim > 2
+
+        def lead(a: np.ndarray) -> np.ndarray:  # the linkage axis first: (K, m, …)
+            return np.moveaxis(a, -1, 0) if many else a[None]
+
         def real_cols(coef: np.ndarray, const: np.ndarray) -> np.ndarray:  # z_n = x_n + i·y_n, then 1
-            out = np.empty((coef.shape[0], 2 * coef.shape[1] + 1), dtype=complex)
-            out[:, 0:-1:2], out[:, 1:-1:2], out[:, -1] = coef, 1j * coef, const
+            out = np.empty((*coef.shape[:-1], 2 * coef.shape[-1] + 1), dtype=complex)
+            out[..., 0:-1:2], out[..., 1:-1:2], out[..., -1] = coef, 1j * coef, const
             return out
 
-        ad, ae = real_cols(rows.dc, rows.d0), real_cols(rows.ec, rows.e0)
-        quad = np.conj(ad)[:, :, None] * ae[:, None, :]
+        ad, ae = real_cols(lead(rows.dc), lead(rows.d0)), real_cols(lead(rows.ec), lead(rows.e0))
+        quad = np.conj(ad)[..., :, None] * ae[..., None, :]  # (K, m, W, W)
         quad = np.where(rows.imag[:, None, None], quad.imag, quad.real)
-        quad[:, -1, -1] -= rows.rhs
-        twice = quad + np.swapaxes(quad, 1, 2)
-        return cls(twice=np.ascontiguousarray(twice.reshape(-1, twice.shape[2])), drive=rows.drive,
+        quad[..., -1, -1] -= lead(rows.rhs)
+        twice = quad + np.swapaxes(quad, -1, -2)
+        twice = twice.reshape(twice.shape[0], -1, twice.shape[-1])
+        return cls(twice=np.ascontiguousarray(twice if many else twice[0]), drive=rows.drive,
                    driven=bool(rows.drive.any()), m=rows.m)
+
+    @property
+    def count(self) -> int:
+        """K: how many linkages' forms it stacks (1 for one linkage's)."""
+        return self.twice.shape[0] if self.twice.ndim == 3 else 1
+
+    def linkage(self, k: int) -> "RealForm":
+        """The form of linkage ``k`` alone."""
+        return self if self.twice.ndim == 2 else RealForm(self.twice[k], self.drive, self.driven, self.m)
 
     def residual_jacobian(self, x: np.ndarray, s: np.ndarray | float, unknowns: int) -> tuple[np.ndarray, np.ndarray]:
         """F (…, m) and ∂F/∂X of the first ``unknowns`` real variables (…, m, unknowns) at X (…, W)
-        and input s (…): one sample (X (W,), s a float) or a batch (X (T, W), s (T,))."""
+        and input s (…): one sample (X (W,), s a float) or a batch (X (T, W) or (K, T, W), s (T,) or (K, T))."""
         grad = self.gradient(x)
-        f = 0.5 * (grad @ x) if x.ndim == 1 else 0.5 * (grad @ x[:, :, None])[..., 0]
+        f = 0.5 * (grad @ x) if x.ndim == 1 else 0.5 * (grad @ x[..., None])[..., 0]
         if self.driven:
             f -= self.drive * np.asarray(s)[..., None]
         return f, grad[..., :unknowns]
 
     def gradient(self, x: np.ndarray) -> np.ndarray:
-        """∂F/∂X (…, m, W) at X (…, W) (one sample or a batch): 2·Q·X by row (Q symmetric)."""
-        m, width = self.m, self.twice.shape[1]
+        """∂F/∂X (…, m, W) at X (…, W): one sample (W,) or a batch (T, W) of one linkage's form, or
+        (K, T, W) of K linkages' (each its own Q): 2·Q·X by row (Q symmetric)."""
+        m, width = self.m, self.twice.shape[-1]
         if x.ndim == 1:
             return (self.twice @ x).reshape(m, width)
+        if x.ndim == 3:
+            twice = self.twice if self.twice.ndim == 3 else self.twice[None]
+            return (x @ np.swapaxes(twice, 1, 2)).reshape(*x.shape[:2], m, width)
         return (x @ self.twice.T).reshape(x.shape[0], m, width)
 
     def quadratic(self, v: np.ndarray) -> np.ndarray:
-        """d²F[V, V] = Vᵀ·2Q·V (T, m) along V (T, W)."""
-        return ((v @ self.twice.T).reshape(v.shape[0], self.m, -1) @ v[:, :, None])[..., 0]
+        """d²F[V, V] = Vᵀ·2Q·V (…, m) along V (…, W) (as :meth:`gradient`)."""
+        return (self.gradient(v) @ v[..., None])[..., 0]
 
 
 def _newton(form: RealForm, x: np.ndarray, s: float, k: int, tol: float = GROUP_TOLERANCE) -> tuple[bool, float, float]:
@@ -216,13 +280,13 @@ def _accepted(moved: np.ndarray | float, first: np.ndarray | float) -> np.ndarra
     return (moved <= 1.5 * first + 1e-9) & (first <= 0.1)
 
 
-def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int, x: np.ndarray,
+def _continue(form: RealForm, det_sign: float, X: np.ndarray, s: np.ndarray, k: int, x: np.ndarray,
               path: np.ndarray, out: np.ndarray, tol: float = GROUP_TOLERANCE) -> int:
     """Continue the group sequentially from X-row ``x`` (known at sample ``path[0]``) through the
     samples ``path`` in order, writing ``out`` rows. Each move from one sample to the next is a
     homotopy in the known joints (interpolated linearly); Newton's first step is the tangent
     predictor, and a move is accepted only when Newton converges close to it (:func:`_accepted`)
-    without the Jacobian's determinant changing sign; otherwise it is halved (down to 1/256).
+    without the Jacobian's determinant leaving ``det_sign``; otherwise it is halved (down to 1/256).
     Newton stops within ``tol``. Returns the position in ``path`` where it fails, or −1."""
     square = form.m == k
     x = x.copy()
@@ -236,7 +300,7 @@ def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: in
             ok, first, sign = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k, tol)
             if ok:
                 ok = bool(_accepted(float(np.maximum.reduce(np.abs(trial[:k] - x[:k]))), first))
-                if ok and square and sign != step.det_sign:
+                if ok and square and sign != det_sign:
                     ok = False  # passed a singular position: another assembly branch
             if ok:
                 x, done = trial, f
@@ -250,23 +314,26 @@ def _continue(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: in
     return -1
 
 
-def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """Newton's method on every row of X (T, W) at once, from the predictor in X[:, :k] (updated in
-    place). Returns which rows (T,) are accepted: converged, close to their predictor
-    (:func:`_accepted`), on the rest pose's side of every singular position (sign of det J); and
-    det J (T,) at each accepted row's solution (NaN elsewhere, and for a non-square group)."""
+def _polish(form: RealForm, signs: np.ndarray, X: np.ndarray, s: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Newton's method on every row of X (K, T, W) at once — K linkages' (``form``'s), T samples
+    each —, from the predictor in X[..., :k] (updated in place; NaN rows are left alone). Returns
+    which rows (K, T) are accepted: converged, close to their predictor (:func:`_accepted`), on
+    their rest pose's side of every singular position (sign of det J: ``signs`` (K,)); and det J
+    (K, T) at each accepted row's solution (NaN elsewhere, and for a non-square group)."""
     square = form.m == k
-    start = X[:, :k].copy()
-    first = np.zeros(X.shape[0])
-    f, jac = form.residual_jacobian(X, s, k)
+    K, T, width = X.shape
+    flat = X.reshape(K * T, width)
+    start = flat[:, :k].copy()
+    first = np.zeros(K * T)
     with np.errstate(invalid="ignore", over="ignore"):
-        done = _largest(f) <= GROUP_TOLERANCE
-        live = np.flatnonzero(~done)  # the rows still iterated, and their X, F, J:
-        x, f, a = X[live], f[live], jac[live]
+        f, jac = form.residual_jacobian(X, s, k)  # every linkage's rows at once, each iteration
+        size = _largest(f.reshape(K * T, -1))
+        done = size <= GROUP_TOLERANCE
+        live = np.flatnonzero(size > GROUP_TOLERANCE)  # the rows still iterated (not converged, not NaN)
         for it in range(GROUP_ITERATIONS):
             if not live.size:
                 break
-            b = -f
+            a, b = jac.reshape(K * T, *jac.shape[2:])[live], -f.reshape(K * T, -1)[live]
             if not square:
                 at = np.swapaxes(a, 1, 2)
                 a, b = at @ a, (at @ b[..., None])[..., 0]
@@ -274,25 +341,22 @@ def _polish(form: RealForm, step: "Group", X: np.ndarray, s: np.ndarray, k: int)
                 delta = np.linalg.solve(a, b[..., None])[..., 0]
             except np.linalg.LinAlgError:  # an exactly singular row: left to the sequential fallback
                 regular = np.abs(np.linalg.det(a)) > 0.0
-                live, x, a, b = live[regular], x[regular], a[regular], b[regular]
+                live, a, b = live[regular], a[regular], b[regular]
                 delta = np.linalg.solve(a, b[..., None])[..., 0]
             if it == 0:
                 first[live] = _largest(delta)
-            x[:, :k] += delta
-            f, a = form.residual_jacobian(x, s[live], k)
-            size = _largest(f)
-            conv = size <= GROUP_TOLERANCE
-            rows = live[conv]
-            X[rows], jac[rows], done[rows] = x[conv], a[conv], True
-            going = size > GROUP_TOLERANCE  # neither converged nor NaN
-            live, x, f, a = live[going], x[going], f[going], a[going]
-    accept = done & _accepted(_largest(X[:, :k] - start), first)
-    det = np.full(X.shape[0], np.nan)
+            flat[live, :k] += delta
+            f, jac = form.residual_jacobian(X, s, k)
+            size = _largest(f.reshape(K * T, -1)[live])
+            done[live[size <= GROUP_TOLERANCE]] = True
+            live = live[size > GROUP_TOLERANCE]  # neither converged nor NaN
+    accept = done & _accepted(_largest(flat[:, :k] - start), first)
+    det = np.full(K * T, np.nan)
     if square and accept.any():
-        det[accept] = np.linalg.det(jac[accept])
-        accept &= np.sign(det) == step.det_sign
+        det[accept] = np.linalg.det(jac.reshape(K * T, *jac.shape[2:])[accept])
+        accept &= np.sign(det) == np.repeat(signs, T)
         det[~accept] = np.nan
-    return accept, det
+    return accept.reshape(K, T), det.reshape(K, T)
 
 
 def _largest(a: np.ndarray) -> np.ndarray:
@@ -330,86 +394,91 @@ def _coarse(known: np.ndarray, s: np.ndarray) -> np.ndarray:
     return np.unique(np.concatenate([[0], first, [travel.size - 1]]))
 
 
-def solve_group(step: "Group", z: np.ndarray, s: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, int, np.ndarray]:
-    """Continue the group from ``start`` (n,) through the samples of ``z`` (J, T), in order.
+def solve_group(form: RealForm, signs: np.ndarray, known: np.ndarray, s: np.ndarray,
+                start: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Continue K linkages' group (``form``: each its own rows; ``signs`` (K,) the sign of det J
+    at each one's rest pose) from ``start`` (n, K) complex through the samples of its inputs
+    ``known`` (J_in, K, T) complex and ``s`` (K, T), in order.
 
-    The samples :func:`_coarse` picks are continued sequentially (:func:`_continue`, to
-    COARSE_TOLERANCE: enough to follow the branch); then every sample is polished by Newton's
-    method all at once (:func:`_polish`), the ones between from a cubic through those, each
-    checked like a sequential move (converged near its predictor, the determinant's sign of the
-    rest pose); a sample that fails the check is continued sequentially from the one before it.
-    Returns X (T, W) — :class:`RealForm`'s variables: the group's joints (NaN from the first
-    sample where it fails), its inputs, 1 —, the index of the first failing sample (−1: none) and
-    det J (T,) of the group Jacobian at each placed sample (NaN elsewhere, and for a non-square
-    group): the polish's, for :func:`conditioning`.
+    Each linkage's samples :func:`_coarse` picks are continued sequentially (:func:`_continue`,
+    to COARSE_TOLERANCE: enough to follow the branch; a loop over the linkages, a few samples
+    each); then every sample of every linkage is polished by Newton's method all at once
+    (:func:`_polish`), the ones between from a cubic through those, each checked like a
+    sequential move (converged near its predictor, the determinant's sign of its rest pose); a
+    sample that fails the check is continued sequentially from the one before it. Returns X
+    (K, T, W) — :class:`RealForm`'s variables: the group's joints (NaN from the first sample
+    where the linkage fails), its inputs, 1 —, det J (K, T) of the group Jacobian at each placed
+    sample (NaN elsewhere, and for a non-square group) for :func:`conditioning`, and which
+    samples are placed (K, T): a linkage that fails does not spoil the others.
     """
-    form = step.form
-    n = step.joints.size
+    n, (K, T) = start.shape[0], s.shape
     k = 2 * n
-    T = z.shape[1]
-    known = z[step.inputs]
-    X = np.ones((T, k + 2 * step.inputs.size + 1))  # unknowns, known joints, 1
-    X[:, k:-1:2], X[:, k + 1:-1:2] = known.real.T, known.imag.T
-    x0 = X[0].copy()
-    start = np.asarray(start, dtype=complex)
-    x0[0:k:2], x0[1:k:2] = start.real, start.imag
-    out = np.full((T, k), np.nan)
-    det = np.full(T, np.nan)
-    coarse = _coarse(known, s)
-    stop = _continue(form, step, X, s, k, x0, coarse, out, COARSE_TOLERANCE)
-    last = coarse[stop - 1] if stop > 0 else (coarse[-1] if stop < 0 else -1)
-    fail = -1
-    if last >= 0:
-        solved = coarse[coarse <= last]
-        polished = X[: last + 1].copy()
-        between = np.ones(last + 1, dtype=bool)
-        between[solved] = False
-        inner = np.flatnonzero(between)
-        polished[solved, :k] = out[solved]
-        if inner.size:
-            polished[inner, :k] = _predict(solved, out[solved], inner)
-        accept, det[: last + 1] = _polish(form, step, polished, s[: last + 1], k)
-        out[: last + 1] = np.where(accept[:, None], polished[:, :k], np.nan)
-        for t in np.flatnonzero(~accept):  # a sequential move from the sample before
-            x, path = (x0, np.array([0])) if t == 0 else (np.concatenate([out[t - 1], X[t - 1, k:]]), np.array([t - 1, t]))
-            if _continue(form, step, X, s, k, x, path, out) >= 0:
+    X = np.ones((K, T, k + 2 * known.shape[0] + 1))  # unknowns, known joints, 1
+    X[..., k:-1:2], X[..., k + 1:-1:2] = np.moveaxis(known.real, 0, -1), np.moveaxis(known.imag, 0, -1)
+    x0 = X[:, 0].copy()
+    x0[:, 0:k:2], x0[:, 1:k:2] = start.real.T, start.imag.T
+    out = np.full((K, T, k), np.nan)
+    polished = X.copy()
+    polished[..., :k] = np.nan  # the samples each linkage's coarse continuation reached, predicted
+    coarse_end = []
+    for c in range(K):
+        coarse = _coarse(known[:, c], s[c])
+        stop = _continue(form.linkage(c), signs[c], X[c], s[c], k, x0[c], coarse, out[c], COARSE_TOLERANCE)
+        last = coarse[stop - 1] if stop > 0 else (coarse[-1] if stop < 0 else -1)
+        coarse_end.append((stop, last))
+        if last >= 0:
+            solved = coarse[coarse <= last]
+            between = np.ones(last + 1, dtype=bool)
+            between[solved] = False
+            inner = np.flatnonzero(between)
+            polished[c, solved, :k] = out[c, solved]
+            if inner.size:
+                polished[c, inner, :k] = _predict(solved, out[c, solved], inner)
+    accept, det = _polish(form, signs, polished, s, k)
+    out[:] = np.where(accept[..., None], polished[..., :k], np.nan)
+    placed = np.zeros((K, T), dtype=bool)
+    for c, (stop, last) in enumerate(coarse_end):
+        one, fail = form.linkage(c), -1
+        for t in np.flatnonzero(~accept[c, : last + 1]):  # a sequential move from the sample before
+            x, path = (x0[c], np.array([0])) if t == 0 else (np.concatenate([out[c, t - 1], X[c, t - 1, k:]]),
+                                                             np.array([t - 1, t]))
+            if _continue(one, signs[c], X[c], s[c], k, x, path, out[c]) >= 0:
                 fail = int(t)
                 break
-    if fail < 0 and stop >= 0:  # the coarse continuation stopped: go on sample by sample
-        x = x0 if last < 0 else np.concatenate([out[last], X[last, k:]])
-        path = np.arange(max(last, 0), T)
-        at = _continue(form, step, X, s, k, x, path, out)
-        fail = int(path[at]) if at >= 0 else -1
-    if fail >= 0:
-        out[fail:] = np.nan
-    X[:, :k] = out
-    placed = fail if fail >= 0 else T
-    det[placed:] = np.nan
-    missing = np.flatnonzero(np.isnan(det[:placed]))  # continued sequentially
-    if form.m == k and missing.size:
-        det[missing] = np.linalg.det(form.residual_jacobian(X[missing], s[missing], k)[1])
-    return X, fail, det
+        if fail < 0 and stop >= 0:  # the coarse continuation stopped: go on sample by sample
+            x = x0[c] if last < 0 else np.concatenate([out[c, last], X[c, last, k:]])
+            path = np.arange(max(last, 0), T)
+            at = _continue(one, signs[c], X[c], s[c], k, x, path, out[c])
+            fail = int(path[at]) if at >= 0 else -1
+        placed[c, : fail if fail >= 0 else T] = True
+    out[~placed] = np.nan
+    X[..., :k] = out
+    det[~placed] = np.nan
+    missing = placed & np.isnan(det)  # continued sequentially
+    if form.m == k and missing.any():
+        det[missing] = np.linalg.det(form.residual_jacobian(X, s, k)[1][missing])
+    return X, det, placed
 
 
-def conditioning(jac: np.ndarray, fail: int, det: np.ndarray) -> np.ndarray:
-    """d_s (T,) of the group Jacobians ``jac`` (T, m, k) at the solution; NaN from sample ``fail``
-    on (−1: none). A square group's is (det J / ∏ ‖row‖)² (``det`` (T,) given: the Hadamard
-    ratio, the dyad's sin² of the angle between its two rows generalized: 1 for orthogonal rows,
-    0 exactly at a singular position); a least-squares group's (m > k) is (σ_min/σ_max)² of its
+def conditioning(jac: np.ndarray, det: np.ndarray, placed: np.ndarray) -> np.ndarray:
+    """d_s (…) of the group Jacobians ``jac`` (…, m, k) at the solution; NaN where not ``placed``
+    (…). A square group's is (det J / ∏ ‖row‖)² (``det`` (…) given: the Hadamard ratio, the
+    dyad's sin² of the angle between its two rows generalized: 1 for orthogonal rows, 0 exactly
+    at a singular position); a least-squares group's (m > k) is (σ_min/σ_max)² of its
     row-scaled Jacobian."""
-    ds = np.full(jac.shape[0], np.nan)
-    n = fail if fail >= 0 else jac.shape[0]
-    jacs = jac[:n]
-    if not n:
+    ds = np.full(placed.shape, np.nan)
+    if not placed.any():
         return ds
-    if jac.shape[1] == jac.shape[2]:
-        norms = np.einsum("tij,tij->it", jacs, jacs)  # (m, T) squared row norms
+    jacs = jac[placed]  # (N, m, k)
+    if jac.shape[-2] == jac.shape[-1]:
+        norms = np.einsum("tij,tij->it", jacs, jacs)  # (m, N) squared row norms
         rows = norms[0].copy()
         for more in norms[1:]:  # their product (a few rows: faster than a reduction along them)
             rows *= more
-        ds[:n] = np.minimum(det[:n] * det[:n] / np.maximum(rows, 1e-300), 1.0)
+        d = det[placed]
+        ds[placed] = np.minimum(d * d / np.maximum(rows, 1e-300), 1.0)
     else:
         scaled = jacs / np.maximum(np.abs(jacs).max(axis=2, keepdims=True), 1e-300)
         eig = np.linalg.eigvalsh(np.swapaxes(scaled, 1, 2) @ scaled)  # σ², ascending
-        ds[:n] = np.maximum(eig[:, 0], 0.0) / eig[:, -1]
+        ds[placed] = np.maximum(eig[:, 0], 0.0) / eig[:, -1]
     return ds
