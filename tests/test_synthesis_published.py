@@ -115,10 +115,10 @@ def test_morgan_wampler_problem_7_round_trip(run_cli, small_atlas, tmp_path):
 def test_six_points_on_a_line_reach_the_published_error(run_cli, small_atlas, tmp_path):
     """`synthesize --points` on GA case 1's six points on a vertical line (free timing; the best published four-bar,
     HCDJ's, meets them to 3.8e-8 of their RMS radius with its transmission angle falling to 19°, Lin & Hsiao's to
-    7.9e-8 at 46°): the result, inside the 20° band, meets them at least as well (the atlas ranking blew its curves up until a
-    near-straight stretch met the points, a valley whose error only falls as the linkage grows: 1e-5 after
-    refinement); `linkedit simulate result.yaml` draws a
-    curve whose distances to the points are the reported ones."""
+    7.9e-8 at 46°): the result, inside the 20° band, meets them at least as well (the atlas ranking blew its
+    curves up until a near-straight stretch met the points, a valley whose error only falls as the linkage grows:
+    1e-5 after refinement); `linkedit simulate result.yaml` draws a curve whose distances to the points are the
+    reported ones."""
     problem = next(p for p in PROBLEMS if p.name.startswith("GA case 1"))
     z = problem.array()
     radius = precision.rms_radius(z)
