@@ -83,6 +83,14 @@ def small_atlas(tmp_path_factory):
     return path
 
 
+def _drawn_distances(curve: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Each point's (N,) complex distance to the closed polyline ``curve`` (M,) complex, brute force."""
+    a, e = curve, np.roll(curve, -1) - curve
+    rel = z[:, None] - a[None]
+    t = np.clip((rel.real * e.real + rel.imag * e.imag) / np.abs(e) ** 2, 0.0, 1.0)
+    return np.abs(rel - t * e).min(axis=1)
+
+
 def test_morgan_wampler_problem_7_round_trip(run_cli, small_atlas, tmp_path):
     """`synthesize --points` on the five points of Morgan & Wampler's problem 7: the result passes through every
     point to rounding (the published linkages' error, 0); `linkedit simulate result.yaml` draws a curve whose
@@ -100,12 +108,37 @@ def test_morgan_wampler_problem_7_round_trip(run_cli, small_atlas, tmp_path):
     assert fine.exit_code == 0, fine.output
     with h5py.File(tmp_path / "fine.h5") as f:
         p = f["tracks/target/position"][()]
-    curve = p[:, 0] + 1j * p[:, 1]
-    a, e = curve, np.roll(curve, -1) - curve  # each point's distance to the closed polyline, brute force
-    rel = z[:, None] - a[None]
-    t = np.clip((rel.real * e.real + rel.imag * e.imag) / np.abs(e) ** 2, 0.0, 1.0)
-    drawn = np.abs(rel - t * e).min(axis=1)
-    np.testing.assert_allclose(found["distances"], drawn, rtol=0, atol=1e-6 * radius)
+    np.testing.assert_allclose(found["distances"], _drawn_distances(p[:, 0] + 1j * p[:, 1], z), rtol=0,
+                               atol=1e-6 * radius)
+
+
+def test_six_points_on_a_line_reach_the_published_error(run_cli, small_atlas, tmp_path):
+    """`synthesize --points` on GA case 1's six points on a vertical line (free timing; the best published four-bar,
+    HCDJ's, meets them to 3.8e-8 of their RMS radius with its transmission angle falling to 19°, Lin & Hsiao's to
+    7.9e-8 at 46°): the result, inside the 20° band, meets them at least as well (the atlas ranking blew its
+    curves up until a near-straight stretch met the points, a valley whose error only falls as the linkage grows:
+    1e-5 after refinement); `linkedit simulate result.yaml` draws a curve whose distances to the points are the
+    reported ones."""
+    problem = next(p for p in PROBLEMS if p.name.startswith("GA case 1"))
+    z = problem.array()
+    radius = precision.rms_radius(z)
+    best = problem.best()
+    assert best is not None
+    (tmp_path / "line.csv").write_text("x,y\n" + "".join(f"{x!r},{y!r}\n" for x, y in problem.points))
+    out = tmp_path / "out"
+    result = run_cli("synthesize", tmp_path / "line.csv", "--points", "--atlas", small_atlas, "-o", out,
+                     "--top", "3")
+    assert result.exit_code == 0, result.output
+    found = json.loads((out / "report.json").read_text())["precision_points"]
+    assert np.mean(found["distances"]) / radius <= best[1].mean()
+    fine = run_cli("simulate", out / "result.yaml", "-o", tmp_path / "fine.h5", "-n", "20000")
+    assert fine.exit_code == 0, fine.output
+    with h5py.File(tmp_path / "fine.h5") as f:
+        p = f["tracks/target/position"][()]
+        ds = f["diagnostics/singularity"][()]
+    assert np.nanmin(ds) >= fourbar.margin()  # inside the 20° transmission band
+    np.testing.assert_allclose(found["distances"], _drawn_distances(p[:, 0] + 1j * p[:, 1], z), rtol=0,
+                               atol=1e-6 * radius)
 
 
 #: The metaheuristic problems' points as the source prints them (sy-nguyen-van/DE_Jaya_Synthesis_Four_Bar_Mechanisms,

@@ -7,8 +7,8 @@ cycle): every sample closer to the point than both its neighbours brackets a loc
 distance over the crank phase (a curve passing the point several times, or fast, has several), each is
 refined by a safeguarded Newton iteration on the closed-form curve (bisection where a step would leave its
 bracket), and the closest wins, so the distance is exact to rounding. The atlas search places each candidate
-on the points by a similarity fit to its closest samples (iterated, 12 start rotations, mirrored or not) and
-ranks by the same measure.
+on the points by a similarity fit to its closest samples (iterated, 12 start rotations, mirrored or not, its size
+bounded: :data:`FIT_SIZE`) and ranks by the same measure.
 """
 
 from __future__ import annotations
@@ -37,6 +37,10 @@ STEP = 1e-6
 #: Similarity-fit rounds and start rotations of the atlas ranking.
 FIT_ROUNDS = 8
 FIT_STARTS = 12
+#: The ranking places a curve no larger than this many times the points' RMS radius (its own RMS radius about its
+#: centroid): blown up, any curve meets the points on a near-straight stretch, its error falling only as the scale
+#: grows without bound (points on a line: toward the infinite linkage), a valley with no exact linkage in it.
+FIT_SIZE = 3.0
 #: Gauss–Newton steps at most of the exact polish (:func:`newton`), halvings per step, and the RMS gap (over the
 #: points' RMS radius, times √(2N)) below which it stops: the points are met to rounding.
 NEWTON_STEPS = 40
@@ -278,8 +282,9 @@ def error(distances: np.ndarray, radius: float) -> tuple[float, float]:
 def fit(points: np.ndarray, curves: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Place each curve (K, T) complex (family frame, equal phases) on ``points`` (N,) complex by a
     similarity: for FIT_STARTS rotations, mirrored or not, each scaled to the points' RMS radius about their
-    centroid, FIT_ROUNDS rounds of (closest samples, least-squares similarity onto them). Returns the
-    RMS point-to-sample distance (K,), the factor and shift (K,) complex and ``mirrored`` (K,) bool."""
+    centroid, FIT_ROUNDS rounds of (closest samples, least-squares similarity onto them, the placed
+    curve's RMS radius at most FIT_SIZE times the points'). Returns the RMS point-to-sample distance (K,), the
+    factor and shift (K,) complex and ``mirrored`` (K,) bool."""
     k = len(curves)
     p0 = points - points.mean()
     radius = rms_radius(points)
@@ -288,8 +293,9 @@ def fit(points: np.ndarray, curves: np.ndarray) -> tuple[np.ndarray, np.ndarray,
         raw = np.conj(curves) if mirrored else curves
         centre = raw.mean(axis=1)
         spread = np.sqrt(np.mean(np.abs(raw - centre[:, None]) ** 2, axis=1))
+        size = radius / np.maximum(spread, 1e-300)
         for r in range(FIT_STARTS):
-            alpha = radius / np.maximum(spread, 1e-300) * np.exp(2j * np.pi * r / FIT_STARTS)
+            alpha = size * np.exp(2j * np.pi * r / FIT_STARTS)
             beta = points.mean() - alpha * centre
             for _ in range(FIT_ROUNDS):
                 placed = beta[:, None] + alpha[:, None] * raw
@@ -299,6 +305,7 @@ def fit(points: np.ndarray, curves: np.ndarray) -> tuple[np.ndarray, np.ndarray,
                 wc = w - w.mean(axis=1, keepdims=True)
                 norm = np.sum(np.abs(wc) ** 2, axis=1)
                 alpha = np.where(norm > 0, np.sum(np.conj(wc) * p0[None], axis=1) / np.maximum(norm, 1e-300), alpha)
+                alpha *= np.minimum(1.0, FIT_SIZE * size / np.maximum(np.abs(alpha), 1e-300))
                 beta = points.mean() - alpha * w.mean(axis=1)
             placed = beta[:, None] + alpha[:, None] * raw
             gap = points[None, :, None] - placed[:, None, :]
