@@ -4,8 +4,8 @@
   rejection, the batched evaluation and the index descriptors (chunks only, and the whole
   ``atlas build`` with HDF5 writing); per core, ``atlas build`` in-process, as 2 in-process
   builds side by side and on a local Dask cluster of 2 workers if ``dask.distributed`` is
-  installed (:func:`dask_comparison`); a sharded build in-process and on those workers, and the
-  parallel efficiency (:func:`shard_scaling`);
+  installed (:func:`dask_comparison`); a sharded build in-process and on those workers: the
+  parallel efficiency, the CPU-time efficiency and the busy fraction (:func:`shard_scaling`);
 * a query of the index of a 1,000,000-curve atlas (built in memory, chunk by chunk);
 * ``synthesize`` end to end (query, re-ranking, refinement of the best 5, final check) for
   targets drawn by held-out four-bars, against that atlas;
@@ -45,7 +45,7 @@ from linkedit.curves.sources import make_curve
 from linkedit.io.atomic import commit
 from linkedit.planar import catalog, compile_plan, simulate
 from linkedit.synthesis import atlas, bench_points, bench_scale, families, fourbar
-from linkedit.synthesis.cluster import local_cluster
+from linkedit.synthesis.cluster import connected, local_cluster, task_times
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.synthesize import MARGIN_DEG, synthesize
 
@@ -153,7 +153,7 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
                     runs[kind].append((seconds, sum(used), every, sum(cpu > 0.1 * seconds for cpu in used)))
                 else:
                     runs[kind].append((seconds, total, every, DASK_WORKERS))
-        shard_scaling(echo, cluster.scheduler_address, DASK_WORKERS, chunks, repeats, start)
+        shard_scaling(echo, cluster.scheduler_address, chunks, repeats, start)
     wall, cpu, others, cores = ({k: statistics.median(r[i] for r in v) for k, v in runs.items()} for i in range(4))
     per_core = {k: count / wall[k] / cores[k] for k in runs}
     echo(f"atlas build -n {count:,} (HDF5 written), per core = linkages/s / busy threads or processes; runs "
@@ -170,31 +170,65 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
          f"its own)")
 
 
-def shard_scaling(echo: Callable[[str], None], scheduler: str, workers: int, chunks: int, repeats: int,
-                  start: float) -> None:
+def _store_a_shard() -> None:
+    """A chunk of ten four-bars built and stored as a shard in a temporary folder: what a task of a sharded build
+    imports and sets up first."""
+    from linkedit.synthesis import shards
+
+    with tempfile.TemporaryDirectory() as tmp:
+        shards.store_chunks(tmp, "four-bar", 1, [(0, 10)])
+
+
+def shard_scaling(echo: Callable[[str], None], scheduler: str, chunks: int, repeats: int,
+                  start: float) -> dict[str, float]:
     """A sharded ``atlas build`` of ``chunks`` chunks of four-bars (each task stores its shard; the client writes
-    only the manifest): in-process and on the pre-started Dask cluster at ``scheduler`` of ``workers``
-    single-threaded workers (started in ``start`` seconds, apart), interleaved, medians of ``repeats``; the
-    parallel efficiency is the Dask rate over ``workers`` times the in-process rate."""
+    only the manifest): in-process and on the pre-started Dask cluster at ``scheduler`` (started in ``start``
+    seconds, apart), interleaved, medians of ``repeats``. The parallel efficiency is the Dask rate over the
+    worker threads times the in-process rate: a ratio of speeds, which means what it says only on an idle
+    machine. Two figures that hold on a shared one: the CPU-time efficiency, in-process CPU seconds over the
+    Dask run's (the worker processes' and this process's: the client, and a local cluster's scheduler), and the
+    busy fraction, the tasks' wall seconds (measured inside each, :func:`~linkedit.synthesis.cluster.task_times`)
+    over the worker threads times the run's wall seconds. Returns the medians (seconds: ``wall``, ``cpu`` of
+    in-process and ``dask_wall``, ``client``, ``workers``, ``tasks_cpu``, ``tasks_wall`` of Dask) and the
+    ``threads``."""
     from linkedit.synthesis import shards
 
     count = chunks * atlas.CHUNK
-    seconds: dict[str, list[float]] = {"in-process": [], "dask": []}
+    runs: dict[str, list[dict[str, float]]] = {"in-process": [], "dask": []}
     load = os.getloadavg()[0]
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, connected(scheduler) as (client, nthreads, _):
+        client.run(_store_a_shard)  # on every worker before the timing
         for _ in range(repeats):
-            for kind in seconds:
+            for kind in runs:
                 folder = Path(tmp) / kind
-                t0 = time.perf_counter()
-                shards.build(folder, ["four-bar"], count, seed=1, scheduler=scheduler if kind == "dask" else None)
-                seconds[kind].append(time.perf_counter() - t0)
+                before: dict[str, float] = client.run(time.process_time) if kind == "dask" else {}
+                with task_times() as tasks:
+                    wall, cpu = time.perf_counter(), time.process_time()
+                    shards.build(folder, ["four-bar"], count, seed=1, scheduler=scheduler if kind == "dask" else None)
+                    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+                after: dict[str, float] = client.run(time.process_time) if kind == "dask" else {}
+                runs[kind].append({"wall": wall, "cpu": cpu, "workers": sum(after[w] - before[w] for w in before),
+                                   "tasks_cpu": sum(t.cpu for t in tasks), "tasks_wall": sum(t.wall for t in tasks)})
                 shutil.rmtree(folder)
-    rate = {kind: count / statistics.median(times) for kind, times in seconds.items()}
+    threads = sum(nthreads.values())
+    here, dask = ({k: statistics.median(r[k] for r in v) for k in v[0]} for v in runs.values())
+    rate = {"in-process": count / here["wall"], "dask": count / dask["wall"]}
+    efficiency = here["cpu"] / (dask["workers"] + dask["cpu"])
+    busy = dask["tasks_wall"] / (threads * dask["wall"])
     echo(f"sharded atlas build -n {count:,} (workers write their shards, the client the manifest; {os.cpu_count()} "
          f"cores, load average {load:.2f} before, {os.getloadavg()[0]:.2f} after; medians of {repeats}): in-process "
-         f"{rate['in-process']:,.0f} linkages/s; {workers} local Dask workers (started once in {start:.1f} s, not "
+         f"{rate['in-process']:,.0f} linkages/s; {threads} local Dask workers (started once in {start:.1f} s, not "
          f"timed) {rate['dask']:,.0f} linkages/s: parallel efficiency "
-         f"{rate['dask'] / (workers * rate['in-process']):.0%} (target ≥ 85 % at 2 workers on 2 cores)")
+         f"{rate['dask'] / (threads * rate['in-process']):.0%} (target ≥ 85 % at 2 workers on 2 cores; a ratio of "
+         "speeds, meaningful on an idle machine)")
+    echo(f"  per CPU-second: in-process {here['cpu']:.2f} s (on {here['cpu'] / here['wall']:.2f} of a core); Dask workers {dask['workers']:.2f} s (their tasks "
+         f"{dask['tasks_cpu']:.2f} s) + client and scheduler {dask['cpu']:.2f} s: CPU-time efficiency "
+         f"{efficiency:.0%}; busy fraction {busy:.2f} (tasks' wall {dask['tasks_wall']:.2f} s over {threads} workers "
+         f"× {dask['wall']:.2f} s), the tasks ran on {dask['tasks_cpu'] / dask['tasks_wall']:.2f} of a core each "
+         "(the rest waiting for cores other processes held)")
+    return {"wall": here["wall"], "cpu": here["cpu"], "dask_wall": dask["wall"], "client": dask["cpu"],
+            "workers": dask["workers"], "tasks_cpu": dask["tasks_cpu"], "tasks_wall": dask["tasks_wall"],
+            "threads": threads}
 
 
 def chebyshev_straight_line(points: int) -> np.ndarray:

@@ -3,7 +3,8 @@ local cluster), and the checks of a scheduler address before anything is sent th
 
 A task runs a pure function of (family, seed, chunks) (:func:`linkedit.synthesis.chunks.build_chunks`,
 or :func:`linkedit.synthesis.shards.store_chunks`, which also stores each chunk as a shard), so the
-results are the same wherever it runs; the client reads them back in chunk order.
+results are the same wherever it runs; the client reads them back in chunk order, with each task's wall and
+CPU seconds on its worker (:func:`task_times`).
 """
 
 from __future__ import annotations
@@ -13,9 +14,10 @@ import itertools
 import logging
 import os
 import sys
+import time
 from collections import deque
 from collections.abc import Callable, Iterator
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 from linkedit.errors import InputError, LinkeditError
 from linkedit.synthesis.chunks import build_chunks
@@ -90,10 +92,44 @@ def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
             later = iter(runs)
             for part in runs:
                 for ahead_part in itertools.islice(later, ahead - len(futures)):
-                    futures.append(client.submit(task, name, seed, ahead_part, spec, pure=True))
-                yield from zip([index for index, _ in part], client.gather(futures.popleft(), direct=direct))
+                    futures.append(client.submit(_timed, task, name, seed, ahead_part, spec, pure=True))
+                results, took = client.gather(futures.popleft(), direct=direct)
+                for record in _RECORDS:
+                    record.append(took)
+                yield from zip([index for index, _ in part], results)
 
         yield run
+
+
+class TaskTime(NamedTuple):
+    """One Dask task's seconds, measured inside it on its worker: wall and CPU of the thread that ran it."""
+
+    wall: float
+    cpu: float
+
+
+def _timed(task: Task, name: str, seed: int, jobs: list[tuple[int, int]], spec: str | None
+           ) -> tuple[list[Any], TaskTime]:
+    """``task``'s results, with its :class:`TaskTime` (the chunks' build and, for a shard, its write)."""
+    wall, cpu = time.perf_counter(), time.thread_time()
+    results = task(name, seed, jobs, spec)
+    return results, TaskTime(time.perf_counter() - wall, time.thread_time() - cpu)
+
+
+#: the lists :func:`task_times` is filling
+_RECORDS: list[list[TaskTime]] = []
+
+
+@contextlib.contextmanager
+def task_times() -> Iterator[list[TaskTime]]:
+    """A list that gets the :class:`TaskTime` of every Dask task whose result this process reads inside the
+    block (builds in-process add nothing): what the bench's CPU-time efficiency and busy fraction are made of."""
+    record: list[TaskTime] = []
+    _RECORDS.append(record)
+    try:
+        yield record
+    finally:
+        _RECORDS[:] = [other for other in _RECORDS if other is not record]
 
 
 @contextlib.contextmanager
