@@ -53,13 +53,14 @@ def _variants(count: int) -> list[np.ndarray]:
     return [target_variants(fourbar.curves(row[None], 300, 0.1 * k)[0]) for k, row in enumerate(held)]
 
 
-@pytest.mark.parametrize("scan_limit", [10**6, 0], ids=["scanned whole", "stored quantizers"])
+@pytest.mark.parametrize("scan_limit", [10**6, 0], ids=["scanned whole", "family quantizer"])
 def test_the_cluster_search_equals_the_in_process_one(folder, cluster, scan_limit):
     """The shards searched on 2 workers, the union ranked on the client: the in-process search's hits (rows, and
-    squared distances to the in-process float32 rounding), whether the family is scanned whole or through its shards'
-    quantizers (2 runs of shards, as 2 in-process threads group them); the hits' params are the atlas's."""
+    squared distances to the in-process float32 rounding), whether the family is scanned whole or through its
+    quantizer (each run of shards scans the rows of the cells the in-process query probes); the hits' params are the
+    atlas's."""
     book = shards.load(folder)
-    local = Index(book, scan_limit=scan_limit, threads=2)
+    local = Index(book, scan_limit=scan_limit)
     with remote_atlas(folder, cluster.scheduler_address, scan_limit=scan_limit) as (remote, index):
         assert remote.size == book.size == 7500
         for v in _variants(6):
@@ -221,7 +222,7 @@ def test_a_query_goes_to_the_worker_holding_its_shards(folder, cluster):
     from dask.distributed import Client
 
     v = _variants(1)[0]
-    local = [h.row for h in Index(shards.load(folder), threads=2).query(v, 10)]
+    local = [h.row for h in Index(shards.load(folder)).query(v, 10)]
     with remote_atlas(folder, cluster.scheduler_address) as (_, index):
         assert [h.row for h in index.query(v, 10)] == local
     with Client(cluster.scheduler_address) as client:
@@ -241,7 +242,7 @@ def test_a_query_pinned_to_a_worker_that_left_runs_elsewhere(folder, cluster, mo
 
     monkeypatch.setattr(shard_search, "REPIN_CHECK", 0.2)
     v = _variants(1)[0]
-    local = [h.row for h in Index(shards.load(folder), threads=2).query(v, 10)]
+    local = [h.row for h in Index(shards.load(folder)).query(v, 10)]
     with remote_atlas(folder, cluster.scheduler_address) as (book, index):
         gone = shard_search.ClusterIndex(index.client, {"tcp://127.0.0.1:9": 1} | index.client.nthreads(), folder,
                                          shards.read_manifest(folder), book, index.direct)

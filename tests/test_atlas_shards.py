@@ -1,5 +1,5 @@
 """Sharded atlases: workers write their shards, a Dask build equals the in-process one, an interrupted
-build resumes to the same atlas, a query over the shards' stored quantizers equals the exact scan."""
+build resumes to the same atlas, a query through the family's quantizer over the shards equals the exact scan."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from linkedit.synthesis import atlas, chunks, fourbar, shards
-from linkedit.synthesis.index import Index, nearest_rows, stored_lists, target_variants
+from linkedit.synthesis.index import Index, nearest_rows, target_variants
 
 SMALL = 1000  # linkages per chunk in these tests (a chunk is a pure function of its index and size)
 
@@ -34,8 +34,7 @@ def _build(run_cli, out, count, *args):
 
 def _shard_arrays(folder, entry) -> dict[str, np.ndarray]:
     with h5py.File(folder / entry["file"]) as f:
-        return {key: f[key][()] for key in ("params", "min_ds", "index", "lists/centroids", "lists/order",
-                                            "lists/offsets")}
+        return {key: f[key][()] for key in ("params", "min_ds", "index", "cell")}
 
 
 def test_a_sharded_dask_build_equals_the_in_process_build(run_cli, tmp_path, small_chunks, cluster):
@@ -82,7 +81,7 @@ def test_a_killed_build_resumes_to_the_same_atlas(run_cli, tmp_path, small_chunk
     cut = json.loads((out / shards.MANIFEST).read_text())
     listed = [e["chunk"] for e in cut["families"]["four-bar"]["shards"]]
     assert listed == [0, 1, 2] and cut["build"] == {"count": count, "families": ["four-bar"]}
-    assert sorted(p.name for p in (out / "four-bar").iterdir()) == [f"{k:08d}.h5" for k in listed]
+    assert sorted(p.name for p in (out / "four-bar").iterdir()) == [f"{k:08d}.h5" for k in listed] + ["quantizer.h5"]
     assert cut["families"]["four-bar"]["pending"] == [[3, SMALL], [4, SMALL], [5, SMALL], [6, 200]]
     monkeypatch.setattr(shards, "build_chunk", build_chunk)
     again = run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", out, "--seed", "8")
@@ -100,14 +99,20 @@ def test_a_killed_build_resumes_to_the_same_atlas(run_cli, tmp_path, small_chunk
 
 
 def test_a_query_over_shards_equals_the_exact_scan(run_cli, tmp_path, small_chunks):
-    """Every cell of every shard scanned: the exact scan's rows and distances; the default probe finds the
-    exact top 10 of held-out targets; `synthesize --atlas FOLDER` recovers a held-out four-bar."""
-    _build(run_cli, tmp_path / "folder", 8 * SMALL)
+    """The family's one quantizer (C = side² cells for its first build; an append keeps it), each shard's rows
+    in its cells: every cell scanned gives the exact scan's rows and distances; the default probe finds the exact
+    top 10 of held-out targets; `synthesize --atlas FOLDER` recovers a held-out four-bar."""
+    first = _build(run_cli, tmp_path / "folder", 5 * SMALL)["families"]["four-bar"]["quantizer"]
+    side = round(np.sqrt(2 * np.sqrt(5 * SMALL)))
+    assert first["cells"] == side**2 == 144
+    assert _build(run_cli, tmp_path / "folder", 3 * SMALL)["families"]["four-bar"]["quantizer"] == first
     book = shards.load(tmp_path / "folder", threads=2)
     arrays = book.families["four-bar"]
-    groups = stored_lists(arrays, 3)
-    assert [g.parts for g in groups] == [3, 3, 2]
-    index = Index(book, scan_limit=0, threads=2)
+    assert arrays["centroids"].shape == (144, shards.WIDTH) and arrays["cell"].shape == (8 * SMALL,)
+    index = Index(book, scan_limit=0)
+    lists = index.lists[0]
+    assert lists is not None
+    np.testing.assert_array_equal(np.diff(lists.offsets), np.bincount(arrays["cell"], minlength=144))
     vectors = arrays["index"]
     columns, norms = np.ascontiguousarray(vectors.T), np.einsum("kd,kd->k", vectors, vectors)
     held = atlas.build_chunk("four-bar", 990, 0, 20).params
@@ -115,11 +120,9 @@ def test_a_query_over_shards_equals_the_exact_scan(run_cli, tmp_path, small_chun
     for k, row in enumerate(held):
         v = target_variants(fourbar.curves(row[None], 300, 0.1 * k)[0])
         truth, d2 = nearest_rows(v, columns, norms, 10)
-        found = [g.query(v, 10, probe=10**6) for g in groups]
-        rows, dist = (np.concatenate(part) for part in zip(*found))
-        best = np.argsort(dist, kind="stable")[:10]
-        np.testing.assert_allclose(dist[best], d2, atol=1e-5)  # float32 near-ties may swap rows
-        assert set(rows[best[dist[best] < d2[-1] - 1e-5]]) <= set(truth)
+        rows, dist = lists.query(v, 10, probe=10**6)
+        np.testing.assert_allclose(dist, d2, atol=1e-5)  # float32 near-ties may swap rows
+        assert set(rows[dist < d2[-1] - 1e-5]) <= set(truth)
         recall.append(len({h.row for h in index.query(v, 10)} & set(truth.tolist())) / 10)
     assert np.mean(recall) >= 0.95, recall
     result = run_cli("synthesize", _target(tmp_path), "--atlas", tmp_path / "folder", "-o", tmp_path / "out", "--top", "1")
@@ -160,7 +163,8 @@ def test_the_manifest_bookkeeping_is_linear_in_the_shards(tmp_path, monkeypatch)
         folder.mkdir()
         manifest = shards._new_manifest(8)
         jobs = manifest["families"]["four-bar"] = shards._new_family("four-bar")
-        jobs.update(chunks=n, pending=[[k, 10] for k in range(n)])
+        jobs.update(chunks=n, pending=[[k, 10] for k in range(n)],
+                    quantizer={"file": "four-bar/quantizer.h5", "cells": 16, "sha256": "0" * 64})
         manifest["build"] = {"count": 10 * n, "families": ["four-bar"]}
         start = time.perf_counter()
         with contextlib.suppress(KeyboardInterrupt):
@@ -170,3 +174,17 @@ def test_the_manifest_bookkeeping_is_linear_in_the_shards(tmp_path, monkeypatch)
         done = n if stop is None else cut
         assert [s["chunk"] for s in saved["shards"]] == list(range(done))
         assert saved["pending"] == [[k, 10] for k in range(done, n)]
+
+
+def test_a_format_2_atlas_is_refused_with_a_rebuild_message(run_cli, tmp_path, small_chunks):
+    """A sharded atlas of format 2 (a quantizer per shard, before the family's one quantizer): `synthesize`
+    refuses it in one line telling the user to rebuild it (exit 2), and so does an append to it."""
+    out = tmp_path / "old"
+    manifest = _build(run_cli, out, SMALL)
+    manifest["format_version"] = "2"
+    (out / shards.MANIFEST).write_text(json.dumps(manifest))
+    for result in (run_cli("synthesize", _target(tmp_path), "--atlas", out, "-o", tmp_path / "syn"),
+                   run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", out, "--seed", "8")):
+        assert result.exit_code == 2, result.output
+        line = result.output.strip().splitlines()[-1]
+        assert "format 2" in line and "rebuild it" in line and "Traceback" not in result.output

@@ -1,9 +1,9 @@
 """The query at scale (``linkedit bench -s synthesis --large N``): a sharded atlas of N four-bars built and searched.
 
 Opt-in (10,000,000 four-bars take minutes to build on 2 cores). Prints the bytes per linkage (stored and
-measured on disk), the query time through the shards' stored quantizers at 1,000,000 curves (the atlas's
-first 100 shards) and at N, in-process (threads) and on a local Dask cluster (the workers keep their shards
-between queries), the recall of the exact top 10 at N, and the query time extrapolated to 100,000,000 curves.
+measured on disk), the query time through the family's quantizer at 1,000,000 curves (the atlas's first 100
+shards) and at N, in-process and on a local Dask cluster (the workers keep their shards between queries), the
+recall of the exact top 10 at N, and the query time extrapolated to 100,000,000 curves by the rows it scans.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import numpy as np
 from linkedit.synthesis import fourbar, shards
 from linkedit.synthesis.atlas import Atlas, stored_bytes
 from linkedit.synthesis.chunks import CHUNK, build_chunk
-from linkedit.synthesis.index import PROBE, Index, nearest_rows, target_variants
+from linkedit.synthesis.index import PROBE, Index, Lists, nearest_rows, quantizer_side, target_variants
 from linkedit.synthesis.shard_search import ClusterIndex, remote_atlas
 
 #: Curves the extrapolation aims at, and the issue's target for a query over them.
@@ -36,10 +36,18 @@ TARGETS = 50
 
 def _first(book: Atlas, folder: Path, shard_count: int) -> Atlas:
     """The atlas of the first ``shard_count`` shards of the four-bar family of ``folder``."""
-    manifest = shards.read_manifest(folder)
-    parts = [shards.read_shard(folder, "four-bar", manifest["seed"], s)
-             for s in manifest["families"]["four-bar"]["shards"][:shard_count]]
-    return Atlas(folder, {"four-bar": shards.merge(parts)}, book.seed)
+    entry = shards.read_manifest(folder)["families"]["four-bar"]
+    parts = [shards.read_shard(folder, "four-bar", book.seed, entry["quantizer"]["cells"], s)
+             for s in entry["shards"][:shard_count]]
+    return Atlas(folder, {"four-bar": shards.merge(parts) | {"centroids": book.families["four-bar"]["centroids"]}},
+                 book.seed)
+
+
+def _scanned(index: Index, variants: list[np.ndarray]) -> float:
+    """Mean rows a query of ``index`` (one family, through its quantizer) scans: those of its probed cells."""
+    lists = index.lists[0]
+    assert isinstance(lists, Lists)
+    return float(np.mean([np.sum(np.diff(lists.offsets)[lists.probed(v)]) for v in variants]))
 
 
 def _median_query(index: Index | ClusterIndex, variants: list[np.ndarray]) -> float:
@@ -76,8 +84,11 @@ def run(echo: Callable[[str], None], count: int, workers: int = 2, scheduler: st
         book = shards.load(folder)
         t_load = time.perf_counter() - t0
         index = Index(book, scan_limit=0)
-        t_large = _median_query(index, variants)
-        t_small = _median_query(Index(_first(book, folder, -(-small // CHUNK)), scan_limit=0), variants)
+        t_large, rows_large = _median_query(index, variants), _scanned(index, variants)
+        head = Index(_first(book, folder, -(-small // CHUNK)), scan_limit=0)
+        t_small, rows_small = _median_query(head, variants), _scanned(head, variants)
+        cells = len(book.families["four-bar"]["centroids"])
+        del head
         vectors = book.families["four-bar"]["index"]
         columns, norms = np.ascontiguousarray(vectors.T), np.einsum("kd,kd->k", vectors, vectors)
         recall = [len(set(nearest_rows(v, columns, norms, 10)[0].tolist()) & {h.row for h in index.query(v, 10)}) / 10
@@ -92,25 +103,29 @@ def run(echo: Callable[[str], None], count: int, workers: int = 2, scheduler: st
                 remote = (f"{1e3 * _median_query(far, variants):.0f} ms median ({workers} workers; the first query, "
                           f"reading the shards onto the workers, {first:.1f} s)")
     cores = os.cpu_count() or 1
-    if count > small:  # the time grows linearly with the shards: the line through both figures
-        per = (t_large - t_small) / (count - small)
-        basis = f"the line through the {small:,} and {count:,} figures, {1e9 * per:.1f} ms per million"
+    # the time grows with the rows scanned, N/C·(a probed cell's share): the line through both figures
+    if count > small and rows_large > rows_small:
+        per = (t_large - t_small) / (rows_large - rows_small)
+        basis = (f"the line through the {small:,} and {count:,} figures ({rows_small:,.0f} and {rows_large:,.0f} rows "
+                 f"scanned), {1e9 * per:.0f} ms per million rows scanned")
     else:
-        per = t_large / count
-        basis = f"proportional to the {count:,} figure (give --large above {SMALL:,} for the line through two)"
-    t_100m = t_large + per * (HUNDRED_MILLION - count)
+        per = t_large / rows_large
+        basis = f"proportional to the {count:,} figure's {rows_large:,.0f} rows (give --large above {SMALL:,} for a line)"
+    big_cells = quantizer_side(HUNDRED_MILLION) ** 2
+    rows_100m = rows_large * HUNDRED_MILLION / count * cells / big_cells  # a 100M build's quantizer: big_cells
+    t_100m = t_large + per * (rows_100m - rows_large)
     echo(f"query at scale, sharded atlas of {count:,} four-bars ({cores} cores, load average {load:.2f} before, "
          f"{os.getloadavg()[0]:.2f} after): built in {t_build:.0f} s ({count / t_build:,.0f} linkages/s, "
          f"{f'{workers} Dask workers' if address else 'in-process'}), {on_disk / count:.0f} bytes per linkage on "
          f"disk ({shards.shard_bytes('four-bar')} stored + HDF5 overhead; an atlas file: "
          f"{stored_bytes('four-bar')}), loaded in {t_load:.1f} s")
-    echo(f"  query through the shards' quantizers in {cores} threads, median of {TARGETS} held-out targets: "
+    echo(f"  query through the family's quantizer ({cells:,} cells, {PROBE} probed), median of {TARGETS} held-out targets: "
          f"{f'{1e3 * t_small:.0f} ms at {small:,}, ' if count > small else ''}{1e3 * t_large:.0f} ms at {count:,} "
          f"(recall of the exact top 10 "
          f"{np.mean(recall):.3f}, target ≥ 0.99); on the cluster at {count:,}: {remote}")
     echo(f"  extrapolated to {HUNDRED_MILLION:,}: {t_100m:.2f} s in-process on these {cores} cores (target ≤ "
-         f"{LARGE_QUERY_TARGET:g} s), on c cores or worker threads ≈ {t_100m * cores:.1f} s / c — basis: the time "
-         f"grows linearly with the shards searched (each: its {shards.shard_cells(CHUNK)} centroids and "
-         f"{PROBE} cells ≈ {PROBE * CHUNK // shards.shard_cells(CHUNK):,} rows scanned) and divides among "
-         f"threads that scale: {basis}; memory in-process ≈ 300 bytes per linkage (30 GB at 100M: specs/atlas-hdf5.md), spread "
-         f"over the workers on a cluster")
+         f"{LARGE_QUERY_TARGET:g} s) — basis: the time grows with the rows of the {PROBE} probed cells, "
+         f"{basis}; a 100,000,000 build's quantizer has {big_cells:,} cells, so ≈ {rows_100m:,.0f} rows scanned "
+         f"(the {count:,} figure's × {HUNDRED_MILLION // count} × {cells:,}/{big_cells:,}; its {big_cells:,} "
+         f"centroids add < 1 ms); memory in-process ≈ 300 bytes per linkage (30 GB at 100M: specs/atlas-hdf5.md), "
+         f"spread over the workers on a cluster")

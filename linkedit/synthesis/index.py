@@ -11,15 +11,14 @@ A family of more than :data:`SCAN_LIMIT` linkages is searched through :class:`Li
 quantizer (k-means cells of the descriptors; each query scans the cells nearest to any of its
 variants, then ranks those linkages exactly): the scanned fraction, not the atlas, sets the
 time, with the exact top-10 found ≥ 99 % of the time (``linkedit bench -s synthesis`` measures
-the recall). A sharded atlas (:mod:`linkedit.synthesis.shards`) stores each shard's quantizer, trained
-by the worker that built the shard; the query searches groups of shards in threads and ranks the
-union of their candidates exactly.
+the recall). A sharded atlas (:mod:`linkedit.synthesis.shards`) has one quantizer per family
+(:func:`train_quantizer`, two levels so a shard's rows are assigned cheaply: :func:`assign`), and each
+shard stores its rows' cells: the query probes the :data:`PROBE` cells nearest to the target over the
+whole family, so its work grows with the rows of those cells, not with the number of shards.
 """
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,8 +48,8 @@ def target_variants(z: np.ndarray) -> np.ndarray:
 #: families up to this many linkages are scanned whole (1M in ≤ 50 ms); larger ones through :class:`Lists`
 SCAN_LIMIT = 2_000_000
 #: cells a query scans (of ~2·√K; those nearest to any variant of the target): the exact top-10 is found
-#: ≥ 99 % of the time (0.991 on 300,000 four-bars; a shard of √K cells: this many per shard, 0.997)
-PROBE = 32
+#: ≥ 99 % of the time (of 400,000 four-bars: 0.996 in 1,296 cells, 0.993 in 16,384; 32 cells: 0.987 in 16,384)
+PROBE = 64
 
 
 def nearest_rows(variants: np.ndarray, columns: np.ndarray, norms: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
@@ -96,20 +95,67 @@ def _cells_of(vectors: np.ndarray, cells: int | None, seed: int) -> tuple[np.nda
         size = np.bincount(cell, minlength=cells)
         full = size > 0
         centroids[full] = sums[full] / size[full, None]
-    cell = _nearest(vectors, centroids)
+    return (centroids, *grouped(_nearest(vectors, centroids), cells))
+
+
+def grouped(cell: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rows (K,) grouped by their ``cell`` (K,) of ``cells``, and each cell's start in that order (C + 1,)."""
     rows = np.argsort(cell, kind="stable")
-    return centroids, rows, np.searchsorted(cell[rows], np.arange(cells + 1))
+    return rows, np.searchsorted(cell[rows], np.arange(cells + 1))
+
+
+#: Most top cells of a sharded family's quantizer, and leaves per top cell (16,384 cells at most).
+MAX_SIDE = 128
+#: Sample rows per cell a quantizer is trained on.
+SAMPLE_PER_CELL = 16
+
+
+def quantizer_side(count: int) -> int:
+    """Top cells (and leaves per top cell) of the quantizer of a sharded family first built with ``count``
+    linkages: C = side² ≈ 2·√count cells (as :func:`cells_of`), side from 4 to :data:`MAX_SIDE`."""
+    return int(np.clip(round(np.sqrt(2.0 * np.sqrt(count))), 4, MAX_SIDE))
+
+
+def train_quantizer(sample: np.ndarray, side: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """A two-level quantizer of descriptors ``sample`` (S, D): ``side`` top k-means centroids (T, D) float32 and
+    ``side`` leaves per top cell (T·T, D) float32, the k-means centroids of the sample's rows in it (a top cell of
+    fewer rows than ``side`` repeats its centroid; such leaves stay empty). Leaf t·T + l is cell l of top cell t."""
+    with single_threaded():
+        top, rows, offsets = _cells_of(sample, side, seed)
+        top = np.concatenate([top, np.repeat(top[-1:], side - len(top), axis=0)])  # a sample of fewer rows
+        leaves = np.repeat(top, side, axis=0)
+        for t in range(len(offsets) - 1):  # a loop over the top cells, not the rows
+            members = sample[rows[offsets[t]:offsets[t + 1]]]
+            if len(members):
+                found = _cells_of(members, side, seed + 1 + t)[0]
+                leaves[t * side:t * side + len(found)] = found
+    return top, leaves
+
+
+def assign(vectors: np.ndarray, top: np.ndarray, leaves: np.ndarray) -> np.ndarray:
+    """The cell (K,) of each of ``vectors`` (K, D) in the quantizer (``top``, ``leaves``: :func:`train_quantizer`):
+    the nearest leaf of its nearest top cell (2·side products per row, not side²)."""
+    side = len(leaves) // len(top)
+    with single_threaded():
+        rows, offsets = grouped(_nearest(vectors, top), len(top))
+        cell = np.empty(len(vectors), dtype=np.int64)
+        for t in range(len(top)):
+            part = rows[offsets[t]:offsets[t + 1]]
+            if len(part):
+                cell[part] = t * side + _nearest(vectors[part], leaves[t * side:(t + 1) * side])
+    return cell
 
 
 class Lists:
     """Inverted lists of descriptors ``vectors`` (K, D): ``centroids`` (C, D), ``rows`` (atlas rows
-    grouped by cell) and ``offsets`` (C + 1,) into them, as :func:`cells_of` makes them (or several
-    shards' lists concatenated: ``parts`` of them). :meth:`query` scans the cells nearest to each
-    variant and ranks those rows exactly (:func:`nearest_rows`)."""
+    grouped by cell) and ``offsets`` (C + 1,) into them, as :func:`cells_of` makes them (or as a sharded
+    family's cells give them: :meth:`of_cells`). :meth:`query` scans the cells nearest to each variant and
+    ranks those rows exactly (:func:`nearest_rows`)."""
 
-    def __init__(self, vectors: np.ndarray, centroids: np.ndarray, rows: np.ndarray, offsets: np.ndarray,
-                 parts: int = 1) -> None:
-        self.centroids, self.rows, self.offsets, self.parts = centroids, rows, offsets, parts
+    def __init__(self, vectors: np.ndarray, centroids: np.ndarray, rows: np.ndarray, offsets: np.ndarray) -> None:
+        self.centroids, self.rows, self.offsets = centroids, rows, offsets
+        self.centroid_columns = np.ascontiguousarray(centroids.T)
+        self.centroid_norms = np.einsum("cd,cd->c", centroids, centroids)
         ordered = vectors[rows]
         self.columns = np.ascontiguousarray(ordered.T)
         self.norms = np.einsum("kd,kd->k", ordered, ordered)
@@ -119,15 +165,25 @@ class Lists:
         """Lists of ``vectors`` with a quantizer trained on them (:func:`cells_of`)."""
         return cls(vectors, *cells_of(vectors, cells, seed))
 
+    @classmethod
+    def of_cells(cls, vectors: np.ndarray, centroids: np.ndarray, cell: np.ndarray) -> Lists:
+        """Lists of ``vectors`` (K, D) whose rows lie in cells ``cell`` (K,) of ``centroids`` (C, D)."""
+        return cls(vectors, centroids, *grouped(cell, len(centroids)))
+
+    def probed(self, variants: np.ndarray, probe: int | None = None) -> np.ndarray:
+        """The ``probe`` cells (:data:`PROBE` by default) nearest to any of ``variants`` (V, D), in order."""
+        d2 = self.centroid_norms - 2.0 * (variants @ self.centroid_columns).max(axis=0)
+        p = min(probe or PROBE, len(d2))
+        return np.sort(np.argpartition(d2, p - 1)[:p])
+
     def query(self, variants: np.ndarray, count: int, probe: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Rows (atlas order) and squared distances less |q|², nearest first (see :func:`nearest_rows`):
-        the ``probe`` cells nearest to any variant are scanned (:data:`PROBE` per part by default)."""
-        d2 = np.einsum("cd,cd->c", self.centroids, self.centroids) - 2.0 * (variants @ self.centroids.T).max(axis=0)
-        p = min(probe or PROBE * self.parts, len(d2))
-        cells = np.sort(np.argpartition(d2, p - 1)[:p])  # nearest to any variant
-        spans = [np.arange(self.offsets[c], self.offsets[c + 1]) for c in cells]
-        at = np.concatenate(spans) if spans else np.zeros(0, dtype=int)
-        found, dist = nearest_rows(variants, self.columns[:, at], self.norms[at], count)
+        the ``probe`` cells nearest to any variant are scanned (:data:`PROBE` by default)."""
+        with single_threaded():  # small products (~10⁴–10⁵ rows): OpenBLAS's threads cost 2–5× on a loaded machine
+            cells = self.probed(variants, probe)
+            spans = [np.arange(self.offsets[c], self.offsets[c + 1]) for c in cells]
+            at = np.concatenate(spans) if spans else np.zeros(0, dtype=int)
+            found, dist = nearest_rows(variants, self.columns[:, at], self.norms[at], count)
         return self.rows[at[found]], dist
 
 
@@ -140,41 +196,24 @@ def _nearest(vectors: np.ndarray, centroids: np.ndarray, block: int = 32768) -> 
     return out
 
 
-def stored_lists(arrays: dict[str, np.ndarray], groups: int) -> list[Lists]:
-    """A sharded family's stored quantizer (``centroids``, ``order``, ``offsets`` and each shard's cell
-    count ``cells``, concatenated over its shards: :func:`linkedit.synthesis.shards.load`) as ``groups``
-    :class:`Lists` of consecutive shards, searched side by side."""
-    cells = arrays["cells"]
-    bounds = np.concatenate([[0], np.cumsum(cells)])
-    out = []
-    for part in np.array_split(np.arange(len(cells)), min(groups, len(cells))):
-        c0, c1 = bounds[part[0]], bounds[part[-1] + 1]
-        r0, r1 = arrays["offsets"][c0], arrays["offsets"][c1]
-        out.append(Lists(arrays["index"], arrays["centroids"][c0:c1], arrays["order"][r0:r1],
-                         arrays["offsets"][c0:c1 + 1] - r0, parts=len(part)))
-    return out
-
-
 class Index:
     """An atlas's index descriptors, ready for queries: scanned whole, or for a family of more than
-    ``scan_limit`` linkages through :class:`Lists` — a sharded atlas's stored ones, in ``threads`` groups
-    of shards searched by as many threads, else one trained here."""
+    ``scan_limit`` linkages through :class:`Lists` — a sharded family's stored quantizer and cells, else
+    one trained here."""
 
-    def __init__(self, atlas: Atlas, scan_limit: int = SCAN_LIMIT, threads: int | None = None) -> None:
+    def __init__(self, atlas: Atlas, scan_limit: int = SCAN_LIMIT) -> None:
         self.names = list(atlas.families)
-        threads = threads or os.cpu_count() or 1
-        self.lists: list[list[Lists] | None] = []
+        self.lists: list[Lists | None] = []
         self.columns: list[np.ndarray | None] = []
         self.norms: list[np.ndarray | None] = []
         for name in self.names:
             arrays = atlas.families[name]
             v = arrays["index"]
             scanned = len(v) <= scan_limit
-            self.lists.append(None if scanned else stored_lists(arrays, threads) if "centroids" in arrays
-                              else [Lists.trained(v)])
+            self.lists.append(None if scanned else Lists.of_cells(v, arrays["centroids"], arrays["cell"])
+                              if "cell" in arrays else Lists.trained(v))
             self.norms.append(np.einsum("kd,kd->k", v, v) if scanned else None)
             self.columns.append(np.ascontiguousarray(v.T) if scanned else None)  # (D, K): the product runs along K
-        self.pool = ThreadPoolExecutor(threads) if any(ls and len(ls) > 1 for ls in self.lists) else None
 
     def query(self, variants: np.ndarray, count: int) -> list[Hit]:
         """The ``count`` nearest linkages over all families, nearest first."""
@@ -182,12 +221,7 @@ class Index:
         hits: list[Hit] = []
         for name, columns, norm, lists in zip(self.names, self.columns, self.norms, self.lists):
             if lists is not None:
-                with single_threaded():  # one BLAS thread per search thread
-                    found = list(self.pool.map(lambda ls: ls.query(variants, count), lists)) if self.pool else \
-                        [ls.query(variants, count) for ls in lists]
-                rows, d2 = (np.concatenate(part) for part in zip(*found))
-                best = np.argsort(d2, kind="stable")[:count]
-                rows, d2 = rows[best], d2[best]
+                rows, d2 = lists.query(variants, count)
             else:
                 assert columns is not None and norm is not None  # scanned whole
                 rows, d2 = nearest_rows(variants, columns, norm, count)

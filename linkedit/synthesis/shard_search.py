@@ -4,8 +4,8 @@ The client reads only the manifest. Each family's shards are cut into runs of co
 Dask task per run and worker thread (:func:`search_shards`): the worker reads its shards from the atlas
 folder (a file system every worker sees at the same path, as for the build), keeps them for the next
 query, and searches them as :class:`linkedit.synthesis.index.Index` searches them in-process: a family of
-up to :data:`~linkedit.synthesis.index.SCAN_LIMIT` linkages is scanned whole, a larger one through its
-shards' stored quantizers. Each task sends back its ``count`` best rows with their descriptors and
+up to :data:`~linkedit.synthesis.index.SCAN_LIMIT` linkages is scanned whole, a larger one through the
+family's quantizer: each task scans the probed cells' rows of its own shards. Each task sends back its ``count`` best rows with their descriptors and
 parameters; the client ranks the union exactly (:func:`~linkedit.synthesis.index.nearest_rows` in float64),
 so a small atlas gives the in-process search's hits (whose float32 squared distances are within 1e-6).
 Memory on the client: the manifest and the hits.
@@ -26,43 +26,45 @@ from linkedit.synthesis.atlas import Atlas
 from linkedit.synthesis.chunks import dimension
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, connected
 from linkedit.synthesis.families import family
-from linkedit.synthesis.index import SCAN_LIMIT, Hit, nearest_rows, stored_lists
-from linkedit.synthesis.shards import MANIFEST, merge, read_manifest, read_shard
+from linkedit.synthesis.index import SCAN_LIMIT, Hit, Lists, nearest_rows
+from linkedit.synthesis.shards import MANIFEST, merge, read_manifest, read_quantizer, read_shard
 
 #: Shard runs a worker keeps read between queries (a worker of a cluster serves many ``synthesize`` runs).
 KEEP = 64
 _kept: OrderedDict[tuple[Any, ...], dict[str, Any]] = OrderedDict()
 
 
-def _prepared(folder: str, name: str, spec: str | None, seed: int, shards: list[dict[str, Any]],
-              exact: bool) -> dict[str, Any]:
-    """The shards ``shards`` of family ``name`` (``spec``: a spec family's text) read and checked from
-    ``folder``, ready to search: kept for the next query on this worker (the :data:`KEEP` runs used last)."""
-    key = (folder, name, seed, exact, tuple(s["sha256"] for s in shards))
+def _prepared(folder: str, name: str, spec: str | None, seed: int, quantizer: dict[str, Any],
+              shards: list[dict[str, Any]], exact: bool) -> dict[str, Any]:
+    """The shards ``shards`` of family ``name`` (``spec``: a spec family's text; ``quantizer``: its manifest entry)
+    read and checked from ``folder``, ready to search: kept for the next query on this worker (the :data:`KEEP` runs
+    used last)."""
+    key = (folder, name, seed, exact, quantizer["sha256"], tuple(s["sha256"] for s in shards))
     if key in _kept:
         _kept.move_to_end(key)
         return _kept[key]
     family(name, spec=spec)  # a spec family is made on the worker from its text
-    arrays = merge([read_shard(Path(folder), name, seed, shard) for shard in shards])
+    arrays = merge([read_shard(Path(folder), name, seed, quantizer["cells"], shard) for shard in shards])
     v = arrays["index"]
     ready: dict[str, Any] = {"index": v, "params": arrays["params"]}
     if exact:
         ready["columns"], ready["norms"] = np.ascontiguousarray(v.T), np.einsum("kd,kd->k", v, v)
     else:
-        ready["lists"] = stored_lists(arrays, 1)[0]
+        ready["lists"] = Lists.of_cells(v, read_quantizer(Path(folder), name, quantizer)[1], arrays["cell"])
     _kept[key] = ready
     while len(_kept) > KEEP:
         _kept.popitem(last=False)
     return ready
 
 
-def search_shards(folder: str, name: str, spec: str | None, seed: int, shards: list[dict[str, Any]], base: int,
-                  variants: np.ndarray, count: int, exact: bool) -> dict[str, np.ndarray]:
+def search_shards(folder: str, name: str, spec: str | None, seed: int, quantizer: dict[str, Any],
+                  shards: list[dict[str, Any]], base: int, variants: np.ndarray, count: int,
+                  exact: bool) -> dict[str, np.ndarray]:
     """One Dask task: the ``count`` rows of the run of shards ``shards`` (manifest entries, consecutive; its first
     row is atlas row ``base`` of the family; ``spec``: a spec family's text) nearest to any of ``variants`` (V, D):
     their atlas rows (n,), index descriptors (n, D) and parameters (n, P). ``exact``: every row scanned, else the
-    shards' quantizers."""
-    ready = _prepared(folder, name, spec, seed, shards, exact)
+    probed cells of the family's quantizer (``quantizer``: its manifest entry)."""
+    ready = _prepared(folder, name, spec, seed, quantizer, shards, exact)
     if exact:
         rows, _ = nearest_rows(variants, ready["columns"], ready["norms"], count)
     else:
@@ -102,6 +104,7 @@ class ClusterIndex:
         self.runs: dict[str, list[tuple[list[dict[str, Any]], int]]] = {}
         self.exact: dict[str, bool] = {}
         self.specs = {name: manifest["families"][name]["spec"] for name in atlas.families}
+        self.quantizers = {name: manifest["families"][name]["quantizer"] for name in atlas.families}
         for name in atlas.families:
             shards = manifest["families"][name]["shards"]
             bases = np.cumsum([0] + [s["rows"] for s in shards])
@@ -112,8 +115,9 @@ class ClusterIndex:
     def query(self, variants: np.ndarray, count: int) -> list[Hit]:
         """The ``count`` nearest linkages over all families, nearest first (exactly ranked on the client)."""
         q2 = float(np.sum(variants[0].astype(float) ** 2))
-        calls = {name: [(self.slots[k % len(self.slots)], (self.folder, name, self.specs[name], self.seed, shards, base,
-                                                            variants, count, self.exact[name]))
+        calls = {name: [(self.slots[k % len(self.slots)], (self.folder, name, self.specs[name], self.seed,
+                                                            self.quantizers[name], shards, base, variants, count,
+                                                            self.exact[name]))
                         for k, (shards, base) in enumerate(runs)]
                  for name, runs in self.runs.items()}
         futures = {name: [self.client.submit(search_shards, *args, pure=False, workers=worker) for worker, args in part]

@@ -1,8 +1,9 @@
 """Sharded atlases: a folder of HDF5 shards, one per chunk, and a manifest listing the complete ones.
 
 The task that builds a chunk also stores it (:func:`store_chunks`, in-process or on a Dask worker):
-its parameters, smallest d_s, index descriptors and the chunk's own coarse quantizer
-(:func:`linkedit.synthesis.index.cells_of`), written atomically. The client collects only each shard's
+its parameters, smallest d_s, index descriptors and each row's cell of the family's quantizer
+(:func:`linkedit.synthesis.index.assign`; the quantizer is trained once, by the client, when the family's first
+build starts: :func:`write_quantizer`), written atomically. The client collects only each shard's
 entry (chunk, rows, checksum) into ``manifest.json``, rewritten atomically every few seconds and
 whenever the build stops, so an interrupted build leaves complete shards and a manifest of only
 those, and ``--resume`` builds the chunks it still lists as pending. Curves are not stored: they are
@@ -17,7 +18,7 @@ import re
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from functools import partial
+from functools import lru_cache, partial
 from pathlib import Path
 from typing import Any
 
@@ -34,9 +35,11 @@ from linkedit.synthesis.atlas import load as load_file
 from linkedit.synthesis.chunks import CHUNK, HARMONICS, SAMPLES, Chunk, build_chunk, build_memory, chunk_sizes
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, chunk_runner
 from linkedit.synthesis.families import SPEC_TEXTS, family
-from linkedit.synthesis.index import cells_of
+from linkedit.synthesis.index import SAMPLE_PER_CELL, assign, quantizer_side, train_quantizer
 
-FORMAT_VERSION = "2"
+FORMAT_VERSION = "3"
+#: The chunk index of a family's quantizer training sample (beyond any chunk a build plans).
+TRAIN_CHUNK = 2**62
 MANIFEST = "manifest.json"
 #: Seconds between rewrites of the manifest while a build runs (and at its end, however it ends).
 SAVE_EVERY = 2.0
@@ -60,19 +63,21 @@ def shard_file(name: str, index: int) -> str:
     return f"{folder_of(name)}/{index:08d}.h5"
 
 
-def checksum(params: np.ndarray, min_ds: np.ndarray, index: np.ndarray) -> str:
-    """SHA-256 of a shard's content: its params (float64), min_ds and index (float32) bytes, little-endian."""
+def checksum(params: np.ndarray, min_ds: np.ndarray, index: np.ndarray, cell: np.ndarray) -> str:
+    """SHA-256 of a shard's content: its params (float64), min_ds and index (float32) and cell (uint16) bytes,
+    little-endian."""
     h = hashlib.sha256()
-    for data, kind in ((params, "<f8"), (min_ds, "<f4"), (index, "<f4")):
+    for data, kind in ((params, "<f8"), (min_ds, "<f4"), (index, "<f4"), (cell, "<u2")):
         h.update(np.ascontiguousarray(data, dtype=kind).data)
     return h.hexdigest()
 
 
-def write_shard(folder: Path, name: str, seed: int, index: int, chunk: Chunk) -> dict[str, Any]:
-    """Store chunk ``index`` of family ``name`` as its shard (atomically: a ``.part`` file renamed when
-    whole); return its manifest entry."""
+def write_shard(folder: Path, name: str, seed: int, index: int, chunk: Chunk,
+                quantizer: tuple[np.ndarray, np.ndarray]) -> dict[str, Any]:
+    """Store chunk ``index`` of family ``name`` as its shard, each row's cell in ``quantizer`` (top, leaves)
+    with it (atomically: a ``.part`` file renamed when whole); return its manifest entry."""
     min_ds = chunk.min_ds.astype(np.float32)
-    centroids, order, offsets = cells_of(chunk.index, cells=shard_cells(len(chunk.index)), seed=index)
+    cell = assign(chunk.index, *quantizer).astype(np.uint16)
     file = shard_file(name, index)
     with durable_path(folder / file) as tmp, writing(tmp) as f:
         f.attrs.update({"format_version": FORMAT_VERSION, "kind": "atlas-shard", "generator": f"linkedit {__version__}",
@@ -80,31 +85,69 @@ def write_shard(folder: Path, name: str, seed: int, index: int, chunk: Chunk) ->
         f.create_dataset("params", data=chunk.params)
         f.create_dataset("min_ds", data=min_ds)
         f.create_dataset("index", data=chunk.index)
-        f.create_dataset("lists/centroids", data=centroids)
-        f.create_dataset("lists/order", data=order.astype(np.min_scalar_type(max(len(order) - 1, 0))))
-        f.create_dataset("lists/offsets", data=offsets.astype(np.int64))
+        f.create_dataset("cell", data=cell)
     return {"chunk": index, "rows": len(chunk.params), "file": file,
-            "sha256": checksum(chunk.params, min_ds, chunk.index)}
+            "sha256": checksum(chunk.params, min_ds, chunk.index, cell)}
 
 
-def shard_cells(rows: int) -> int:
-    """Cells of a shard's quantizer: √rows (100 for 10,000 rows; training costs a tenth of building the chunk)."""
-    return max(1, int(np.sqrt(rows)))
+def write_quantizer(folder: Path, name: str, seed: int, count: int) -> dict[str, Any]:
+    """Train family ``name``'s quantizer for a first build of ``count`` linkages (:func:`quantizer_side`) on a
+    sample of :data:`SAMPLE_PER_CELL` rows per cell, chunk :data:`TRAIN_CHUNK` (a pure function of ``seed``), and
+    store it as ``<folder>/quantizer.h5``; return its manifest entry."""
+    side = quantizer_side(count)
+    sample = build_chunk(name, seed, TRAIN_CHUNK, SAMPLE_PER_CELL * side * side, SPEC_TEXTS.get(name)).index
+    top, leaves = train_quantizer(sample, side, seed)
+    file = f"{folder_of(name)}/quantizer.h5"
+    with durable_path(folder / file) as tmp, writing(tmp) as f:
+        f.attrs.update({"format_version": FORMAT_VERSION, "kind": "atlas-quantizer", "generator": f"linkedit {__version__}",
+                        "family": name, "seed": seed, "sample": len(sample)})
+        f.create_dataset("top", data=top)
+        f.create_dataset("centroids", data=leaves)
+    return {"file": file, "cells": len(leaves), "sha256": _quantizer_sum(top, leaves)}
 
 
-def store_chunks(folder: str, name: str, seed: int, jobs: list[tuple[int, int]], spec: str | None = None
-                 ) -> list[dict[str, Any]]:
+@lru_cache(maxsize=4)
+def _kept_quantizer(folder: str, name: str, entry: str) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`read_quantizer`, read once per process (a worker's tasks use it for every chunk they store)."""
+    return read_quantizer(Path(folder), name, json.loads(entry))
+
+
+def _quantizer_sum(top: np.ndarray, leaves: np.ndarray) -> str:
+    h = hashlib.sha256()
+    for data in (top, leaves):
+        h.update(np.ascontiguousarray(data, dtype="<f4").data)
+    return h.hexdigest()
+
+
+def read_quantizer(folder: Path, name: str, entry: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    """Family ``name``'s quantizer (top (T, D), leaves (T·T, D) float32), checked against its manifest ``entry``."""
+    file = folder / entry["file"]
+    if not file.is_file():
+        raise InputError(f"{entry['file']} listed in {MANIFEST} is missing", file=str(folder))
+    cells, side = entry["cells"], int(round(np.sqrt(entry["cells"])))
+    with open_result(file, kind="atlas-quantizer") as f:
+        top = f.array("top", shape=(side, WIDTH), kinds="f").astype(np.float32, copy=False)
+        leaves = f.array("centroids", shape=(cells, WIDTH), kinds="f").astype(np.float32, copy=False)
+        if side * side != cells or _quantizer_sum(top, leaves) != entry["sha256"]:
+            raise f.error("/", f"its content does not match its checksum in {MANIFEST} (changed since it was built)")
+    return top, leaves
+
+
+def store_chunks(folder: str, quantizers: dict[str, dict[str, Any]], name: str, seed: int, jobs: list[tuple[int, int]],
+                 spec: str | None = None) -> list[dict[str, Any]]:
     """Build chunks ``jobs`` ((index, size) pairs) of family ``name`` and store each as a shard in the atlas
-    folder ``folder`` (one Dask task: the folder must be on a file system the worker shares); their entries."""
-    return [write_shard(Path(folder), name, seed, index, build_chunk(name, seed, index, size, spec))
+    folder ``folder`` (one Dask task: the folder must be on a file system the worker shares), each row's cell in
+    the family's quantizer (``quantizers``: the manifest entries, per family); their entries."""
+    path = Path(folder)
+    quantizer = _kept_quantizer(folder, name, json.dumps(quantizers[name]))
+    return [write_shard(path, name, seed, index, build_chunk(name, seed, index, size, spec), quantizer)
             for index, size in jobs]
 
 
 def shard_bytes(name: str) -> int:
-    """Bytes one linkage of family ``name`` takes in a shard: params (float64), min_ds and index (float32), its
-    place in the cell order (uint16) and its share of the shard's centroids (float32)."""
-    cells = shard_cells(CHUNK)
-    return 8 * len(family(name).PARAMETERS) + 4 + 4 * WIDTH + 2 + -(-cells * WIDTH * 4 // CHUNK)
+    """Bytes one linkage of family ``name`` takes in a shard: params (float64), min_ds and index (float32) and its
+    cell (uint16; the family's one quantizer, ≤ 3.8 MB, is not counted)."""
+    return 8 * len(family(name).PARAMETERS) + 4 + 4 * WIDTH + 2
 
 
 # --- the manifest ---------------------------------------------------------------------------------------
@@ -119,7 +162,7 @@ def _new_family(name: str) -> dict[str, Any]:
     fam = family(name)
     return {"family_id": fam.ID, "margin": fam.margin(), "distribution": (fam.sample.__doc__ or "").strip(),
             "columns": list(fam.PARAMETERS), "spec": SPEC_TEXTS.get(name), "folder": folder_of(name),
-            "chunks": 0, "partial_chunk": False, "shards": [], "pending": []}
+            "chunks": 0, "partial_chunk": False, "quantizer": None, "shards": [], "pending": []}
 
 
 def save(folder: Path, manifest: dict[str, Any]) -> None:
@@ -168,7 +211,11 @@ def read_manifest(folder: Path) -> dict[str, Any]:
         return isinstance(value, int) and not isinstance(value, bool) and low <= value <= high
 
     need(isinstance(data, dict), (), "expected a JSON object")
-    need(data.get("kind") == "atlas" and data.get("format_version") == FORMAT_VERSION, ("format_version",),
+    need(data.get("kind") == "atlas", ("kind",), "not a linkedit atlas manifest")
+    need(data.get("format_version") != "2", ("format_version",),
+         "a sharded atlas of format 2 (a quantizer per shard), which this linkedit no longer reads; rebuild it "
+         "(`linkedit atlas build -o NAME --family ... -n ...`)")
+    need(data.get("format_version") == FORMAT_VERSION, ("format_version",),
          f"not a linkedit atlas manifest of format {FORMAT_VERSION}")
     need((data.get("chunk"), data.get("samples"), data.get("harmonics")) == (CHUNK, SAMPLES, HARMONICS), ("chunk",),
          "an atlas of another layout version (chunk, samples or harmonics differ); rebuild it")
@@ -185,6 +232,10 @@ def read_manifest(folder: Path) -> dict[str, Any]:
         family(name, field=f"{path}: families/{name}", spec=spec)
         need(entry.get("folder") == folder_of(name), (*where, "folder"), f"expected {folder_of(name)!r}")
         need(integer(entry.get("chunks"), 0, 2**62), (*where, "chunks"), "expected a chunk count")
+        q = entry.get("quantizer")
+        need(isinstance(q, dict) and q.get("file") == f"{folder_of(name)}/quantizer.h5"
+             and integer(q.get("cells"), 1, 2**16) and isinstance(q.get("sha256"), str), (*where, "quantizer"),
+             "expected {file (<folder>/quantizer.h5), cells, sha256}")
         for key in ("shards", "pending"):
             need(isinstance(entry.get(key), list), (*where, key), "expected a list")
         for k, shard in enumerate(entry["shards"]):
@@ -267,6 +318,8 @@ def _plan(path: Path, manifest: dict[str, Any], names: list[str], count: int | N
     jobs = {}
     for name in names:
         entry = manifest["families"].setdefault(name, _new_family(name))
+        if entry["quantizer"] is None:  # the family's first build: its quantizer, sized for it
+            entry["quantizer"] = write_quantizer(path, name, manifest["seed"], count)
         jobs[name] = chunk_sizes(count, entry["chunks"])
         entry["pending"] = [list(job) for job in jobs[name]]
         entry["chunks"] += len(jobs[name])
@@ -284,7 +337,7 @@ def _run(path: Path, manifest: dict[str, Any], jobs: dict[str, list[tuple[int, i
     total = sum(size for family_jobs in jobs.values() for _, size in family_jobs)
     done, start = 0, time.perf_counter()
     finished: dict[str, set[int]] = {name: set() for name in jobs}  # listed in "shards", still in "pending"
-    store = partial(store_chunks, str(path.absolute()))
+    store = partial(store_chunks, str(path.absolute()), {name: manifest["families"][name]["quantizer"] for name in jobs})
     saved, wait = time.monotonic(), SAVE_EVERY
     try:
         with runner as run:
@@ -328,8 +381,8 @@ def _flush(path: Path, manifest: dict[str, Any], finished: dict[str, set[int]]) 
 
 def load(path: str | Path, threads: int | None = None) -> Atlas:
     """Read the sharded atlas in folder ``path`` (every shard checked against its manifest entry, read by
-    ``threads`` threads): per family its params, min_ds, index and the shards' quantizers concatenated
-    (``centroids``, ``order``: rows grouped by cell, ``offsets``, ``cells``: each shard's cell count)."""
+    ``threads`` threads): per family its params, min_ds, index and cell concatenated, and its quantizer's leaves
+    (``centroids``)."""
     path = Path(path)
     manifest = read_manifest(path)
     if manifest["build"] is not None:
@@ -340,28 +393,22 @@ def load(path: str | Path, threads: int | None = None) -> Atlas:
         for name, entry in manifest["families"].items():
             if not entry["shards"]:
                 continue
-            families[name] = merge(list(pool.map(partial(read_shard, path, name, manifest["seed"]), entry["shards"])))
+            families[name] = merge(list(pool.map(partial(read_shard, path, name, manifest["seed"],
+                                                         entry["quantizer"]["cells"]), entry["shards"])))
+            families[name]["centroids"] = read_quantizer(path, name, entry["quantizer"])[1]
     if not families:
         raise InputError("the atlas is empty", file=str(path))
     return Atlas(path, families, manifest["seed"])
 
 
 def merge(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """A family's shards' arrays (in chunk order) as one: params, min_ds, index and centroids concatenated,
-    ``order`` as atlas rows, ``offsets`` into it, ``cells`` each shard's cell count (what
-    :func:`linkedit.synthesis.index.stored_lists` searches)."""
-    base = np.cumsum([0] + [len(p["index"]) for p in parts])
-    arrays: dict[str, np.ndarray] = {key: np.concatenate([p[key] for p in parts])
-                                     for key in ("params", "min_ds", "index", "centroids")
-                                     if key in parts[0]}
-    arrays["order"] = np.concatenate([p["order"].astype(np.int64) + b for p, b in zip(parts, base)])
-    arrays["offsets"] = np.concatenate([*(p["offsets"][:-1] + b for p, b in zip(parts, base)), base[-1:]])
-    arrays["cells"] = np.array([len(p["centroids"]) for p in parts])
-    return arrays
+    """A family's shards' arrays (in chunk order) as one: each concatenated."""
+    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
 
 
-def read_shard(folder: Path, name: str, seed: int, shard: dict[str, Any]) -> dict[str, np.ndarray]:
-    """One shard's arrays, checked against its manifest entry (layout, rows, checksum)."""
+def read_shard(folder: Path, name: str, seed: int, cells: int, shard: dict[str, Any]) -> dict[str, np.ndarray]:
+    """One shard's arrays, checked against its manifest entry (layout, rows, checksum) and the family's quantizer
+    of ``cells`` cells."""
     file, rows = folder / shard["file"], shard["rows"]
     if not file.is_file():
         raise InputError(f"shard {shard['file']} listed in {MANIFEST} is missing", file=str(folder))
@@ -372,16 +419,11 @@ def read_shard(folder: Path, name: str, seed: int, shard: dict[str, Any]) -> dic
         out = {"params": f.array("params", shape=(rows, width), kinds="f"),
                "min_ds": f.array("min_ds", shape=(rows,), kinds="f"),
                "index": f.array("index", shape=(rows, WIDTH), kinds="f").astype(np.float32, copy=False),
-               "centroids": f.array("lists/centroids", shape=(None, WIDTH), kinds="f").astype(np.float32, copy=False),
-               "order": f.array("lists/order", shape=(rows,), kinds="u"),
-               "offsets": f.array("lists/offsets", shape=(None,), kinds="iu").astype(np.int64)}
-        if checksum(out["params"], out["min_ds"], out["index"]) != shard["sha256"]:
+               "cell": f.array("cell", shape=(rows,), kinds="u").astype(np.uint16)}
+        if checksum(out["params"], out["min_ds"], out["index"], out["cell"]) != shard["sha256"]:
             raise f.error("/", f"its content does not match its checksum in {MANIFEST} (changed since it was built)")
-        offsets, order = out["offsets"], out["order"]
-        if (len(offsets) != len(out["centroids"]) + 1 or offsets[0] != 0 or offsets[-1] != rows
-                or (np.diff(offsets) < 0).any() or order.max(initial=0) >= rows
-                or np.bincount(order, minlength=rows).max(initial=0) > 1):
-            raise f.error("lists", "its cells do not group the shard's rows (offsets, order)")
+        if out["cell"].max(initial=0) >= cells:
+            raise f.error("cell", f"a cell beyond the family's quantizer's {cells}")
     return out
 
 
