@@ -176,7 +176,9 @@ def _store_a_shard() -> None:
     from linkedit.synthesis import shards
 
     with tempfile.TemporaryDirectory() as tmp:
-        shards.store_chunks(tmp, "four-bar", 1, [(0, 10)])
+        (Path(tmp) / shards.folder_of("four-bar")).mkdir()
+        quantizer = shards.write_quantizer(Path(tmp), "four-bar", 1, 10)
+        shards.store_chunks(tmp, {"four-bar": quantizer}, "four-bar", 1, [(0, 10)])
 
 
 def shard_scaling(echo: Callable[[str], None], scheduler: str, chunks: int, repeats: int,
