@@ -79,10 +79,12 @@ class CatalogFamily:
         self.watched = np.array([r for rule, rows in zip(self.plan.rules, self.plan.ds_rows) if rule.watched
                                  for r in range(rows.start, rows.stop)], dtype=int)
 
-    def margin(self) -> float:
-        """sin² MU_MIN_DEG; with a numeric group (whose d_s is the Hadamard ratio of its Jacobian, not a
-        transmission angle's sin²), at most its design's own lowest d_s: linkages as far from singular as it."""
-        band = margin_of(MU_MIN_DEG)
+    def margin(self, margin_deg: float = MU_MIN_DEG) -> float:
+        """The singularity margin its linkages keep in the transmission band [μ, 180° − μ] (μ = ``margin_deg``;
+        an atlas linkage's: MU_MIN_DEG): sin² μ; with a numeric group (whose d_s is the Hadamard ratio of its
+        Jacobian, not a transmission angle's sin²), at most its design's own lowest d_s: linkages as far from
+        singular as it, in the atlas and through synthesis alike."""
+        band = margin_of(margin_deg)
         return min(band, self.design_margin) if self.plan.has_groups and self.design_margin > 0.0 else band
 
     @cached_property

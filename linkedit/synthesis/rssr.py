@@ -41,9 +41,10 @@ SEEDS = np.array([[0.0, -4.0, 2.0, np.pi / 2, 3.0, 5.5, 0.5, 1.0]])
 CHECK = CHECK_SAMPLES
 
 
-def margin() -> float:
-    """The singularity margin min d_s = sin² MU_MIN of an atlas linkage."""
-    return margin_of(MU_MIN_DEG)
+def margin(margin_deg: float = MU_MIN_DEG) -> float:
+    """The singularity margin min d_s = sin² μ its linkages keep in the transmission band [μ, 180° − μ]
+    (μ = ``margin_deg``; an atlas linkage's: MU_MIN_DEG)."""
+    return margin_of(margin_deg)
 
 
 def joints(params: np.ndarray, angle: np.ndarray) -> dict[str, np.ndarray]:

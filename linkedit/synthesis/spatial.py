@@ -161,8 +161,8 @@ def synthesize3d(target: Curve, atlas: Atlas, index: Index | None = None, *, top
     closed = target.closed
     spatial = restrict(atlas, 3)
     index = index or Index(spatial)
-    hits = (within(index.query(target_variants(unit), POOL), spatial, margin, margin_deg) if closed
-            else _screened(unit, spatial, index, margin, margin_deg))
+    hits = (within(index.query(target_variants(unit), POOL), spatial, margin_deg) if closed
+            else _screened(unit, spatial, index, margin_deg))
     clock["query"] = time.perf_counter()
     t_desc = describe(unit[None], closed)
     size = float(t_desc.normalized.scale[0])  # unit frame
@@ -226,7 +226,7 @@ def _ranked(t_desc: Any, unit: np.ndarray, size: float, hits: list[Any], spatial
     return ranked
 
 
-def _screened(unit: np.ndarray, spatial: Atlas, index: Any, margin: float, margin_deg: float) -> list[Any]:
+def _screened(unit: np.ndarray, spatial: Atlas, index: Any, margin_deg: float) -> list[Any]:
     """The open arc ``unit`` (M, 3)'s hits in ``index`` (``SCREEN_POOL`` for each of its descriptors) that turn with
     the margin, the best ``OPEN_POOL`` by partial matching (:data:`~linkedit.curves.distance.SCREEN`) on the atlas's
     coarse curves (stored in an atlas file; a sharded atlas stores none: made from the params as a build makes
@@ -235,7 +235,7 @@ def _screened(unit: np.ndarray, spatial: Atlas, index: Any, margin: float, margi
     for closure in (unit, np.concatenate([unit, unit[-2:0:-1]])):
         for h in index.query(target_variants(closure), SCREEN_POOL):
             found.setdefault((h.family, h.row), h)
-    hits = within(list(found.values()), spatial, margin, margin_deg)
+    hits = within(list(found.values()), spatial, margin_deg)
     arc = arc_resample(unit, POINTS, False)[None]
     score = np.empty(len(hits))
     for fam_name in dict.fromkeys(h.family for h in hits):

@@ -38,9 +38,10 @@ MU_MIN_DEG = 20.0
 SEEDS = np.array([[np.radians(20), np.radians(70), np.radians(50), np.radians(60), np.radians(45), 1.0, 1.0]])
 
 
-def margin() -> float:
-    """The singularity margin min d_s = sin² MU_MIN of an atlas linkage."""
-    return margin_of(MU_MIN_DEG)
+def margin(margin_deg: float = MU_MIN_DEG) -> float:
+    """The singularity margin min d_s = sin² μ its linkages keep in the transmission band [μ, 180° − μ]
+    (μ = ``margin_deg``; an atlas linkage's: MU_MIN_DEG)."""
+    return margin_of(margin_deg)
 
 
 def min_singularity(params: np.ndarray, margin: float | None = None) -> np.ndarray:

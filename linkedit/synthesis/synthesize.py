@@ -179,7 +179,7 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
     the atlas's 20° the refinement may leave the atlas's band, trading transmission for accuracy.
     ``points``: the target is precision points (:mod:`linkedit.synthesis.points`), or a curve (False); None:
     a closed target of few, unevenly spaced points is taken for them unless ``timing`` or ``smooth`` is asked."""
-    margin = margin_of(margin_deg)
+    margin_of(margin_deg)  # a band outside (0°, 90°) is an input error
     clock = {"start": time.perf_counter()}
     frame = target_frame(target)
     z = frame.unit(target.points)
@@ -195,8 +195,7 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
             else precision.detect(z, target.closed))
     unit = replace(target, points=smooth_curve(np.stack([z.real, z.imag], axis=1), target.closed, smooth),
                    anchor=None)
-    found = _search(unit, atlas, index, top=top, timing=timing, margin_deg=margin_deg, margin=margin, name=name,
-                    units=units, clock=clock, frame=frame, points=mode is not None)
+    found = _search(unit, atlas, index, top=top, timing=timing, margin_deg=margin_deg, name=name, units=units, clock=clock, frame=frame, points=mode is not None)
     for c in found.candidates:
         c.placement = frame.place(c.placement)
         if c.refined is not None:
@@ -208,7 +207,7 @@ def synthesize(target: Curve, atlas: Atlas, index: Index | None = None, *, top: 
 
 
 def _search(target: Curve, atlas: Atlas, index: Index | None, *, top: int, timing: bool, margin_deg: float,
-            margin: float, name: str, units: str, clock: dict[str, float], frame: Frame, points: bool) -> Synthesis:
+            name: str, units: str, clock: dict[str, float], frame: Frame, points: bool) -> Synthesis:
     """:func:`synthesize` on the (smoothed) target in its unit frame; the result's spec and simulation in ``frame``."""
     pts = target.points
     z_target = pts[:, 0] + 1j * pts[:, 1]
@@ -218,10 +217,10 @@ def _search(target: Curve, atlas: Atlas, index: Index | None, *, top: int, timin
     asked = precision.spline(z_target, target.closed) if points else z_target
     closed_target = asked if target.closed else np.concatenate([asked, asked[-2:0:-1]])
     pool = TIMED_POOL if timed else POINTS_POOL if points else POOL if target.closed else OPEN_POOL
-    hits = within(index.query(target_variants(closed_target), pool), atlas, margin, margin_deg)
+    hits = within(index.query(target_variants(closed_target), pool), atlas, margin_deg)
     clock["query"] = time.perf_counter()
     if points:
-        chosen = _screened(_point_candidates(z_target, hits, atlas, SCREEN * top), z_target, size, margin, top)
+        chosen = _screened(_point_candidates(z_target, hits, atlas, SCREEN * top), z_target, size, margin_deg, top)
         return _finish(target, z_target, size, chosen, None, clock, name, units, margin_deg, frame, points=True)
     if timed is not None:
         return _finish(target, z_target, size, _timed_candidates(timed, hits, atlas, top), timed, clock, name, units,
@@ -257,14 +256,17 @@ def _search(target: Curve, atlas: Atlas, index: Index | None, *, top: int, timin
     return _finish(target, z_target, size, chosen, None, clock, name, units, margin_deg, frame)
 
 
-def within(hits: list[Hit], atlas: Atlas, margin: float, margin_deg: float) -> list[Hit]:
-    """The hits whose linkage turns the full cycle with its lowest d_s ≥ ``margin`` (the family's, by the
+def within(hits: list[Hit], atlas: Atlas, margin_deg: float) -> list[Hit]:
+    """The hits whose linkage turns the full cycle with its lowest d_s ≥ its family's margin at the band
+    ``margin_deg`` (``fam.margin(margin_deg)``: sin² μ, a numeric group's at most its design's own; by the
     one planar predicate: the atlas may have been built by a version that checked fewer samples);
     MechanismError if none does (a band narrower than the atlas's, or an atlas edited by hand)."""
     kept = []
     for fam_name in dict.fromkeys(h.family for h in hits):
         mine = [h for h in hits if h.family == fam_name]
-        ds = family(fam_name).min_singularity(atlas.families[fam_name]["params"][[h.row for h in mine]], margin)
+        fam = family(fam_name)
+        margin = fam.margin(margin_deg)
+        ds = fam.min_singularity(atlas.families[fam_name]["params"][[h.row for h in mine]], margin)
         kept += [h for h, ok in zip(mine, feasibility.works(ds, margin)) if ok]
     if not kept:
         raise MechanismError(f"none of the {len(hits)} nearest atlas linkages turns the full cycle with the "
@@ -290,11 +292,13 @@ def _point_candidates(z: np.ndarray, hits: list[Hit], atlas: Atlas, top: int) ->
     return diverse(candidates, top)
 
 
-def _screened(candidates: list[Candidate], z: np.ndarray, size: float, margin: float, top: int) -> list[Candidate]:
+def _screened(candidates: list[Candidate], z: np.ndarray, size: float, margin_deg: float,
+              top: int) -> list[Candidate]:
     """The ``top`` candidates best after SCREEN_ITERATIONS of refinement on the precision points ``z``, in that
     order, each with its short refinement as ``start``."""
     for c in candidates:
-        c.start = refine(family(c.family), c.params, c.placement, z, True, size, margin=margin, points=True,
+        fam = family(c.family)
+        c.start = refine(fam, c.params, c.placement, z, True, size, margin=fam.margin(margin_deg), points=True,
                          iterations=SCREEN_ITERATIONS)
     kept = sorted((c for c in candidates if c.start is not None and np.isfinite(c.start.error)),
                   key=lambda c: c.start.error if c.start is not None else np.inf)
@@ -350,9 +354,9 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
     """Refine the chosen candidates (unit frame), keep the best working one, write its spec in ``frame`` and
     check it by ``simulate``."""
     clock["rank"] = time.perf_counter()
-    margin = margin_of(margin_deg)
     for c in chosen:
         fam = family(c.family)
+        margin = fam.margin(margin_deg)
         with np.errstate(invalid="ignore"):
             curve = c.placement.apply(fam.curves(c.params[None], RESULT_SAMPLES)[0])
             c.before = (_point_error(c.family, c.params, c.placement, z_target, size) if points
@@ -380,6 +384,7 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
     spec = result_spec(best, z_target[0], name=name, units=units, timed=timed is not None, description="")
     refined = best.after if timed is None else best.timed_after
     assert refined is not None
+    margin = family(best.family).margin(margin_deg)
     polished = None
     if points:
         polished = Polish(False, "precision points are not polished: the edit's follow distance runs from the "

@@ -206,19 +206,28 @@ class RealForm:
         """The form of linkage ``k`` alone."""
         return self if self.twice.ndim == 2 else RealForm(self.twice[k], self.drive, self.driven, self.m)
 
-    def residual_jacobian(self, x: np.ndarray, s: np.ndarray | float, unknowns: int) -> tuple[np.ndarray, np.ndarray]:
+    def residual_jacobian(self, x: np.ndarray, s: np.ndarray | float, unknowns: int,
+                          of: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """F (…, m) and ∂F/∂X of the first ``unknowns`` real variables (…, m, unknowns) at X (…, W)
-        and input s (…): one sample (X (W,), s a float) or a batch (X (T, W) or (K, T, W), s (T,) or (K, T))."""
-        grad = self.gradient(x)
+        and input s (…): one sample (X (W,), s a float) or a batch (X (T, W) or (K, T, W), s (T,) or (K, T));
+        ``of``: rows of several linkages (:meth:`gradient`)."""
+        grad = self.gradient(x, of)
         f = 0.5 * (grad @ x) if x.ndim == 1 else 0.5 * (grad @ x[..., None])[..., 0]
         if self.driven:
             f -= self.drive * np.asarray(s)[..., None]
         return f, grad[..., :unknowns]
 
-    def gradient(self, x: np.ndarray) -> np.ndarray:
+    def gradient(self, x: np.ndarray, of: np.ndarray | None = None) -> np.ndarray:
         """∂F/∂X (…, m, W) at X (…, W): one sample (W,) or a batch (T, W) of one linkage's form, or
-        (K, T, W) of K linkages' (each its own Q): 2·Q·X by row (Q symmetric)."""
+        (K, T, W) of K linkages' (each its own Q): 2·Q·X by row (Q symmetric). With ``of`` (N,), nondecreasing:
+        rows X (N, W) of K linkages' form, row n of linkage ``of[n]`` (one product per linkage present)."""
         m, width = self.m, self.twice.shape[-1]
+        if of is not None and self.twice.ndim == 3:
+            out = np.empty((x.shape[0], m * width))
+            cuts = np.concatenate([[0], np.flatnonzero(np.diff(of)) + 1, [of.size]])
+            for a, b in zip(cuts[:-1], cuts[1:]):
+                out[a:b] = x[a:b] @ self.twice[of[a]].T
+            return out.reshape(-1, m, width)
         if x.ndim == 1:
             return (self.twice @ x).reshape(m, width)
         if x.ndim == 3:
@@ -323,17 +332,19 @@ def _polish(form: RealForm, signs: np.ndarray, X: np.ndarray, s: np.ndarray, k: 
     square = form.m == k
     K, T, width = X.shape
     flat = X.reshape(K * T, width)
+    inputs = np.broadcast_to(s, (K, T)).reshape(K * T)
     start = flat[:, :k].copy()
     first = np.zeros(K * T)
     with np.errstate(invalid="ignore", over="ignore"):
-        f, jac = form.residual_jacobian(X, s, k)  # every linkage's rows at once, each iteration
-        size = _largest(f.reshape(K * T, -1))
+        f, jac = form.residual_jacobian(X, s, k)  # every linkage's rows at once; then the live rows' alone
+        f, jac = f.reshape(K * T, -1), np.ascontiguousarray(jac.reshape(K * T, *jac.shape[2:]))
+        size = _largest(f)
         done = size <= GROUP_TOLERANCE
         live = np.flatnonzero(size > GROUP_TOLERANCE)  # the rows still iterated (not converged, not NaN)
         for it in range(GROUP_ITERATIONS):
             if not live.size:
                 break
-            a, b = jac.reshape(K * T, *jac.shape[2:])[live], -f.reshape(K * T, -1)[live]
+            a, b = jac[live], -f[live]
             if not square:
                 at = np.swapaxes(a, 1, 2)
                 a, b = at @ a, (at @ b[..., None])[..., 0]
@@ -346,14 +357,14 @@ def _polish(form: RealForm, signs: np.ndarray, X: np.ndarray, s: np.ndarray, k: 
             if it == 0:
                 first[live] = _largest(delta)
             flat[live, :k] += delta
-            f, jac = form.residual_jacobian(X, s, k)
-            size = _largest(f.reshape(K * T, -1)[live])
+            f[live], jac[live] = form.residual_jacobian(flat[live], inputs[live], k, live // T)
+            size = _largest(f[live])
             done[live[size <= GROUP_TOLERANCE]] = True
             live = live[size > GROUP_TOLERANCE]  # neither converged nor NaN
     accept = done & _accepted(_largest(flat[:, :k] - start), first)
     det = np.full(K * T, np.nan)
     if square and accept.any():
-        det[accept] = np.linalg.det(jac.reshape(K * T, *jac.shape[2:])[accept])
+        det[accept] = np.linalg.det(jac[accept])
         accept &= np.sign(det) == np.repeat(signs, T)
         det[~accept] = np.nan
     return accept.reshape(K, T), det.reshape(K, T)
