@@ -267,9 +267,13 @@ def within(hits: list[Hit], atlas: Atlas, margin: float, margin_deg: float) -> l
         ds = family(fam_name).min_singularity(atlas.families[fam_name]["params"][[h.row for h in mine]], margin)
         kept += [h for h, ok in zip(mine, feasibility.works(ds, margin)) if ok]
     if not kept:
+        low, name = min((family(n).margin(), n) for n in dict.fromkeys(h.family for h in hits))
+        hint = ("rebuild the atlas with `linkedit atlas build`, or ask for a wider band" if low >= margin else
+                f"family {name!r} is built to its design's own lowest d_s {low:.3g}, below the band's: --margin "
+                f"{np.floor(np.degrees(np.arcsin(np.sqrt(low))) * 10) / 10:.1f} or less reaches it")
         raise MechanismError(f"none of the {len(hits)} nearest atlas linkages turns the full cycle with the "
                              f"transmission angle within [{margin_deg:g}°, {180 - margin_deg:g}°] (--margin "
-                             f"{margin_deg:g}): rebuild the atlas with `linkedit atlas build`, or ask for a wider band")
+                             f"{margin_deg:g}): {hint}")
     return sorted(kept, key=lambda h: h.distance)
 
 
