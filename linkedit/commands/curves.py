@@ -363,7 +363,7 @@ def _rank(queries, library, weights, samples, harmonics, closed, anchor, top, sv
     results = []
     for n in range(q):
         order = np.argsort(dist[n], kind="stable")[:top]
-        placed = placements(desc.take([n]), desc.take(q + order), mirror=mirror)
+        placed = placements(desc.take([n]), desc.take(q + order), mirror=mirror, partial=partial)
         ranking = [{"rank": k + 1, "curve": curves[q + i].name, "origin": curves[q + i].origin,
                     "distance": float(dist[n, i]), "terms": {t: float(m[n, i]) for t, m in terms.items()},
                     "placement": placed[k]}

@@ -12,7 +12,8 @@ from typing import cast
 import numpy as np
 
 from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES, Descriptors, describe_ragged
-from linkedit.curves.distance import alignment, term_distances, term_names, weighted
+from linkedit.curves.distance import (alignment, partial_placement, partial_placement3, term_distances, term_names,
+                                     weighted)
 from linkedit.curves.smooth import smooth as smooth_curve
 from linkedit.curves.learn import Inseparable, LearnedWeights, learn_weights
 from linkedit.curves.sources import Curve
@@ -80,26 +81,98 @@ def distances(desc: Descriptors, weights: Mapping[str, float], other: Descriptor
     return weighted(terms, weights), terms
 
 
-def placements(query: Descriptors, library: Descriptors, *, mirror: bool = False) -> list[dict]:
+def placements(query: Descriptors, library: Descriptors, *, mirror: bool = False, partial: bool = False) -> list[dict]:
     """The similarity transform placing each library curve onto the (one) query, in input units:
     p_query ≈ translation + scale · matrix · p_library, and where the query's start meets the
     library curve (``phase``: a fraction of the library curve's length from its canonical start,
-    ``reversed``: travelled the other way)."""
+    ``reversed``: travelled the other way). ``partial``: an open query is placed on the best-fitting
+    stretch of each closed library curve (:func:`~linkedit.curves.distance.partial_placement`)."""
     al = alignment(query.points[0], bool(query.closed[0]), library.points, library.closed, mirror=mirror)
     qn, ln = query.normalized, library.normalized
     n, dim = library.points.shape[1], library.points.shape[2]
     out = []
     for j in range(len(library)):
-        matrix = qn.frame[0] @ al.rotation[j] @ ln.frame[j].T
-        scale = float(qn.scale[0] / ln.scale[j])
-        row = {"scale": scale, "matrix": matrix.tolist(),
-               "translation": (qn.centroid[0] - scale * matrix @ ln.centroid[j]).tolist(),
-               "phase": float(((-al.shift[j] if al.reversed[j] else al.shift[j]) / n) % 1.0), "reversed": bool(al.reversed[j]), "mirrored": bool(al.mirrored[j])}
+        if partial and not qn.closed[0] and ln.closed[j]:
+            row = _partial_row(query, library, j, mirror)
+        else:
+            matrix = qn.frame[0] @ al.rotation[j] @ ln.frame[j].T
+            scale = float(qn.scale[0] / ln.scale[j])
+            row = {"scale": scale, "matrix": matrix.tolist(),
+                   "translation": (qn.centroid[0] - scale * matrix @ ln.centroid[j]).tolist(),
+                   "phase": float(((-al.shift[j] if al.reversed[j] else al.shift[j]) / n) % 1.0),
+                   "reversed": bool(al.reversed[j]), "mirrored": bool(al.mirrored[j])}
         if dim == 2:
-            proper = matrix @ np.diag([1.0, -1.0]) if al.mirrored[j] else matrix
+            matrix = np.array(row["matrix"])
+            proper = matrix @ np.diag([1.0, -1.0]) if row["mirrored"] else matrix
             row["rotation_deg"] = float(np.degrees(np.arctan2(proper[1, 0], proper[0, 0])))
         out.append(row)
     return out
+
+
+def _partial_row(query: Descriptors, library: Descriptors, j: int, mirror: bool) -> dict:
+    """:func:`placements`' row for the open query on closed library curve ``j``: the partial fit q ≈ s·M·w + b in
+    the normalized frames (the grid's, its stretch's ends then refined: :func:`_refined_stretch`), carried to input
+    units; the phase where the stretch starts, reversed when it runs against the library curve."""
+    qn, ln = query.normalized, library.normalized
+    q, w = qn.points[0], ln.points[j]
+    if q.shape[1] == 2:
+        _, alpha, beta, mirrored = partial_placement(q, w, mirror=mirror)
+        s, fit = abs(alpha), np.angle(alpha)
+        m = np.array([[np.cos(fit), -np.sin(fit)], [np.sin(fit), np.cos(fit)]]) @ np.diag([1.0, -1.0 if mirrored else 1.0])
+        b = np.array([beta.real, beta.imag])
+    else:
+        _, s, m, b = partial_placement3(q, w, mirror=mirror)
+        mirrored = bool(np.linalg.det(m) < 0)
+    s, m, b, start, end = _refined_stretch(q, w, s, m, b, -1.0 if mirrored else 1.0)
+    matrix = qn.frame[0] @ m @ ln.frame[j].T
+    scale = float(qn.scale[0] * s / ln.scale[j])
+    return {"scale": scale, "matrix": matrix.tolist(),
+            "translation": (qn.centroid[0] + qn.scale[0] * qn.frame[0] @ b - scale * matrix @ ln.centroid[j]).tolist(),
+            "phase": start % 1.0, "reversed": bool(end < start), "mirrored": bool(mirrored)}
+
+
+def _refined_stretch(q: np.ndarray, w: np.ndarray, s: float, m: np.ndarray, b: np.ndarray, sign: float
+                     ) -> tuple[float, np.ndarray, np.ndarray, float, float]:
+    """The grid's fit q ≈ s·m·w + b of the open curve q (N, D) on closed curve w (M, D) refined past the grid (its
+    stretches' lengths step by ~10 %, so does its scale): the stretch's ends (fractions of w's length from w[0];
+    the end below the start: travelled backwards), first where the placed w passes nearest q's ends, moved by
+    Nelder–Mead on the RMS of the best similarity (det ``sign``) between q and the stretch sampled as q is (evenly
+    along its length). Returns (s, m, b, start, end)."""
+    from scipy.optimize import minimize
+
+    ring = np.concatenate([w, w[:1]])
+    length = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ring, axis=0), axis=1))])
+    length /= length[-1]
+    fine = np.linspace(0.0, 1.0, 4 * len(ring))
+    dense = np.stack([np.interp(fine, length, ring[:, d]) for d in range(w.shape[1])], axis=1)
+    placed = b + s * dense @ m.T
+    ends = [fine[int(np.argmin(np.sum((placed - p) ** 2, axis=1)))] for p in (q[0], q[-1])]
+
+    def stretch(x: np.ndarray) -> np.ndarray:
+        at = (x[0] + (x[1] - x[0]) * np.linspace(0.0, 1.0, len(q))) % 1.0
+        return np.stack([np.interp(at, length, ring[:, d]) for d in range(w.shape[1])], axis=1)
+
+    def rms(x: np.ndarray) -> float:
+        f, g, c = _similarity(q, stretch(x), sign)
+        return float(np.sqrt(np.mean(np.sum((q - c - f * stretch(x) @ g.T) ** 2, axis=1))))
+
+    starts = [np.array([ends[0], ends[1] + k]) for k in (-1.0, 0.0, 1.0)]
+    x0 = min(starts, key=rms)
+    x = minimize(rms, x0, method="Nelder-Mead", options={"xatol": 1e-9, "fatol": 1e-14, "maxiter": 2000}).x
+    s, m, b = _similarity(q, stretch(x), sign)
+    return s, m, b, float(x[0]), float(x[1])
+
+
+def _similarity(q: np.ndarray, p: np.ndarray, sign: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """The similarity q ≈ s·M·p + b of matched points (N, D) each in the least-squares sense (Umeyama), M
+    orthogonal with det M = ``sign``: (s, M (D, D), b (D,))."""
+    qm, pm = q.mean(axis=0), p.mean(axis=0)
+    u, sigma, vt = np.linalg.svd((q - qm).T @ (p - pm))
+    flip = np.ones(len(sigma))
+    flip[-1] = sign * np.sign(np.linalg.det(u @ vt))
+    m = u @ np.diag(flip) @ vt
+    s = float((sigma * flip).sum() / max(np.sum((p - pm) ** 2), 1e-300))
+    return s, m, qm - s * m @ pm
 
 
 def learn(desc: Descriptors, names: list[str], similar: list[tuple[str, str]], dissimilar: list[tuple[str, str]], *,

@@ -89,7 +89,8 @@ def _score(rows: np.ndarray, phi: np.ndarray, goal: np.ndarray, margin: float) -
 def _starts(phi: np.ndarray, goal: np.ndarray, margin_deg: float) -> np.ndarray:
     """Six-bar rows (S, 11) composed of four-bar fits: the first stage fitted to ±goal, the second to ``goal``
     against the first's rocker angle x (from −goal: nearly a reversal, the best start of the log and square
-    laws either way; fitting ±φ first added nothing there)."""
+    laws either way; fitting ±φ first added nothing there); and the four-bar fitted to ``goal`` with a
+    parallelogram second stage (the six-bar is then that four-bar: never worse than it)."""
     rows = []
     for target in (goal, -goal):
         one = function.fit(phi, target, relative=True, margin_deg=margin_deg, sense=1.0)
@@ -101,6 +102,10 @@ def _starts(phi: np.ndarray, goal: np.ndarray, margin_deg: float) -> np.ndarray:
                            sense=1.0)
         if two is not None:
             rows.append(np.concatenate([first[:5], two.params]))
+        if target is goal:  # the four-bar itself: a parallelogram D-C-E-F passes x on, μ at E = α₂ + x
+            x = function.output_angles(first[None], phi)[0]
+            alpha = 0.5 * np.pi - 0.5 * (x.min() + x.max())
+            rows += [np.concatenate([first[:5], [1.0, 1.0, 1.0, s, alpha, alpha + one.params[5]]]) for s in (1.0, -1.0)]
     return np.array(rows).reshape(-1, 11)
 
 
