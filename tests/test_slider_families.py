@@ -120,13 +120,21 @@ def test_slider_designs_evaluated_at_once_follow_their_closed_forms():
         assert np.abs(z[k, :, 4] - (c.real + np.sqrt(rod ** 2 - (ram - c.imag) ** 2) + 1j * ram)).max() <= 1e-9 * big
 
 
-def test_numeric_groups_are_evaluated_one_linkage_at_a_time():
+def test_numeric_groups_take_each_linkages_own_rest_pose():
+    """A numeric group's rows come from each linkage's own rest pose (they were the spec's: K linkages and a moved
+    rest pose were refused): the lifting arm scaled by 1.01 about the origin, at strokes scaled by 1.01, is the
+    arm's own motion scaled by 1.01 (similar linkages), alone and beside the unscaled one in one evaluation."""
     plan = compile_plan(catalog.lifting_arm())
     rest = plan.normalized_points()
-    with pytest.raises(ValueError, match="one linkage at a time"):
-        _evaluate(plan, Geometry.of(plan, np.stack([rest, rest])), np.zeros((2, 3)), order=0)
-    with pytest.raises(ValueError, match="at the rest pose they were compiled at"):
-        _evaluate(plan, Geometry.of(plan, 1.01 * rest), np.zeros(3), order=0)  # its rows are the spec's
+    stroke = np.array([0.0, 0.05, -0.05, 0.08])
+    joints = plan.row_of[: plan.n_joints]
+    both = _evaluate(plan, Geometry.of(plan, np.stack([rest, 1.01 * rest])), np.stack([stroke, 1.01 * stroke]),
+                     order=0).z[joints]
+    alone = _evaluate(plan, Geometry.of(plan, 1.01 * rest), 1.01 * stroke, order=0).z[joints]
+    assert np.isfinite(both).all() and np.abs(both[:, 0]).max() > 0.0
+    assert np.abs(both[:, 0, 0] - (rest[:, 0] + 1j * rest[:, 1])).max() <= 1e-12
+    assert np.abs(both[:, 1] - 1.01 * both[:, 0]).max() <= 1e-12
+    assert np.abs(alone - both[:, 1]).max() <= 1e-12
 
 
 def _inputs(plan, geom, samples: int) -> np.ndarray:
