@@ -180,7 +180,8 @@ def test_pairs_no_four_bar_meets_get_the_best_and_a_note(run_cli, tmp_path):
     ("input_deg,output_deg\n0,0\n10,twelve\n20,25\n", ":3: output_deg: not a number: 'twelve'"),
     ("input_deg,output_deg\n0,0\n10,inf\n20,25\n", ":3: output_deg: not a finite number"),
     ("x,y\n0,0\n10,12\n20,25\n", ":1: unknown column 'x'"),
-    ("input_deg,output_deg\n0,0\n0,12\n20,25\n", "input_deg: 2 distinct input angles"),
+    ("input_deg,output_deg\n0,0\n0,12\n20,25\n", ":3: input_deg: input 0° is duplicated (line 2"),
+    ("input_deg,output_deg\n0,0\n10,5\n20,12\n10,6\n", ":5: input_deg: input 10° is duplicated (line 3"),
     ("input_deg,output_deg\n0,0\n200,12\n400,25\n", "input_deg: the input angles span 400°"),
     ("input_deg,output_deg\n0,0\n10\n20,25\n", ":3: 1 values, expected 2"),
 ])
