@@ -20,6 +20,11 @@ def test_bench_section_prints_figures(run_cli, section):
         assert rows == ["spherical-four-bar", "rssr"], r.output
         arcs = re.findall(r"^  half arc of (spherical-four-bar|rssr) #1 .* % \(.*\) +\d+\.\d+$", r.output, re.MULTILINE)
         assert arcs == ["spherical-four-bar", "rssr"], r.output
+        # quick mode refines one candidate per target, and every section's header says so
+        tops = re.findall(r"^(quality|synthesize end to end|precision points|published precision-point problems|"
+                          r"spatial targets),(?: --points)? --top (\d+)", r.output, re.MULTILINE)
+        assert sorted(tops) == [("precision points", "1"), ("published precision-point problems", "1"),
+                                ("quality", "1"), ("spatial targets", "1"), ("synthesize end to end", "1")], tops
         # issue 23 §1 and §3: the published precision-point problems and function generation
         assert re.search(r"^  Morgan & Wampler 1990, problem 7 .* 0 +\d+\.\d+  15 exact", r.output, re.MULTILINE)
         assert re.search(r"^  log10 x +band 20°: sense free \d\.\d+° .* same sense \d\.\d+° .* six-bar same sense "

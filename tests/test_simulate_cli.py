@@ -144,3 +144,20 @@ def test_json_output_has_no_nan():
     with redirect_stdout(buf):
         print_json({"a": float("nan"), "b": [np.inf, 1.5], "c": np.float64(2.0)})
     assert json.loads(buf.getvalue()) == {"a": None, "b": [None, 1.5], "c": 2.0}
+
+
+@pytest.mark.parametrize("engine", ["symbolic", "numeric"])
+def test_rigid_rules_read_90_degrees_of_transmission(run_cli, tmp_path, engine):
+    """A welded triangle (the Watt six-bar's bell crank) has no transmission angle: result.h5 gives 90° there
+    (its d_s is 1), and each dyad's angle at its rebuilt joint k between k→i and k→j, measured here."""
+    out = tmp_path / "w.h5"
+    r = run_cli("simulate", "examples/watt-six-bar.yaml", "-n", "72", "--engine", engine, "-o", out)
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        rigid, rules = f["rules/rigid"][()], f["rules/joints"][()]
+        mu, ds = f["diagnostics/transmission_angle"][()], f["diagnostics/singularity"][()]
+        z = f["joints/position"][()] @ np.array([1.0, 1j])
+    assert rigid.any() and (~rigid).any()
+    assert np.all(mu[:, rigid] == np.pi / 2) and np.all(ds[:, rigid] == 1.0)
+    i, j, k = (z[:, rules[~rigid, c]] for c in range(3))
+    assert np.allclose(mu[:, ~rigid], np.abs(np.angle((i - k) / (j - k))), rtol=0, atol=1e-9)

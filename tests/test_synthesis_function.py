@@ -162,6 +162,31 @@ def test_same_sense_log_over_60_degrees_by_a_watt_six_bar(run_cli, tmp_path):
     assert lo - 1e-9 <= mu.min() and mu.max() <= hi + 1e-9
 
 
+@pytest.mark.parametrize("law, sense", [(lambda x: np.sin(np.pi * x), "same"), (lambda x: x * x, "opposite")],
+                         ids=["sine-same", "square-opposite"])
+def test_six_bar_transmission_range_bounds_the_simulation(run_cli, tmp_path, law, sense):
+    """Outputs over 180° of crank whose second stage's transmission angle peaks between two pairs (the
+    bell crank turning back at a toggle of the first stage): the reported range of each stage holds
+    the transmission angles at B and at E measured on a 20,000-sample `linkedit simulate result.yaml`."""
+    x = np.linspace(0, 1, 10)
+    write_pairs(tmp_path / "p.csv", 180 * x, 40 * law(x))
+    out = tmp_path / "six"
+    result = run_cli("synthesize", "--function", tmp_path / "p.csv", "--relative", "--sense", sense,
+                     "--family", "six-bar", "-o", out)
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())["transmission_deg"]
+    sim = run_cli("simulate", out / "result.yaml", "-n", "20000", "-o", tmp_path / "again.h5")
+    assert sim.exit_code == 0, sim.output
+    with h5py.File(tmp_path / "again.h5") as f:
+        names = [n.decode() if isinstance(n, bytes) else n for n in f["joint"][()]]
+        p = f["joints/position"][()]
+    z = {n: p[:, i, 0] + 1j * p[:, i, 1] for i, n in enumerate(names)}
+    for (lo, hi), (pin, tip, pivot) in zip(report["stages"], ("ABD", "CEF")):  # μ: the angle at the dyad's tip
+        mu = np.degrees(np.abs(np.angle((z[pin] - z[tip]) / (z[pivot] - z[tip]))))
+        assert lo - 1e-9 <= mu.min() and mu.max() <= hi + 1e-9, (lo, mu.min(), hi, mu.max())
+    assert report["min"] == min(r[0] for r in report["stages"])
+
+
 def test_pairs_no_four_bar_meets_get_the_best_and_a_note(run_cli, tmp_path):
     """An output that swings back and forth three times over half a turn of the crank."""
     inputs = np.linspace(0, 180, 37)
@@ -180,7 +205,8 @@ def test_pairs_no_four_bar_meets_get_the_best_and_a_note(run_cli, tmp_path):
     ("input_deg,output_deg\n0,0\n10,twelve\n20,25\n", ":3: output_deg: not a number: 'twelve'"),
     ("input_deg,output_deg\n0,0\n10,inf\n20,25\n", ":3: output_deg: not a finite number"),
     ("x,y\n0,0\n10,12\n20,25\n", ":1: unknown column 'x'"),
-    ("input_deg,output_deg\n0,0\n0,12\n20,25\n", "input_deg: 2 distinct input angles"),
+    ("input_deg,output_deg\n0,0\n0,12\n20,25\n", ":3: input_deg: input 0° is duplicated (line 2"),
+    ("input_deg,output_deg\n0,0\n10,5\n20,12\n10,6\n", ":5: input_deg: input 10° is duplicated (line 3"),
     ("input_deg,output_deg\n0,0\n200,12\n400,25\n", "input_deg: the input angles span 400°"),
     ("input_deg,output_deg\n0,0\n10\n20,25\n", ":3: 1 values, expected 2"),
 ])

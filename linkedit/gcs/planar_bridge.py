@@ -322,7 +322,7 @@ def numeric_motion(plan: "Plan", samples: int | None = None) -> "Motion":
     tv, ta = derivatives(nm.tracks)
     rules = plan.table.joints
     with np.errstate(invalid="ignore"):
-        transmission = transmission_angle(nm.positions, rules)
+        transmission = transmission_angle(nm.positions, rules, plan.table.rigid)
         orientation = triangle_orientation(nm.positions, rules)
     singularity = np.where(plan.table.rigid[None, :], 1.0, np.sin(transmission) ** 2)
     tracks = {name: Track(position=nm.tracks[:, i], velocity=tv[:, i], acceleration=ta[:, i])

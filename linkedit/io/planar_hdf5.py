@@ -95,7 +95,8 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
         put(d, "singularity", motion.singularity, dims=("t", "rule"), units="1",
             description="d_s = sin^2(angle at the rebuilt joint); 1 for rigid rules")
         put(d, "transmission_angle", motion.transmission, dims=("t", "rule"), units="rad",
-            description="angle at the rebuilt joint (a four-bar's coupler-rocker dyad: the transmission angle)")
+            description="angle at the rebuilt joint (a four-bar's coupler-rocker dyad: the "
+                        "transmission angle); pi/2 for rigid rules")
         put(d, "orientation", motion.orientation, dims=("t", "rule"),
             description="orientation sign of each rule's triangle at each sample")
         if plan.steps and motion.step_singularity is not None:

@@ -5,7 +5,8 @@
   :mod:`linkedit.planar.feasibility`).
 * **Singularity distance** d_s = sin²α (LinkEdit Eq. 6), α the angle at the rebuilt joint:
   0 at a toggle position, 1 when the two links are perpendicular.
-* **Transmission angle**: α itself, in radians; designers want it near 90°.
+* **Transmission angle**: α itself, in radians; designers want it near 90°. A rigid rule has none:
+  90° there, as its d_s is 1.
 """
 
 from __future__ import annotations
@@ -87,10 +88,13 @@ def triangle_orientation(p: np.ndarray, rules: np.ndarray) -> np.ndarray:
     return np.where(np.abs(cross) <= 1e-12 * scale, 0, np.sign(cross)).astype(np.int8)
 
 
-def transmission_angle(p: np.ndarray, rules: np.ndarray) -> np.ndarray:
-    """Angle at the rebuilt joint k between k→i and k→j, radians, (T, R), from positions (T, J, 2)."""
+def transmission_angle(p: np.ndarray, rules: np.ndarray, rigid: np.ndarray) -> np.ndarray:
+    """Angle at the rebuilt joint k between k→i and k→j, radians, (T, R), from positions (T, J, 2); π/2 for the
+    ``rigid`` (R,) rules (a welded triangle transmits no force through an angle: d_s is 1 by construction),
+    NaN where the positions are."""
     a = p[:, rules[:, 0]] - p[:, rules[:, 2]]
     b = p[:, rules[:, 1]] - p[:, rules[:, 2]]
     cross = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
     dot = (a * b).sum(axis=-1)
-    return np.abs(np.arctan2(cross, dot))
+    angle = np.abs(np.arctan2(cross, dot))
+    return np.where(rigid[None, :] & np.isfinite(angle), 0.5 * np.pi, angle)

@@ -299,7 +299,7 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
         tracks[name] = Track(position=xy(state.z, scale, o), velocity=xy(dz, dscale, 0.0),
                              acceleration=xy(ddz, ddscale, 0.0))
     with np.errstate(invalid="ignore"):
-        transmission = transmission_angle(pn, plan.table.joints)
+        transmission = transmission_angle(pn, plan.table.joints, plan.table.rigid)
         orientation = triangle_orientation(pn, plan.table.joints)
     ds = np.where(ok[:, None], ds, np.nan)
     return Motion(plan=plan, t=t, motor_angle=value, positions=p, velocity=v, acceleration=acc,

@@ -304,7 +304,8 @@ def quality(echo: Callable[[str], None], four_bars: atlas.Atlas, index: Index, e
     sizes = ", ".join(f"{name} {len(arrays['params']):,}" for name, arrays in every.families.items())
     six_bars = spec_atlas(examples_dir() / EIGHT_SPEC, 2_000 if quick else 20_000)
     (six_name, six_rows), = ((n, len(a["params"])) for n, a in six_bars.families.items())
-    echo("quality, --top 5 (normalized RMS error by the target's size, max in parentheses: the atlas candidate "
+    top = bench_points.top_of(quick)
+    echo(f"quality, --top {top} (normalized RMS error by the target's size, max in parentheses: the atlas candidate "
          "as placed → refined → polished through edit); classic curves: four-bar atlas (figure-eights also "
          f"{six_name}: {six_rows:,} six-bars around examples/{EIGHT_SPEC}); held-out linkages: atlas of {sizes}:")
     held = held_out_targets(1 if quick else 2)
@@ -324,7 +325,7 @@ def quality(echo: Callable[[str], None], four_bars: atlas.Atlas, index: Index, e
     for name, z, closed, book, book_index, margin_deg in rows:
         curve = make_curve(name, np.stack([z.real, z.imag], axis=1), closed=closed, origin="bench")
         t0 = time.perf_counter()
-        result = synthesize(curve, book, book_index, top=1 if quick else 5, margin_deg=margin_deg)
+        result = synthesize(curve, book, book_index, top=top, margin_deg=margin_deg)
         best, polish = result.best, result.polish
         polished = ("not polished (open)" if polish is None else
                     f"{100 * polish.error[0]:6.3f} % ({100 * polish.error[1]:5.2f} %)" if polish.error else "edit failed")
@@ -424,13 +425,13 @@ def run(echo: Callable[[str], None], quick: bool = False, large: int | None = No
     if large:
         bench_scale.run(echo, large)
 
-    runs = []
+    runs, top = [], bench_points.top_of(quick)
     for z in targets[: 1 if quick else 4]:
         curve = make_curve("target", np.stack([z.real, z.imag], axis=1), closed=True, origin="bench")
         t0 = time.perf_counter()
-        result = synthesize(curve, book, index, top=1 if quick else 5)
+        result = synthesize(curve, book, index, top=top)
         runs.append((time.perf_counter() - t0, result.error[0]))
-    echo(f"synthesize end to end, --top 5, held-out four-bar targets against {big:,} curves: "
+    echo(f"synthesize end to end, --top {top}, held-out four-bar targets against {big:,} curves: "
          f"{statistics.median(t for t, _ in runs):.2f} s median (target ≤ {SYNTHESIZE_TARGET:g} s); "
          f"normalized RMS error after refinement: max {max(e for _, e in runs):.2g}")
     bench_points.precision_points(echo, book, index, quick)

@@ -20,6 +20,11 @@ from linkedit.synthesis.synthesize import MARGIN_DEG, synthesize
 WIDE_BAND_DEG = 10.0
 
 
+def top_of(quick: bool) -> int:
+    """The synthesis bench's ``--top`` (candidates refined per target): 5, or 1 with ``--quick``."""
+    return 1 if quick else 5
+
+
 #: Precision-point problems: (points, seed of the uneven draw) from held-out four-bars (atlas seed 4242, not the
 #: atlas's); the reference is the generating linkage (error 0). Published problems: :func:`published_points`.
 PRECISION_PROBLEMS = ((6, 1), (8, 2), (10, 3), (12, 4), (18, 5), (25, 6))
@@ -30,7 +35,8 @@ def precision_points(echo: Callable[[str], None], book: atlas.Atlas, index: Inde
     written result's curve over their RMS radius (max in parentheses), the generating linkage's by the same
     measure, the same points synthesized as a curve (the polygon; scored by the points), and CPU seconds."""
     rows = atlas.build_chunk("four-bar", 4242, 0, len(PRECISION_PROBLEMS)).params
-    echo("precision points, --top 5 (mean point-to-curve distance over the points' RMS radius, max in parentheses; "
+    top = top_of(quick)
+    echo(f"precision points, --top {top} (mean point-to-curve distance over the points' RMS radius, max in parentheses; "
          "held-out four-bars, points drawn unevenly; reference: the generating linkage):")
     echo(f"  {'points':>6s}  {'ours (--points)':>22s}  {'as a curve (polygon)':>22s}  {'generating':>10s}  CPU s")
     for (count, seed), row in list(zip(PRECISION_PROBLEMS, rows))[: 2 if quick else None]:
@@ -39,11 +45,11 @@ def precision_points(echo: Callable[[str], None], book: atlas.Atlas, index: Inde
         radius = float(np.sqrt(np.mean(np.abs(z - z.mean()) ** 2)))
         target = make_curve("points", np.stack([z.real, z.imag], axis=1), closed=True, origin="bench")
         cpu = time.process_time()
-        ours = synthesize(target, book, index, top=1 if quick else 5, points=True)
+        ours = synthesize(target, book, index, top=top, points=True)
         cpu = time.process_time() - cpu
         assert ours.point_distances is not None
         d = ours.point_distances / ours.size
-        drawn = simulate(compile_plan(synthesize(target, book, index, top=1 if quick else 5, points=False).spec), 20000)
+        drawn = simulate(compile_plan(synthesize(target, book, index, top=top, points=False).spec), 20000)
         p = drawn.tracks["target"].position
         polygon = distances_to(z, p[:, 0] + 1j * p[:, 1], True) / radius
         truth = simulate(compile_plan(fourbar.to_spec(row, phase=0.0, scale=30.0, turn=np.exp(0.7j * seed),
@@ -59,13 +65,14 @@ WIDE_BAND_PROBLEM = "Wampler et al. 1992, nine points on two circles"
 
 
 def published_points(echo: Callable[[str], None], book: atlas.Atlas, index: Index, quick: bool) -> None:
-    """Published precision-point problems (:mod:`linkedit.synthesis.published`): ours (``--points``, --top 5, the
-    20° band) by the mean distance of the points to the written result's curve over their RMS radius (max in
+    """Published precision-point problems (:mod:`linkedit.synthesis.published`): ours (``--points``, --top 5, 1
+    with ``quick``, the 20° band) by the mean distance of the points to the written result's curve over their RMS radius (max in
     parentheses), against the best published linkage's by the same measure (exact solutions: 0), with CPU
     seconds."""
     from linkedit.synthesis.published import PROBLEMS
 
-    echo("published precision-point problems, --points --top 5 (mean point-to-curve distance over the points' RMS "
+    top = top_of(quick)
+    echo(f"published precision-point problems, --points --top {top} (mean point-to-curve distance over the points' RMS "
          "radius, max in parentheses; published: the best published linkage, scored the same way; sources: "
          "linkedit/synthesis/published.py):")
     echo(f"  {'problem':<52s} {'ours':>21s}  {'published':>9s}  CPU s  published solution")
@@ -76,7 +83,7 @@ def published_points(echo: Callable[[str], None], book: atlas.Atlas, index: Inde
         z = problem.array()
         target = make_curve("points", np.stack([z.real, z.imag], axis=1), closed=True, origin="bench")
         cpu = time.process_time()
-        ours = synthesize(target, book, index, top=1 if quick else 5, points=True, margin_deg=margin_deg)
+        ours = synthesize(target, book, index, top=top, points=True, margin_deg=margin_deg)
         cpu = time.process_time() - cpu
         assert ours.point_distances is not None
         d = ours.point_distances / ours.size

@@ -12,9 +12,11 @@ Parameters per linkage, columns of a (K, 11) array: a₁, b₁, c₁, s₁, α�
 (α₁, β₂ fitted).
 
 The six-bar works when both transmission angles (at B over the input range, at E over the bell
-crank's range of x) stay within [μ_min, 180° − μ_min]: the first in closed form
-(:func:`linkedit.synthesis.function.lowest_singularity`), the second over x's range at the pairs
-and midway between them (the bell crank's turn between two samples taken as monotonic).
+crank's range of x) stay within [μ_min, 180° − μ_min], both in closed form
+(:func:`linkedit.synthesis.function.lowest_singularity`): μ at E depends on x alone, so its extremes
+over the input range are those over x's range [x_min, x_max] (x is continuous in φ), and x's
+extremes lie at the range's ends or at the first stage's toggles (O, A, B collinear, where x turns
+back), found in closed form (:func:`toggles`).
 
 The starts compose four-bar fits: the first fitted to the prescribed function (either sense), the
 second to what is left (the prescribed output against the first's x); the best are refined together, as :func:`linkedit.synthesis.function.fit` refines
@@ -31,6 +33,9 @@ from linkedit.planar.feasibility import margin_of, works
 from linkedit.synthesis import function
 from linkedit.synthesis.multistart import solve
 from linkedit.synthesis.refine import BAND, BARRIER
+
+#: evenly spaced inputs through which the bell crank's angle is unwrapped (besides the pairs and their midpoints)
+BELL_SAMPLES = 64
 
 
 @dataclass(frozen=True)
@@ -51,13 +56,31 @@ def stages(params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return first, params[:, 5:]
 
 
+def toggles(params: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Inputs φ (K, 4), radians, in [lo, hi], where the first stage of six-bars ``params`` (K, 11) may stand at a
+    toggle (O, A, B collinear: |B| = a₁ ± b₁, the rocker's turning points, dx/dφ = 0), ``lo`` where none can be.
+    Candidates for either branch: B = D + c₁·e^{ix} with 1 + c₁² + 2c₁·cos x = (a₁ ± b₁)², A = ±a₁·B/|B|."""
+    a, b, c, alpha = (params[:, i:i + 1] for i in (0, 1, 2, 4))
+    reach = np.concatenate([a + b, a - b, a + b, a - b], axis=1)  # signed: A on B's side of O or opposite
+    way = np.array([1.0, 1.0, -1.0, -1.0])
+    with np.errstate(invalid="ignore"):
+        x = way * np.arccos((reach * reach - 1.0 - c * c) / (2.0 * c))
+    tip = 1.0 + c * np.exp(1j * x)
+    phi = np.angle(np.sign(reach) * tip) - alpha
+    phi = lo + np.mod(phi - lo, 2 * np.pi)
+    return np.where(np.isfinite(phi) & (phi <= hi), phi, lo)
+
+
 def bell_crank_range(params: np.ndarray, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The smallest and largest rocker angle x = arg(B − D) (K,) each, radians, of six-bars ``params`` (K, 11)
-    over the inputs ``phi`` (N,) and the midpoints between them (unwrapped along the inputs); NaN where the
-    first stage cannot be placed."""
-    s = np.sort(phi)
-    x = np.unwrap(function.output_angles(stages(params)[0], np.sort(np.concatenate([s, 0.5 * (s[1:] + s[:-1])]))),
-                  axis=1)
+    over the input range of ``phi`` (N,), exact: x at the range's ends and at the first stage's toggles in it
+    (:func:`toggles`), unwrapped along the inputs through the pairs, the midpoints between them and
+    ``BELL_SAMPLES`` evenly spaced inputs; NaN where the first stage cannot be placed."""
+    lo, hi = float(phi.min()), float(phi.max())
+    common = np.concatenate([phi, 0.5 * (phi[1:] + phi[:-1]), np.linspace(lo, hi, BELL_SAMPLES)])
+    inputs = np.sort(np.concatenate([np.broadcast_to(common, (len(params), len(common))),
+                                     toggles(params, lo, hi)], axis=1), axis=1)
+    x = np.unwrap(function.output_angles(stages(params)[0], inputs), axis=1)
     return x.min(axis=1), x.max(axis=1)
 
 

@@ -65,12 +65,16 @@ def _write(out: Path, spec: LinkageSpec, motion: Motion, header: str, report: di
 
 def read_pairs(path: Path) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """Input and output angles (N,) each, degrees, and their file lines; InputError for fewer than
-    3 distinct inputs or inputs spanning more than a turn."""
+    3 pairs, an input given twice (a function has one output per input) or inputs spanning
+    more than a turn. The rows may come in any order: the pairs are points of the function."""
     table = read_columns(path, ("input_deg", "output_deg"), minimum=3)
     phi, psi, lines = table.columns["input_deg"], table.columns["output_deg"], table.lines
-    if len(np.unique(phi)) < 3:
-        raise InputError(f"{len(np.unique(phi))} distinct input angles; at least 3 are needed", file=str(path),
-                         field="input_deg")
+    _, first, inverse = np.unique(phi, return_index=True, return_inverse=True)
+    again = np.flatnonzero(first[inverse] != np.arange(len(phi)))
+    if len(again):  # with every input once, the 3 rows read_columns requires are 3 distinct inputs
+        i = int(again[0])
+        raise InputError(f"input {phi[i]:g}° is duplicated (line {lines[int(first[inverse[i]])]} gives it too): a "
+                         "function has one output per input", file=str(path), line=lines[i], field="input_deg")
     if np.ptp(phi) > 360.0:
         raise InputError(f"the input angles span {np.ptp(phi):.6g}°, more than one turn of the crank", file=str(path),
                          field="input_deg")
