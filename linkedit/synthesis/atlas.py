@@ -24,7 +24,7 @@ from linkedit.io.atomic import atomic_path, deferred_interrupts, locked
 from linkedit.io.h5read import ResultReader, open_result
 from linkedit.io.hdf5 import writing
 from linkedit.resources import require_disk, require_memory
-from linkedit.synthesis.chunks import (CHUNK, COARSE_STEP, HARMONICS, SAMPLES, Chunk, build_memory, chunk_sizes,
+from linkedit.synthesis.chunks import (CHUNK, COARSE_STEP, HARMONICS, SAMPLES, Chunk, build_memory, chunk_sizes, reporting,
                                       dimension)
 from linkedit.synthesis.chunks import build_chunk as build_chunk  # re-exported: callers build chunks through atlas
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, Runner, chunk_runner, scheduler_address
@@ -61,7 +61,8 @@ def build(path: str | Path, names: list[str], count: int, *, seed: int = 1, sche
     new file replaces the old one only when complete. A build whose file would not fit on the disk (or
     whose working memory, :func:`~linkedit.synthesis.chunks.build_memory`, not in memory) is refused
     (InputError) before any work. Returns the linkage count per family.
-    ``progress(done, total, seconds)`` is called after every chunk; ``scheduler``, ``workers``,
+    ``progress(done, total, seconds)`` is called after every chunk, and in-process as a chunk's draws are
+    screened (:func:`~linkedit.synthesis.chunks.reporting`); ``scheduler``, ``workers``,
     ``connect_timeout``, ``verbose``: see :func:`linkedit.synthesis.cluster.chunk_runner`.
     """
     path = Path(path)
@@ -84,6 +85,11 @@ def _grow(path: Path, names: list[str], count: int, seed: int, run: Runner,
     every family of ``names``, renamed onto ``path``."""
     total = count * len(names)
     done, start = 0, time.perf_counter()
+
+    def within(kept: int) -> None:  # a chunk's draws screened in-process: ``kept`` of its linkages so far
+        if progress is not None:
+            progress(done + kept, total, time.perf_counter() - start)
+
     with atomic_path(path) as tmp:
         if path.exists():
             shutil.copyfile(path, tmp)
@@ -100,14 +106,15 @@ def _grow(path: Path, names: list[str], count: int, seed: int, run: Runner,
                     group = _family_group(f, name)
                 first = int(group.attrs["chunks"])
                 jobs = chunk_sizes(count, first)
-                for index, chunk in run(name, seed, jobs):
-                    with deferred_interrupts():  # HDF5 is not cut short: a signal is raised after the chunk
-                        _append(group, chunk)
-                        group.attrs["chunks"] = index + 1
-                    f.check()  # a full disk stops the build here, not after every chunk
-                    done += len(chunk.params)
-                    if progress is not None:
-                        progress(done, total, time.perf_counter() - start)
+                with reporting(within):
+                    for index, chunk in run(name, seed, jobs):
+                        with deferred_interrupts():  # HDF5 is not cut short: a signal is raised after the chunk
+                            _append(group, chunk)
+                            group.attrs["chunks"] = index + 1
+                        f.check()  # a full disk stops the build here, not after every chunk
+                        done += len(chunk.params)
+                        if progress is not None:
+                            progress(done, total, time.perf_counter() - start)
                 if len(jobs) and jobs[-1][1] < CHUNK:
                     group.attrs["partial_chunk"] = True  # later appends still start at the next index
             counts = {name: int(f[f"families/{name}/params"].shape[0]) for name in f["families"]}

@@ -10,6 +10,10 @@ in-process or on a Dask worker (:mod:`linkedit.synthesis.cluster`), in any order
 
 from __future__ import annotations
 
+import contextlib
+import threading
+import time
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +33,8 @@ COARSE_STEP = 2
 HARMONICS = 8
 #: Linkages evaluated together inside a chunk (their working arrays stay in the CPU cache).
 BLOCK = 1024
+#: Drawn rows screened together first, and seconds a screening block aims at after that (see :func:`reporting`).
+FIRST_SCREEN, SCREEN_SECONDS = 32, 0.5
 
 
 
@@ -73,9 +79,17 @@ def build_chunk(name: str, seed: int, index: int, size: int = CHUNK, spec: str |
     kept: list[np.ndarray] = []
     kept_ds: list[np.ndarray] = []
     have = 0
+    step = FIRST_SCREEN
     while have < size:
         draw = fam.sample(rng, 2 * (size - have) + 16)
-        ds = fam.min_singularity(draw, margin)
+        ds, screened, start = np.empty(len(draw)), have, 0
+        while start < len(draw):  # a row's d_s is its own: the blocks change no byte
+            began, part = time.perf_counter(), slice(start, start + step)
+            ds[part] = fam.min_singularity(draw[part], margin)
+            screened += int(works(ds[part], margin).sum())
+            _report(min(size, screened))
+            start += step
+            step = int(np.clip(step * SCREEN_SECONDS / max(time.perf_counter() - began, 1e-6), step, 2 * step))
         keep = works(ds, margin)
         kept.append(draw[keep])
         kept_ds.append(ds[keep])
@@ -88,6 +102,27 @@ def build_chunk(name: str, seed: int, index: int, size: int = CHUNK, spec: str |
         desc[start:start + BLOCK] = index_vector(index_efd(z))
         coarse[start:start + BLOCK] = coarse_curves(z)
     return Chunk(params, np.concatenate(kept_ds)[:size], desc, coarse)
+
+
+_reporter: tuple[int, Callable[[int], None]] | None = None
+
+
+@contextlib.contextmanager
+def reporting(callback: Callable[[int], None]) -> Iterator[None]:
+    """Within the block, a chunk built in this thread (in-process) calls ``callback(kept)`` as its draws are
+    screened (linkages of the chunk kept so far): a slow family's progress moves inside a chunk. The screening
+    blocks grow from :data:`FIRST_SCREEN` rows towards :data:`SCREEN_SECONDS` each (at most doubling)."""
+    global _reporter
+    before, _reporter = _reporter, (threading.get_ident(), callback)
+    try:
+        yield
+    finally:
+        _reporter = before
+
+
+def _report(kept: int) -> None:
+    if _reporter is not None and _reporter[0] == threading.get_ident():
+        _reporter[1](kept)
 
 
 def coarse_curves(z: np.ndarray) -> np.ndarray:

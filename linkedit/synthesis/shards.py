@@ -32,7 +32,7 @@ from linkedit.io.hdf5 import writing
 from linkedit.resources import require_disk, require_memory
 from linkedit.synthesis.atlas import Atlas, check_options
 from linkedit.synthesis.atlas import load as load_file
-from linkedit.synthesis.chunks import CHUNK, HARMONICS, SAMPLES, Chunk, build_chunk, build_memory, chunk_sizes
+from linkedit.synthesis.chunks import CHUNK, HARMONICS, SAMPLES, Chunk, build_chunk, build_memory, chunk_sizes, reporting
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, chunk_runner
 from linkedit.synthesis.families import SPEC_TEXTS, family
 from linkedit.synthesis.index import SAMPLE_PER_CELL, assign, quantizer_side, train_quantizer
@@ -339,8 +339,13 @@ def _run(path: Path, manifest: dict[str, Any], jobs: dict[str, list[tuple[int, i
     finished: dict[str, set[int]] = {name: set() for name in jobs}  # listed in "shards", still in "pending"
     store = partial(store_chunks, str(path.absolute()), {name: manifest["families"][name]["quantizer"] for name in jobs})
     saved, wait = time.monotonic(), SAVE_EVERY
+
+    def within(kept: int) -> None:  # a chunk's draws screened in-process: ``kept`` of its linkages so far
+        if progress is not None:
+            progress(done + kept, total, time.perf_counter() - start)
+
     try:
-        with runner as run:
+        with runner as run, reporting(within):
             for name, family_jobs in jobs.items():
                 shards, listed = manifest["families"][name]["shards"], finished[name]
                 for index, shard in run(name, seed, family_jobs, task=store):

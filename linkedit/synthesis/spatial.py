@@ -55,7 +55,8 @@ from linkedit.spec.geometry3d import MAX_COORDINATE
 from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.spec.yamlload import load_yaml, validate
 from linkedit.synthesis.atlas import Atlas
-from linkedit.synthesis.chunks import SAMPLES, coarse_curves, dimension
+from linkedit.synthesis import chunks
+from linkedit.synthesis.chunks import coarse_curves, dimension
 from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.outputs import DRAWN, history_chart
@@ -242,8 +243,9 @@ def _screened(unit: np.ndarray, spatial: Atlas, index: Any, margin_deg: float) -
         mine = np.array([k for k, h in enumerate(hits) if h.family == fam_name])
         rows = [hits[k].row for k in mine]
         book = spatial.families[fam_name]
-        stored = (np.asarray(book["curves"][rows], dtype=float) if "curves" in book  # an atlas file's
-                  else coarse_curves(family(fam_name).curves(book["params"][rows], SAMPLES)).astype(np.float32))
+        coarse = (book["curves"][rows] if "curves" in book  # an atlas file's (float32)
+                  else coarse_curves(family(fam_name).curves(book["params"][rows], chunks.SAMPLES)).astype(np.float32))
+        stored = np.asarray(coarse, dtype=float)  # scored in float64 both ways: a folder ranks as a file
         score[mine] = partial_rms(arc, stored, mirror=True, grid=SCREEN)[0]
     return [hits[k] for k in np.argsort(score, kind="stable")[:OPEN_POOL]]
 
