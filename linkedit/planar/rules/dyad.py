@@ -73,7 +73,7 @@ class Dyad(Triangles):
         if pool.buffer is None:  # measuring: the arrays are empty
             return None
         rates = None if r is None else loc.rates(e, fk[0], u, a, b, fk[1:], r)
-        spread = Spread(5, one[0], shape[0], derive=_lengths) if single else None
+        spread = Spread(4, one[0], shape[0], derive=_lengths) if single else None
         return zi, e, fk, w, d2, u, bsq, loc.coefficient(e[0], w, d2, u, a, b, bsq), rates, spread
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
@@ -83,7 +83,7 @@ class Dyad(Triangles):
             lik2, ljk2, half, sign = const
             lengths = lik2 * ljk2
         else:
-            lik2, ljk2, half, sign, lengths = spread.of(const, *const)
+            lik2, half, sign, lengths = spread.of(const, const[0], const[2], const[3], const[1])
         Z = f.orders
         zi = self.inputs(Z, zi, e)
         coefficient(half, lik2, sign)
@@ -123,5 +123,5 @@ class Dyad(Triangles):
 
 
 def _lengths(tiles: np.ndarray) -> None:
-    """The spread constants' l_ik²·l_jk² (tile 4) from l_ik², l_jk² (tiles 0, 1): d_s's denominator."""
-    np.multiply(tiles[0], tiles[1], out=tiles[4])
+    """The spread constants' l_ik²·l_jk², d_s's denominator: tile 3 (l_jk²) times tile 0 (l_ik²)."""
+    np.multiply(tiles[0], tiles[3], out=tiles[3])
