@@ -62,14 +62,14 @@ class Dyad(Triangles):
         with l_ik²·l_jk² for d_s) and its rates' iω (its zero real part then stays), both outside
         the pool (in it for K linkages, and no spread); None while the pool measures."""
         one, n, single = (self.stop - self.start, *shape), orders - 1, len(shape) == 1
-        r = None
-        if n:  # one linkage's iω outside the pool, like its spread constants: its zero real part stays
-            c = np.empty(one if pool.buffer is not None else 0, complex) if single else pool(one, complex)
-            r = loc.Rates(pool(one, complex), c, pool(one, complex), pool((n, *one), complex), pool(one), pool(one),
-                          pool(one), kept=single)
         zi, e = super().scratch(pool, orders, shape)
         fk, w, d2, u, bsq = pool((orders, *one), complex), pool(one, complex), pool(one), pool(one), pool(one)
         a, b = pool(one), pool(one)
+        r = None
+        if n:  # one linkage's iω outside the pool, like its spread constants: its zero real part stays
+            c = np.empty(one if pool.buffer is not None else 0, complex) if single else pool(one, complex)
+            # w, B (s = u/B in place), B² and d² are spent before the rates: they hold ġ, s, g·f, |ġ|²
+            r = loc.Rates(pool(one, complex), c, w, pool((n, *one), complex), b, bsq, d2, kept=single)
         if pool.buffer is None:  # measuring: the arrays are empty
             return None
         rates = None if r is None else loc.rates(e, fk[0], u, a, b, fk[1:], r)
