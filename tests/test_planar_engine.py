@@ -46,7 +46,7 @@ def test_dyad_derivatives_match_central_differences():
     E, Zi = np.stack([z0j - z0i, vj - vi, aj - ai]), np.stack([z0i, vi, ai])
     out = np.empty((2, 3, 1), dtype=complex)
     real, cplx = (lambda: np.empty((3, 1))), (lambda: np.empty((3, 1), dtype=complex))
-    rates = loc.Rates(cplx(), cplx(), cplx(), np.empty((2, 3, 1), dtype=complex), real(), real(), real(), real())
+    rates = loc.Rates(cplx(), cplx(), cplx(), np.empty((2, 3, 1), dtype=complex), real(), real(), real())
     loc.dyad_rates(E, z - z0i, terms.u, terms.a, terms.b, lik2, out, rates)
     out += Zi[1:]  # dyad_rates gives what joint k adds to joint i's derivatives
     h = 1e-4

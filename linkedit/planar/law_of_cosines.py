@@ -89,8 +89,11 @@ def coefficient(e: np.ndarray, w: np.ndarray, d2: np.ndarray, u: np.ndarray, a: 
 @dataclass
 class Rates:
     """Scratch buffers of :func:`dyad_rates` for a batch of R dyads over samples S: ``g``, ``c``,
-    ``t`` (R, *S) complex; ``P`` (n, R, *S) complex for n derivative orders; ``s``, ``gf``,
-    ``w2``, ``q`` (R, *S) real."""
+    ``t`` (R, *S) complex; ``P`` (n, R, *S) complex for n derivative orders; ``s``, ``gf``, ``q``
+    (R, *S) real. ``c`` holds iω: its real part is zeroed when the kernel is made and the kernel
+    writes only its imaginary part, so a ``c`` no one else writes (``kept``) is not zeroed again
+    per call. ``s`` may be the kernel's ``b`` (s = u/B is formed in place), ``t``, ``gf``, ``q``
+    buffers of the positions' terms spent before the rates (less memory touched per call)."""
 
     g: np.ndarray
     c: np.ndarray
@@ -98,8 +101,8 @@ class Rates:
     P: np.ndarray
     s: np.ndarray
     gf: np.ndarray
-    w2: np.ndarray
     q: np.ndarray
+    kept: bool = False
 
 
 def dyad_rates(E: np.ndarray, f: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndarray,
@@ -123,12 +126,15 @@ def rates(E: np.ndarray, f: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndar
     since Im(ḡ·f) = −B·d². Differentiating g·ġ = 0 once more: z̈_k = z̈_i + (iω̇ − ω²)·f with
     ω̇ = s·(g·ë + ω²·(g·f) − |ġ|²), ġ = iω·f − ė and g·f = l_ik² − A·d². Linear in the inputs'
     derivatives; every product is complex × complex or real × real (numpy casts mixed ones
-    through a buffer, twice as slow).
+    through a buffer, twice as slow). −ω² is the real part of (iω)², exactly: the product
+    c·c writes it in place of a square and a negation.
     """
     D, e0, P, c, g, s = E[1:], E[0], r.P[: E.shape[0] - 1], r.c, r.g, r.s
     dot, omega, spin, first = P[0].real, c.imag, c.real, out[0]
     subtract, conjugate, multiply, divide, add, square = (np.subtract, np.conjugate, np.multiply, np.divide,
                                                           np.add, np.square)
+    spin.fill(0.0)
+    kept = r.kept
 
     def velocity() -> None:
         subtract(f, e0, out=g)
@@ -136,11 +142,12 @@ def rates(E: np.ndarray, f: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndar
         multiply(g, D, out=P)  # Re P = g·ė (, g·ë)
         divide(u, b, out=s)
         multiply(dot, s, out=omega)  # c = iω
-        spin.fill(0.0)
+        if not kept:
+            spin.fill(0.0)
         multiply(c, f, out=first)
     if D.shape[0] < 2:
         return lambda lik2: velocity()
-    dg, q, w2, gf, d1, squares, parts, gr, gi = r.t, r.q, r.w2, r.gf, D[0], r.t.view(float), g.view(float), g.real, g.imag
+    dg, q, gf, d1, squares, parts, gr, gi = r.t, r.q, r.gf, D[0], r.t.view(float), g.view(float), g.real, g.imag
     dot2, second = P[1].real, out[1]
 
     def kernel(lik2: np.ndarray) -> None:
@@ -148,26 +155,25 @@ def rates(E: np.ndarray, f: np.ndarray, u: np.ndarray, a: np.ndarray, b: np.ndar
         subtract(first, d1, out=dg)  # ġ = iω·f − ė
         square(squares, out=parts)
         add(gr, gi, out=q)  # |ġ|²
+        multiply(c, c, out=g)  # g = −ω² + 0i, the real part of iω̇ − ω²
         divide(a, u, out=gf)
         subtract(lik2, gf, out=gf)  # g·f
-        multiply(omega, omega, out=w2)  # ω²
-        multiply(gf, w2, out=gf)
-        add(gf, dot2, out=gf)
+        multiply(gf, gr, out=gf)  # −ω²·(g·f)
+        subtract(dot2, gf, out=gf)
         subtract(gf, q, out=gf)
-        multiply(gf, s, out=omega)  # ω̇
-        np.negative(w2, out=spin)
-        multiply(c, f, out=second)
+        multiply(gf, s, out=gi)  # g = iω̇ − ω²
+        multiply(g, f, out=second)
     return kernel
 
 
-def singularity_distance(bsq: np.ndarray, u: np.ndarray, lik2: np.ndarray, ljk2: np.ndarray,
-                          tmp: np.ndarray, out: np.ndarray) -> np.ndarray:
+def singularity_distance(bsq: np.ndarray, u: np.ndarray, lengths: np.ndarray, tmp: np.ndarray,
+                          out: np.ndarray) -> np.ndarray:
     """d_s = sin²α into ``out``, α the angle at the rebuilt joint (LinkEdit Eq. 6); < 0 where it
-    cannot close. ``bsq`` = B², ``u`` = 1/d² (R, T), ``tmp`` a real (R, T) buffer.
+    cannot close. ``bsq`` = B², ``u`` = 1/d² (R, T), ``lengths`` = l_ik²·l_jk² (R, T) or (R, 1),
+    ``tmp`` a real (R, T) buffer.
 
-    With h = |B|·d the triangle's height over i→j, sin α = d·h/(l_ik·l_jk).
+    With h = |B|·d the triangle's height over i→j, sin α = d·h/(l_ik·l_jk): d_s = B²/(u²·l_ik²·l_jk²).
     """
     np.multiply(u, u, out=tmp)
-    tmp *= lik2
-    tmp *= ljk2
+    tmp *= lengths
     return np.divide(bsq, tmp, out=out)

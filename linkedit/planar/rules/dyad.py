@@ -59,29 +59,37 @@ class Dyad(Triangles):
         (R, *shape) each, and the kernels of w (:func:`~linkedit.planar.law_of_cosines.coefficient`)
         and of the rates (:func:`~linkedit.planar.law_of_cosines.rates`, None without
         derivatives) on them; one linkage's constants spread over the samples (:class:`Spread`,
-        outside the pool; None for K linkages); None while the pool measures."""
-        one, n = (self.stop - self.start, *shape), orders - 1
-        r = loc.Rates(pool(one, complex), pool(one, complex), pool(one, complex), pool((n, *one), complex),
-                      *(pool(one) for _ in range(4))) if n else None
+        with l_ik²·l_jk² for d_s) and its rates' iω (its zero real part then stays), both outside
+        the pool (in it for K linkages, and no spread); None while the pool measures."""
+        one, n, single = (self.stop - self.start, *shape), orders - 1, len(shape) == 1
         zi, e = super().scratch(pool, orders, shape)
         fk, w, d2, u, bsq = pool((orders, *one), complex), pool(one, complex), pool(one), pool(one), pool(one)
         a, b = pool(one), pool(one)
+        r = None
+        if n:  # one linkage's iω outside the pool, like its spread constants: its zero real part stays
+            c = np.empty(one if pool.buffer is not None else 0, complex) if single else pool(one, complex)
+            # w, B (s = u/B in place), B² and d² are spent before the rates: they hold ġ, s, g·f, |ġ|²
+            r = loc.Rates(pool(one, complex), c, w, pool((n, *one), complex), b, bsq, d2, kept=single)
         if pool.buffer is None:  # measuring: the arrays are empty
             return None
         rates = None if r is None else loc.rates(e, fk[0], u, a, b, fk[1:], r)
-        spread = Spread(4, one[0], shape[0]) if len(shape) == 1 else None
+        spread = Spread(4, one[0], shape[0], derive=_lengths) if single else None
         return zi, e, fk, w, d2, u, bsq, loc.coefficient(e[0], w, d2, u, a, b, bsq), rates, spread
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Positions, d_s and the derivatives of ``f.orders``, each one array operation over the batch."""
         zi, e, fk, w, d2, u, bsq, coefficient, rates, spread = f.scratch[id(self)]
-        lik2, ljk2, half, sign = const if spread is None else spread.of(const, *const)
+        if spread is None:
+            lik2, ljk2, half, sign = const
+            lengths = lik2 * ljk2
+        else:
+            lik2, half, sign, lengths = spread.of(const, const[0], const[2], const[3], const[1])
         Z = f.orders
         zi = self.inputs(Z, zi, e)
         coefficient(half, lik2, sign)
         np.multiply(w, e[0], out=fk[0])
         if f.distances:
-            loc.singularity_distance(bsq, u, lik2, ljk2, d2, f.ds[rows])
+            loc.singularity_distance(bsq, u, lengths, d2, f.ds[rows])
         if rates is not None:
             rates(lik2)
         np.add(zi, fk, out=Z[:, self.start:self.stop])
@@ -94,7 +102,7 @@ class Dyad(Triangles):
         lik2, ljk2 = np.abs(rk - ri) ** 2, np.abs(rk - rj) ** 2
         half = 0.5 * (lik2 - ljk2)
         f.z[out], t = loc.dyad(zi, zj, half[:, None], lik2[:, None], self.sign)
-        loc.singularity_distance(t.bsq, t.u, lik2[:, None], ljk2[:, None], np.empty_like(t.u), f.ds[rows])
+        loc.singularity_distance(t.bsq, t.u, (lik2 * ljk2)[:, None], np.empty_like(t.u), f.ds[rows])
         if f.dz is None or f.dlnds is None:
             return
         D = f.D
@@ -112,3 +120,8 @@ class Dyad(Triangles):
         f.dz[out] = dzi + (da + 1j * db) * e + t.w[:, None, :] * de
         f.dlnds[rows] = (dbsq / t.bsq[:, None, :] - 2.0 * du / u
                          - (dL / lik2[:, None])[:, :, None] - (dM / ljk2[:, None])[:, :, None])
+
+
+def _lengths(tiles: np.ndarray) -> None:
+    """The spread constants' l_ik²·l_jk², d_s's denominator: tile 3 (l_jk²) times tile 0 (l_ik²)."""
+    np.multiply(tiles[0], tiles[3], out=tiles[3])

@@ -130,17 +130,23 @@ class Spread:
     """A rule's constants (R, 1) spread over the samples, (n, R, T) of ``dtype``, copied again
     only when the rule is called with another constants tuple: numpy's loop over an (R, 1)
     operand broadcast against (R, T) costs a few times a same-shape one. The one-linkage
-    constants are read-only (:meth:`Triangles.constants`), so the same tuple holds the same values."""
+    constants are read-only (:meth:`Triangles.constants`), so the same tuple holds the same values.
+    ``derive``, given, fills the tiles after the parts' from them (a product of constants, formed
+    once per constants tuple)."""
 
-    def __init__(self, n: int, rows: int, samples: int, dtype: type = float) -> None:
+    def __init__(self, n: int, rows: int, samples: int, dtype: type = float,
+                 derive: Callable[[np.ndarray], object] | None = None) -> None:
         self.tiles: np.ndarray = np.empty((n, rows, samples), dtype=dtype)
         self.held: tuple[Any, ...] | None = None
+        self.derive = derive
 
     def of(self, const: tuple[Any, ...], *parts: np.ndarray) -> np.ndarray:
-        """The tiles of ``parts`` (R, 1) each, taken from the constants tuple ``const``."""
+        """The tiles of ``parts`` (R, 1) each, taken from the constants tuple ``const``, then ``derive``'s."""
         if const is not self.held:
             for tile, part in zip(self.tiles, parts):
                 np.copyto(tile, part)
+            if self.derive is not None:
+                self.derive(self.tiles)
             self.held = const
         return self.tiles
 
