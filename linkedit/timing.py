@@ -1,7 +1,8 @@
-"""Wall-time measurement for the benchmarks (``linkedit bench``): best of repeated calls."""
+"""Wall-time measurement for the benchmarks (``linkedit bench``): best or median of repeated calls."""
 
 from __future__ import annotations
 
+import statistics
 import time
 from collections.abc import Callable
 
@@ -21,3 +22,13 @@ def best_time(fn: Callable[[], object], repeats: int = 1, budget_s: float = 0.0)
         best = min(best, time.perf_counter() - t0)
         n += 1
     return best
+
+
+def median_time(fn: Callable[[], object], repeats: int) -> float:
+    """Median wall time of ``repeats`` calls to ``fn``, in seconds (no warm-up call)."""
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)

@@ -7,7 +7,7 @@ import re
 
 import pytest
 
-from linkedit.synthesis import bench
+from linkedit.synthesis import bench_cluster
 
 
 def test_the_scaling_figures_parse_and_add_up(cluster):
@@ -16,7 +16,7 @@ def test_the_scaling_figures_parse_and_add_up(cluster):
     and near the same build's CPU in-process; the tasks ran within the workers × wall seconds; the printed
     CPU-time efficiency is the in-process CPU over the workers' and the client's."""
     lines: list[str] = []
-    figures = bench.shard_scaling(lines.append, cluster.scheduler_address, 2, 1, 0.0)
+    figures = bench_cluster.shard_scaling(lines.append, cluster.scheduler_address, 2, 1, 0.0)
     text = "\n".join(lines)
     printed = {name: float(re.search(pattern, text).group(1)) / scale for name, pattern, scale in [
         ("wall", r"parallel efficiency (\d+)%", 100), ("cpu", r"CPU-time efficiency (\d+)%", 100),

@@ -98,9 +98,9 @@ def test_a_build_is_refused_while_another_process_holds_the_lock(tmp_path, monke
 def test_the_bench_compares_build_rates_on_dask():
     """The full bench's Dask comparison (here one chunk, one repeat) builds bench-0.h5 several times in one run."""
     pytest.importorskip("dask.distributed")
-    from linkedit.synthesis import bench
+    from linkedit.synthesis import bench_cluster
 
     lines: list[str] = []
     with atomic.together():
-        bench.dask_comparison(lines.append, 1, 1)
+        bench_cluster.dask_comparison(lines.append, 1, 1)
     assert "local Dask cluster" in lines[-1]
