@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -42,3 +43,25 @@ def cluster():
 
     with local_cluster(2) as cluster:
         yield cluster
+
+
+def svg_texts(svg: str) -> list[str]:
+    """The texts of an SVG drawing's <text> elements, in order."""
+    return re.findall(r"<text[^>]*>([^<]*)</text>", svg)
+
+
+def svg_legend(svg: str) -> list[str]:
+    """The entries of an SVG drawing's legend (its ``<g class="legend">``)."""
+    block = re.search(r'<g class="legend"[^>]*>(.*?)</g>', svg, re.S)
+    assert block, "no legend"
+    return svg_texts(block.group(1))
+
+
+@pytest.fixture(scope="session")
+def four_bar_atlas(tmp_path_factory) -> Path:
+    """An atlas file of 20,000 four-bars (seed 1), built once per test process."""
+    from linkedit.synthesis import atlas
+
+    path = tmp_path_factory.mktemp("atlas") / "four-bar.h5"
+    atlas.build(path, ["four-bar"], 2 * atlas.CHUNK, seed=1)
+    return path

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from linkedit.synthesis import atlas, fourbar
+from linkedit.synthesis import fourbar
 from linkedit.synthesis import points as precision
 
 
@@ -130,20 +130,13 @@ def test_precision_points_are_told_from_a_sampled_curve():
     assert precision.detect(even, closed=True) is None  # 12 points evenly spaced along the curve: a sampled curve
 
 
-@pytest.fixture(scope="module")
-def points_atlas(tmp_path_factory):
-    path = tmp_path_factory.mktemp("atlas") / "four-bar.h5"
-    atlas.build(path, ["four-bar"], 2 * atlas.CHUNK, seed=1)
-    return path
-
-
 def write_csv(path, z: np.ndarray) -> None:
     path.write_text("x,y\n" + "\n".join(f"{float(p.real)!r},{float(p.imag)!r}" for p in z) + "\n")
 
 
 @pytest.mark.parametrize("target", [pytest.param(lambda: uneven(held_out()[1], 8, 4), id="held-out"),
                                     pytest.param(fast_target, marks=pytest.mark.slow, id="fast")])
-def test_precision_points_of_a_held_out_four_bar_are_reached(run_cli, points_atlas, tmp_path, target):
+def test_precision_points_of_a_held_out_four_bar_are_reached(run_cli, four_bar_atlas, tmp_path, target):
     """8 unevenly spaced points of a held-out four-bar's curve, taken for precision points (detected): every
     point within 1e-4 of their RMS radius of the result's curve; `linkedit simulate result.yaml` reproduces
     the reported per-point distances (segment distances to its dense curve). ``fast``: the result passes a
@@ -151,7 +144,7 @@ def test_precision_points_of_a_held_out_four_bar_are_reached(run_cli, points_atl
     target = target()
     write_csv(tmp_path / "points.csv", target)
     out = tmp_path / "out"
-    result = run_cli("synthesize", tmp_path / "points.csv", "--atlas", points_atlas, "-o", out, "--top", "3",
+    result = run_cli("synthesize", tmp_path / "points.csv", "--atlas", four_bar_atlas, "-o", out, "--top", "3",
                      "--closed")
     assert result.exit_code == 0, result.output
     report = json.loads((out / "report.json").read_text())
@@ -169,10 +162,10 @@ def test_precision_points_of_a_held_out_four_bar_are_reached(run_cli, points_atl
     assert max(drawn) / radius <= 1e-4
 
 
-def test_points_take_neither_timing_nor_smoothing(run_cli, points_atlas, tmp_path):
+def test_points_take_neither_timing_nor_smoothing(run_cli, four_bar_atlas, tmp_path):
     _, curve = held_out()
     write_csv(tmp_path / "points.csv", uneven(curve, 8, 4))
-    result = run_cli("synthesize", tmp_path / "points.csv", "--atlas", points_atlas, "-o", tmp_path / "out",
+    result = run_cli("synthesize", tmp_path / "points.csv", "--atlas", four_bar_atlas, "-o", tmp_path / "out",
                      "--points", "--smooth", "0.1")
     assert result.exit_code == 2 and "--points" in result.output and "Traceback" not in result.output
     assert not (tmp_path / "out").exists()

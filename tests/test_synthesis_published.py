@@ -11,7 +11,7 @@ import pytest
 
 from linkedit.curves.polyline import distances_to
 from linkedit.planar import compile_plan, simulate
-from linkedit.synthesis import atlas, fourbar
+from linkedit.synthesis import fourbar
 from linkedit.synthesis import points as precision
 from linkedit.synthesis.published import PROBLEMS
 
@@ -76,13 +76,6 @@ def test_newton_reaches_the_linkage_through_nine_of_its_points():
     assert fourbar.min_singularity(params[None])[0] >= fourbar.margin()
 
 
-@pytest.fixture(scope="module")
-def small_atlas(tmp_path_factory):
-    path = tmp_path_factory.mktemp("atlas") / "four-bar.h5"
-    atlas.build(path, ["four-bar"], 2 * atlas.CHUNK, seed=1)
-    return path
-
-
 def _drawn_distances(curve: np.ndarray, z: np.ndarray) -> np.ndarray:
     """Each point's (N,) complex distance to the closed polyline ``curve`` (M,) complex, brute force."""
     a, e = curve, np.roll(curve, -1) - curve
@@ -91,14 +84,14 @@ def _drawn_distances(curve: np.ndarray, z: np.ndarray) -> np.ndarray:
     return np.abs(rel - t * e).min(axis=1)
 
 
-def test_morgan_wampler_problem_7_round_trip(run_cli, small_atlas, tmp_path):
+def test_morgan_wampler_problem_7_round_trip(run_cli, four_bar_atlas, tmp_path):
     """`synthesize --points` on the five points of Morgan & Wampler's problem 7: the result passes through every
     point to rounding (the published linkages' error, 0); `linkedit simulate result.yaml` draws a curve whose
     distances to the points are the reported ones."""
     z = PROBLEMS[0].array()
     (tmp_path / "mw7.csv").write_text("x,y\n" + "".join(f"{x!r},{y!r}\n" for x, y in PROBLEMS[0].points))
     out = tmp_path / "out"
-    result = run_cli("synthesize", tmp_path / "mw7.csv", "--points", "--atlas", small_atlas, "-o", out,
+    result = run_cli("synthesize", tmp_path / "mw7.csv", "--points", "--atlas", four_bar_atlas, "-o", out,
                      "--top", "3")
     assert result.exit_code == 0, result.output
     found = json.loads((out / "report.json").read_text())["precision_points"]
@@ -112,7 +105,7 @@ def test_morgan_wampler_problem_7_round_trip(run_cli, small_atlas, tmp_path):
                                atol=1e-6 * radius)
 
 
-def test_six_points_on_a_line_reach_the_published_error(run_cli, small_atlas, tmp_path):
+def test_six_points_on_a_line_reach_the_published_error(run_cli, four_bar_atlas, tmp_path):
     """`synthesize --points` on GA case 1's six points on a vertical line (free timing; the best published four-bar,
     HCDJ's, meets them to 3.8e-8 of their RMS radius with its transmission angle falling to 19°, Lin & Hsiao's to
     7.9e-8 at 46°): the result, inside the 20° band, meets them at least as well (the atlas ranking blew its
@@ -126,7 +119,7 @@ def test_six_points_on_a_line_reach_the_published_error(run_cli, small_atlas, tm
     assert best is not None
     (tmp_path / "line.csv").write_text("x,y\n" + "".join(f"{x!r},{y!r}\n" for x, y in problem.points))
     out = tmp_path / "out"
-    result = run_cli("synthesize", tmp_path / "line.csv", "--points", "--atlas", small_atlas, "-o", out,
+    result = run_cli("synthesize", tmp_path / "line.csv", "--points", "--atlas", four_bar_atlas, "-o", out,
                      "--top", "3")
     assert result.exit_code == 0, result.output
     found = json.loads((out / "report.json").read_text())["precision_points"]

@@ -18,6 +18,8 @@ from linkedit.spec.mechanism3d import MechanismSpec
 from linkedit.synthesis import atlas, rssr, spherical
 from linkedit.synthesis.refine import curve_error
 
+from tests.conftest import svg_legend, svg_texts
+
 FAMILIES = {"spherical-four-bar": spherical, "rssr": rssr}
 
 
@@ -105,16 +107,6 @@ def _check_round_trip(run_cli, tmp_path, out, points) -> dict:
     return report
 
 
-def _texts(svg: str) -> list[str]:
-    return re.findall(r"<text[^>]*>([^<]*)</text>", svg)
-
-
-def _legend(svg: str) -> list[str]:
-    block = re.search(r'<g class="legend"[^>]*>(.*?)</g>', svg, re.S)
-    assert block, "no legend"
-    return _texts(block.group(1))
-
-
 def _small_spherical(tmp_path, samples: int, count: int):
     """A 1,500-linkage spherical atlas and a target drawn by one of its linkages with every length changed by
     ~2 % (not in the atlas), turned, scaled and moved, in metres: its first ``count`` of ``samples`` points."""
@@ -141,16 +133,16 @@ def test_spatial_round_trip(run_cli, tmp_path):
     assert report["error"]["after"]["rms"] <= 0.01 and report["target"]["units"] == "m"
     assert report["target"]["closed"] is True
     overlay = (out / "overlay.svg").read_text()
-    names = _legend(overlay)
+    names = svg_legend(overlay)
     assert len(names) == len(set(names)), names
     assert {"target", "atlas candidate as placed", "drawn by the linkage"} <= set(names), names
-    assert {"u (m)", "v (m)"} <= set(_texts(overlay))
+    assert {"u (m)", "v (m)"} <= set(svg_texts(overlay))
     assert re.findall(r'class="curve" data-name="([^"]*)"', overlay) == ["target", "atlas candidate as placed"]
     history = (out / "history.svg").read_text()
-    words = _texts(history)
+    words = svg_texts(history)
     assert "evaluations" in words and not {"x", "y"} & set(words)
     assert any("RMS error" in w and "% of the target's size" in w and "log" in w for w in words), words
-    assert _legend(history) == ["candidate 1 (kept)"]
+    assert svg_legend(history) == ["candidate 1 (kept)"]
 
 
 def test_open_spatial_arc(run_cli, tmp_path):
@@ -164,7 +156,7 @@ def test_open_spatial_arc(run_cli, tmp_path):
     report = _check_round_trip(run_cli, tmp_path, out, points)
     assert report["target"]["closed"] is False and report["error"]["after"]["rms"] <= 0.01
     assert "target→result distances (an open arc" in report["error"]["normalized_by"]
-    assert "target (open arc)" in _legend((out / "overlay.svg").read_text())
+    assert "target (open arc)" in svg_legend((out / "overlay.svg").read_text())
 
 
 @pytest.mark.slow

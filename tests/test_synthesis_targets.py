@@ -17,12 +17,7 @@ from linkedit.curves.efd import polyline_efd
 from linkedit.curves.sources import is_closed
 from linkedit.synthesis import atlas, fourbar
 
-
-@pytest.fixture(scope="module")
-def small_atlas(tmp_path_factory):
-    path = tmp_path_factory.mktemp("atlas") / "four-bar.h5"
-    atlas.build(path, ["four-bar"], 2 * atlas.CHUNK, seed=1)
-    return path
+from tests.conftest import svg_legend, svg_texts
 
 
 @pytest.fixture(scope="module")
@@ -81,12 +76,12 @@ def one_line_exit_2(result, *words: str) -> str:
 # --- units --------------------------------------------------------------------------------------------------------
 
 
-def test_units_from_the_csv_header_reach_every_result_file(run_cli, small_atlas, coupler_curve, tmp_path):
+def test_units_from_the_csv_header_reach_every_result_file(run_cli, four_bar_atlas, coupler_curve, tmp_path):
     """`x (m),y (m)`: result.yaml, result.h5 and report.json say m (the numbers are not rescaled)."""
     target = coupler_curve[::160] / 1000
     write_csv(tmp_path / "m.csv", target, "x (m),y (m)")
     out = tmp_path / "out"
-    result = run_cli("synthesize", tmp_path / "m.csv", "--atlas", small_atlas, "-o", out, "--top", "1")
+    result = run_cli("synthesize", tmp_path / "m.csv", "--atlas", four_bar_atlas, "-o", out, "--top", "1")
     assert result.exit_code == 0, result.output
     assert re.search(r"^units: m$", (out / "result.yaml").read_text(), re.M)
     with h5py.File(out / "result.h5") as f:
@@ -98,25 +93,25 @@ def test_units_from_the_csv_header_reach_every_result_file(run_cli, small_atlas,
                                                                                      rel=0.02)
 
 
-def test_units_option(run_cli, small_atlas, coupler_curve, tmp_path):
+def test_units_option(run_cli, four_bar_atlas, coupler_curve, tmp_path):
     """--units names the units of a bare header; one that contradicts the file's is exit 2."""
     write_csv(tmp_path / "bare.csv", coupler_curve[::160])
     out = tmp_path / "out"
-    result = run_cli("synthesize", tmp_path / "bare.csv", "--atlas", small_atlas, "-o", out, "--top", "1",
+    result = run_cli("synthesize", tmp_path / "bare.csv", "--atlas", four_bar_atlas, "-o", out, "--top", "1",
                      "--units", "in")
     assert result.exit_code == 0, result.output
     assert re.search(r"^units: in$", (out / "result.yaml").read_text(), re.M)
     assert json.loads((out / "report.json").read_text())["target"]["units"] == "in"
     write_csv(tmp_path / "m.csv", coupler_curve[::160], "x (m),y (m)")
-    clash = run_cli("synthesize", tmp_path / "m.csv", "--atlas", small_atlas, "-o", tmp_path / "o2", "--units", "mm")
+    clash = run_cli("synthesize", tmp_path / "m.csv", "--atlas", four_bar_atlas, "-o", tmp_path / "o2", "--units", "mm")
     one_line_exit_2(clash, "--units", "mm", "m.csv")
     assert not (tmp_path / "o2").exists()
 
 
 @pytest.mark.parametrize("header, words", [("x (m),y (mm)", ["units", "m", "mm"]), ("x (m/s),y (m/s)", ["m/s"])])
-def test_unusable_units_in_the_header_are_exit_2(run_cli, small_atlas, coupler_curve, tmp_path, header, words):
+def test_unusable_units_in_the_header_are_exit_2(run_cli, four_bar_atlas, coupler_curve, tmp_path, header, words):
     write_csv(tmp_path / "u.csv", coupler_curve[::160], header)
-    result = run_cli("synthesize", tmp_path / "u.csv", "--atlas", small_atlas, "-o", tmp_path / "out")
+    result = run_cli("synthesize", tmp_path / "u.csv", "--atlas", four_bar_atlas, "-o", tmp_path / "out")
     assert "u.csv:1" in one_line_exit_2(result, *words)
     assert not (tmp_path / "out").exists()
 
@@ -124,14 +119,14 @@ def test_unusable_units_in_the_header_are_exit_2(run_cli, small_atlas, coupler_c
 # --- no data, magnitudes ------------------------------------------------------------------------------------------
 
 
-def test_a_header_without_rows_is_no_data(run_cli, small_atlas, tmp_path):
+def test_a_header_without_rows_is_no_data(run_cli, four_bar_atlas, tmp_path):
     (tmp_path / "h.csv").write_text("x,y\n")
-    result = run_cli("synthesize", tmp_path / "h.csv", "--atlas", small_atlas, "-o", tmp_path / "out")
+    result = run_cli("synthesize", tmp_path / "h.csv", "--atlas", four_bar_atlas, "-o", tmp_path / "out")
     one_line_exit_2(result, "h.csv", "no data")
     assert not (tmp_path / "out").exists()
 
 
-def test_the_fit_is_scale_free(run_cli, small_atlas, coupler_curve, tmp_path):
+def test_the_fit_is_scale_free(run_cli, four_bar_atlas, coupler_curve, tmp_path):
     """The same target in units 1e30 apart (and 1e-100, where the polish failed) gives the same normalized
     error, and a result.yaml in the target's frame that draws it with that error."""
     base = coupler_curve[::160]
@@ -140,7 +135,7 @@ def test_the_fit_is_scale_free(run_cli, small_atlas, coupler_curve, tmp_path):
         target = base * scale
         write_csv(tmp_path / "t.csv", target)
         out = tmp_path / f"out{scale:g}"
-        result = run_cli("synthesize", tmp_path / "t.csv", "--atlas", small_atlas, "-o", out, "--top", "1")
+        result = run_cli("synthesize", tmp_path / "t.csv", "--atlas", four_bar_atlas, "-o", out, "--top", "1")
         assert result.exit_code == 0, result.output
         report = json.loads((out / "report.json").read_text())
         errors[scale] = report["error"]["after"]["rms"]
@@ -162,10 +157,10 @@ def test_the_index_descriptor_is_scale_free(coupler_curve):
 
 
 @pytest.mark.parametrize("scale, words", [(1e300, ["e+30", "≤ 1e+150"]), (1e-200, ["e-19", "1e-150 across"])])
-def test_a_target_beyond_the_float_range_is_one_line_exit_2(run_cli, small_atlas, coupler_curve, tmp_path, scale,
+def test_a_target_beyond_the_float_range_is_one_line_exit_2(run_cli, four_bar_atlas, coupler_curve, tmp_path, scale,
                                                             words):
     write_csv(tmp_path / "big.csv", coupler_curve[::160] * scale)
-    result = run_cli("synthesize", tmp_path / "big.csv", "--atlas", small_atlas, "-o", tmp_path / "out")
+    result = run_cli("synthesize", tmp_path / "big.csv", "--atlas", four_bar_atlas, "-o", tmp_path / "out")
     one_line_exit_2(result, "big.csv", *words)
     assert not (tmp_path / "out").exists()
 
@@ -193,11 +188,11 @@ def test_closure_is_told_from_the_geometry_not_from_even_sampling(coupler_curve)
     assert is_closed(pts(coupler_curve[::400]))  # evenly sampled, 50 points
 
 
-def test_an_unevenly_sampled_closed_target_is_synthesized_as_closed(run_cli, small_atlas, coupler_curve, tmp_path):
+def test_an_unevenly_sampled_closed_target_is_synthesized_as_closed(run_cli, four_bar_atlas, coupler_curve, tmp_path):
     target = uneven(coupler_curve, 5, 90)
     write_csv(tmp_path / "w.csv", target)
     out = tmp_path / "out"
-    result = run_cli("synthesize", tmp_path / "w.csv", "--atlas", small_atlas, "-o", out, "--top", "1")
+    result = run_cli("synthesize", tmp_path / "w.csv", "--atlas", four_bar_atlas, "-o", out, "--top", "1")
     assert result.exit_code == 0, result.output
     report = json.loads((out / "report.json").read_text())
     assert report["target"]["closed"] and report["error"]["after"]["rms"] < 0.01
@@ -208,17 +203,7 @@ def test_an_unevenly_sampled_closed_target_is_synthesized_as_closed(run_cli, sma
 # --- the pictures -------------------------------------------------------------------------------------------------
 
 
-def texts(svg: str) -> list[str]:
-    return re.findall(r"<text[^>]*>([^<]*)</text>", svg)
-
-
-def legend(svg: str) -> list[str]:
-    block = re.search(r'<g class="legend"[^>]*>(.*?)</g>', svg, re.S)
-    assert block, "no legend"
-    return texts(block.group(1))
-
-
-def test_smoothed_target_the_overlay_draws_what_its_error_is_measured_against(run_cli, small_atlas, coupler_curve,
+def test_smoothed_target_the_overlay_draws_what_its_error_is_measured_against(run_cli, four_bar_atlas, coupler_curve,
                                                                               tmp_path):
     """--smooth: the overlay draws the smoothed target (the error's reference) and its title says so; the report's
     error is against the smoothed target (given in the report), which result.yaml reproduces."""
@@ -226,14 +211,14 @@ def test_smoothed_target_the_overlay_draws_what_its_error_is_measured_against(ru
     raw = coupler_curve[::100] + 0.8 * (rng.normal(size=200) + 1j * rng.normal(size=200))
     write_csv(tmp_path / "noisy.csv", raw)
     out = tmp_path / "out"
-    result = run_cli("synthesize", tmp_path / "noisy.csv", "--atlas", small_atlas, "-o", out, "--top", "1",
+    result = run_cli("synthesize", tmp_path / "noisy.csv", "--atlas", four_bar_atlas, "-o", out, "--top", "1",
                      "--smooth", "0.01")
     assert result.exit_code == 0, result.output
     svg = (out / "overlay.svg").read_text()
     title = re.search(r"<title>([^<]*)</title>", svg).group(1)
     assert "smoothed" in title and "σ = 0.01" in title, title
     assert re.findall(r'class="target" data-name="([^"]*)"', svg) == ["smoothed target"]
-    names = legend(svg)
+    names = svg_legend(svg)
     assert len(names) == len(set(names)) and names.count("target") == 1, names
     report = json.loads((out / "report.json").read_text())
     assert report["target"]["smoothed"] is True
@@ -245,17 +230,17 @@ def test_smoothed_target_the_overlay_draws_what_its_error_is_measured_against(ru
     assert resimulated_error(run_cli, out, raw, True, tmp_path) > 1.2 * error  # the raw target is farther
 
 
-def test_history_and_overlay_name_their_axes_and_each_thing_once(run_cli, small_atlas, coupler_curve, tmp_path):
+def test_history_and_overlay_name_their_axes_and_each_thing_once(run_cli, four_bar_atlas, coupler_curve, tmp_path):
     write_csv(tmp_path / "t.csv", coupler_curve[::160], "x (mm),y (mm)")
     out = tmp_path / "out"
-    result = run_cli("synthesize", tmp_path / "t.csv", "--atlas", small_atlas, "-o", out, "--top", "2")
+    result = run_cli("synthesize", tmp_path / "t.csv", "--atlas", four_bar_atlas, "-o", out, "--top", "2")
     assert result.exit_code == 0, result.output
-    overlay = legend((out / "overlay.svg").read_text())
+    overlay = svg_legend((out / "overlay.svg").read_text())
     assert len(overlay) == len(set(overlay)) and overlay.count("target") == 1, overlay
     history = (out / "history.svg").read_text()
-    words = texts(history)
+    words = svg_texts(history)
     assert "evaluations" in words and not {"x", "y"} & set(words)
     assert any("RMS error" in w and "% of the target's size" in w and "log" in w for w in words), words
     assert not any("1 unit =" in w for w in words)
-    names = legend(history)
+    names = svg_legend(history)
     assert len(names) == 2 and len(set(names)) == 2 and sum("(kept)" in n for n in names) == 1, names
