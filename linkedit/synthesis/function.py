@@ -33,7 +33,7 @@ import numpy as np
 from linkedit.planar.feasibility import margin_of, works
 from linkedit.planar.law_of_cosines import dyad
 from linkedit.synthesis.multistart import solve
-from linkedit.synthesis.refine import BAND, BARRIER
+from linkedit.synthesis.refine import barrier
 
 PARAMETERS = ("a", "b", "c", "branch", "input_offset", "output_offset")
 #: offsets tried per angle with relative angles (a grid of α and β)
@@ -178,10 +178,9 @@ def _refine(rows: np.ndarray, phi: np.ndarray, psi: np.ndarray, relative: bool, 
         p = unpack(x, start)
         low = lowest_singularity(p, lo, hi)
         r = wrap(output_angles(p, phi) - psi[None, :]) * scale
-        with np.errstate(invalid="ignore", divide="ignore"):
-            barrier = BARRIER * np.log(np.maximum(BAND * margin / (low - margin), 1.0))
-        ok = works(low, margin) & np.isfinite(barrier) & (low > margin)
-        return np.where(ok[:, None], np.concatenate([r, barrier[:, None]], axis=1), np.inf)
+        push = barrier(low, margin)
+        ok = works(low, margin) & np.isfinite(push) & (low > margin)
+        return np.where(ok[:, None], np.concatenate([r, push[:, None]], axis=1), np.inf)
 
     x0 = rows[:, free].copy()
     x0[:, :3] = np.log(x0[:, :3])

@@ -32,7 +32,7 @@ import numpy as np
 from linkedit.planar.feasibility import margin_of, works
 from linkedit.synthesis import function
 from linkedit.synthesis.multistart import solve
-from linkedit.synthesis.refine import BAND, BARRIER
+from linkedit.synthesis.refine import barrier
 
 #: evenly spaced inputs through which the bell crank's angle is unwrapped (besides the pairs and their midpoints)
 BELL_SAMPLES = 64
@@ -149,10 +149,9 @@ def _refine(rows: np.ndarray, phi: np.ndarray, goal: np.ndarray, margin: float) 
         p = unpack(x, start)
         low = lowest_singularity(p, phi)
         r = function.wrap(output_angles(p, phi) - goal[None, :]) * scale
-        with np.errstate(invalid="ignore", divide="ignore"):
-            barrier = BARRIER * np.log(np.maximum(BAND * margin / (low - margin), 1.0))
-        ok = np.all(works(low, margin) & np.isfinite(barrier) & (low > margin), axis=1)
-        return np.where(ok[:, None], np.concatenate([r, barrier], axis=1), np.inf)
+        push = barrier(low, margin)
+        ok = np.all(works(low, margin) & np.isfinite(push) & (low > margin), axis=1)
+        return np.where(ok[:, None], np.concatenate([r, push], axis=1), np.inf)
 
     x0 = rows[:, free].copy()
     x0[:, logs] = np.log(x0[:, logs])

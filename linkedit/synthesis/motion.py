@@ -34,7 +34,7 @@ from linkedit.planar.feasibility import margin_of, works
 from linkedit.planar.law_of_cosines import dyad
 from linkedit.synthesis.function import lowest_singularity, wrap
 from linkedit.synthesis.multistart import solve
-from linkedit.synthesis.refine import BAND, BARRIER
+from linkedit.synthesis.refine import barrier
 
 #: moving pivots tried per axis (a grid over ±SPREAD sizes about the coupler point)
 GRID = 15
@@ -160,9 +160,7 @@ def _model(p: np.ndarray, theta: np.ndarray, margin: float):
     def residuals(x: np.ndarray, start: np.ndarray) -> np.ndarray:
         point, angle, low, ok = poses_of(x)
         gap = point - p[None, :]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            barrier = BARRIER * np.log(np.maximum(BAND * margin / (low - margin), 1.0))
-        r = np.concatenate([gap.real, gap.imag, wrap(angle - theta[None, :]), barrier[:, None]], axis=1)
+        r = np.concatenate([gap.real, gap.imag, wrap(angle - theta[None, :]), barrier(low, margin)[:, None]], axis=1)
         ok = ok & works(low, margin) & (low > margin) & np.isfinite(r).all(axis=1)
         return np.where(ok[:, None], r, np.inf)
 

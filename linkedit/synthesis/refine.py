@@ -52,6 +52,13 @@ BAND = 0.5
 BARRIER = 1e-3
 
 
+def barrier(low: np.ndarray, margin: float) -> np.ndarray:
+    """The barrier residual (…,) of lowest d_s ``low`` (…,) above ``margin``: BARRIER·log(BAND·m / (d_s − m))
+    while positive, 0 farther from the margin; NaN or inf on or below it (the caller's wall)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return BARRIER * np.log(np.maximum(BAND * margin / (low - margin), 1.0))
+
+
 class _Done(Exception):
     """Raised from the residuals once the fit is good enough."""
 
@@ -229,11 +236,9 @@ def refine(fam: ModuleType, params: np.ndarray, placement: Placement, target: np
         """Parameter rows (K, P), working mask (K,) and residuals (K, R + 1) of x (K, n): the
         distances over the target's size and √R, then the barrier (R: the distance count)."""
         p, ds, r = distances(x, linear) if timed is None else timed_residuals(x)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            wall = BAND * margin / (ds - margin)
-            barrier = BARRIER * np.log(np.maximum(wall, 1.0))
-        ok = works(ds, margin) & np.isfinite(barrier) & np.isfinite(r).all(axis=1)  # on the margin: the wall
-        r = np.concatenate([r / (size * np.sqrt(r.shape[1])), barrier[:, None]], axis=1)
+        push = barrier(ds, margin)
+        ok = works(ds, margin) & np.isfinite(push) & np.isfinite(r).all(axis=1)  # on the margin: the wall
+        r = np.concatenate([r / (size * np.sqrt(r.shape[1])), push[:, None]], axis=1)
         return p, ok, np.where(ok[:, None], r, WALL)
 
     x0 = np.concatenate([params[free], [np.log(placement.scale), placement.angle,
