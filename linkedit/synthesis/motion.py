@@ -26,6 +26,7 @@ it does not work, a log barrier near the margin).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -103,11 +104,16 @@ def dyads(p: np.ndarray, theta: np.ndarray) -> np.ndarray:
     rms = np.sqrt(np.mean(residuals(x, np.arange(len(x))) ** 2, axis=1))
     keep = (np.isfinite(rms) & (x[:, 4] >= SHORTEST) & (np.abs(x[:, 2] + 1j * x[:, 3]) <= REACH)
             & (np.abs(x[:, 0] + 1j * x[:, 1]) <= REACH))
-    x, rms = x[keep], rms[keep]
+    return distinct(x[keep], rms[keep], 4)
+
+
+def distinct(x: np.ndarray, rms: np.ndarray, columns: int) -> np.ndarray:
+    """The best DYADS rows of dyads x (K, n) by ``rms`` (K,) whose first ``columns`` apart by more
+    than DISTINCT, with their RMS appended: (D, n + 1), best first."""
     order = np.argsort(rms, kind="stable")
     picked: list[int] = []
-    for i in order:  # distinct ones: pivots apart by more than DISTINCT
-        if all(np.abs(x[i, :4] - x[j, :4]).max() > DISTINCT for j in picked):
+    for i in order:
+        if all(np.abs(x[i, :columns] - x[j, :columns]).max() > DISTINCT for j in picked):
             picked.append(int(i))
         if len(picked) == DYADS:
             break
@@ -132,6 +138,13 @@ def frame_rows(O: np.ndarray, A: np.ndarray, B: np.ndarray, D: np.ndarray) -> np
                          np.angle((A - O) / (D - O)), np.zeros(len(O))], axis=1)
 
 
+def in_order(turns: np.ndarray) -> np.ndarray:
+    """Whether the crank's turns (K, N) (radians, δ₁ = 0) reach the poses in order, one way, within one
+    turn: (K,)."""
+    step = np.diff(turns, axis=1) * np.sign(turns[:, -1:])
+    return (step > 0).all(axis=1) & (np.abs(turns[:, -1]) < 2 * np.pi)
+
+
 def poses_of(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Coupler point (K, N) complex and coupler angle (K, N) at each crank turn of models x,
     the smallest d_s over the sweep (K,) and whether each model works apart from the margin
@@ -145,20 +158,23 @@ def poses_of(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
                       (b * b)[:, None], side[:, None])
         point = pin + (tip - pin) / (B - A)[:, None] * (P - A)[:, None]
         angle = kappa[:, None] + np.angle(tip - pin)
-    step = np.diff(turns, axis=1) * np.sign(turns[:, -1:])
-    inorder = (step > 0).all(axis=1) & (np.abs(turns[:, -1]) < 2 * np.pi)
+    inorder = in_order(turns)
     shape = ((np.minimum.reduce([np.abs(A - O), b, c, d]) >= SHORTEST)
              & (np.maximum.reduce([np.abs(O), np.abs(A), np.abs(B), np.abs(D)]) <= REACH) & (side != 0))
     low = lowest_singularity(rows, turns.min(axis=1), turns.max(axis=1))
     return point, angle, low, inorder & shape
 
 
-def _model(p: np.ndarray, theta: np.ndarray, margin: float):
-    """The residual function of models x (K, N + 10): (K, 3N + 1) — position gaps (x, y), angle
-    gaps, the barrier — not finite where a model does not work."""
+Poses = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
+
+
+def model(poses: Poses, p: np.ndarray, theta: np.ndarray, margin: float):
+    """The residual function of models x (K, n) whose ``poses`` (:func:`poses_of`'s outputs) are
+    fitted to p, θ: (K, 3N + 1) — position gaps (x, y), angle gaps, the barrier — not finite where
+    a model does not work."""
 
     def residuals(x: np.ndarray, start: np.ndarray) -> np.ndarray:
-        point, angle, low, ok = poses_of(x)
+        point, angle, low, ok = poses(x)
         gap = point - p[None, :]
         r = np.concatenate([gap.real, gap.imag, wrap(angle - theta[None, :]), barrier(low, margin)[:, None]], axis=1)
         ok = ok & works(low, margin) & (low > margin) & np.isfinite(r).all(axis=1)
@@ -193,22 +209,33 @@ def fit(p: np.ndarray, theta: np.ndarray, *, margin_deg: float) -> MotionFit | N
     found = dyads(p, theta)
     if len(found) < 2:
         return None
-    starts = _pairs(p, theta, found)
-    residuals = _model(p, theta, margin)
+    kept = best(poses_of, _pairs(p, theta, found), p, theta, margin)
+    if kept is None:
+        return None
+    x, position, turn_error, low = kept
+    O, D, A, B, P, kappa, turns = (v[0] for v in _unpack(x[None]))
+    return MotionFit(complex(O), complex(A), complex(B), complex(D), complex(P), float(kappa), turns,
+                     position, turn_error, low)
+
+
+def best(poses: Poses, starts: np.ndarray, p: np.ndarray, theta: np.ndarray,
+         margin: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float] | None:
+    """The STARTS best of the models ``starts`` (K, n) refined all at once on :func:`model`; the
+    kept one — among those exact to EXACT the best transmission, else the least cost — as its x (n,),
+    position errors (N,) complex, angle errors (N,) radians and lowest d_s; None when none works."""
+    residuals = model(poses, p, theta, margin)
     cost = 0.5 * np.sum(residuals(starts, np.arange(len(starts))) ** 2, axis=1)
     order = np.argsort(np.where(np.isfinite(cost), cost, np.inf), kind="stable")[:STARTS]
     starts = starts[order[np.isfinite(cost[order])]]
     if not len(starts):
         return None
     x, cost = solve(residuals, starts, iterations=ITERATIONS)
-    point, angle, low, _ = poses_of(x)
+    point, angle, low, _ = poses(x)
     position = point - p[None, :]
     turn_error = wrap(angle - theta[None, :])
     worst = np.maximum(np.abs(position).max(axis=1), np.abs(turn_error).max(axis=1))
     exact = np.isfinite(cost) & (worst <= EXACT)
-    best = int(np.argmax(np.where(exact, low, -np.inf))) if exact.any() else int(np.argmin(cost))
-    if not np.isfinite(cost[best]):
+    kept = int(np.argmax(np.where(exact, low, -np.inf))) if exact.any() else int(np.argmin(cost))
+    if not np.isfinite(cost[kept]):
         return None
-    O, D, A, B, P, kappa, turns = (v[best] for v in _unpack(x))
-    return MotionFit(complex(O), complex(A), complex(B), complex(D), complex(P), float(kappa), turns,
-                     position[best], turn_error[best], float(low[best]))
+    return x[kept], position[kept], turn_error[kept], float(low[kept])
