@@ -236,8 +236,8 @@ def test_function_takes_no_atlas_and_a_curve_needs_one(run_cli, tmp_path):
         wrong = run_cli("synthesize", "--function", tmp_path / "p.csv", *options, "-o", tmp_path / "o")
         assert wrong.exit_code == 2 and len(wrong.output.strip().splitlines()) == 1, wrong.output
         assert message in wrong.output
-    stray = run_cli("synthesize", "--motion", tmp_path / "p.csv", "--family", "six-bar", "-o", tmp_path / "o")
-    assert stray.exit_code == 2 and "--family applies to --function" in stray.output
+    stray = run_cli("synthesize", "--motion", tmp_path / "p.csv", "--family", "five-bar", "-o", tmp_path / "o")
+    assert stray.exit_code == 2 and "unknown family 'five-bar' for --motion" in stray.output
     assert not (tmp_path / "o").exists()
 
 

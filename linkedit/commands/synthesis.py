@@ -122,15 +122,17 @@ def register(app: typer.Typer) -> None:
                                         "link turns as the CSV's input_deg, output_deg pairs prescribe (no target, "
                                         "no --atlas)."),
         poses: Path = typer.Option(None, "--motion", metavar="POSES.csv",
-                                   help="Motion generation instead: a four-bar whose coupler passes through the "
-                                        "CSV's poses x, y, angle_deg[, t] in order (no target, no --atlas)."),
+                                   help="Motion generation instead: a four-bar (or --family slider-crank) whose "
+                                        "coupler passes through the CSV's poses x, y, angle_deg[, t] in order (no "
+                                        "target, no --atlas)."),
         relative: bool = typer.Option(False, "--relative", help="With --function: the angles are changes from "
                                                                 "rest angles the synthesis chooses (and the output "
                                                                 "may turn either way) [default: absolute, from the "
                                                                 "ground line]."),
         family: str = typer.Option(None, "--family", metavar="FAMILY",
                                    help="With --function: four-bar, or six-bar (a Watt II: two four-bars in series, "
-                                        "more freedom; with --relative) [default: four-bar]."),
+                                        "more freedom; with --relative); with --motion: four-bar or slider-crank "
+                                        "[default: four-bar]."),
         sense: str = typer.Option(None, "--sense", metavar="WAY",
                                   help="With --function --relative: the output turns the crank's way (same) or "
                                        "the other way (opposite) [default: whichever fits better]."),
@@ -169,9 +171,11 @@ def register(app: typer.Typer) -> None:
         curve_only = {"--top": top != 5, "--closed/--open": closed is not None, "--smooth": smooth != 0.0,
                       "--timing": timing, "--seed": seed != 1, "--units": units is not None,
                       "--points/--curve": points is not None, "--scheduler": scheduler is not None}
-        for option, given in (("--relative", relative), ("--family", family is not None), ("--sense", sense is not None)):
+        for option, given in (("--relative", relative), ("--sense", sense is not None)):
             if pairs is None and given:
                 raise InputError(f"{option} applies to --function", field=option)
+        if family is not None and pairs is None and poses is None:
+            raise InputError("--family applies to --function and --motion", field="--family")
         if pairs is not None or poses is not None:
             mode = "--function" if pairs is not None else "--motion"
             if target is not None or atlas is not None or (pairs is not None and poses is not None):
@@ -184,7 +188,7 @@ def register(app: typer.Typer) -> None:
                 _function(pairs, output, relative=relative, margin=margin, tolerance=tolerance, family=family,
                           sense=sense)
             else:
-                _motion(poses, output, margin=margin, tolerance=tolerance)
+                _motion(poses, output, margin=margin, tolerance=tolerance, family=family)
             return
         if target is None or atlas is None:
             raise InputError("give a target curve and --atlas (or --function PAIRS.csv, or --motion POSES.csv)",
@@ -299,18 +303,23 @@ def _function(pairs: Path, output: Path, *, relative: bool, margin: float, toler
         say(f"note: {done['note']}")
 
 
-def _motion(poses: Path, output: Path, *, margin: float, tolerance: float) -> None:
+def _motion(poses: Path, output: Path, *, margin: float, tolerance: float, family: str | None) -> None:
     """``synthesize --motion``: fit, write the output folder, say the errors."""
-    from linkedit.synthesis.generate import FILES, run_motion
+    from linkedit.synthesis.generate import FILES, MOTION_FAMILIES, run_motion
 
+    family = family or "four-bar"
+    if family not in MOTION_FAMILIES:
+        raise InputError(f"unknown family {family!r} for --motion ({' or '.join(MOTION_FAMILIES)})", field="--family")
     check_outputs([("--output", output / name) for name in FILES], [poses])
-    options = {"motion": str(poses), "margin_deg": margin, "tolerance_deg": tolerance}
-    done = run_motion(poses, output, margin_deg=margin, tolerance_deg=tolerance, options=options)
+    options = {"motion": str(poses), "margin_deg": margin, "tolerance_deg": tolerance, "family": family}
+    done = run_motion(poses, output, margin_deg=margin, tolerance_deg=tolerance, options=options, family=family)
     report(done | {"output": str(output)})
     link, error = done["linkage"], done["error"]
-    say(f"motion generator: {done['poses']['count']} poses met within {100 * error['position']['max']:.3g} % of "
-        f"their size and {error['angle_deg']['max']:.3g}° (max); crank {link['crank']:.4g}, coupler "
-        f"{link['coupler']:.4g}, rocker {link['rocker']:.4g}, ground {link['ground']:.4g} {link['units']}; crank "
+    lengths = ", ".join(f"{name} {value:.4g}" for name, value in link.items()
+                        if name not in ("units", "guide_angle_deg"))
+    guide = f" (guide at {link['guide_angle_deg']:.4g}°)" if "guide_angle_deg" in link else ""
+    say(f"{family} motion generator: {done['poses']['count']} poses met within {100 * error['position']['max']:.3g} % "
+        f"of their size and {error['angle_deg']['max']:.3g}° (max); {lengths} {link['units']}{guide}; crank "
         f"sweep {done['crank_sweep_deg']:.1f}°, transmission {done['transmission_deg']['min']:.1f}°…"
         f"{done['transmission_deg']['max']:.1f}° → {output}/")
     if done["note"]:

@@ -1,7 +1,7 @@
-"""``linkedit synthesize --function`` and ``--motion``: from prescribed pairs or poses to a four-bar.
+"""``linkedit synthesize --function`` and ``--motion``: from prescribed pairs or poses to a linkage.
 
-Each run reads its table, fits the four-bar (:mod:`linkedit.synthesis.function`,
-:mod:`linkedit.synthesis.motion`), writes it as a LinkageSpec, measures its errors on that
+Each run reads its table, fits the linkage (:mod:`linkedit.synthesis.function`, :mod:`~.function_six`,
+:mod:`linkedit.synthesis.motion`, :mod:`~.motion_slider`), writes it as a LinkageSpec, measures its errors on that
 written spec evaluated through the planar core at the prescribed inputs (what ``linkedit
 simulate result.yaml`` computes), and writes ``result.yaml``, ``result.h5`` (its simulation) and
 ``report.json`` (``specs/synthesis-report.md``) into the output folder, each atomically.
@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +29,7 @@ from linkedit.planar.law_of_cosines import dyad
 from linkedit.planar.simulate import Motion
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.linkage_yaml import dump_linkage
-from linkedit.synthesis import function, function_six, motion
+from linkedit.synthesis import function, function_six, motion, motion_slider
 
 FILES = ("result.yaml", "result.h5", "report.json")
 #: the ground link's length of a function generator, in UNITS (angles do not depend on it)
@@ -221,39 +222,74 @@ def read_poses(path: Path) -> tuple[np.ndarray, np.ndarray, list[int], str]:
     return points, cols["angle_deg"][order], [table.lines[i] for i in order], units.pop() if units else UNITS
 
 
-def motion_spec(found: motion.MotionFit, centre: complex, size: float, name: str, units: str) -> LinkageSpec:
-    """The fitted four-bar placed by z ↦ centre + size·z at its rest pose (the first pose), the motor
-    sweeping the crank through every pose (``range_deg``), track ``target`` = the coupler point."""
+#: motion generation's families (``--motion --family``): name → fit of normalized poses
+MOTION_FAMILIES: dict[str, Callable[..., motion.MotionFit | motion_slider.SliderFit | None]] = {
+    "four-bar": motion.fit, "slider-crank": motion_slider.fit}
+
+
+def motion_spec(found: motion.MotionFit | motion_slider.SliderFit, centre: complex, size: float, name: str,
+                units: str) -> LinkageSpec:
+    """The fitted linkage placed by z ↦ centre + size·z at its rest pose (the first pose), the motor
+    sweeping the crank through every pose (``range_deg``), track ``target`` = the coupler point on
+    the coupler A-B: a four-bar (rocker D-B) or a slider-crank (B on a ground guide)."""
     def place(z: complex) -> list[float]:
         w = centre + size * z
         return [w.real, w.imag]
 
+    joints = {"O": found.O, "A": found.A, "B": found.B}
+    if isinstance(found, motion_slider.SliderFit):
+        kind = {"description": "slider-crank motion generator: its coupler A-B carries the coupler point (track "
+                               "target) through the poses, B slides on a ground guide (linkedit synthesize --motion "
+                               "--family slider-crank)",
+                "ground": ["O"], "links": {"crank": ["O", "A"], "coupler": ["A", "B"]},
+                "sliders": {"slider": {"joint": "B", "guide": "ground", "angle_deg": float(np.degrees(found.alpha))}}}
+    else:
+        joints["D"] = found.D
+        kind = {"description": "four-bar motion generator: its coupler A-B carries the coupler point (track target) "
+                               "through the poses (linkedit synthesize --motion)",
+                "ground": ["O", "D"], "links": {"crank": ["O", "A"], "coupler": ["A", "B"], "rocker": ["D", "B"]}}
     sweep = float(np.degrees(found.turns[-1]))
     return LinkageSpec.model_validate({
-        "name": name, "units": units,
-        "description": "four-bar motion generator: its coupler A-B carries the coupler point (track target) "
-                       "through the poses (linkedit synthesize --motion)",
-        "joints": {k: place(z) for k, z in (("O", found.O), ("A", found.A), ("B", found.B), ("D", found.D))},
-        "ground": ["O", "D"],
-        "links": {"crank": ["O", "A"], "coupler": ["A", "B"], "rocker": ["D", "B"]},
+        "name": name, "units": units, **kind,
+        "joints": {k: place(z) for k, z in joints.items()},
         "motor": {"joint": "A", "pivot": "O", "direction": "ccw" if sweep > 0 else "cw",
                   "range_deg": [0.0, abs(sweep)]},
         "tracks": {"target": {"link": "coupler", "at": place(found.P)}},
     })
 
 
+def _motion_linkage(found: motion.MotionFit | motion_slider.SliderFit,
+                    spec: LinkageSpec) -> tuple[dict[str, float], tuple[float, float]]:
+    """The written linkage's dimensions (its units; a slider-crank's ``offset``: O's signed distance
+    from the guide, left of its direction positive, and ``guide_angle_deg``) and its transmission
+    angle's range (degrees) over the crank's sweep."""
+    joints = {k: complex(*v) for k, v in spec.joints.items()}
+    crank, coupler = abs(joints["A"] - joints["O"]), abs(joints["B"] - joints["A"])
+    if isinstance(found, motion_slider.SliderFit):
+        guide = np.exp(1j * found.alpha)
+        offset = float((np.conj(guide) * (joints["O"] - joints["B"])).imag)
+        lengths = {"crank": crank, "coupler": coupler, "offset": offset,
+                   "guide_angle_deg": float(np.degrees(found.alpha))}
+        return lengths, motion_slider.transmission_range(found)
+    row = motion.frame_rows(*(np.array([z]) for z in (found.O, found.A, found.B, found.D)))
+    lengths = {"ground": abs(joints["D"] - joints["O"]), "crank": crank, "coupler": coupler,
+               "rocker": abs(joints["B"] - joints["D"])}
+    return lengths, function.transmission_range(row, min(0.0, found.turns[-1]), max(0.0, found.turns[-1]))
+
+
 def run_motion(path: Path, out: Path, *, margin_deg: float, tolerance_deg: float,
-               options: dict[str, Any]) -> dict[str, Any]:
-    """Synthesize a motion generator for the poses in ``path`` and write it into ``out``; returns
-    the report. MechanismError (exit 1) when no pair of dyads gives a working four-bar."""
+               options: dict[str, Any], family: str = "four-bar") -> dict[str, Any]:
+    """Synthesize a motion generator (a ``family`` of :data:`MOTION_FAMILIES`) for the poses in ``path``
+    and write it into ``out``; returns the report. MechanismError (exit 1) when no pair of dyads gives
+    a working linkage."""
     start = time.perf_counter()
     points, angles_deg, lines, units = read_poses(path)
     centre = complex(points.mean())
     size = float(np.abs(points[:, None] - points[None, :]).max())
     theta = np.radians(angles_deg)
-    found = motion.fit((points - centre) / size, theta, margin_deg=margin_deg)
+    found = MOTION_FAMILIES[family]((points - centre) / size, theta, margin_deg=margin_deg)
     if found is None:
-        raise MechanismError(f"{path}: no pair of the dyads found makes a four-bar that passes the {len(points)} poses "
+        raise MechanismError(f"{path}: no pair of the dyads found makes a {family} that passes the {len(points)} poses "
                              f"in order on one assembly branch with its transmission angle within [{margin_deg:g}°, "
                              f"{180 - margin_deg:g}°] (try a smaller --margin, or fewer or other poses)")
     fitted = time.perf_counter()
@@ -267,18 +303,14 @@ def run_motion(path: Path, out: Path, *, margin_deg: float, tolerance_deg: float
     if not (np.isfinite(gap).all() and np.isfinite(turn_error).all()):
         raise MechanismError(f"{spec.name}: the written linkage does not assemble at every pose's crank angle")
     simulated = simulate(spec, RESULT_SAMPLES)
-    row = motion.frame_rows(*(np.array([z]) for z in (found.O, found.A, found.B, found.D)))
-    lo, hi = function.transmission_range(row, min(0.0, found.turns[-1]), max(0.0, found.turns[-1]))
-    joints = {k: np.array(spec.joints[k]) for k in "OABD"}
-    length = {name: float(np.hypot(*(joints[q] - joints[p]))) for name, (p, q) in
-              (("ground", "OD"), ("crank", "OA"), ("coupler", "AB"), ("rocker", "DB"))}
+    length, (lo, hi) = _motion_linkage(found, spec)
     worst_pos, worst_angle = float(gap.max()), float(np.abs(turn_error).max())
     note = "" if worst_pos <= POSITION_TOLERANCE and worst_angle <= tolerance_deg else (
-        f"no four-bar found passes the poses within {100 * POSITION_TOLERANCE:g} % of their size and "
+        f"no {family} found passes the poses within {100 * POSITION_TOLERANCE:g} % of their size and "
         f"{tolerance_deg:g}°: the best is off by {100 * worst_pos:.3g} % and {worst_angle:.3g}° (max)")
     sweep = float(np.degrees(found.turns[-1]))
     report = {
-        "generator": f"linkedit {__version__}", "mode": "motion",
+        "generator": f"linkedit {__version__}", "mode": "motion", "family": family,
         "poses": {"origin": str(path), "count": int(len(points)), "size": size, "units": units},
         "options": options,
         "error": {"position": {"max": worst_pos, "rms": float(np.sqrt(np.mean(gap ** 2)))},
