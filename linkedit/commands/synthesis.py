@@ -130,7 +130,9 @@ def register(app: typer.Typer) -> None:
                                                                 "ground line]."),
         family: str = typer.Option(None, "--family", metavar="FAMILY",
                                    help="With --function: four-bar, or six-bar (a Watt II: two four-bars in series, "
-                                        "more freedom; with --relative) [default: four-bar]."),
+                                        "more freedom; with --relative); with --motion: four-bar, or six-bar (a "
+                                        "Watt II meeting the poses at the motor phases of their t column too) "
+                                        "[default: four-bar]."),
         sense: str = typer.Option(None, "--sense", metavar="WAY",
                                   help="With --function --relative: the output turns the crank's way (same) or "
                                        "the other way (opposite) [default: whichever fits better]."),
@@ -169,9 +171,11 @@ def register(app: typer.Typer) -> None:
         curve_only = {"--top": top != 5, "--closed/--open": closed is not None, "--smooth": smooth != 0.0,
                       "--timing": timing, "--seed": seed != 1, "--units": units is not None,
                       "--points/--curve": points is not None, "--scheduler": scheduler is not None}
-        for option, given in (("--relative", relative), ("--family", family is not None), ("--sense", sense is not None)):
+        for option, given in (("--relative", relative), ("--sense", sense is not None)):
             if pairs is None and given:
                 raise InputError(f"{option} applies to --function", field=option)
+        if family is not None and pairs is None and poses is None:
+            raise InputError("--family applies to --function and --motion", field="--family")
         if pairs is not None or poses is not None:
             mode = "--function" if pairs is not None else "--motion"
             if target is not None or atlas is not None or (pairs is not None and poses is not None):
@@ -184,7 +188,7 @@ def register(app: typer.Typer) -> None:
                 _function(pairs, output, relative=relative, margin=margin, tolerance=tolerance, family=family,
                           sense=sense)
             else:
-                _motion(poses, output, margin=margin, tolerance=tolerance)
+                _motion(poses, output, margin=margin, tolerance=tolerance, family=family or "four-bar")
             return
         if target is None or atlas is None:
             raise InputError("give a target curve and --atlas (or --function PAIRS.csv, or --motion POSES.csv)",
@@ -299,18 +303,23 @@ def _function(pairs: Path, output: Path, *, relative: bool, margin: float, toler
         say(f"note: {done['note']}")
 
 
-def _motion(poses: Path, output: Path, *, margin: float, tolerance: float) -> None:
-    """``synthesize --motion``: fit, write the output folder, say the errors."""
+def _motion(poses: Path, output: Path, *, margin: float, tolerance: float, family: str) -> None:
+    """``synthesize --motion``: fit the ``family``'s motion generator, write the output folder, say the errors."""
     from linkedit.synthesis.generate import FILES, run_motion
+    from linkedit.synthesis.generate_six import run_motion_six
 
+    runners = {"four-bar": run_motion, "six-bar": run_motion_six}
+    if family not in runners:
+        raise InputError(f"unknown family {family!r} for --motion ({' or '.join(runners)})", field="--family")
     check_outputs([("--output", output / name) for name in FILES], [poses])
-    options = {"motion": str(poses), "margin_deg": margin, "tolerance_deg": tolerance}
-    done = run_motion(poses, output, margin_deg=margin, tolerance_deg=tolerance, options=options)
+    options = {"motion": str(poses), "margin_deg": margin, "tolerance_deg": tolerance, "family": family}
+    done = runners[family](poses, output, margin_deg=margin, tolerance_deg=tolerance, options=options)
     report(done | {"output": str(output)})
     link, error = done["linkage"], done["error"]
-    say(f"motion generator: {done['poses']['count']} poses met within {100 * error['position']['max']:.3g} % of "
-        f"their size and {error['angle_deg']['max']:.3g}° (max); crank {link['crank']:.4g}, coupler "
-        f"{link['coupler']:.4g}, rocker {link['rocker']:.4g}, ground {link['ground']:.4g} {link['units']}; crank "
+    lengths = ", ".join(f"{name} {value:.4g}" for name, value in link.items() if name != "units")
+    timing = f", motor timing within {error['timing_deg']['max']:.3g}°" if "timing_deg" in error else ""
+    say(f"{family} motion generator: {done['poses']['count']} poses met within {100 * error['position']['max']:.3g} "
+        f"% of their size and {error['angle_deg']['max']:.3g}°{timing} (max); {lengths} {link['units']}; motor "
         f"sweep {done['crank_sweep_deg']:.1f}°, transmission {done['transmission_deg']['min']:.1f}°…"
         f"{done['transmission_deg']['max']:.1f}° → {output}/")
     if done["note"]:
