@@ -157,3 +157,23 @@ def test_unknown_motion_family_exit_2(run_cli, tmp_path):
     result = run_cli("synthesize", "--motion", tmp_path / "p.csv", "--family", "eight-bar", "-o", tmp_path / "o")
     assert result.exit_code == 2 and "unknown family 'eight-bar' for --motion" in result.output
     assert not (tmp_path / "o").exists()
+
+
+def test_a_stage_one_turning_against_its_crank_is_mirrored(run_cli, tmp_path, monkeypatch):
+    """Stage 1 fitted with its rocker turning against its crank (forced here): its frame is mirrored, the motor
+    turns clockwise, and the written six-bar still meets every pose at its time."""
+    from linkedit.synthesis import function
+
+    fit = function.fit
+    monkeypatch.setattr(function, "fit", lambda *args, **kw: fit(*args, **(kw | {"sense": -1.0})))
+    points, angles = watt_poses(T5)
+    write(tmp_path / "timed.csv", T5, points, angles)
+    out = tmp_path / "six"
+    result = run_cli("synthesize", "--motion", tmp_path / "timed.csv", "--family", "six-bar", "-o", out)
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    spec = yaml.safe_load((out / "result.yaml").read_text())
+    assert report["motor_direction"] == "cw" and spec["motor"]["direction"] == "cw"
+    got, angle = simulated(run_cli, out, [p["motor_turn_deg"] for p in report["points"]], tmp_path)
+    assert np.abs(got - points).max() <= 1e-6 * report["poses"]["size"]
+    assert np.radians(angle_gap(angle, angles).max()) <= 1e-6
