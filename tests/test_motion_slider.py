@@ -97,7 +97,7 @@ def test_poses_no_slider_crank_passes_exit_1(run_cli, tmp_path):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--motion", "P", "--family", "five-bar"], "unknown family 'five-bar' for --motion (four-bar or slider-crank)"),
+    (["--motion", "P", "--family", "five-bar"], "unknown family 'five-bar' for --motion (four-bar, slider-crank, six-bar)"),
     (["--function", "P", "--family", "slider-crank"], "unknown family 'slider-crank'"),
     (["--family", "slider-crank"], "--family applies to --function and --motion"),
 ])

@@ -97,7 +97,8 @@ def test_five_poses_are_interpolated_exactly(run_cli, tmp_path):
     out = tmp_path / "mo"
     result = run_cli("synthesize", "--motion", tmp_path / "five.csv", "-o", out, "--json")
     assert result.exit_code == 0, result.output
-    assert json.loads(result.stdout)["result"]["mode"] == "motion"
+    done = json.loads(result.stdout)["result"]
+    assert done["mode"] == "motion" and done["family"] == "four-bar"
     report = check_poses(run_cli, out, points, angles, tmp_path, 1e-6)
     assert report["linkage"]["units"] == "cm" and yaml.safe_load((out / "result.yaml").read_text())["units"] == "cm"
 

@@ -131,7 +131,9 @@ def register(app: typer.Typer) -> None:
                                                                 "ground line]."),
         family: str = typer.Option(None, "--family", metavar="FAMILY",
                                    help="With --function: four-bar, or six-bar (a Watt II: two four-bars in series, "
-                                        "more freedom; with --relative); with --motion: four-bar or slider-crank "
+                                        "more freedom; with --relative); with --motion: four-bar, slider-crank, "
+                                        "or six-bar (a Watt II meeting the poses at the motor phases of their t "
+                                        "column too) "
                                         "[default: four-bar]."),
         sense: str = typer.Option(None, "--sense", metavar="WAY",
                                   help="With --function --relative: the output turns the crank's way (same) or "
@@ -188,7 +190,7 @@ def register(app: typer.Typer) -> None:
                 _function(pairs, output, relative=relative, margin=margin, tolerance=tolerance, family=family,
                           sense=sense)
             else:
-                _motion(poses, output, margin=margin, tolerance=tolerance, family=family)
+                _motion(poses, output, margin=margin, tolerance=tolerance, family=family or "four-bar")
             return
         if target is None or atlas is None:
             raise InputError("give a target curve and --atlas (or --function PAIRS.csv, or --motion POSES.csv)",
@@ -303,23 +305,27 @@ def _function(pairs: Path, output: Path, *, relative: bool, margin: float, toler
         say(f"note: {done['note']}")
 
 
-def _motion(poses: Path, output: Path, *, margin: float, tolerance: float, family: str | None) -> None:
-    """``synthesize --motion``: fit, write the output folder, say the errors."""
-    from linkedit.synthesis.generate import FILES, MOTION_FAMILIES, run_motion
+def _motion(poses: Path, output: Path, *, margin: float, tolerance: float, family: str) -> None:
+    """``synthesize --motion``: fit the ``family``'s motion generator, write the output folder, say the errors."""
+    from functools import partial
 
-    family = family or "four-bar"
-    if family not in MOTION_FAMILIES:
-        raise InputError(f"unknown family {family!r} for --motion ({' or '.join(MOTION_FAMILIES)})", field="--family")
+    from linkedit.synthesis.generate import FILES, MOTION_FAMILIES, run_motion
+    from linkedit.synthesis.generate_six import run_motion_six
+
+    runners = {name: partial(run_motion, family=name) for name in MOTION_FAMILIES} | {"six-bar": run_motion_six}
+    if family not in runners:
+        raise InputError(f"unknown family {family!r} for --motion ({', '.join(runners)})", field="--family")
     check_outputs([("--output", output / name) for name in FILES], [poses])
     options = {"motion": str(poses), "margin_deg": margin, "tolerance_deg": tolerance, "family": family}
-    done = run_motion(poses, output, margin_deg=margin, tolerance_deg=tolerance, options=options, family=family)
+    done = runners[family](poses, output, margin_deg=margin, tolerance_deg=tolerance, options=options)
     report(done | {"output": str(output)})
     link, error = done["linkage"], done["error"]
     lengths = ", ".join(f"{name} {value:.4g}" for name, value in link.items()
                         if name not in ("units", "guide_angle_deg"))
     guide = f" (guide at {link['guide_angle_deg']:.4g}°)" if "guide_angle_deg" in link else ""
-    say(f"{family} motion generator: {done['poses']['count']} poses met within {100 * error['position']['max']:.3g} % "
-        f"of their size and {error['angle_deg']['max']:.3g}° (max); {lengths} {link['units']}{guide}; crank "
+    timing = f", motor timing within {error['timing_deg']['max']:.3g}°" if "timing_deg" in error else ""
+    say(f"{family} motion generator: {done['poses']['count']} poses met within {100 * error['position']['max']:.3g} "
+        f"% of their size and {error['angle_deg']['max']:.3g}°{timing} (max); {lengths} {link['units']}{guide}; motor "
         f"sweep {done['crank_sweep_deg']:.1f}°, transmission {done['transmission_deg']['min']:.1f}°…"
         f"{done['transmission_deg']['max']:.1f}° → {output}/")
     if done["note"]:

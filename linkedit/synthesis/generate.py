@@ -206,10 +206,10 @@ def run_function(path: Path, out: Path, *, relative: bool, margin_deg: float, to
     return report
 
 
-def read_poses(path: Path) -> tuple[np.ndarray, np.ndarray, list[int], str]:
+def read_poses(path: Path) -> tuple[np.ndarray, np.ndarray, list[int], str, np.ndarray | None]:
     """Coupler point positions (N,) complex, coupler angles (N,) degrees, file lines (in pose
-    order: by ``t`` when given) and units; InputError for fewer than 3 poses or positions that
-    all coincide."""
+    order: by ``t`` when given), units and the times ``t`` (N,) in that order (None without a t
+    column); InputError for fewer than 3 poses or positions that all coincide."""
     table = read_columns(path, ("x", "y", "angle_deg"), ("t",), minimum=3)
     cols = table.columns
     order = np.argsort(cols["t"], kind="stable") if "t" in cols else np.arange(len(cols["x"]))
@@ -219,7 +219,8 @@ def read_poses(path: Path) -> tuple[np.ndarray, np.ndarray, list[int], str]:
     units = {u for u in (table.units.get("x"), table.units.get("y")) if u is not None}
     if len(units) > 1:
         raise InputError(f"x and y are in different units ({', '.join(sorted(units))})", file=str(path), field="y")
-    return points, cols["angle_deg"][order], [table.lines[i] for i in order], units.pop() if units else UNITS
+    times = cols["t"][order] if "t" in cols else None
+    return points, cols["angle_deg"][order], [table.lines[i] for i in order], units.pop() if units else UNITS, times
 
 
 #: motion generation's families (``--motion --family``): name → fit of normalized poses
@@ -283,7 +284,7 @@ def run_motion(path: Path, out: Path, *, margin_deg: float, tolerance_deg: float
     and write it into ``out``; returns the report. MechanismError (exit 1) when no pair of dyads gives
     a working linkage."""
     start = time.perf_counter()
-    points, angles_deg, lines, units = read_poses(path)
+    points, angles_deg, lines, units, _ = read_poses(path)
     centre = complex(points.mean())
     size = float(np.abs(points[:, None] - points[None, :]).max())
     theta = np.radians(angles_deg)

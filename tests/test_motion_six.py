@@ -1,0 +1,179 @@
+"""``linkedit synthesize --motion POSES.csv --family six-bar``: a Watt II six-bar meeting timed poses."""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import numpy as np
+import pytest
+import yaml
+
+
+def third(a: np.ndarray, d: complex, la: float, ld: float) -> np.ndarray:
+    """Reference: the point at distance la from a and ld from d, left of a→d (law of cosines)."""
+    gap = d - a
+    dist = np.abs(gap)
+    along = (la * la - ld * ld + dist * dist) / (2 * dist)
+    return a + (along + 1j * np.sqrt(la * la - along * along)) * gap / dist
+
+
+def watt_poses(t: np.ndarray, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Coupler point and coupler-2 angle (degrees) of a known Watt II six-bar at motor phases t: crank
+    O1-A1 (12) at 0.8 rad + 2π·t, coupler 38, rocker D1-B1 (25) rigid with the arm D1-A2 (15, 1.2 rad
+    ahead of it), coupler A2-B2 (45) with the point at A2 + (0.4 + 0.6i)(B2 − A2), rocker D2-B2 (35)."""
+    O1, D1, D2 = 0j, 40 + 5j, 80 + 20j
+    A1 = O1 + 12 * np.exp(1j * (0.8 + 2 * np.pi * np.asarray(t)))
+    B1 = third(A1, D1, 38, 25)
+    A2 = D1 + 15 * np.exp(1j * (np.angle(B1 - D1) + 1.2))
+    B2 = third(A2, D2, 45, 35)
+    return scale * (A2 + (0.4 + 0.6j) * (B2 - A2)), np.degrees(np.angle(B2 - A2))
+
+
+def write(path, t, points, angles, header="x (mm), y (mm), angle_deg, t") -> None:
+    path.write_text(header + "\n" + "".join(f"{float(z.real)!r}, {float(z.imag)!r}, {float(a)!r}, {float(s)!r}\n"
+                                             for z, a, s in zip(points, angles, t)))
+
+
+def simulated(run_cli, out, turns_deg, tmp_path) -> tuple[np.ndarray, np.ndarray]:
+    """Coupler point and coupler-2 angle (degrees) of `linkedit simulate` of out/result.yaml at motor turns
+    from rest (degrees): each the end of a sweep [0, turn] simulated with 2 samples."""
+    data = yaml.safe_load((out / "result.yaml").read_text())
+    offset = json.loads((out / "report.json").read_text())["coupler_angle_offset_deg"]
+    points, angles = [], []
+    for k, turn in enumerate(turns_deg):
+        data["motor"]["range_deg"] = [0.0, turn if turn else 1.0]
+        (tmp_path / f"at{k}.yaml").write_text(yaml.safe_dump(data))
+        sim = run_cli("simulate", tmp_path / f"at{k}.yaml", "-n", "2", "-o", tmp_path / f"at{k}.h5")
+        assert sim.exit_code == 0, sim.output
+        with h5py.File(tmp_path / f"at{k}.h5") as f:
+            names = [n.decode() if isinstance(n, bytes) else n for n in f["joint"][()]]
+            p = f["joints/position"][()]
+            track = f["tracks/target/position"][()]
+        z = p[:, :, 0] + 1j * p[:, :, 1]
+        s = 1 if turn else 0
+        points.append(complex(*track[s]))
+        angles.append(np.degrees(np.angle(z[s, names.index("B2")] - z[s, names.index("A2")])) + offset)
+    return np.array(points), np.array(angles)
+
+
+def angle_gap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.abs((a - b + 180) % 360 - 180)
+
+
+T5 = np.array([0.0, 0.1, 0.2, 0.3, 0.4])
+
+
+@pytest.mark.parametrize("scale, unit", [(1.0, "mm"), (1e-3, "m")])
+def test_five_timed_poses_of_a_known_six_bar_are_met_exactly(run_cli, tmp_path, scale, unit):
+    """Five poses at motor phases t of a known six-bar: the written six-bar, simulated, passes each pose at
+    the motor angle 360°·t prescribes (1e-6 of the size, 1e-6 rad), and meets it best there (timing 1e-6 rad)."""
+    points, angles = watt_poses(T5, scale)
+    write(tmp_path / "timed.csv", T5 + 0.25, points, angles, f"x ({unit}), y ({unit}), angle_deg, t")
+    out = tmp_path / "six"
+    result = run_cli("synthesize", "--motion", tmp_path / "timed.csv", "--family", "six-bar", "-o", out)
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    size = np.abs(points[:, None] - points[None, :]).max()
+    assert report["family"] == "six-bar" and report["linkage"]["units"] == unit and not report["note"]
+    assert report["error"]["position"]["max"] <= 1e-6 and np.radians(report["error"]["angle_deg"]["max"]) <= 1e-6
+    assert np.radians(report["error"]["timing_deg"]["max"]) <= 1e-6
+    turns = [p["motor_turn_deg"] for p in report["points"]]
+    np.testing.assert_allclose(turns, 360 * T5, atol=1e-9)
+    np.testing.assert_allclose([p["achieved_motor_turn_deg"] for p in report["points"]], 360 * T5,
+                               atol=np.degrees(1e-6))
+    got, angle = simulated(run_cli, out, turns, tmp_path)
+    assert np.abs(got - points).max() <= 1e-6 * size
+    assert np.radians(angle_gap(angle, angles).max()) <= 1e-6
+    for low, high in report["transmission_deg"]["stages"]:
+        assert 20 <= low <= high <= 160
+    spec = yaml.safe_load((out / "result.yaml").read_text())
+    assert spec["ground"] == ["O1", "D1", "D2"] and spec["links"]["ternary"] == ["D1", "B1", "A2"]
+    assert spec["motor"]["range_deg"] == pytest.approx([0, 144])
+    with h5py.File(out / "result.h5") as f:
+        assert f["tracks/target/position"].shape == (361, 2)
+
+
+def test_seven_timed_poses_are_met_in_the_least_squares_sense(run_cli, tmp_path):
+    """Seven poses of the six-bar with their times moved (up to 0.01 turn): no six-bar is exact; the report's
+    errors are those of the written six-bar simulated at the prescribed motor angles, and each pose is met
+    at least as closely at the motor turn the report says it is met best."""
+    t = np.array([0, 0.07, 0.15, 0.26, 0.33, 0.4, 0.45])
+    points, angles = watt_poses(t)
+    moved = t + np.array([0, 0.004, -0.006, 0.003, 0.008, -0.004, 0.005])
+    write(tmp_path / "seven.csv", moved, points, angles)
+    out = tmp_path / "six"
+    result = run_cli("synthesize", "--motion", tmp_path / "seven.csv", "--family", "six-bar", "-o", out)
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    size = report["poses"]["size"]
+    got, angle = simulated(run_cli, out, [p["motor_turn_deg"] for p in report["points"]], tmp_path)
+    np.testing.assert_allclose(np.abs(got - points) / size, [p["position_error"] for p in report["points"]],
+                               atol=1e-9)
+    np.testing.assert_allclose(angle_gap(angle, angles), [abs(p["angle_error_deg"]) for p in report["points"]],
+                               atol=1e-7)
+    best, best_angle = simulated(run_cli, out, [p["achieved_motor_turn_deg"] for p in report["points"]], tmp_path)
+    cost = (np.abs(got - points) / size) ** 2 + np.radians(angle_gap(angle, angles)) ** 2
+    assert np.all((np.abs(best - points) / size) ** 2 + np.radians(angle_gap(best_angle, angles)) ** 2
+                  <= cost + 1e-12)
+    timing = [p["achieved_motor_turn_deg"] - p["motor_turn_deg"] for p in report["points"]]
+    assert report["error"]["timing_deg"]["max"] == pytest.approx(np.abs(timing).max())
+    assert 0 < report["error"]["timing_deg"]["max"] < 5 and report["error"]["position"]["max"] < 0.05
+
+
+def test_timing_the_motor_cannot_meet_exit_1(run_cli, tmp_path):
+    """Poses 2 and 3 swapped in time: the coupler would have to go back along its path (the motor reverse)."""
+    points, angles = watt_poses(T5)
+    write(tmp_path / "swapped.csv", [0.0, 0.2, 0.1, 0.3, 0.4], points, angles)
+    result = run_cli("synthesize", "--motion", tmp_path / "swapped.csv", "--family", "six-bar", "-o", tmp_path / "o")
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and "no Watt II six-bar" in lines[0] and "order of t" in lines[0], lines
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("times, message", [
+    (None, "t: --family six-bar meets the motor's timing: give a t column"),
+    ([0, 0.1, 0.1, 0.3, 0.4], ":4: t: t 0.1 is given twice (line 3 too)"),
+    ([0, 0.3, 0.6, 0.9, 1.0], "t: the times span 1, one motor turn or more"),
+])
+def test_bad_timing_exit_2_with_one_line(run_cli, tmp_path, times, message):
+    points, angles = watt_poses(T5)
+    if times is None:
+        (tmp_path / "bad.csv").write_text("x, y, angle_deg\n" + "".join(
+            f"{float(z.real)!r}, {float(z.imag)!r}, {float(a)!r}\n" for z, a in zip(points, angles)))
+    else:
+        write(tmp_path / "bad.csv", times, points, angles)
+    result = run_cli("synthesize", "--motion", tmp_path / "bad.csv", "--family", "six-bar", "-o", tmp_path / "o")
+    assert result.exit_code == 2
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0] and "bad.csv" in lines[0], lines
+    assert not (tmp_path / "o").exists()
+
+
+def test_unknown_motion_family_exit_2(run_cli, tmp_path):
+    points, angles = watt_poses(T5)
+    write(tmp_path / "p.csv", T5, points, angles)
+    result = run_cli("synthesize", "--motion", tmp_path / "p.csv", "--family", "eight-bar", "-o", tmp_path / "o")
+    assert result.exit_code == 2 and "unknown family 'eight-bar' for --motion" in result.output
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_stage_one_turning_against_its_crank_is_mirrored(run_cli, tmp_path, monkeypatch):
+    """Stage 1 fitted with its rocker turning against its crank (forced here): its frame is mirrored, the motor
+    turns clockwise, and the written six-bar still meets every pose at its time."""
+    from linkedit.synthesis import function
+
+    fit = function.fit
+    monkeypatch.setattr(function, "fit", lambda *args, **kw: fit(*args, **(kw | {"sense": -1.0})))
+    points, angles = watt_poses(T5)
+    write(tmp_path / "timed.csv", T5, points, angles)
+    out = tmp_path / "six"
+    result = run_cli("synthesize", "--motion", tmp_path / "timed.csv", "--family", "six-bar", "-o", out)
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    spec = yaml.safe_load((out / "result.yaml").read_text())
+    assert report["motor_direction"] == "cw" and spec["motor"]["direction"] == "cw"
+    got, angle = simulated(run_cli, out, [p["motor_turn_deg"] for p in report["points"]], tmp_path)
+    assert np.abs(got - points).max() <= 1e-6 * report["poses"]["size"]
+    assert np.radians(angle_gap(angle, angles).max()) <= 1e-6
