@@ -32,6 +32,14 @@ CONNECT_TIMEOUT = 10.0
 TASK_CHUNKS = 4
 
 
+def usable_cores() -> int:
+    """The cores this process may run on: its CPU affinity mask where the system has one (a container's or
+    ``taskset``'s share), else the machine's count."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
 def dask_tasks(jobs: list[tuple[int, int]], threads: int) -> list[list[tuple[int, int]]]:
     """``jobs`` cut into runs of consecutive chunks, one per Dask task: at most :data:`TASK_CHUNKS`
     each, and at least 8 runs per worker thread while that allows more than one chunk per run (a
