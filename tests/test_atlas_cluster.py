@@ -5,6 +5,7 @@ in-process search finds."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import time
 
@@ -141,7 +142,7 @@ def test_the_bench_times_a_query_over_a_large_sharded_atlas(cluster, monkeypatch
         monkeypatch.setattr(module, "CHUNK", SMALL)
     monkeypatch.setattr(bench_scale, "SMALL", 5 * SMALL)
     lines: list[str] = []
-    bench_scale.run(lines.append, 20 * SMALL, scheduler=cluster.scheduler_address)
+    bench_scale.run(lines.append, 20 * SMALL, 2, scheduler=cluster.scheduler_address)
     text = "\n".join(lines)
     assert re.search(r"sharded atlas of 20,000 four-bars .* 1\d\d bytes per linkage on disk \(1\d\d stored", text), text
     recall = float(re.search(r"recall of the exact top 10 (\d\.\d+)", text).group(1))
@@ -150,10 +151,30 @@ def test_the_bench_times_a_query_over_a_large_sharded_atlas(cluster, monkeypatch
     assert "extrapolated to 100,000,000: " in text and "the line through the 5,000 and 20,000 figures" in text
 
 
-def test_bench_large_applies_to_the_synthesis_section(run_cli):
-    refused = run_cli("bench", "-s", "planar", "--large", "5")
+@pytest.mark.parametrize("option", ["--large", "--workers"])
+def test_bench_large_and_workers_apply_to_the_synthesis_section(run_cli, option):
+    refused = run_cli("bench", "-s", "planar", option, "5")
     assert refused.exit_code == 2
-    assert refused.output.strip() == "linkedit: error: --large: applies to the synthesis section (-s synthesis)"
+    assert refused.output.strip() == f"linkedit: error: {option}: applies to the synthesis section (-s synthesis)"
+
+
+def test_bench_workers_counts_from_one(run_cli):
+    refused = run_cli("bench", "-s", "synthesis", "--workers", "0")
+    assert refused.exit_code == 2
+    assert refused.output.strip() == "linkedit: error: --workers: must be ≥ 1"
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="no CPU affinity on this system")
+def test_the_bench_workers_default_to_the_cores_this_process_may_use():
+    """Restricted to one core (as ``taskset -c 0`` or a container's CPU set would), the process may use one,
+    whatever the machine has; the bench's default worker count is that."""
+    allowed = os.sched_getaffinity(0)
+    try:
+        os.sched_setaffinity(0, {min(allowed)})
+        assert runner.usable_cores() == 1
+    finally:
+        os.sched_setaffinity(0, allowed)
+    assert runner.usable_cores() == len(allowed)
 
 
 @pytest.mark.slow  # 15 s on 2 loaded cores (the float64 brute force)

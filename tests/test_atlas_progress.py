@@ -1,12 +1,14 @@
 """The progress of `atlas build`: a slow family's bar moves inside a chunk (a complex loop builds at ~20
-linkages/s: a 10,000-linkage chunk showed 0 for 7–10 minutes), and the atlas stays the same bytes."""
+linkages/s: a 10,000-linkage chunk showed 0 for 7–10 minutes), in-process and on Dask, and the atlas stays the
+same bytes."""
 
 from __future__ import annotations
 
 import pytest
 
 from linkedit.commands import synthesis as command
-from linkedit.synthesis import chunks
+from linkedit.synthesis import atlas, chunks, shards
+from linkedit.synthesis import cluster as runner
 
 
 @pytest.mark.parametrize("out", ["a.h5", "folder"])
@@ -20,6 +22,26 @@ def test_the_bar_moves_inside_a_chunk(run_cli, tmp_path, monkeypatch, out):
     done = [d for d, _ in seen]
     assert {t for _, t in seen} == {300} and done[-1] == 300
     assert any(0 < d < 300 for d in done), seen
+    assert done == sorted(done)
+
+
+@pytest.mark.parametrize("out", ["a.h5", "folder"])
+def test_the_bar_moves_inside_a_dask_task(run_cli, tmp_path, monkeypatch, cluster, out):
+    """The same on the 2-worker cluster (two chunks of 300, a task each, built at once): the workers publish
+    the linkages their task has screened (here as often as they can) and the client reports them while it
+    waits for the first task, before its result; the counts rise (what both tasks screened counts, up to the
+    first chunk: the count reported when it is read) and end at the total."""
+    seen: list[tuple[int, int]] = []
+    monkeypatch.setattr(command._Progress, "__call__", lambda self, done, total, seconds: seen.append((done, total)))
+    for module in (atlas, chunks, shards):
+        monkeypatch.setattr(module, "CHUNK", 300)
+    monkeypatch.setattr(runner, "REPORT_EVERY", 0.01, raising=False)
+    result = run_cli("atlas", "build", "--family", "jansen", "-n", "600", "-o", tmp_path / out, "--seed", "2",
+                     "--scheduler", cluster.scheduler_address)
+    assert result.exit_code == 0, result.output
+    done = [d for d, _ in seen]
+    assert {t for _, t in seen} == {600} and done[-1] == 600
+    assert any(0 < d < 600 and d != 300 for d in done), seen
     assert done == sorted(done)
 
 

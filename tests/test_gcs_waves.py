@@ -12,7 +12,7 @@ from linkedit.gcs.closed_form import ClosedForm
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.planar_bridge import planar_model
 from linkedit.gcs.solve import solve_run
-from linkedit.gcs.structure import StructureCache
+from linkedit.gcs.structure import SPLIT_FROM, StructureCache
 from linkedit.gcs.tolerances import Options
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.mechanism3d import MechanismSpec
@@ -203,7 +203,7 @@ def test_blas_runs_on_one_thread_inside_and_is_restored_after():
 
 def test_a_planar_linkage_solves_its_in_plane_and_out_of_plane_unknowns_apart():
     from linkedit.gcs.continuation import Solver
-    from linkedit.gcs.waves import SPLIT_FROM, Waves
+    from linkedit.gcs.waves import Waves
 
     system = _system("crank-rocker")
     t = np.arange(2 * SPLIT_FROM) / (2 * SPLIT_FROM)
@@ -312,7 +312,6 @@ def test_an_input_held_then_moving_merges_the_blocks_it_ties_and_stirs_what_was_
 def test_a_first_run_finds_the_blocks_before_its_first_wave(own_predictions):
     """Too short a run for a batch of SPLIT_FROM poses: the blocks and the still parts come
     from poses along the tangent of the last solved one, and the poses are step by step's."""
-    from linkedit.gcs.waves import SPLIT_FROM
 
     system = _system("klann")
     cache = StructureCache(system)

@@ -4,6 +4,7 @@ run can update the file again; another process is refused while it is held."""
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -96,11 +97,14 @@ def test_a_build_is_refused_while_another_process_holds_the_lock(tmp_path, monke
 
 @pytest.mark.slow
 def test_the_bench_compares_build_rates_on_dask():
-    """The full bench's Dask comparison (here one chunk, one repeat) builds bench-0.h5 several times in one run."""
+    """The full bench's Dask comparison (here one chunk, one repeat, 2 workers) builds bench-0.h5 several times in
+    one run; its header names the workers and the cores."""
     pytest.importorskip("dask.distributed")
     from linkedit.synthesis import bench_cluster
 
     lines: list[str] = []
     with atomic.together():
-        bench_cluster.dask_comparison(lines.append, 1, 1)
-    assert "local Dask cluster" in lines[-1]
+        bench_cluster.dask_comparison(lines.append, 1, 1, 2)
+    assert "local Dask cluster, 2 single-threaded workers" in lines[-1]
+    assert re.search(r"with 2 workers \(--workers; \d+ cores usable of the machine's \d+, load average [\d.]+ before\)",
+                     "\n".join(lines)), lines

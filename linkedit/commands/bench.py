@@ -30,6 +30,10 @@ def register(app: typer.Typer) -> None:
         large: int = typer.Option(None, "--large", metavar="N", min=1, max=10**9,
                                   help="synthesis: also build a sharded atlas of N four-bars and time the query over "
                                        "it, with the extrapolation to 100M (opt-in: 10M take minutes)."),
+        workers: int = typer.Option(None, "--workers", metavar="N", min=1, max=1024,
+                                    help="synthesis: worker processes of the local Dask clusters (and in-process "
+                                         "builds side by side) [default: the cores this process may use]; not "
+                                         "run with --quick."),
         as_json: bool = JSON,
         quiet: bool = QUIET,
     ) -> None:
@@ -41,8 +45,9 @@ def register(app: typer.Typer) -> None:
         for name in chosen:
             if name not in SECTIONS:
                 raise InputError(f"unknown section {name!r} (choose from {', '.join(SECTIONS)})", field="--section")
-        if large is not None and "synthesis" not in chosen:
-            raise InputError("applies to the synthesis section (-s synthesis)", field="--large")
+        for field, value in (("--large", large), ("--workers", workers)):
+            if value is not None and "synthesis" not in chosen:
+                raise InputError("applies to the synthesis section (-s synthesis)", field=field)
         for name in chosen:
             try:
                 module = importlib.import_module(SECTIONS[name])
@@ -57,5 +62,6 @@ def register(app: typer.Typer) -> None:
                 lines.append(text)
                 say(text)
 
-            module.run(line, quick=quick, **({"large": large} if name == "synthesis" and large else {}))
+            options = {"large": large, "workers": workers} if name == "synthesis" else {}
+            module.run(line, quick=quick, **options)
         report({"sections": figures})

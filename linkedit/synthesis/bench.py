@@ -2,9 +2,10 @@
 
 * atlas building, four-bar family, in-process: linkages per second including sampling,
   rejection, the batched evaluation and the index descriptors (chunks only, and the whole
-  ``atlas build`` with HDF5 writing); per core, ``atlas build`` in-process, as 2 in-process
-  builds side by side and on a local Dask cluster of 2 workers if ``dask.distributed`` is
-  installed (:func:`~linkedit.synthesis.bench_cluster.dask_comparison`); a sharded build in-process and on those workers: the
+  ``atlas build`` with HDF5 writing); per core, ``atlas build`` in-process, as N in-process
+  builds side by side and on a local Dask cluster of N workers (``--workers N``, default the cores this
+  process may use) if ``dask.distributed`` is installed
+  (:func:`~linkedit.synthesis.bench_cluster.dask_comparison`); a sharded build in-process and on those workers: the
   parallel efficiency, the CPU-time efficiency and the busy fraction (:func:`~linkedit.synthesis.bench_cluster.shard_scaling`);
 * a query of the index of a 1,000,000-curve atlas (built in memory, chunk by chunk);
 * ``synthesize`` end to end (query, re-ranking, refinement of the best 5, final check) for
@@ -41,6 +42,7 @@ from linkedit.io.atomic import commit
 from linkedit.planar import catalog, compile_plan, simulate
 from linkedit.synthesis import atlas, bench_points, bench_scale, families, fourbar
 from linkedit.synthesis.bench_cluster import dask_comparison
+from linkedit.synthesis.cluster import usable_cores
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.synthesize import MARGIN_DEG, synthesize
 from linkedit.timing import median_time
@@ -205,9 +207,11 @@ def lists_figures(echo: Callable[[str], None], parts: list[atlas.Chunk], repeats
          f"of the exact top 10 {np.mean(shard_recall):.3f} (target ≥ 0.99)")
 
 
-def run(echo: Callable[[str], None], quick: bool = False, large: int | None = None) -> None:
+def run(echo: Callable[[str], None], quick: bool = False, large: int | None = None, workers: int | None = None) -> None:
     """The section's figures; ``large``: also the query at scale over a sharded atlas of that many four-bars
-    (:mod:`linkedit.synthesis.bench_scale`, opt-in: minutes to build)."""
+    (:mod:`linkedit.synthesis.bench_scale`, opt-in: minutes to build); ``workers``: the local Dask clusters'
+    worker processes (default: the cores this process may use, :func:`~linkedit.synthesis.cluster.usable_cores`)."""
+    workers = workers or usable_cores()
     chunks, big, repeats = (1, 2 * atlas.CHUNK, 1) if quick else (10, 1_000_000, 5)
     atlas.build_chunk("four-bar", 1, 0)  # warm up
     t_chunks = median_time(lambda: [atlas.build_chunk("four-bar", 1, i) for i in range(chunks)], repeats)
@@ -221,7 +225,7 @@ def run(echo: Callable[[str], None], quick: bool = False, large: int | None = No
     echo(f"atlas build, four-bar, in-process: {rate:,.0f} linkages/s in chunks (median of {repeats}; target ≥ "
          f"{BUILD_TARGET:,}), {chunks * atlas.CHUNK / t_file:,.0f} linkages/s writing the HDF5 atlas")
     if not quick:
-        dask_comparison(echo, 4 * chunks, repeats)
+        dask_comparison(echo, 4 * chunks, repeats, workers)
 
     t0 = time.perf_counter()
     parts = [atlas.build_chunk("four-bar", 1, i, size) for i, size in atlas.chunk_sizes(big)]
@@ -242,7 +246,7 @@ def run(echo: Callable[[str], None], quick: bool = False, large: int | None = No
     if not quick:
         lists_figures(echo, parts, repeats)
     if large:
-        bench_scale.run(echo, large)
+        bench_scale.run(echo, large, workers)
 
     runs, top = [], bench_points.top_of(quick)
     for z in targets[: 1 if quick else 4]:

@@ -17,12 +17,7 @@ from pathlib import Path
 
 from linkedit.io.atomic import commit
 from linkedit.synthesis import atlas
-from linkedit.synthesis.cluster import connected, local_cluster, task_times
-
-
-#: Worker processes of the local Dask cluster the bench builds on (one per core of a 2-core machine),
-#: and in-process builds run side by side as its baseline.
-DASK_WORKERS = 2
+from linkedit.synthesis.cluster import connected, local_cluster, task_times, usable_cores
 
 
 def _build_seconds(path: Path, count: int, scheduler: str | None = None) -> float:
@@ -34,11 +29,12 @@ def _build_seconds(path: Path, count: int, scheduler: str | None = None) -> floa
     return time.perf_counter() - t0
 
 
-def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> None:
+def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int, workers: int) -> None:
     """``atlas build`` of ``chunks`` chunks, writing the HDF5 atlas, per core: in-process; as
-    :data:`DASK_WORKERS` in-process builds side by side (separate processes, each a share of
-    the linkages); on a local Dask cluster of as many single-threaded workers (started once,
-    before the timing). Runs interleaved, medians of ``repeats``.
+    ``workers`` in-process builds side by side (separate processes, each a share of the
+    linkages); on a local Dask cluster of as many single-threaded workers (started once, before
+    the timing), whose sharded build :func:`shard_scaling` then times. Runs interleaved, medians
+    of ``repeats``.
 
     Per core: the in-process rate divided by the threads it keeps busy (over a tenth of the wall
     time; its numpy code is single-threaded); the side-by-side and Dask rates divided by their
@@ -79,11 +75,11 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
     spawn = multiprocessing.get_context("spawn")  # no fork of a process running the cluster's threads
     runs: dict[str, list[tuple[float, float, float, int]]] = {"in-process": [], "side by side": [], "dask": []}
     t0 = time.perf_counter()
-    with (local_cluster(DASK_WORKERS) as cluster, tempfile.TemporaryDirectory() as tmp,
-          ProcessPoolExecutor(DASK_WORKERS, mp_context=spawn) as pool):
+    with (local_cluster(workers) as cluster, tempfile.TemporaryDirectory() as tmp,
+          ProcessPoolExecutor(workers, mp_context=spawn) as pool):
         start = time.perf_counter() - t0
-        paths = [Path(tmp) / f"bench-{k}.h5" for k in range(DASK_WORKERS)]
-        share = [count // DASK_WORKERS] * DASK_WORKERS
+        paths = [Path(tmp) / f"bench-{k}.h5" for k in range(workers)]
+        share = [count // workers] * workers
 
         def side_by_side() -> float:
             t0 = time.perf_counter()
@@ -107,18 +103,19 @@ def dask_comparison(echo: Callable[[str], None], chunks: int, repeats: int) -> N
                     used = [cpu - threads.get(tid, 0.0) for tid, cpu in own_threads().items()]
                     runs[kind].append((seconds, sum(used), every, sum(cpu > 0.1 * seconds for cpu in used)))
                 else:
-                    runs[kind].append((seconds, total, every, DASK_WORKERS))
+                    runs[kind].append((seconds, total, every, workers))
         shard_scaling(echo, cluster.scheduler_address, chunks, repeats, start)
     wall, cpu, others, cores = ({k: statistics.median(r[i] for r in v) for k, v in runs.items()} for i in range(4))
     per_core = {k: count / wall[k] / cores[k] for k in runs}
-    echo(f"atlas build -n {count:,} (HDF5 written), per core = linkages/s / busy threads or processes; runs "
-         f"interleaved, medians of {repeats} (load average {load:.2f} before):")
+    echo(f"atlas build -n {count:,} (HDF5 written) with {workers} workers (--workers; {usable_cores()} cores usable "
+         f"of the machine's {os.cpu_count()}, load average {load:.2f} before), per core = linkages/s / busy threads "
+         f"or processes; runs interleaved, medians of {repeats}:")
     echo(f"  in-process, {cores['in-process']:g} busy thread(s): {per_core['in-process']:,.0f} linkages/s per core "
          f"(other processes kept {others['in-process'] / wall['in-process']:.2f} of the {os.cpu_count()} cores busy)")
-    echo(f"  {DASK_WORKERS} in-process builds side by side: {per_core['side by side']:,.0f} linkages/s per core "
-         f"= ×{per_core['side by side'] / per_core['in-process']:.2f} (what the machine gives {DASK_WORKERS} "
+    echo(f"  {workers} in-process builds side by side: {per_core['side by side']:,.0f} linkages/s per core "
+         f"= ×{per_core['side by side'] / per_core['in-process']:.2f} (what the machine gives {workers} "
          f"processes; others kept {others['side by side'] / wall['side by side']:.2f} cores busy)")
-    echo(f"  local Dask cluster, {DASK_WORKERS} single-threaded workers (started in {start:.1f} s, before the "
+    echo(f"  local Dask cluster, {workers} single-threaded workers (started in {start:.1f} s, before the "
          f"timing): {per_core['dask']:,.0f} linkages/s per core = ×{per_core['dask'] / per_core['in-process']:.2f} "
          f"of in-process, ×{per_core['dask'] / per_core['side by side']:.2f} of side by side; per CPU-second of "
          f"every process of the run ×{cpu['in-process'] / cpu['dask']:.2f} of in-process (the ratio on cores of "
@@ -172,9 +169,9 @@ def shard_scaling(echo: Callable[[str], None], scheduler: str, chunks: int, repe
     rate = {"in-process": count / here["wall"], "dask": count / dask["wall"]}
     efficiency = here["cpu"] / (dask["workers"] + dask["cpu"])
     busy = dask["tasks_wall"] / (threads * dask["wall"])
-    echo(f"sharded atlas build -n {count:,} (workers write their shards, the client the manifest; {os.cpu_count()} "
-         f"cores, load average {load:.2f} before, {os.getloadavg()[0]:.2f} after; medians of {repeats}): in-process "
-         f"{rate['in-process']:,.0f} linkages/s; {threads} local Dask workers (started once in {start:.1f} s, not "
+    echo(f"sharded atlas build -n {count:,} (workers write their shards, the client the manifest; {usable_cores()} "
+         f"cores usable of the machine's {os.cpu_count()}, load average {load:.2f} before, {os.getloadavg()[0]:.2f} "
+         f"after; medians of {repeats}): in-process {rate['in-process']:,.0f} linkages/s; {threads} local Dask workers (started once in {start:.1f} s, not "
          f"timed) {rate['dask']:,.0f} linkages/s: parallel efficiency "
          f"{rate['dask'] / (threads * rate['in-process']):.0%} (target ≥ 85 % at 2 workers on 2 cores; a ratio of "
          "speeds, meaningful on an idle machine)")

@@ -22,6 +22,7 @@ import numpy as np
 from linkedit.synthesis import fourbar, shards
 from linkedit.synthesis.atlas import Atlas, stored_bytes
 from linkedit.synthesis.chunks import CHUNK, build_chunk
+from linkedit.synthesis.cluster import dask_logs, local_cluster, usable_cores
 from linkedit.synthesis.index import PROBE, Index, Lists, nearest_rows, quantizer_side, target_variants
 from linkedit.synthesis.shard_search import ClusterIndex, remote_atlas
 
@@ -59,7 +60,7 @@ def _median_query(index: Index | ClusterIndex, variants: list[np.ndarray]) -> fl
     return statistics.median(times)
 
 
-def run(echo: Callable[[str], None], count: int, workers: int = 2, scheduler: str | None = None) -> None:
+def run(echo: Callable[[str], None], count: int, workers: int, scheduler: str | None = None) -> None:
     """Build a sharded atlas of ``count`` four-bars on the Dask cluster at ``scheduler`` (of ``workers`` worker
     threads), else on a local cluster of ``workers`` when Dask is installed, else in-process; then time and
     check queries over it (see the module docstring)."""
@@ -67,8 +68,6 @@ def run(echo: Callable[[str], None], count: int, workers: int = 2, scheduler: st
     held = build_chunk("four-bar", 988, 0, TARGETS).params
     variants = [target_variants(fourbar.curves(row[None], 300, 0.1 * k)[0]) for k, row in enumerate(held)]
     dask = importlib.util.find_spec("distributed") is not None
-    if dask:
-        from linkedit.synthesis.cluster import dask_logs, local_cluster
     start = dask and scheduler is None
     with (dask_logs(False) if dask else contextlib.nullcontext()), \
             (local_cluster(workers, verbose=False) if start else contextlib.nullcontext()) as cluster, \
@@ -102,7 +101,7 @@ def run(echo: Callable[[str], None], count: int, workers: int = 2, scheduler: st
                 first = time.perf_counter() - t0
                 remote = (f"{1e3 * _median_query(far, variants):.0f} ms median ({workers} workers; the first query, "
                           f"reading the shards onto the workers, {first:.1f} s)")
-    cores = os.cpu_count() or 1
+    cores = usable_cores()
     # the time grows with the rows scanned, N/C·(a probed cell's share): the line through both figures
     if count > small and rows_large > rows_small:
         per = (t_large - t_small) / (rows_large - rows_small)
@@ -114,7 +113,7 @@ def run(echo: Callable[[str], None], count: int, workers: int = 2, scheduler: st
     big_cells = quantizer_side(HUNDRED_MILLION) ** 2
     rows_100m = rows_large * HUNDRED_MILLION / count * cells / big_cells  # a 100M build's quantizer: big_cells
     t_100m = t_large + per * (rows_100m - rows_large)
-    echo(f"query at scale, sharded atlas of {count:,} four-bars ({cores} cores, load average {load:.2f} before, "
+    echo(f"query at scale, sharded atlas of {count:,} four-bars ({cores} cores usable, load average {load:.2f} before, "
          f"{os.getloadavg()[0]:.2f} after): built in {t_build:.0f} s ({count / t_build:,.0f} linkages/s, "
          f"{f'{workers} Dask workers' if address else 'in-process'}), {on_disk / count:.0f} bytes per linkage on "
          f"disk ({shards.shard_bytes('four-bar')} stored + HDF5 overhead; an atlas file: "

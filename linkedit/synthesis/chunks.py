@@ -87,7 +87,7 @@ def build_chunk(name: str, seed: int, index: int, size: int = CHUNK, spec: str |
             began, part = time.perf_counter(), slice(start, start + step)
             ds[part] = fam.min_singularity(draw[part], margin)
             screened += int(works(ds[part], margin).sum())
-            _report(min(size, screened))
+            report_kept(min(size, screened))
             start += step
             step = int(np.clip(step * SCREEN_SECONDS / max(time.perf_counter() - began, 1e-6), step, 2 * step))
         keep = works(ds, margin)
@@ -104,25 +104,28 @@ def build_chunk(name: str, seed: int, index: int, size: int = CHUNK, spec: str |
     return Chunk(params, np.concatenate(kept_ds)[:size], desc, coarse)
 
 
-_reporter: tuple[int, Callable[[int], None]] | None = None
+#: each thread's progress callback (:func:`reporting`): a Dask worker may run a task in each of its threads
+_local = threading.local()
 
 
 @contextlib.contextmanager
 def reporting(callback: Callable[[int], None]) -> Iterator[None]:
-    """Within the block, a chunk built in this thread (in-process) calls ``callback(kept)`` as its draws are
-    screened (linkages of the chunk kept so far): a slow family's progress moves inside a chunk. The screening
-    blocks grow from :data:`FIRST_SCREEN` rows towards :data:`SCREEN_SECONDS` each (at most doubling)."""
-    global _reporter
-    before, _reporter = _reporter, (threading.get_ident(), callback)
+    """Within the block, a chunk built in this thread calls ``callback(kept)`` as its draws are screened
+    (linkages of the chunk kept so far): a slow family's progress moves inside a chunk (on Dask, the client
+    hears the tasks' counts: :func:`~linkedit.synthesis.cluster.chunk_runner`). The screening blocks grow from
+    :data:`FIRST_SCREEN` rows towards :data:`SCREEN_SECONDS` each (at most doubling)."""
+    before, _local.callback = getattr(_local, "callback", None), callback
     try:
         yield
     finally:
-        _reporter = before
+        _local.callback = before
 
 
-def _report(kept: int) -> None:
-    if _reporter is not None and _reporter[0] == threading.get_ident():
-        _reporter[1](kept)
+def report_kept(kept: int) -> None:
+    """``kept`` linkages screened so far, to this thread's :func:`reporting` callback, if any."""
+    callback = getattr(_local, "callback", None)
+    if callback is not None:
+        callback(kept)
 
 
 def coarse_curves(z: np.ndarray) -> np.ndarray:

@@ -20,7 +20,7 @@ from collections.abc import Callable, Iterator
 from typing import Any, NamedTuple, Protocol
 
 from linkedit.errors import InputError, LinkeditError
-from linkedit.synthesis.chunks import build_chunks
+from linkedit.synthesis.chunks import build_chunks, report_kept, reporting
 from linkedit.synthesis.families import SPEC_TEXTS
 
 #: Seconds a Dask scheduler has to answer (``--connect-timeout``).
@@ -30,6 +30,14 @@ CONNECT_TIMEOUT = 10.0
 #: of CPU whatever its size (a chunk of four-bars is ~70 ms of work), so consecutive chunks go
 #: together, as long as every worker thread still gets 8 tasks (see :func:`dask_tasks`).
 TASK_CHUNKS = 4
+
+
+def usable_cores() -> int:
+    """The cores this process may run on: its CPU affinity mask where the system has one (a container's or
+    ``taskset``'s share), else the machine's count."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
 
 
 def dask_tasks(jobs: list[tuple[int, int]], threads: int) -> list[list[tuple[int, int]]]:
@@ -66,12 +74,21 @@ class Runner(Protocol):
 #: chunks of a 100-million atlas never sit in memory together, on the client or on the workers).
 IN_FLIGHT = 3
 
+#: Seconds between a Dask build's progress reports: a task publishes the linkages it has screened at most this
+#: often (:class:`_Published`, on the Dask topic :data:`PROGRESS`), and the client, waiting for a task, reports
+#: what it heard as often (a slow family's chunk takes minutes; a task is up to :data:`TASK_CHUNKS` of them).
+REPORT_EVERY = 0.5
+PROGRESS = "linkedit-progress"
+
 
 @contextlib.contextmanager
 def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
                  connect_timeout: float = CONNECT_TIMEOUT, verbose: bool = False) -> Iterator[Runner]:
     """Where chunks are built for the block: in-process, or on Dask (:func:`connected`): a build
-    streams, :data:`IN_FLIGHT` tasks per worker thread submitted ahead of the one read."""
+    streams, :data:`IN_FLIGHT` tasks per worker thread submitted ahead of the one read; while it waits for a
+    task, the linkages the tasks in flight have screened go to this thread's
+    :func:`~linkedit.synthesis.chunks.reporting` callback every :data:`REPORT_EVERY` seconds, as an in-process
+    build's chunk reports them."""
     if scheduler is None and not workers:
         heap_malloc()
 
@@ -82,6 +99,12 @@ def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
         yield here
         return
     with connected(scheduler, workers, connect_timeout=connect_timeout, verbose=verbose) as (client, nthreads, direct):
+        heard: dict[str, int] = {}  # task key → linkages it has screened, as its worker published them
+
+        def hear(event: tuple[float, list[Any]]) -> None:
+            key, kept = event[1]
+            heard[key] = kept
+
         def run(name: str, seed: int, jobs: list[tuple[int, int]], task: Task = build_chunks
                 ) -> Iterator[tuple[int, Any]]:
             threads = sum(nthreads.values())
@@ -92,13 +115,35 @@ def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
             later = iter(runs)
             for part in runs:
                 for ahead_part in itertools.islice(later, ahead - len(futures)):
-                    futures.append(client.submit(_timed, task, name, seed, ahead_part, spec, pure=True))
-                results, took = client.gather(futures.popleft(), direct=direct)
+                    futures.append(client.submit(_timed, task, name, seed, ahead_part, spec, REPORT_EVERY, pure=True))
+                head = futures.popleft()
+                _await(head, futures, heard, part[0][1])
+                results, took = client.gather(head, direct=direct)
+                heard.pop(head.key, None)
                 for record in _RECORDS:
                     record.append(took)
                 yield from zip([index for index, _ in part], results)
 
-        yield run
+        client.subscribe_topic(PROGRESS, hear)
+        try:
+            yield run
+        finally:
+            client.unsubscribe_topic(PROGRESS)
+
+
+def _await(head: Any, queued: deque[Any], heard: dict[str, int], first: int) -> None:
+    """Wait for the Dask future ``head``, reporting every :data:`REPORT_EVERY` seconds the linkages the tasks in
+    flight (``head`` and ``queued``) have screened (``heard``: task key → count, as their workers published them),
+    at most ``first``: the size of ``head``'s first chunk, the count its reader reports next, so that the count
+    never goes back."""
+    from distributed import wait
+
+    while True:
+        try:
+            wait(head, timeout=REPORT_EVERY)
+            return
+        except TimeoutError:
+            report_kept(min(first, sum(heard.get(future.key, 0) for future in (head, *queued))))
 
 
 class TaskTime(NamedTuple):
@@ -108,12 +153,37 @@ class TaskTime(NamedTuple):
     cpu: float
 
 
-def _timed(task: Task, name: str, seed: int, jobs: list[tuple[int, int]], spec: str | None
+def _timed(task: Task, name: str, seed: int, jobs: list[tuple[int, int]], spec: str | None, every: float
            ) -> tuple[list[Any], TaskTime]:
-    """``task``'s results, with its :class:`TaskTime` (the chunks' build and, for a shard, its write)."""
+    """``task``'s results, chunk by chunk, with its :class:`TaskTime` (the chunks' build and, for a shard, its
+    write); the linkages it has screened are published every ``every`` seconds at most (:class:`_Published`)."""
     wall, cpu = time.perf_counter(), time.thread_time()
-    results = task(name, seed, jobs, spec)
+    published = _Published(every)
+    results: list[Any] = []
+    with reporting(published):
+        for job in jobs:
+            results += task(name, seed, [job], spec)
+            published.done += job[1]
     return results, TaskTime(time.perf_counter() - wall, time.thread_time() - cpu)
+
+
+class _Published:
+    """A Dask task's progress on its worker: the linkages of its chunks built (``done``) and those the chunk
+    being built has kept (:func:`~linkedit.synthesis.chunks.reporting`), logged as (task key, count) on the
+    topic :data:`PROGRESS` at most every ``every`` seconds, for the client (:func:`chunk_runner`)."""
+
+    def __init__(self, every: float) -> None:
+        from distributed import get_worker
+
+        self.worker = get_worker()
+        self.key = self.worker.get_current_task()
+        self.every, self.done, self.last = every, 0, time.monotonic()
+
+    def __call__(self, kept: int) -> None:
+        now = time.monotonic()
+        if now - self.last >= self.every:
+            self.worker.log_event(PROGRESS, [self.key, self.done + kept])
+            self.last = now
 
 
 #: the lists :func:`task_times` is filling
