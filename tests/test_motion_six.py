@@ -133,11 +133,14 @@ def test_timing_the_motor_cannot_meet_exit_1(run_cli, tmp_path):
 
 
 @pytest.mark.parametrize("times, message", [
-    (None, "t: --family six-bar meets the motor's timing: give a t column"),
+    (None, "bad.csv:1: t: --family six-bar meets the motor's timing: give a t column"),
     ([0, 0.1, 0.1, 0.3, 0.4], ":4: t: t 0.1 is given twice (line 3 too)"),
-    ([0, 0.3, 0.6, 0.9, 1.0], "t: the times span 1, one motor turn or more"),
+    ([0, 0.3, 0.6, 0.9, 1.0], "bad.csv:6: t: the times span 1, one motor turn or more"),
+    ([1.0, 0.3, 0.6, 0.9, 0.0], "bad.csv:2: t: the times span 1, one motor turn or more"),
 ])
 def test_bad_timing_exit_2_with_one_line(run_cli, tmp_path, times, message):
+    """Each message names the file, the line (the header's for a missing t, the latest time's for a
+    span of a turn or more) and the column."""
     points, angles = watt_poses(T5)
     if times is None:
         (tmp_path / "bad.csv").write_text("x, y, angle_deg\n" + "".join(

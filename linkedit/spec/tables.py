@@ -69,11 +69,13 @@ def numbers(rows: Rows, names: Sequence[str], file: str) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Table:
-    """Named columns (N,) float each, the file line of each row, and each column's unit (or None)."""
+    """Named columns (N,) float each, the file line of each row, each column's unit (or None) and the
+    header's line."""
 
     columns: dict[str, np.ndarray]
     lines: list[int]
     units: dict[str, str | None]
+    header: int
 
 
 def read_columns(path: Path, required: Sequence[str], optional: Sequence[str] = (), *, minimum: int = 1) -> Table:
@@ -98,4 +100,4 @@ def read_columns(path: Path, required: Sequence[str], optional: Sequence[str] = 
     if len(values) < minimum:
         raise InputError(f"{len(values)} data rows; at least {minimum} are needed", file=file)
     return Table({name: values[:, names.index(name)] for name in wanted if name in names}, [n for n, _ in rows[1:]],
-                 {name: column_unit(cell) for name, cell in zip(names, header)})
+                 {name: column_unit(cell) for name, cell in zip(names, header)}, line)

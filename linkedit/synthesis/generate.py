@@ -206,12 +206,16 @@ def run_function(path: Path, out: Path, *, relative: bool, margin_deg: float, to
     return report
 
 
-def read_poses(path: Path) -> tuple[np.ndarray, np.ndarray, list[int], str, np.ndarray | None]:
+def read_poses(path: Path, *, timed: bool = False) -> tuple[np.ndarray, np.ndarray, list[int], str, np.ndarray | None]:
     """Coupler point positions (N,) complex, coupler angles (N,) degrees, file lines (in pose
     order: by ``t`` when given), units and the times ``t`` (N,) in that order (None without a t
-    column); InputError for fewer than 3 poses or positions that all coincide."""
+    column); InputError for fewer than 3 poses, positions that all coincide, or (``timed``: the
+    six-bar meets the motor's timing) no t column."""
     table = read_columns(path, ("x", "y", "angle_deg"), ("t",), minimum=3)
     cols = table.columns
+    if timed and "t" not in cols:
+        raise InputError("--family six-bar meets the motor's timing: give a t column (the motor's phase, one turn "
+                         "= 1)", file=str(path), line=table.header, field="t")
     order = np.argsort(cols["t"], kind="stable") if "t" in cols else np.arange(len(cols["x"]))
     points = (cols["x"] + 1j * cols["y"])[order]
     if np.abs(points - points[0]).max() <= 1e-12 * max(np.abs(points).max(), 1e-300):

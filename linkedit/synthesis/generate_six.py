@@ -31,10 +31,8 @@ LINKS = {"crank1": ["O1", "A1"], "coupler1": ["A1", "B1"], "ternary": ["D1", "B1
 def read_timed_poses(path: Path) -> tuple[np.ndarray, np.ndarray, list[int], str, np.ndarray]:
     """:func:`linkedit.synthesis.generate.read_poses` with its t column required, the times distinct and
     spanning less than one motor turn (t = 1); InputError (exit 2) otherwise."""
-    points, angles, lines, units, times = read_poses(path)
-    if times is None:
-        raise InputError("--family six-bar meets the motor's timing: give a t column (the motor's phase, one turn "
-                         "= 1)", file=str(path), field="t")
+    points, angles, lines, units, times = read_poses(path, timed=True)
+    assert times is not None  # read_poses(timed=True) requires the t column
     again = np.flatnonzero(np.diff(times) <= 0)
     if len(again):
         i = int(again[0])
@@ -42,7 +40,7 @@ def read_timed_poses(path: Path) -> tuple[np.ndarray, np.ndarray, list[int], str
                          file=str(path), line=lines[i + 1], field="t")
     if times[-1] - times[0] >= 1.0:
         raise InputError(f"the times span {times[-1] - times[0]:.6g}, one motor turn or more (t is the motor's "
-                         "phase: one turn = 1)", file=str(path), field="t")
+                         "phase: one turn = 1)", file=str(path), line=lines[-1], field="t")
     return points, angles, lines, units, times
 
 
