@@ -80,10 +80,10 @@ def run_motion_six(path: Path, out: Path, *, margin_deg: float, tolerance_deg: f
     phi = 2 * np.pi * (times - times[0])
     found = motion_six.fit((points - centre) / size, theta, phi, margin_deg=margin_deg)
     if found is None:
-        raise MechanismError(f"{path}: no Watt II six-bar found passes the {len(points)} poses in the order of t "
-                             f"with the timing t prescribes and both transmission angles within [{margin_deg:g}°, "
-                             f"{180 - margin_deg:g}°] (a four-bar must pass the poses in that order: check the t "
-                             "column; or try a smaller --margin)")
+        raise MechanismError(f"{path}: no Watt II six-bar found passes the {len(points)} poses with both transmission "
+                             f"angles within [{margin_deg:g}°, {180 - margin_deg:g}°] (no four-bar passes them on "
+                             "one assembly branch, or none is driven by a working stage 1: try a smaller --margin, "
+                             "or fewer or other poses)")
     fitted = time.perf_counter()
     spec = six_bar_motion_spec(found, centre, size, Path(path).stem, units)
     rest = float(np.angle(found.joints["A1"] - found.joints["O1"]))

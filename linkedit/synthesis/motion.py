@@ -145,10 +145,11 @@ def in_order(turns: np.ndarray) -> np.ndarray:
     return (step > 0).all(axis=1) & (np.abs(turns[:, -1]) < 2 * np.pi)
 
 
-def poses_of(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def poses_of(x: np.ndarray, ordered: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Coupler point (K, N) complex and coupler angle (K, N) at each crank turn of models x,
     the smallest d_s over the sweep (K,) and whether each model works apart from the margin
-    (poses in order within one turn, links not degenerate, joints within reach)."""
+    (poses in order within one turn — ``ordered`` False: the crank may turn back between poses,
+    over less than a turn —, links not degenerate, joints within reach)."""
     O, D, A, B, P, kappa, turns = _unpack(x)
     pin = O[:, None] + (A - O)[:, None] * np.exp(1j * turns)
     rows = frame_rows(O, A, B, D)
@@ -158,7 +159,7 @@ def poses_of(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
                       (b * b)[:, None], side[:, None])
         point = pin + (tip - pin) / (B - A)[:, None] * (P - A)[:, None]
         angle = kappa[:, None] + np.angle(tip - pin)
-    inorder = in_order(turns)
+    inorder = in_order(turns) if ordered else np.ptp(turns, axis=1) < 2 * np.pi
     shape = ((np.minimum.reduce([np.abs(A - O), b, c, d]) >= SHORTEST)
              & (np.maximum.reduce([np.abs(O), np.abs(A), np.abs(B), np.abs(D)]) <= REACH) & (side != 0))
     low = lowest_singularity(rows, turns.min(axis=1), turns.max(axis=1))
@@ -183,9 +184,10 @@ def model(poses: Poses, p: np.ndarray, theta: np.ndarray, margin: float):
     return residuals
 
 
-def _pairs(p: np.ndarray, theta: np.ndarray, found: np.ndarray) -> np.ndarray:
+def _pairs(p: np.ndarray, theta: np.ndarray, found: np.ndarray, ordered: bool = True) -> np.ndarray:
     """Models (K, N + 10) of every ordered pair of dyads (crank, rocker), both ways round: the rest
-    pose is pose 1, the turns the crank's angles at the poses counted one way from it."""
+    pose is pose 1, the turns the crank's angles at the poses counted one way from it (``ordered``
+    False: the nearest way, within half a turn)."""
     m = found[:, 0] + 1j * found[:, 1]
     f = found[:, 2] + 1j * found[:, 3]
     i, k = (g.ravel() for g in np.meshgrid(np.arange(len(found)), np.arange(len(found)), indexing="ij"))
@@ -194,22 +196,23 @@ def _pairs(p: np.ndarray, theta: np.ndarray, found: np.ndarray) -> np.ndarray:
     raw = np.angle((moving[i] - f[i, None]) / (moving[i, :1] - f[i, None]))  # (K, N), raw[:, 0] = 0
     A, B = moving[i, 0], moving[k, 0]
     out = []
-    for sense in (1.0, -1.0):
-        turns = sense * np.mod(sense * raw, 2 * np.pi)
+    for sense in (1.0, -1.0) if ordered else (0.0,):
+        turns = sense * np.mod(sense * raw, 2 * np.pi) if ordered else raw
         joints = np.stack([f[i], f[k], A, B, np.full(len(i), p[0])], axis=1)
         flat = np.stack([joints.real, joints.imag], axis=2).reshape(len(i), 10)
         out.append(np.concatenate([flat, (theta[0] - np.angle(B - A))[:, None], turns[:, 1:]], axis=1))
     return np.concatenate(out)
 
 
-def fit(p: np.ndarray, theta: np.ndarray, *, margin_deg: float) -> MotionFit | None:
+def fit(p: np.ndarray, theta: np.ndarray, *, margin_deg: float, ordered: bool = True) -> MotionFit | None:
     """The working four-bar whose coupler best passes through the poses p (N,) complex (normalized),
-    θ (N,) radians, in order; None when no pair of dyads gives one."""
+    θ (N,) radians, in order (``ordered`` False: its crank may turn back between poses, as a six-bar's
+    second stage driven by a rocker); None when no pair of dyads gives one."""
     margin = margin_of(margin_deg)
     found = dyads(p, theta)
     if len(found) < 2:
         return None
-    kept = best(poses_of, _pairs(p, theta, found), p, theta, margin)
+    kept = best(lambda x: poses_of(x, ordered), _pairs(p, theta, found, ordered), p, theta, margin)
     if kept is None:
         return None
     x, position, turn_error, low = kept

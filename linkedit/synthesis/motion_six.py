@@ -6,8 +6,10 @@ whose coupler A2-B2 carries the coupler point through the poses, its crank at tu
 (δ₁ = 0). Stage 1 (:func:`linkedit.synthesis.function.fit`, relative angles) is a four-bar
 O1-A1-B1-D1 whose rocker D1-B1 turns by δ_j when the motor (crank O1-A1) turns by φ_j; the
 rocker is rigid with stage 2's crank (the ternary link D1-B1-A2, D1 = O2), so stage 2's crank turns
-as stage 1's rocker does. Exact through 5 timed poses (stage 2: the Burmester pairs; stage 1:
-5 free parameters through 5 pairs), least squares beyond.
+as stage 1's rocker does, back and forth (stage 2 is fitted with its crank turning one way
+through the poses, then, unless that is exact, free to turn back between them). Exact through 5
+timed poses (stage 2: the Burmester pairs; stage 1: 5 free parameters through 5 pairs), least
+squares beyond.
 
 Stage 1's function-fit frame (O = 0, D = 1) is placed by z ↦ O2 + L·e^{iγ}·(m(z) − 1): scaled to
 stage 2's longest link L, its pivot O1 on the far side of O2 from stage 2's joints, mirrored
@@ -96,7 +98,7 @@ def _evaluate(x: np.ndarray, sense: float, branch: float, phi: np.ndarray):
     stage1 = np.concatenate([np.exp(x[:, :3]), np.full((len(x), 1), branch), x[:, 3:4], np.zeros((len(x), 1))], axis=1)
     turns = _crank2(stage1, sense, phi[1:])
     model = np.concatenate([x[:, 4:], turns], axis=1)
-    point, angle, _, ok = motion.poses_of(model)
+    point, angle, _, ok = motion.poses_of(model, ordered=False)  # the motor keeps the order
     low1, ends = _sweep(stage1, sense, phi)
     O, D, A, B = (model[:, i] + 1j * model[:, i + 1] for i in (0, 2, 4, 6))
     low2 = function.lowest_singularity(motion.frame_rows(O, A, B, D), ends[:, 0], ends[:, 1])
@@ -150,9 +152,23 @@ def _best_turns(x: np.ndarray, sense: float, branch: float, p: np.ndarray, theta
 def fit(p: np.ndarray, theta: np.ndarray, phi: np.ndarray, *, margin_deg: float) -> SixMotionFit | None:
     """The working Watt II six-bar whose second coupler passes through the poses p (N,) complex
     (normalized), θ (N,) radians, at motor turns φ (N,) radians (increasing from 0, within one turn);
-    None when stage 2 or stage 1 finds no working four-bar, or the two do not work together."""
+    None when stage 2 or stage 1 finds no working four-bar, or the two do not work together. Stage 2's
+    crank (the ternary link, driven by stage 1's rocker) first turning one way through the poses, then,
+    unless that is exact, free to turn back between them: the better is kept."""
+    found = [f for f in (_fit(p, theta, phi, margin_deg, True),) if f is not None]
+    if not found or found[0][1] > motion.EXACT:
+        found += [f for f in (_fit(p, theta, phi, margin_deg, False),) if f is not None]
+    if not found:
+        return None
+    return min(found, key=lambda f: f[1])[0]
+
+
+def _fit(p: np.ndarray, theta: np.ndarray, phi: np.ndarray, margin_deg: float,
+         ordered: bool) -> tuple[SixMotionFit, float] | None:
+    """:func:`fit` from the stage-2 four-bar of :func:`linkedit.synthesis.motion.fit` (``ordered``: its
+    crank turning one way through the poses) and its worst pose error (size or radians); None when none works."""
     margin = margin_of(margin_deg)
-    two = motion.fit(p, theta, margin_deg=margin_deg)
+    two = motion.fit(p, theta, margin_deg=margin_deg, ordered=ordered)
     if two is None:
         return None
     one = function.fit(phi, two.turns, relative=True, margin_deg=margin_deg)
@@ -170,7 +186,8 @@ def fit(p: np.ndarray, theta: np.ndarray, phi: np.ndarray, *, margin_deg: float)
         if not (ok[0] and works(low[0], margin).all()):
             return None
         x = refined
-    return _place(x[0], one.sense, row[3], p, theta, phi, point[0], angle[0], low[0])
+        worst = max(np.abs(point - p).max(), np.abs(function.wrap(angle - theta)).max())
+    return _place(x[0], one.sense, row[3], p, theta, phi, point[0], angle[0], low[0]), float(worst)
 
 
 def _place(x: np.ndarray, sense: float, branch: float, p: np.ndarray, theta: np.ndarray, phi: np.ndarray,
