@@ -169,9 +169,13 @@ def test_a_translation_along_a_line_is_met_closely(run_cli, tmp_path):
     ("x,y,angle_deg\n0,0,0\n1,one,10\n2,0,20\n", ":3: y: not a number: 'one'"),
     ("x,y,angle_deg\n0,0,0\n1,1,nan\n2,0,20\n", ":3: angle_deg: not a finite number"),
     ("x,y,angle_deg\n5,5,0\n5,5,10\n5,5,20\n", "x: every pose has the same position"),
-    ("x (mm),y (in),angle_deg\n0,0,0\n1,1,10\n2,0,20\n", "y: x and y are in different units (in, mm)"),
+    ("x (mm),y (in),angle_deg\n0,0,0\n1,1,10\n2,0,20\n", ":1: y: x and y are in different units (in, mm)"),
+    ("x,y,angle_deg (rad)\n0,0,0\n1,1,0.1\n2,0,0.2\n", ":1: angle_deg: angle_deg is in degrees, the header gives it "
+                                                       "in 'rad'"),
 ])
 def test_bad_poses_exit_2_with_one_line(run_cli, tmp_path, text, message):
+    """One line naming the file, the line and the column; a header's unit that contradicts its column (angles in
+    rad) is refused, not read as degrees."""
     (tmp_path / "bad.csv").write_text(text)
     result = run_cli("synthesize", "--motion", tmp_path / "bad.csv", "-o", tmp_path / "out")
     assert result.exit_code == 2

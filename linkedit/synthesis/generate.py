@@ -39,6 +39,8 @@ UNITS = "mm"
 RESULT_SAMPLES = 361
 #: a motion generator whose coupler point misses a pose by more than this fraction of the size gets a note
 POSITION_TOLERANCE = 0.005
+#: the units a poses file's angle_deg column may name (any other is refused: the column is in degrees)
+DEGREES = ("deg", "degree", "degrees", "°")
 
 
 def at_inputs(spec: LinkageSpec, angles: np.ndarray) -> dict[str, np.ndarray]:
@@ -209,20 +211,25 @@ def run_function(path: Path, out: Path, *, relative: bool, margin_deg: float, to
 def read_poses(path: Path, *, timed: bool = False) -> tuple[np.ndarray, np.ndarray, list[int], str, np.ndarray | None]:
     """Coupler point positions (N,) complex, coupler angles (N,) degrees, file lines (in pose
     order: by ``t`` when given), units and the times ``t`` (N,) in that order (None without a t
-    column); InputError for fewer than 3 poses, positions that all coincide, or (``timed``: the
-    six-bar meets the motor's timing) no t column."""
+    column); InputError for fewer than 3 poses, positions that all coincide, x and y in different units,
+    angles in a unit other than degrees, or (``timed``: the six-bar meets the motor's timing) no t column."""
     table = read_columns(path, ("x", "y", "angle_deg"), ("t",), minimum=3)
     cols = table.columns
     if timed and "t" not in cols:
         raise InputError("--family six-bar meets the motor's timing: give a t column (the motor's phase, one turn "
                          "= 1)", file=str(path), line=table.header, field="t")
+    angle_unit = table.units.get("angle_deg")
+    if angle_unit is not None and angle_unit.lower() not in DEGREES:
+        raise InputError(f"angle_deg is in degrees, the header gives it in {angle_unit!r}", file=str(path),
+                         line=table.header, field="angle_deg")
     order = np.argsort(cols["t"], kind="stable") if "t" in cols else np.arange(len(cols["x"]))
     points = (cols["x"] + 1j * cols["y"])[order]
     if np.abs(points - points[0]).max() <= 1e-12 * max(np.abs(points).max(), 1e-300):
         raise InputError("every pose has the same position: give the coupler point's path", file=str(path), field="x")
     units = {u for u in (table.units.get("x"), table.units.get("y")) if u is not None}
     if len(units) > 1:
-        raise InputError(f"x and y are in different units ({', '.join(sorted(units))})", file=str(path), field="y")
+        raise InputError(f"x and y are in different units ({', '.join(sorted(units))})", file=str(path),
+                         line=table.header, field="y")
     times = cols["t"][order] if "t" in cols else None
     return points, cols["angle_deg"][order], [table.lines[i] for i in order], units.pop() if units else UNITS, times
 
