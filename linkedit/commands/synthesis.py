@@ -122,9 +122,9 @@ def register(app: typer.Typer) -> None:
                                         "link turns as the CSV's input_deg, output_deg pairs prescribe (no target, "
                                         "no --atlas)."),
         poses: Path = typer.Option(None, "--motion", metavar="POSES.csv",
-                                   help="Motion generation instead: a four-bar (or --family slider-crank) whose "
-                                        "coupler passes through the CSV's poses x, y, angle_deg[, t] in order (no "
-                                        "target, no --atlas)."),
+                                   help="Motion generation instead: a four-bar (or --family slider-crank, or six-bar "
+                                        "meeting the motor phases t too) whose coupler passes through the CSV's poses "
+                                        "x, y, angle_deg[, t] in order (no target, no --atlas)."),
         relative: bool = typer.Option(False, "--relative", help="With --function: the angles are changes from "
                                                                 "rest angles the synthesis chooses (and the output "
                                                                 "may turn either way) [default: absolute, from the "
