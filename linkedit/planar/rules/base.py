@@ -162,9 +162,9 @@ class Rule:
         """Write its points (and derivatives) and its d_s rows of ``f``."""
         raise NotImplementedError
 
-    def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
-        """Its scratch buffers for :meth:`evaluate` from ``pool``, for ``orders`` = 1 + the
-        derivative order and samples of ``shape`` (*L, T); None when it needs none."""
+    def scratch(self, pool: Pool, Z: np.ndarray) -> Any:
+        """Its scratch buffers for :meth:`evaluate` from ``pool``, for the stacked orders ``Z``
+        (1 + derivative order, P, *L, T) it writes (:attr:`Frame.orders`); None when it needs none."""
         return None
 
     def batch_rows(self) -> int:

@@ -71,9 +71,9 @@ class Slider(Step):
             self._circle_line(z, const, out[0], ds, (np.empty(shape, dtype=complex), np.empty(shape)))
         return out, ds
 
-    def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
-        """:meth:`_circle_line`'s buffers: q (complex) and x (real), ``shape`` each."""
-        return pool(shape, complex), pool(shape)
+    def scratch(self, pool: Pool, Z: np.ndarray) -> Any:
+        """:meth:`_circle_line`'s buffers: q (complex) and x (real), (*L, T) each."""
+        return pool(Z.shape[2:], complex), pool(Z.shape[2:])
 
     def place_in(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Into ``f``'s rows through its scratch (no allocation)."""
