@@ -45,17 +45,18 @@ class Rigid(Triangles):
         return kernel
 
     def scratch(self, pool: Pool, Z: np.ndarray) -> Any:
-        """The inputs (:meth:`Triangles.scratch`) and one linkage's c spread over the samples
-        (:class:`Spread`, outside the pool, read by every derivative order; None for K linkages)."""
+        """The inputs (:meth:`Triangles.scratch`) and one linkage's c spread over the samples,
+        once per derivative order (:class:`Spread`, outside the pool; None for K linkages): a
+        broadcast operand would cost numpy's general loop, several µs a call on a small batch."""
         zi, e = super().scratch(pool, Z)
         one = Z.ndim == 3 and pool.buffer is not None
-        return zi, e, Spread(1, self.stop - self.start, Z.shape[-1], complex) if one else None
+        return zi, e, Spread(Z.shape[0], self.stop - self.start, Z.shape[-1], complex) if one else None
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Every derivative order at once: the rows of ``f.orders``."""
         zi, e, spread = f.scratch[id(self)]
         zi = self.inputs(f.orders, zi, e)
-        np.multiply(const[0] if spread is None else spread.of(const, const[0]), e, out=e)
+        np.multiply(const[0] if spread is None else spread.of(const, *const * len(e)), e, out=e)
         np.add(zi, e, out=f.orders[:, self.start:self.stop])
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
