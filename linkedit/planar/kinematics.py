@@ -21,7 +21,7 @@ from linkedit.planar.constraints import Rows, linkage_rows
 from linkedit.planar.feasibility import assembles
 from linkedit.planar.plan import Geometry, Plan
 from linkedit.planar.rules import Frame
-from linkedit.planar.rules.base import Pool
+from linkedit.planar.rules.pool import Pool
 
 #: largest input change between two samples a numeric group is continued across: motor
 #: degrees, or a fraction of the characteristic length for a linear input

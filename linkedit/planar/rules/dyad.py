@@ -14,7 +14,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from linkedit.planar import law_of_cosines as loc
-from linkedit.planar.rules.base import Frame, Pool, RestFrame
+from linkedit.planar.rules.base import Frame, RestFrame
+from linkedit.planar.rules.pool import Pool
 from linkedit.planar.rules.triangles import Spread, Triangles, frozen
 
 

@@ -13,7 +13,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from linkedit.planar.rules.base import Frame, Pool, RestFrame
+from linkedit.planar.rules.base import Frame, RestFrame
+from linkedit.planar.rules.pool import Pool
 from linkedit.planar.rules.triangles import Spread, Triangles, frozen
 
 

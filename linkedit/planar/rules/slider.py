@@ -17,7 +17,8 @@ from linkedit.errors import MechanismError
 from linkedit.planar.constraints import Rows, _Builder, _product
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
-from linkedit.planar.rules.base import Frame, InPlace, Pool, Slot, Step, concat, keep, labelled
+from linkedit.planar.rules.base import Frame, InPlace, Slot, Step, concat, keep, labelled
+from linkedit.planar.rules.pool import Pool
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from linkedit.planar.rules.base import Failure, Pool, Rule
+from linkedit.planar.rules.base import Failure, Rule
+from linkedit.planar.rules.pool import Pool
 
 
 @dataclass(frozen=True, eq=False)
