@@ -21,7 +21,7 @@ from linkedit.planar.constraints import Rows, linkage_rows
 from linkedit.planar.feasibility import assembles
 from linkedit.planar.plan import Geometry, Plan
 from linkedit.planar.rules import Frame
-from linkedit.planar.rules.base import Pool
+from linkedit.planar.rules.pool import Pool
 
 #: largest input change between two samples a numeric group is continued across: motor
 #: degrees, or a fraction of the characteristic length for a linear input
@@ -71,7 +71,7 @@ class Workspace:
                                                         pool((plan.n_ds, *shape))))
         self.z = self.orders[0]
         self.pair, self.e, self.w, self.d2, self.u, self.a, self.b, self.scratch = Pool.carve(
-            lambda pool: self._scratch(pool, plan, rows, order + 1, shape))
+            lambda pool: self._scratch(pool, plan, rows, self.orders, shape))
         self._kernels: tuple[Plan, Compiled] | None = None
         self._ground: tuple[Plan, slice | None] | None = None
         self._zeros = np.zeros(0)
@@ -82,15 +82,15 @@ class Workspace:
         self.fine: Workspace | None = None
 
     @staticmethod
-    def _scratch(pool: Pool, plan: Plan, rows: int, orders: int, shape: tuple[int, ...]) -> tuple[Any, ...]:
+    def _scratch(pool: Pool, plan: Plan, rows: int, Z: np.ndarray, shape: tuple[int, ...]) -> tuple[Any, ...]:
         """:func:`positions`' buffers, then each rule's scratch by ``id`` of the rule, all
-        overlapping (never used at the same time)."""
+        overlapping (never used at the same time); ``Z`` the stacked orders the rules write."""
         own = [pool((2 * rows, shape[-1]), complex)] + [pool((rows, shape[-1]), complex) for _ in range(2)] + [
             pool((rows, shape[-1])) for _ in range(4)]
         scratch: dict[int, Any] = {}
         for rule in plan.rules:
             pool.reset()
-            scratch[id(rule)] = rule.scratch(pool, orders, shape)
+            scratch[id(rule)] = rule.scratch(pool, Z)
         return (*own, scratch)
 
     def kernels(self, plan: Plan) -> Compiled:

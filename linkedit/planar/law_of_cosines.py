@@ -93,7 +93,8 @@ class Rates:
     (R, *S) real. ``c`` holds iω: its real part is zeroed when the kernel is made and the kernel
     writes only its imaginary part, so a ``c`` no one else writes (``kept``) is not zeroed again
     per call. ``s`` may be the kernel's ``b`` (s = u/B is formed in place), ``t``, ``gf``, ``q``
-    buffers of the positions' terms spent before the rates (less memory touched per call)."""
+    buffers of the positions' terms spent before the rates, ``P`` the kernel's ``out`` (each order's
+    product is spent before its rate is written): less memory touched per call."""
 
     g: np.ndarray
     c: np.ndarray

@@ -16,18 +16,16 @@ every kind.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, TypeVar, cast
+from typing import Any, ClassVar, cast
 
 import numpy as np
 
 from linkedit.planar.constraints import Rows, linkage_rows_tangent, rows_rest_derivative
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
-
-T = TypeVar("T")
+from linkedit.planar.rules.pool import Pool
 
 
 @dataclass
@@ -52,45 +50,6 @@ class Frame:
     rows: dict[int, Rows] = field(default_factory=dict)
     #: whether the dyads form their d_s rows (False: positions alone are wanted, ``ds`` is scratch)
     distances: bool = True
-
-
-class Pool:
-    """Arrays carved from one flat byte buffer: scratch shared by a plan's rules (they run one
-    after another, so each may reuse the same memory), or several arrays kept together. One
-    large allocation instead of many: fresh memory pages cost more than the arithmetic on them.
-    :meth:`carve` asks a measuring pool first, then one of the size needed."""
-
-    ALIGN = 64  #: bytes: every array starts on a cache line
-
-    def __init__(self, buffer: np.ndarray | None = None) -> None:
-        self.buffer = buffer
-        self.used = 0
-        self.peak = 0
-
-    @classmethod
-    def carve(cls, make: Callable[["Pool"], T]) -> T:
-        """``make(pool)`` (which asks ``pool`` for its arrays) on a pool just large enough."""
-        measure = cls()
-        make(measure)
-        return make(cls(np.empty(measure.peak, dtype=np.uint8)))
-
-    def reset(self) -> None:
-        """Start again from the beginning: later arrays may overlap earlier ones."""
-        self.used = 0
-
-    def __call__(self, shape: tuple[int, ...], dtype: type = float) -> np.ndarray:
-        """A C-contiguous array of ``shape`` and ``dtype`` (float or complex; uninitialized,
-        zero-size while measuring)."""
-        start, size = self.used, math.prod(shape) * _ITEMSIZE[dtype]
-        self.used = start + -(-size // self.ALIGN) * self.ALIGN
-        if self.buffer is None:
-            self.peak = max(self.peak, self.used)
-            return _EMPTY
-        return self.buffer[start:start + size].view(dtype).reshape(shape)
-
-
-_EMPTY = np.empty(0)
-_ITEMSIZE = {float: 8, complex: 16}
 
 
 @dataclass
@@ -162,9 +121,9 @@ class Rule:
         """Write its points (and derivatives) and its d_s rows of ``f``."""
         raise NotImplementedError
 
-    def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
-        """Its scratch buffers for :meth:`evaluate` from ``pool``, for ``orders`` = 1 + the
-        derivative order and samples of ``shape`` (*L, T); None when it needs none."""
+    def scratch(self, pool: Pool, Z: np.ndarray) -> Any:
+        """Its scratch buffers for :meth:`evaluate` from ``pool``, for the stacked orders ``Z``
+        (1 + derivative order, P, *L, T) it writes (:attr:`Frame.orders`); None when it needs none."""
         return None
 
     def batch_rows(self) -> int:

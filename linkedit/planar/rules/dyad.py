@@ -14,7 +14,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from linkedit.planar import law_of_cosines as loc
-from linkedit.planar.rules.base import Frame, Pool, RestFrame
+from linkedit.planar.rules.base import Frame, RestFrame
+from linkedit.planar.rules.pool import Pool
 from linkedit.planar.rules.triangles import Spread, Triangles, frozen
 
 
@@ -53,23 +54,25 @@ class Dyad(Triangles):
             add(zi, e, out=out)
         return kernel
 
-    def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
+    def scratch(self, pool: Pool, Z: np.ndarray) -> Any:
         """The inputs (:meth:`Triangles.scratch`), the joints' offsets from z_i: z_k − z_i and what
-        the derivatives add (orders, R, *shape) complex, w (complex), d², 1/d², B², A, B (real):
-        (R, *shape) each, and the kernels of w (:func:`~linkedit.planar.law_of_cosines.coefficient`)
+        the derivatives add, formed in the rule's own rows of ``Z`` (orders, R, *shape) complex (z_i is
+        added last), w (complex), d², 1/d², B², A, B (real): (R, *shape) each, and the kernels of w (:func:`~linkedit.planar.law_of_cosines.coefficient`)
         and of the rates (:func:`~linkedit.planar.law_of_cosines.rates`, None without
         derivatives) on them; one linkage's constants spread over the samples (:class:`Spread`,
         with l_ik²·l_jk² for d_s) and its rates' iω (its zero real part then stays), both outside
         the pool (in it for K linkages, and no spread); None while the pool measures."""
-        one, n, single = (self.stop - self.start, *shape), orders - 1, len(shape) == 1
-        zi, e = super().scratch(pool, orders, shape)
-        fk, w, d2, u, bsq = pool((orders, *one), complex), pool(one, complex), pool(one), pool(one), pool(one)
+        shape = Z.shape[2:]
+        one, n, single, fk = (self.stop - self.start, *shape), Z.shape[0] - 1, len(shape) == 1, Z[:, self.start:self.stop]
+        zi, e = super().scratch(pool, Z)
+        w, d2, u, bsq = pool(one, complex), pool(one), pool(one), pool(one)
         a, b = pool(one), pool(one)
         r = None
         if n:  # one linkage's iω outside the pool, like its spread constants: its zero real part stays
             c = np.empty(one if pool.buffer is not None else 0, complex) if single else pool(one, complex)
-            # w, B (s = u/B in place), B² and d² are spent before the rates: they hold ġ, s, g·f, |ġ|²
-            r = loc.Rates(pool(one, complex), c, w, pool((n, *one), complex), b, bsq, d2, kept=single)
+            # w, B (s = u/B in place), B² and d² are spent before the rates: they hold ġ, s, g·f, |ġ|²;
+            # the products g·ė (, g·ë) go where their rates go (each is spent before its rate is written)
+            r = loc.Rates(pool(one, complex), c, w, fk[1:], b, bsq, d2, kept=single)
         if pool.buffer is None:  # measuring: the arrays are empty
             return None
         rates = None if r is None else loc.rates(e, fk[0], u, a, b, fk[1:], r)
@@ -92,7 +95,7 @@ class Dyad(Triangles):
             loc.singularity_distance(bsq, u, lengths, d2, f.ds[rows])
         if rates is not None:
             rates(lik2)
-        np.add(zi, fk, out=Z[:, self.start:self.stop])
+        np.add(zi, fk, out=fk)
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
         """Lengths from the rest pose ``f.rest``; with tangents, ∂z_k and ∂ln d_s along ``f.D``."""

@@ -13,7 +13,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from linkedit.planar.rules.base import Frame, Pool, RestFrame
+from linkedit.planar.rules.base import Frame, RestFrame
+from linkedit.planar.rules.pool import Pool
 from linkedit.planar.rules.triangles import Spread, Triangles, frozen
 
 
@@ -44,12 +45,13 @@ class Rigid(Triangles):
             add(zi, e, out=out)
         return kernel
 
-    def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
+    def scratch(self, pool: Pool, Z: np.ndarray) -> Any:
         """The inputs (:meth:`Triangles.scratch`) and one linkage's c spread over the samples,
-        once per derivative order (:class:`Spread`, outside the pool; None for K linkages)."""
-        zi, e = super().scratch(pool, orders, shape)
-        one = len(shape) == 1 and pool.buffer is not None
-        return zi, e, Spread(orders, self.stop - self.start, shape[0], complex) if one else None
+        once per derivative order (:class:`Spread`, outside the pool; None for K linkages): a
+        broadcast operand would cost numpy's general loop, several µs a call on a small batch."""
+        zi, e = super().scratch(pool, Z)
+        one = Z.ndim == 3 and pool.buffer is not None
+        return zi, e, Spread(Z.shape[0], self.stop - self.start, Z.shape[-1], complex) if one else None
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Every derivative order at once: the rows of ``f.orders``."""

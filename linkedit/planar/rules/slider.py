@@ -17,7 +17,8 @@ from linkedit.errors import MechanismError
 from linkedit.planar.constraints import Rows, _Builder, _product
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
-from linkedit.planar.rules.base import Frame, InPlace, Pool, Slot, Step, concat, keep, labelled
+from linkedit.planar.rules.base import Frame, InPlace, Slot, Step, concat, keep, labelled
+from linkedit.planar.rules.pool import Pool
 
 
 @dataclass(frozen=True)
@@ -71,9 +72,9 @@ class Slider(Step):
             self._circle_line(z, const, out[0], ds, (np.empty(shape, dtype=complex), np.empty(shape)))
         return out, ds
 
-    def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
-        """:meth:`_circle_line`'s buffers: q (complex) and x (real), ``shape`` each."""
-        return pool(shape, complex), pool(shape)
+    def scratch(self, pool: Pool, Z: np.ndarray) -> Any:
+        """:meth:`_circle_line`'s buffers: q (complex) and x (real), (*L, T) each."""
+        return pool(Z.shape[2:], complex), pool(Z.shape[2:])
 
     def place_in(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Into ``f``'s rows through its scratch (no allocation)."""

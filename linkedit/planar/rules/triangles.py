@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from linkedit.planar.rules.base import Failure, Pool, Rule
+from linkedit.planar.rules.base import Failure, Rule
+from linkedit.planar.rules.pool import Pool
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,9 +48,9 @@ class Triangles(Rule):
     def table_entries(self) -> np.ndarray:
         return self.rule[self.listed]
 
-    def scratch(self, pool: Pool, orders: int, shape: tuple[int, ...]) -> Any:
-        """z_i and z_j − z_i with their derivatives, (orders, R, *shape) complex each."""
-        one = (orders, self.stop - self.start, *shape)
+    def scratch(self, pool: Pool, Z: np.ndarray) -> Any:
+        """z_i and z_j − z_i with their derivatives, (orders, R, *L, T) complex each."""
+        one = (Z.shape[0], self.stop - self.start, *Z.shape[2:])
         return pool(one, complex), pool(one, complex)
 
     @cached_property
