@@ -271,7 +271,8 @@ def test_a_query_pinned_to_a_worker_that_left_runs_elsewhere(folder, cluster, mo
         assert [h.row for h in gone.query(v, 10)] == local
 
 
-@pytest.mark.parametrize("closed", [True, False], ids=["closed", "open-arc"])
+@pytest.mark.parametrize("closed", [pytest.param(True, id="closed", marks=pytest.mark.slow),  # ≈ 9 s; the open arc runs
+                                    pytest.param(False, id="open-arc")])
 def test_synthesize_a_3d_target_with_a_scheduler_writes_the_in_process_result(run_cli, tmp_path, cluster, monkeypatch,
                                                                               closed):
     """A 3D target (a closed curve, or an open arc: its hits screened on their stored coarse curves, fetched from

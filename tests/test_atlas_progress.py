@@ -25,7 +25,7 @@ def test_the_bar_moves_inside_a_chunk(run_cli, tmp_path, monkeypatch, out):
     assert done == sorted(done)
 
 
-@pytest.mark.parametrize("out", ["a.h5", "folder"])
+@pytest.mark.parametrize("out", [pytest.param("a.h5", marks=pytest.mark.slow), "folder"])  # ≈ 4 s each on a cluster
 def test_the_bar_moves_inside_a_dask_task(run_cli, tmp_path, monkeypatch, cluster, out):
     """The same on the 2-worker cluster (two chunks of 300, a task each, built at once): the workers publish
     the linkages their task has screened (here as often as they can) and the client reports them while it

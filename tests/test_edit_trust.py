@@ -272,6 +272,7 @@ def test_edit_of_a_linkage_that_locks_up_is_one_line(run_cli, tmp_path):
     assert "Traceback" not in r.output and len(r.output.strip().splitlines()) == 1
 
 
+@pytest.mark.slow  # ≈ 14 s; test_symmetric_edit_keeps_mirrored_legs_mirrored covers symmetric edits by default
 def test_a_symmetric_edit_of_ten_leg_pairs_converges_like_an_unsymmetric_one(run_cli, tmp_path):
     """Mirrored legs share their variables: the symmetric edit of a 10-pair Strandbeest converges
     (it crept along the 10⁶ symmetry penalty and stalled after 95–99 iterations, against 12

@@ -325,6 +325,7 @@ def test_dask_workers_end_with_the_command_and_keep_quiet(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["done.h5"]
 
 
+@pytest.mark.slow  # ≈ 8 s of racing appends; the single-writer crash-safety tests run by default
 def test_two_concurrent_appends_never_lose_an_update(tmp_path):
     """Two `atlas build -o same.h5` at once: each either appends (one after the other, under the lock)
     or is refused with exit 2 naming the other; the atlas holds exactly the appends that succeeded."""

@@ -152,6 +152,7 @@ def test_rules_that_do_not_hold_are_dropped_and_the_run_is_step_by_step():
     _assert_same(on.position, on.orientation, off, system.length_scale)
 
 
+@pytest.mark.slow  # ≈ 5 s
 def test_a_dyad_driven_past_its_reach_stops_rebuilding_there_and_resumes_on_its_branch():
     """The rocker driven past its reach and back: the crank–coupler dyad cannot close (its
     steps fail, as step by step), and after the lock the rebuilt poses resume on the side the

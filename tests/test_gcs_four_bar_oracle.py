@@ -70,6 +70,7 @@ def test_a_coarse_run_does_not_jump_over_a_lock_up(waves):
     assert (run.status != 0).any(), "the coarse run crossed the lock-up and reports every step converged"
 
 
+@pytest.mark.slow  # ≈ 5 s
 def test_a_failure_names_the_same_constraints_in_m_and_km():
     """A locking four-bar in m and in km (every length ×1e-3): the solve is scale-free, but the
     failure message's worst-first constraints compared the spec's lengths with the input's

@@ -358,6 +358,7 @@ def test_catalog_families_match_simulate(name):
             assert np.abs(got[:, 0] + 1j * got[:, 1] - want).max() < 1e-9 * 90.0
 
 
+@pytest.mark.slow  # ≈ 10 s; test_feasibility's synthesized Klann leg covers leg-family synthesis by default
 def test_a_held_out_jansen_leg_is_recovered_from_a_legs_atlas(run_cli, tmp_path):
     legs = tmp_path / "legs.h5"
     built = run_cli("atlas", "build", "--family", "jansen,klann", "-n", "3000", "-o", legs)

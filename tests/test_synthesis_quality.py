@@ -281,6 +281,7 @@ def gerono_error(run_cli, out, tmp_path, target: np.ndarray) -> tuple[float, np.
     return float(np.sqrt(np.mean(gap ** 2))), transmission_sin2(fine)
 
 
+@pytest.mark.slow  # ≈ 7 s: a --margin sweep on the figure-eight
 def test_margin_trades_transmission_for_accuracy_on_the_figure_eight(run_cli, four_bars, tmp_path):
     """Gerono's 2:1 figure-eight: a four-bar inside the default 20° band draws it only to about 4.2 % (the band's
     optimum: a global search, README), on the band's edge, and the note says so; `--margin 10` reaches ≤ 3 %,
