@@ -156,10 +156,13 @@ def shard_scaling(echo: Callable[[str], None], scheduler: str, chunks: int, repe
             for kind in runs:
                 folder = Path(tmp) / kind
                 before: dict[str, float] = client.run(time.process_time) if kind == "dask" else {}
+                # in-process: this thread's CPU (the build runs in it; a local cluster's scheduler and the client's
+                # event loop, threads of this process, are not the build's); Dask: this process's (client, scheduler)
+                clock = time.process_time if kind == "dask" else time.thread_time
                 with task_times() as tasks:
-                    wall, cpu = time.perf_counter(), time.process_time()
+                    wall, cpu = time.perf_counter(), clock()
                     shards.build(folder, ["four-bar"], count, seed=1, scheduler=scheduler if kind == "dask" else None)
-                    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+                    wall, cpu = time.perf_counter() - wall, clock() - cpu
                 after: dict[str, float] = client.run(time.process_time) if kind == "dask" else {}
                 runs[kind].append({"wall": wall, "cpu": cpu, "workers": sum(after[w] - before[w] for w in before),
                                    "tasks_cpu": sum(t.cpu for t in tasks), "tasks_wall": sum(t.wall for t in tasks)})
