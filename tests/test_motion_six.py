@@ -177,14 +177,19 @@ def test_a_timing_no_six_bar_meets_is_written_with_a_note(run_cli, tmp_path):
     ([0, 0.1, 0.1, 0.3, 0.4], ":4: t: t 0.1 is given twice (line 3 too)"),
     ([0, 0.3, 0.6, 0.9, 1.0], "bad.csv:6: t: the times span 1, one motor turn or more"),
     ([1.0, 0.3, 0.6, 0.9, 0.0], "bad.csv:2: t: the times span 1, one motor turn or more"),
+    ((T5, "t (s)"), "bad.csv:1: t: t is the motor's phase (one turn = 1), the header gives it in 's'"),
+    ((T5, "t (deg)"), "bad.csv:1: t: t is the motor's phase (one turn = 1), the header gives it in 'deg'"),
 ])
 def test_bad_timing_exit_2_with_one_line(run_cli, tmp_path, times, message):
-    """Each message names the file, the line (the header's for a missing t, the latest time's for a
-    span of a turn or more) and the column."""
+    """Each message names the file, the line (the header's for a missing t or a t in a unit, the latest
+    time's for a span of a turn or more) and the column. A t in seconds or degrees is refused, not read as
+    motor turns."""
     points, angles = watt_poses(T5)
     if times is None:
         (tmp_path / "bad.csv").write_text("x, y, angle_deg\n" + "".join(
             f"{float(z.real)!r}, {float(z.imag)!r}, {float(a)!r}\n" for z, a in zip(points, angles)))
+    elif isinstance(times, tuple):
+        write(tmp_path / "bad.csv", times[0], points, angles, f"x (mm), y (mm), angle_deg, {times[1]}")
     else:
         write(tmp_path / "bad.csv", times, points, angles)
     result = run_cli("synthesize", "--motion", tmp_path / "bad.csv", "--family", "six-bar", "-o", tmp_path / "o")
@@ -192,6 +197,18 @@ def test_bad_timing_exit_2_with_one_line(run_cli, tmp_path, times, message):
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and message in lines[0] and "bad.csv" in lines[0], lines
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("column", ["t (turn)", "t (turns)"])
+def test_a_t_header_in_turns_is_accepted(run_cli, tmp_path, column):
+    """t given in turns (its unit): read as the motor's phase, the poses met exactly."""
+    points, angles = watt_poses(T5)
+    write(tmp_path / "turns.csv", T5, points, angles, f"x (mm), y (mm), angle_deg, {column}")
+    out = tmp_path / "o"
+    result = run_cli("synthesize", "--motion", tmp_path / "turns.csv", "--family", "six-bar", "-o", out)
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    np.testing.assert_allclose([p["motor_turn_deg"] for p in report["points"]], 360 * T5, atol=1e-9)
 
 
 def test_unknown_motion_family_exit_2(run_cli, tmp_path):

@@ -41,6 +41,8 @@ RESULT_SAMPLES = 361
 POSITION_TOLERANCE = 0.005
 #: the units a poses file's angle_deg column may name (any other is refused: the column is in degrees)
 DEGREES = ("deg", "degree", "degrees", "°")
+#: the units a poses file's t column may name (t is the motor's phase: one turn = 1)
+TURNS = ("turn", "turns")
 
 
 def at_inputs(spec: LinkageSpec, angles: np.ndarray) -> dict[str, np.ndarray]:
@@ -212,7 +214,7 @@ def read_poses(path: Path, *, timed: bool = False) -> tuple[np.ndarray, np.ndarr
     """Coupler point positions (N,) complex, coupler angles (N,) degrees, file lines (in pose
     order: by ``t`` when given), units and the times ``t`` (N,) in that order (None without a t
     column); InputError for fewer than 3 poses, positions that all coincide, x and y in different units,
-    angles in a unit other than degrees, or (``timed``: the six-bar meets the motor's timing) no t column."""
+    angles in a unit other than degrees, t in a unit other than turns, or (``timed``: the six-bar meets the motor's timing) no t column."""
     table = read_columns(path, ("x", "y", "angle_deg"), ("t",), minimum=3)
     cols = table.columns
     if timed and "t" not in cols:
@@ -222,6 +224,10 @@ def read_poses(path: Path, *, timed: bool = False) -> tuple[np.ndarray, np.ndarr
     if angle_unit is not None and angle_unit.lower() not in DEGREES:
         raise InputError(f"angle_deg is in degrees, the header gives it in {angle_unit!r}", file=str(path),
                          line=table.header, field="angle_deg")
+    t_unit = table.units.get("t")
+    if t_unit is not None and t_unit.lower() not in TURNS:
+        raise InputError(f"t is the motor's phase (one turn = 1), the header gives it in {t_unit!r}", file=str(path),
+                         line=table.header, field="t")
     order = np.argsort(cols["t"], kind="stable") if "t" in cols else np.arange(len(cols["x"]))
     points = (cols["x"] + 1j * cols["y"])[order]
     if np.abs(points - points[0]).max() <= 1e-12 * max(np.abs(points).max(), 1e-300):
