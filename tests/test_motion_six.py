@@ -153,6 +153,24 @@ def test_a_ternary_link_swinging_back_between_poses_is_found(run_cli, tmp_path):
     assert np.radians(angle_gap(angle, angles).max()) <= 1e-6
 
 
+def test_a_pose_passed_twice_is_timed_at_the_nearest_pass(run_cli, tmp_path):
+    """Timed poses over most of a turn of the swinging six-bar: its ternary link swings out and back, so the
+    coupler passes a pose on the way back at a second motor turn too (the same ternary angle: the same pose,
+    exactly). Every pose is met exactly at its prescribed turn, so the timing is 0 and there is no note (it
+    was 75°: the best of the whole sweep was the other pass)."""
+    t = np.array([0.05, 0.3, 0.5, 0.7, 0.9])
+    points, angles = swinging_poses(t)
+    write(tmp_path / "twice.csv", t, points, angles)
+    out = tmp_path / "o"
+    result = run_cli("synthesize", "--motion", tmp_path / "twice.csv", "--family", "six-bar", "-o", out)
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    assert report["error"]["position"]["max"] <= 1e-6 and np.radians(report["error"]["angle_deg"]["max"]) <= 1e-6
+    assert np.radians(report["error"]["timing_deg"]["max"]) <= 1e-6 and not report["note"]
+    np.testing.assert_allclose([p["achieved_motor_turn_deg"] for p in report["points"]], 360 * (t - t[0]),
+                               atol=np.degrees(1e-6))
+
+
 def test_a_timing_no_six_bar_meets_is_written_with_a_note(run_cli, tmp_path):
     """Poses 2 and 3 swapped in time: the best six-bar found is written, exit 0, with a note giving its errors,
     those of the written six-bar simulated at the prescribed motor angles."""

@@ -120,8 +120,8 @@ def run_motion_six(path: Path, out: Path, *, margin_deg: float, tolerance_deg: f
                   "tolerance": {"position": POSITION_TOLERANCE, "angle_deg": tolerance_deg},
                   "measured": "result.yaml evaluated at each pose's prescribed motor angle (linkedit.planar): the "
                               "coupler point's distance from the pose over the poses' size, and the coupler angle's "
-                              "error; timing: the motor turn at which the six-bar meets each pose best, minus the "
-                              "prescribed one"},
+                              "error; timing: the motor turn at which the six-bar meets each pose best nearest the "
+                              "prescribed one (the nearest local minimum of the pose error), minus the prescribed one"},
         "linkage": {"units": units, **length},
         "coupler_angle_offset_deg": float(np.degrees(found.kappa)),
         "transmission_deg": {"min": min(s[0] for s in stages), "max": max(s[1] for s in stages),

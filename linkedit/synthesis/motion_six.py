@@ -19,8 +19,9 @@ offset is set so that δ(0) = 0: the rest pose is the first pose.
 Beyond 5 poses, or where stage 1 is not exact, the two stages are refined together (15 parameters:
 stage 1's ln a, ln b, ln c, crank offset; stage 2's rest joints, coupler point and coupler angle
 offset) on the poses met at the prescribed motor turns, both stages kept working over the motor's
-sweep (a wall, a log barrier near the margin). The timing achieved is the motor turn in the sweep at
-which each pose is met best (Gauss–Newton on the pose error from the nearest of ``GRID`` turns).
+sweep (a wall, a log barrier near the margin). The timing achieved is the motor turn at which each pose is
+met best nearest its prescribed turn: the local minimum of the pose error over ``GRID`` turns of the sweep
+nearest it, polished by Gauss–Newton between its grid neighbours.
 """
 
 from __future__ import annotations
@@ -126,7 +127,8 @@ def _refine(x0: np.ndarray, sense: float, branch: float, p: np.ndarray, theta: n
 
 def _best_turns(x: np.ndarray, sense: float, branch: float, p: np.ndarray, theta: np.ndarray,
                 phi: np.ndarray) -> np.ndarray:
-    """The motor turn (N,) in the sweep [0, φ_N] at which the joint model x (15,) meets each pose best."""
+    """The motor turn (N,) in the sweep [0, φ_N] at which the joint model x (15,) meets each pose best: the local
+    minimum of the pose error nearest the prescribed turn φ (N,) (a coupler may pass a pose twice)."""
 
     def error(turn: np.ndarray) -> np.ndarray:  # (N, M) turns → (N, M, 3) pose errors
         stage1 = np.array([[*np.exp(x[:3]), branch, x[3], 0.0]])
@@ -138,14 +140,18 @@ def _best_turns(x: np.ndarray, sense: float, branch: float, p: np.ndarray, theta
 
     grid = np.linspace(0.0, phi.max(), GRID)
     err = np.sum(error(np.broadcast_to(grid, (len(p), GRID))) ** 2, axis=-1)
-    turn = grid[np.argmin(np.where(np.isfinite(err), err, np.inf), axis=1)]
+    err = np.pad(np.where(np.isfinite(err), err, np.inf), ((0, 0), (1, 1)), constant_values=np.inf)
+    local = (err[:, 1:-1] <= err[:, :-2]) & (err[:, 1:-1] <= err[:, 2:]) & np.isfinite(err[:, 1:-1])
+    near = np.argmin(np.where(local, np.abs(grid[None, :] - phi[:, None]), np.inf), axis=1)  # the nearest local best
+    turn = grid[near]
+    low, high = grid[np.maximum(near - 1, 0)], grid[np.minimum(near + 1, GRID - 1)]
     step = 1e-7
     for _ in range(NEWTON):  # Gauss–Newton on each pose's turn, all poses at once
         r = error(np.stack([turn, turn + step], axis=1))
         slope = (r[:, 1] - r[:, 0]) / step
         with np.errstate(invalid="ignore", divide="ignore"):
             move = -np.sum(slope * r[:, 0], axis=1) / np.sum(slope * slope, axis=1)
-        turn = np.clip(turn + np.where(np.isfinite(move), move, 0.0), 0.0, phi.max())
+        turn = np.clip(turn + np.where(np.isfinite(move), move, 0.0), low, high)
     return turn
 
 
