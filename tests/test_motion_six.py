@@ -171,6 +171,24 @@ def test_a_pose_passed_twice_is_timed_at_the_nearest_pass(run_cli, tmp_path):
                                atol=np.degrees(1e-6))
 
 
+def test_a_small_motion_of_a_large_six_bar_is_found(run_cli, tmp_path):
+    """Five timed poses 0.2 mm apart (t = 0 … 0.04) of the 45 mm six-bar: its joints lie 50–76 pose sizes out
+    (it was exit 1: every joint had to lie within 20 sizes); found, the written six-bar simulated passes the
+    poses at their motor angles within the tolerance."""
+    t = np.linspace(0, 0.04, 5)
+    points, angles = watt_poses(t)
+    size = np.abs(points[:, None] - points[None, :]).max()
+    assert abs(80 + 20j - points.mean()) / size > 70
+    write(tmp_path / "small.csv", t, points, angles)
+    out = tmp_path / "o"
+    result = run_cli("synthesize", "--motion", tmp_path / "small.csv", "--family", "six-bar", "-o", out)
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    assert not report["note"]
+    got, angle = simulated(run_cli, out, [float(v) for v in 360 * t], tmp_path)
+    assert np.abs(got - points).max() <= 0.005 * size and angle_gap(angle, angles).max() <= 0.5
+
+
 def test_a_timing_no_six_bar_meets_is_written_with_a_note(run_cli, tmp_path):
     """Poses 2 and 3 swapped in time: the best six-bar found is written, exit 0, with a note giving its errors,
     those of the written six-bar simulated at the prescribed motor angles."""

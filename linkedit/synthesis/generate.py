@@ -240,6 +240,15 @@ def read_poses(path: Path, *, timed: bool = False) -> tuple[np.ndarray, np.ndarr
     return points, cols["angle_deg"][order], [table.lines[i] for i in order], units.pop() if units else UNITS, times
 
 
+def search_limit(points: np.ndarray, theta: np.ndarray, units: str) -> str:
+    """The motion search's limit on where joints lie, in the poses' units (:func:`linkedit.synthesis.motion.reach_of`),
+    for an exit-1 message."""
+    size = float(np.abs(points[:, None] - points[None, :]).max())
+    reach = motion.reach_of((points - points.mean()) / size, theta) * size
+    return (f"every joint within {reach:.4g} {units} of the poses' centre ({motion.REACH:g}× the larger of their "
+            "size and their span over the coupler's turn, radians: poses spanning more of the motion reach farther)")
+
+
 #: motion generation's families (``--motion --family``): name → fit of normalized poses
 MOTION_FAMILIES: dict[str, Callable[..., motion.MotionFit | motion_slider.SliderFit | None]] = {
     "four-bar": motion.fit, "slider-crank": motion_slider.fit}
@@ -309,7 +318,8 @@ def run_motion(path: Path, out: Path, *, margin_deg: float, tolerance_deg: float
     if found is None:
         raise MechanismError(f"{path}: no pair of the dyads found makes a {family} that passes the {len(points)} poses "
                              f"in order on one assembly branch with its transmission angle within [{margin_deg:g}°, "
-                             f"{180 - margin_deg:g}°] (try a smaller --margin, or fewer or other poses)")
+                             f"{180 - margin_deg:g}°] and {search_limit(points, theta, units)} (try a smaller "
+                             "--margin, or fewer or other poses)")
     fitted = time.perf_counter()
     spec = motion_spec(found, centre, size, Path(path).stem, units)
     rest = float(np.angle(found.A - found.O))

@@ -93,13 +93,13 @@ def _sweep(stage1: np.ndarray, sense: float, phi: np.ndarray) -> tuple[np.ndarra
     return low1, np.sort(ends, axis=1)
 
 
-def _evaluate(x: np.ndarray, sense: float, branch: float, phi: np.ndarray):
+def _evaluate(x: np.ndarray, sense: float, branch: float, phi: np.ndarray, reach: float):
     """Joint models x (K, 15) → coupler point (K, N) complex, coupler angle (K, N), lowest d_s (K, 2) over
-    the sweep and whether each works apart from the margin."""
+    the sweep and whether each works apart from the margin (stage 2's joints within ``reach`` sizes)."""
     stage1 = np.concatenate([np.exp(x[:, :3]), np.full((len(x), 1), branch), x[:, 3:4], np.zeros((len(x), 1))], axis=1)
     turns = _crank2(stage1, sense, phi[1:])
     model = np.concatenate([x[:, 4:], turns], axis=1)
-    point, angle, _, ok = motion.poses_of(model, ordered=False)  # the motor keeps the order
+    point, angle, _, ok = motion.poses_of(model, ordered=False, reach=reach)  # the motor keeps the order
     low1, ends = _sweep(stage1, sense, phi)
     O, D, A, B = (model[:, i] + 1j * model[:, i + 1] for i in (0, 2, 4, 6))
     low2 = function.lowest_singularity(motion.frame_rows(O, A, B, D), ends[:, 0], ends[:, 1])
@@ -107,12 +107,12 @@ def _evaluate(x: np.ndarray, sense: float, branch: float, phi: np.ndarray):
 
 
 def _refine(x0: np.ndarray, sense: float, branch: float, p: np.ndarray, theta: np.ndarray, phi: np.ndarray,
-            margin: float) -> np.ndarray:
+            margin: float, reach: float) -> np.ndarray:
     """The joint models (K, 15) after least squares on the poses at the prescribed motor turns, both stages
     kept working over the sweep."""
 
     def residuals(x: np.ndarray, start: np.ndarray) -> np.ndarray:
-        point, angle, low, ok = _evaluate(x, sense, branch, phi)
+        point, angle, low, ok = _evaluate(x, sense, branch, phi, reach)
         gap = point - p[None, :]
         push = barrier(low, margin)
         r = np.concatenate([gap.real, gap.imag, function.wrap(angle - theta[None, :]), push], axis=1)
@@ -173,7 +173,7 @@ def _fit(p: np.ndarray, theta: np.ndarray, phi: np.ndarray, margin_deg: float,
          ordered: bool) -> tuple[SixMotionFit, float] | None:
     """:func:`fit` from the stage-2 four-bar of :func:`linkedit.synthesis.motion.fit` (``ordered``: its
     crank turning one way through the poses) and its worst pose error (size or radians); None when none works."""
-    margin = margin_of(margin_deg)
+    margin, reach = margin_of(margin_deg), motion.reach_of(p, theta)
     two = motion.fit(p, theta, margin_deg=margin_deg, ordered=ordered)
     if two is None:
         return None
@@ -184,11 +184,11 @@ def _fit(p: np.ndarray, theta: np.ndarray, phi: np.ndarray, margin_deg: float,
     x0 = np.array([*np.log(row[:3]), row[4], *(np.array([[two.O, two.D, two.A, two.B, two.P]]).view(float)[0]),
                    two.kappa])
     x = x0[None]
-    point, angle, low, ok = _evaluate(x, one.sense, row[3], phi)
+    point, angle, low, ok = _evaluate(x, one.sense, row[3], phi, reach)
     worst = max(np.abs(point - p).max(), np.abs(function.wrap(angle - theta)).max())
     if not (ok[0] and works(low[0], margin).all() and worst <= motion.EXACT):
-        refined = _refine(x, one.sense, row[3], p, theta, phi, margin)
-        point, angle, low, ok = _evaluate(refined, one.sense, row[3], phi)
+        refined = _refine(x, one.sense, row[3], p, theta, phi, margin, reach)
+        point, angle, low, ok = _evaluate(refined, one.sense, row[3], phi, reach)
         if not (ok[0] and works(low[0], margin).all()):
             return None
         x = refined
