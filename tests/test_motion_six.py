@@ -153,6 +153,42 @@ def test_a_ternary_link_swinging_back_between_poses_is_found(run_cli, tmp_path):
     assert np.radians(angle_gap(angle, angles).max()) <= 1e-6
 
 
+def test_a_pose_passed_twice_is_timed_at_the_nearest_pass(run_cli, tmp_path):
+    """Timed poses over most of a turn of the swinging six-bar: its ternary link swings out and back, so the
+    coupler passes a pose on the way back at a second motor turn too (the same ternary angle: the same pose,
+    exactly). Every pose is met exactly at its prescribed turn, so the timing is 0 and there is no note (it
+    was 75°: the best of the whole sweep was the other pass)."""
+    t = np.array([0.05, 0.3, 0.5, 0.7, 0.9])
+    points, angles = swinging_poses(t)
+    write(tmp_path / "twice.csv", t, points, angles)
+    out = tmp_path / "o"
+    result = run_cli("synthesize", "--motion", tmp_path / "twice.csv", "--family", "six-bar", "-o", out)
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    assert report["error"]["position"]["max"] <= 1e-6 and np.radians(report["error"]["angle_deg"]["max"]) <= 1e-6
+    assert np.radians(report["error"]["timing_deg"]["max"]) <= 1e-6 and not report["note"]
+    np.testing.assert_allclose([p["achieved_motor_turn_deg"] for p in report["points"]], 360 * (t - t[0]),
+                               atol=np.degrees(1e-6))
+
+
+def test_a_small_motion_of_a_large_six_bar_is_found(run_cli, tmp_path):
+    """Five timed poses 0.2 mm apart (t = 0 … 0.04) of the 45 mm six-bar: its joints lie 50–76 pose sizes out
+    (it was exit 1: every joint had to lie within 20 sizes); found, the written six-bar simulated passes the
+    poses at their motor angles within the tolerance."""
+    t = np.linspace(0, 0.04, 5)
+    points, angles = watt_poses(t)
+    size = np.abs(points[:, None] - points[None, :]).max()
+    assert abs(80 + 20j - points.mean()) / size > 70
+    write(tmp_path / "small.csv", t, points, angles)
+    out = tmp_path / "o"
+    result = run_cli("synthesize", "--motion", tmp_path / "small.csv", "--family", "six-bar", "-o", out)
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    assert not report["note"]
+    got, angle = simulated(run_cli, out, [float(v) for v in 360 * t], tmp_path)
+    assert np.abs(got - points).max() <= 0.005 * size and angle_gap(angle, angles).max() <= 0.5
+
+
 def test_a_timing_no_six_bar_meets_is_written_with_a_note(run_cli, tmp_path):
     """Poses 2 and 3 swapped in time: the best six-bar found is written, exit 0, with a note giving its errors,
     those of the written six-bar simulated at the prescribed motor angles."""
@@ -177,14 +213,19 @@ def test_a_timing_no_six_bar_meets_is_written_with_a_note(run_cli, tmp_path):
     ([0, 0.1, 0.1, 0.3, 0.4], ":4: t: t 0.1 is given twice (line 3 too)"),
     ([0, 0.3, 0.6, 0.9, 1.0], "bad.csv:6: t: the times span 1, one motor turn or more"),
     ([1.0, 0.3, 0.6, 0.9, 0.0], "bad.csv:2: t: the times span 1, one motor turn or more"),
+    ((T5, "t (s)"), "bad.csv:1: t: t is the motor's phase (one turn = 1), the header gives it in 's'"),
+    ((T5, "t (deg)"), "bad.csv:1: t: t is the motor's phase (one turn = 1), the header gives it in 'deg'"),
 ])
 def test_bad_timing_exit_2_with_one_line(run_cli, tmp_path, times, message):
-    """Each message names the file, the line (the header's for a missing t, the latest time's for a
-    span of a turn or more) and the column."""
+    """Each message names the file, the line (the header's for a missing t or a t in a unit, the latest
+    time's for a span of a turn or more) and the column. A t in seconds or degrees is refused, not read as
+    motor turns."""
     points, angles = watt_poses(T5)
     if times is None:
         (tmp_path / "bad.csv").write_text("x, y, angle_deg\n" + "".join(
             f"{float(z.real)!r}, {float(z.imag)!r}, {float(a)!r}\n" for z, a in zip(points, angles)))
+    elif isinstance(times, tuple):
+        write(tmp_path / "bad.csv", times[0], points, angles, f"x (mm), y (mm), angle_deg, {times[1]}")
     else:
         write(tmp_path / "bad.csv", times, points, angles)
     result = run_cli("synthesize", "--motion", tmp_path / "bad.csv", "--family", "six-bar", "-o", tmp_path / "o")
@@ -192,6 +233,18 @@ def test_bad_timing_exit_2_with_one_line(run_cli, tmp_path, times, message):
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and message in lines[0] and "bad.csv" in lines[0], lines
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("column", ["t (turn)", "t (turns)"])
+def test_a_t_header_in_turns_is_accepted(run_cli, tmp_path, column):
+    """t given in turns (its unit): read as the motor's phase, the poses met exactly."""
+    points, angles = watt_poses(T5)
+    write(tmp_path / "turns.csv", T5, points, angles, f"x (mm), y (mm), angle_deg, {column}")
+    out = tmp_path / "o"
+    result = run_cli("synthesize", "--motion", tmp_path / "turns.csv", "--family", "six-bar", "-o", out)
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    np.testing.assert_allclose([p["motor_turn_deg"] for p in report["points"]], 360 * T5, atol=1e-9)
 
 
 def test_unknown_motion_family_exit_2(run_cli, tmp_path):

@@ -148,7 +148,22 @@ def test_poses_no_working_four_bar_passes_exit_1(run_cli, tmp_path):
     assert result.exit_code == 1
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and "makes a four-bar that passes the 4 poses in order" in lines[0]
+    size = np.abs(SPIN[0][:, None] - SPIN[0][None, :]).max()
+    assert f"every joint within {20 * size:.4g} mm of the poses' centre" in lines[0], lines[0]
     assert not (tmp_path / "mo").exists()
+
+
+def test_moving_pivots_three_sizes_out_are_found(run_cli, tmp_path):
+    """Five poses of a four-bar whose coupler point lies far from its coupler (moving pivots 3.2 sizes out,
+    beyond the first grid's ±2): met exactly (it was exit 1: no pair of the dyads found)."""
+    points, angles = coupler_poses(0j, 40 + 0j, 15, 45, 35, 0.5 - 1.2j, np.linspace(30, 90, 5))
+    size = np.abs(points[:, None] - points[None, :]).max()
+    pin = 15 * np.exp(1j * np.radians(30))
+    assert 3 < min(abs(pin - points[0]), abs(pin + 45 * np.exp(1j * np.radians(angles[0])) - points[0])) / size
+    write_poses(tmp_path / "far.csv", points, angles)
+    result = run_cli("synthesize", "--motion", tmp_path / "far.csv", "-o", tmp_path / "mo")
+    assert result.exit_code == 0, result.output
+    assert not check_poses(run_cli, tmp_path / "mo", points, angles, tmp_path, 1e-6)["note"]
 
 
 def test_a_translation_along_a_line_is_met_closely(run_cli, tmp_path):

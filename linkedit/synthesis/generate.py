@@ -41,6 +41,8 @@ RESULT_SAMPLES = 361
 POSITION_TOLERANCE = 0.005
 #: the units a poses file's angle_deg column may name (any other is refused: the column is in degrees)
 DEGREES = ("deg", "degree", "degrees", "°")
+#: the units a poses file's t column may name (t is the motor's phase: one turn = 1)
+TURNS = ("turn", "turns")
 
 
 def at_inputs(spec: LinkageSpec, angles: np.ndarray) -> dict[str, np.ndarray]:
@@ -212,7 +214,7 @@ def read_poses(path: Path, *, timed: bool = False) -> tuple[np.ndarray, np.ndarr
     """Coupler point positions (N,) complex, coupler angles (N,) degrees, file lines (in pose
     order: by ``t`` when given), units and the times ``t`` (N,) in that order (None without a t
     column); InputError for fewer than 3 poses, positions that all coincide, x and y in different units,
-    angles in a unit other than degrees, or (``timed``: the six-bar meets the motor's timing) no t column."""
+    angles in a unit other than degrees, t in a unit other than turns, or (``timed``: the six-bar meets the motor's timing) no t column."""
     table = read_columns(path, ("x", "y", "angle_deg"), ("t",), minimum=3)
     cols = table.columns
     if timed and "t" not in cols:
@@ -222,6 +224,10 @@ def read_poses(path: Path, *, timed: bool = False) -> tuple[np.ndarray, np.ndarr
     if angle_unit is not None and angle_unit.lower() not in DEGREES:
         raise InputError(f"angle_deg is in degrees, the header gives it in {angle_unit!r}", file=str(path),
                          line=table.header, field="angle_deg")
+    t_unit = table.units.get("t")
+    if t_unit is not None and t_unit.lower() not in TURNS:
+        raise InputError(f"t is the motor's phase (one turn = 1), the header gives it in {t_unit!r}", file=str(path),
+                         line=table.header, field="t")
     order = np.argsort(cols["t"], kind="stable") if "t" in cols else np.arange(len(cols["x"]))
     points = (cols["x"] + 1j * cols["y"])[order]
     if np.abs(points - points[0]).max() <= 1e-12 * max(np.abs(points).max(), 1e-300):
@@ -232,6 +238,15 @@ def read_poses(path: Path, *, timed: bool = False) -> tuple[np.ndarray, np.ndarr
                          line=table.header, field="y")
     times = cols["t"][order] if "t" in cols else None
     return points, cols["angle_deg"][order], [table.lines[i] for i in order], units.pop() if units else UNITS, times
+
+
+def search_limit(points: np.ndarray, theta: np.ndarray, units: str) -> str:
+    """The motion search's limit on where joints lie, in the poses' units (:func:`linkedit.synthesis.motion.reach_of`),
+    for an exit-1 message."""
+    size = float(np.abs(points[:, None] - points[None, :]).max())
+    reach = motion.reach_of((points - points.mean()) / size, theta) * size
+    return (f"every joint within {reach:.4g} {units} of the poses' centre ({motion.REACH:g}× the larger of their "
+            "size and their span over the coupler's turn, radians: poses spanning more of the motion reach farther)")
 
 
 #: motion generation's families (``--motion --family``): name → fit of normalized poses
@@ -303,7 +318,8 @@ def run_motion(path: Path, out: Path, *, margin_deg: float, tolerance_deg: float
     if found is None:
         raise MechanismError(f"{path}: no pair of the dyads found makes a {family} that passes the {len(points)} poses "
                              f"in order on one assembly branch with its transmission angle within [{margin_deg:g}°, "
-                             f"{180 - margin_deg:g}°] (try a smaller --margin, or fewer or other poses)")
+                             f"{180 - margin_deg:g}°] and {search_limit(points, theta, units)} (try a smaller "
+                             "--margin, or fewer or other poses)")
     fitted = time.perf_counter()
     spec = motion_spec(found, centre, size, Path(path).stem, units)
     rest = float(np.angle(found.A - found.O))

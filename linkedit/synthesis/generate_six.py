@@ -21,7 +21,8 @@ from linkedit.errors import InputError, MechanismError
 from linkedit.planar import simulate
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.synthesis import function, motion, motion_six
-from linkedit.synthesis.generate import POSITION_TOLERANCE, RESULT_SAMPLES, _write, at_inputs, read_poses
+from linkedit.synthesis.generate import (POSITION_TOLERANCE, RESULT_SAMPLES, _write, at_inputs, read_poses,
+                                         search_limit)
 
 #: the links of the written six-bar (joints, in the spec's order)
 LINKS = {"crank1": ["O1", "A1"], "coupler1": ["A1", "B1"], "ternary": ["D1", "B1", "A2"], "coupler2": ["A2", "B2"],
@@ -81,7 +82,8 @@ def run_motion_six(path: Path, out: Path, *, margin_deg: float, tolerance_deg: f
     found = motion_six.fit((points - centre) / size, theta, phi, margin_deg=margin_deg)
     if found is None:
         raise MechanismError(f"{path}: no Watt II six-bar found passes the {len(points)} poses with both transmission "
-                             f"angles within [{margin_deg:g}°, {180 - margin_deg:g}°] (no four-bar passes them on "
+                             f"angles within [{margin_deg:g}°, {180 - margin_deg:g}°] and "
+                             f"{search_limit(points, theta, units)} (no four-bar passes them on "
                              "one assembly branch, or none is driven by a working stage 1: try a smaller --margin, "
                              "or fewer or other poses)")
     fitted = time.perf_counter()
@@ -120,8 +122,8 @@ def run_motion_six(path: Path, out: Path, *, margin_deg: float, tolerance_deg: f
                   "tolerance": {"position": POSITION_TOLERANCE, "angle_deg": tolerance_deg},
                   "measured": "result.yaml evaluated at each pose's prescribed motor angle (linkedit.planar): the "
                               "coupler point's distance from the pose over the poses' size, and the coupler angle's "
-                              "error; timing: the motor turn at which the six-bar meets each pose best, minus the "
-                              "prescribed one"},
+                              "error; timing: the motor turn at which the six-bar meets each pose best nearest the "
+                              "prescribed one (the nearest local minimum of the pose error), minus the prescribed one"},
         "linkage": {"units": units, **length},
         "coupler_angle_offset_deg": float(np.degrees(found.kappa)),
         "transmission_deg": {"min": min(s[0] for s in stages), "max": max(s[1] for s in stages),

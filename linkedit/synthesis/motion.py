@@ -8,7 +8,9 @@ poses a two-parameter family, 4 poses the circle-point curve, 5 poses finitely m
 Burmester points), beyond that least squares. They are solved from a grid of moving pivots m (f
 and ℓ from the circle fitted to the M_j), all starts at once
 (:func:`linkedit.synthesis.multistart.solve`); the grid's circle fits join them as candidates
-(starts for least squares through many poses, where the best pair need not be two best dyads).
+(starts for least squares through many poses, where the best pair need not be two best dyads). Where that grid
+(±SPREAD sizes) gives no working linkage, a wider one (±WIDE·SPREAD) is searched. Every joint lies within
+REACH levers of the poses (:func:`reach_of`: the poses' size, or more where the coupler turns little).
 
 Two dyads make a four-bar: crank O = f₁, A = M₁, rocker D = f₂, B = M₂, the coupler A-B carrying
 the coupler point. Its **model**, x = (O, D, A, B, P, κ, δ₂..δ_N) (complex points as two reals):
@@ -37,9 +39,11 @@ from linkedit.synthesis.function import lowest_singularity, wrap
 from linkedit.synthesis.multistart import solve
 from linkedit.synthesis.refine import barrier
 
-#: moving pivots tried per axis (a grid over ±SPREAD sizes about the coupler point)
+#: moving pivots tried per axis (a grid over ±SPREAD sizes about the coupler point; where it gives no
+#: working linkage, a second pass over ±WIDE·SPREAD: moving pivots farther out)
 GRID = 15
 SPREAD = 2.0
+WIDE = 3.0
 #: the best distinct dyads paired (pivots apart by more than DISTINCT sizes)
 DYADS = 40
 DISTINCT = 1e-4
@@ -48,9 +52,11 @@ STARTS = 24
 #: Levenberg–Marquardt iterations: dyads, four-bars
 DYAD_ITERATIONS = 60
 ITERATIONS = 150
-#: every joint within this many sizes of the poses' centroid, every link at least this long (sizes)
+#: every joint within REACH levers of the poses' centroid (:func:`reach_of`), every link at least this long (sizes)
 REACH = 20.0
 SHORTEST = 1e-3
+#: the lever's largest value (sizes): a coupler that barely turns (a translation) has its pivots far but not at infinity
+LEVER = 1e3
 #: a pose met to this (size, radians) counts as exact: among exact linkages the best transmission wins
 EXACT = 1e-9
 
@@ -84,11 +90,21 @@ def _circle(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return centre, np.sqrt(np.maximum(sol[:, 2] + np.abs(centre) ** 2, 0.0))
 
 
-def dyads(p: np.ndarray, theta: np.ndarray) -> np.ndarray:
+def reach_of(p: np.ndarray, theta: np.ndarray) -> float:
+    """How far from the poses' centroid a joint may lie (sizes): REACH levers, the lever the poses' natural
+    scale max(1, 1/Δθ) (sizes; Δθ the largest turn of the coupler between two poses, radians: a body turning by
+    Δθ over a span s turns about a pole ≈ s/Δθ away), at most LEVER. Poses spanning little of a large
+    linkage's motion turn little: its joints lie many sizes out."""
+    spread = float(np.abs(wrap(theta[:, None] - theta[None, :])).max())
+    return REACH * float(np.clip(1.0 / max(spread, 1.0 / LEVER), 1.0, LEVER))
+
+
+def dyads(p: np.ndarray, theta: np.ndarray, spread: float = SPREAD, reach: float = REACH) -> np.ndarray:
     """Distinct dyads (D, 6) fitting poses p (N,) complex, θ (N,): columns m.x, m.y, f.x, f.y, ℓ
-    and the RMS of |M_j − f| − ℓ, best first."""
+    and the RMS of |M_j − f| − ℓ, best first; moving pivots started on a grid over ±``spread`` about the
+    coupler point, every joint within ``reach`` (sizes)."""
     turn = np.exp(1j * theta)
-    grid = np.linspace(-SPREAD, SPREAD, GRID)
+    grid = np.linspace(-spread, spread, GRID)
     m0 = (grid[:, None] + 1j * grid[None, :]).ravel()
     centre, radius = _circle(p[None, :] + turn[None, :] * m0[:, None])
     x0 = np.stack([m0.real, m0.imag, centre.real, centre.imag, radius], axis=1)
@@ -98,12 +114,12 @@ def dyads(p: np.ndarray, theta: np.ndarray) -> np.ndarray:
         return np.abs(moving - (x[:, 2] + 1j * x[:, 3])[:, None]) - x[:, 4:5]
 
     x0 = x0[np.isfinite(x0).all(axis=1)]
-    bound = np.array([REACH] * 4 + [2 * REACH])
+    bound = np.array([reach] * 4 + [2 * reach])
     x, _ = solve(residuals, x0, iterations=DYAD_ITERATIONS, lower=np.append(-bound[:4], SHORTEST), upper=bound)
     x = np.concatenate([x, x0])  # the circle fits of the grid too: starts for least squares through many poses
     rms = np.sqrt(np.mean(residuals(x, np.arange(len(x))) ** 2, axis=1))
-    keep = (np.isfinite(rms) & (x[:, 4] >= SHORTEST) & (np.abs(x[:, 2] + 1j * x[:, 3]) <= REACH)
-            & (np.abs(x[:, 0] + 1j * x[:, 1]) <= REACH))
+    keep = (np.isfinite(rms) & (x[:, 4] >= SHORTEST) & (np.abs(x[:, 2] + 1j * x[:, 3]) <= reach)
+            & (np.abs(x[:, 0] + 1j * x[:, 1]) <= reach))
     return distinct(x[keep], rms[keep], 4)
 
 
@@ -145,11 +161,12 @@ def in_order(turns: np.ndarray) -> np.ndarray:
     return (step > 0).all(axis=1) & (np.abs(turns[:, -1]) < 2 * np.pi)
 
 
-def poses_of(x: np.ndarray, ordered: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def poses_of(x: np.ndarray, ordered: bool = True,
+             reach: float = REACH) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Coupler point (K, N) complex and coupler angle (K, N) at each crank turn of models x,
     the smallest d_s over the sweep (K,) and whether each model works apart from the margin
     (poses in order within one turn — ``ordered`` False: the crank may turn back between poses,
-    over less than a turn —, links not degenerate, joints within reach)."""
+    over less than a turn —, links not degenerate, joints within ``reach`` sizes)."""
     O, D, A, B, P, kappa, turns = _unpack(x)
     pin = O[:, None] + (A - O)[:, None] * np.exp(1j * turns)
     rows = frame_rows(O, A, B, D)
@@ -161,7 +178,7 @@ def poses_of(x: np.ndarray, ordered: bool = True) -> tuple[np.ndarray, np.ndarra
         angle = kappa[:, None] + np.angle(tip - pin)
     inorder = in_order(turns) if ordered else np.ptp(turns, axis=1) < 2 * np.pi
     shape = ((np.minimum.reduce([np.abs(A - O), b, c, d]) >= SHORTEST)
-             & (np.maximum.reduce([np.abs(O), np.abs(A), np.abs(B), np.abs(D)]) <= REACH) & (side != 0))
+             & (np.maximum.reduce([np.abs(O), np.abs(A), np.abs(B), np.abs(D)]) <= reach) & (side != 0))
     low = lowest_singularity(rows, turns.min(axis=1), turns.max(axis=1))
     return point, angle, low, inorder & shape
 
@@ -208,11 +225,14 @@ def fit(p: np.ndarray, theta: np.ndarray, *, margin_deg: float, ordered: bool = 
     """The working four-bar whose coupler best passes through the poses p (N,) complex (normalized),
     θ (N,) radians, in order (``ordered`` False: its crank may turn back between poses, as a six-bar's
     second stage driven by a rocker); None when no pair of dyads gives one."""
-    margin = margin_of(margin_deg)
-    found = dyads(p, theta)
-    if len(found) < 2:
-        return None
-    kept = best(lambda x: poses_of(x, ordered), _pairs(p, theta, found, ordered), p, theta, margin)
+    margin, reach = margin_of(margin_deg), reach_of(p, theta)
+    kept = None
+    for spread in (SPREAD, WIDE * SPREAD):  # the wider grid only where the first gives no working four-bar
+        found = dyads(p, theta, spread, reach)
+        if len(found) >= 2:
+            kept = best(lambda x: poses_of(x, ordered, reach), _pairs(p, theta, found, ordered), p, theta, margin)
+        if kept is not None:
+            break
     if kept is None:
         return None
     x, position, turn_error, low = kept

@@ -19,8 +19,9 @@ offset is set so that δ(0) = 0: the rest pose is the first pose.
 Beyond 5 poses, or where stage 1 is not exact, the two stages are refined together (15 parameters:
 stage 1's ln a, ln b, ln c, crank offset; stage 2's rest joints, coupler point and coupler angle
 offset) on the poses met at the prescribed motor turns, both stages kept working over the motor's
-sweep (a wall, a log barrier near the margin). The timing achieved is the motor turn in the sweep at
-which each pose is met best (Gauss–Newton on the pose error from the nearest of ``GRID`` turns).
+sweep (a wall, a log barrier near the margin). The timing achieved is the motor turn at which each pose is
+met best nearest its prescribed turn: the local minimum of the pose error over ``GRID`` turns of the sweep
+nearest it, polished by Gauss–Newton between its grid neighbours.
 """
 
 from __future__ import annotations
@@ -92,13 +93,13 @@ def _sweep(stage1: np.ndarray, sense: float, phi: np.ndarray) -> tuple[np.ndarra
     return low1, np.sort(ends, axis=1)
 
 
-def _evaluate(x: np.ndarray, sense: float, branch: float, phi: np.ndarray):
+def _evaluate(x: np.ndarray, sense: float, branch: float, phi: np.ndarray, reach: float):
     """Joint models x (K, 15) → coupler point (K, N) complex, coupler angle (K, N), lowest d_s (K, 2) over
-    the sweep and whether each works apart from the margin."""
+    the sweep and whether each works apart from the margin (stage 2's joints within ``reach`` sizes)."""
     stage1 = np.concatenate([np.exp(x[:, :3]), np.full((len(x), 1), branch), x[:, 3:4], np.zeros((len(x), 1))], axis=1)
     turns = _crank2(stage1, sense, phi[1:])
     model = np.concatenate([x[:, 4:], turns], axis=1)
-    point, angle, _, ok = motion.poses_of(model, ordered=False)  # the motor keeps the order
+    point, angle, _, ok = motion.poses_of(model, ordered=False, reach=reach)  # the motor keeps the order
     low1, ends = _sweep(stage1, sense, phi)
     O, D, A, B = (model[:, i] + 1j * model[:, i + 1] for i in (0, 2, 4, 6))
     low2 = function.lowest_singularity(motion.frame_rows(O, A, B, D), ends[:, 0], ends[:, 1])
@@ -106,12 +107,12 @@ def _evaluate(x: np.ndarray, sense: float, branch: float, phi: np.ndarray):
 
 
 def _refine(x0: np.ndarray, sense: float, branch: float, p: np.ndarray, theta: np.ndarray, phi: np.ndarray,
-            margin: float) -> np.ndarray:
+            margin: float, reach: float) -> np.ndarray:
     """The joint models (K, 15) after least squares on the poses at the prescribed motor turns, both stages
     kept working over the sweep."""
 
     def residuals(x: np.ndarray, start: np.ndarray) -> np.ndarray:
-        point, angle, low, ok = _evaluate(x, sense, branch, phi)
+        point, angle, low, ok = _evaluate(x, sense, branch, phi, reach)
         gap = point - p[None, :]
         push = barrier(low, margin)
         r = np.concatenate([gap.real, gap.imag, function.wrap(angle - theta[None, :]), push], axis=1)
@@ -126,7 +127,8 @@ def _refine(x0: np.ndarray, sense: float, branch: float, p: np.ndarray, theta: n
 
 def _best_turns(x: np.ndarray, sense: float, branch: float, p: np.ndarray, theta: np.ndarray,
                 phi: np.ndarray) -> np.ndarray:
-    """The motor turn (N,) in the sweep [0, φ_N] at which the joint model x (15,) meets each pose best."""
+    """The motor turn (N,) in the sweep [0, φ_N] at which the joint model x (15,) meets each pose best: the local
+    minimum of the pose error nearest the prescribed turn φ (N,) (a coupler may pass a pose twice)."""
 
     def error(turn: np.ndarray) -> np.ndarray:  # (N, M) turns → (N, M, 3) pose errors
         stage1 = np.array([[*np.exp(x[:3]), branch, x[3], 0.0]])
@@ -138,14 +140,18 @@ def _best_turns(x: np.ndarray, sense: float, branch: float, p: np.ndarray, theta
 
     grid = np.linspace(0.0, phi.max(), GRID)
     err = np.sum(error(np.broadcast_to(grid, (len(p), GRID))) ** 2, axis=-1)
-    turn = grid[np.argmin(np.where(np.isfinite(err), err, np.inf), axis=1)]
+    err = np.pad(np.where(np.isfinite(err), err, np.inf), ((0, 0), (1, 1)), constant_values=np.inf)
+    local = (err[:, 1:-1] <= err[:, :-2]) & (err[:, 1:-1] <= err[:, 2:]) & np.isfinite(err[:, 1:-1])
+    near = np.argmin(np.where(local, np.abs(grid[None, :] - phi[:, None]), np.inf), axis=1)  # the nearest local best
+    turn = grid[near]
+    low, high = grid[np.maximum(near - 1, 0)], grid[np.minimum(near + 1, GRID - 1)]
     step = 1e-7
     for _ in range(NEWTON):  # Gauss–Newton on each pose's turn, all poses at once
         r = error(np.stack([turn, turn + step], axis=1))
         slope = (r[:, 1] - r[:, 0]) / step
         with np.errstate(invalid="ignore", divide="ignore"):
             move = -np.sum(slope * r[:, 0], axis=1) / np.sum(slope * slope, axis=1)
-        turn = np.clip(turn + np.where(np.isfinite(move), move, 0.0), 0.0, phi.max())
+        turn = np.clip(turn + np.where(np.isfinite(move), move, 0.0), low, high)
     return turn
 
 
@@ -167,7 +173,7 @@ def _fit(p: np.ndarray, theta: np.ndarray, phi: np.ndarray, margin_deg: float,
          ordered: bool) -> tuple[SixMotionFit, float] | None:
     """:func:`fit` from the stage-2 four-bar of :func:`linkedit.synthesis.motion.fit` (``ordered``: its
     crank turning one way through the poses) and its worst pose error (size or radians); None when none works."""
-    margin = margin_of(margin_deg)
+    margin, reach = margin_of(margin_deg), motion.reach_of(p, theta)
     two = motion.fit(p, theta, margin_deg=margin_deg, ordered=ordered)
     if two is None:
         return None
@@ -178,11 +184,11 @@ def _fit(p: np.ndarray, theta: np.ndarray, phi: np.ndarray, margin_deg: float,
     x0 = np.array([*np.log(row[:3]), row[4], *(np.array([[two.O, two.D, two.A, two.B, two.P]]).view(float)[0]),
                    two.kappa])
     x = x0[None]
-    point, angle, low, ok = _evaluate(x, one.sense, row[3], phi)
+    point, angle, low, ok = _evaluate(x, one.sense, row[3], phi, reach)
     worst = max(np.abs(point - p).max(), np.abs(function.wrap(angle - theta)).max())
     if not (ok[0] and works(low[0], margin).all() and worst <= motion.EXACT):
-        refined = _refine(x, one.sense, row[3], p, theta, phi, margin)
-        point, angle, low, ok = _evaluate(refined, one.sense, row[3], phi)
+        refined = _refine(x, one.sense, row[3], p, theta, phi, margin, reach)
+        point, angle, low, ok = _evaluate(refined, one.sense, row[3], phi, reach)
         if not (ok[0] and works(low[0], margin).all()):
             return None
         x = refined

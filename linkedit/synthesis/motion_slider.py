@@ -33,7 +33,7 @@ import numpy as np
 
 from linkedit.planar.feasibility import margin_of
 from linkedit.synthesis.motion import (DYAD_ITERATIONS, GRID, REACH, SHORTEST, SPREAD, best, distinct, dyads,
-                                       in_order)
+                                       in_order, reach_of)
 from linkedit.synthesis.multistart import solve
 
 
@@ -65,12 +65,12 @@ def _line(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return alpha, (np.exp(-1j * alpha) * centre).imag
 
 
-def slider_dyads(p: np.ndarray, theta: np.ndarray) -> np.ndarray:
+def slider_dyads(p: np.ndarray, theta: np.ndarray, spread: float = SPREAD, reach: float = REACH) -> np.ndarray:
     """Distinct slider dyads (S, 5) fitting poses p (N,) complex, θ (N,): columns m.x, m.y, α ∈ [0, π),
     c and the RMS distance of the M_j from the line, best first; the M_j spread along the line by at
-    least SHORTEST (a slider that slides)."""
+    least SHORTEST (a slider that slides); moving pivots started over ±``spread``, within ``reach`` (sizes)."""
     turn = np.exp(1j * theta)
-    grid = np.linspace(-SPREAD, SPREAD, GRID)
+    grid = np.linspace(-spread, spread, GRID)
     m0 = (grid[:, None] + 1j * grid[None, :]).ravel()
     alpha, c = _line(p[None, :] + turn[None, :] * m0[:, None])
     x0 = np.stack([m0.real, m0.imag, alpha, c], axis=1)
@@ -81,14 +81,14 @@ def slider_dyads(p: np.ndarray, theta: np.ndarray) -> np.ndarray:
     def residuals(x: np.ndarray, start: np.ndarray) -> np.ndarray:
         return moving(x).imag - x[:, 3:4]
 
-    bound = np.array([REACH, REACH, np.inf, REACH])
+    bound = np.array([reach, reach, np.inf, reach])
     x, _ = solve(residuals, x0, iterations=DYAD_ITERATIONS, lower=-bound, upper=bound)
     x = np.concatenate([x, x0])
     half = np.floor(x[:, 2] / np.pi)  # α into [0, π): the line's normal, and c, flip with each half turn
     x[:, 2] -= np.pi * half
     x[:, 3] *= 1.0 - 2.0 * np.mod(half, 2.0)
     rms = np.sqrt(np.mean(residuals(x, np.arange(len(x))) ** 2, axis=1))
-    keep = np.isfinite(rms) & (np.ptp(moving(x).real, axis=1) >= SHORTEST) & (np.abs(x[:, 0] + 1j * x[:, 1]) <= REACH)
+    keep = np.isfinite(rms) & (np.ptp(moving(x).real, axis=1) >= SHORTEST) & (np.abs(x[:, 0] + 1j * x[:, 1]) <= reach)
     return distinct(x[keep], rms[keep], 4)
 
 
@@ -135,10 +135,10 @@ def transmission_range(found: SliderFit) -> tuple[float, float]:
     return float(mu.min()), float(mu.max())
 
 
-def poses_of(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def poses_of(x: np.ndarray, reach: float = REACH) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Coupler point (K, N) complex and coupler angle (K, N) at each crank turn of models x,
     the smallest d_s over the sweep (K,) and whether each model works apart from the margin
-    (poses in order within one turn, links not degenerate, joints within reach)."""
+    (poses in order within one turn, links not degenerate, joints within ``reach`` sizes)."""
     O, A, B, P, kappa, alpha, turns = _unpack(x)
     u = np.exp(1j * alpha)[:, None]
     pin = O[:, None] + (A - O)[:, None] * np.exp(1j * turns)
@@ -150,7 +150,7 @@ def poses_of(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
         point = pin + (slide - pin) / (B - A)[:, None] * (P - A)[:, None]
         angle = kappa[:, None] + np.angle(slide - pin)
     shape = ((np.minimum(np.abs(A - O), np.sqrt(rod2)) >= SHORTEST)
-             & (np.maximum.reduce([np.abs(O), np.abs(A), np.abs(B)]) <= REACH) & (side != 0))
+             & (np.maximum.reduce([np.abs(O), np.abs(A), np.abs(B)]) <= reach) & (side != 0))
     low = lowest_singularity(O, A, B, alpha, turns.min(axis=1), turns.max(axis=1))
     return point, angle, low, in_order(turns) & shape
 
@@ -175,10 +175,11 @@ def _pairs(p: np.ndarray, theta: np.ndarray, cranks: np.ndarray, sliders: np.nda
 def fit(p: np.ndarray, theta: np.ndarray, *, margin_deg: float) -> SliderFit | None:
     """The working slider-crank whose coupler best passes through the poses p (N,) complex
     (normalized), θ (N,) radians, in order; None when no pair of dyads gives one."""
-    cranks, sliders = dyads(p, theta), slider_dyads(p, theta)
+    reach = reach_of(p, theta)
+    cranks, sliders = dyads(p, theta, SPREAD, reach), slider_dyads(p, theta, SPREAD, reach)
     if not len(cranks) or not len(sliders):
         return None
-    kept = best(poses_of, _pairs(p, theta, cranks, sliders), p, theta, margin_of(margin_deg))
+    kept = best(lambda x: poses_of(x, reach), _pairs(p, theta, cranks, sliders), p, theta, margin_of(margin_deg))
     if kept is None:
         return None
     x, position, turn_error, low = kept
