@@ -490,3 +490,31 @@ def test_pin_in_a_slot_of_the_crank_has_closed_form_velocity_and_acceleration(mo
     assert many.dz.shape[1:] == many.ddz.shape[1:] == (2, theta.size)
     assert np.allclose(many.dz[row], one.dz[row], rtol=0, atol=1e-13 * np.abs(v).max())
     assert np.allclose(many.ddz[row], one.ddz[row], rtol=0, atol=1e-13 * np.abs(a).max())
+
+
+@pytest.mark.parametrize("make", [catalog.quick_return, catalog.inverted_slider_crank])
+def test_slotted_rocker_rates_are_closed_form_and_match_differences(monkeypatch, make):
+    """A slotted link turning to meet its pin (``rotate``) and the ram's slider: every joint's
+    velocity and acceleration without a Jacobian solve, against 5-point differences of the
+    positions (closed form, tested above) over the motor angle."""
+    from linkedit.planar.kinematics import evaluate
+    from linkedit.planar.plan import Geometry
+    from linkedit.planar.rules import base
+    from linkedit.planar.simulate import motor_angles
+
+    spec = make()
+    plan = compile_plan(spec)
+    assert "rotate" in [s.kind for s in plan.steps]
+
+    def no_solve(*args: object) -> None:
+        raise AssertionError("a step's rates took the generic Jacobian solve")
+    monkeypatch.setattr(base, "solve", no_solve)
+    geom = Geometry.of(plan, plan.normalized_points())
+    theta, h = motor_angles(spec, 90)[1], 1e-3
+    near = [evaluate(plan, geom, theta + k * h, 0).z for k in (-2, -1, 0, 1, 2)]
+    v = (near[0] - 8 * near[1] + 8 * near[3] - near[4]) / (12 * h)
+    a = (-near[0] + 16 * near[1] - 30 * near[2] + 16 * near[3] - near[4]) / (12 * h * h)
+    s = evaluate(plan, geom, theta, 2)
+    assert np.array_equal(s.z, near[2])
+    scale = np.abs(near[2]).max()
+    assert np.abs(s.dz - v).max() <= 1e-9 * scale and np.abs(s.ddz - a).max() <= 1e-6 * scale
