@@ -492,11 +492,12 @@ def test_pin_in_a_slot_of_the_crank_has_closed_form_velocity_and_acceleration(mo
     assert np.allclose(many.ddz[row], one.ddz[row], rtol=0, atol=1e-13 * np.abs(a).max())
 
 
-@pytest.mark.parametrize("make", [catalog.quick_return, catalog.inverted_slider_crank])
-def test_slotted_rocker_rates_are_closed_form_and_match_differences(monkeypatch, make):
-    """A slotted link turning to meet its pin (``rotate``) and the ram's slider: every joint's
-    velocity and acceleration without a Jacobian solve, against 5-point differences of the
-    positions (closed form, tested above) over the motor angle."""
+@pytest.mark.parametrize("make, kind", [(catalog.quick_return, "rotate"), (catalog.inverted_slider_crank, "rotate"),
+                                        (catalog.scotch_yoke_coupler, "yoke")])
+def test_slotted_link_rates_are_closed_form_and_match_differences(monkeypatch, make, kind):
+    """A slotted link turning (``rotate``) or translating (``yoke``) to meet its pin, and the
+    quick-return's ram slider: every joint's velocity and acceleration without a Jacobian solve,
+    against 5-point differences of the positions (closed form, tested above) over the motor angle."""
     from linkedit.planar.kinematics import evaluate
     from linkedit.planar.plan import Geometry
     from linkedit.planar.rules import base
@@ -504,7 +505,7 @@ def test_slotted_rocker_rates_are_closed_form_and_match_differences(monkeypatch,
 
     spec = make()
     plan = compile_plan(spec)
-    assert "rotate" in [s.kind for s in plan.steps]
+    assert kind in [s.kind for s in plan.steps]
 
     def no_solve(*args: object) -> None:
         raise AssertionError("a step's rates took the generic Jacobian solve")
