@@ -443,3 +443,79 @@ def test_parallel_slots_lock_up_naming_both_sliders(run_cli, tmp_path):
     assert ("motor angles 180.0°…180.0°: sliders arm and rail: the two slots of joint P are parallel "
             "(d_s = 0)") in r.output
     assert not (tmp_path / "p.h5").exists()
+
+
+# ---------------------------------------------------------------- a slot on a turning link
+
+
+def test_pin_in_a_slot_of_the_crank_has_closed_form_velocity_and_acceleration(monkeypatch):
+    """B rides in a slot of the crank (the line y' = 5 in the crank's frame, turned by θ) at the rod's
+    length l from the ground joint C: with C' = C·e^(−iθ), B = e^(iθ)·(t + 5i), t = Re C' +
+    sqrt(l² − (5 − Im C')²). Its velocity and acceleration, from the rule's closed form (the guide's
+    rigid motion and the rod's fixed length, no Jacobian solve), against this formula's 5-point
+    differences; K linkages give each linkage's."""
+    from linkedit.planar.rules import base
+    from linkedit.planar.kinematics import evaluate
+    from linkedit.planar.plan import Geometry
+    from linkedit.planar.simulate import motor_angles
+
+    c, b = 10 + 10j, 40 + 5j
+    spec = LinkageSpec.model_validate({
+        "name": "crank-slot", "units": "mm", "joints": {"O": [0, 0], "A": [20, 0], "B": [40, 5], "C": [10, 10]},
+        "ground": ["O", "C"], "links": {"crank": ["O", "A"], "rod": ["C", "B"]},
+        "sliders": {"slot": {"joint": "B", "guide": "crank", "angle_deg": 0}}, "motor": {"joint": "A", "pivot": "O"}})
+    plan = compile_plan(spec)
+    assert [(r.kind, r.slot.a >= 0) for r in plan.rules] == [("slider", True)]  # the slot turns
+
+    def pin(theta: np.ndarray) -> np.ndarray:
+        cp = c * np.exp(-1j * theta)
+        return np.exp(1j * theta) * (cp.real + np.sqrt(abs(b - c) ** 2 - (5 - cp.imag) ** 2) + 5j)
+
+    theta = motor_angles(spec, 120)[1]
+
+    def no_solve(*args: object) -> None:
+        raise AssertionError("a slider's rates took the generic Jacobian solve")
+    monkeypatch.setattr(base, "solve", no_solve)
+    h = 1e-3
+    near = [pin(theta + k * h) for k in (-2, -1, 0, 1, 2)]
+    v = (near[0] - 8 * near[1] + 8 * near[3] - near[4]) / (12 * h)
+    a = (-near[0] + 16 * near[1] - 30 * near[2] + 16 * near[3] - near[4]) / (12 * h * h)
+    row = plan.row_of[list(spec.joints).index("B")]
+    one = evaluate(plan, plan.geometry(), theta, 2)
+    pts = np.array(list(spec.joints.values()), dtype=float)
+    many = evaluate(plan, Geometry.of(plan, np.stack([pts, pts])), theta, 2)
+    assert np.abs(one.z[row] - near[2]).max() <= 1e-12 * abs(b)
+    for got, want, tol in ((one.dz[row], v, 1e-9), (one.ddz[row], a, 1e-6)):
+        assert np.abs(got - want).max() <= tol * np.abs(want).max()
+    assert many.dz.shape[1:] == many.ddz.shape[1:] == (2, theta.size)
+    assert np.allclose(many.dz[row], one.dz[row], rtol=0, atol=1e-13 * np.abs(v).max())
+    assert np.allclose(many.ddz[row], one.ddz[row], rtol=0, atol=1e-13 * np.abs(a).max())
+
+
+@pytest.mark.parametrize("make, kind", [(catalog.quick_return, "rotate"), (catalog.inverted_slider_crank, "rotate"),
+                                        (catalog.scotch_yoke_coupler, "yoke"), (catalog.two_slots, "lines")])
+def test_slotted_link_rates_are_closed_form_and_match_differences(monkeypatch, make, kind):
+    """A slotted link turning (``rotate``) or translating (``yoke``) to meet its pin, a joint in two
+    slots, one turning with the crank (``lines``), and the sliders beside them: every joint's velocity and acceleration without a Jacobian solve,
+    against 5-point differences of the positions (closed form, tested above) over the motor angle."""
+    from linkedit.planar.kinematics import evaluate
+    from linkedit.planar.plan import Geometry
+    from linkedit.planar.rules import base
+    from linkedit.planar.simulate import motor_angles
+
+    spec = make()
+    plan = compile_plan(spec)
+    assert kind in [s.kind for s in plan.steps]
+
+    def no_solve(*args: object) -> None:
+        raise AssertionError("a step's rates took the generic Jacobian solve")
+    monkeypatch.setattr(base, "solve", no_solve)
+    geom = Geometry.of(plan, plan.normalized_points())
+    theta, h = motor_angles(spec, 90)[1], 2e-4
+    near = [evaluate(plan, geom, theta + k * h, 0).z for k in (-2, -1, 0, 1, 2)]
+    v = (near[0] - 8 * near[1] + 8 * near[3] - near[4]) / (12 * h)
+    a = (-near[0] + 16 * near[1] - 30 * near[2] + 16 * near[3] - near[4]) / (12 * h * h)
+    s = evaluate(plan, geom, theta, 2)
+    assert np.array_equal(s.z, near[2])
+    scale = np.abs(near[2]).max()
+    assert np.abs(s.dz - v).max() <= 1e-9 * scale and np.abs(s.ddz - a).max() <= 1e-6 * scale

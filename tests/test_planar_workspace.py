@@ -33,6 +33,20 @@ def test_positions_follow_each_geometry_on_one_workspace():
         assert np.array_equal(positions(plan, g, angle, work), want, equal_nan=True)
 
 
+def test_positions_of_a_plan_with_steps_fill_the_workspace():
+    """A slider-crank (a slider step): positions with a workspace are written into it (its ``z``,
+    nothing allocated per sample row), as for the batched rules, with the bits of a fresh call."""
+    spec = catalog.slider_crank()
+    plan = compile_plan(spec)
+    assert plan.steps
+    geom = plan.geometry(plan.normalized_points())
+    angle = motor_angles(spec, 90)[1]
+    work = Workspace(plan, angle.size)
+    fresh = positions(plan, geom, angle)
+    got = positions(plan, geom, angle, work)
+    assert np.shares_memory(got, work.z) and np.array_equal(got, fresh, equal_nan=True)
+
+
 def test_evaluate_follows_each_geometry_on_one_workspace():
     spec, plan, g1, g2 = _two_geometries()
     angle = motor_angles(spec, 90)[1]

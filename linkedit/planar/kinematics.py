@@ -139,7 +139,8 @@ def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | N
     ``work.z`` (overwritten by the next call).
     """
     if plan.steps:
-        return evaluate(plan, geom, angle, order=0).z
+        fit = work is not None and work.fits(0, geom.linkages, np.shape(angle)[-1])
+        return evaluate(plan, geom, angle, 0, work if fit else None).z
     w = work if work is not None and work.samples == angle.shape[0] else Workspace(plan, angle.shape[0])
     z, (kernels, arm, ground) = w.z, w.kernels(plan)
     if ground is None:

@@ -8,14 +8,14 @@ slot cannot reach the pin).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.constraints import Rows
 from linkedit.planar.ordering import StepRule
-from linkedit.planar.rules.base import Step, keep, loop_rows
+from linkedit.planar.rules.base import Frame, InPlace, Step, keep, loop_rows
 
 
 @dataclass(frozen=True)
@@ -64,6 +64,37 @@ class Rotate(Step):
         with np.errstate(invalid="ignore", divide="ignore"):
             rot = np.conj(self.u) * w * ((sign * np.sqrt(w2 - h * h) - 1j * h) / w2)  # |σ√(w² − h²) + ih|² = w²
             return z[self.i] + offsets * rot, 1.0 - h * h / w2
+
+    def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
+        """Positions by :meth:`place`; with derivatives, the link's rates in closed form (:meth:`_rates`),
+        not by the generic Jacobian solves of :meth:`Step.velocity` (same values to rounding)."""
+        if f.dz is None or self.rows.drive.any():
+            super().evaluate(f, const, rows)
+            return
+        out_rows = f.joints[self.joints]
+        out, f.ds[rows] = self.place(cast(np.ndarray, InPlace(f.z, f.joints)), f.s, f.rest, const)
+        f.z[out_rows] = out
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            self._rates(f, const, out_rows)
+
+    def _rates(self, f: Frame, const: tuple[Any, ...], out_rows: np.ndarray) -> None:
+        """ż, z̈ of the link's joints into ``f``: it turns about z_i at the rate Ω, ż_n = ż_i + iΩ·(z_n − z_i),
+        z̈_n = z̈_i + (iΩ̇ − Ω²)·(z_n − z_i). The slot (direction D) keeps the pin at its offset h:
+        Im(D̄w) = h, w = z_pin − z_i, D̄w = κ = σ·sqrt(|w|² − h²) + ih; differentiated,
+        Ω = Im(D̄ẇ)/Re κ and Ω̇ = (Im(D̄ẅ) − 2Ω·Re(D̄ẇ) − Ω²h)/Re κ, with D̄ = κ/w."""
+        h, sign = const[0], const[1]
+        dz, ddz, row = cast(np.ndarray, f.dz), f.ddz, f.joints
+        i, pin = row[self.i], row[self.pin]
+        w = f.z[pin] - f.z[i]
+        across = sign * np.sqrt(w.real * w.real + w.imag * w.imag - h * h)  # Re κ
+        turn = (across + 1j * h) / w  # D̄
+        arm = f.z[out_rows] - f.z[i]
+        slide = turn * (dz[pin] - dz[i])  # D̄ẇ
+        omega = slide.imag / across
+        dz[out_rows] = dz[i] + 1j * omega * arm
+        if ddz is not None:
+            spin = ((turn * (ddz[pin] - ddz[i])).imag - 2.0 * omega * slide.real - omega * omega * h) / across
+            ddz[out_rows] = ddz[i] + (1j * spin - omega * omega) * arm
 
     def lockup(self, names: list[str], toggle: bool) -> str:
         return (f"slider {self.name}: the slot of the link carrying {names[self.joints[0]]} cannot reach the pin "

@@ -8,8 +8,9 @@ line); d_s = (l² − p²)/l² is 0 where the rod stands perpendicular to the li
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -75,6 +76,45 @@ class Slider(Step):
     def scratch(self, pool: Pool, Z: np.ndarray) -> Any:
         """:meth:`_circle_line`'s buffers: q (complex) and x (real), (*L, T) each."""
         return pool(Z.shape[2:], complex), pool(Z.shape[2:])
+
+    def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
+        """Positions by :meth:`place`; with derivatives, ż_k and z̈_k in closed form (:meth:`_rates`),
+        not by the generic Jacobian solves of :meth:`Step.velocity` (same values to rounding)."""
+        if f.dz is None:
+            super().evaluate(f, const, rows)
+            return
+        k, joints = f.joints[self.joints[0]], cast(np.ndarray, InPlace(f.z, f.joints))
+        out, f.ds[rows] = self.place(joints, f.s, f.rest, const)
+        f.z[k] = out[0]
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            self._rates(f, const, k, joints)
+
+    def _rates(self, f: Frame, const: tuple[Any, ...], k: int, joints: np.ndarray) -> None:
+        """ż_k (, z̈_k) into ``f`` (*L, T): z_k = G + D·x, G the point of the guide under z_k, D the slot's
+        unit direction, x real. G moves with the guide (a, b): Ġ = ż_a + γ·ė, G̈ = z̈_a + γ·ë with
+        e = z_b − z_a, γ = (z_k − z_a)/e; Ḋ = D·ė/e. The rod r = z_k − z_i keeps its length (r·ṙ = 0,
+        r·r̈ = −|ṙ|², · the plane's dot product): ẋ = r·(ż_i − Ġ)/(r·D) and
+        ẍ = (r·(z̈_i − G̈ − 2Ḋẋ) − |ṙ|²)/(r·D); ż_k = Ġ + D·ẋ, z̈_k = G̈ + 2Ḋẋ + D·ẍ. On the frame
+        Ġ = G̈ = Ḋ = 0. ``joints`` reads f.z by joint (:class:`InPlace`)."""
+        dz, ddz, row = cast(np.ndarray, f.dz), f.ddz, f.joints
+        i, slot = row[self.i], self.slot
+        r = np.conj(f.z[k] - f.z[i])
+        d = slot.line(joints, const[:2])[1]
+        d = d / np.abs(d)
+        across = (r * d).real  # r·D
+        carried: Callable[[np.ndarray], Any] = lambda z: 0.0  # the guide's point under z_k: Ġ or G̈
+        spin: Any = 0.0  # ė/e
+        if slot.a >= 0:
+            a, b = row[slot.a], row[slot.b]
+            e = f.z[b] - f.z[a]
+            gamma = (f.z[k] - f.z[a]) / e
+            carried, spin = (lambda z: z[a] + gamma * (z[b] - z[a])), (dz[b] - dz[a]) / e
+        moving = carried(dz)
+        dx = (r * (dz[i] - moving)).real / across
+        dz[k] = moving + d * dx
+        if ddz is not None:
+            push = carried(ddz) + 2.0 * spin * d * dx  # G̈ + 2Ḋẋ
+            ddz[k] = push + d * (((r * (ddz[i] - push)).real - np.abs(dz[k] - dz[i]) ** 2) / across)
 
     def place_in(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Into ``f``'s rows through its scratch (no allocation)."""

@@ -7,7 +7,7 @@ it translates in); d_s = Im(ū̄·g)², constant: 0 where the slot is parallel t
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -15,7 +15,7 @@ from linkedit.errors import MechanismError
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.constraints import Rows
 from linkedit.planar.ordering import StepRule
-from linkedit.planar.rules.base import Step, keep, loop_rows
+from linkedit.planar.rules.base import Frame, InPlace, Step, keep, loop_rows
 
 
 @dataclass(frozen=True)
@@ -59,3 +59,16 @@ class Yoke(Step):
         offsets, at = const
         along = (np.conj(self.u) * (z[self.pin] - at)).imag / self.cross
         return offsets + along * self.g, np.full(along.shape, self.cross * self.cross)
+
+    def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
+        """Positions by :meth:`place`; with derivatives, the link's ż = g·Im(ū̄·ż_pin)/Im(ū̄·g) and
+        z̈ alike (λ is linear in z_pin), not by the generic Jacobian solves of :meth:`Step.velocity`."""
+        if f.dz is None or self.rows.drive.any():
+            super().evaluate(f, const, rows)
+            return
+        out_rows, pin = f.joints[self.joints], f.joints[self.pin]
+        f.z[out_rows], f.ds[rows] = self.place(cast(np.ndarray, InPlace(f.z, f.joints)), f.s, f.rest, const)
+        for d in (f.dz, f.ddz):
+            if d is not None:
+                d[out_rows] = (np.conj(self.u) * d[pin]).imag / self.cross * self.g
+
