@@ -40,7 +40,7 @@ import numpy as np
 from linkedit.curves.sources import make_curve
 from linkedit.io.atomic import commit
 from linkedit.planar import catalog, compile_plan, simulate
-from linkedit.synthesis import atlas, bench_points, bench_scale, families, fourbar
+from linkedit.synthesis import atlas, bench_motion, bench_points, bench_scale, families, fourbar
 from linkedit.synthesis.bench_cluster import dask_comparison
 from linkedit.synthesis.cluster import usable_cores
 from linkedit.synthesis.index import Index, target_variants
@@ -260,6 +260,7 @@ def run(echo: Callable[[str], None], quick: bool = False, large: int | None = No
     bench_points.precision_points(echo, book, index, quick)
     bench_points.published_points(echo, book, index, quick)
     bench_points.function_generation(echo, quick)
+    bench_motion.motion_generation(echo, quick)
     every = atlas.Atlas(Path("memory"), dict(book.families), 1)
     for name in _planar():
         if name != "four-bar":
