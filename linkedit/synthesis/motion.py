@@ -23,7 +23,8 @@ monotone, within one turn) and the transmission angle stays in the band over the
 from 0 to δ_N (closed form, :func:`linkedit.synthesis.function.lowest_singularity`); it never
 changes branch (the rest pose's, held by the law of cosines). Every ordered pair of the best
 dyads, both ways round, is a start; the best are refined all at once on the model (a wall where
-it does not work, a log barrier near the margin).
+it does not work, a log barrier near the margin), then polished by POLISH full Gauss–Newton steps (an
+ill-conditioned root, such as a held-out Watt II's stage 2, is met to rounding, not ~1e-8).
 """
 
 from __future__ import annotations
@@ -52,6 +53,9 @@ STARTS = 24
 #: Levenberg–Marquardt iterations: dyads, four-bars
 DYAD_ITERATIONS = 60
 ITERATIONS = 150
+#: full Gauss–Newton steps after them (:func:`linkedit.synthesis.multistart.solve`): a root whose rocker dyad is
+#: ill-conditioned is met to rounding, not ~1e-8
+POLISH = 6
 #: every joint within REACH levers of the poses' centroid (:func:`reach_of`), every link at least this long (sizes)
 REACH = 20.0
 SHORTEST = 1e-3
@@ -252,7 +256,7 @@ def best(poses: Poses, starts: np.ndarray, p: np.ndarray, theta: np.ndarray,
     starts = starts[order[np.isfinite(cost[order])]]
     if not len(starts):
         return None
-    x, cost = solve(residuals, starts, iterations=ITERATIONS)
+    x, cost = solve(residuals, starts, iterations=ITERATIONS, polish=POLISH)
     point, angle, low, _ = poses(x)
     position = point - p[None, :]
     turn_error = wrap(angle - theta[None, :])

@@ -19,9 +19,9 @@ offset is set so that δ(0) = 0: the rest pose is the first pose.
 Beyond 5 poses, or where stage 1 is not exact, the two stages are refined together (15 parameters:
 stage 1's ln a, ln b, ln c, crank offset; stage 2's rest joints, coupler point and coupler angle
 offset) on the poses met at the prescribed motor turns, both stages kept working over the motor's
-sweep (a wall, a log barrier near the margin). The timing achieved is the motor turn at which each pose is
-met best nearest its prescribed turn: the local minimum of the pose error over ``GRID`` turns of the sweep
-nearest it, polished by Gauss–Newton between its grid neighbours.
+sweep (a wall, a log barrier near the margin), polished as stage 2 is (full Gauss–Newton steps). The timing
+achieved is the motor turn at which each pose is met best nearest its prescribed turn: the local minimum of the
+pose error over ``GRID`` turns of the sweep nearest it, polished by Gauss–Newton between its grid neighbours.
 """
 
 from __future__ import annotations
@@ -121,7 +121,7 @@ def _refine(x0: np.ndarray, sense: float, branch: float, p: np.ndarray, theta: n
 
     bound = np.log(function.MAX_RATIO)
     lower = np.array([-bound] * 3 + [-np.inf] * 12)
-    x, _ = solve(residuals, x0, iterations=motion.ITERATIONS, lower=lower, upper=-lower)
+    x, _ = solve(residuals, x0, iterations=motion.ITERATIONS, lower=lower, upper=-lower, polish=motion.POLISH)
     return x
 
 

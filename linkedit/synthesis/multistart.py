@@ -5,6 +5,11 @@ Every start is its own problem with its own damping; one call of the residual fu
 evaluates all of them (and, for the forward-difference Jacobian, all their perturbations) as
 one array. A step is taken only where it lowers that start's cost; a residual row that is not
 finite (the caller's wall: a linkage that does not work) is an infinite cost, never accepted.
+
+Near an ill-conditioned root (a weak direction, its singular value ~1e-6, curving the cost's valley) those
+damped, cost-lowering steps crawl: they stop ~1e-8 off. Full Gauss–Newton steps cross the valley (the first may
+raise the cost) and then converge quadratically, so ``polish`` takes a few of them at the end, each start keeping
+its best working iterate.
 """
 
 from __future__ import annotations
@@ -28,12 +33,13 @@ def cost(r: np.ndarray) -> np.ndarray:
 
 def solve(residuals: Callable[[np.ndarray, np.ndarray], np.ndarray], x0: np.ndarray, *, iterations: int = 100,
           lower: np.ndarray | float = -np.inf, upper: np.ndarray | float = np.inf,
-          tolerance: float = 1e-30) -> tuple[np.ndarray, np.ndarray]:
+          tolerance: float = 1e-30, polish: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Minimize ½‖r(x)‖² from every start ``x0`` (K, n): ``residuals(x, start)`` maps rows x (L, n)
     of the starts ``start`` (L,) (indices into x0) to residuals (L, M).
 
     Iterates stay within [lower, upper] (n,) (projected). A start stops when its cost is below
-    ``tolerance`` or its damping reaches the upper bound (no step lowers the cost). Returns the
+    ``tolerance`` or its damping reaches the upper bound (no step lowers the cost). Then up to ``polish`` full
+    (undamped) Gauss–Newton steps from each start above ``tolerance``, its best iterate kept. Returns the
     final x (K, n) and costs (K,) (inf: the start never had a finite cost).
     """
     x = np.clip(np.array(x0, dtype=float), lower, upper)
@@ -48,11 +54,7 @@ def solve(residuals: Callable[[np.ndarray, np.ndarray], np.ndarray], x0: np.ndar
         if idx.size == 0:
             break
         xa, ra = x[idx], r[idx]
-        h = STEP * np.maximum(1.0, np.abs(xa))  # (A, n)
-        moved = (xa[:, None, :] + h[:, :, None] * eye[None]).reshape(-1, n)
-        rm = residuals(moved, np.repeat(idx, n)).reshape(idx.size, n, -1)
-        jac = np.transpose((rm - ra[:, None, :]) / h[:, :, None], (0, 2, 1))  # (A, M, n)
-        jac = np.where(np.isfinite(jac), jac, 0.0)
+        jac = _jacobian(residuals, xa, ra, idx)
         jtj = np.einsum("amn,amp->anp", jac, jac)
         grad = np.einsum("amn,am->an", jac, ra)
         diag = np.einsum("ann->an", jtj)
@@ -70,4 +72,39 @@ def solve(residuals: Callable[[np.ndarray, np.ndarray], np.ndarray], x0: np.ndar
         stalled = ~better & (lam[idx] >= DAMPING[1])
         small = better & (np.abs(trial - xa).max(axis=1) <= 1e-15 * (1.0 + np.abs(xa).max(axis=1)))
         active[idx[(c[idx] <= tolerance) | stalled | small]] = False
-    return x, c
+    return _polish(residuals, x, r, c, polish, lower, upper, tolerance)
+
+
+def _jacobian(residuals: Callable[[np.ndarray, np.ndarray], np.ndarray], x: np.ndarray, r: np.ndarray,
+              idx: np.ndarray) -> np.ndarray:
+    """Forward-difference Jacobians (A, M, n) of the starts ``idx`` (A,) at x (A, n), residuals r (A, M);
+    0 where a perturbation hits the wall."""
+    n = x.shape[1]
+    h = STEP * np.maximum(1.0, np.abs(x))  # (A, n)
+    moved = (x[:, None, :] + h[:, :, None] * np.eye(n)[None]).reshape(-1, n)
+    rm = residuals(moved, np.repeat(idx, n)).reshape(len(idx), n, -1)
+    with np.errstate(invalid="ignore"):
+        jac = np.transpose((rm - r[:, None, :]) / h[:, :, None], (0, 2, 1))
+    return np.where(np.isfinite(jac), jac, 0.0)
+
+
+def _polish(residuals: Callable[[np.ndarray, np.ndarray], np.ndarray], x: np.ndarray, r: np.ndarray,
+            c: np.ndarray, steps: int, lower: np.ndarray | float, upper: np.ndarray | float,
+            tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Up to ``steps`` full Gauss–Newton steps (least-norm, within [lower, upper]) from each start of x (K, n)
+    with a finite cost c (K,) above ``tolerance`` (residuals r (K, M)); a start stops where an iterate hits the
+    wall. Returns each start's best x and cost."""
+    best, low = x.copy(), c.copy()
+    active = np.isfinite(c) & (c > tolerance)
+    for _ in range(steps):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        jac = _jacobian(residuals, x[idx], r[idx], idx)
+        x[idx] = np.clip(x[idx] - (np.linalg.pinv(jac) @ r[idx, :, None])[..., 0], lower, upper)
+        r[idx] = residuals(x[idx], idx)
+        c[idx] = cost(r[idx])
+        better = c < low
+        best[better], low[better] = x[better], c[better]
+        active &= np.isfinite(c) & (low > tolerance)
+    return best, low
