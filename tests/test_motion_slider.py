@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 import yaml
 
-from tests.test_synthesis_motion import check_poses, write_poses
+from tests.test_synthesis_motion import check_poses, simulated_poses, write_poses
 
 #: the known slider-crank: crank O-A (O, radius), the guide through G at GUIDE_DEG, the rod A-B, the coupler point
 O, CRANK, G, GUIDE_DEG, ROD, UV = 3 - 2j, 10.0, 5 + 8j, 10.0, 35.0, 0.4 + 0.6j
 
 
-def slider_poses(crank_deg: np.ndarray, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """Reference: the known slider-crank's coupler point A + UV·(B − A) and coupler angle arg(B − A)
+def slider_poses(crank_deg: np.ndarray, scale: float = 1.0, uv: complex = UV) -> tuple[np.ndarray, np.ndarray]:
+    """Reference: the known slider-crank's coupler point A + uv·(B − A) and coupler angle arg(B − A)
     (degrees) at the crank angles, all lengths times ``scale``. B = G + s·u on the guide (direction u)
     is the root s of |G + s·u − A|² = ROD² ahead of A's foot: s = b + sqrt(b² − c)."""
     u = np.exp(1j * np.radians(GUIDE_DEG))
@@ -23,7 +23,7 @@ def slider_poses(crank_deg: np.ndarray, scale: float = 1.0) -> tuple[np.ndarray,
     b = ((pin - G) * np.conj(u)).real
     c = np.abs(pin - G) ** 2 - ROD ** 2
     tip = G + (b + np.sqrt(b * b - c)) * u
-    return scale * (pin + UV * (tip - pin)), np.degrees(np.angle(tip - pin))
+    return scale * (pin + uv * (tip - pin)), np.degrees(np.angle(tip - pin))
 
 
 def synthesize(run_cli, tmp_path, points, angles, *args, header="x, y, angle_deg"):
@@ -86,13 +86,66 @@ def test_sizes_far_from_one(run_cli, tmp_path, scale, units):
     assert report["linkage"]["crank"] == pytest.approx(CRANK * scale, rel=1e-6)
 
 
+def test_moving_pivots_three_sizes_out_are_found(run_cli, tmp_path):
+    """Eight poses of the known slider-crank whose coupler point lies far off the rod (crank pin 3.19 and
+    slider 2.91 sizes out, beyond the first grid's ±2): recovered to 1e-9 of the size by the second, wider
+    grid, as the four-bar's (it was exit 1: no pair of the dyads found)."""
+    crank_deg = np.linspace(30.0, 110.0, 8)
+    uv = 0.86 - 1.9j
+    points, angles = slider_poses(crank_deg, uv=uv)
+    size = np.abs(points[:, None] - points[None, :]).max()
+    pin = O + CRANK * np.exp(1j * np.radians(crank_deg[0]))
+    tip = pin + ROD * np.exp(1j * np.radians(angles[0]))
+    assert 2.9 < min(abs(pin - points[0]), abs(tip - points[0])) / size
+    result = synthesize(run_cli, tmp_path, points, angles)
+    assert result.exit_code == 0, result.output
+    report = check_poses(run_cli, tmp_path / "mo", points, angles, tmp_path, 1e-9)
+    assert not report["note"]
+    spec = yaml.safe_load((tmp_path / "mo" / "result.yaml").read_text())
+    assert abs(complex(*spec["joints"]["O"]) - O) <= 1e-9 * size
+    assert abs(complex(*spec["joints"]["B"]) - tip) <= 1e-9 * size
+    link = report["linkage"]
+    offset = (np.exp(-1j * np.radians(GUIDE_DEG)) * (O - G)).imag
+    np.testing.assert_allclose([link["crank"], link["coupler"], link["offset"]], [CRANK, ROD, offset],
+                               rtol=0, atol=1e-9 * size)
+    assert link["guide_angle_deg"] == pytest.approx(GUIDE_DEG, abs=1e-9)
+
+
+#: a coupler tumbling end over end (179° back and forth): the rod's angle from the guide, arcsin(p/l), stays
+#: within ±90°, so the coupler's angles (0°, −2°, −4°, 177°, 179°: they span 183°) cannot all be met
+TUMBLE = (np.array([0, 1j, 2, 1 + 1j, 3]), np.array([0.0, 179.0, 358.0, 177.0, 356.0]))
+
+
+def test_poses_no_slider_crank_meets_get_the_best_and_a_note(run_cli, tmp_path):
+    """The tumbling poses: the best slider-crank found is written, exit 0, with a note; the report's errors are
+    those of the written slider-crank simulated at the report's crank turns."""
+    points, angles = TUMBLE
+    result = synthesize(run_cli, tmp_path, points, angles)
+    assert result.exit_code == 0, result.output
+    assert "note:" in result.output
+    report = json.loads((tmp_path / "mo" / "report.json").read_text())
+    assert "no slider-crank found passes the poses within 0.5 % of their size and 0.5°" in report["note"]
+    turns = [p["motor_turn_deg"] for p in report["points"]]
+    got, angle = simulated_poses(run_cli, tmp_path / "mo" / "result.yaml", turns, report["coupler_angle_offset_deg"],
+                                 tmp_path)
+    size = report["poses"]["size"]
+    gap, turn_gap = np.abs(got - points) / size, np.abs((angle - angles + 180) % 360 - 180)
+    err = report["error"]
+    assert err["position"]["max"] == pytest.approx(gap.max(), abs=1e-9)
+    assert err["angle_deg"]["max"] == pytest.approx(turn_gap.max(), abs=1e-9)
+    assert err["position"]["max"] > 0.005 or err["angle_deg"]["max"] > 0.5
+    assert 20 <= report["transmission_deg"]["min"] and report["transmission_deg"]["max"] <= 160
+
+
 def test_poses_no_slider_crank_passes_exit_1(run_cli, tmp_path):
-    """A coupler tumbling end over end (179° back and forth): a slider-crank's rod stays within less
-    than 180° of the guide's direction: one line, exit 1, nothing written."""
-    result = synthesize(run_cli, tmp_path, np.array([0, 1j, 2, 1 + 1j, 3]), np.array([0, 179, 358, 177, 356]))
-    assert result.exit_code == 1
+    """A coupler swinging 90° back and forth with the transmission angle held within [60°, 120°]: the rod's
+    angle from the guide, 90° − μ, stays within ±30°, so the coupler turns by at most 60° in all; no pair of
+    the dyads makes a working slider-crank: one line, exit 1, nothing written."""
+    result = synthesize(run_cli, tmp_path, np.arange(5) + 0j, np.array([0.0, 90.0, 0.0, 90.0, 0.0]), "--margin", "60")
+    assert result.exit_code == 1, result.output
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and "makes a slider-crank that passes the 5 poses in order" in lines[0]
+    assert "within [60°, 120°]" in lines[0]
     assert not (tmp_path / "mo").exists()
 
 

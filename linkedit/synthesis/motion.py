@@ -188,6 +188,8 @@ def poses_of(x: np.ndarray, ordered: bool = True,
 
 
 Poses = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
+#: :func:`best`'s result: the kept model x (n,), position errors (N,) complex, angle errors (N,) radians, lowest d_s
+Kept = tuple[np.ndarray, np.ndarray, np.ndarray, float]
 
 
 def model(poses: Poses, p: np.ndarray, theta: np.ndarray, margin: float):
@@ -230,13 +232,14 @@ def fit(p: np.ndarray, theta: np.ndarray, *, margin_deg: float, ordered: bool = 
     θ (N,) radians, in order (``ordered`` False: its crank may turn back between poses, as a six-bar's
     second stage driven by a rocker); None when no pair of dyads gives one."""
     margin, reach = margin_of(margin_deg), reach_of(p, theta)
-    kept = None
-    for spread in (SPREAD, WIDE * SPREAD):  # the wider grid only where the first gives no working four-bar
+
+    def search(spread: float) -> Kept | None:
         found = dyads(p, theta, spread, reach)
-        if len(found) >= 2:
-            kept = best(lambda x: poses_of(x, ordered, reach), _pairs(p, theta, found, ordered), p, theta, margin)
-        if kept is not None:
-            break
+        if len(found) < 2:
+            return None
+        return best(lambda x: poses_of(x, ordered, reach), _pairs(p, theta, found, ordered), p, theta, margin)
+
+    kept = widening(search)
     if kept is None:
         return None
     x, position, turn_error, low = kept
@@ -245,8 +248,18 @@ def fit(p: np.ndarray, theta: np.ndarray, *, margin_deg: float, ordered: bool = 
                      position, turn_error, low)
 
 
-def best(poses: Poses, starts: np.ndarray, p: np.ndarray, theta: np.ndarray,
-         margin: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float] | None:
+def widening(search: Callable[[float], Kept | None]) -> Kept | None:
+    """``search``'s result (:func:`best`'s) over a grid of moving pivots ±SPREAD sizes about the coupler point,
+    else over ±WIDE·SPREAD (moving pivots farther out) where the first gives no working linkage: None where
+    neither does."""
+    for spread in (SPREAD, WIDE * SPREAD):
+        kept = search(spread)
+        if kept is not None:
+            return kept
+    return None
+
+
+def best(poses: Poses, starts: np.ndarray, p: np.ndarray, theta: np.ndarray, margin: float) -> Kept | None:
     """The STARTS best of the models ``starts`` (K, n) refined all at once on :func:`model`; the
     kept one — among those exact to EXACT the best transmission, else the least cost — as its x (n,),
     position errors (N,) complex, angle errors (N,) radians and lowest d_s; None when none works."""

@@ -6,7 +6,8 @@ lie on one straight line (Burmester's circle point whose centre is at infinity):
 Im(e^{−iα}·z) = c fitted to the M_j by total least squares, the residuals the M_j's distances
 from it. With 4 unknowns (m, α, c): through 3 poses a one-parameter family, through 4 finitely
 many (generically one real), beyond that least squares. They are solved from a grid of m, all
-starts at once (:func:`linkedit.synthesis.multistart.solve`).
+starts at once (:func:`linkedit.synthesis.multistart.solve`); crank and slider dyads from the four-bar's two
+grids, the wider only where the first gives no working slider-crank (:func:`linkedit.synthesis.motion.widening`).
 
 A circle-point dyad (:func:`linkedit.synthesis.motion.dyads`) as the crank O-A and a slider dyad as
 the pin B on a ground guide make a slider-crank: the coupler A-B carries the coupler point. Its
@@ -32,8 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from linkedit.planar.feasibility import margin_of
-from linkedit.synthesis.motion import (DYAD_ITERATIONS, GRID, REACH, SHORTEST, SPREAD, best, distinct, dyads,
-                                       in_order, reach_of)
+from linkedit.synthesis.motion import (DYAD_ITERATIONS, GRID, REACH, SHORTEST, SPREAD, Kept, best, distinct, dyads,
+                                       in_order, reach_of, widening)
 from linkedit.synthesis.multistart import solve
 
 
@@ -175,11 +176,15 @@ def _pairs(p: np.ndarray, theta: np.ndarray, cranks: np.ndarray, sliders: np.nda
 def fit(p: np.ndarray, theta: np.ndarray, *, margin_deg: float) -> SliderFit | None:
     """The working slider-crank whose coupler best passes through the poses p (N,) complex
     (normalized), θ (N,) radians, in order; None when no pair of dyads gives one."""
-    reach = reach_of(p, theta)
-    cranks, sliders = dyads(p, theta, SPREAD, reach), slider_dyads(p, theta, SPREAD, reach)
-    if not len(cranks) or not len(sliders):
-        return None
-    kept = best(lambda x: poses_of(x, reach), _pairs(p, theta, cranks, sliders), p, theta, margin_of(margin_deg))
+    margin, reach = margin_of(margin_deg), reach_of(p, theta)
+
+    def search(spread: float) -> Kept | None:
+        cranks, sliders = dyads(p, theta, spread, reach), slider_dyads(p, theta, spread, reach)
+        if not len(cranks) or not len(sliders):
+            return None
+        return best(lambda x: poses_of(x, reach), _pairs(p, theta, cranks, sliders), p, theta, margin)
+
+    kept = widening(search)
     if kept is None:
         return None
     x, position, turn_error, low = kept
