@@ -41,10 +41,12 @@ from linkedit.synthesis.multistart import solve
 from linkedit.synthesis.refine import barrier
 
 #: moving pivots tried per axis (a grid over ±SPREAD sizes about the coupler point; where it gives no
-#: working linkage, a second pass over ±WIDE·SPREAD: moving pivots farther out)
+#: working linkage, or its best misses a pose by more than MISSES (of the size, or radians), a second pass over
+#: ±WIDE·SPREAD: moving pivots farther out; the better of the two is kept)
 GRID = 15
 SPREAD = 2.0
 WIDE = 3.0
+MISSES = 1e-3
 #: the best distinct dyads paired (pivots apart by more than DISTINCT sizes)
 DYADS = 40
 DISTINCT = 1e-4
@@ -249,14 +251,22 @@ def fit(p: np.ndarray, theta: np.ndarray, *, margin_deg: float, ordered: bool = 
 
 
 def widening(search: Callable[[float], Kept | None]) -> Kept | None:
-    """``search``'s result (:func:`best`'s) over a grid of moving pivots ±SPREAD sizes about the coupler point,
-    else over ±WIDE·SPREAD (moving pivots farther out) where the first gives no working linkage: None where
-    neither does."""
+    """``search``'s result (:func:`best`'s) over a grid of moving pivots ±SPREAD sizes about the coupler point;
+    where that gives no working linkage or misses a pose by more than MISSES, also over ±WIDE·SPREAD (moving
+    pivots farther out), keeping the one that misses least: None where neither works."""
+    kept: Kept | None = None
     for spread in (SPREAD, WIDE * SPREAD):
-        kept = search(spread)
-        if kept is not None:
-            return kept
-    return None
+        found = search(spread)
+        if found is not None and (kept is None or _miss(found) < _miss(kept)):
+            kept = found
+        if kept is not None and _miss(kept) <= MISSES:
+            break
+    return kept
+
+
+def _miss(kept: Kept) -> float:
+    """The largest pose error of :func:`best`'s result: position (of the size) or angle (radians)."""
+    return float(max(np.abs(kept[1]).max(), np.abs(kept[2]).max()))
 
 
 def best(poses: Poses, starts: np.ndarray, p: np.ndarray, theta: np.ndarray, margin: float) -> Kept | None:
