@@ -7,7 +7,8 @@ Im(e^{−iα}·z) = c fitted to the M_j by total least squares, the residuals th
 from it. With 4 unknowns (m, α, c): through 3 poses a one-parameter family, through 4 finitely
 many (generically one real), beyond that least squares. They are solved from a grid of m, all
 starts at once (:func:`linkedit.synthesis.multistart.solve`); crank and slider dyads from the four-bar's two
-grids, the wider only where the first gives no working slider-crank (:func:`linkedit.synthesis.motion.widening`).
+grids, the wider only where the first gives no working slider-crank or misses a pose
+(:func:`linkedit.synthesis.motion.widening`).
 
 A circle-point dyad (:func:`linkedit.synthesis.motion.dyads`) as the crank O-A and a slider dyad as
 the pin B on a ground guide make a slider-crank: the coupler A-B carries the coupler point. Its
