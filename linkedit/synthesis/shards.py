@@ -285,6 +285,11 @@ def build(path: str | Path, names: list[str], count: int | None, *, seed: int = 
     finally:
         if new and path.is_dir() and not any(path.iterdir()):  # refused before anything was written
             path.rmdir()
+    return counts(manifest)
+
+
+def counts(manifest: dict[str, Any]) -> dict[str, int]:
+    """The linkages of each family that ``manifest`` lists in complete shards."""
     return {name: sum(s["rows"] for s in entry["shards"]) for name, entry in manifest["families"].items()}
 
 
