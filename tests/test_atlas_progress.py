@@ -55,3 +55,21 @@ def test_a_chunk_is_the_same_whether_its_progress_is_reported(monkeypatch):
             built.append(chunks.build_chunk("klann", 4, 1, 120))
     for key in ("params", "min_ds", "index", "curves"):
         assert getattr(built[0], key).tobytes() == getattr(built[1], key).tobytes(), key
+
+
+def test_the_bar_says_which_time_is_elapsed_and_which_left():
+    """The bar's two times are labelled each after its own: '0:00:19 elapsed 0:00:49 left' (it read
+    '0:00:19 left 0:00:49', the time elapsed looking like the time left)."""
+    import io
+    import re
+
+    from rich.console import Console
+
+    bar = command._Progress(live=False)
+    bar.live = True  # as on a terminal
+    with bar:
+        bar(250, 1000, 5.0)
+        console = Console(record=True, width=200, file=io.StringIO())
+        console.print(bar.bar.make_tasks_table(bar.bar.tasks))
+    text = console.export_text()
+    assert re.search(r" 250/1000 linkages 50/s \d+:\d\d:\d\d elapsed (\d+:\d\d:\d\d|-:--:--) left$", text.strip()), text

@@ -52,8 +52,8 @@ class _Progress:
                                        TimeRemainingColumn)
 
             self.bar = Progress(TextColumn("atlas build"), BarColumn(), MofNCompleteColumn(), TextColumn("linkages"),
-                                TextColumn("{task.fields[rate]}"), TimeElapsedColumn(), TextColumn("left"),
-                                TimeRemainingColumn(), console=Console(stderr=True))
+                                TextColumn("{task.fields[rate]}"), TimeElapsedColumn(), TextColumn("elapsed"),
+                                TimeRemainingColumn(), TextColumn("left"), console=Console(stderr=True))
             self.task = self.bar.add_task("build", total=total, rate="")
             self.bar.start()
         self.bar.update(self.task, completed=done, rate=f"{done / max(seconds, 1e-9):,.0f}/s")
