@@ -151,14 +151,13 @@ def test_the_manifest_bookkeeping_is_linear_in_the_shards(tmp_path, monkeypatch)
     n, cut = 20_000, 12_345
     monkeypatch.setattr(shards, "SAVE_EVERY", 0.0)
 
-    @contextlib.contextmanager
     def runner(stop):
         def run(name, seed, jobs, task=None):
             for index, size in jobs:
                 if index == stop:
                     raise KeyboardInterrupt
                 yield index, {"chunk": index, "rows": size, "file": f"four-bar/{index:08d}.h5", "sha256": "0" * 64}
-        yield run
+        return run
 
     for folder, stop in ((tmp_path / "whole", None), (tmp_path / "cut", cut)):
         folder.mkdir()
