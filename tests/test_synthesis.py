@@ -323,6 +323,12 @@ def test_a_scheduler_that_does_not_answer_leaves_a_folder_atlas_as_it_was(run_cl
     assert again.exit_code == 0 and "→" in again.output and "four-bar 20" in again.output
 
 
+def test_scheduler_and_workers_together_are_refused(run_cli, tmp_path):
+    """--scheduler with --workers built on the scheduler, --workers silently ignored (exit 0)."""
+    line = _refused(_build(run_cli, tmp_path, "--scheduler", "tcp://127.0.0.1:8786", "--workers", "2"), 2, tmp_path)
+    assert line == "linkedit: error: --workers: a local cluster or --scheduler's, not both"
+
+
 def test_a_worker_address_is_not_a_scheduler(run_cli, tmp_path, cluster):
     worker = next(iter(cluster.scheduler_info["workers"]))
     assert "a Dask Worker is not a Dask scheduler" in _refused(_build(run_cli, tmp_path, "--scheduler", worker), 1,

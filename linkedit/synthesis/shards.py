@@ -263,7 +263,7 @@ def build(path: str | Path, names: list[str], count: int | None, *, seed: int = 
     build only the chunks an interrupted build left pending (``count``, if given, must be that build's).
     Returns the linkage count per family."""
     path = Path(path)
-    check_options(seed, scheduler)
+    check_options(seed, scheduler, workers)
     if not (path / MANIFEST).is_file() and path.exists() and (not path.is_dir() or any(path.iterdir())):
         raise InputError(f"exists and is not a sharded atlas (no {MANIFEST}); refusing to write into it",
                          file=str(path))
