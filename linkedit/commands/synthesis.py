@@ -30,7 +30,7 @@ def _families(text: str) -> list[str]:
 
 class _Progress:
     """A rich progress bar on stderr while an atlas builds (a terminal only): linkages done, rate, time
-    elapsed and left; the callback of :func:`linkedit.synthesis.atlas.build`, stopped with the block."""
+    left (80 columns hold it); the callback of :func:`linkedit.synthesis.atlas.build`, stopped with the block."""
 
     def __init__(self, live: bool = True) -> None:
         self.live = live and sys.stderr.isatty()
@@ -48,12 +48,11 @@ class _Progress:
             return
         if self.bar is None:
             from rich.console import Console
-            from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
-                                       TimeRemainingColumn)
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
             self.bar = Progress(TextColumn("atlas build"), BarColumn(), MofNCompleteColumn(), TextColumn("linkages"),
-                                TextColumn("{task.fields[rate]}"), TimeElapsedColumn(), TextColumn("elapsed"),
-                                TimeRemainingColumn(), TextColumn("left"), console=Console(stderr=True))
+                                TextColumn("{task.fields[rate]}"), TimeRemainingColumn(), TextColumn("left"),
+                                console=Console(stderr=True))
             self.task = self.bar.add_task("build", total=total, rate="")
             self.bar.start()
         self.bar.update(self.task, completed=done, rate=f"{done / max(seconds, 1e-9):,.0f}/s")
