@@ -164,6 +164,15 @@ def test_bench_workers_counts_from_one(run_cli):
     assert refused.output.strip() == "linkedit: error: --workers: must be ≥ 1"
 
 
+def test_bench_workers_is_refused_where_quick_starts_no_cluster(run_cli):
+    """--quick times no Dask build (only --large's query at scale starts a cluster): --workers there would
+    change nothing, so it is refused, not ignored (it ran the whole quick section and exit 0)."""
+    refused = run_cli("bench", "-s", "synthesis", "--quick", "--workers", "3")
+    assert refused.exit_code == 2
+    assert refused.output.strip() == ("linkedit: error: --workers: --quick starts no local cluster (with --large N "
+                                      "it sizes the query at scale's)")
+
+
 @pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="no CPU affinity on this system")
 def test_the_bench_workers_default_to_the_cores_this_process_may_use():
     """Restricted to one core (as ``taskset -c 0`` or a container's CPU set would), the process may use one,

@@ -55,3 +55,22 @@ def test_a_chunk_is_the_same_whether_its_progress_is_reported(monkeypatch):
             built.append(chunks.build_chunk("klann", 4, 1, 120))
     for key in ("params", "min_ds", "index", "curves"):
         assert getattr(built[0], key).tobytes() == getattr(built[1], key).tobytes(), key
+
+
+def test_the_bar_labels_the_time_left_and_fits_80_columns():
+    """The bar reads '28747/100000 linkages 5,749/s 0:00:46 left', whole in an 80-column terminal (the label
+    'left' stood between the time elapsed and the time left: '0:00:19 left 0:00:46' showed the time elapsed as
+    the time left)."""
+    import io
+    import re
+
+    from rich.console import Console
+
+    bar = command._Progress(live=False)
+    bar.live = True  # as on a terminal
+    with bar:
+        bar(28747, 100000, 5.0)
+        console = Console(record=True, width=80, file=io.StringIO())
+        console.print(bar.bar.make_tasks_table(bar.bar.tasks))
+    text = console.export_text().strip()
+    assert re.search(r" 28747/100000 linkages 5,749/s (\d+:\d\d:\d\d|-:--:--) left$", text), text

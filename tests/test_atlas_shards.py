@@ -13,6 +13,7 @@ import pytest
 
 from linkedit.synthesis import atlas, chunks, fourbar, shards, spatial, spherical
 from linkedit.synthesis.index import Index, nearest_rows, target_variants
+from tests.conftest import report_of
 
 SMALL = 1000  # linkages per chunk in these tests (a chunk is a pure function of its index and size)
 
@@ -150,14 +151,13 @@ def test_the_manifest_bookkeeping_is_linear_in_the_shards(tmp_path, monkeypatch)
     n, cut = 20_000, 12_345
     monkeypatch.setattr(shards, "SAVE_EVERY", 0.0)
 
-    @contextlib.contextmanager
     def runner(stop):
         def run(name, seed, jobs, task=None):
             for index, size in jobs:
                 if index == stop:
                     raise KeyboardInterrupt
                 yield index, {"chunk": index, "rows": size, "file": f"four-bar/{index:08d}.h5", "sha256": "0" * 64}
-        yield run
+        return run
 
     for folder, stop in ((tmp_path / "whole", None), (tmp_path / "cut", cut)):
         folder.mkdir()
@@ -233,3 +233,26 @@ def _arc3d(tmp_path):
     path = tmp_path / "arc.csv"
     np.savetxt(path, points, delimiter=",", header="x,y,z", comments="")
     return path
+
+
+def test_a_resumed_build_reports_the_linkages_it_built(run_cli, tmp_path, small_chunks, monkeypatch):
+    """After an interruption at chunk 2 of 4 (2 shards listed), `--resume` builds the other 2,000 linkages:
+    its line and its JSON count those, with the build's -n and without, not the 4,000 of the whole build
+    (the line said "4,000 linkages in", its rate twice too high)."""
+    build_chunk = shards.build_chunk
+
+    def interrupted(name, seed, index, size, spec=None):
+        if index == 2:
+            os.kill(os.getpid(), signal.SIGINT)
+        return build_chunk(name, seed, index, size, spec)
+
+    monkeypatch.setattr(shards, "build_chunk", interrupted)
+    out = tmp_path / "cut"
+    args = ("atlas", "build", "--family", "four-bar", "-o", out, "--seed", "8", "--resume")
+    assert run_cli(*args[:-1], "-n", str(4 * SMALL)).exit_code == 130
+    monkeypatch.setattr(shards, "build_chunk", build_chunk)
+    cut = (out / shards.MANIFEST).read_text()
+    resumed = run_cli(*args, "-n", str(4 * SMALL))
+    assert resumed.exit_code == 0 and resumed.output.startswith("2,000 linkages in "), resumed.output
+    (out / shards.MANIFEST).write_text(cut)  # interrupted again at the same place
+    assert report_of(run_cli(*args, "--json"))["linkages"] == 2 * SMALL

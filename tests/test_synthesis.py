@@ -304,6 +304,31 @@ def test_a_scheduler_that_does_not_answer_is_one_line_exit_1(run_cli, tmp_path, 
     assert words in line and time.perf_counter() - start < 4
 
 
+def test_a_scheduler_that_does_not_answer_leaves_a_folder_atlas_as_it_was(run_cli, tmp_path, server):
+    """The same for a folder of shards: a new folder was left with a manifest and a quantizer, an existing one
+    with a build recorded as interrupted, so the same command run again was refused ('finish it with
+    --resume', exit 2). Now no folder is made, an existing one is unchanged, and the next build is not refused."""
+    pytest.importorskip("dask.distributed")
+    address = server(b"")
+    line = _refused(run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", tmp_path / "new",
+                            "--scheduler", address, "--connect-timeout", "0.5"), 1, tmp_path)
+    assert "no answer within 0.5 s" in line
+    folder = tmp_path / "old"
+    assert run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", folder).exit_code == 0
+    files = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+    failed = run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", folder, "--scheduler", address,
+                     "--connect-timeout", "0.5")
+    assert failed.exit_code == 1 and {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == files
+    again = run_cli("atlas", "build", "--family", "four-bar", "-n", "10", "-o", folder)
+    assert again.exit_code == 0 and "→" in again.output and "four-bar 20" in again.output
+
+
+def test_scheduler_and_workers_together_are_refused(run_cli, tmp_path):
+    """--scheduler with --workers built on the scheduler, --workers silently ignored (exit 0)."""
+    line = _refused(_build(run_cli, tmp_path, "--scheduler", "tcp://127.0.0.1:8786", "--workers", "2"), 2, tmp_path)
+    assert line == "linkedit: error: --workers: a local cluster or --scheduler's, not both"
+
+
 def test_a_worker_address_is_not_a_scheduler(run_cli, tmp_path, cluster):
     worker = next(iter(cluster.scheduler_info["workers"]))
     assert "a Dask Worker is not a Dask scheduler" in _refused(_build(run_cli, tmp_path, "--scheduler", worker), 1,

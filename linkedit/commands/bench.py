@@ -32,8 +32,8 @@ def register(app: typer.Typer) -> None:
                                        "it, with the extrapolation to 100M (opt-in: 10M take minutes)."),
         workers: int = typer.Option(None, "--workers", metavar="N", min=1, max=1024,
                                     help="synthesis: worker processes of the local Dask clusters (and in-process "
-                                         "builds side by side) [default: the cores this process may use]; not "
-                                         "run with --quick."),
+                                         "builds side by side) [default: the cores this process may use]; with "
+                                         "--quick only --large's."),
         as_json: bool = JSON,
         quiet: bool = QUIET,
     ) -> None:
@@ -48,6 +48,9 @@ def register(app: typer.Typer) -> None:
         for field, value in (("--large", large), ("--workers", workers)):
             if value is not None and "synthesis" not in chosen:
                 raise InputError("applies to the synthesis section (-s synthesis)", field=field)
+        if workers is not None and quick and large is None:
+            raise InputError("--quick starts no local cluster (with --large N it sizes the query at scale's)",
+                             field="--workers")
         for name in chosen:
             try:
                 module = importlib.import_module(SECTIONS[name])

@@ -30,7 +30,7 @@ def _families(text: str) -> list[str]:
 
 class _Progress:
     """A rich progress bar on stderr while an atlas builds (a terminal only): linkages done, rate, time
-    elapsed and left; the callback of :func:`linkedit.synthesis.atlas.build`, stopped with the block."""
+    left (80 columns hold it); the callback of :func:`linkedit.synthesis.atlas.build`, stopped with the block."""
 
     def __init__(self, live: bool = True) -> None:
         self.live = live and sys.stderr.isatty()
@@ -48,12 +48,11 @@ class _Progress:
             return
         if self.bar is None:
             from rich.console import Console
-            from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
-                                       TimeRemainingColumn)
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
             self.bar = Progress(TextColumn("atlas build"), BarColumn(), MofNCompleteColumn(), TextColumn("linkages"),
-                                TextColumn("{task.fields[rate]}"), TimeElapsedColumn(), TextColumn("left"),
-                                TimeRemainingColumn(), console=Console(stderr=True))
+                                TextColumn("{task.fields[rate]}"), TimeRemainingColumn(), TextColumn("left"),
+                                console=Console(stderr=True))
             self.task = self.bar.add_task("build", total=total, rate="")
             self.bar.start()
         self.bar.update(self.task, completed=done, rate=f"{done / max(seconds, 1e-9):,.0f}/s")
@@ -96,6 +95,8 @@ def register(app: typer.Typer) -> None:
         if not sharded and (resume or count is None):
             raise InputError("--resume continues a folder of shards (an atlas file is written whole or not at all)"
                              if resume else "give the number of linkages to add", field="--resume" if resume else "--count")
+        before = (shards.counts(shards.read_manifest(output)) if resume and (output / shards.MANIFEST).is_file()
+                  else {})  # a resumed build adds only what the interrupted one left
         start = time.perf_counter()
         options: dict[str, Any] = {"seed": seed, "scheduler": scheduler, "workers": workers,
                                    "connect_timeout": connect_timeout, "verbose": verbose}
@@ -103,10 +104,10 @@ def register(app: typer.Typer) -> None:
             counts = (shards.build(output, names, count, resume=resume, progress=progress, **options) if sharded else
                       atlas_file.build(output, names, count, progress=progress, **options))
         seconds = time.perf_counter() - start
-        added = count * len(names) if count is not None else None
+        added = sum(counts.values()) - sum(before.values()) if resume else count * len(names)
         report({"output": str(output), "families": dict(counts), "linkages": added, "seconds": seconds})
-        say((f"{added:,} linkages in {seconds:.2f} s ({added / seconds:,.0f} linkages/s)" if added is not None else
-             f"resumed in {seconds:.2f} s") + f" → {output}: " + ", ".join(f"{n} {c:,}" for n, c in counts.items()))
+        say(f"{added:,} linkages in {seconds:.2f} s ({added / seconds:,.0f} linkages/s) → {output}: "
+            + ", ".join(f"{n} {c:,}" for n, c in counts.items()))
 
     @app.command()
     @guard

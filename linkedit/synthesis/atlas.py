@@ -37,10 +37,13 @@ FORMAT_VERSION = "1"
 MAX_SEED = 2**63 - 1
 
 
-def check_options(seed: int, scheduler: str | None) -> None:
-    """InputError for a seed out of range or a malformed scheduler address, before anything is opened."""
+def check_options(seed: int, scheduler: str | None, workers: int | None = None) -> None:
+    """InputError for a seed out of range, a malformed scheduler address or a scheduler and a local cluster's
+    ``workers`` both, before anything is opened."""
     if not 0 <= seed <= MAX_SEED:
         raise InputError(f"must be an integer from 0 to 2**63 - 1, got {seed}", field="--seed")
+    if scheduler is not None and workers is not None:
+        raise InputError("a local cluster or --scheduler's, not both", field="--workers")
     if scheduler is not None:
         scheduler_address(scheduler)
 
@@ -66,7 +69,7 @@ def build(path: str | Path, names: list[str], count: int, *, seed: int = 1, sche
     ``connect_timeout``, ``verbose``: see :func:`linkedit.synthesis.cluster.chunk_runner`.
     """
     path = Path(path)
-    check_options(seed, scheduler)
+    check_options(seed, scheduler, workers)
     total = count * len(names)
     with locked(path):
         old = 0

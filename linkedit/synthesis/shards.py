@@ -33,7 +33,7 @@ from linkedit.resources import require_disk, require_memory
 from linkedit.synthesis.atlas import Atlas, check_options
 from linkedit.synthesis.atlas import load as load_file
 from linkedit.synthesis.chunks import CHUNK, HARMONICS, SAMPLES, Chunk, build_chunk, build_memory, chunk_sizes, reporting
-from linkedit.synthesis.cluster import CONNECT_TIMEOUT, chunk_runner
+from linkedit.synthesis.cluster import CONNECT_TIMEOUT, Runner, chunk_runner
 from linkedit.synthesis.families import SPEC_TEXTS, family
 from linkedit.synthesis.index import SAMPLE_PER_CELL, assign, quantizer_side, train_quantizer
 
@@ -263,28 +263,29 @@ def build(path: str | Path, names: list[str], count: int | None, *, seed: int = 
     build only the chunks an interrupted build left pending (``count``, if given, must be that build's).
     Returns the linkage count per family."""
     path = Path(path)
-    check_options(seed, scheduler)
+    check_options(seed, scheduler, workers)
     if not (path / MANIFEST).is_file() and path.exists() and (not path.is_dir() or any(path.iterdir())):
         raise InputError(f"exists and is not a sharded atlas (no {MANIFEST}); refusing to write into it",
                          file=str(path))
     if not resume and count is not None:  # before the plan: a list of 10⁸ chunks would not fit either
         _require_room(path, {name: count for name in names})
+    _checked(path, names, count, seed, resume)  # a refusal needs no cluster
     new = not path.exists()
-    try:
-        with locked(path / MANIFEST):
-            manifest = read_manifest(path) if (path / MANIFEST).is_file() else _new_manifest(seed)
-            if manifest["seed"] != seed:
-                raise InputError(f"this atlas was built with --seed {manifest['seed']}; use the same seed",
-                                 file=str(path), field="--seed")
+    try:  # connected before anything is written: a scheduler that does not answer leaves the folder as it was
+        with chunk_runner(scheduler, workers, connect_timeout=connect_timeout, verbose=verbose) as run, \
+                locked(path / MANIFEST):
+            manifest = _checked(path, names, count, seed, resume)
             jobs = _plan(path, manifest, names, count, resume)
-            if resume:
-                _require_room(path, {name: sum(size for _, size in jobs[name]) for name in jobs})
             save(path, manifest)
-            _run(path, manifest, jobs, seed, progress, chunk_runner(scheduler, workers, connect_timeout=connect_timeout,
-                                                                    verbose=verbose))
+            _run(path, manifest, jobs, seed, progress, run)
     finally:
         if new and path.is_dir() and not any(path.iterdir()):  # refused before anything was written
             path.rmdir()
+    return counts(manifest)
+
+
+def counts(manifest: dict[str, Any]) -> dict[str, int]:
+    """The linkages of each family that ``manifest`` lists in complete shards."""
     return {name: sum(s["rows"] for s in entry["shards"]) for name, entry in manifest["families"].items()}
 
 
@@ -296,11 +297,13 @@ def _require_room(path: Path, left: dict[str, int]) -> None:
     require_memory(build_memory(sum(left.values())), what, field="--count")
 
 
-def _plan(path: Path, manifest: dict[str, Any], names: list[str], count: int | None,
-          resume: bool) -> dict[str, list[tuple[int, int]]]:
-    """The chunks to build per family, recorded in ``manifest`` as pending (a new build) or read from it."""
-    pending = {name: [tuple(job) for job in entry["pending"]] for name, entry in manifest["families"].items()
-               if entry["pending"]}
+def _checked(path: Path, names: list[str], count: int | None, seed: int, resume: bool) -> dict[str, Any]:
+    """The manifest of the atlas folder ``path`` (a new one's if none), after an InputError unless a build of
+    ``names`` (``count`` each; ``resume``: the interrupted one's) with ``seed`` may run there."""
+    manifest = read_manifest(path) if (path / MANIFEST).is_file() else _new_manifest(seed)
+    if manifest["seed"] != seed:
+        raise InputError(f"this atlas was built with --seed {manifest['seed']}; use the same seed",
+                         file=str(path), field="--seed")
     build = manifest["build"]
     if resume:
         if build is None:
@@ -309,12 +312,26 @@ def _plan(path: Path, manifest: dict[str, Any], names: list[str], count: int | N
         if count is not None and count != build["count"] or sorted(names) != sorted(build["families"]):
             raise InputError(f"the interrupted build was --family {','.join(build['families'])} -n {build['count']}; "
                              "resume it with those", file=str(path), field="--resume")
-        return {name: pending.get(name, []) for name in build["families"]}  # type: ignore[misc]
-    if build is not None:
-        raise InputError(f"a build of {sum(map(len, pending.values()))} more chunks was interrupted here; finish it "
-                         "with --resume", file=str(path), field="--resume")
-    if count is None:
+    elif build is not None:
+        chunks = sum(len(entry["pending"]) for entry in manifest["families"].values())
+        raise InputError(f"a build of {chunks} more chunks was interrupted here; finish it with --resume",
+                         file=str(path), field="--resume")
+    elif count is None:
         raise InputError("give the number of linkages to add", field="--count")
+    if resume:
+        left = _plan(path, manifest, names, count, resume)
+        _require_room(path, {name: sum(size for _, size in left[name]) for name in left})
+    return manifest
+
+
+def _plan(path: Path, manifest: dict[str, Any], names: list[str], count: int | None,
+          resume: bool) -> dict[str, list[tuple[int, int]]]:
+    """The chunks to build per family (a build :func:`_check` allowed), recorded in ``manifest`` as pending (a
+    new build, whose new families' quantizers it writes) or read from it."""
+    if resume:
+        pending = {name: [tuple(job) for job in entry["pending"]] for name, entry in manifest["families"].items()}
+        return {name: pending.get(name, []) for name in manifest["build"]["families"]}  # type: ignore[misc]
+    assert count is not None  # _check refused a new build without one
     jobs = {}
     for name in names:
         entry = manifest["families"].setdefault(name, _new_family(name))
@@ -329,8 +346,8 @@ def _plan(path: Path, manifest: dict[str, Any], names: list[str], count: int | N
 
 
 def _run(path: Path, manifest: dict[str, Any], jobs: dict[str, list[tuple[int, int]]], seed: int,
-         progress: Callable[[int, int, float], None] | None, runner: Any) -> None:
-    """Build and store ``jobs``, listing each shard in ``manifest`` as its entry comes back; the manifest is
+         progress: Callable[[int, int, float], None] | None, run: Runner) -> None:
+    """Build and store ``jobs`` with ``run`` (a :func:`~linkedit.synthesis.cluster.chunk_runner`'s), listing each shard in ``manifest`` as its entry comes back; the manifest is
     saved (:func:`_flush`) every :data:`SAVE_EVERY` seconds, and at least :data:`SAVE_SHARE`⁻¹ times as long as
     the last save took (a manifest of n shards takes O(n) to write: the saves stay a bounded share of the
     build however many shards it has), and when the build ends, however it ends."""
@@ -345,7 +362,7 @@ def _run(path: Path, manifest: dict[str, Any], jobs: dict[str, list[tuple[int, i
             progress(done + kept, total, time.perf_counter() - start)
 
     try:
-        with runner as run, reporting(within):
+        with reporting(within):
             for name, family_jobs in jobs.items():
                 shards, listed = manifest["families"][name]["shards"], finished[name]
                 for index, shard in run(name, seed, family_jobs, task=store):
