@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 import yaml
 
+from tests.test_synthesis_motion import simulated_poses
+
 
 def third(a: np.ndarray, d: complex, la: float, ld: float) -> np.ndarray:
     """Reference: the point at distance la from a and ld from d, left of a→d (law of cosines)."""
@@ -37,24 +39,9 @@ def write(path, t, points, angles, header="x (mm), y (mm), angle_deg, t") -> Non
 
 def simulated(run_cli, out, turns_deg, tmp_path) -> tuple[np.ndarray, np.ndarray]:
     """Coupler point and coupler-2 angle (degrees) of `linkedit simulate` of out/result.yaml at motor turns
-    from rest (degrees): each the end of a sweep [0, turn] simulated with 2 samples."""
-    data = yaml.safe_load((out / "result.yaml").read_text())
+    from rest (degrees)."""
     offset = json.loads((out / "report.json").read_text())["coupler_angle_offset_deg"]
-    points, angles = [], []
-    for k, turn in enumerate(turns_deg):
-        data["motor"]["range_deg"] = [0.0, turn if turn else 1.0]
-        (tmp_path / f"at{k}.yaml").write_text(yaml.safe_dump(data))
-        sim = run_cli("simulate", tmp_path / f"at{k}.yaml", "-n", "2", "-o", tmp_path / f"at{k}.h5")
-        assert sim.exit_code == 0, sim.output
-        with h5py.File(tmp_path / f"at{k}.h5") as f:
-            names = [n.decode() if isinstance(n, bytes) else n for n in f["joint"][()]]
-            p = f["joints/position"][()]
-            track = f["tracks/target/position"][()]
-        z = p[:, :, 0] + 1j * p[:, :, 1]
-        s = 1 if turn else 0
-        points.append(complex(*track[s]))
-        angles.append(np.degrees(np.angle(z[s, names.index("B2")] - z[s, names.index("A2")])) + offset)
-    return np.array(points), np.array(angles)
+    return simulated_poses(run_cli, out / "result.yaml", turns_deg, offset, tmp_path, coupler=("A2", "B2"))
 
 
 def angle_gap(a: np.ndarray, b: np.ndarray) -> np.ndarray:

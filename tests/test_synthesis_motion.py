@@ -26,9 +26,11 @@ def write_poses(path, points, angles, header="x, y, angle_deg") -> None:
                                              for z, a in zip(points, angles)))
 
 
-def simulated_poses(run_cli, spec, turns_deg, offset_deg, tmp_path) -> tuple[np.ndarray, np.ndarray]:
-    """The coupler point and angle (degrees) of `linkedit simulate` at the crank turns from rest the
-    report names: each turn is the end of a sweep [0, turn] simulated with 2 samples."""
+def simulated_poses(run_cli, spec, turns_deg, offset_deg, tmp_path,
+                    coupler: tuple[str, str] = ("A", "B")) -> tuple[np.ndarray, np.ndarray]:
+    """The coupler point and angle (degrees: the angle of ``coupler``'s first joint → second plus
+    ``offset_deg``) of `linkedit simulate` at the crank (motor) turns from rest the report names: each turn
+    is the end of a sweep [0, turn] simulated with 2 samples."""
     data = yaml.safe_load(spec.read_text())
     points, angles = [], []
     for k, turn in enumerate(turns_deg):
@@ -43,7 +45,8 @@ def simulated_poses(run_cli, spec, turns_deg, offset_deg, tmp_path) -> tuple[np.
         z = p[:, :, 0] + 1j * p[:, :, 1]
         s = 1 if turn else 0  # the sweep's end, or the rest pose
         points.append(complex(*track[s]))
-        angles.append(np.degrees(np.angle(z[s, names.index("B")] - z[s, names.index("A")])) + offset_deg)
+        tail, head = (names.index(joint) for joint in coupler)
+        angles.append(np.degrees(np.angle(z[s, head] - z[s, tail])) + offset_deg)
     return np.array(points), np.array(angles)
 
 
