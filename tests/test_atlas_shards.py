@@ -38,6 +38,20 @@ def _shard_arrays(folder, entry) -> dict[str, np.ndarray]:
         return {key: f[key][()] for key in ("params", "min_ds", "index", "cell")}
 
 
+def _interrupt_at(monkeypatch, chunk: int):
+    """A SIGINT to this process as chunk ``chunk`` is about to be built (a Ctrl-C mid-build); returns the
+    real ``shards.build_chunk``, to put back for the resume."""
+    build_chunk = shards.build_chunk
+
+    def interrupted(name, seed, index, size, spec=None):
+        if index == chunk:
+            os.kill(os.getpid(), signal.SIGINT)
+        return build_chunk(name, seed, index, size, spec)
+
+    monkeypatch.setattr(shards, "build_chunk", interrupted)
+    return build_chunk
+
+
 def test_a_sharded_dask_build_equals_the_in_process_build(run_cli, tmp_path, small_chunks, cluster):
     """Two workers write the shards (9 chunks, the last partial), the client only the manifest: the same
     shards, byte for byte in content, as an in-process build into a folder and as the single-file atlas."""
@@ -68,14 +82,7 @@ def test_a_killed_build_resumes_to_the_same_atlas(run_cli, tmp_path, small_chunk
     the folder then equals an uninterrupted build's."""
     count = 6 * SMALL + 200
     whole = _build(run_cli, tmp_path / "whole", count)
-    build_chunk = shards.build_chunk
-
-    def interrupted(name, seed, index, size, spec=None):
-        if index == 3:
-            os.kill(os.getpid(), signal.SIGINT)
-        return build_chunk(name, seed, index, size, spec)
-
-    monkeypatch.setattr(shards, "build_chunk", interrupted)
+    build_chunk = _interrupt_at(monkeypatch, 3)
     out = tmp_path / "cut"
     result = run_cli("atlas", "build", "--family", "four-bar", "-n", str(count), "-o", out, "--seed", "8")
     assert result.exit_code == 130 and result.output.strip().splitlines()[-1] == "linkedit: error: interrupted"
@@ -239,14 +246,7 @@ def test_a_resumed_build_reports_the_linkages_it_built(run_cli, tmp_path, small_
     """After an interruption at chunk 2 of 4 (2 shards listed), `--resume` builds the other 2,000 linkages:
     its line and its JSON count those, with the build's -n and without, not the 4,000 of the whole build
     (the line said "4,000 linkages in", its rate twice too high)."""
-    build_chunk = shards.build_chunk
-
-    def interrupted(name, seed, index, size, spec=None):
-        if index == 2:
-            os.kill(os.getpid(), signal.SIGINT)
-        return build_chunk(name, seed, index, size, spec)
-
-    monkeypatch.setattr(shards, "build_chunk", interrupted)
+    build_chunk = _interrupt_at(monkeypatch, 2)
     out = tmp_path / "cut"
     args = ("atlas", "build", "--family", "four-bar", "-o", out, "--seed", "8", "--resume")
     assert run_cli(*args[:-1], "-n", str(4 * SMALL)).exit_code == 130
