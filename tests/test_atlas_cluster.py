@@ -145,6 +145,7 @@ def test_the_bench_times_a_query_over_a_large_sharded_atlas(cluster, monkeypatch
     bench_scale.run(lines.append, 20 * SMALL, 2, scheduler=cluster.scheduler_address)
     text = "\n".join(lines)
     assert re.search(r"sharded atlas of 20,000 four-bars .* 1\d\d bytes per linkage on disk \(1\d\d stored", text), text
+    assert re.search(r"\(\d+ cores usable of the machine's \d+, load average", text), text
     recall = float(re.search(r"recall of the exact top 10 (\d\.\d+)", text).group(1))
     assert recall >= 0.9 and re.search(r"\d+ ms at 5,000, \d+ ms at 20,000", text), text
     assert re.search(r"on the cluster at 20,000: \d+ ms median \(2 workers", text), text

@@ -113,7 +113,7 @@ def run(echo: Callable[[str], None], count: int, workers: int, scheduler: str | 
     big_cells = quantizer_side(HUNDRED_MILLION) ** 2
     rows_100m = rows_large * HUNDRED_MILLION / count * cells / big_cells  # a 100M build's quantizer: big_cells
     t_100m = t_large + per * (rows_100m - rows_large)
-    echo(f"query at scale, sharded atlas of {count:,} four-bars ({cores} cores usable, load average {load:.2f} before, "
+    echo(f"query at scale, sharded atlas of {count:,} four-bars ({cores} cores usable of the machine's {os.cpu_count()}, load average {load:.2f} before, "
          f"{os.getloadavg()[0]:.2f} after): built in {t_build:.0f} s ({count / t_build:,.0f} linkages/s, "
          f"{f'{workers} Dask workers' if address else 'in-process'}), {on_disk / count:.0f} bytes per linkage on "
          f"disk ({shards.shard_bytes('four-bar')} stored + HDF5 overhead; an atlas file: "
