@@ -240,11 +240,43 @@ def read_poses(path: Path, *, timed: bool = False) -> tuple[np.ndarray, np.ndarr
     return points, cols["angle_deg"][order], [table.lines[i] for i in order], units.pop() if units else UNITS, times
 
 
+def pose_frame(points: np.ndarray) -> tuple[complex, float]:
+    """The poses' centre (their mean) and size (their largest distance apart), poses' units: the motion fits
+    work on (points − centre)/size, and the written linkage is placed back by z ↦ centre + size·z
+    (:func:`placer`)."""
+    return complex(points.mean()), float(np.abs(points[:, None] - points[None, :]).max())
+
+
+def placer(centre: complex, size: float) -> Callable[[complex], list[float]]:
+    """z ↦ [x, y] of centre + size·z: a normalized point as a spec's coordinates."""
+    def place(z: complex) -> list[float]:
+        w = centre + size * z
+        return [w.real, w.imag]
+
+    return place
+
+
+def written_pose_errors(spec: LinkageSpec, motor_angles: np.ndarray, coupler: tuple[str, str], kappa: float,
+                        points: np.ndarray, theta: np.ndarray, size: float
+                        ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
+    """The written ``spec`` evaluated at each pose's motor angle (radians, (N,)): its joints and track
+    (:func:`at_inputs`), the coupler point's distance from each pose over ``size`` (N,) and the coupler's
+    angle error (degrees, (N,)) — the coupler's angle being that of ``coupler``'s first joint → second plus
+    ``kappa``. MechanismError where the spec does not assemble at some pose."""
+    at = at_inputs(spec, motor_angles)
+    tail, head = coupler
+    gap = np.abs(at["target"] - points) / size
+    turn_error = np.degrees(function.wrap(np.angle(at[head] - at[tail]) + kappa - theta))
+    if not (np.isfinite(gap).all() and np.isfinite(turn_error).all()):
+        raise MechanismError(f"{spec.name}: the written linkage does not assemble at every pose's motor angle")
+    return at, gap, turn_error
+
+
 def search_limit(points: np.ndarray, theta: np.ndarray, units: str) -> str:
     """The motion search's limit on where joints lie, in the poses' units (:func:`linkedit.synthesis.motion.reach_of`),
     for an exit-1 message."""
-    size = float(np.abs(points[:, None] - points[None, :]).max())
-    reach = motion.reach_of((points - points.mean()) / size, theta) * size
+    centre, size = pose_frame(points)
+    reach = motion.reach_of((points - centre) / size, theta) * size
     return (f"every joint within {reach:.4g} {units} of the poses' centre ({motion.REACH:g}× the larger of their "
             "size and their span over the coupler's turn, radians: poses spanning more of the motion reach farther)")
 
@@ -259,10 +291,7 @@ def motion_spec(found: motion.MotionFit | motion_slider.SliderFit, centre: compl
     """The fitted linkage placed by z ↦ centre + size·z at its rest pose (the first pose), the motor
     sweeping the crank through every pose (``range_deg``), track ``target`` = the coupler point on
     the coupler A-B: a four-bar (rocker D-B) or a slider-crank (B on a ground guide)."""
-    def place(z: complex) -> list[float]:
-        w = centre + size * z
-        return [w.real, w.imag]
-
+    place = placer(centre, size)
     joints = {"O": found.O, "A": found.A, "B": found.B}
     if isinstance(found, motion_slider.SliderFit):
         kind = {"description": "slider-crank motion generator: its coupler A-B carries the coupler point (track "
@@ -311,8 +340,7 @@ def run_motion(path: Path, out: Path, *, margin_deg: float, tolerance_deg: float
     a working linkage."""
     start = time.perf_counter()
     points, angles_deg, lines, units, _ = read_poses(path)
-    centre = complex(points.mean())
-    size = float(np.abs(points[:, None] - points[None, :]).max())
+    centre, size = pose_frame(points)
     theta = np.radians(angles_deg)
     found = MOTION_FAMILIES[family]((points - centre) / size, theta, margin_deg=margin_deg)
     if found is None:
@@ -323,13 +351,8 @@ def run_motion(path: Path, out: Path, *, margin_deg: float, tolerance_deg: float
     fitted = time.perf_counter()
     spec = motion_spec(found, centre, size, Path(path).stem, units)
     rest = float(np.angle(found.A - found.O))
-    at = at_inputs(spec, rest + found.turns)  # the written spec, evaluated at each pose's crank angle
     kappa = found.kappa
-    result_angle = np.angle(at["B"] - at["A"]) + kappa
-    gap = np.abs(at["target"] - points) / size
-    turn_error = np.degrees(function.wrap(result_angle - theta))
-    if not (np.isfinite(gap).all() and np.isfinite(turn_error).all()):
-        raise MechanismError(f"{spec.name}: the written linkage does not assemble at every pose's crank angle")
+    at, gap, turn_error = written_pose_errors(spec, rest + found.turns, ("A", "B"), kappa, points, theta, size)
     simulated = simulate(spec, RESULT_SAMPLES)
     length, (lo, hi) = _motion_linkage(found, spec)
     worst_pos, worst_angle = float(gap.max()), float(np.abs(turn_error).max())

@@ -21,8 +21,8 @@ from linkedit.errors import InputError, MechanismError
 from linkedit.planar import simulate
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.synthesis import function, motion, motion_six
-from linkedit.synthesis.generate import (POSITION_TOLERANCE, RESULT_SAMPLES, _write, at_inputs, read_poses,
-                                         search_limit)
+from linkedit.synthesis.generate import (POSITION_TOLERANCE, RESULT_SAMPLES, _write, placer, pose_frame, read_poses,
+                                         search_limit, written_pose_errors)
 
 #: the links of the written six-bar (joints, in the spec's order)
 LINKS = {"crank1": ["O1", "A1"], "coupler1": ["A1", "B1"], "ternary": ["D1", "B1", "A2"], "coupler2": ["A2", "B2"],
@@ -49,10 +49,7 @@ def six_bar_motion_spec(found: motion_six.SixMotionFit, centre: complex, size: f
                         units: str) -> LinkageSpec:
     """The fitted six-bar placed by z ↦ centre + size·z at its rest pose (the first pose), the motor
     sweeping through every pose's time (``range_deg``), track ``target`` = the coupler point on coupler2."""
-    def place(z: complex) -> list[float]:
-        w = centre + size * z
-        return [w.real, w.imag]
-
+    place = placer(centre, size)
     joints = {k: place(z) for k, z in found.joints.items() if k != "P"}
     return LinkageSpec.model_validate({
         "name": name, "units": units,
@@ -75,8 +72,7 @@ def run_motion_six(path: Path, out: Path, *, margin_deg: float, tolerance_deg: f
     returns the report. MechanismError (exit 1) when no working six-bar is found."""
     start = time.perf_counter()
     points, angles_deg, lines, units, times = read_timed_poses(path)
-    centre = complex(points.mean())
-    size = float(np.abs(points[:, None] - points[None, :]).max())
+    centre, size = pose_frame(points)
     theta = np.radians(angles_deg)
     phi = 2 * np.pi * (times - times[0])
     found = motion_six.fit((points - centre) / size, theta, phi, margin_deg=margin_deg)
@@ -89,13 +85,9 @@ def run_motion_six(path: Path, out: Path, *, margin_deg: float, tolerance_deg: f
     fitted = time.perf_counter()
     spec = six_bar_motion_spec(found, centre, size, Path(path).stem, units)
     rest = float(np.angle(found.joints["A1"] - found.joints["O1"]))
-    at = at_inputs(spec, rest + found.direction * phi)  # the written spec at each pose's prescribed motor angle
-    result_angle = np.angle(at["B2"] - at["A2"]) + found.kappa
-    gap = np.abs(at["target"] - points) / size
-    turn_error = np.degrees(function.wrap(result_angle - theta))
+    at, gap, turn_error = written_pose_errors(spec, rest + found.direction * phi, ("A2", "B2"), found.kappa, points,
+                                              theta, size)  # at each pose's prescribed motor angle
     timing = np.degrees(found.achieved - phi)
-    if not (np.isfinite(gap).all() and np.isfinite(turn_error).all()):
-        raise MechanismError(f"{spec.name}: the written linkage does not assemble at every pose's motor angle")
     simulated = simulate(spec, RESULT_SAMPLES)
     rows = [found.stage1[None], motion.frame_rows(*(np.array([found.joints[k]]) for k in ("D1", "A2", "B2", "D2")))]
     stages = [function.transmission_range(rows[0], 0.0, float(phi[-1])),
