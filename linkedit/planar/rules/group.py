@@ -13,7 +13,7 @@ the rows' :class:`RealForm`, built once per step: :meth:`Group.evaluate`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
 
@@ -23,19 +23,11 @@ from linkedit.planar.constraints import Rows, linkage_rows
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
 from linkedit.planar.rules.base import Frame, Step, loop_rows, solve, to_complex
+from linkedit.planar.rules.continuation import (COARSE_TOLERANCE, GROUP_ITERATIONS, GROUP_TOLERANCE, accepted, coarse,
+                                                 largest, predict)
+from linkedit.planar.rules.triad import Body, Pose, Triad, at, follow, polish, rates
+from linkedit.planar.rules.triad import ds as triad_ds
 
-#: Newton's method stops when every row is within this of 0 (rows are in units of the
-#: linkage's characteristic length, squared for distance rows)
-GROUP_TOLERANCE = 1e-13
-GROUP_ITERATIONS = 12
-#: a numeric group is continued sequentially only through the samples where its inputs (known
-#: joints, linear input) have moved this far (of the linkage's size) since the last one, however
-#: dense the samples; the samples between are predicted from those and polished all at once
-GROUP_STRIDE = 0.08
-#: the sequential continuation's tolerance before every sample is polished to GROUP_TOLERANCE:
-#: enough to follow the branch; the polish takes its samples on in two Newton steps (1e-4 → 1e-8 →
-#: 1e-16), no more than the samples between need from their cubic predictor
-COARSE_TOLERANCE = 1e-4
 
 
 @dataclass(frozen=True)
@@ -80,21 +72,80 @@ class Group(Step):
     def _columns(self) -> np.ndarray:
         return np.concatenate([self.joints, self.inputs])
 
+    @cached_property
+    def triad(self) -> Triad | None:
+        """Its triad (:mod:`.triad`: solved as its body's pose) when it has that shape, else None."""
+        assert self.graph is not None
+        return Triad.of(self.rows, self.joints, self.inputs, self.graph.rest[:, 0] + 1j * self.graph.rest[:, 1])
+
     def constants(self, z: np.ndarray, many: bool) -> tuple[Any, ...]:
         """(its :class:`RealForm` at each of the K rest poses ``z`` (P, K) complex, twice (K, m·W, W);
-        the sign (K,) of its Jacobian's determinant at each): each linkage's own rows and branch."""
+        the sign (K,) of its Jacobian's determinant at each; a triad's :class:`~.triad.Body` at each):
+        each linkage's own rows and branch."""
         assert self.graph is not None
         rest = z[: self.graph.n_joints]
         rows = self.rows_at(linkage_rows(self.graph, rest=rest), rest)
-        return RealForm.of(rows.columns(self._columns)), _det_signs(rows, rest[:, :, None], self.joints)
+        form, signs = RealForm.of(rows.columns(self._columns)), _det_signs(rows, rest[:, :, None], self.joints)
+        if self.triad is None:
+            return form, signs
+        body = self.triad.constants(rest, self.joints, self.inputs)
+        turns = body.p * np.array([0.0, 1.0, 1j])  # the body about the origin, turned by u = 0, 1, i
+        grad = form.gradient(variables(turns, np.zeros((self.inputs.size, *turns.shape[1:]))))
+        c = np.moveaxis(grad[..., self.triad.body, : 2 * self.joints.size], 1, 0)  # (u, K, 3, 6)
+        return form, signs, replace(body, gradient=np.stack([c[0], c[1] - c[0], c[2] - c[0]]))
+
+    def _parts(self, const: tuple[Any, ...]) -> tuple[RealForm, np.ndarray, Body | None]:
+        """(form, signs, body) of ``const``, by default at the rest pose it was compiled at."""
+        if not const:
+            assert self.graph is not None
+            const = self.constants((self.graph.rest[:, 0] + 1j * self.graph.rest[:, 1])[:, None], False)
+        return const[0], const[1], const[2] if len(const) > 2 else None
 
     def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray,
               const: tuple[Any, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
-        form, signs = const or (self.form, np.array([self.det_sign]))
-        x, det, placed = solve_group(form, signs, z[self.inputs][:, None], np.broadcast_to(s, (1, z.shape[-1])),
-                                     rest[self.joints][:, None])
+        form, signs, body = self._parts(const)
+        known, inputs, start = z[self.inputs][:, None], np.broadcast_to(s, (1, z.shape[-1])), rest[self.joints][:, None]
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            if body is not None:
+                joints, now = self._solve_triad(form, signs, body, known, inputs, start)
+                return joints[:, 0], triad_ds(now, body)[0]
+            x, det, placed = solve_group(form, signs, known, inputs, start)
         k = 2 * self.joints.size
         return to_complex(np.moveaxis(x[0, :, :k], -1, 0)), conditioning(form.gradient(x)[..., :k], det, placed)[0]
+
+    def _solve_triad(self, form: RealForm, signs: np.ndarray, body: Body, known: np.ndarray, s: np.ndarray,
+                     start: np.ndarray) -> tuple[np.ndarray, Pose]:
+        """K linkages' triads (as :func:`solve_group`'s arguments, and their ``body``): each
+        continued sequentially through the samples :func:`coarse` picks (:func:`~.triad.follow`),
+        the poses between predicted by a cubic, every sample polished at once
+        (:func:`~.triad.polish`). A linkage any of whose samples fails that is solved by
+        :func:`solve_group` (a lock-up, a jump between branches: reported as for any group).
+        Returns the joints (3, K, T) complex (NaN from where a linkage fails) and the pose there."""
+        assert self.triad is not None
+        hung = known[self.triad.partner]
+        K, T = s.shape
+        poses = np.full((K, T, 3), np.nan)
+        fast = np.ones(K, dtype=bool)
+        for c in range(K):
+            through, travel = coarse(known[:, c], s[c])
+            solved, stop = follow(body, c, hung[:, c], through, COARSE_TOLERANCE)
+            if stop >= 0:
+                fast[c] = False
+                continue
+            poses[c, through] = solved
+            between = np.ones(T, dtype=bool)
+            between[through] = False
+            inner = np.flatnonzero(between)
+            if inner.size:
+                poses[c, inner] = predict(travel, through, solved, inner)
+        now, ok = polish(body, hung, poses[..., 0] + 1j * poses[..., 1], poses[..., 2], GROUP_TOLERANCE)
+        fast &= ok.all(axis=1)
+        if fast.all():
+            return now.joints, now
+        joints, slow = now.joints, np.flatnonzero(~fast)
+        x = solve_group(form.take(slow), signs[slow], known[:, slow], s[slow], start[:, slow])[0]
+        joints[:, slow] = to_complex(np.moveaxis(x[..., : 2 * self.joints.size], -1, 0))
+        return joints, at(body, joints, hung)
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Place its joints in ``f`` (one linkage, or K: ``f.z`` (P, K, T), each with its own rows,
@@ -102,7 +153,7 @@ class Group(Step):
         Jacobian at the solution (the same one as its d_s): J_S·ẋ_S = −J_K·ẋ_K + F_s·ṡ,
         J_S·ẍ_S = −J_K·ẍ_K − Ẋᵀ·2Q·Ẋ (:class:`RealForm`), two solves batched over (K·T) rows."""
         many = f.z.ndim > 2
-        form, signs = const or (self.form, np.array([self.det_sign]))
+        form, signs, body = self._parts(const)
 
         def lift(a: np.ndarray) -> np.ndarray:  # (…, T) → (…, K, T)
             return a if many else a[..., None, :]
@@ -110,6 +161,9 @@ class Group(Step):
         zj, out = lift(f.z[f.joints]), f.joints[self.joints]
         K, T = zj.shape[1:]
         rest = f.rest[self.joints]
+        if body is not None:
+            self._evaluate_triad(f, form, signs, body, lift, rows)
+            return
         x, det, placed = solve_group(form, signs, zj[self.inputs], np.broadcast_to(f.s, (K, T)),
                                      rest if many else rest[:, None])
         k = 2 * self.joints.size
@@ -133,6 +187,32 @@ class Group(Step):
             ddx = self._known(lift(f.ddz[f.joints]), x.shape)
             rhs = -(grad @ ddx[..., None])[..., 0] - form.quadratic(dx)
             put(f.ddz, np.moveaxis(solve(jac, np.moveaxis(rhs, -1, 0)), 0, -1))
+
+    def _evaluate_triad(self, f: Frame, form: RealForm, signs: np.ndarray, body: Body,
+                        lift: Any, rows: slice) -> None:
+        """:meth:`evaluate` of a triad: its joints, d_s, velocities and accelerations from its
+        body's pose (:mod:`.triad`)."""
+        assert self.triad is not None
+        many, out = f.z.ndim > 2, f.joints[self.joints]
+        known = lift(f.z[f.joints[self.inputs]])
+        K, T = known.shape[1:]
+        rest = f.rest[self.joints]
+        joints, now = self._solve_triad(form, signs, body, known, np.broadcast_to(f.s, (K, T)),
+                                        rest if many else rest[:, None])
+
+        def put(target: np.ndarray, value: np.ndarray) -> None:  # (3, K, T) → rows (3, *L, T)
+            target[out] = value if many else value[:, 0]
+
+        put(f.z, joints)
+        ds = triad_ds(now, body)
+        f.ds[rows] = ds if many else ds[0]
+        if f.dz is None:
+            return
+        hung = f.joints[self.inputs[self.triad.partner]]
+        first, second = rates(now, lift(f.dz[hung]), None if f.ddz is None else lift(f.ddz[hung]))
+        put(f.dz, first)
+        if second is not None and f.ddz is not None:
+            put(f.ddz, second)
 
     def _known(self, dz: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
         """X-rows (K, T, W) of the known joints' derivatives ``dz`` (J, K, T) complex, the group's
@@ -201,6 +281,10 @@ class RealForm:
     def count(self) -> int:
         """K: how many linkages' forms it stacks (1 for one linkage's)."""
         return self.twice.shape[0] if self.twice.ndim == 3 else 1
+
+    def take(self, which: np.ndarray) -> "RealForm":
+        """The forms of the linkages ``which`` (indices) of K (all of one linkage's: itself)."""
+        return self if self.twice.ndim == 2 else RealForm(self.twice[which], self.drive, self.driven, self.m)
 
     def linkage(self, k: int) -> "RealForm":
         """The form of linkage ``k`` alone."""
@@ -283,18 +367,12 @@ def _lu_sign(lu: np.ndarray, piv: np.ndarray) -> float:
     return -1.0 if flips % 2 else 1.0
 
 
-def _accepted(moved: np.ndarray | float, first: np.ndarray | float) -> np.ndarray | bool:
-    """Whether Newton ended close to where it started: within 1.5× its first step, itself at most
-    0.1 (of the linkage's size): it converged to the solution nearest its predictor."""
-    return (moved <= 1.5 * first + 1e-9) & (first <= 0.1)
-
-
 def _continue(form: RealForm, det_sign: float, X: np.ndarray, s: np.ndarray, k: int, x: np.ndarray,
               path: np.ndarray, out: np.ndarray, tol: float = GROUP_TOLERANCE) -> int:
     """Continue the group sequentially from X-row ``x`` (known at sample ``path[0]``) through the
     samples ``path`` in order, writing ``out`` rows. Each move from one sample to the next is a
     homotopy in the known joints (interpolated linearly); Newton's first step is the tangent
-    predictor, and a move is accepted only when Newton converges close to it (:func:`_accepted`)
+    predictor, and a move is accepted only when Newton converges close to it (:func:`accepted`)
     without the Jacobian's determinant leaving ``det_sign``; otherwise it is halved (down to 1/256).
     Newton stops within ``tol``. Returns the position in ``path`` where it fails, or −1."""
     square = form.m == k
@@ -308,7 +386,7 @@ def _continue(form: RealForm, det_sign: float, X: np.ndarray, s: np.ndarray, k: 
             trial[k:] = X[t, k:] if f == 1.0 else X[prev, k:] + f * (X[t, k:] - X[prev, k:])
             ok, first, sign = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k, tol)
             if ok:
-                ok = bool(_accepted(float(np.maximum.reduce(np.abs(trial[:k] - x[:k]))), first))
+                ok = bool(accepted(float(np.maximum.reduce(np.abs(trial[:k] - x[:k]))), first))
                 if ok and square and sign != det_sign:
                     ok = False  # passed a singular position: another assembly branch
             if ok:
@@ -326,7 +404,7 @@ def _continue(form: RealForm, det_sign: float, X: np.ndarray, s: np.ndarray, k: 
 def _polish(form: RealForm, signs: np.ndarray, X: np.ndarray, s: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Newton's method on every row of X (K, T, W) at once — K linkages' (``form``'s), T samples
     each —, from the predictor in X[..., :k] (updated in place; NaN rows are left alone). Returns
-    which rows (K, T) are accepted: converged, close to their predictor (:func:`_accepted`), on
+    which rows (K, T) are accepted: converged, close to their predictor (:func:`accepted`), on
     their rest pose's side of every singular position (sign of det J: ``signs`` (K,)); and det J
     (K, T) at each accepted row's solution (NaN elsewhere, and for a non-square group)."""
     square = form.m == k
@@ -338,7 +416,7 @@ def _polish(form: RealForm, signs: np.ndarray, X: np.ndarray, s: np.ndarray, k: 
     with np.errstate(invalid="ignore", over="ignore"):
         f, jac = form.residual_jacobian(X, s, k)  # every linkage's rows at once; then the live rows' alone
         f, jac = f.reshape(K * T, -1), np.ascontiguousarray(jac.reshape(K * T, *jac.shape[2:]))
-        size = _largest(f)
+        size = largest(f)
         done = size <= GROUP_TOLERANCE
         live = np.flatnonzero(size > GROUP_TOLERANCE)  # the rows still iterated (not converged, not NaN)
         for it in range(GROUP_ITERATIONS):
@@ -355,13 +433,13 @@ def _polish(form: RealForm, signs: np.ndarray, X: np.ndarray, s: np.ndarray, k: 
                 live, a, b = live[regular], a[regular], b[regular]
                 delta = np.linalg.solve(a, b[..., None])[..., 0]
             if it == 0:
-                first[live] = _largest(delta)
+                first[live] = largest(delta)
             flat[live, :k] += delta
             f[live], jac[live] = form.residual_jacobian(flat[live], inputs[live], k, live // T)
-            size = _largest(f[live])
+            size = largest(f[live])
             done[live[size <= GROUP_TOLERANCE]] = True
             live = live[size > GROUP_TOLERANCE]  # neither converged nor NaN
-    accept = done & _accepted(_largest(flat[:, :k] - start), first)
+    accept = done & accepted(largest(flat[:, :k] - start), first)
     det = np.full(K * T, np.nan)
     if square and accept.any():
         det[accept] = np.linalg.det(jac[accept])
@@ -370,48 +448,13 @@ def _polish(form: RealForm, signs: np.ndarray, X: np.ndarray, s: np.ndarray, k: 
     return accept.reshape(K, T), det.reshape(K, T)
 
 
-def _largest(a: np.ndarray) -> np.ndarray:
-    """max |a| (N,) along the last axis of ``a`` (N, c) (NaN where any is NaN), column by column:
-    a few columns, many rows — a reduction along the short axis costs several times more."""
-    out = np.abs(a[:, 0])
-    for n in range(1, a.shape[1]):
-        np.maximum(out, np.abs(a[:, n]), out=out)
-    return out
-
-
-def _predict(known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndarray:
-    """Positions (len(want), k) at samples ``want`` (none of them in ``known``) by the cubic through
-    the four solved samples nearest each (fewer when fewer are solved): ``known`` (indices,
-    increasing), ``solved`` (len(known), k). Batched Lagrange weights, no per-sample loop."""
-    p = min(4, known.size)
-    first = np.clip(np.searchsorted(known, want) - p // 2, 0, known.size - p)
-    nodes = first[:, None] + np.arange(p)  # (N, p) the stencil of each wanted sample
-    at = known[nodes].T.astype(float)  # (p, N): stencil point by stencil point
-    weight = np.ones((p, want.size))  # the Lagrange basis at want: ∏_{b≠a} (want − b)/(a − b)
-    for a in range(p):
-        for b in range(p):
-            if b != a:
-                weight[a] *= (want - at[b]) / (at[a] - at[b])
-    return np.einsum("pn,npk->nk", weight, solved[nodes])
-
-
-def _coarse(known: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """The samples (increasing, the first and the last among them) the group is continued through
-    sequentially: one each time the inputs ``known`` (J_in, T) complex and ``s`` (T,) have moved
-    GROUP_STRIDE since the one before (their largest move, summed sample to sample)."""
-    moved = np.abs(np.diff(known, axis=1)).max(axis=0, initial=0.0)
-    travel = np.concatenate([[0.0], np.cumsum(np.maximum(moved, np.abs(np.diff(s))))])
-    first = np.flatnonzero(np.diff(np.floor(travel / GROUP_STRIDE))) + 1
-    return np.unique(np.concatenate([[0], first, [travel.size - 1]]))
-
-
 def solve_group(form: RealForm, signs: np.ndarray, known: np.ndarray, s: np.ndarray,
                 start: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Continue K linkages' group (``form``: each its own rows; ``signs`` (K,) the sign of det J
     at each one's rest pose) from ``start`` (n, K) complex through the samples of its inputs
     ``known`` (J_in, K, T) complex and ``s`` (K, T), in order.
 
-    Each linkage's samples :func:`_coarse` picks are continued sequentially (:func:`_continue`,
+    Each linkage's samples :func:`coarse` picks are continued sequentially (:func:`_continue`,
     to COARSE_TOLERANCE: enough to follow the branch; a loop over the linkages, a few samples
     each); then every sample of every linkage is polished by Newton's method all at once
     (:func:`_polish`), the ones between from a cubic through those, each checked like a
@@ -424,8 +467,7 @@ def solve_group(form: RealForm, signs: np.ndarray, known: np.ndarray, s: np.ndar
     """
     n, (K, T) = start.shape[0], s.shape
     k = 2 * n
-    X = np.ones((K, T, k + 2 * known.shape[0] + 1))  # unknowns, known joints, 1
-    X[..., k:-1:2], X[..., k + 1:-1:2] = np.moveaxis(known.real, 0, -1), np.moveaxis(known.imag, 0, -1)
+    X = variables(np.ones((n, K, T)), known)
     x0 = X[:, 0].copy()
     x0[:, 0:k:2], x0[:, 1:k:2] = start.real.T, start.imag.T
     out = np.full((K, T, k), np.nan)
@@ -433,18 +475,18 @@ def solve_group(form: RealForm, signs: np.ndarray, known: np.ndarray, s: np.ndar
     polished[..., :k] = np.nan  # the samples each linkage's coarse continuation reached, predicted
     coarse_end = []
     for c in range(K):
-        coarse = _coarse(known[:, c], s[c])
-        stop = _continue(form.linkage(c), signs[c], X[c], s[c], k, x0[c], coarse, out[c], COARSE_TOLERANCE)
-        last = coarse[stop - 1] if stop > 0 else (coarse[-1] if stop < 0 else -1)
+        through, travel = coarse(known[:, c], s[c])
+        stop = _continue(form.linkage(c), signs[c], X[c], s[c], k, x0[c], through, out[c], COARSE_TOLERANCE)
+        last = through[stop - 1] if stop > 0 else (through[-1] if stop < 0 else -1)
         coarse_end.append((stop, last))
         if last >= 0:
-            solved = coarse[coarse <= last]
+            solved = through[through <= last]
             between = np.ones(last + 1, dtype=bool)
             between[solved] = False
             inner = np.flatnonzero(between)
             polished[c, solved, :k] = out[c, solved]
             if inner.size:
-                polished[c, inner, :k] = _predict(solved, out[c, solved], inner)
+                polished[c, inner, :k] = predict(travel, solved, out[c, solved], inner)
     accept, det = _polish(form, signs, polished, s, k)
     out[:] = np.where(accept[..., None], polished[..., :k], np.nan)
     placed = np.zeros((K, T), dtype=bool)
@@ -469,6 +511,16 @@ def solve_group(form: RealForm, signs: np.ndarray, known: np.ndarray, s: np.ndar
     if form.m == k and missing.any():
         det[missing] = np.linalg.det(form.residual_jacobian(X, s, k)[1][missing])
     return X, det, placed
+
+
+def variables(joints: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """:class:`RealForm`'s variables X (K, T, W) of a group's ``joints`` (n, K, T) and its inputs
+    ``known`` (J_in, K, T), complex: x_0, y_0, x_1, …, then the inputs', then 1."""
+    k = 2 * joints.shape[0]
+    X = np.ones((*joints.shape[1:], k + 2 * known.shape[0] + 1))
+    X[..., 0:k:2], X[..., 1:k:2] = np.moveaxis(joints.real, 0, -1), np.moveaxis(joints.imag, 0, -1)
+    X[..., k:-1:2], X[..., k + 1:-1:2] = np.moveaxis(known.real, 0, -1), np.moveaxis(known.imag, 0, -1)
+    return X
 
 
 def conditioning(jac: np.ndarray, det: np.ndarray, placed: np.ndarray) -> np.ndarray:

@@ -1,0 +1,67 @@
+"""What the numeric groups' continuation shares: its tolerances, where it is continued
+sequentially (:func:`coarse`), how the samples between are predicted (:func:`predict`) and
+when a Newton solve is accepted as the continuation of its predictor (:func:`accepted`).
+Used by the general group (:mod:`.group`) and the triad's pose solve (:mod:`.triad`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Newton's method stops when every row is within this of 0 (rows are in units of the
+#: linkage's characteristic length, squared for distance rows)
+GROUP_TOLERANCE = 1e-13
+GROUP_ITERATIONS = 12
+#: a numeric group is continued sequentially only through the samples where its inputs (known
+#: joints, linear input) have moved this far (of the linkage's size) since the last one, however
+#: dense the samples; the samples between are predicted from those and polished all at once
+GROUP_STRIDE = 0.08
+#: the sequential continuation's tolerance before every sample is polished to GROUP_TOLERANCE:
+#: enough to follow the branch; the polish takes its samples on in two Newton steps (1e-4 → 1e-8 →
+#: 1e-16), no more than the samples between need from their cubic predictor
+COARSE_TOLERANCE = 1e-4
+
+
+def accepted(moved: np.ndarray | float, first: np.ndarray | float) -> np.ndarray | bool:
+    """Whether Newton ended close to where it started: within 1.5× its first step, itself at most
+    0.1 (of the linkage's size): it converged to the solution nearest its predictor."""
+    return (moved <= 1.5 * first + 1e-9) & (first <= 0.1)
+
+
+def largest(a: np.ndarray) -> np.ndarray:
+    """max |a| (N,) along the last axis of ``a`` (N, c) (NaN where any is NaN), column by column:
+    a few columns, many rows — a reduction along the short axis costs several times more."""
+    out = np.abs(a[:, 0])
+    for n in range(1, a.shape[1]):
+        np.maximum(out, np.abs(a[:, n]), out=out)
+    return out
+
+
+def predict(travel: np.ndarray, known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndarray:
+    """Positions (len(want), k) at samples ``want`` (none of them in ``known``) by the cubic, in the
+    inputs' ``travel`` (T,) (:func:`coarse`: repeated inputs are one point of it, not two), through
+    the four solved samples nearest each (fewer when fewer are solved): ``known`` (indices,
+    increasing), ``solved`` (len(known), k). Batched Lagrange weights, no per-sample loop."""
+    p = min(4, known.size)
+    first = np.clip(np.searchsorted(known, want) - p // 2, 0, known.size - p)
+    nodes = first[:, None] + np.arange(p)  # (N, p) the stencil of each wanted sample
+    at = travel[known][nodes].T  # (p, N): stencil point by stencil point
+    gap = travel[want] - at
+    before, after = np.ones((p, want.size)), np.ones((p, want.size))  # ∏_{b<a} gap_b, ∏_{b>a} gap_b
+    for a in range(1, p):
+        np.multiply(before[a - 1], gap[a - 1], out=before[a])
+        np.multiply(after[p - a], gap[p - a], out=after[p - a - 1])
+    apart = at[:, None] - at[None]  # (p, p, N): a − b
+    apart.reshape(p * p, -1)[:: p + 1] = 1.0
+    weight = before * after / apart.prod(axis=1)  # the Lagrange basis: ∏_{b≠a} (want − b)/(a − b)
+    return np.einsum("pn,npk->nk", weight, solved[nodes])
+
+
+def coarse(known: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The samples (increasing, the first and the last among them) the group is continued through
+    sequentially: one each time the inputs ``known`` (J_in, T) complex and ``s`` (T,) have moved
+    GROUP_STRIDE since the one before (their largest move, summed sample to sample: their travel
+    (T,), also returned)."""
+    moved = np.abs(np.diff(known, axis=1)).max(axis=0, initial=0.0)
+    travel = np.concatenate([[0.0], np.cumsum(np.maximum(moved, np.abs(np.diff(s))))])
+    first = np.flatnonzero(np.diff(np.floor(travel / GROUP_STRIDE))) + 1
+    return np.unique(np.concatenate([[0], first, [travel.size - 1]])), travel
