@@ -40,20 +40,24 @@ def predict(travel: np.ndarray, known: np.ndarray, solved: np.ndarray, want: np.
     """Positions (len(want), k) at samples ``want`` (none of them in ``known``) by the cubic, in the
     inputs' ``travel`` (T,) (:func:`coarse`: repeated inputs are one point of it, not two), through
     the four solved samples nearest each (fewer when fewer are solved): ``known`` (indices,
-    increasing), ``solved`` (len(known), k). Batched Lagrange weights, no per-sample loop."""
-    p = min(4, known.size)
-    first = np.clip(np.searchsorted(known, want) - p // 2, 0, known.size - p)
-    nodes = first[:, None] + np.arange(p)  # (N, p) the stencil of each wanted sample
-    at = travel[known][nodes].T  # (p, N): stencil point by stencil point
-    gap = travel[want] - at
-    before, after = np.ones((p, want.size)), np.ones((p, want.size))  # ∏_{b<a} gap_b, ∏_{b>a} gap_b
-    for a in range(1, p):
-        np.multiply(before[a - 1], gap[a - 1], out=before[a])
-        np.multiply(after[p - a], gap[p - a], out=after[p - a - 1])
-    apart = at[:, None] - at[None]  # (p, p, N): a − b
-    apart.reshape(p * p, -1)[:: p + 1] = 1.0
-    weight = before * after / apart.prod(axis=1)  # the Lagrange basis: ∏_{b≠a} (want − b)/(a − b)
-    return np.einsum("pn,npk->nk", weight, solved[nodes])
+    increasing), ``solved`` (len(known), k). Each interval's cubic in Newton's form (divided
+    differences over the intervals at once), evaluated by Horner's rule: no per-sample loop."""
+    n, p = known.size, min(4, known.size)
+    if n < 2:
+        return np.broadcast_to(solved[:1], (want.size, solved.shape[1])).copy()
+    first = np.minimum(np.maximum(np.arange(1 - p // 2, n - p // 2), 0), n - p)  # each interval's stencil
+    nodes = first + np.arange(p)[:, None]  # (p, intervals)
+    x, c = travel[known][nodes], solved[nodes]  # (p, intervals), (p, intervals, k)
+    for j in range(1, p):  # divided differences, in place
+        c[j:] = (c[j:] - c[j - 1:-1]) / (x[j:] - x[:p - j])[..., None]
+    inside = np.minimum(np.maximum(np.searchsorted(known, want), 1), n - 1)  # 1 + the interval of each wanted sample
+    inside -= 1
+    t, x, c = travel[want][:, None], x.take(inside, axis=1)[..., None], c.take(inside, axis=1)
+    out = c[p - 1]
+    for j in range(p - 2, -1, -1):
+        out *= t - x[j]
+        out += c[j]
+    return out
 
 
 def coarse(known: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -13,7 +13,7 @@ the rows' :class:`RealForm`, built once per step: :meth:`Group.evaluate`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
 
@@ -91,8 +91,7 @@ class Group(Step):
         body = self.triad.constants(rest, self.joints, self.inputs)
         turns = body.p * np.array([0.0, 1.0, 1j])  # the body about the origin, turned by u = 0, 1, i
         grad = form.gradient(variables(turns, np.zeros((self.inputs.size, *turns.shape[1:]))))
-        c = np.moveaxis(grad[..., self.triad.body, : 2 * self.joints.size], 1, 0)  # (u, K, 3, 6)
-        return form, signs, replace(body, gradient=np.stack([c[0], c[1] - c[0], c[2] - c[0]]))
+        return form, signs, body.with_rows(grad[..., self.triad.body, : 2 * self.joints.size])
 
     def _parts(self, const: tuple[Any, ...]) -> tuple[RealForm, np.ndarray, Body | None]:
         """(form, signs, body) of ``const``, by default at the rest pose it was compiled at."""
@@ -128,7 +127,7 @@ class Group(Step):
         fast = np.ones(K, dtype=bool)
         for c in range(K):
             through, travel = coarse(known[:, c], s[c])
-            solved, stop = follow(body, c, hung[:, c], through, COARSE_TOLERANCE)
+            solved, stop = follow(body, c, hung[:, c], through, travel, COARSE_TOLERANCE)
             if stop >= 0:
                 fast[c] = False
                 continue

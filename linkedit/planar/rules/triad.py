@@ -26,15 +26,12 @@ assembly branch (det J's sign times a factor that never vanishes).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from linkedit.planar.constraints import Rows
 from linkedit.planar.rules.continuation import GROUP_ITERATIONS, accepted, largest
-
-_NEXT, _AFTER = np.array([1, 2, 0]), np.array([2, 0, 1])  # k + 1, k + 2 (mod 3)
-
 
 @dataclass(frozen=True)
 class Triad:
@@ -86,27 +83,36 @@ class Triad:
         centre = points.mean(axis=0)
         p = points - centre
         r2 = np.abs(points - hung) ** 2
-        m = _matrix(points - hung, p)
-        det = (m[0] * _cofactors(m)[0]).sum(axis=0)
+        det = _system(points - hung, p)[1]
         sign = np.where(det < 0.0, -1.0, 1.0)
-        return Body(p[..., None], r2[..., None], centre, sign, 9.0 * (np.abs(p) ** 2).sum(axis=0), np.zeros(0))
+        return Body(p[..., None], r2[..., None], centre, sign, 9.0 * (np.abs(p) ** 2).sum(axis=0) * r2.prod(axis=0),
+                    np.zeros(0))
 
 
 @dataclass(frozen=True)
 class Body:
     """K linkages' triad bodies: joints ``p`` (3, K, 1) complex about their centroid and links' lengths²
     ``r2`` (3, K, 1) at rest, where the body's centroid is at rest (K,) complex, det M's ``sign`` there
-    (K,) (±1), det(NᵀN) = 9·Σ|p_k|² (K,), and the gradient J2 (3, 6) of the body's rows at a turn u:
-    C0 + Re(u)·C1 + Im(u)·C2, ``gradient`` (C0, C1, C2) (3, K, 3, 6) (the rows hold under any
-    rigid motion: their gradient does not move with the body's centre, and it is linear in its
-    joints; :meth:`~linkedit.planar.rules.group.Group.constants` fills it in)."""
+    (K,) (±1), det(NᵀN) = 9·Σ|p_k|² (K,), and the Gram matrix J2·J2ᵀ of the body's rows at a turn u
+    = c + i·s as ``gram`` (K, 6, 6): its entries (00, 11, 22, 01, 02, 12) on (1, c, s, c², cs, s²)
+    (:meth:`with_rows`)."""
 
     p: np.ndarray
     r2: np.ndarray
     rest: np.ndarray
     sign: np.ndarray
-    spread: np.ndarray
-    gradient: np.ndarray
+    spread: np.ndarray  #: 9·Σ|p_k|²·∏ r2_k (K,): d_s's constant denominator
+    gram: np.ndarray
+
+    def with_rows(self, gradient: np.ndarray) -> "Body":
+        """The body with its rows' Gram matrix from their gradient J2 (K, 3, 3, 6) at the body turned
+        by u = 0, 1, i about the origin: J2(u) = C0 + c·C1 + s·C2 (the rows hold under any rigid
+        motion, so their gradient does not move with the centre, and it is linear in the joints)."""
+        c = gradient[:, 0], gradient[:, 1] - gradient[:, 0], gradient[:, 2] - gradient[:, 0]
+        a = [[ca @ np.swapaxes(cb, -1, -2) for cb in c] for ca in c]  # C_a·C_bᵀ (K, 3, 3)
+        terms = [a[0][0], a[0][1] + a[1][0], a[0][2] + a[2][0], a[1][1], a[1][2] + a[2][1], a[2][2]]
+        rows, cols = np.array([0, 1, 2, 0, 0, 1]), np.array([0, 1, 2, 1, 2, 2])
+        return replace(self, gram=np.stack([t[:, rows, cols] for t in terms], axis=-1))
 
     def linkage(self, c: int) -> tuple[list[complex], list[float], float]:
         """Linkage ``c``'s body joints and lengths² as Python numbers, and its det M sign."""
@@ -122,21 +128,22 @@ def _is_distance(rows: Rows, r: int, ends: list[int]) -> bool:
             and np.array_equal(dc, ec) and not dc[plain].any())
 
 
-def _matrix(d: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """M (column, row k, …): its columns Re d_k, Im d_k, c_k = Re(d̄_k·i·q_k) from d_k and q_k (3, …)."""
-    m = np.empty((3, *d.shape))
+def _system(d: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """M's cofactors (column j, row k, …) and det M (…) from d_k and q_k (3, …): M's columns are
+    Re d_k, Im d_k and c_k = Re(d̄_k·i·q_k); cofactor (j, k) is the cross product of columns j + 1
+    and j + 2 at row k, so that Σ_k cof[j, k]·M[i, k] = δ_ij·det M (M⁻¹'s rows times det M). M is
+    written with its first two columns and rows repeated after the third (5 × 5), so that every
+    cyclic neighbour is a slice."""
+    m = np.empty((5, 5, *d.shape[1:]))
     x, y = d.real, d.imag
-    m[0], m[1] = x, y
-    np.multiply(y, q.real, out=m[2])
-    m[2] -= x * q.imag
-    return m
-
-
-def _cofactors(m: np.ndarray) -> np.ndarray:
-    """M's cofactors (column j, row k, …): the cross product of its columns j + 1 and j + 2, so
-    that Σ_k cof[j, k]·M[i, k] = δ_ij·det M (M⁻¹'s rows times det M)."""
-    a, b = m[:, _NEXT], m[:, _AFTER]  # rows k + 1, k + 2
-    return a[_NEXT] * b[_AFTER] - b[_NEXT] * a[_AFTER]
+    m[0, :3], m[1, :3] = x, y
+    np.multiply(y, q.real, out=m[2, :3])
+    m[2, :3] -= x * q.imag
+    m[:3, 3:] = m[:3, :2]
+    m[3:] = m[:2]
+    cof = m[1:4, 1:4] * m[2:, 2:]
+    cof -= m[1:4, 2:] * m[2:, 1:4]
+    return cof, (m[0, :3] * cof[0]).sum(axis=0)
 
 
 def _solve(cof: np.ndarray, det: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -148,59 +155,71 @@ def newton(p: list[complex], r2: list[float], hung: list[complex], centre: compl
            tol: float) -> tuple[bool, float, float, complex, float]:
     """Newton's method on one linkage's body pose (``centre``, ``turn``) at one sample, the links
     hung from ``hung`` (3 complex), until every row is within ``tol`` of 0: Python numbers (a
-    few of them: numpy's per-call cost would be most of the time). Returns (converged, size of
-    the first step (its largest joint move), det M at the solution (0: failed), the pose)."""
+    few of them: numpy's per-call cost would be most of the time), M's cofactors written out.
+    Returns (converged, size of the first step (its largest joint move), det M at the solution
+    (0: failed), the pose)."""
+    (p0, p1, p2), (l0, l1, l2), (h0, h1, h2) = p, r2, hung
     first = 0.0
     for it in range(GROUP_ITERATIONS):
         u = complex(math.cos(turn), math.sin(turn))
-        m, worst = [], 0.0
-        for k in range(3):
-            q = u * p[k]
-            d = centre + q - hung[k]
-            res = d.real * d.real + d.imag * d.imag - r2[k]
-            m.append((d.real, d.imag, d.imag * q.real - d.real * q.imag, -0.5 * res, q))
-            worst = max(worst, abs(res))
-        (a0, b0, c0, f0, _), (a1, b1, c1, f1, _), (a2, b2, c2, f2, _) = m
-        yc = (b1 * c2 - b2 * c1, b2 * c0 - b0 * c2, b0 * c1 - b1 * c0)
-        det = a0 * yc[0] + a1 * yc[1] + a2 * yc[2]
-        if worst <= tol:
+        q0, q1, q2 = u * p0, u * p1, u * p2
+        d0, d1, d2 = centre + q0 - h0, centre + q1 - h1, centre + q2 - h2
+        a0, b0, a1, b1, a2, b2 = d0.real, d0.imag, d1.real, d1.imag, d2.real, d2.imag
+        f0, f1, f2 = l0 - a0 * a0 - b0 * b0, l1 - a1 * a1 - b1 * b1, l2 - a2 * a2 - b2 * b2  # −F_k
+        c0, c1, c2 = b0 * q0.real - a0 * q0.imag, b1 * q1.real - a1 * q1.imag, b2 * q2.real - a2 * q2.imag
+        y0, y1, y2 = b1 * c2 - b2 * c1, b2 * c0 - b0 * c2, b0 * c1 - b1 * c0
+        det = a0 * y0 + a1 * y1 + a2 * y2
+        if max(abs(f0), abs(f1), abs(f2)) <= tol:
             return True, first, det, centre, turn
-        if not (worst < math.inf and det != 0.0 and math.isfinite(det)):
+        if not (det != 0.0 and math.isfinite(det) and math.isfinite(f0 + f1 + f2)):
             return False, first, 0.0, centre, turn
-        cx = (c1 * a2 - c2 * a1, c2 * a0 - c0 * a2, c0 * a1 - c1 * a0)
-        xy = (a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0)
-        dx = (f0 * yc[0] + f1 * yc[1] + f2 * yc[2]) / det
-        dy = (f0 * cx[0] + f1 * cx[1] + f2 * cx[2]) / det
-        dt = (f0 * xy[0] + f1 * xy[1] + f2 * xy[2]) / det
-        if it == 0:
-            first = max(max(abs(dx - dt * q.imag), abs(dy + dt * q.real)) for *_, q in m)
+        h = 0.5 / det  # M·step = −F/2
+        dx = (f0 * y0 + f1 * y1 + f2 * y2) * h
+        dy = (f0 * (c1 * a2 - c2 * a1) + f1 * (c2 * a0 - c0 * a2) + f2 * (c0 * a1 - c1 * a0)) * h
+        dt = (f0 * (a1 * b2 - a2 * b1) + f1 * (a2 * b0 - a0 * b2) + f2 * (a0 * b1 - a1 * b0)) * h
+        if it == 0:  # joint k moves by step + i·dt·q_k
+            first = max(abs(dx - dt * q0.imag), abs(dy + dt * q0.real), abs(dx - dt * q1.imag),
+                        abs(dy + dt * q1.real), abs(dx - dt * q2.imag), abs(dy + dt * q2.real))
         centre += complex(dx, dy)
         turn += dt
     return False, first, 0.0, centre, turn
 
 
-def follow(body: Body, c: int, hung: np.ndarray, path: np.ndarray, tol: float) -> tuple[np.ndarray, int]:
+def follow(body: Body, c: int, hung: np.ndarray, path: np.ndarray, travel: np.ndarray,
+           tol: float) -> tuple[np.ndarray, int]:
     """Continue linkage ``c``'s body from its rest pose through the samples ``path`` in order
-    (``hung`` (3, T) complex: where its links hang from). Each move is a homotopy in ``hung``
-    (interpolated linearly), accepted only when Newton converges close to where it started
+    (``hung`` (3, T) complex: where its links hang from; ``travel`` (T,) the inputs' travel).
+    Newton starts from the pose extrapolated from the last three in ``travel`` (a parabola),
+    or from the last pose: a homotopy in ``hung`` (interpolated linearly), halved (down to 1/256)
+    until a move is accepted — Newton converged close to where it started
     (:func:`~linkedit.planar.rules.continuation.accepted`, the largest joint move) with det M's
-    sign of the rest pose, else halved (down to 1/256). Returns the poses (len(path), 3): the
-    centre's x, y and the turn, and the position in ``path`` where it fails, or −1."""
+    sign of the rest pose. Returns the poses (len(path), 3): the centre's x, y and the turn, and
+    the position in ``path`` where it fails, or −1."""
     p, r2, sign = body.linkage(c)
     centre, turn = complex(body.rest[c]), 0.0
     out = np.full((path.size, 3), np.nan)
-    prev = [complex(v) for v in hung[:, path[0]]]
-    for n, t in enumerate(path.tolist()):
-        goal = [complex(v) for v in hung[:, t]]
+    goals, along = hung[:, path].T.tolist(), travel[path].tolist()
+    prev = goals[0]
+    for n, goal in enumerate(goals):
         done, piece = 0.0, 1.0
+        guess = None
+        if n >= 3 and along[n - 1] > along[n - 2] > along[n - 3]:  # the parabola through the last three
+            a, b, c, x = along[n - 3], along[n - 2], along[n - 1], along[n]
+            wa, wb = (x - b) * (x - c) / ((a - b) * (a - c)), (x - a) * (x - c) / ((b - a) * (b - c))
+            wc = 1.0 - wa - wb
+            pa, pb = out[n - 3], out[n - 2]
+            guess = (complex(wa * pa[0] + wb * pb[0], wa * pa[1] + wb * pb[1]) + wc * centre,
+                     wa * pa[2] + wb * pb[2] + wc * turn)
         while done < 1.0:
             f = min(done + piece, 1.0)
             at = goal if f == 1.0 else [a + f * (b - a) for a, b in zip(prev, goal)]
-            ok, first, det, g, th = newton(p, r2, at, centre, turn, tol)
+            start, spin = guess if guess is not None else (centre, turn)
+            ok, first, det, g, th = newton(p, r2, at, start, spin, tol)
             if ok:
-                u, v = complex(math.cos(turn), math.sin(turn)), complex(math.cos(th), math.sin(th))
-                moved = max(max(abs(w.real), abs(w.imag)) for w in (g + v * pk - centre - u * pk for pk in p))
+                w = complex(math.cos(th) - math.cos(spin), math.sin(th) - math.sin(spin))
+                moved = max(max(abs(v.real), abs(v.imag)) for v in (g - start + w * pk for pk in p))
                 ok = bool(accepted(moved, first)) and det * sign > 0.0
+            guess = None
             if ok:
                 centre, turn, done = g, th, f
                 piece = min(2.0 * piece, 1.0)
@@ -218,10 +237,8 @@ def at(body: Body, joints: np.ndarray, hung: np.ndarray) -> "Pose":
     centre = joints.mean(axis=0)
     q = joints - centre
     d = joints - hung
-    m = _matrix(d, q)
-    cof = _cofactors(m)
-    u = (body.p.conj() * q).sum(axis=0) / (body.spread[:, None] / 9.0)
-    return Pose(centre, u, q, d, cof, (m[0] * cof[0]).sum(axis=0))
+    u = (body.p.conj() * q).sum(axis=0) / (np.abs(body.p) ** 2).sum(axis=0)
+    return Pose(centre, u, q, d, *_system(d, q))
 
 
 @dataclass
@@ -250,11 +267,12 @@ def pose(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray) -> 
     np.cos(turn, out=u.real)
     np.sin(turn, out=u.imag)
     q = u * body.p
-    d = centre + q - hung
-    res = d.real * d.real + d.imag * d.imag - body.r2
-    m = _matrix(d, q)
-    cof = _cofactors(m)
-    return Pose(centre, u, q, d, cof, (m[0] * cof[0]).sum(axis=0)), res
+    d = q + centre
+    d -= hung
+    res = d.real * d.real
+    res += d.imag * d.imag
+    res -= body.r2
+    return Pose(centre, u, q, d, *_system(d, q)), res
 
 
 def polish(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray, tol: float) -> tuple[Pose, np.ndarray]:
@@ -290,17 +308,18 @@ def _worst(*parts: np.ndarray) -> np.ndarray:
 
 
 def ds(now: Pose, body: Body) -> np.ndarray:
-    """The group's d_s (K, T) (the module docstring's formula) at the solution ``now``."""
-    c0, c1, c2 = body.gradient[:, :, None]
-    j2 = c0 + now.u.real[..., None, None] * c1 + now.u.imag[..., None, None] * c2  # (K, T, 3, 6)
-    g = j2 @ np.swapaxes(j2, -1, -2)
-    det = (g[..., 0, 0] * (g[..., 1, 1] * g[..., 2, 2] - g[..., 1, 2] * g[..., 2, 1])
-           - g[..., 0, 1] * (g[..., 1, 0] * g[..., 2, 2] - g[..., 1, 2] * g[..., 2, 0])
-           + g[..., 0, 2] * (g[..., 1, 0] * g[..., 2, 1] - g[..., 1, 1] * g[..., 2, 0]))
-    rows = g[..., 0, 0] * g[..., 1, 1] * g[..., 2, 2] * body.spread[:, None]
-    d2 = now.d.real ** 2 + now.d.imag ** 2
-    rows = rows * d2[0] * d2[1] * d2[2]
-    return np.minimum(now.det ** 2 * det / np.maximum(rows, 1e-300), 1.0)
+    """The group's d_s (K, T) (the module docstring's formula) at the solution ``now``, |d_k|² = r2_k."""
+    c, s = now.u.real, now.u.imag
+    basis = np.empty((c.shape[0], 6, c.shape[1]))
+    basis[:, 0], basis[:, 1], basis[:, 2] = 1.0, c, s
+    np.multiply(c, c, out=basis[:, 3])
+    np.multiply(c, s, out=basis[:, 4])
+    np.multiply(s, s, out=basis[:, 5])
+    g00, g11, g22, g01, g02, g12 = np.moveaxis(body.gram @ basis, 1, 0)  # (K, T) each
+    det = g00 * (g11 * g22 - g12 * g12) - g01 * (g01 * g22 - g12 * g02) + g02 * (g01 * g12 - g11 * g02)
+    rows = g00 * g11 * g22
+    rows *= body.spread[:, None]
+    return np.minimum(now.det * now.det * det / rows, 1.0)
 
 
 def rates(now: Pose, dhung: np.ndarray, ddhung: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
