@@ -196,6 +196,7 @@ def follow(body: Body, c: int, hung: np.ndarray, path: np.ndarray, travel: np.nd
     sign of the rest pose. Returns the poses (len(path), 3): the centre's x, y and the turn, and
     the position in ``path`` where it fails, or −1."""
     p, r2, sign = body.linkage(c)
+    p0, p1, p2 = p
     centre, turn = complex(body.rest[c]), 0.0
     out = np.full((path.size, 3), np.nan)
     goals, along = hung[:, path].T.tolist(), travel[path].tolist()
@@ -215,9 +216,10 @@ def follow(body: Body, c: int, hung: np.ndarray, path: np.ndarray, travel: np.nd
             at = goal if f == 1.0 else [a + f * (b - a) for a, b in zip(prev, goal)]
             start, spin = guess if guess is not None else (centre, turn)
             ok, first, det, g, th = newton(p, r2, at, start, spin, tol)
-            if ok:
-                w = complex(math.cos(th) - math.cos(spin), math.sin(th) - math.sin(spin))
-                moved = max(max(abs(v.real), abs(v.imag)) for v in (g - start + w * pk for pk in p))
+            if ok:  # joint k moved by (g − start) + (e^{i·th} − e^{i·spin})·p_k
+                w, shift = complex(math.cos(th) - math.cos(spin), math.sin(th) - math.sin(spin)), g - start
+                v0, v1, v2 = shift + w * p0, shift + w * p1, shift + w * p2
+                moved = max(abs(v0.real), abs(v0.imag), abs(v1.real), abs(v1.imag), abs(v2.real), abs(v2.imag))
                 ok = bool(accepted(moved, first)) and det * sign > 0.0
             guess = None
             if ok:
