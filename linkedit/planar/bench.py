@@ -7,7 +7,8 @@
 second table times the new rule kinds at 360 samples against a dyadic four-bar of the same
 size: a closed-form slider (slider-crank) and a numeric group (the complex-loop six-bar:
 continued sequentially through a sample each time the crank pin has moved 8 % of the linkage's
-size, then every sample polished in one batch; its group is a triad, solved as its body's pose), with the ratio to the four-bar and its target.
+size, then every sample polished in one batch; its group is a triad, solved as its body's
+pose), with the ratio to the four-bar and its target.
 The third table, when pylinkage is installed (the ``bench`` extra), times the first table's
 linkages side by side with pylinkage's numba solver (``step_fast``, 360 steps) after checking
 that both give the same trajectories (:mod:`linkedit.planar.peer`).

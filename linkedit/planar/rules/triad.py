@@ -67,7 +67,8 @@ class Triad:
         if min(binary) < 0 or len(body) != 3:
             return None
         points = rest[joints]
-        if abs(((points[1] - points[0]).conjugate() * (points[2] - points[0])).imag) <= 1e-9 * np.abs(points - points[0]).max() ** 2:
+        span = np.abs(points - points[0]).max() ** 2
+        if abs(((points[1] - points[0]).conjugate() * (points[2] - points[0])).imag) <= 1e-9 * span:
             return None  # a straight body: its rows may not hold it rigid
         moved = rest.copy()  # the body's rows hold at any pose of the body: they keep it rigid
         centre = points.mean()
