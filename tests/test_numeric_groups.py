@@ -18,7 +18,7 @@ from tests.planar_specs import TRIAD
 
 def rest_branch(spec: LinkageSpec, angles: np.ndarray, step_deg: float = 0.5) -> tuple[list[str], np.ndarray, int]:
     """The joints of a crank-driven group (every moving joint but the motor's), (T, n) complex at
-    motor turns ``angles`` (T,) radians from rest, increasing, continued from the rest pose by
+    motor turns ``angles`` (T,) radians from rest, monotonic (either sense), continued from the rest pose by
     Newton's method on |z_a − z_b|² − L² (every pair of every link) in steps of at most
     ``step_deg``; and the first sample the rest branch cannot reach (a fold: Newton lands more
     than 1 % of the size away or det J changes sign), or −1."""
@@ -54,7 +54,7 @@ def rest_branch(spec: LinkageSpec, angles: np.ndarray, step_deg: float = 0.5) ->
     out = np.full((angles.size, len(unknown)), np.nan, dtype=complex)
     theta = 0.0
     for n, target in enumerate(angles):
-        parts = max(1, int(np.ceil(np.degrees(target - theta) / step_deg)))
+        parts = max(1, int(np.ceil(abs(np.degrees(target - theta)) / step_deg)))
         for sub in np.linspace(theta, target, parts + 1)[1:]:
             y, det = newton(x.copy(), sub)
             if not np.isfinite(y).all() or np.sign(det) != np.sign(det0) or np.abs(y - x).max() > 0.01 * size:
