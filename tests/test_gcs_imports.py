@@ -13,6 +13,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 import linkedit
 import linkedit.gcs
 
@@ -56,6 +58,7 @@ def _imports(path: Path, name: str, known: dict[str, Path]) -> set[str]:
     return {m for m in out if m in known and m != name}
 
 
+@pytest.mark.slow  # 8 s of fresh imports; test_no_import_cycle_runs_through_gcs_and_gcs_does_not_reach_up runs by default
 def test_each_gcs_module_imports_alone_in_a_fresh_interpreter():
     """One interpreter, gcs and io dropped from it before each module (the specs and planar
     kinematics below them stay loaded: they never import gcs)."""

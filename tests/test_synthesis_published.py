@@ -84,6 +84,7 @@ def _drawn_distances(curve: np.ndarray, z: np.ndarray) -> np.ndarray:
     return np.abs(rel - t * e).min(axis=1)
 
 
+@pytest.mark.slow  # 7 s; the six points on a line run the same round trip, and `bench -s synthesis --quick` solves problem 7
 def test_morgan_wampler_problem_7_round_trip(run_cli, four_bar_atlas, tmp_path):
     """`synthesize --points` on the five points of Morgan & Wampler's problem 7: the result passes through every
     point to rounding (the published linkages' error, 0); `linkedit simulate result.yaml` draws a curve whose
