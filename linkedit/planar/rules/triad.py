@@ -31,16 +31,16 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from linkedit.planar.constraints import Rows
-from linkedit.planar.rules.continuation import GROUP_ITERATIONS, accepted, largest
+from linkedit.planar.rules.continuation import GROUP_ITERATIONS, accepted
+
 
 @dataclass(frozen=True)
 class Triad:
     """Which of a group's inputs and rows make it a triad: ``partner`` (3,) the input (index in the
-    group's inputs) each body joint is hung from, ``binary`` (3,) and ``body`` (3,) the group's rows
-    of its binary links (by body joint) and of its body."""
+    group's inputs) each body joint is hung from by a binary link, ``body`` (3,) the group's rows
+    keeping its body rigid."""
 
     partner: np.ndarray
-    binary: np.ndarray
     body: np.ndarray
 
     @classmethod
@@ -50,7 +50,7 @@ class Triad:
         if joints.size != 3 or rows.m != 6 or rows.drive.any() or rows.dc.ndim != 2:
             return None
         own, known = list(joints.tolist()), list(inputs.tolist())
-        partner, binary, body = [-1, -1, -1], [-1, -1, -1], []
+        partner, body = [-1, -1, -1], []
         for r, js in enumerate(rows.joints):
             if js <= set(own):
                 body.append(r)
@@ -60,11 +60,11 @@ class Triad:
                 return None
             inner = [j for j in ends if j in own]
             outer = [j for j in ends if j in known]
-            if len(inner) != 1 or len(outer) != 1 or binary[own.index(inner[0])] >= 0:
+            if len(inner) != 1 or len(outer) != 1 or partner[own.index(inner[0])] >= 0:
                 return None
             k = own.index(inner[0])
-            partner[k], binary[k] = known.index(outer[0]), r
-        if min(binary) < 0 or len(body) != 3:
+            partner[k] = known.index(outer[0])
+        if min(partner) < 0 or len(body) != 3:
             return None
         points = rest[joints]
         span = np.abs(points - points[0]).max() ** 2
@@ -76,7 +76,7 @@ class Triad:
         size = 1.0 + float(np.abs(rest).max()) ** 2
         if np.abs(rows.take(np.array(body)).residual(moved[:, None])).max() > 1e-9 * size:
             return None
-        return cls(np.array(partner), np.array(binary), np.array(body))
+        return cls(np.array(partner), np.array(body))
 
     def constants(self, rest: np.ndarray, joints: np.ndarray, inputs: np.ndarray) -> "Body":
         """The body of each of K rest poses ``rest`` (J, K) complex."""
@@ -94,7 +94,8 @@ class Triad:
 class Body:
     """K linkages' triad bodies: joints ``p`` (3, K, 1) complex about their centroid and links' lengths²
     ``r2`` (3, K, 1) at rest, where the body's centroid is at rest (K,) complex, det M's ``sign`` there
-    (K,) (±1), det(NᵀN) = 9·Σ|p_k|² (K,), and the Gram matrix J2·J2ᵀ of the body's rows at a turn u
+    (K,) (±1), d_s's constant denominator ``spread`` = det(NᵀN)·∏ r2_k = 9·Σ|p_k|²·∏ r2_k (K,) (the
+    binary rows' norms at a solution), and the Gram matrix J2·J2ᵀ of the body's rows at a turn u
     = c + i·s as ``gram`` (K, 6, 6): its entries (00, 11, 22, 01, 02, 12) on (1, c, s, c², cs, s²)
     (:meth:`with_rows`)."""
 
@@ -102,7 +103,7 @@ class Body:
     r2: np.ndarray
     rest: np.ndarray
     sign: np.ndarray
-    spread: np.ndarray  #: 9·Σ|p_k|²·∏ r2_k (K,): d_s's constant denominator
+    spread: np.ndarray
     gram: np.ndarray
 
     def with_rows(self, gradient: np.ndarray) -> "Body":
