@@ -63,10 +63,10 @@ class Group(Step):
         return f"numeric group {self.name}"
 
     @cached_property
-    def form(self) -> RealForm:
-        """Its rows as real quadratics over (its joints, its inputs, 1), at the rest pose it was
-        compiled at (one linkage)."""
-        return RealForm.of(self.rows.columns(self._columns))
+    def compiled(self) -> tuple[Any, ...]:
+        """Its :meth:`constants` at the rest pose it was compiled at (one linkage)."""
+        assert self.graph is not None
+        return self.constants((self.graph.rest[:, 0] + 1j * self.graph.rest[:, 1])[:, None], False)
 
     @property
     def _columns(self) -> np.ndarray:
@@ -95,9 +95,7 @@ class Group(Step):
 
     def _parts(self, const: tuple[Any, ...]) -> tuple[RealForm, np.ndarray, Body | None]:
         """(form, signs, body) of ``const``, by default at the rest pose it was compiled at."""
-        if not const:
-            assert self.graph is not None
-            const = self.constants((self.graph.rest[:, 0] + 1j * self.graph.rest[:, 1])[:, None], False)
+        const = const or self.compiled
         return const[0], const[1], const[2] if len(const) > 2 else None
 
     def place(self, z: np.ndarray, s: np.ndarray, rest: np.ndarray,
