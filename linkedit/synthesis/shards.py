@@ -32,8 +32,8 @@ from linkedit.io.hdf5 import writing
 from linkedit.resources import require_disk, require_memory
 from linkedit.synthesis.atlas import Atlas, check_options
 from linkedit.synthesis.atlas import load as load_file
-from linkedit.synthesis.chunks import (CHUNK, HARMONICS, SAMPLES, Chunk, build_chunk, build_memory, chunk_sizes, report_kept,
-                                      reporting)
+from linkedit.synthesis.chunks import (CHUNK, HARMONICS, SAMPLES, Chunk, build_chunk, build_memory, chunk_sizes,
+                                      report_kept, reporting)
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, Runner, chunk_runner
 from linkedit.synthesis.families import SPEC_TEXTS, family
 from linkedit.synthesis.index import SAMPLE_PER_CELL, assign, quantizer_side, train_quantizer
