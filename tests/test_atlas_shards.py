@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 import os
 import signal
+import threading
+import time
 
 import h5py
 import numpy as np
@@ -256,3 +258,67 @@ def test_a_resumed_build_reports_the_linkages_it_built(run_cli, tmp_path, small_
     assert resumed.exit_code == 0 and resumed.output.startswith("2,000 linkages in "), resumed.output
     (out / shards.MANIFEST).write_text(cut)  # interrupted again at the same place
     assert report_of(run_cli(*args, "--json"))["linkages"] == 2 * SMALL
+
+
+def _files(folder) -> dict[str, int]:
+    """Every file under ``folder`` (its path there → its size in bytes)."""
+    return {str(p.relative_to(folder)): p.stat().st_size for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _tasks_running(cluster) -> int:
+    """Tasks the workers of ``cluster`` are running now, a cancelled one still running included."""
+    from distributed import Client
+
+    with Client(cluster) as client:
+        return sum(client.run(lambda dask_worker: len(dask_worker.state.executing)).values())
+
+
+def _cluster_build_interrupted(monkeypatch, tmp_path):
+    """A build of 64 chunks of 5,000 four-bars into ``tmp_path / "cut"`` (~0.1 s a chunk: a Dask task of 4 still
+    runs when the first shard appears), with a SIGINT to this process as its first shard appears; its count,
+    folder and a deadline (2 minutes) for waiting on it."""
+    size = 5 * SMALL
+    for module in (atlas, chunks, shards):
+        monkeypatch.setattr(module, "CHUNK", size)
+    out, deadline = tmp_path / "cut", time.monotonic() + 120
+    first = out / "four-bar" / "00000000.h5"
+
+    def interrupt() -> None:
+        while not first.exists() and time.monotonic() < deadline:
+            time.sleep(0.005)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    threading.Thread(target=interrupt, daemon=True).start()
+    return 64 * size, out, deadline
+
+
+def test_an_interrupted_cluster_build_leaves_a_quiet_folder(run_cli, tmp_path, monkeypatch, cluster):
+    """SIGINT as the first shard appears, while both workers are inside tasks of 4 chunks: when the command has
+    returned (exit 130, its one line) nothing more is written into the folder, once every task the workers were
+    running has ended (they went on writing shards for a second or so after the client had gone); the manifest
+    lists only complete shards and `--resume` finishes the build."""
+    count, out, deadline = _cluster_build_interrupted(monkeypatch, tmp_path)
+    result = run_cli("atlas", "build", "--family", "four-bar", "-n", str(count), "-o", out, "--seed", "8",
+                     "--scheduler", cluster.scheduler_address)
+    returned = _files(out)
+    assert result.exit_code == 130 and result.output.strip().splitlines() == ["linkedit: error: interrupted"]
+    while _tasks_running(cluster) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert _files(out) == returned
+    cut = json.loads((out / shards.MANIFEST).read_text())
+    listed = {e["file"] for e in cut["families"]["four-bar"]["shards"]}
+    assert listed <= set(returned) and len(cut["families"]["four-bar"]["pending"]) == 64 - len(listed)
+    resumed = _build(run_cli, out, count, "--resume", "--scheduler", cluster.scheduler_address)
+    assert [e["chunk"] for e in resumed["families"]["four-bar"]["shards"]] == list(range(64))
+
+
+def test_an_interrupted_cluster_build_says_when_its_tasks_did_not_stop(run_cli, tmp_path, monkeypatch, cluster):
+    """When the workers' running tasks have not stopped within the wait (none here: 0 s), the one line says so."""
+    from linkedit.synthesis import cluster as runner
+
+    monkeypatch.setattr(runner, "STOP_WAIT", 0.0)
+    count, out, _ = _cluster_build_interrupted(monkeypatch, tmp_path)
+    result = run_cli("atlas", "build", "--family", "four-bar", "-n", str(count), "-o", out, "--seed", "8",
+                     "--scheduler", cluster.scheduler_address)
+    assert result.exit_code == 130 and result.output.strip().splitlines() == [
+        "linkedit: error: interrupted; 2 Dask task(s) had not stopped 0 s later and may still write their shards"]

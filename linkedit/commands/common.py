@@ -172,7 +172,9 @@ def guard(fn: F) -> F:
             report(None, exit_code=code, errors=[error_entry(message, code, file=None if filename is None else str(filename))])
             raise fail(message, code) from None
         except KeyboardInterrupt as exc:
-            raise fail("interrupted", 128 + getattr(exc, "signum", signal.SIGINT)) from None
+            detail = getattr(exc, "detail", "")  # e.g. Dask tasks that did not stop
+            raise fail("interrupted" + (f"; {detail}" if detail else ""),
+                       128 + getattr(exc, "signum", signal.SIGINT)) from None
 
     return wrapper  # type: ignore[return-value]
 

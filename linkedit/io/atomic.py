@@ -297,11 +297,12 @@ def write_text(target: str | Path, text: str | Iterable[str]) -> None:
 
 
 class Interrupted(KeyboardInterrupt):
-    """The run was interrupted by ``signum`` (SIGINT: Ctrl-C, or SIGTERM); exit code 128 + signum."""
+    """The run was interrupted by ``signum`` (SIGINT: Ctrl-C, or SIGTERM); exit code 128 + signum; ``detail``:
+    what the user should know beyond "interrupted" (empty: nothing)."""
 
-    def __init__(self, signum: int) -> None:
+    def __init__(self, signum: int, detail: str = "") -> None:
         super().__init__(signal.Signals(signum).name)
-        self.signum = signum
+        self.signum, self.detail = signum, detail
 
 
 class _Signals:

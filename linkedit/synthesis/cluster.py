@@ -4,7 +4,8 @@ local cluster), and the checks of a scheduler address before anything is sent th
 A task runs a pure function of (family, seed, chunks) (:func:`linkedit.synthesis.chunks.build_chunks`,
 or :func:`linkedit.synthesis.shards.store_chunks`, which also stores each chunk as a shard), so the
 results are the same wherever it runs; the client reads them back in chunk order, with each task's wall and
-CPU seconds on its worker (:func:`task_times`).
+CPU seconds on its worker (:func:`task_times`). An interrupted build stops its tasks before the command returns
+(:func:`_stop_tasks`): nothing of it is written after that.
 """
 
 from __future__ import annotations
@@ -13,13 +14,17 @@ import contextlib
 import itertools
 import logging
 import os
+import signal
 import sys
+import threading
 import time
-from collections import deque
+import uuid
+from collections import Counter, deque
 from collections.abc import Callable, Iterator
 from typing import Any, NamedTuple, Protocol
 
 from linkedit.errors import InputError, LinkeditError
+from linkedit.io.atomic import Interrupted
 from linkedit.synthesis.chunks import build_chunks, report_kept, reporting
 from linkedit.synthesis.families import SPEC_TEXTS
 
@@ -88,7 +93,8 @@ def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
     streams, :data:`IN_FLIGHT` tasks per worker thread submitted ahead of the one read; while it waits for a
     task, the linkages the tasks in flight have screened go to this thread's
     :func:`~linkedit.synthesis.chunks.reporting` callback every :data:`REPORT_EVERY` seconds, as an in-process
-    build's chunk reports them."""
+    build's chunk reports them. When the block ends with tasks still out (an interrupt, an error), they are
+    cancelled and those running stopped before it returns (:func:`_stop_tasks`)."""
     if scheduler is None and not workers:
         heap_malloc()
 
@@ -100,6 +106,8 @@ def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
         return
     with connected(scheduler, workers, connect_timeout=connect_timeout, verbose=verbose) as (client, nthreads, direct):
         heard: dict[str, int] = {}  # task key → linkages it has screened, as its worker published them
+        build = uuid.uuid4().hex  # this block's tasks, to the workers: what an interrupt stops (:func:`_stop`)
+        futures: deque[Any] = deque()  # the tasks submitted and not read yet, in order
 
         def hear(event: tuple[float, list[Any]]) -> None:
             key, kept = event[1]
@@ -111,15 +119,14 @@ def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
             runs = dask_tasks(jobs, threads)
             spec = SPEC_TEXTS.get(name)
             ahead = IN_FLIGHT * max(threads, 1)
-            futures: deque[Any] = deque()
             later = iter(runs)
             for part in runs:
                 for ahead_part in itertools.islice(later, ahead - len(futures)):
-                    futures.append(client.submit(_timed, task, name, seed, ahead_part, spec, REPORT_EVERY, pure=True))
-                head = futures.popleft()
-                _await(head, futures, heard, part[0][1])
-                results, took = client.gather(head, direct=direct)
-                heard.pop(head.key, None)
+                    futures.append(client.submit(_timed, task, build, name, seed, ahead_part, spec, REPORT_EVERY,
+                                                 pure=True))
+                _await(futures, heard, part[0][1])
+                results, took = client.gather(futures[0], direct=direct)
+                heard.pop(futures.popleft().key, None)
                 for record in _RECORDS:
                     record.append(took)
                 yield from zip([index for index, _ in part], results)
@@ -127,23 +134,88 @@ def chunk_runner(scheduler: str | None = None, workers: int | None = None, *,
         client.subscribe_topic(PROGRESS, hear)
         try:
             yield run
+        except KeyboardInterrupt as exc:
+            why = _stop_tasks(client, futures, build)
+            if why is not None:
+                raise Interrupted(getattr(exc, "signum", signal.SIGINT), why) from None
+            raise
         finally:
+            if futures:  # another error, or a caller that read no further
+                _stop_tasks(client, futures, build)
             client.unsubscribe_topic(PROGRESS)
 
 
-def _await(head: Any, queued: deque[Any], heard: dict[str, int], first: int) -> None:
-    """Wait for the Dask future ``head``, reporting every :data:`REPORT_EVERY` seconds the linkages the tasks in
-    flight (``head`` and ``queued``) have screened (``heard``: task key → count, as their workers published them),
-    at most ``first``: the size of ``head``'s first chunk, the count its reader reports next, so that the count
-    never goes back."""
+def _await(futures: deque[Any], heard: dict[str, int], first: int) -> None:
+    """Wait for the first of the Dask ``futures`` in flight, reporting every :data:`REPORT_EVERY` seconds the
+    linkages they have screened (``heard``: task key → count, as their workers published them), at most ``first``:
+    the size of the first one's first chunk, the count its reader reports next, so that the count never goes back."""
     from distributed import wait
 
     while True:
         try:
-            wait(head, timeout=REPORT_EVERY)
+            wait(futures[0], timeout=REPORT_EVERY)
             return
         except TimeoutError:
-            report_kept(min(first, sum(heard.get(future.key, 0) for future in (head, *queued))))
+            report_kept(min(first, sum(heard.get(future.key, 0) for future in futures)))
+
+
+#: Most seconds an interrupted Dask build waits for the tasks its workers are running to stop (:func:`_stop_tasks`).
+STOP_WAIT = 10.0
+
+
+def _stop_tasks(client: Any, futures: deque[Any], build: str) -> str | None:
+    """Cancel the tasks ``futures`` of ``build`` (not started: never run) and stop those its workers are running
+    (:func:`_stop`: each ends at its next progress report or before its next shard, writing nothing more), waiting
+    until none runs, at most :data:`STOP_WAIT` seconds; None once none runs, else why not (for the user's message)."""
+    wait = STOP_WAIT
+    deadline = time.monotonic() + wait
+    try:
+        out = list(futures)
+        futures.clear()
+        client.cancel(out)
+        while True:  # Client.run has no timeout of its own: its coroutine, bounded by the deadline
+            running = sum(client.sync(client._run, _stop, build,
+                                      callback_timeout=max(deadline - time.monotonic(), 0.1)).values())
+            if not running:
+                return None
+            if time.monotonic() >= deadline:
+                return f"{running} Dask task(s) had not stopped {wait:g} s later and may still write their shards"
+            time.sleep(0.05)
+    except Exception as exc:  # the scheduler or a worker gone, or no answer before the deadline
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        return f"its Dask tasks could not be stopped ({reason}) and may still write their shards"
+
+
+#: In a worker process: the builds whose tasks must stop (:func:`_stop`), and how many tasks of each run there.
+_STOPPED: set[str] = set()
+_RUNNING: Counter[str] = Counter()
+_LOCK = threading.Lock()
+
+
+def _stop(build: str) -> int:
+    """On a worker (``Client.run``): stop the tasks of ``build`` (each raises :class:`Stopped` at its next check,
+    one not started yet at its first); how many still run in this process."""
+    with _LOCK:
+        _STOPPED.add(build)
+        return _RUNNING[build]
+
+
+@contextlib.contextmanager
+def _counted(build: str) -> Iterator[None]:
+    """A task of ``build`` running in this worker process inside the block (what :func:`_stop` counts)."""
+    with _LOCK:
+        _RUNNING[build] += 1
+    try:
+        yield
+    finally:
+        with _LOCK:
+            _RUNNING[build] -= 1
+            if not _RUNNING[build]:
+                del _RUNNING[build]
+
+
+class Stopped(Exception):
+    """A Dask task of an interrupted build, stopped on its worker (:func:`_stop`); nobody reads its result."""
 
 
 class TaskTime(NamedTuple):
@@ -153,15 +225,17 @@ class TaskTime(NamedTuple):
     cpu: float
 
 
-def _timed(task: Task, name: str, seed: int, jobs: list[tuple[int, int]], spec: str | None, every: float
+def _timed(task: Task, build: str, name: str, seed: int, jobs: list[tuple[int, int]], spec: str | None, every: float
            ) -> tuple[list[Any], TaskTime]:
     """``task``'s results, chunk by chunk, with its :class:`TaskTime` (the chunks' build and, for a shard, its
-    write); the linkages it has screened are published every ``every`` seconds at most (:class:`_Published`)."""
+    write); the linkages it has screened are published every ``every`` seconds at most (:class:`_Published`), and
+    it stops (:class:`Stopped`) there and before each chunk once ``build`` is stopped (:func:`_stop`)."""
     wall, cpu = time.perf_counter(), time.thread_time()
-    published = _Published(every)
+    published = _Published(every, build)
     results: list[Any] = []
-    with reporting(published):
+    with _counted(build), reporting(published):
         for job in jobs:
+            published(0)
             results += task(name, seed, [job], spec)
             published.done += job[1]
     return results, TaskTime(time.perf_counter() - wall, time.thread_time() - cpu)
@@ -170,16 +244,19 @@ def _timed(task: Task, name: str, seed: int, jobs: list[tuple[int, int]], spec: 
 class _Published:
     """A Dask task's progress on its worker: the linkages of its chunks built (``done``) and those the chunk
     being built has kept (:func:`~linkedit.synthesis.chunks.reporting`), logged as (task key, count) on the
-    topic :data:`PROGRESS` at most every ``every`` seconds, for the client (:func:`chunk_runner`)."""
+    topic :data:`PROGRESS` at most every ``every`` seconds, for the client (:func:`chunk_runner`); every call
+    raises :class:`Stopped` once the task's ``build`` is stopped (:func:`_stop`)."""
 
-    def __init__(self, every: float) -> None:
+    def __init__(self, every: float, build: str) -> None:
         from distributed import get_worker
 
         self.worker = get_worker()
         self.key = self.worker.get_current_task()
-        self.every, self.done, self.last = every, 0, time.monotonic()
+        self.every, self.done, self.last, self.build = every, 0, time.monotonic(), build
 
     def __call__(self, kept: int) -> None:
+        if self.build in _STOPPED:
+            raise Stopped(self.build)
         now = time.monotonic()
         if now - self.last >= self.every:
             self.worker.log_event(PROGRESS, [self.key, self.done + kept])

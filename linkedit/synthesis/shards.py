@@ -32,7 +32,8 @@ from linkedit.io.hdf5 import writing
 from linkedit.resources import require_disk, require_memory
 from linkedit.synthesis.atlas import Atlas, check_options
 from linkedit.synthesis.atlas import load as load_file
-from linkedit.synthesis.chunks import CHUNK, HARMONICS, SAMPLES, Chunk, build_chunk, build_memory, chunk_sizes, reporting
+from linkedit.synthesis.chunks import (CHUNK, HARMONICS, SAMPLES, Chunk, build_chunk, build_memory, chunk_sizes,
+                                      report_kept, reporting)
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, Runner, chunk_runner
 from linkedit.synthesis.families import SPEC_TEXTS, family
 from linkedit.synthesis.index import SAMPLE_PER_CELL, assign, quantizer_side, train_quantizer
@@ -140,8 +141,12 @@ def store_chunks(folder: str, quantizers: dict[str, dict[str, Any]], name: str, 
     the family's quantizer (``quantizers``: the manifest entries, per family); their entries."""
     path = Path(folder)
     quantizer = _kept_quantizer(folder, name, json.dumps(quantizers[name]))
-    return [write_shard(path, name, seed, index, build_chunk(name, seed, index, size, spec), quantizer)
-            for index, size in jobs]
+    entries = []
+    for index, size in jobs:
+        chunk = build_chunk(name, seed, index, size, spec)
+        report_kept(size)  # the chunk built: a task of an interrupted Dask build stops here, before its write
+        entries.append(write_shard(path, name, seed, index, chunk, quantizer))
+    return entries
 
 
 def shard_bytes(name: str) -> int:
