@@ -243,17 +243,17 @@ def test_k_linkages_through_a_group_in_one_evaluation_are_each_linkage_alone(exa
     assert folds == 1
 
 
-def test_a_triad_is_solved_as_its_bodys_pose_and_only_a_failing_linkage_by_the_general_solver(monkeypatch):
+def test_a_triad_is_traced_in_its_bodys_pose_through_its_fold_too(monkeypatch):
     """The complex loop's group is a triad (a body hung from three known joints): every sample is
     solved as the body's pose (3 unknowns, :mod:`linkedit.planar.rules.triad`) without the general
-    group solver; a triad that folds inside the cycle goes to the general solver, which reports
-    its lock-up (the test above checks where)."""
+    group solver — a triad that folds inside the cycle too, continued sample by sample up to its
+    fold and reporting its lock-up there (the test above checks where)."""
     import linkedit.planar.rules.group as group
 
     calls = []
     general = group.solve_group
     monkeypatch.setattr(group, "solve_group", lambda *a: calls.append(a[3].shape) or general(*a))
     m = simulate(catalog.complex_loop(), 360)
-    assert m.assembled.all() and not calls
+    assert m.assembled.all()
     m = simulate(load_model(LinkageSpec, "triad.yaml", TRIAD), 90, partial=True)
-    assert not m.assembled.all() and calls
+    assert not m.assembled.all() and m.assembled[0] and not calls

@@ -160,18 +160,17 @@ def test_complex_loop_matches_the_numeric_engine(samples):
 def test_complex_loop_polish_rejects_a_wrong_prediction_and_continues_sequentially(monkeypatch, solver):
     """The batched polish accepts a sample only when Newton converges close to its predictor on the
     rest pose's side of every singular position: predictions thrown far off (towards the group's
-    other assembly) are rejected, and the general solver continues those samples one by one from
-    the sample before; the triad's (its body's pose: :mod:`linkedit.planar.rules.triad`) hands its
-    linkage to the general solver. Either way the positions are those of the unspoiled run."""
-    from linkedit.planar.rules import group as steps
-    from linkedit.planar.rules import triad
+    other assembly) are rejected and those samples continued one by one from the sample before —
+    in the group's joints (the general solver) or in its body's pose (a triad,
+    :mod:`linkedit.planar.rules.triad`). The positions are those of the unspoiled run."""
+    from linkedit.planar.rules import continuation, group, triad
 
     good = simulate(compile_plan(catalog.complex_loop()), 360)
     if solver == "general":
         monkeypatch.setattr(triad.Triad, "of", classmethod(lambda cls, *a: None))
     plan = compile_plan(catalog.complex_loop())
     assert (plan.steps[0].triad is None) == (solver == "general")
-    predict = steps.predict
+    predict = continuation.predict
     spoiled = []
 
     def wrong(travel, known, solved, want):
@@ -185,22 +184,19 @@ def test_complex_loop_polish_rejects_a_wrong_prediction_and_continues_sequential
         return out
 
     rejected = []
-    polish, general = (steps._polish, steps.solve_group)
+    module, name = (group, "_polish") if solver == "general" else (triad, "polish")
+    polish = getattr(module, name)
 
-    def counting(*args):
-        accept, det = polish(*args)
+    def counted(*args):
+        result = polish(*args)
+        accept = result[0] if solver == "general" else result[-1]
         rejected.append(int((~accept).sum()))
-        return accept, det
+        return result
 
-    monkeypatch.setattr(steps, "predict", wrong)
-    monkeypatch.setattr(steps, "_polish", counting)
-    monkeypatch.setattr(steps, "solve_group", lambda *a: rejected.append(0) or general(*a))
+    monkeypatch.setattr(continuation, "predict", wrong)
+    monkeypatch.setattr(module, name, counted)
     m = simulate(plan, 360)
-    assert sum(spoiled) > 100
-    if solver == "general":
-        assert sum(rejected) >= sum(spoiled) // 2
-    else:
-        assert rejected  # handed to the general solver
+    assert sum(spoiled) > 100 and sum(rejected) >= sum(spoiled) // 2
     assert np.abs(m.positions - good.positions).max() <= 1e-9
 
 

@@ -148,28 +148,27 @@ def _near_singular(delta: float, **motor: object) -> LinkageSpec:
 #: triad's fast path is checked to follow it (near the singular rest: its own d_s, velocities,
 #: accelerations are compared; elsewhere a linkage it cannot follow goes to the general solver))
 HARD = {
-    "folding inside the cycle": (load_model(LinkageSpec, "triad.yaml", TRIAD), 90, None, True, False),
-    "two links from one pivot, folding": (triad(LOOP, {**LINKS, "l2": ["P1", "T2"]}), 90, None, True, False),
-    "a near-singular rest, folding later": (_near_singular(3e-3), 90, (1e-7, 1e-5), True, False),
-    "a near-singular rest, folding at once": (_near_singular(3e-3, direction="cw"), 90, (1e-7, 1e-5), True, False),
+    "folding inside the cycle": (load_model(LinkageSpec, "triad.yaml", TRIAD), 90, None, True),
+    "two links from one pivot, folding": (triad(LOOP, {**LINKS, "l2": ["P1", "T2"]}), 90, None, True),
+    "a near-singular rest, folding later": (_near_singular(3e-3), 90, (1e-7, 1e-5), True),
+    "a near-singular rest, folding at once": (_near_singular(3e-3, direction="cw"), 90, (1e-7, 1e-5), True),
     "a near-singular rest, away from the fold": (_near_singular(3e-3, range_deg=[0, 120]), 7, (1e-7, 1e-5),
-                                                 False, True),
+                                                 False),
     "a near-singular rest, the line on its other side": (_near_singular(-3e-3, range_deg=[0, 120]), 90, (1e-7, 1e-5),
-                                                          False, False),
+                                                          False),
 }
 
 
 @pytest.mark.parametrize("name", HARD)
 def test_a_triad_through_a_fold_or_near_singular_is_what_the_general_solver_gives(monkeypatch, name):
-    """Whether the triad's fast path follows it or hands it to the general solver, ``simulate``
-    gives the general solver's result: the same assembled samples and lock-up message, positions
+    """Traced in the triad's body's pose (never by the general solver: through the fold too, sample
+    by sample), ``simulate`` gives the general solver's result: the same assembled samples and lock-up message, positions
     (to 1e-12 of the size), d_s (to 1e-12), velocities and accelerations (to 1e-9 of their
     largest: ~1e3 and ~1e8 mm/rad² near the singular rest)."""
-    spec, samples, rest_ds, locks, fast = HARD[name]
+    spec, samples, rest_ds, locks = HARD[name]
     calls = count_general_calls(monkeypatch)
     m = simulate(spec, samples, partial=True)
-    if fast:
-        assert not calls
+    assert not calls
     general_solver(monkeypatch)
     g = simulate(spec, samples, partial=True)
     assert np.array_equal(m.assembled, g.assembled) and m.assembled[0]

@@ -1,9 +1,12 @@
-"""What the numeric groups' continuation shares: its tolerances, where it is continued
-sequentially (:func:`coarse`), how the samples between are predicted (:func:`predict`) and
-when a Newton solve is accepted as the continuation of its predictor (:func:`accepted`).
-Used by the general group (:mod:`.group`) and the triad's pose solve (:mod:`.triad`)."""
+"""The numeric groups' continuation (:func:`trace`): its tolerances, where it is continued
+sequentially (:func:`coarse`), how the samples between are predicted (:func:`predict`) and when a
+Newton solve is accepted as the continuation of its predictor (:func:`accepted`) — one loop for the
+general group (:mod:`.group`, in its joints' coordinates) and the triad (:mod:`.triad`, in its
+body's pose), each a :class:`Continued`."""
 
 from __future__ import annotations
+
+from typing import Protocol
 
 import numpy as np
 
@@ -69,3 +72,78 @@ def coarse(known: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     travel = np.concatenate([[0.0], np.cumsum(np.maximum(moved, np.abs(np.diff(s))))])
     first = np.flatnonzero(np.diff(np.floor(travel / GROUP_STRIDE))) + 1
     return np.unique(np.concatenate([[0], first, [travel.size - 1]])), travel
+
+
+class Continued(Protocol):
+    """A group's unknowns along the samples of K linkages."""
+
+    @property
+    def width(self) -> int:
+        """Its coordinates per sample."""
+
+    def start(self, c: int) -> np.ndarray:
+        """Linkage ``c``'s unknowns (width,) at its rest pose."""
+
+    def follow(self, c: int, x: np.ndarray, path: np.ndarray, out: np.ndarray, travel: np.ndarray,
+               tol: float) -> int:
+        """Continue linkage ``c`` from ``x`` (known at sample ``path[0]``) through the samples ``path`` in
+        order, each move accepted as :func:`accepted` says (halved down to 1/256 until it is), Newton to
+        ``tol``, writing rows ``out`` (T, width); ``travel`` (T,) as :func:`coarse` gives it. Returns the
+        position in ``path`` where it fails, or −1."""
+
+    def polish(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Newton's method on every sample (K, T, width) at once from the predictions in ``X`` (updated
+        in place; NaN rows left alone): which samples (K, T) are accepted (converged close to their
+        prediction, on their rest pose's branch), and a value (K, T) of each accepted one for the
+        caller (NaN elsewhere)."""
+
+
+def trace(group: Continued, known: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Continue K linkages' ``group`` from their rest poses through the samples of its inputs ``known``
+    (J_in, K, T) complex and ``s`` (K, T), in order.
+
+    Each linkage's samples :func:`coarse` picks are continued sequentially (``group.follow``, to
+    COARSE_TOLERANCE: enough to follow the branch; a loop over the linkages, a few samples each);
+    then every sample of every linkage is polished by Newton's method all at once
+    (``group.polish``), the ones between from a cubic through those (:func:`predict`), each checked
+    like a sequential move; a sample that fails the check is continued sequentially from the one
+    before it, and a linkage whose coarse continuation stopped is continued sample by sample from
+    there. Returns the unknowns (K, T, width) (NaN from the first sample where a linkage fails),
+    ``group.polish``'s value (K, T) at each polished sample (NaN elsewhere), and which samples are
+    placed (K, T): a linkage that fails does not spoil the others."""
+    K, T = s.shape
+    out = np.full((K, T, group.width), np.nan)
+    polished = out.copy()  # the samples each linkage's coarse continuation reached, and predicted between
+    ends = []
+    for c in range(K):
+        through, travel = coarse(known[:, c], s[c])
+        stop = group.follow(c, group.start(c), through, out[c], travel, COARSE_TOLERANCE)
+        last = through[stop - 1] if stop > 0 else (through[-1] if stop < 0 else -1)
+        ends.append((stop, last, travel))
+        if last >= 0:
+            solved = through[through <= last]
+            between = np.ones(last + 1, dtype=bool)
+            between[solved] = False
+            inner = np.flatnonzero(between)
+            polished[c, solved] = out[c, solved]
+            if inner.size:
+                polished[c, inner] = predict(travel, solved, out[c, solved], inner)
+    accept, value = group.polish(polished)
+    out[:] = np.where(accept[..., None], polished, np.nan)
+    placed = np.zeros((K, T), dtype=bool)
+    for c, (stop, last, travel) in enumerate(ends):
+        fail = -1
+        for t in np.flatnonzero(~accept[c, : last + 1]):  # a sequential move from the sample before
+            x, path = (group.start(c), np.array([0])) if t == 0 else (out[c, t - 1], np.array([t - 1, t]))
+            if group.follow(c, x, path, out[c], travel, GROUP_TOLERANCE) >= 0:
+                fail = int(t)
+                break
+        if fail < 0 and stop >= 0:  # the coarse continuation stopped: go on sample by sample
+            x = group.start(c) if last < 0 else out[c, last]
+            path = np.arange(max(last, 0), T)
+            at = group.follow(c, x, path, out[c], travel, GROUP_TOLERANCE)
+            fail = int(path[at]) if at >= 0 else -1
+        placed[c, : fail if fail >= 0 else T] = True
+    out[~placed] = np.nan
+    value[~placed] = np.nan
+    return out, value, placed

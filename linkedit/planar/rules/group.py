@@ -23,9 +23,8 @@ from linkedit.planar.constraints import Rows, linkage_rows
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
 from linkedit.planar.rules.base import Frame, Step, loop_rows, solve, to_complex
-from linkedit.planar.rules.continuation import (COARSE_TOLERANCE, GROUP_ITERATIONS, GROUP_TOLERANCE, accepted, coarse,
-                                                 largest, predict)
-from linkedit.planar.rules.triad import Body, Pose, Triad, at, follow, polish, rates
+from linkedit.planar.rules.continuation import GROUP_ITERATIONS, GROUP_TOLERANCE, accepted, largest, trace
+from linkedit.planar.rules.triad import Body, Pose, Poses, Triad, pose, rates
 from linkedit.planar.rules.triad import ds as triad_ds
 
 
@@ -104,45 +103,24 @@ class Group(Step):
         known, inputs, start = z[self.inputs][:, None], np.broadcast_to(s, (1, z.shape[-1])), rest[self.joints][:, None]
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             if body is not None:
-                joints, now = self._solve_triad(form, signs, body, known, inputs, start)
+                joints, now = self._solve_triad(body, known, inputs)
                 return joints[:, 0], triad_ds(now, body)[0]
             x, det, placed = solve_group(form, signs, known, inputs, start)
         k = 2 * self.joints.size
         return to_complex(np.moveaxis(x[0, :, :k], -1, 0)), conditioning(form.gradient(x)[..., :k], det, placed)[0]
 
-    def _solve_triad(self, form: RealForm, signs: np.ndarray, body: Body, known: np.ndarray, s: np.ndarray,
-                     start: np.ndarray) -> tuple[np.ndarray, Pose]:
-        """K linkages' triads (as :func:`solve_group`'s arguments, and their ``body``): each
-        continued sequentially through the samples :func:`coarse` picks (:func:`~.triad.follow`),
-        the poses between predicted by a cubic, every sample polished at once
-        (:func:`~.triad.polish`). A linkage any of whose samples fails that is solved by
-        :func:`solve_group` (a lock-up, a jump between branches: reported as for any group).
+    def _solve_triad(self, body: Body, known: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, Pose]:
+        """K linkages' triads (their ``body``, inputs ``known`` (J_in, K, T) complex, ``s`` (K, T)),
+        continued in their bodies' poses (:func:`~.continuation.trace`, :class:`~.triad.Poses`).
         Returns the joints (3, K, T) complex (NaN from where a linkage fails) and the pose there."""
         assert self.triad is not None
         hung = known[self.triad.partner]
-        K, T = s.shape
-        poses = np.full((K, T, 3), np.nan)
-        fast = np.ones(K, dtype=bool)
-        for c in range(K):
-            through, travel = coarse(known[:, c], s[c])
-            solved, stop = follow(body, c, hung[:, c], through, travel, COARSE_TOLERANCE)
-            if stop >= 0:
-                fast[c] = False
-                continue
-            poses[c, through] = solved
-            between = np.ones(T, dtype=bool)
-            between[through] = False
-            inner = np.flatnonzero(between)
-            if inner.size:
-                poses[c, inner] = predict(travel, through, solved, inner)
-        now, ok = polish(body, hung, poses[..., 0] + 1j * poses[..., 1], poses[..., 2], GROUP_TOLERANCE)
-        fast &= ok.all(axis=1)
-        if fast.all():
-            return now.joints, now
-        joints, slow = now.joints, np.flatnonzero(~fast)
-        x = solve_group(form.take(slow), signs[slow], known[:, slow], s[slow], start[:, slow])[0]
-        joints[:, slow] = to_complex(np.moveaxis(x[..., : 2 * self.joints.size], -1, 0))
-        return joints, at(body, joints, hung)
+        poses = Poses(body, hung)
+        X, det, placed = trace(poses, known, s)
+        if poses.now is not None and not np.isnan(det).any():  # every sample placed by the polish
+            return poses.now.joints, poses.now
+        now = pose(body, hung, X[..., 0] + 1j * X[..., 1], X[..., 2])[0]
+        return now.joints, now
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Place its joints in ``f`` (one linkage, or K: ``f.z`` (P, K, T), each with its own rows,
@@ -159,7 +137,7 @@ class Group(Step):
         K, T = zj.shape[1:]
         rest = f.rest[self.joints]
         if body is not None:
-            self._evaluate_triad(f, form, signs, body, lift, rows)
+            self._evaluate_triad(f, body, lift, rows)
             return
         x, det, placed = solve_group(form, signs, zj[self.inputs], np.broadcast_to(f.s, (K, T)),
                                      rest if many else rest[:, None])
@@ -185,17 +163,14 @@ class Group(Step):
             rhs = -(grad @ ddx[..., None])[..., 0] - form.quadratic(dx)
             put(f.ddz, np.moveaxis(solve(jac, np.moveaxis(rhs, -1, 0)), 0, -1))
 
-    def _evaluate_triad(self, f: Frame, form: RealForm, signs: np.ndarray, body: Body,
-                        lift: Any, rows: slice) -> None:
+    def _evaluate_triad(self, f: Frame, body: Body, lift: Any, rows: slice) -> None:
         """:meth:`evaluate` of a triad: its joints, d_s, velocities and accelerations from its
         body's pose (:mod:`.triad`)."""
         assert self.triad is not None
         many, out = f.z.ndim > 2, f.joints[self.joints]
         known = lift(f.z[f.joints[self.inputs]])
         K, T = known.shape[1:]
-        rest = f.rest[self.joints]
-        joints, now = self._solve_triad(form, signs, body, known, np.broadcast_to(f.s, (K, T)),
-                                        rest if many else rest[:, None])
+        joints, now = self._solve_triad(body, known, np.broadcast_to(f.s, (K, T)))
 
         def put(target: np.ndarray, value: np.ndarray) -> None:  # (3, K, T) → rows (3, *L, T)
             target[out] = value if many else value[:, 0]
@@ -449,65 +424,55 @@ def solve_group(form: RealForm, signs: np.ndarray, known: np.ndarray, s: np.ndar
                 start: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Continue K linkages' group (``form``: each its own rows; ``signs`` (K,) the sign of det J
     at each one's rest pose) from ``start`` (n, K) complex through the samples of its inputs
-    ``known`` (J_in, K, T) complex and ``s`` (K, T), in order.
-
-    Each linkage's samples :func:`coarse` picks are continued sequentially (:func:`_continue`,
-    to COARSE_TOLERANCE: enough to follow the branch; a loop over the linkages, a few samples
-    each); then every sample of every linkage is polished by Newton's method all at once
-    (:func:`_polish`), the ones between from a cubic through those, each checked like a
-    sequential move (converged near its predictor, the determinant's sign of its rest pose); a
-    sample that fails the check is continued sequentially from the one before it. Returns X
-    (K, T, W) — :class:`RealForm`'s variables: the group's joints (NaN from the first sample
-    where the linkage fails), its inputs, 1 —, det J (K, T) of the group Jacobian at each placed
-    sample (NaN elsewhere, and for a non-square group) for :func:`conditioning`, and which
-    samples are placed (K, T): a linkage that fails does not spoil the others.
-    """
-    n, (K, T) = start.shape[0], s.shape
+    ``known`` (J_in, K, T) complex and ``s`` (K, T), in order (:func:`~.continuation.trace`, in the
+    group's joints' coordinates: :class:`_Joints`). Returns X (K, T, W) — :class:`RealForm`'s
+    variables: the group's joints (NaN from the first sample where the linkage fails), its inputs,
+    1 —, det J (K, T) of the group Jacobian at each placed sample (NaN elsewhere, and for a
+    non-square group) for :func:`conditioning`, and which samples are placed (K, T)."""
+    n = start.shape[0]
     k = 2 * n
-    X = variables(np.ones((n, K, T)), known)
-    x0 = X[:, 0].copy()
+    X = variables(np.ones((n, *s.shape)), known)
+    x0 = X[:, 0, :k].copy()
     x0[:, 0:k:2], x0[:, 1:k:2] = start.real.T, start.imag.T
-    out = np.full((K, T, k), np.nan)
-    polished = X.copy()
-    polished[..., :k] = np.nan  # the samples each linkage's coarse continuation reached, predicted
-    coarse_end = []
-    for c in range(K):
-        through, travel = coarse(known[:, c], s[c])
-        stop = _continue(form.linkage(c), signs[c], X[c], s[c], k, x0[c], through, out[c], COARSE_TOLERANCE)
-        last = through[stop - 1] if stop > 0 else (through[-1] if stop < 0 else -1)
-        coarse_end.append((stop, last))
-        if last >= 0:
-            solved = through[through <= last]
-            between = np.ones(last + 1, dtype=bool)
-            between[solved] = False
-            inner = np.flatnonzero(between)
-            polished[c, solved, :k] = out[c, solved]
-            if inner.size:
-                polished[c, inner, :k] = predict(travel, solved, out[c, solved], inner)
-    accept, det = _polish(form, signs, polished, s, k)
-    out[:] = np.where(accept[..., None], polished[..., :k], np.nan)
-    placed = np.zeros((K, T), dtype=bool)
-    for c, (stop, last) in enumerate(coarse_end):
-        one, fail = form.linkage(c), -1
-        for t in np.flatnonzero(~accept[c, : last + 1]):  # a sequential move from the sample before
-            x, path = (x0[c], np.array([0])) if t == 0 else (np.concatenate([out[c, t - 1], X[c, t - 1, k:]]),
-                                                             np.array([t - 1, t]))
-            if _continue(one, signs[c], X[c], s[c], k, x, path, out[c]) >= 0:
-                fail = int(t)
-                break
-        if fail < 0 and stop >= 0:  # the coarse continuation stopped: go on sample by sample
-            x = x0[c] if last < 0 else np.concatenate([out[c, last], X[c, last, k:]])
-            path = np.arange(max(last, 0), T)
-            at = _continue(one, signs[c], X[c], s[c], k, x, path, out[c])
-            fail = int(path[at]) if at >= 0 else -1
-        placed[c, : fail if fail >= 0 else T] = True
-    out[~placed] = np.nan
+    out, det, placed = trace(_Joints(form, signs, X, s, x0), known, s)
     X[..., :k] = out
-    det[~placed] = np.nan
     missing = placed & np.isnan(det)  # continued sequentially
     if form.m == k and missing.any():
         det[missing] = np.linalg.det(form.residual_jacobian(X, s, k)[1][missing])
     return X, det, placed
+
+
+@dataclass
+class _Joints:
+    """The general group continued in its joints' coordinates (:class:`~.continuation.Continued`):
+    X (K, T, W) its variables with the inputs filled in, ``start`` (K, k) at rest."""
+
+    form: RealForm
+    signs: np.ndarray
+    X: np.ndarray
+    s: np.ndarray
+    rest: np.ndarray
+
+    @property
+    def width(self) -> int:
+        return self.rest.shape[1]
+
+    def start(self, c: int) -> np.ndarray:
+        return self.rest[c]
+
+    def follow(self, c: int, x: np.ndarray, path: np.ndarray, out: np.ndarray, travel: np.ndarray,
+               tol: float) -> int:
+        k = self.width
+        return _continue(self.form.linkage(c), self.signs[c], self.X[c], self.s[c], k,
+                         np.concatenate([x, self.X[c, path[0], k:]]), path, out, tol)
+
+    def polish(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        k = self.width
+        full = self.X.copy()
+        full[..., :k] = X
+        accept, det = _polish(self.form, self.signs, full, self.s, k)
+        X[:] = full[..., :k]
+        return accept, det
 
 
 def variables(joints: np.ndarray, known: np.ndarray) -> np.ndarray:

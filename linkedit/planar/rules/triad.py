@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from linkedit.planar.constraints import Rows
-from linkedit.planar.rules.continuation import GROUP_ITERATIONS, accepted
+from linkedit.planar.rules.continuation import GROUP_ITERATIONS, GROUP_TOLERANCE, accepted
 
 
 @dataclass(frozen=True)
@@ -187,30 +187,29 @@ def newton(p: list[complex], r2: list[float], hung: list[complex], centre: compl
     return False, first, 0.0, centre, turn
 
 
-def follow(body: Body, c: int, hung: np.ndarray, path: np.ndarray, travel: np.ndarray,
-           tol: float) -> tuple[np.ndarray, int]:
-    """Continue linkage ``c``'s body from its rest pose through the samples ``path`` in order
+def follow(body: Body, c: int, hung: np.ndarray, x: np.ndarray, path: np.ndarray, out: np.ndarray,
+           travel: np.ndarray, tol: float) -> int:
+    """Continue linkage ``c``'s body from the pose ``x`` (the centre's x, y and the turn, at sample
+    ``path[0]``) through the samples ``path`` in order, writing each pose in ``out`` (T, 3)
     (``hung`` (3, T) complex: where its links hang from; ``travel`` (T,) the inputs' travel).
-    Newton starts from the pose extrapolated from the last three in ``travel`` (a parabola),
-    or from the last pose: a homotopy in ``hung`` (interpolated linearly), halved (down to 1/256)
+    Newton starts from the pose extrapolated from the last three in ``travel`` (a parabola), or
+    from the last pose: a homotopy in ``hung`` (interpolated linearly), halved (down to 1/256)
     until a move is accepted — Newton converged close to where it started
     (:func:`~linkedit.planar.rules.continuation.accepted`, the largest joint move) with det M's
-    sign of the rest pose. Returns the poses (len(path), 3): the centre's x, y and the turn, and
-    the position in ``path`` where it fails, or −1."""
+    sign of the rest pose. Returns the position in ``path`` where it fails, or −1."""
     p, r2, sign = body.linkage(c)
     p0, p1, p2 = p
-    centre, turn = complex(body.rest[c]), 0.0
-    out = np.full((path.size, 3), np.nan)
+    centre, turn = complex(x[0], x[1]), float(x[2])
     goals, along = hung[:, path].T.tolist(), travel[path].tolist()
     prev = goals[0]
     for n, goal in enumerate(goals):
         done, piece = 0.0, 1.0
         guess = None
         if n >= 3 and along[n - 1] > along[n - 2] > along[n - 3]:  # the parabola through the last three
-            a, b, c, x = along[n - 3], along[n - 2], along[n - 1], along[n]
-            wa, wb = (x - b) * (x - c) / ((a - b) * (a - c)), (x - a) * (x - c) / ((b - a) * (b - c))
+            ta, tb, tc, tx = along[n - 3], along[n - 2], along[n - 1], along[n]
+            wa, wb = (tx - tb) * (tx - tc) / ((ta - tb) * (ta - tc)), (tx - ta) * (tx - tc) / ((tb - ta) * (tb - tc))
             wc = 1.0 - wa - wb
-            pa, pb = out[n - 3], out[n - 2]
+            pa, pb = out[path[n - 3]], out[path[n - 2]]
             guess = (complex(wa * pa[0] + wb * pb[0], wa * pa[1] + wb * pb[1]) + wc * centre,
                      wa * pa[2] + wb * pb[2] + wc * turn)
         while done < 1.0:
@@ -230,19 +229,35 @@ def follow(body: Body, c: int, hung: np.ndarray, path: np.ndarray, travel: np.nd
             else:
                 piece *= 0.5
                 if piece < 1.0 / 256:
-                    return out, n
-        out[n] = centre.real, centre.imag, turn
+                    return n
+        out[path[n]] = centre.real, centre.imag, turn
         prev = goal
-    return out, -1
+    return -1
 
 
-def at(body: Body, joints: np.ndarray, hung: np.ndarray) -> "Pose":
-    """The pose of the triads whose joints are at ``joints`` (3, K, T) complex (NaN: not placed)."""
-    centre = joints.mean(axis=0)
-    q = joints - centre
-    d = joints - hung
-    u = (body.p.conj() * q).sum(axis=0) / (np.abs(body.p) ** 2).sum(axis=0)
-    return Pose(centre, u, q, d, *_system(d, q))
+@dataclass
+class Poses:
+    """K linkages' triads continued in their bodies' poses (:class:`~.continuation.Continued`: the
+    centre's x, y and the turn from rest, per sample), hung from ``hung`` (3, K, T) complex; the
+    polish's pose of every sample (``now``) once it has run."""
+
+    body: Body
+    hung: np.ndarray
+    width: int = 3
+    now: "Pose | None" = None
+
+    def start(self, c: int) -> np.ndarray:
+        return np.array([self.body.rest[c].real, self.body.rest[c].imag, 0.0])
+
+    def follow(self, c: int, x: np.ndarray, path: np.ndarray, out: np.ndarray, travel: np.ndarray,
+               tol: float) -> int:
+        return follow(self.body, c, self.hung[:, c], x, path, out, travel, tol)
+
+    def polish(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`polish` from the poses X (K, T, 3); its value is det M."""
+        self.now, turn, ok = polish(self.body, self.hung, X[..., 0] + 1j * X[..., 1], X[..., 2], GROUP_TOLERANCE)
+        X[..., 0], X[..., 1], X[..., 2] = self.now.centre.real, self.now.centre.imag, turn
+        return ok, np.where(ok, self.now.det, np.nan)
 
 
 @dataclass
@@ -279,10 +294,11 @@ def pose(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray) -> 
     return Pose(centre, u, q, d, *_system(d, q)), res
 
 
-def polish(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray, tol: float) -> tuple[Pose, np.ndarray]:
+def polish(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray,
+           tol: float) -> tuple[Pose, np.ndarray, np.ndarray]:
     """Newton's method on every sample of K linkages at once from the predicted poses (``centre``
-    (K, T) complex, ``turn`` (K, T)), until every row is within ``tol`` of 0. Returns the pose and
-    which samples (K, T) are accepted: converged, close to their predictor
+    (K, T) complex, ``turn`` (K, T)), until every row is within ``tol`` of 0. Returns the pose, its
+    turn (K, T) and which samples (K, T) are accepted: converged, close to their predictor
     (:func:`~linkedit.planar.rules.continuation.accepted`), with det M's sign of their rest pose."""
     now, res = pose(body, hung, centre, turn)
     start, first = now.joints, np.zeros(turn.shape)
@@ -298,7 +314,7 @@ def polish(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray, t
         now, res = pose(body, hung, centre, turn)
     moved = now.joints - start
     ok = (_worst(res) <= tol) & accepted(_worst(moved.real, moved.imag), first) & (now.det * body.sign[:, None] > 0.0)
-    return now, ok
+    return now, turn, ok
 
 
 def _worst(*parts: np.ndarray) -> np.ndarray:
