@@ -183,3 +183,42 @@ def test_a_triad_through_a_fold_or_near_singular_is_what_the_general_solver_give
     for q in ("velocity", "acceleration"):
         mine, ref = getattr(m, q)[ok], getattr(g, q)[ok]
         assert np.abs(mine - ref).max() <= 1e-9 * np.abs(ref).max()
+
+
+def test_a_prediction_on_the_other_assembly_branch_is_rejected_by_the_determinants_sign(monkeypatch):
+    """A sample whose prediction is exactly a solution of another assembly of the triad (found here
+    by Newton's method from turned starting poses, det M of the other sign: the body flipped through
+    a singular position) converges at once and close to its prediction, so only the sign of det M
+    tells it from the rest pose's branch: the polish rejects it and the sample is continued from the
+    one before, and ``simulate`` gives the unspoiled positions."""
+    from linkedit.planar.rules import triad as tr
+
+    spec = triad(LOOP, LINKS)
+    good = simulate(spec, 72)
+    polish, at, spoiled, rejected = tr.polish, 30, [], []
+
+    def other_branch(body, hung, centre, turn):  # a solution at sample ``at`` with det M of the other sign
+        p, r2, sign = body.linkage(0)
+        here = [complex(v) for v in hung[:, 0, at]]
+        for spin in np.linspace(-np.pi, np.pi, 48, endpoint=False):
+            for shift in (0, 0.3, -0.3, 0.3j, -0.3j):
+                ok, _, det, g, th = tr.newton(p, r2, here, complex(centre[0, at]) + shift, float(turn[0, at]) + spin,
+                                              1e-15)
+                if ok and det * sign < 0:
+                    return g, th
+        raise AssertionError("no other assembly found")
+
+    def spoil(body, hung, centre, turn, tol):
+        if not spoiled:
+            g, th = other_branch(body, hung, centre, turn)
+            centre, turn = centre.copy(), turn.copy()
+            centre[0, at], turn[0, at] = g, th
+            spoiled.append(at)
+        now, turns, ok = polish(body, hung, centre, turn, tol)
+        rejected.append(np.flatnonzero(~ok[0]).tolist())
+        return now, turns, ok
+
+    monkeypatch.setattr(tr, "polish", spoil)
+    m = simulate(spec, 72)
+    assert spoiled and rejected[0] == [at]
+    assert np.abs(m.positions - good.positions).max() <= 1e-12 * size_of(spec)
