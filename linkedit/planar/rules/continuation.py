@@ -19,8 +19,8 @@ GROUP_ITERATIONS = 12
 #: dense the samples; the samples between are predicted from those and polished all at once
 GROUP_STRIDE = 0.08
 #: the sequential continuation's tolerance before every sample is polished to GROUP_TOLERANCE:
-#: enough to follow the branch; the polish takes its samples on in two Newton steps (1e-4 → 1e-8 →
-#: 1e-16), no more than the samples between need from their cubic predictor
+#: enough to follow the branch. The samples between start further off, from their cubic predictor
+#: (the complex loop's rows: 1e-3 → 3e-6 → 1e-11 → 2e-16 in three polishing steps)
 COARSE_TOLERANCE = 1e-4
 
 
