@@ -28,7 +28,6 @@ from linkedit.planar.rules.triad import Body, Pose, Poses, Triad, pose, rates
 from linkedit.planar.rules.triad import ds as triad_ds
 
 
-
 @dataclass(frozen=True)
 class Group(Step):
     """The joints of a complex loop, on the side ``det_sign`` of its Jacobian's determinant at rest.
@@ -253,10 +252,6 @@ class RealForm:
     def count(self) -> int:
         """K: how many linkages' forms it stacks (1 for one linkage's)."""
         return self.twice.shape[0] if self.twice.ndim == 3 else 1
-
-    def take(self, which: np.ndarray) -> "RealForm":
-        """The forms of the linkages ``which`` (indices) of K (all of one linkage's: itself)."""
-        return self if self.twice.ndim == 2 else RealForm(self.twice[which], self.drive, self.driven, self.m)
 
     def linkage(self, k: int) -> "RealForm":
         """The form of linkage ``k`` alone."""
