@@ -222,3 +222,35 @@ def test_a_prediction_on_the_other_assembly_branch_is_rejected_by_the_determinan
     m = simulate(spec, 72)
     assert spoiled and rejected[0] == [at]
     assert np.abs(m.positions - good.positions).max() <= 1e-12 * size_of(spec)
+
+
+def test_inputs_that_stop_at_the_end_are_predicted_not_divided_by_zero(monkeypatch):
+    """A motion whose last samples repeat a node of the sequential pass (the inputs stop there): the
+    last sample's travel equals that node's, so it is that node again, not a second node at the same
+    travel (a zero divided difference made every prediction NaN, and each sample was continued one
+    by one). Every sample is accepted from its prediction, and the repeated samples are the sample
+    they repeat."""
+    from linkedit.planar.kinematics import evaluate
+    from linkedit.planar.plan import Geometry
+    from linkedit.planar.rules import continuation, triad as tr
+
+    plan = compile_plan(triad(LOOP, LINKS))
+    geom = Geometry.of(plan, plan.normalized_points())
+    coarse, nodes = continuation.coarse, []
+    monkeypatch.setattr(continuation, "coarse", lambda *a: nodes.append(coarse(*a)[0]) or coarse(*a))
+    angle = geom.rest_angle + np.radians(np.arange(120.0))
+    evaluate(plan, geom, angle, order=0)
+    node = int(nodes[0][3])  # a node inside the motion: fine sample `node` is angle[node - 1] (the rest comes first)
+    assert 0 < node < 100
+    angle = np.r_[angle[:node], angle[node - 1], angle[node - 1]]
+    polish, rejected = tr.polish, []
+
+    def counted(*args):
+        now, turns, ok = polish(*args)
+        rejected.append(int((~ok).sum()))
+        return now, turns, ok
+
+    monkeypatch.setattr(tr, "polish", counted)
+    z = evaluate(plan, geom, angle, order=2).z
+    assert rejected == [0]
+    assert np.isfinite(z).all() and np.array_equal(z[:, -1], z[:, -3]) and np.array_equal(z[:, -2], z[:, -3])

@@ -6,6 +6,7 @@ body's pose), each a :class:`Continued`."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Protocol
 
 import numpy as np
@@ -30,12 +31,33 @@ def accepted(moved: np.ndarray | float, first: np.ndarray | float) -> np.ndarray
     return (moved <= 1.5 * first + 1e-9) & (first <= 0.1)
 
 
-def largest(a: np.ndarray) -> np.ndarray:
-    """max |a| (N,) along the last axis of ``a`` (N, c) (NaN where any is NaN), column by column:
-    a few columns, many rows — a reduction along the short axis costs several times more."""
-    out = np.abs(a[:, 0])
-    for n in range(1, a.shape[1]):
-        np.maximum(out, np.abs(a[:, n]), out=out)
+def advance(attempt: Callable[[float], bool]) -> bool:
+    """One move of a sequential continuation, from one sample to the next: a homotopy in the inputs.
+    ``attempt(f)`` tries to reach the fraction f of the move from where its last accepted attempt
+    left (keeping the result when it returns True: Newton converged, accepted); a failed piece is
+    halved (down to 1/256 of the move), a piece after a success doubled. Returns whether the whole
+    move was made."""
+    done, piece = 0.0, 1.0
+    while done < 1.0:
+        f = min(done + piece, 1.0)
+        if attempt(f):
+            done = f
+            piece = min(2.0 * piece, 1.0)
+        else:
+            piece *= 0.5
+            if piece < 1.0 / 256:
+                return False
+    return True
+
+
+def largest(*parts: np.ndarray) -> np.ndarray:
+    """max |a| (N,) along the last axis of every ``a`` (N, c) of ``parts`` (NaN where any is NaN),
+    column by column: a few columns, many rows — a reduction along the short axis costs several
+    times more."""
+    out = np.abs(parts[0][:, 0])
+    for a in parts:
+        for n in range(1 if a is parts[0] else 0, a.shape[1]):
+            np.maximum(out, np.abs(a[:, n]), out=out)
     return out
 
 
@@ -67,11 +89,15 @@ def coarse(known: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The samples (increasing, the first and the last among them) the group is continued through
     sequentially: one each time the inputs ``known`` (J_in, T) complex and ``s`` (T,) have moved
     GROUP_STRIDE since the one before (their largest move, summed sample to sample: their travel
-    (T,), also returned)."""
+    (T,), also returned), and the last sample unless its inputs have not moved since the one before
+    (no two of them at one travel: :func:`predict`'s abscissae; the samples after the last are
+    predicted as it)."""
     moved = np.abs(np.diff(known, axis=1)).max(axis=0, initial=0.0)
     travel = np.concatenate([[0.0], np.cumsum(np.maximum(moved, np.abs(np.diff(s))))])
     first = np.flatnonzero(np.diff(np.floor(travel / GROUP_STRIDE))) + 1
-    return np.unique(np.concatenate([[0], first, [travel.size - 1]])), travel
+    nodes = np.unique(np.concatenate([[0], first, [travel.size - 1]]))
+    # a last sample whose inputs have not moved since the node before is that node again (predicted as it)
+    return nodes[np.concatenate([[True], np.diff(travel[nodes]) > 0.0])], travel
 
 
 class Continued(Protocol):
@@ -87,7 +113,7 @@ class Continued(Protocol):
     def follow(self, c: int, x: np.ndarray, path: np.ndarray, out: np.ndarray, travel: np.ndarray,
                tol: float) -> int:
         """Continue linkage ``c`` from ``x`` (known at sample ``path[0]``) through the samples ``path`` in
-        order, each move accepted as :func:`accepted` says (halved down to 1/256 until it is), Newton to
+        order, each move made by :func:`advance` and accepted as :func:`accepted` says, Newton to
         ``tol``, writing rows ``out`` (T, width); ``travel`` (T,) as :func:`coarse` gives it. Returns the
         position in ``path`` where it fails, or −1."""
 
@@ -118,7 +144,7 @@ def trace(group: Continued, known: np.ndarray, s: np.ndarray) -> tuple[np.ndarra
     for c in range(K):
         through, travel = coarse(known[:, c], s[c])
         stop = group.follow(c, group.start(c), through, out[c], travel, COARSE_TOLERANCE)
-        last = through[stop - 1] if stop > 0 else (through[-1] if stop < 0 else -1)
+        last = through[stop - 1] if stop > 0 else (T - 1 if stop < 0 else -1)  # predicted up to here
         ends.append((stop, last, travel))
         if last >= 0:
             solved = through[through <= last]

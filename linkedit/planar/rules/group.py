@@ -23,7 +23,7 @@ from linkedit.planar.constraints import Rows, linkage_rows
 from linkedit.planar.graph import LinkageGraph
 from linkedit.planar.ordering import StepRule
 from linkedit.planar.rules.base import Frame, Step, loop_rows, solve, to_complex
-from linkedit.planar.rules.continuation import GROUP_ITERATIONS, GROUP_TOLERANCE, accepted, largest, trace
+from linkedit.planar.rules.continuation import GROUP_ITERATIONS, GROUP_TOLERANCE, accepted, advance, largest, trace
 from linkedit.planar.rules.triad import Body, Pose, Poses, Triad, pose, rates
 from linkedit.planar.rules.triad import ds as triad_ds
 
@@ -338,17 +338,17 @@ def _continue(form: RealForm, det_sign: float, X: np.ndarray, s: np.ndarray, k: 
               path: np.ndarray, out: np.ndarray, tol: float = GROUP_TOLERANCE) -> int:
     """Continue the group sequentially from X-row ``x`` (known at sample ``path[0]``) through the
     samples ``path`` in order, writing ``out`` rows. Each move from one sample to the next is a
-    homotopy in the known joints (interpolated linearly); Newton's first step is the tangent
-    predictor, and a move is accepted only when Newton converges close to it (:func:`accepted`)
-    without the Jacobian's determinant leaving ``det_sign``; otherwise it is halved (down to 1/256).
+    homotopy in the known joints (interpolated linearly, :func:`~.continuation.advance`); Newton's
+    first step is the tangent predictor, and a move is accepted only when Newton converges close to
+    it (:func:`accepted`) without the Jacobian's determinant leaving ``det_sign``.
     Newton stops within ``tol``. Returns the position in ``path`` where it fails, or −1."""
     square = form.m == k
     x = x.copy()
     prev = path[0]
     for n, t in enumerate(path):
-        done, piece = 0.0, 1.0
-        while done < 1.0:
-            f = min(done + piece, 1.0)
+
+        def attempt(f: float) -> bool:  # Newton at the fraction f of the move from prev to t
+            nonlocal x
             trial = x.copy()
             trial[k:] = X[t, k:] if f == 1.0 else X[prev, k:] + f * (X[t, k:] - X[prev, k:])
             ok, first, sign = _newton(form, trial, s[prev] + f * (s[t] - s[prev]), k, tol)
@@ -357,12 +357,11 @@ def _continue(form: RealForm, det_sign: float, X: np.ndarray, s: np.ndarray, k: 
                 if ok and square and sign != det_sign:
                     ok = False  # passed a singular position: another assembly branch
             if ok:
-                x, done = trial, f
-                piece = min(2.0 * piece, 1.0)
-            else:
-                piece *= 0.5
-                if piece < 1.0 / 256:
-                    return n
+                x = trial
+            return ok
+
+        if not advance(attempt):
+            return n
         out[t] = x[:k]
         prev = t
     return -1

@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from linkedit.planar.constraints import Rows
-from linkedit.planar.rules.continuation import GROUP_ITERATIONS, GROUP_TOLERANCE, accepted
+from linkedit.planar.rules.continuation import GROUP_ITERATIONS, GROUP_TOLERANCE, accepted, advance, largest
 
 
 @dataclass(frozen=True)
@@ -192,18 +192,19 @@ def follow(body: Body, c: int, hung: np.ndarray, x: np.ndarray, path: np.ndarray
     """Continue linkage ``c``'s body from the pose ``x`` (the centre's x, y and the turn, at sample
     ``path[0]``) through the samples ``path`` in order, writing each pose in ``out`` (T, 3)
     (``hung`` (3, T) complex: where its links hang from; ``travel`` (T,) the inputs' travel).
-    Newton starts from the pose extrapolated from the last three in ``travel`` (a parabola), or
-    from the last pose: a homotopy in ``hung`` (interpolated linearly), halved (down to 1/256)
-    until a move is accepted — Newton converged close to where it started
-    (:func:`~linkedit.planar.rules.continuation.accepted`, the largest joint move) with det M's
-    sign of the rest pose. Returns the position in ``path`` where it fails, or −1."""
+    Each move is a homotopy in ``hung`` (interpolated linearly,
+    :func:`~linkedit.planar.rules.continuation.advance`), accepted when Newton converged close to
+    where it started (:func:`~linkedit.planar.rules.continuation.accepted`, the largest joint move)
+    with det M's sign of the rest pose. Its first attempt starts from the pose extrapolated from the
+    last three in ``travel`` (a parabola; the general group's from the last pose, Newton's first
+    step then being the tangent predictor), the others from the last pose. Returns the position in
+    ``path`` where it fails, or −1."""
     p, r2, sign = body.linkage(c)
     p0, p1, p2 = p
     centre, turn = complex(x[0], x[1]), float(x[2])
     goals, along = hung[:, path].T.tolist(), travel[path].tolist()
     prev = goals[0]
     for n, goal in enumerate(goals):
-        done, piece = 0.0, 1.0
         guess = None
         if n >= 3 and along[n - 1] > along[n - 2] > along[n - 3]:  # the parabola through the last three
             ta, tb, tc, tx = along[n - 3], along[n - 2], along[n - 1], along[n]
@@ -212,24 +213,24 @@ def follow(body: Body, c: int, hung: np.ndarray, x: np.ndarray, path: np.ndarray
             pa, pb = out[path[n - 3]], out[path[n - 2]]
             guess = (complex(wa * pa[0] + wb * pb[0], wa * pa[1] + wb * pb[1]) + wc * centre,
                      wa * pa[2] + wb * pb[2] + wc * turn)
-        while done < 1.0:
-            f = min(done + piece, 1.0)
+
+        def attempt(f: float) -> bool:  # Newton at the fraction f of the move, from the guess first
+            nonlocal centre, turn, guess
             at = goal if f == 1.0 else [a + f * (b - a) for a, b in zip(prev, goal)]
             start, spin = guess if guess is not None else (centre, turn)
+            guess = None
             ok, first, det, g, th = newton(p, r2, at, start, spin, tol)
             if ok:  # joint k moved by (g − start) + (e^{i·th} − e^{i·spin})·p_k
                 w, shift = complex(math.cos(th) - math.cos(spin), math.sin(th) - math.sin(spin)), g - start
                 v0, v1, v2 = shift + w * p0, shift + w * p1, shift + w * p2
                 moved = max(abs(v0.real), abs(v0.imag), abs(v1.real), abs(v1.imag), abs(v2.real), abs(v2.imag))
                 ok = bool(accepted(moved, first)) and det * sign > 0.0
-            guess = None
             if ok:
-                centre, turn, done = g, th, f
-                piece = min(2.0 * piece, 1.0)
-            else:
-                piece *= 0.5
-                if piece < 1.0 / 256:
-                    return n
+                centre, turn = g, th
+            return ok
+
+        if not advance(attempt):
+            return n
         out[path[n]] = centre.real, centre.imag, turn
         prev = goal
     return -1
@@ -319,12 +320,7 @@ def polish(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray,
 
 def _worst(*parts: np.ndarray) -> np.ndarray:
     """max |·| (K, T) over the three rows (3, K, T) of each of ``parts`` (NaN where any is NaN)."""
-    out = np.abs(parts[0][0])
-    for part in parts:
-        for k in range(3):
-            if part is not parts[0] or k:
-                np.maximum(out, np.abs(part[k]), out=out)
-    return out
+    return largest(*(part.reshape(3, -1).T for part in parts)).reshape(parts[0].shape[1:])
 
 
 def ds(now: Pose, body: Body) -> np.ndarray:
