@@ -163,7 +163,7 @@ def test_complex_loop_polish_rejects_a_wrong_prediction_and_continues_sequential
     other assembly) are rejected and those samples continued one by one from the sample before —
     in the group's joints (the general solver) or in its body's pose (a triad,
     :mod:`linkedit.planar.rules.triad`). The positions are those of the unspoiled run."""
-    from linkedit.planar.rules import continuation, group, triad
+    from linkedit.planar.rules import continuation, general_group, triad
 
     good = simulate(compile_plan(catalog.complex_loop()), 360)
     if solver == "general":
@@ -184,7 +184,7 @@ def test_complex_loop_polish_rejects_a_wrong_prediction_and_continues_sequential
         return out
 
     rejected = []
-    module, name = (group, "_polish") if solver == "general" else (triad, "polish")
+    module, name = (general_group, "_polish") if solver == "general" else (triad, "polish")
     polish = getattr(module, name)
 
     def counted(*args):

@@ -3,7 +3,7 @@
 Besides the built-in ones, any planar linkage spec with a cyclic input (a full-turn crank, an
 oscillating crank, a linear input out and back) — dyads, rigid links, sliders, slots, slotted links, or
 numeric groups (complex loops: each linkage continued from its own rest pose, K linkages per call,
-:func:`~linkedit.planar.rules.group.solve_group`) — is a family (:func:`spec_family`: ``atlas build --family examples/klann.yaml``): its rest pose is
+:func:`~linkedit.planar.rules.general_group.solve_group`) — is a family (:func:`spec_family`: ``atlas build --family examples/klann.yaml``): its rest pose is
 sampled around the design like the catalog families (:class:`~linkedit.synthesis.legs.CatalogFamily`),
 its first joint track is the curve, and the atlas keeps its spec text so that synthesis (and a Dask
 worker) rebuilds it by name.

@@ -15,7 +15,7 @@ velocities and accelerations of the body (ω, α: P_k' = G' + iω·q_k, P_k'' = 
 and the group's singularity distance: the group Jacobian J (6×6: the binary rows J1, the
 body's rows J2) has det J² = (8·det M)²·det(J2·J2ᵀ)/det(NᵀN), N the body's rigid motions
 (det(NᵀN) = 9·Σ|p_k|²), so its Hadamard ratio (the group's d_s,
-:func:`~linkedit.planar.rules.group.conditioning`) is
+:func:`~linkedit.planar.rules.general_group.conditioning`) is
 
     d_s = det M² · det(J2·J2ᵀ) / (9·Σ|p_k|² · ∏|d_k|² · ∏ diag(J2·J2ᵀ)),
 
