@@ -21,8 +21,12 @@ GROUP_ITERATIONS = 12
 GROUP_STRIDE = 0.08
 #: the sequential continuation's tolerance before every sample is polished to GROUP_TOLERANCE:
 #: enough to follow the branch. The samples between start further off, from their cubic predictor
-#: (the complex loop's rows: 1e-3 → 3e-6 → 1e-11 → 2e-16 in three polishing steps)
+#: (the complex loop's rows: from 1.2e-4 to below 1e-13 in two polishing steps, :data:`STENCIL`)
 COARSE_TOLERANCE = 1e-4
+#: the samples between are predicted by the polynomial through this many solved samples nearest
+#: each (:func:`predict`): quintic (the complex loop's rows from their predictor: 1e-3 with a cubic
+#: and whole strides at the ends, 1.2e-4 with this and half strides; three polishing steps → two)
+STENCIL = 6
 
 
 def accepted(moved: np.ndarray | float, first: np.ndarray | float) -> np.ndarray | bool:
@@ -62,22 +66,25 @@ def largest(*parts: np.ndarray) -> np.ndarray:
 
 
 def predict(travel: np.ndarray, known: np.ndarray, solved: np.ndarray, want: np.ndarray) -> np.ndarray:
-    """Positions (len(want), k) at samples ``want`` (none of them in ``known``) by the cubic, in the
-    inputs' ``travel`` (T,) (:func:`coarse`: repeated inputs are one point of it, not two), through
-    the four solved samples nearest each (fewer when fewer are solved): ``known`` (indices,
-    increasing), ``solved`` (len(known), k). Each interval's cubic in Newton's form (divided
-    differences over the intervals at once), evaluated by Horner's rule: no per-sample loop."""
-    n, p = known.size, min(4, known.size)
+    """Positions (len(want), k) at samples ``want`` (none of them in ``known``) by the polynomial, in
+    the inputs' ``travel`` (T,) (:func:`coarse`: repeated inputs are one point of it, not two),
+    through the STENCIL solved samples nearest each (fewer when fewer are solved): ``known``
+    (indices, increasing), ``solved`` (len(known), k). Each interval's polynomial in Newton's form
+    (divided differences over the intervals at once), evaluated by Horner's rule: no per-sample
+    loop."""
+    n, p = known.size, min(STENCIL, known.size)
     if n < 2:
         return np.broadcast_to(solved[:1], (want.size, solved.shape[1])).copy()
-    first = np.minimum(np.maximum(np.arange(1 - p // 2, n - p // 2), 0), n - p)  # each interval's stencil
+    first = np.clip(np.arange(1 - p // 2, n - p // 2), 0, n - p)  # each interval's stencil
     nodes = first + np.arange(p)[:, None]  # (p, intervals)
-    x, c = travel[known][nodes], solved[nodes]  # (p, intervals), (p, intervals, k)
+    x, c = travel[known[nodes]], solved[nodes]  # (p, intervals), (p, intervals, k)
     for j in range(1, p):  # divided differences, in place
-        c[j:] = (c[j:] - c[j - 1:-1]) / (x[j:] - x[:p - j])[..., None]
-    inside = np.minimum(np.maximum(np.searchsorted(known, want), 1), n - 1)  # 1 + the interval of each wanted sample
+        c[j:] -= c[j - 1:-1]
+        c[j:] /= (x[j:] - x[:p - j])[..., None]
+    inside = np.searchsorted(known, want)  # 1 + the interval of each wanted sample
+    np.clip(inside, 1, n - 1, out=inside)
     inside -= 1
-    t, x, c = travel[want][:, None], x.take(inside, axis=1)[..., None], c.take(inside, axis=1)
+    t, x, c = travel[want][:, None], x[:, inside, None], c[:, inside]
     out = c[p - 1]
     for j in range(p - 2, -1, -1):
         out *= t - x[j]
@@ -89,15 +96,28 @@ def coarse(known: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The samples (increasing, the first and the last among them) the group is continued through
     sequentially: one each time the inputs ``known`` (J_in, T) complex and ``s`` (T,) have moved
     GROUP_STRIDE since the one before (their largest move, summed sample to sample: their travel
-    (T,), also returned), and the last sample unless its inputs have not moved since the one before
-    (no two of them at one travel: :func:`predict`'s abscissae; the samples after the last are
-    predicted as it)."""
-    moved = np.abs(np.diff(known, axis=1)).max(axis=0, initial=0.0)
-    travel = np.concatenate([[0.0], np.cumsum(np.maximum(moved, np.abs(np.diff(s))))])
-    first = np.flatnonzero(np.diff(np.floor(travel / GROUP_STRIDE))) + 1
-    nodes = np.unique(np.concatenate([[0], first, [travel.size - 1]]))
-    # a last sample whose inputs have not moved since the node before is that node again (predicted as it)
-    return nodes[np.concatenate([[True], np.diff(travel[nodes]) > 0.0])], travel
+    (T,), also returned), and half that into the first move and before the last sample (the end
+    intervals, where :func:`predict`'s stencil is one-sided); the last sample unless its inputs
+    have not moved since the one before (no two of them at one travel: :func:`predict`'s
+    abscissae; the samples after the last are predicted as it)."""
+    T = s.size
+    moved = np.abs(known[:, 1:] - known[:, :-1]).max(axis=0, initial=0.0)
+    np.maximum(moved, np.abs(s[1:] - s[:-1]), out=moved)
+    travel = np.empty(T)
+    travel[0] = 0.0
+    np.cumsum(moved, out=travel[1:])
+    end = travel[-1]
+    marks = np.arange(0.0, end, GROUP_STRIDE)
+    if marks.size:
+        marks[0] = 0.5 * GROUP_STRIDE
+    if end > GROUP_STRIDE:
+        marks = np.sort(np.append(marks, end - 0.5 * GROUP_STRIDE))
+    nodes = np.concatenate([[0], np.searchsorted(travel, marks), [T - 1]])
+    nodes = np.minimum(nodes, T - 1)
+    keep = np.empty(nodes.size, dtype=bool)  # a node at the travel of the one before is that node again
+    keep[0] = True
+    np.greater(travel[nodes[1:]], travel[nodes[:-1]], out=keep[1:])
+    return nodes[keep], travel
 
 
 class Continued(Protocol):
