@@ -35,13 +35,13 @@ def accepted(moved: np.ndarray | float, first: np.ndarray | float) -> np.ndarray
     return (moved <= 1.5 * first + 1e-9) & (first <= 0.1)
 
 
-def advance(attempt: Callable[[float], bool]) -> bool:
+def advance(attempt: Callable[[float], bool], piece: float = 1.0) -> bool:
     """One move of a sequential continuation, from one sample to the next: a homotopy in the inputs.
     ``attempt(f)`` tries to reach the fraction f of the move from where its last accepted attempt
-    left (keeping the result when it returns True: Newton converged, accepted); a failed piece is
-    halved (down to 1/256 of the move), a piece after a success doubled. Returns whether the whole
-    move was made."""
-    done, piece = 0.0, 1.0
+    left (keeping the result when it returns True: Newton converged, accepted), first f = ``piece``
+    (0.5 once the whole move has failed); a failed piece is halved (down to 1/256 of the move), a
+    piece after a success doubled. Returns whether the whole move was made."""
+    done = 0.0
     while done < 1.0:
         f = min(done + piece, 1.0)
         if attempt(f):
@@ -84,7 +84,7 @@ def predict(travel: np.ndarray, known: np.ndarray, solved: np.ndarray, want: np.
     inside = np.searchsorted(known, want)  # 1 + the interval of each wanted sample
     np.clip(inside, 1, n - 1, out=inside)
     inside -= 1
-    t, x, c = travel[want][:, None], x[:, inside, None], c[:, inside]
+    t, x, c = travel[want][:, None], x.take(inside, axis=1)[..., None], c.take(inside, axis=1)
     out = c[p - 1]
     for j in range(p - 2, -1, -1):
         out *= t - x[j]

@@ -198,42 +198,56 @@ def follow(body: Body, c: int, hung: np.ndarray, x: np.ndarray, path: np.ndarray
     with det M's sign of the rest pose. Its first attempt starts from the pose extrapolated from the
     last three in ``travel`` (a parabola; the general group's from the last pose, Newton's first
     step then being the tangent predictor), the others from the last pose. Returns the position in
-    ``path`` where it fails, or −1."""
+    ``path`` where it fails, or −1 (Python numbers throughout: a few of them per sample)."""
     p, r2, sign = body.linkage(c)
     p0, p1, p2 = p
-    centre, turn = complex(x[0], x[1]), float(x[2])
     goals, along = hung[:, path].T.tolist(), travel[path].tolist()
-    prev = goals[0]
-    for n, goal in enumerate(goals):
-        guess = None
-        if n >= 3 and along[n - 1] > along[n - 2] > along[n - 3]:  # the parabola through the last three
+    centres, turns = [complex(x[0], x[1])], [float(x[2])]  # the poses reached, one per sample of path
+
+    def move(start: complex, spin: float, at: list[complex]) -> tuple[complex, float] | None:
+        """Newton from (start, spin) with the links hung from ``at``: its pose when accepted."""
+        ok, first, det, g, th = newton(p, r2, at, start, spin, tol)
+        if not ok or det * sign <= 0.0:
+            return None
+        # joint k moved by (g − start) + (e^{i·th} − e^{i·spin})·p_k
+        w, shift = complex(math.cos(th) - math.cos(spin), math.sin(th) - math.sin(spin)), g - start
+        v0, v1, v2 = shift + w * p0, shift + w * p1, shift + w * p2
+        moved = max(abs(v0.real), abs(v0.imag), abs(v1.real), abs(v1.imag), abs(v2.real), abs(v2.imag))
+        return (g, th) if accepted(moved, first) else None
+
+    failed = -1
+    for n in range(len(goals)):
+        centre, turn, goal = centres[-1], turns[-1], goals[n]
+        start, spin = centre, turn
+        guessed = n >= 3 and along[n - 1] > along[n - 2] > along[n - 3]
+        if guessed:  # the parabola through the last three
             ta, tb, tc, tx = along[n - 3], along[n - 2], along[n - 1], along[n]
             wa, wb = (tx - tb) * (tx - tc) / ((ta - tb) * (ta - tc)), (tx - ta) * (tx - tc) / ((tb - ta) * (tb - tc))
             wc = 1.0 - wa - wb
-            pa, pb = out[path[n - 3]], out[path[n - 2]]
-            guess = (complex(wa * pa[0] + wb * pb[0], wa * pa[1] + wb * pb[1]) + wc * centre,
-                     wa * pa[2] + wb * pb[2] + wc * turn)
+            start = wa * centres[-3] + wb * centres[-2] + wc * centre
+            spin = wa * turns[-3] + wb * turns[-2] + wc * turn
+        reached = move(start, spin, goal)
+        if reached is None and n:  # the homotopy from the last pose, in pieces
+            prev, now = goals[n - 1], [(centre, turn)]
 
-        def attempt(f: float) -> bool:  # Newton at the fraction f of the move, from the guess first
-            nonlocal centre, turn, guess
-            at = goal if f == 1.0 else [a + f * (b - a) for a, b in zip(prev, goal)]
-            start, spin = guess if guess is not None else (centre, turn)
-            guess = None
-            ok, first, det, g, th = newton(p, r2, at, start, spin, tol)
-            if ok:  # joint k moved by (g − start) + (e^{i·th} − e^{i·spin})·p_k
-                w, shift = complex(math.cos(th) - math.cos(spin), math.sin(th) - math.sin(spin)), g - start
-                v0, v1, v2 = shift + w * p0, shift + w * p1, shift + w * p2
-                moved = max(abs(v0.real), abs(v0.imag), abs(v1.real), abs(v1.imag), abs(v2.real), abs(v2.imag))
-                ok = bool(accepted(moved, first)) and det * sign > 0.0
-            if ok:
-                centre, turn = g, th
-            return ok
+            def attempt(f: float) -> bool:
+                at = goal if f == 1.0 else [a + f * (b - a) for a, b in zip(prev, goal)]
+                step = move(*now[0], at)
+                if step is not None:
+                    now[0] = step
+                return step is not None
 
-        if not advance(attempt):
-            return n
-        out[path[n]] = centre.real, centre.imag, turn
-        prev = goal
-    return -1
+            reached = now[0] if advance(attempt, 1.0 if guessed else 0.5) else None
+        if reached is None:
+            failed = n
+            break
+        centres.append(reached[0])
+        turns.append(reached[1])
+    done = len(centres) - 1
+    if done:
+        poses = np.array([centres[1:], turns[1:]])
+        out[path[:done], 0], out[path[:done], 1], out[path[:done], 2] = poses[0].real, poses[0].imag, poses[1].real
+    return failed
 
 
 @dataclass
