@@ -158,24 +158,25 @@ def trace(group: Continued, known: np.ndarray, s: np.ndarray) -> tuple[np.ndarra
     ``group.polish``'s value (K, T) at each polished sample (NaN elsewhere), and which samples are
     placed (K, T): a linkage that fails does not spoil the others."""
     K, T = s.shape
-    out = np.full((K, T, group.width), np.nan)
-    polished = out.copy()  # the samples each linkage's coarse continuation reached, and predicted between
+    out = np.empty((K, T, group.width))  # each linkage's coarse continuation, predicted between
     ends = []
     for c in range(K):
         through, travel = coarse(known[:, c], s[c])
         stop = group.follow(c, group.start(c), through, out[c], travel, COARSE_TOLERANCE)
         last = through[stop - 1] if stop > 0 else (T - 1 if stop < 0 else -1)  # predicted up to here
         ends.append((stop, last, travel))
+        out[c, last + 1:] = np.nan
         if last >= 0:
-            solved = through[through <= last]
+            solved = through[through <= last] if stop >= 0 else through
             between = np.ones(last + 1, dtype=bool)
             between[solved] = False
             inner = np.flatnonzero(between)
-            polished[c, solved] = out[c, solved]
             if inner.size:
-                polished[c, inner] = predict(travel, solved, out[c, solved], inner)
-    accept, value = group.polish(polished)
-    out[:] = np.where(accept[..., None], polished, np.nan)
+                out[c, inner] = predict(travel, solved, out[c, solved], inner)
+    accept, value = group.polish(out)
+    if accept.all():  # every sample of every linkage placed by the polish
+        return out, value, accept
+    out[~accept] = np.nan
     placed = np.zeros((K, T), dtype=bool)
     for c, (stop, last, travel) in enumerate(ends):
         fail = -1
