@@ -95,7 +95,10 @@ class Dyad(Triangles):
             loc.singularity_distance(bsq, u, lengths, d2, f.ds[rows])
         if rates is not None:
             rates(lik2)
-        np.add(zi, fk, out=fk)
+        if self.grounded:
+            np.add(zi[0], fk[0], out=fk[0])
+        else:
+            np.add(zi, fk, out=fk)
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
         """Lengths from the rest pose ``f.rest``; with tangents, ∂z_k and ∂ln d_s along ``f.D``."""

@@ -56,9 +56,14 @@ class Rigid(Triangles):
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Every derivative order at once: the rows of ``f.orders``."""
         zi, e, spread = f.scratch[id(self)]
-        zi = self.inputs(f.orders, zi, e)
-        np.multiply(const[0] if spread is None else spread.of(const, *const * len(e)), e, out=e)
-        np.add(zi, e, out=f.orders[:, self.start:self.stop])
+        zi, out = self.inputs(f.orders, zi, e), f.orders[:, self.start:self.stop]
+        c = const[0] if spread is None else spread.of(const, *const * len(e))
+        if self.grounded and len(e) > 1:  # z_i's derivatives are 0: z_k's are c·ė, written in place
+            np.multiply(c, e, out=out)
+            np.add(zi[0], out[0], out=out[0])
+        else:
+            np.multiply(c, e, out=e)
+            np.add(zi, e, out=out)
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
         """Joints take c from the rest pose (its tangent from ``f.D``); tracked points keep
