@@ -177,6 +177,28 @@ def test_multi_level_derivatives_match_central_differences():
     assert np.abs(s.ddz - fd_a).max() < 1e-5 * np.abs(s.ddz).max()
 
 
+@pytest.mark.parametrize("name", ["strandbeest", "crank_rocker"])
+def test_batches_hung_from_the_ground_read_its_positions_alone(name):
+    """A dyad or rigid batch whose joints i are all ground pivots (``grounded``) reads their
+    positions alone (their derivatives are 0): its velocities and accelerations still match
+    central differences, with z_i gathered (Strandbeest) and read in place (four-bar)."""
+    from linkedit.planar import catalog
+    from linkedit.planar.kinematics import Workspace, evaluate
+
+    spec = catalog.strandbeest(3) if name == "strandbeest" else catalog.crank_rocker()
+    plan = compile_plan(spec)
+    grounded = {(r.kind, r.runs[0] is None) for r in plan.rules if getattr(r, "grounded", False)}
+    assert ("dyad", name == "strandbeest") in grounded
+    geom = plan.geometry()
+    angle = geom.rest_angle + np.linspace(0.0, 2 * np.pi, 60, endpoint=False)
+    h = 1e-4
+    s = evaluate(plan, geom, angle, 2, Workspace(plan, angle.size, order=2))
+    up, down = (evaluate(plan, geom, angle + d, order=0).z for d in (h, -h))
+    fd_v, fd_a = (up - down) / (2 * h), (up - 2 * s.z + down) / h**2
+    assert np.abs(s.dz - fd_v).max() < 1e-7 * np.abs(s.dz).max()
+    assert np.abs(s.ddz - fd_a).max() < 1e-5 * np.abs(s.ddz).max()
+
+
 def test_evaluate_with_workspace_allocates_no_batch_arrays():
     """With a Workspace, an evaluation with derivatives writes into its buffers: the memory it
     allocates is a few motor-row arrays (T,), never a batch (R, T); results equal a fresh one."""

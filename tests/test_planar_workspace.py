@@ -69,11 +69,12 @@ def test_one_linkage_constants_are_read_only():
             a[...] = 0.0
 
 
-def test_derivative_scratch_of_a_dyad_batch_is_its_rows_and_21_arrays():
+def test_derivative_scratch_of_a_dyad_batch_is_its_rows_and_19_arrays():
     """An order-2 workspace's rule scratch (shared by the rules, the largest batch sets it): a
     dyad batch forms z_k − z_i and its rates in its own rows of the stacked orders, so beside
-    them it holds z_i and e with their derivatives (2 × 3 complex), w and ġ (complex), d², 1/d²,
-    B², A, B: 21 real (R, T) arrays, where it held 31 (the offsets and the rates' products apart)."""
+    them it holds z_i and e with their derivatives (2 × 3 complex; g = z_k − z_j where e was),
+    w and then ġ (complex), d², 1/d², B², A, B: 19 real (R, T) arrays, where it held 31 (the
+    offsets, the rates' products and g apart)."""
     spec = catalog.strandbeest(10)
     plan = compile_plan(spec)
     angle = motor_angles(spec, 360)[1]
@@ -81,7 +82,7 @@ def test_derivative_scratch_of_a_dyad_batch_is_its_rows_and_21_arrays():
     rows = max(r.batch_rows() for r in plan.rules if r.kind == "dyad")
     pool = work.pair.base
     assert pool is not None and all(np.shares_memory(a, pool) for a in (work.e, work.w))
-    assert pool.nbytes <= 21 * rows * angle.size * 8 + 64 * 16
+    assert pool.nbytes <= 19 * rows * angle.size * 8 + 64 * 16
     s = evaluate(plan, plan.geometry(), angle, 2, work)
     fresh = evaluate(plan, plan.geometry(), angle, 2)
     for a, b in ((s.z, fresh.z), (s.dz, fresh.dz), (s.ddz, fresh.ddz), (s.ds, fresh.ds)):

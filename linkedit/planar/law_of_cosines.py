@@ -92,9 +92,10 @@ class Rates:
     ``t`` (R, *S) complex; ``P`` (n, R, *S) complex for n derivative orders; ``s``, ``gf``, ``q``
     (R, *S) real. ``c`` holds iω: its real part is zeroed when the kernel is made and the kernel
     writes only its imaginary part, so a ``c`` no one else writes (``kept``) is not zeroed again
-    per call. ``s`` may be the kernel's ``b`` (s = u/B is formed in place), ``t``, ``gf``, ``q``
-    buffers of the positions' terms spent before the rates, ``P`` the kernel's ``out`` (each order's
-    product is spent before its rate is written): less memory touched per call."""
+    per call. ``s`` may be the kernel's ``b`` (s = u/B is formed in place), ``g`` its ``E[0]``
+    (g = f − e is formed in place), ``t``, ``gf``, ``q`` buffers of the positions' terms spent before
+    the rates, ``P`` the kernel's ``out`` (each order's product is spent before its rate is
+    written): less memory touched per call."""
 
     g: np.ndarray
     c: np.ndarray

@@ -337,7 +337,8 @@ def compile_plan(spec: LinkageSpec) -> Plan:
             sign = np.array([orientation[e[2]] if e[2] >= 0 else 1 for e in members], dtype=float)[:, None]
             kind = Dyad if is_dyad else Rigid
             sequence.append(kind(level=lv, start=row, stop=row + len(members), i=row_of[ip], j=row_of[jp],
-                                 k_point=kp, i_point=ip, j_point=jp, rule=rule_idx, sign=sign))
+                                 k_point=kp, i_point=ip, j_point=jp, rule=rule_idx, sign=sign,
+                                 grounded=bool(np.isin(ip, graph.ground).all())))
             row += len(members)
         for st in steps:
             if st.level == level:

@@ -67,15 +67,16 @@ class Dyad(Triangles):
         zi, e = super().scratch(pool, Z)
         w, d2, u, bsq = pool(one, complex), pool(one), pool(one), pool(one)
         a, b = pool(one), pool(one)
-        r = None
+        c = None
         if n:  # one linkage's iω outside the pool, like its spread constants: its zero real part stays
             c = np.empty(one if pool.buffer is not None else 0, complex) if single else pool(one, complex)
-            # w, B (s = u/B in place), B² and d² are spent before the rates: they hold ġ, s, g·f, |ġ|²;
-            # the products g·ė (, g·ë) go where their rates go (each is spent before its rate is written)
-            r = loc.Rates(pool(one, complex), c, w, fk[1:], b, bsq, d2, kept=single)
         if pool.buffer is None:  # measuring: the arrays are empty
             return None
-        rates = None if r is None else loc.rates(e, fk[0], u, a, b, fk[1:], r)
+        rates = None
+        if c is not None:  # e's positions row, w, B (s = u/B in place), B² and d² are spent before the rates: they
+            # hold g = z_k − z_j, ġ, s, g·f, |ġ|²; the products g·ė (, g·ë) go where their rates go (each is spent
+            # before its rate is written)
+            rates = loc.rates(e, fk[0], u, a, b, fk[1:], loc.Rates(e[0], c, w, fk[1:], b, bsq, d2, kept=single))
         spread = Spread(4, one[0], shape[0], derive=_lengths) if single else None
         return zi, e, fk, w, d2, u, bsq, loc.coefficient(e[0], w, d2, u, a, b, bsq), rates, spread
 
@@ -95,7 +96,10 @@ class Dyad(Triangles):
             loc.singularity_distance(bsq, u, lengths, d2, f.ds[rows])
         if rates is not None:
             rates(lik2)
-        np.add(zi, fk, out=fk)
+        if self.grounded:
+            np.add(zi[0], fk[0], out=fk[0])
+        else:
+            np.add(zi, fk, out=fk)
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
         """Lengths from the rest pose ``f.rest``; with tangents, ∂z_k and ∂ln d_s along ``f.D``."""

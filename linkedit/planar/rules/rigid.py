@@ -46,19 +46,25 @@ class Rigid(Triangles):
         return kernel
 
     def scratch(self, pool: Pool, Z: np.ndarray) -> Any:
-        """The inputs (:meth:`Triangles.scratch`) and one linkage's c spread over the samples,
-        once per derivative order (:class:`Spread`, outside the pool; None for K linkages): a
-        broadcast operand would cost numpy's general loop, several µs a call on a small batch."""
+        """The inputs (:meth:`Triangles.scratch`) and one linkage's c spread over the samples
+        (:class:`Spread` (1, R, T), outside the pool, broadcast over the derivative orders; None for
+        K linkages): an operand broadcast over the samples would cost numpy's general loop, several
+        µs a call on a small batch."""
         zi, e = super().scratch(pool, Z)
         one = Z.ndim == 3 and pool.buffer is not None
-        return zi, e, Spread(Z.shape[0], self.stop - self.start, Z.shape[-1], complex) if one else None
+        return zi, e, Spread(1, self.stop - self.start, Z.shape[-1], complex) if one else None
 
     def evaluate(self, f: Frame, const: tuple[Any, ...], rows: slice) -> None:
         """Every derivative order at once: the rows of ``f.orders``."""
         zi, e, spread = f.scratch[id(self)]
-        zi = self.inputs(f.orders, zi, e)
-        np.multiply(const[0] if spread is None else spread.of(const, *const * len(e)), e, out=e)
-        np.add(zi, e, out=f.orders[:, self.start:self.stop])
+        zi, out = self.inputs(f.orders, zi, e), f.orders[:, self.start:self.stop]
+        c = const[0] if spread is None else spread.of(const, const[0])
+        if self.grounded and len(e) > 1:  # z_i's derivatives are 0: z_k's are c·ė, written in place
+            np.multiply(c, e, out=out)
+            np.add(zi[0], out[0], out=out[0])
+        else:
+            np.multiply(c, e, out=e)
+            np.add(zi, e, out=out)
 
     def at_rest(self, f: RestFrame, rows: slice) -> None:
         """Joints take c from the rest pose (its tangent from ``f.D``); tracked points keep

@@ -33,6 +33,9 @@ class Triangles(Rule):
     j_point: np.ndarray
     rule: np.ndarray  # (R,) index into the plan's triangle table, or -1 for a tracked point
     sign: np.ndarray  # (R, 1) orientation of triangle (i, j, k) at rest (dyads), ±1
+    #: every input i is a ground point: its derivatives are 0, so :meth:`inputs` reads its
+    #: positions alone and the rule adds z_i to its positions alone
+    grounded: bool = False
 
     @property
     def listed(self) -> np.ndarray:
@@ -60,8 +63,11 @@ class Triangles(Rule):
 
     def inputs(self, Z: np.ndarray, zi: np.ndarray, e: np.ndarray) -> np.ndarray:
         """The rows ``i`` of ``Z`` (orders, P, *S), and ``e`` filled with rows ``j`` − rows ``i``: consecutive
-        rows are read in place (a view of ``Z``: the rule writes other rows), others copied into ``zi``."""
+        rows are read in place (a view of ``Z``: the rule writes other rows), others copied into ``zi``.
+        :attr:`grounded`: only the positions of z_i are read (``zi[0]``; its derivatives are 0)."""
         i, j = self.runs
+        if self.grounded:
+            return self._from_ground(Z, zi, e)
         if i is None:
             Z.take(self.i, 1, zi, "clip")  # indices are valid: clip skips take's buffering
         else:
@@ -71,6 +77,21 @@ class Triangles(Rule):
             e -= zi
         else:
             np.subtract(Z[:, j], zi, out=e)
+        return zi
+
+    def _from_ground(self, Z: np.ndarray, zi: np.ndarray, e: np.ndarray) -> np.ndarray:
+        """:meth:`inputs` of a :attr:`grounded` batch: z_i's positions alone, e's derivatives are rows ``j``'s."""
+        i, j = self.runs
+        if i is None:
+            Z[0].take(self.i, 0, zi[0], "clip")
+        else:
+            zi = Z[:, i]
+        if j is None:
+            Z.take(self.j, 1, e, "clip")
+            e[0] -= zi[0]
+        else:
+            np.subtract(Z[0, j], zi[0], out=e[0])
+            np.copyto(e[1:], Z[1:, j])
         return zi
 
     def operands(self, work: Any) -> tuple[np.ndarray, np.ndarray, Callable[[], Any] | None]:
