@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
-import re
-from pathlib import Path
+import os
 
-import pytest
-from typer.testing import CliRunner
+# BLAS on one thread, as the CLI runs it (linkedit/cli.py sets this before numpy loads; here a test module would
+# load numpy first): linkedit's dense algebra is small, threads only spin, the more so with two test workers on
+# two cores (a 333×222 SVD: 0.4 s threaded on a busy machine, 0.02 s single). The environment overrides it.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import re  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import pytest  # noqa: E402
+from typer.testing import CliRunner  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"

@@ -273,9 +273,9 @@ def run(echo: Callable[[str], None], quick: bool = False, large: int | None = No
 def spec_families(echo: Callable[[str], None], quick: bool) -> None:
     """Slider specs as families: each example's atlas built in-process (its rate, linkages/s with
     sampling, the 1440-sample check and the descriptors), then a held-out design's tracked path
-    (seed 987, turned, scaled, moved) synthesized with --timing against it."""
+    (seed 987, turned, scaled, moved) synthesized with --timing against it; ``quick``: the quick-return only."""
     count, top = (500, 1) if quick else (20_000, 2)
-    for file in ("quick-return.yaml", "scotch-yoke-coupler.yaml"):
+    for file in ("quick-return.yaml", "scotch-yoke-coupler.yaml")[: 1 if quick else None]:
         example = next(e for e in catalog.EXAMPLES if e.file == file)
         text = example.text()
         fam = families.from_spec_text(example.build().name, text)

@@ -33,13 +33,14 @@ PRECISION_PROBLEMS = ((6, 1), (8, 2), (10, 3), (12, 4), (18, 5), (25, 6))
 def precision_points(echo: Callable[[str], None], book: atlas.Atlas, index: Index, quick: bool) -> None:
     """Precision points drawn unevenly from held-out four-bars' curves: the mean distance of the points to the
     written result's curve over their RMS radius (max in parentheses), the generating linkage's by the same
-    measure, the same points synthesized as a curve (the polygon; scored by the points), and CPU seconds."""
+    measure, the same points synthesized as a curve (the polygon; scored by the points), and CPU seconds; ``quick``:
+    the first problem only (a smoke run)."""
     rows = atlas.build_chunk("four-bar", 4242, 0, len(PRECISION_PROBLEMS)).params
     top = top_of(quick)
     echo(f"precision points, --top {top} (mean point-to-curve distance over the points' RMS radius, max in parentheses; "
          "held-out four-bars, points drawn unevenly; reference: the generating linkage):")
     echo(f"  {'points':>6s}  {'ours (--points)':>22s}  {'as a curve (polygon)':>22s}  {'generating':>10s}  CPU s")
-    for (count, seed), row in list(zip(PRECISION_PROBLEMS, rows))[: 2 if quick else None]:
+    for (count, seed), row in list(zip(PRECISION_PROBLEMS, rows))[: 1 if quick else None]:
         curve = 5 - 2j + 30 * np.exp(0.7j * seed) * fourbar.curves(row[None], 3600)[0]
         z = curve[np.sort(np.random.default_rng(seed).choice(len(curve), count, replace=False))]
         radius = float(np.sqrt(np.mean(np.abs(z - z.mean()) ** 2)))
@@ -68,7 +69,7 @@ def published_points(echo: Callable[[str], None], book: atlas.Atlas, index: Inde
     """Published precision-point problems (:mod:`linkedit.synthesis.published`): ours (``--points``, --top 5, 1
     with ``quick``, the 20° band) by the mean distance of the points to the written result's curve over their RMS radius (max in
     parentheses), against the best published linkage's by the same measure (exact solutions: 0), with CPU
-    seconds."""
+    seconds; ``quick``: the first problem only."""
     from linkedit.synthesis.published import PROBLEMS
 
     top = top_of(quick)
@@ -76,7 +77,7 @@ def published_points(echo: Callable[[str], None], book: atlas.Atlas, index: Inde
          "radius, max in parentheses; published: the best published linkage, scored the same way; sources: "
          "linkedit/synthesis/published.py):")
     echo(f"  {'problem':<52s} {'ours':>21s}  {'published':>9s}  CPU s  published solution")
-    rows = [(p, MARGIN_DEG) for p in PROBLEMS[: 2 if quick else None]]
+    rows = [(p, MARGIN_DEG) for p in PROBLEMS[: 1 if quick else None]]
     if not quick:
         rows += [(p, WIDE_BAND_DEG) for p in PROBLEMS if p.name == WIDE_BAND_PROBLEM]
     for problem, margin_deg in rows:
@@ -98,7 +99,7 @@ def function_generation(echo: Callable[[str], None], quick: bool) -> None:
     """``synthesize --function`` on y = log10 x and a square law, x in [1, 10] (25 pairs) mapped to 60° of crank and
     60° of rocker, with relative angles: max (RMS) output error with the output's sense free and prescribed (the
     output turning the way the pairs do), in the 20° and (not ``quick``) 10° transmission bands; and the Watt II
-    six-bar (``--family six-bar``) with the sense prescribed in the 20° band."""
+    six-bar (``--family six-bar``) with the sense prescribed in the 20° band; ``quick``: log10 x only."""
     from linkedit.synthesis import function, function_six
 
     x = np.linspace(1.0, 10.0, 25)
@@ -109,7 +110,8 @@ def function_generation(echo: Callable[[str], None], quick: bool) -> None:
         way = "" if fit is None or not sense else " same" if fit.sense > 0 else " opposite"
         return f"{e.max():.3f}° ({np.sqrt(np.mean(e * e)):.3f}°){way}"
 
-    for name, y in (("log10 x", np.log10(x)), ("((x − 1)/9)²", ((x - 1.0) / 9.0) ** 2)):
+    laws = (("log10 x", np.log10(x)), ("((x − 1)/9)²", ((x - 1.0) / 9.0) ** 2))
+    for name, y in laws[: 1 if quick else None]:
         phi, psi = np.radians(60 * (x - 1) / 9), np.radians(60 * (y - y.min()) / (y.max() - y.min()))
         cells = []
         for margin_deg in (MARGIN_DEG,) if quick else (MARGIN_DEG, WIDE_BAND_DEG):
