@@ -188,7 +188,8 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2, work
     apart: intermediate inputs are evaluated and dropped. With a :class:`Workspace` of this
     order and shape (``Workspace(plan, T, order, geom.linkages)``) nothing is allocated; the
     state's arrays are then its buffers, overwritten by the next call (with numeric groups it
-    keeps the continuation grid's workspace instead, and the state's arrays are copies).
+    keeps the continuation grid's workspace instead, and the state's arrays are views of it, or
+    copies where the grid has samples between the given ones).
     """
     if not plan.has_groups:
         return _evaluate(plan, geom, angle, order, work)
@@ -206,11 +207,16 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2, work
         sub = work.fine
     full = _evaluate(plan, geom, fine, order, sub)
 
-    def pick(a: np.ndarray | None) -> np.ndarray | None:
-        return None if a is None else a[..., keep]
+    run: slice | np.ndarray = keep  # the samples kept: a view when they follow each other
+    if keep.size and keep[-1] - keep[0] == keep.size - 1:
+        run = slice(keep[0], keep[-1] + 1)
+
+    def pick(a: np.ndarray) -> np.ndarray:
+        return a[..., run]
 
     between_ok = bool(np.isfinite(full.z).all() and assembles(full.ds).all())
-    return State(z=full.z[..., keep], dz=pick(full.dz), ddz=pick(full.ddz), ds=full.ds[..., keep], between_ok=between_ok)
+    return State(z=pick(full.z), dz=None if full.dz is None else pick(full.dz), ddz=None if full.ddz is None else pick(full.ddz),
+                 ds=pick(full.ds), between_ok=between_ok)
 
 
 def _step_rows(plan: Plan, geom: Geometry) -> dict[int, Rows]:

@@ -133,12 +133,12 @@ class Group(Step):
         def lift(a: np.ndarray) -> np.ndarray:  # (…, T) → (…, K, T)
             return a if many else a[..., None, :]
 
-        zj, out = lift(f.z[f.joints]), f.joints[self.joints]
-        K, T = zj.shape[1:]
-        rest = f.rest[self.joints]
         if body is not None:
             self._evaluate_triad(f, body, lift, rows)
             return
+        zj, out = lift(f.z[f.joints]), f.joints[self.joints]
+        K, T = zj.shape[1:]
+        rest = f.rest[self.joints]
         x, det, placed = solve_group(form, signs, zj[self.inputs], np.broadcast_to(f.s, (K, T)),
                                      rest if many else rest[:, None])
         k = 2 * self.joints.size

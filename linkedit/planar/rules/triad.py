@@ -84,7 +84,7 @@ class Triad:
         centre = points.mean(axis=0)
         p = points - centre
         r2 = np.abs(points - hung) ** 2
-        det = _system(points - hung, p)[1]
+        det = _system(_bars(points - hung), p)[2]
         sign = np.where(det < 0.0, -1.0, 1.0)
         return Body(p[..., None], r2[..., None], centre, sign, 9.0 * (np.abs(p) ** 2).sum(axis=0) * r2.prod(axis=0),
                     np.zeros(0))
@@ -130,27 +130,40 @@ def _is_distance(rows: Rows, r: int, ends: list[int]) -> bool:
             and np.array_equal(dc, ec) and not dc[plain].any())
 
 
-def _system(d: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """M's cofactors (column j, row k, …) and det M (…) from d_k and q_k (3, …): M's columns are
-    Re d_k, Im d_k and c_k = Re(d̄_k·i·q_k); cofactor (j, k) is the cross product of columns j + 1
-    and j + 2 at row k, so that Σ_k cof[j, k]·M[i, k] = δ_ij·det M (M⁻¹'s rows times det M). M is
-    written with its first two columns and rows repeated after the third (5 × 5), so that every
-    cyclic neighbour is a slice."""
-    m = np.empty((5, 5, *d.shape[1:]))
-    x, y = d.real, d.imag
-    m[0, :3], m[1, :3] = x, y
-    np.multiply(y, q.real, out=m[2, :3])
-    m[2, :3] -= x * q.imag
-    m[:3, 3:] = m[:3, :2]
-    m[3:] = m[:2]
-    cof = m[1:4, 1:4] * m[2:, 2:]
-    cof -= m[1:4, 2:] * m[2:, 1:4]
-    return cof, (m[0, :3] * cof[0]).sum(axis=0)
+def _bars(d: np.ndarray) -> np.ndarray:
+    """d̄_0, d̄_1, d̄_2, d̄_0, d̄_1 (5, …) complex from d_k (3, …): :func:`_system`'s cyclic neighbours as slices."""
+    e = np.empty((5, *d.shape[1:]), dtype=complex)
+    np.conjugate(d, out=e[:3])
+    e[3:] = e[:2]
+    return e
 
 
-def _solve(cof: np.ndarray, det: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """(u, v, w) (3, …) with M·(u, v, w) = rhs (3, …), by Cramer's rule from M's cofactors and determinant."""
-    return (cof * rhs).sum(axis=1) / det
+def _system(e: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """M's cofactors and det M from d̄_k (``e`` (5, …) complex, :func:`_bars`) and q_k (3, …): M's row
+    k is (x_k, y_k, c_k) = (Re d_k, Im d_k, Im(d_k·q̄_k)), and the cross products of its columns are
+    M⁻¹'s rows times det M: W_k = (C × X)_k + i·(Y × C)_k = c_{k+1}·d̄_{k+2} − c_{k+2}·d̄_{k+1} (…)
+    complex, V_k = (X × Y)_k (…) real, det M = Σ_k x_k·(Y × C)_k (:func:`_solve`)."""
+    c = np.empty(e.shape)
+    np.negative((e[:3] * q).imag, out=c[:3])
+    c[3:] = c[:2]
+    w = c[1:4] * e[2:5]
+    w -= c[2:5] * e[1:4]
+    x, y = e.real, e.imag  # y = −Im d
+    v = x[2:5] * y[1:4]
+    v -= x[1:4] * y[2:5]
+    return w, v, (x[:3] * w.imag).sum(axis=0)
+
+
+def _solve(now: "Pose", rhs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The body's move (its centre's (…) complex, its turn's (…)) with M·(Re, Im of the centre's,
+    the turn's) = ``rhs`` (3, …), by Cramer's rule from :func:`_system`'s cofactors."""
+    s = (now.w * rhs).sum(axis=0)  # det M·(v + i·u) for the move u + i·v
+    np.conjugate(s, out=s)
+    s *= 1j
+    s /= now.det
+    turn = (now.v * rhs).sum(axis=0)
+    turn /= now.det
+    return s, turn
 
 
 def newton(p: list[complex], r2: list[float], hung: list[complex], centre: complex, turn: float,
@@ -279,14 +292,15 @@ class Poses:
 class Pose:
     """The triads of K linkages over T samples once solved: the body's centroid ``centre`` (K, T)
     complex and turn ``u`` = e^{iθ} (K, T) complex (from rest), its joints ``q`` = P_k − centre
-    (3, K, T) complex, d_k = P_k − A_k (3, K, T) complex, M's cofactors (3, 3, K, T) and determinant
-    (K, T) there."""
+    (3, K, T) complex, d̄_k = conj(P_k − A_k) (``e``, :func:`_bars`), M's cofactors ``w`` (3, K, T)
+    complex and ``v`` (3, K, T) and determinant (K, T) there (:func:`_system`)."""
 
     centre: np.ndarray
     u: np.ndarray
     q: np.ndarray
-    d: np.ndarray
-    cof: np.ndarray
+    e: np.ndarray
+    w: np.ndarray
+    v: np.ndarray
     det: np.ndarray
 
     @property
@@ -303,10 +317,11 @@ def pose(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray) -> 
     q = u * body.p
     d = q + centre
     d -= hung
+    e = _bars(d)
     res = d.real * d.real
     res += d.imag * d.imag
     res -= body.r2
-    return Pose(centre, u, q, d, *_system(d, q)), res
+    return Pose(centre, u, q, e, *_system(e, q)), res
 
 
 def polish(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray,
@@ -321,11 +336,14 @@ def polish(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray,
         size = _worst(res)
         if not (size > tol).any():
             break
-        step = _solve(now.cof, now.det, -0.5 * res)
-        if it == 0:
-            first = _worst(step[0] - step[2] * now.q.imag, step[1] + step[2] * now.q.real)
-        centre = centre + (step[0] + 1j * step[1])
-        turn = turn + step[2]
+        res *= -0.5
+        shift, spin = _solve(now, res)
+        if it == 0:  # joint k moves by shift + i·spin·q_k
+            move = (1j * spin) * now.q
+            move += shift
+            first = _worst(move.real, move.imag)
+        centre = centre + shift
+        turn = turn + spin
         now, res = pose(body, hung, centre, turn)
     moved = now.joints - start
     ok = (_worst(res) <= tol) & accepted(_worst(moved.real, moved.imag), first) & (now.det * body.sign[:, None] > 0.0)
@@ -357,14 +375,14 @@ def rates(now: Pose, dhung: np.ndarray, ddhung: np.ndarray | None) -> tuple[np.n
     its links hang from (``dhung``, ``ddhung`` (3, K, T)): the rows' first and second derivatives,
     Re(d̄_k·(P_k' − A_k')) = 0 and Re(d̄_k·(P_k'' − A_k'')) + |P_k' − A_k'|² = 0, solved for the body's
     (G', ω) and (G'', α) by Cramer's rule."""
-    d, q = now.d, now.q
-    vx, vy, omega = _solve(now.cof, now.det, (d.conj() * dhung).real)
+    e, q = now.e[:3], now.q
+    velocity, omega = _solve(now, (e * dhung).real)
     iq = 1j * q
-    first = (vx + 1j * vy) + omega * iq
+    first = velocity + omega * iq
     if ddhung is None:
         return first, None
     rel = first - dhung
     w2 = omega * omega
-    rhs = (d.conj() * (ddhung + w2 * q)).real - (rel.real ** 2 + rel.imag ** 2)
-    ax, ay, alpha = _solve(now.cof, now.det, rhs)
-    return first, (ax + 1j * ay) + alpha * iq - w2 * q
+    rhs = (e * (ddhung + w2 * q)).real - (rel.real ** 2 + rel.imag ** 2)
+    acceleration, alpha = _solve(now, rhs)
+    return first, acceleration + alpha * iq - w2 * q
