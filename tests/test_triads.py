@@ -254,3 +254,39 @@ def test_inputs_that_stop_at_the_end_are_predicted_not_divided_by_zero(monkeypat
     z = evaluate(plan, geom, angle, order=2).z
     assert rejected == [0]
     assert np.isfinite(z).all() and np.array_equal(z[:, -1], z[:, -3]) and np.array_equal(z[:, -2], z[:, -3])
+
+
+#: the example's triad hung from B, placed by a dyad (rod A–B, rocker Q–B) that comes apart at 85°
+#: of the crank: |Q − A| > rod + rocker from there on
+HUNG_FROM_A_DYAD_THAT_FAILS = triad({**LOOP, "Q": 25 - 5j, "B": 12 - 12j},
+                                    {**LINKS, "rod": ["A", "B"], "rocker": ["Q", "B"], "l1": ["A", "T1"],
+                                     "l3": ["B", "T3"]})
+
+
+@pytest.mark.parametrize("solver", ["triad", "general"])
+def test_a_group_whose_inputs_come_apart_is_placed_up_to_there_and_the_dyad_is_blamed(monkeypatch, run_cli, tmp_path,
+                                                                                     solver):
+    """A group hung from a joint that cannot be placed from some sample on (its inputs NaN there:
+    their travel too) is continued up to that sample and no further: ``simulate`` assembles the
+    samples before the dyad comes apart (|Q − A| ≤ rod + rocker, closed form), keeping every
+    link's length there, and the CLI reports the dyad's joint B (exit 1, one line), not a crash."""
+    from linkedit.spec.linkage_yaml import dump_linkage
+
+    if solver == "general":
+        general_solver(monkeypatch)
+    spec = HUNG_FROM_A_DYAD_THAT_FAILS
+    m = simulate(spec, 72, partial=True)
+    theta = m.motor_angle - m.motor_angle[0]
+    z = {k: complex(*v) for k, v in spec.joints.items()}
+    reach = abs(z["A"] - z["B"]) + abs(z["Q"] - z["B"])
+    apart = np.abs(z["Q"] - z["A"] * np.exp(1j * theta)) > reach
+    first = int(np.argmax(apart))
+    assert 0 < first < 72 and np.array_equal(m.assembled, np.arange(72) < first)
+    xy = m.positions[..., 0] + 1j * m.positions[..., 1]
+    assert link_lengths_kept(spec, m.plan.joint_names, xy[:first]) <= 1e-9 * size_of(spec)
+    path = tmp_path / "apart.yaml"
+    path.write_text(dump_linkage(spec))
+    res = run_cli("simulate", path, "-n", 72, "-o", tmp_path / "apart.h5")
+    assert res.exit_code == 1
+    assert "joint B cannot be placed" in res.output and "Traceback" not in res.output
+    assert not (tmp_path / "apart.h5").exists()

@@ -99,14 +99,16 @@ def coarse(known: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     (T,), also returned), and half that into the first move and before the last sample (the end
     intervals, where :func:`predict`'s stencil is one-sided); the last sample unless its inputs
     have not moved since the one before (no two of them at one travel: :func:`predict`'s
-    abscissae; the samples after the last are predicted as it)."""
+    abscissae; the samples after the last are predicted as it). Inputs NaN from some sample on (a
+    joint before the group not placed) make the travel NaN from there: the strides are marked over
+    its finite part, and the last sample stays a node, where the sequential continuation stops."""
     T = s.size
     moved = np.abs(known[:, 1:] - known[:, :-1]).max(axis=0, initial=0.0)
     np.maximum(moved, np.abs(s[1:] - s[:-1]), out=moved)
     travel = np.empty(T)
     travel[0] = 0.0
     np.cumsum(moved, out=travel[1:])
-    end = travel[-1]
+    end = np.nanmax(travel)  # travel[0] = 0
     marks = np.arange(0.0, end, GROUP_STRIDE)
     if marks.size:
         marks[0] = 0.5 * GROUP_STRIDE
@@ -116,7 +118,8 @@ def coarse(known: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     nodes = np.minimum(nodes, T - 1)
     keep = np.empty(nodes.size, dtype=bool)  # a node at the travel of the one before is that node again
     keep[0] = True
-    np.greater(travel[nodes[1:]], travel[nodes[:-1]], out=keep[1:])
+    np.less_equal(travel[nodes[1:]], travel[nodes[:-1]], out=keep[1:])
+    np.logical_not(keep[1:], out=keep[1:])  # (a NaN node kept)
     return nodes[keep], travel
 
 
