@@ -136,7 +136,8 @@ def positions(plan: Plan, geom: Geometry, angle: np.ndarray, work: Workspace | N
 
     NaN where the linkage cannot be assembled (see :func:`evaluate` for diagnostics). Pass a
     :class:`Workspace` to evaluate repeatedly without allocating; the result is then
-    ``work.z`` (overwritten by the next call).
+    ``work.z`` (with numeric groups, a view of its continuation grid's: :func:`evaluate`),
+    overwritten by the next call.
     """
     if plan.steps:
         fit = work is not None and work.fits(0, geom.linkages, np.shape(angle)[-1])

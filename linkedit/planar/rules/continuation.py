@@ -20,7 +20,7 @@ GROUP_ITERATIONS = 12
 #: dense the samples; the samples between are predicted from those and polished all at once
 GROUP_STRIDE = 0.08
 #: the sequential continuation's tolerance before every sample is polished to GROUP_TOLERANCE:
-#: enough to follow the branch. The samples between start further off, from their cubic predictor
+#: enough to follow the branch. The samples between start further off, from their predictor
 #: (the complex loop's rows: from 1.2e-4 to below 1e-13 in two polishing steps, :data:`STENCIL`)
 COARSE_TOLERANCE = 1e-4
 #: the samples between are predicted by the polynomial through this many solved samples nearest
@@ -154,7 +154,7 @@ def trace(group: Continued, known: np.ndarray, s: np.ndarray) -> tuple[np.ndarra
     Each linkage's samples :func:`coarse` picks are continued sequentially (``group.follow``, to
     COARSE_TOLERANCE: enough to follow the branch; a loop over the linkages, a few samples each);
     then every sample of every linkage is polished by Newton's method all at once
-    (``group.polish``), the ones between from a cubic through those (:func:`predict`), each checked
+    (``group.polish``), the ones between from the polynomial through those (:func:`predict`), each checked
     like a sequential move; a sample that fails the check is continued sequentially from the one
     before it, and a linkage whose coarse continuation stopped is continued sample by sample from
     there. Returns the unknowns (K, T, width) (NaN from the first sample where a linkage fails),
