@@ -318,9 +318,7 @@ def pose(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray) -> 
     d = q + centre
     d -= hung
     e = _bars(d)
-    res = d.real * d.real
-    res += d.imag * d.imag
-    res -= body.r2
+    res = np.subtract((d * e[:3]).real, body.r2)  # |d_k|² − r2_k
     return Pose(centre, u, q, e, *_system(e, q)), res
 
 
@@ -333,8 +331,7 @@ def polish(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray,
     now, res = pose(body, hung, centre, turn)
     start, first = now.joints, np.zeros(turn.shape)
     for it in range(GROUP_ITERATIONS):
-        size = _worst(res)
-        if not (size > tol).any():
+        if not (np.abs(res) > tol).any():  # (NaN rows are left alone)
             break
         res *= -0.5
         shift, spin = _solve(now, res)
