@@ -183,8 +183,8 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2, work
 
     ``angle`` (T,): absolute motor angles, radians (for a linear input: displacements along the
     slot in the normalized frame); (K, T) or (T,) with a geometry of K linkages (then every array
-    has a linkage axis after its row, see :func:`_evaluate`). A plan with slider steps needs a geometry in the normalized
-    frame (``Geometry.of(plan, plan.normalized_points())``). A numeric group is continued from
+    has a linkage axis after its row, see :func:`_evaluate`). A plan with slider steps needs a
+    geometry in the normalized frame (``Geometry.of(plan, plan.normalized_points())``). A numeric group is continued from
     the rest pose through every sample in order, at most GROUP_STEP_DEG (GROUP_STEP_LENGTH)
     apart: intermediate inputs are evaluated and dropped. With a :class:`Workspace` of this
     order and shape (``Workspace(plan, T, order, geom.linkages)``) nothing is allocated; the
@@ -216,8 +216,8 @@ def evaluate(plan: Plan, geom: Geometry, angle: np.ndarray, order: int = 2, work
         return a[..., run]
 
     between_ok = bool(np.isfinite(full.z).all() and assembles(full.ds).all())
-    return State(z=pick(full.z), dz=None if full.dz is None else pick(full.dz), ddz=None if full.ddz is None else pick(full.ddz),
-                 ds=pick(full.ds), between_ok=between_ok)
+    return State(z=pick(full.z), dz=None if full.dz is None else pick(full.dz),
+                 ddz=None if full.ddz is None else pick(full.ddz), ds=pick(full.ds), between_ok=between_ok)
 
 
 def _step_rows(plan: Plan, geom: Geometry) -> dict[int, Rows]:

@@ -20,8 +20,7 @@ GROUP_ITERATIONS = 12
 #: dense the samples; the samples between are predicted from those and polished all at once
 GROUP_STRIDE = 0.08
 #: the sequential continuation's tolerance before every sample is polished to GROUP_TOLERANCE:
-#: enough to follow the branch. The samples between start further off, from their predictor
-#: (the complex loop's rows: from 1.2e-4 to below 1e-13 in two polishing steps, :data:`STENCIL`)
+#: enough to follow the branch (the samples between start further off, from :data:`STENCIL`'s predictor)
 COARSE_TOLERANCE = 1e-4
 #: the samples between are predicted by the polynomial through this many solved samples nearest
 #: each (:func:`predict`): quintic (the complex loop's rows from their predictor: 1e-3 with a cubic
@@ -170,7 +169,7 @@ def trace(group: Continued, known: np.ndarray, s: np.ndarray) -> tuple[np.ndarra
         ends.append((stop, last, travel))
         out[c, last + 1:] = np.nan
         if last >= 0:
-            solved = through[through <= last] if stop >= 0 else through
+            solved = through[through <= last]
             between = np.ones(last + 1, dtype=bool)
             between[solved] = False
             inner = np.flatnonzero(between)

@@ -3,10 +3,11 @@
 Newton's method on the group's constraint rows at every sample (the samples are dense: see
 :func:`linkedit.planar.kinematics.evaluate`), continued from the rest pose through a sample each
 time its inputs have moved GROUP_STRIDE, then every sample polished at once from a predictor and
-checked (:func:`~.general_group.solve_group`; a triad in its body's pose, :mod:`.triad`), keeping the rest pose's branch (the sign of the group Jacobian's
-determinant never changes; a change means the group passed a singular position, reported as a
-lock-up). Its singularity distance is the Hadamard ratio (det J / ∏ ‖row‖)² of the group
-Jacobian J (:func:`~.general_group.conditioning`: the dyad's sin²α generalized); its velocities
+checked (:func:`~.general_group.solve_group`; a triad in its body's pose, :mod:`.triad`), keeping
+the rest pose's branch (the sign of the group Jacobian's determinant never changes; a change
+means the group passed a singular position, reported as a lock-up). Its singularity distance is
+the Hadamard ratio (det J / ∏ ‖row‖)² of the group Jacobian J
+(:func:`~.general_group.conditioning`: the dyad's sin²α generalized); its velocities
 and accelerations come from the same Jacobian at the solution (the implicit function theorem on
 the rows' :class:`~.general_group.RealForm`, built once per step: :meth:`Group.evaluate`).
 """

@@ -131,7 +131,8 @@ def _is_distance(rows: Rows, r: int, ends: list[int]) -> bool:
 
 
 def _bars(d: np.ndarray) -> np.ndarray:
-    """d̄_0, d̄_1, d̄_2, d̄_0, d̄_1 (5, …) complex from d_k (3, …): :func:`_system`'s cyclic neighbours as slices."""
+    """d̄_0, d̄_1, d̄_2, d̄_0, d̄_1 (5, …) complex from d_k (3, …): :func:`_system`'s cyclic neighbours
+    as slices."""
     e = np.empty((5, *d.shape[1:]), dtype=complex)
     np.conjugate(d, out=e[:3])
     e[3:] = e[:2]
