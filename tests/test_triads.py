@@ -198,12 +198,12 @@ def test_a_prediction_on_the_other_assembly_branch_is_rejected_by_the_determinan
     polish, at, spoiled, rejected = tr.polish, 30, [], []
 
     def other_branch(body, hung, centre, turn):  # a solution at sample ``at`` with det M of the other sign
-        p, r2, sign = body.linkage(0)
+        p, r2, sign, reach = body.linkage(0)
         here = [complex(v) for v in hung[:, 0, at]]
         for spin in np.linspace(-np.pi, np.pi, 48, endpoint=False):
             for shift in (0, 0.3, -0.3, 0.3j, -0.3j):
-                ok, _, det, g, th = tr.newton(p, r2, here, complex(centre[0, at]) + shift, float(turn[0, at]) + spin,
-                                              1e-15)
+                ok, _, det, g, th = tr.newton(p, r2, reach, here, complex(centre[0, at]) + shift,
+                                              float(turn[0, at]) + spin, 1e-15)
                 if ok and det * sign < 0:
                     return g, th
         raise AssertionError("no other assembly found")

@@ -87,7 +87,7 @@ class Triad:
         det = _system(_bars(points - hung), p)[2]
         sign = np.where(det < 0.0, -1.0, 1.0)
         return Body(p[..., None], r2[..., None], centre, sign, 9.0 * (np.abs(p) ** 2).sum(axis=0) * r2.prod(axis=0),
-                    np.zeros(0))
+                    np.abs(p).max(axis=0)[:, None], np.zeros(0))
 
 
 @dataclass(frozen=True)
@@ -95,7 +95,8 @@ class Body:
     """K linkages' triad bodies: joints ``p`` (3, K, 1) complex about their centroid and links' lengths²
     ``r2`` (3, K, 1) at rest, where the body's centroid is at rest (K,) complex, det M's ``sign`` there
     (K,) (±1), d_s's constant denominator ``spread`` = det(NᵀN)·∏ r2_k = 9·Σ|p_k|²·∏ r2_k (K,) (the
-    binary rows' norms at a solution), and the Gram matrix J2·J2ᵀ of the body's rows at a turn u
+    binary rows' norms at a solution), its ``reach`` max |p_k| (K, 1) (a move of the body by a shift s
+    and a turn φ moves no joint further than |s| + |φ|·reach: :func:`moved`), and the Gram matrix J2·J2ᵀ of the body's rows at a turn u
     = c + i·s as ``gram`` (K, 6, 6): its entries (00, 11, 22, 01, 02, 12) on (1, c, s, c², cs, s²)
     (:meth:`with_rows`)."""
 
@@ -104,6 +105,7 @@ class Body:
     rest: np.ndarray
     sign: np.ndarray
     spread: np.ndarray
+    reach: np.ndarray
     gram: np.ndarray
 
     def with_rows(self, gradient: np.ndarray) -> "Body":
@@ -116,9 +118,10 @@ class Body:
         rows, cols = np.array([0, 1, 2, 0, 0, 1]), np.array([0, 1, 2, 1, 2, 2])
         return replace(self, gram=np.stack([t[:, rows, cols] for t in terms], axis=-1))
 
-    def linkage(self, c: int) -> tuple[list[complex], list[float], float]:
-        """Linkage ``c``'s body joints and lengths² as Python numbers, and its det M sign."""
-        return [complex(v) for v in self.p[:, c, 0]], [float(v) for v in self.r2[:, c, 0]], float(self.sign[c])
+    def linkage(self, c: int) -> tuple[list[complex], list[float], float, float]:
+        """Linkage ``c``'s body joints and lengths² as Python numbers, its det M sign and reach."""
+        return ([complex(v) for v in self.p[:, c, 0]], [float(v) for v in self.r2[:, c, 0]], float(self.sign[c]),
+                float(self.reach[c, 0]))
 
 
 def _is_distance(rows: Rows, r: int, ends: list[int]) -> bool:
@@ -167,13 +170,13 @@ def _solve(now: "Pose", rhs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s, turn
 
 
-def newton(p: list[complex], r2: list[float], hung: list[complex], centre: complex, turn: float,
+def newton(p: list[complex], r2: list[float], reach: float, hung: list[complex], centre: complex, turn: float,
            tol: float) -> tuple[bool, float, float, complex, float]:
     """Newton's method on one linkage's body pose (``centre``, ``turn``) at one sample, the links
     hung from ``hung`` (3 complex), until every row is within ``tol`` of 0: Python numbers (a
     few of them: numpy's per-call cost would be most of the time), M's cofactors written out.
-    Returns (converged, size of the first step (its largest joint move), det M at the solution
-    (0: failed), the pose)."""
+    Returns (converged, size of the first step (:func:`moved` with the body's ``reach``), det M at
+    the solution (0: failed), the pose)."""
     (p0, p1, p2), (l0, l1, l2), (h0, h1, h2) = p, r2, hung
     first = 0.0
     for it in range(GROUP_ITERATIONS):
@@ -193,9 +196,8 @@ def newton(p: list[complex], r2: list[float], hung: list[complex], centre: compl
         dx = (f0 * y0 + f1 * y1 + f2 * y2) * h
         dy = (f0 * (c1 * a2 - c2 * a1) + f1 * (c2 * a0 - c0 * a2) + f2 * (c0 * a1 - c1 * a0)) * h
         dt = (f0 * (a1 * b2 - a2 * b1) + f1 * (a2 * b0 - a0 * b2) + f2 * (a0 * b1 - a1 * b0)) * h
-        if it == 0:  # joint k moves by step + i·dt·q_k
-            first = max(abs(dx - dt * q0.imag), abs(dy + dt * q0.real), abs(dx - dt * q1.imag),
-                        abs(dy + dt * q1.real), abs(dx - dt * q2.imag), abs(dy + dt * q2.real))
+        if it == 0:
+            first = math.hypot(dx, dy) + abs(dt) * reach
         centre += complex(dx, dy)
         turn += dt
     return False, first, 0.0, centre, turn
@@ -208,26 +210,21 @@ def follow(body: Body, c: int, hung: np.ndarray, x: np.ndarray, path: np.ndarray
     (``hung`` (3, T) complex: where its links hang from; ``travel`` (T,) the inputs' travel).
     Each move is a homotopy in ``hung`` (interpolated linearly,
     :func:`~linkedit.planar.rules.continuation.advance`), accepted when Newton converged close to
-    where it started (:func:`~linkedit.planar.rules.continuation.accepted`, the largest joint move)
-    with det M's sign of the rest pose. Its first attempt starts from the pose extrapolated from the
+    where it started (:func:`~linkedit.planar.rules.continuation.accepted`, the body's move as
+    :func:`moved` measures it) with det M's sign of the rest pose. Its first attempt starts from the pose extrapolated from the
     last three in ``travel`` (a parabola; the general group's from the last pose, Newton's first
     step then being the tangent predictor), the others from the last pose. Returns the position in
     ``path`` where it fails, or −1 (Python numbers throughout: a few of them per sample)."""
-    p, r2, sign = body.linkage(c)
-    p0, p1, p2 = p
+    p, r2, sign, reach = body.linkage(c)
     goals, along = hung[:, path].T.tolist(), travel[path].tolist()
     centres, turns = [complex(x[0], x[1])], [float(x[2])]  # the poses reached, one per sample of path
 
     def move(start: complex, spin: float, at: list[complex]) -> tuple[complex, float] | None:
         """Newton from (start, spin) with the links hung from ``at``: its pose when accepted."""
-        ok, first, det, g, th = newton(p, r2, at, start, spin, tol)
+        ok, first, det, g, th = newton(p, r2, reach, at, start, spin, tol)
         if not ok or det * sign <= 0.0:
             return None
-        # joint k moved by (g − start) + (e^{i·th} − e^{i·spin})·p_k
-        w, shift = complex(math.cos(th) - math.cos(spin), math.sin(th) - math.sin(spin)), g - start
-        v0, v1, v2 = shift + w * p0, shift + w * p1, shift + w * p2
-        moved = max(abs(v0.real), abs(v0.imag), abs(v1.real), abs(v1.imag), abs(v2.real), abs(v2.imag))
-        return (g, th) if accepted(moved, first) else None
+        return (g, th) if accepted(abs(g - start) + abs(th - spin) * reach, first) else None
 
     failed = -1
     for n in range(len(goals)):
@@ -330,27 +327,35 @@ def polish(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray,
     turn (K, T) and which samples (K, T) are accepted: converged, close to their predictor
     (:func:`~linkedit.planar.rules.continuation.accepted`), with det M's sign of their rest pose."""
     now, res = pose(body, hung, centre, turn)
-    start, first = now.joints, np.zeros(turn.shape)
+    start, spun, first = centre, turn, np.zeros(turn.shape)
     for it in range(GROUP_ITERATIONS):
         if not (np.abs(res) > tol).any():  # (NaN rows are left alone)
             break
         res *= -0.5
         shift, spin = _solve(now, res)
-        if it == 0:  # joint k moves by shift + i·spin·q_k
-            move = (1j * spin) * now.q
-            move += shift
-            first = _worst(move.real, move.imag)
+        if it == 0:
+            first = moved(body, shift, spin)
         centre = centre + shift
         turn = turn + spin
         now, res = pose(body, hung, centre, turn)
-    moved = now.joints - start
-    ok = (_worst(res) <= tol) & accepted(_worst(moved.real, moved.imag), first) & (now.det * body.sign[:, None] > 0.0)
+    ok = (_worst(res) <= tol) & accepted(moved(body, centre - start, turn - spun), first)
+    ok &= now.det * body.sign[:, None] > 0.0
     return now, turn, ok
 
 
-def _worst(*parts: np.ndarray) -> np.ndarray:
-    """max |·| (K, T) over the three rows (3, K, T) of each of ``parts`` (NaN where any is NaN)."""
-    return largest(*(part.reshape(3, -1).T for part in parts)).reshape(parts[0].shape[1:])
+def moved(body: Body, shift: np.ndarray, spin: np.ndarray) -> np.ndarray:
+    """The most any joint of the body moves (K, T), at most, when it is shifted by ``shift`` (K, T)
+    complex and turned by ``spin`` (K, T): |shift| + |spin|·reach (P_k moves by shift +
+    (e^{i·spin} − 1)·q_k, |e^{i·spin} − 1| ≤ |spin|), the measure :func:`~.continuation.accepted`
+    compares (Python's :func:`newton` and :func:`follow` take the same)."""
+    out = np.abs(shift)
+    out += np.abs(spin) * body.reach
+    return out
+
+
+def _worst(rows: np.ndarray) -> np.ndarray:
+    """max |·| (K, T) over the three ``rows`` (3, K, T) (NaN where any is NaN)."""
+    return largest(rows.reshape(3, -1).T).reshape(rows.shape[1:])
 
 
 def ds(now: Pose, body: Body) -> np.ndarray:
