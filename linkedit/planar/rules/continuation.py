@@ -68,27 +68,29 @@ def predict(travel: np.ndarray, known: np.ndarray, solved: np.ndarray, want: np.
     """Positions (len(want), k) at samples ``want`` (none of them in ``known``) by the polynomial, in
     the inputs' ``travel`` (T,) (:func:`coarse`: repeated inputs are one point of it, not two),
     through the STENCIL solved samples nearest each (fewer when fewer are solved): ``known``
-    (indices, increasing), ``solved`` (len(known), k). Each interval's polynomial in Newton's form
-    (divided differences over the intervals at once), evaluated by Horner's rule: no per-sample
-    loop."""
+    (indices, increasing), ``solved`` (len(known), k). Each interval's polynomial in
+    Newton's form: its divided differences c_j (over the intervals at once) times the Newton basis
+    ∏_{i<j} (t − x_i) at every wanted sample (one running product): no per-sample loop."""
     n, p = known.size, min(STENCIL, known.size)
     if n < 2:
         return np.broadcast_to(solved[:1], (want.size, solved.shape[1])).copy()
-    first = np.clip(np.arange(1 - p // 2, n - p // 2), 0, n - p)  # each interval's stencil
+    first = np.arange(1 - p // 2, n - p // 2)  # each interval's stencil: its first node
+    np.maximum(first, 0, out=first)
+    np.minimum(first, n - p, out=first)
     nodes = first + np.arange(p)[:, None]  # (p, intervals)
     x, c = travel[known[nodes]], solved[nodes]  # (p, intervals), (p, intervals, k)
     for j in range(1, p):  # divided differences, in place
         c[j:] -= c[j - 1:-1]
         c[j:] /= (x[j:] - x[:p - j])[..., None]
     inside = np.searchsorted(known, want)  # 1 + the interval of each wanted sample
-    np.clip(inside, 1, n - 1, out=inside)
+    np.maximum(inside, 1, out=inside)
+    np.minimum(inside, n - 1, out=inside)
     inside -= 1
-    t, x, c = travel[want][:, None], x.take(inside, axis=1)[..., None], c.take(inside, axis=1)
-    out = c[p - 1]
-    for j in range(p - 2, -1, -1):
-        out *= t - x[j]
-        out += c[j]
-    return out
+    basis = np.subtract(travel[want], x[: p - 1].take(inside, axis=1))  # (p − 1, len(want))
+    np.multiply.accumulate(basis, axis=0, out=basis)
+    c = c.take(inside, axis=1)  # (p, len(want), k)
+    c[1:] *= basis[..., None]
+    return c.sum(axis=0)
 
 
 def coarse(known: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -98,28 +100,28 @@ def coarse(known: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     (T,), also returned), and half that into the first move and before the last sample (the end
     intervals, where :func:`predict`'s stencil is one-sided); the last sample unless its inputs
     have not moved since the one before (no two of them at one travel: :func:`predict`'s
-    abscissae; the samples after the last are predicted as it). Inputs NaN from some sample on (a
-    joint before the group not placed) make the travel NaN from there: the strides are marked over
-    its finite part, and the last sample stays a node, where the sequential continuation stops."""
+    abscissae; the samples after the last are it again: :func:`trace` copies it). Inputs NaN from
+    some sample on (a joint before the group not placed) make the travel NaN from there: the strides
+    are marked over its finite part, and the last sample stays a node, where the sequential
+    continuation stops."""
     T = s.size
     moved = np.abs(known[:, 1:] - known[:, :-1]).max(axis=0, initial=0.0)
     np.maximum(moved, np.abs(s[1:] - s[:-1]), out=moved)
     travel = np.empty(T)
     travel[0] = 0.0
     np.cumsum(moved, out=travel[1:])
-    end = np.nanmax(travel)  # travel[0] = 0
-    marks = np.arange(0.0, end, GROUP_STRIDE)
-    if marks.size:
+    end = float(travel[-1])
+    if end != end:  # NaN from some sample on
+        end = float(np.nanmax(travel))  # travel[0] = 0
+    marks = np.arange(0.0, end, GROUP_STRIDE).tolist()  # a few: Python numbers from here
+    if marks:
         marks[0] = 0.5 * GROUP_STRIDE
     if end > GROUP_STRIDE:
-        marks = np.sort(np.append(marks, end - 0.5 * GROUP_STRIDE))
-    nodes = np.concatenate([[0], np.searchsorted(travel, marks), [T - 1]])
-    nodes = np.minimum(nodes, T - 1)
-    keep = np.empty(nodes.size, dtype=bool)  # a node at the travel of the one before is that node again
-    keep[0] = True
-    np.less_equal(travel[nodes[1:]], travel[nodes[:-1]], out=keep[1:])
-    np.logical_not(keep[1:], out=keep[1:])  # (a NaN node kept)
-    return nodes[keep], travel
+        marks.append(end - 0.5 * GROUP_STRIDE)
+        marks.sort()
+    nodes = [0, *np.minimum(np.searchsorted(travel, marks), T - 1).tolist(), T - 1]
+    along = travel[nodes].tolist()  # a node at the travel of the one before is that node again (a NaN node kept)
+    return np.array([nodes[0], *(n for n, a, b in zip(nodes[1:], along[1:], along) if not a <= b)]), travel
 
 
 class Continued(Protocol):
@@ -170,7 +172,9 @@ def trace(group: Continued, known: np.ndarray, s: np.ndarray) -> tuple[np.ndarra
         out[c, last + 1:] = np.nan
         if last >= 0:
             solved = through[through <= last]
-            between = np.ones(last + 1, dtype=bool)
+            end = solved[-1]  # the samples after it have its inputs (:func:`coarse`): they are it
+            out[c, end + 1: last + 1] = out[c, end]
+            between = np.ones(end + 1, dtype=bool)
             between[solved] = False
             inner = np.flatnonzero(between)
             if inner.size:
