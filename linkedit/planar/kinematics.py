@@ -167,9 +167,10 @@ def continuation_grid(start: float | np.ndarray, values: np.ndarray, max_step: f
                                np.broadcast_to(values, (count, values.shape[-1]))], axis=1)
     else:
         path = np.concatenate([[start], values])
-    parts = np.ceil(np.abs(np.diff(path)) / max_step - 1e-9).reshape(-1, values.shape[-1]).max(axis=0)
-    if parts.max(initial=0.0) <= 1.0:  # fine enough already: each value is its own piece
+    moves = np.abs(path[..., 1:] - path[..., :-1])
+    if float(moves.max(initial=0.0)) / max_step - 1e-9 <= 1.0:  # fine enough already: each value is its own piece
         return path, np.arange(1, path.shape[-1])
+    parts = np.ceil(moves / max_step - 1e-9).reshape(-1, values.shape[-1]).max(axis=0)
     parts = np.maximum(parts, 1).astype(int)
     first = np.concatenate([[0], np.cumsum(parts)])
     piece = np.repeat(np.arange(values.shape[-1]), parts)  # the move each fine value belongs to
