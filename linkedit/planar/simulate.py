@@ -176,14 +176,14 @@ def motor_input(motor: Motor, t: np.ndarray) -> np.ndarray:
     return motor_turn(motor, t)
 
 
-def motor_angles(spec: LinkageSpec, samples: int) -> tuple[np.ndarray, np.ndarray]:
-    """Phases t (T,) and input values (T,) for ``samples`` samples.
+def motor_angles(spec: LinkageSpec, samples: int, phases: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Phases t (T,) and input values (T,) for ``samples`` samples (or at the given ``phases``).
 
     Rotary: absolute motor angles, radians. Linear: the stroke, the driven joint's
     displacement from rest along its slot in the spec's units, from s0 to s1.
     """
     m = spec.motor
-    t = motor_phases(spec, samples)
+    t = motor_phases(spec, samples) if phases is None else np.asarray(phases, dtype=float)
     if m.joint is None or m.pivot is None:  # a linear input
         return t, motor_input(m, t)
     rest = np.arctan2(*(np.subtract(spec.joints[m.joint], spec.joints[m.pivot])[::-1]))
@@ -230,8 +230,9 @@ def _unit(plan: Plan) -> str:
 
 
 def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial: bool = False,
-             geometry: Geometry | None = None) -> Motion:
-    """Simulate one motor cycle with ``samples`` samples (default: the spec's, else 360).
+             geometry: Geometry | None = None, phases: np.ndarray | None = None) -> Motion:
+    """Simulate one motor cycle with ``samples`` samples (default: the spec's, else 360), or at the
+    motor phases ``phases`` (T,), increasing from 0 within the cycle.
 
     With ``partial=True`` a linkage that locks up somewhere is still returned; its positions
     are NaN where ``assembled`` is False and ``lockups`` says where and why. The evaluation
@@ -240,8 +241,8 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
     """
     plan = linkage if isinstance(linkage, Plan) else compile_plan(linkage)
     spec = plan.spec
-    samples = samples or spec.samples or DEFAULT_SAMPLES
-    t, value = motor_angles(spec, samples)
+    samples = len(phases) if phases is not None else samples or spec.samples or DEFAULT_SAMPLES
+    t, value = motor_angles(spec, samples, phases)
     if geometry is None:
         geom, origin, scale = Geometry.of(plan, plan.normalized_points()), plan.origin, plan.scale
     else:

@@ -52,14 +52,13 @@ class Polish:
 def measure(spec: LinkageSpec, target: np.ndarray, size: float, samples: int, timed: TimedTarget | None,
             frame: Frame = UNIT) -> tuple[tuple[float, float], Motion]:
     """(RMS, max) error over ``size`` of the linkage ``spec``'s track ``target`` against the closed
-    target (M,) complex — both ways, or with ``timed`` at the target's times — and its simulation.
-    The target and ``size`` are in the unit frame, the linkage in ``frame``."""
-    motion = simulate(compile_plan(spec), TIMED_SAMPLES if timed is not None else samples)
-    drawn = frame.unit(motion.tracks["target"].position)
+    target (M,) complex — both ways, or with ``timed`` at the target's own samples and times — and its
+    simulation. The target and ``size`` are in the unit frame, the linkage in ``frame``."""
+    plan = compile_plan(spec)
+    motion = simulate(plan, TIMED_SAMPLES if timed is not None else samples)
     if timed is None:
-        return curve_error(target, True, drawn, size), motion
-    d = np.abs(drawn - timed.points) / size
-    return (float(np.sqrt(np.mean(d * d))), float(d.max())), motion
+        return curve_error(target, True, frame.unit(motion.tracks["target"].position), size), motion
+    return timed.error(frame.unit(simulate(plan, phases=timed.phases).tracks["target"].position)), motion
 
 
 def polish(spec: LinkageSpec, target: np.ndarray, size: float, error: tuple[float, float], margin: float,

@@ -123,10 +123,10 @@ def curve_error(target: np.ndarray, closed: bool, curve: np.ndarray, size: float
 
 def timed_error(timed: TimedTarget, fam: ModuleType, params: np.ndarray, placement: Placement) -> tuple[float, float]:
     """(RMS, max) distance, over the target's size, between the timed target's samples and the placed
-    candidate at the same phases (:mod:`linkedit.synthesis.timed`)."""
-    seq = timed_sequence(fam.curves(params[None], TIMED_SAMPLES, placement.phase)[0], placement.reversed)
-    d = np.abs(timed.points - placement.apply(seq)) / timed.size
-    return float(np.sqrt(np.mean(d * d))), float(d.max())
+    candidate at the same phases (:mod:`linkedit.synthesis.timed`): one evaluation per sample."""
+    phase = placement.phase + (-1.0 if placement.reversed else 1.0) * timed.phases
+    z = fam.curves(np.repeat(params[None], len(phase), axis=0), 1, phase)[:, 0]
+    return timed.error(placement.apply(z))
 
 
 @dataclass
