@@ -33,6 +33,11 @@ import numpy as np
 from linkedit.planar.constraints import Rows
 from linkedit.planar.rules.continuation import GROUP_ITERATIONS, GROUP_TOLERANCE, accepted, advance, largest
 
+#: Newton steps :func:`polish` takes on every sample at once: from :data:`~.continuation.STENCIL`'s
+#: predictions (their rows ≈ 1e-4) two steps reach GROUP_TOLERANCE; a sample still off then goes on
+#: alone, up to GROUP_ITERATIONS steps in all
+BATCH_STEPS = 2
+
 
 @dataclass(frozen=True)
 class Triad:
@@ -323,12 +328,38 @@ def pose(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray) -> 
 def polish(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray,
            tol: float) -> tuple[Pose, np.ndarray, np.ndarray]:
     """Newton's method on every sample of K linkages at once from the predicted poses (``centre``
-    (K, T) complex, ``turn`` (K, T)), until every row is within ``tol`` of 0. Returns the pose, its
-    turn (K, T) and which samples (K, T) are accepted: converged, close to their predictor
-    (:func:`~linkedit.planar.rules.continuation.accepted`), with det M's sign of their rest pose."""
+    (K, T) complex, ``turn`` (K, T)), until every row is within ``tol`` of 0: BATCH_STEPS steps on
+    all of them, then the few samples still off (slow near a singular position, or never converging:
+    a linkage that cannot be assembled there) on their own, so that they do not cost a step of every
+    sample each. Returns the pose, its turn (K, T) and which samples (K, T) are accepted: converged,
+    close to their predictor (:func:`~linkedit.planar.rules.continuation.accepted`), with det M's
+    sign of their rest pose."""
+    start, spun = centre, turn
+    now, res, centre, turn, first = _steps(body, hung, centre, turn, tol, BATCH_STEPS)
+    worst = _worst(res)
+    off = worst > tol  # (NaN rows are left alone)
+    if off.any():
+        k, t = np.nonzero(off)
+        alone = replace(body, p=body.p[:, k, 0][:, None], r2=body.r2[:, k, 0][:, None], reach=body.reach[k, 0][None])
+        rest = _steps(alone, hung[:, k, t][:, None], centre[k, t][None], turn[k, t][None], tol,
+                      GROUP_ITERATIONS - BATCH_STEPS)
+        centre, turn = centre.copy(), turn.copy()
+        centre[k, t], turn[k, t] = rest[2][0], rest[3][0]
+        now, res = pose(body, hung, centre, turn)
+        worst = _worst(res)
+    ok = (worst <= tol) & accepted(moved(body, centre - start, turn - spun), first)
+    ok &= now.det * body.sign[:, None] > 0.0
+    return now, turn, ok
+
+
+def _steps(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray, tol: float,
+           steps: int) -> tuple[Pose, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Up to ``steps`` Newton steps on the poses (``centre``, ``turn``) (K, T) together, until every
+    row is within ``tol`` of 0. Returns the pose reached, its rows (3, K, T), its centre and turn, and
+    the size of the first step (K, T) (:func:`moved`; 0 where none was taken)."""
     now, res = pose(body, hung, centre, turn)
-    start, spun, first = centre, turn, np.zeros(turn.shape)
-    for it in range(GROUP_ITERATIONS):
+    first = np.zeros(turn.shape)
+    for it in range(steps):
         if not (np.abs(res) > tol).any():  # (NaN rows are left alone)
             break
         res *= -0.5
@@ -338,9 +369,7 @@ def polish(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray,
         centre = centre + shift
         turn = turn + spin
         now, res = pose(body, hung, centre, turn)
-    ok = (_worst(res) <= tol) & accepted(moved(body, centre - start, turn - spun), first)
-    ok &= now.det * body.sign[:, None] > 0.0
-    return now, turn, ok
+    return now, res, centre, turn, first
 
 
 def moved(body: Body, shift: np.ndarray, spin: np.ndarray) -> np.ndarray:
