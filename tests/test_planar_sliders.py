@@ -411,6 +411,25 @@ def test_piston_driven_crank_matches_two_circles():
     assert np.abs(v[:, 0] + 1j * v[:, 1] - (crank_pin(b + h) - crank_pin(b - h)) / (2 * h)).max() <= 1e-6
 
 
+def test_transmission_warning_of_a_linear_input_says_the_stroke(run_cli, tmp_path):
+    """validate's transmission warning names where the angle is worst: for a cylinder the stroke in
+    the spec's units (it said "motor angle" and the stroke read as radians: -2 mm → -114.6°)."""
+    data = piston_driven().model_dump()
+    data["motor"]["stroke"] = [-25.0, -2.0]  # B at 88.96 − 25 … 88.96 − 2 mm: the rod nearly in line at the end
+    path = tmp_path / "piston.yaml"
+    path.write_text(dump_linkage(LinkageSpec.model_validate(data)))
+    # the angle O–A–B at the crank pin, from the two circles: cos α = (r² + l² − |OB|²) / (2 r l)
+    n = SLIDER_CRANK
+    stroke = np.linspace(-25.0, -2.0, 24)
+    ob2 = (n["r"] + np.sqrt(n["l"] ** 2 - n["e"] ** 2) + stroke) ** 2 + n["e"] ** 2
+    alpha = np.degrees(np.arccos((n["r"] ** 2 + n["l"] ** 2 - ob2) / (2 * n["r"] * n["l"])))
+    worst = int(np.argmax(np.abs(alpha - 90)))
+    r = run_cli("validate", path, "-n", "24")
+    assert r.exit_code == 0, r.output
+    assert (f"transmission angle at joint A leaves 40°–140°: {alpha[worst]:.1f}° at stroke {stroke[worst]:g} mm"
+            in r.output), r.output
+
+
 # ---------------------------------------------------------------- a joint in two slots
 
 

@@ -229,12 +229,13 @@ def transmission_warnings(motion: Any, before: Any = None) -> list[str]:
         if (angle < lo or angle > hi) and not (joint in was and abs(angle - 90) <= abs(was[joint][0] - 90) + 0.05):
             note = f" ({was[joint][0]:.1f}° before the edit)" if joint in was else ""
             out.append(f"transmission angle at joint {joint} leaves {lo:g}°–{hi:g}°: "
-                       f"{angle:.1f}° at motor angle {where:.1f}°{note}")
+                       f"{angle:.1f}° at {where}{note}")
     return out
 
 
-def _worst_transmission(motion: Any) -> list[tuple[str, tuple[float, float]]]:
-    """(rebuilt joint, (its transmission angle furthest from 90°, motor angle there)) per dyad, degrees."""
+def _worst_transmission(motion: Any) -> list[tuple[str, tuple[float, str]]]:
+    """(rebuilt joint, (its transmission angle furthest from 90° in degrees, the input there in
+    words)) per dyad."""
     import numpy as np
 
     plan = motion.plan
@@ -242,7 +243,7 @@ def _worst_transmission(motion: Any) -> list[tuple[str, tuple[float, float]]]:
     for r in np.flatnonzero(~plan.table.rigid):
         a = np.where(motion.assembled, np.degrees(motion.transmission[:, r]), 90.0)
         t = int(np.argmax(np.abs(a - 90.0)))
-        out.append((plan.joint_names[plan.table.joints[r, 2]], (float(a[t]), float(np.degrees(motion.motor_angle[t])))))
+        out.append((plan.joint_names[plan.table.joints[r, 2]], (float(a[t]), motion.describe_input(t))))
     return out
 
 

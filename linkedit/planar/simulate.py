@@ -85,9 +85,15 @@ class Motion:
             return None
         return ds[:, np.array(rows, dtype=int)], joints
 
-    def _where(self, t: int) -> float:
+    def input_at(self, t: int) -> float:
         """The input at sample ``t``: motor angle in degrees, or a linear input's stroke."""
         return float(self.motor_angle[t] if self.plan.linear else np.degrees(self.motor_angle[t]))
+
+    def describe_input(self, t: int) -> str:
+        """The input at sample ``t`` in words: ``motor angle 12.0°`` or ``stroke 5 mm``."""
+        if self.plan.linear:
+            return f"stroke {self.input_at(t):.6g} {self.plan.spec.units}"
+        return f"motor angle {self.input_at(t):.1f}°"
 
     def min_singularity(self) -> tuple[float, str, float] | None:
         """(min d_s over dyad, slider and group rules and assembled samples, its joint, the input
@@ -97,7 +103,7 @@ class Motion:
             return None
         ds = np.where(self.assembled[:, None], found[0], np.inf)
         t, r = np.unravel_index(np.argmin(ds), ds.shape)
-        return float(ds[t, r]), found[1][r], self._where(int(t))
+        return float(ds[t, r]), found[1][r], self.input_at(int(t))
 
     def lowest_singularity(self) -> tuple[float, str, float] | None:
         """(the lower bound of d_s over the cycle, between samples too, its joint, the input at the
@@ -111,7 +117,7 @@ class Motion:
         low = lowest(ds, self.cyclic)
         r = int(np.argmin(low))
         t = int(np.argmin(np.nan_to_num(ds[r], nan=-np.inf)))
-        return float(low[r]), found[1][r], self._where(t)
+        return float(low[r]), found[1][r], self.input_at(t)
 
     def __repr__(self) -> str:
         s = self.summary()
