@@ -243,7 +243,7 @@ def _worst_transmission(motion: Any) -> list[tuple[str, tuple[float, str]]]:
     for r in np.flatnonzero(~plan.table.rigid):
         a = np.where(motion.assembled, np.degrees(motion.transmission[:, r]), 90.0)
         t = int(np.argmax(np.abs(a - 90.0)))
-        out.append((plan.joint_names[plan.table.joints[r, 2]], (float(a[t]), motion.describe_input(t))))
+        out.append((plan.joint_names[plan.table.joints[r, 2]], (float(a[t]), motion.describe_input(motion.input_at(t)))))
     return out
 
 

@@ -89,11 +89,9 @@ class Motion:
         """The input at sample ``t``: motor angle in degrees, or a linear input's stroke."""
         return float(self.motor_angle[t] if self.plan.linear else np.degrees(self.motor_angle[t]))
 
-    def describe_input(self, t: int) -> str:
-        """The input at sample ``t`` in words: ``motor angle 12.0°`` or ``stroke 5 mm``."""
-        if self.plan.linear:
-            return f"stroke {self.input_at(t):.6g} {self.plan.spec.units}"
-        return f"motor angle {self.input_at(t):.1f}°"
+    def describe_input(self, value: float) -> str:
+        """An input ``value`` as :meth:`input_at` gives it, in words: ``motor angle 12.0°`` or ``stroke 5 mm``."""
+        return f"stroke {value:.6g} {self.plan.spec.units}" if self.plan.linear else f"motor angle {value:.1f}°"
 
     def min_singularity(self) -> tuple[float, str, float] | None:
         """(min d_s over dyad, slider and group rules and assembled samples, its joint, the input
