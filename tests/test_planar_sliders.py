@@ -549,3 +549,20 @@ def test_slotted_link_rates_are_closed_form_and_match_differences(monkeypatch, m
     assert np.array_equal(s.z, near[2])
     scale = np.abs(near[2]).max()
     assert np.abs(s.dz - v).max() <= 1e-9 * scale and np.abs(s.ddz - a).max() <= 1e-6 * scale
+
+
+def test_a_rod_passing_perpendicular_to_its_slot_between_samples_is_a_toggle():
+    """Crank 20, rod 25, slot 5 mm below the pivot: r sin θ − e reaches l at θ = 90° (the rod
+    perpendicular to the slot, d_s = 0) and falls back. Sampled at 0.3° + k°, B kept its side of A
+    and its velocity jumped from −42 to +2.4 mm/rad between 89.3° and 90.3°, exit 0; now the toggle
+    is reported there, as when a sample falls on it."""
+    r, l, e = 20.0, 25.0, -5.0
+    a = r * np.exp(1j * np.radians(0.3))
+    data = catalog.slider_crank().model_dump()
+    data["joints"] = {"O": (0.0, 0.0), "A": (a.real, a.imag), "B": (a.real + np.sqrt(l * l - (a.imag - e) ** 2), e),
+                      "C": (a.real + 1.0, a.imag + 1.0)}
+    spec = LinkageSpec.model_validate(data)
+    with pytest.raises(MechanismError, match="slider piston reaches a toggle position") as info:
+        simulate(spec, 360)
+    (where,) = re.findall(r"motor angles ([\d.]+)°", str(info.value))
+    assert float(where) == pytest.approx(90.0, abs=0.3)

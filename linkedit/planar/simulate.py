@@ -337,14 +337,14 @@ def _lockups_between(plan: Plan, geom: Geometry, scale: float) -> list[LockUp]:
 
 
 def _toggles_passed(plan: Plan, pn: np.ndarray, ds: np.ndarray, shown: np.ndarray, unit: str) -> list[LockUp]:
-    """Dyad toggles that evenly spaced samples (CHECK_SAMPLES a cycle or more) step over while every
-    sample assembles: a change point, where d_s touches 0 and rises again, and the dyad's kept side
-    takes the linkage onto another branch there. A sampled local minimum of a dyad's d_s (T, N rows)
+    """Toggles that evenly spaced samples (CHECK_SAMPLES a cycle or more) step over while every
+    sample assembles: a change point, where a closed-form rule's d_s touches 0 and rises again (a
+    dyad stretched or folded, a rod perpendicular to its slot), and the side the rule keeps takes
+    the linkage onto another branch there. A sampled local minimum of such a d_s row (``ds`` (T, N))
     whose parabola through its neighbours reaches 0 within the third difference (the parabola's own
-    error) is reported as a toggle at the parabola's vertex; ``shown`` (T,) the inputs."""
-    from linkedit.planar.rules.dyad import Dyad
-
-    cols = np.array([c for rule, own in zip(plan.rules, plan.ds_rows) if isinstance(rule, Dyad)
+    error) is reported as a toggle at the parabola's vertex; ``shown`` (T,) the inputs. (A numeric
+    group's continuation watches its own determinant.)"""
+    cols = np.array([c for rule, own in zip(plan.rules, plan.ds_rows) if rule.watched and rule.kind != "group"
                      for c in range(own.start, own.stop)], dtype=int)
     count = ds.shape[0]
     if cols.size == 0 or count < 5:
