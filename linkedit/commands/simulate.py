@@ -181,10 +181,11 @@ def register(app: typer.Typer) -> None:
                 check_memory(samples, spec, path)
                 plan = compile_plan(spec)
                 motion = run(plan, samples, partial=True)
-            except LinkeditError as exc:  # name the bad file, go on with the others
-                typer.echo(f"linkedit: error: {exc}", err=True)
-                errors.append(error_json(exc, path))
-                worst = max(worst, exc.exit_code)
+            except LinkeditError as exc:  # name the bad file (as simulate does), go on with the others
+                err = MechanismError(f"{path}: {exc}") if isinstance(exc, MechanismError) else exc
+                typer.echo(f"linkedit: error: {err}", err=True)
+                errors.append(error_json(err, path))
+                worst = max(worst, err.exit_code)
                 continue
             levels = plan.describe()
             reports.append({"spec": str(path)} | motion.summary() | {"grubler": plan.mobility.grubler,
