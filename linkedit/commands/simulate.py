@@ -163,7 +163,7 @@ def register(app: typer.Typer) -> None:
     @guard
     def validate(
         specs: list[Path] = typer.Argument(..., help="Linkage spec YAML files."),
-        samples: int = typer.Option(None, "--samples", "-n", min=1, help="Samples for the diagnostics [default: 360]."),
+        samples: int = typer.Option(None, "--samples", "-n", min=1, help="Samples for the diagnostics [default: spec's, else 360]."),
         as_json: bool = JSON,
         quiet: bool = QUIET,
     ) -> None:
