@@ -241,6 +241,26 @@ def test_oscillating_rocker_input_goes_back_and_forth():
     assert m.cyclic
 
 
+def test_a_rocker_input_locked_around_its_turn_names_the_angles_it_swings_through(run_cli, tmp_path):
+    """The slider-crank with a 25 mm rod swinging 0° → 250° → 0°: the rod cannot reach the slot for
+    |20 sin θ − 12| > 25, θ past 220.5°, on the way out to 250° and back. The message said "motor
+    angles 221.3°…221.3°" (the first and last locked samples, both on the way back through 221.3°)."""
+    spec = catalog.slider_crank().model_dump()
+    n = SLIDER_CRANK
+    spec["joints"]["B"] = (n["r"] + np.sqrt(25.0**2 - n["e"] ** 2), n["e"])
+    spec["joints"]["C"] = (30.0, 8.0)
+    spec["motor"]["oscillate_deg"] = [0.0, 250.0]
+    path = tmp_path / "swing.yaml"
+    path.write_text(dump_linkage(LinkageSpec.model_validate(spec)))
+    r = run_cli("simulate", path, "-o", tmp_path / "swing.h5", "-n", "100")
+    assert r.exit_code == 1, r.output
+    found = re.search(r"motor angles ([\d.]+)°…([\d.]+)°…([\d.]+)°: slider piston cannot place joint B", r.output)
+    assert found, r.output
+    edge = 180 + np.degrees(np.arcsin((25.0 - n["e"]) / n["r"]))  # 220.5°
+    out, turn, back = (float(g) for g in found.groups())
+    assert edge < out <= edge + 1.0 and turn == 250.0 and back == out
+
+
 def test_linear_input_result_file_has_the_stroke(run_cli, tmp_path):
     out = tmp_path / "arm.h5"
     r = run_cli("simulate", EXAMPLES / "lifting-arm.yaml", "-o", out, "--samples", "11", "--svg", tmp_path / "arm.svg")
