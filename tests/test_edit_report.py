@@ -9,6 +9,7 @@ import json
 import numpy as np
 
 from linkedit.planar import catalog
+from linkedit.spec.linkage import LinkageSpec
 from tests.test_edit_trust import EDITS, Edited, linkage_file, term, write
 
 
@@ -67,3 +68,17 @@ def test_a_stall_at_the_barrier_names_it(run_cli, tmp_path):
     human = run_cli("edit", EDITS / "jansen-toggle.yaml", "-o", tmp_path / "o2", "--best-effort").output
     assert "stalled: slow progress, along the barrier's edge" in human
     assert "warning: pull D towards the toggle: goal not met: displace D" in human
+
+
+def test_a_near_toggle_warning_of_a_linear_input_says_the_stroke(run_cli, tmp_path):
+    """A cylinder-driven crank ending 0.2 mm short of its stretched toggle (|OB| ≤ r + l = 90 mm:
+    the stroke's end is nearest, d_s grows as B comes back): the warning names the stroke there,
+    in mm; it said "motor angle 0.2°"."""
+    data = catalog.slider_crank().model_dump()
+    data["motor"] = {"slider": "piston", "stroke": [-25.0, 0.2]}
+    p = linkage_file(tmp_path, LinkageSpec.model_validate(data))
+    e = Edited(run_cli, tmp_path, p, write(tmp_path, "s.yaml", {"samples": 40, "lock": ["O"], "operations": [
+        {"displace": {"joint": "C", "to": [51.0, 26.7]}}]}))
+    assert e.result.exit_code == 0, e.output
+    (near,) = [w for w in json.loads(e.output)["warnings"] if "toggle" in w]
+    assert "of its toggle position at stroke 0.2 mm (below" in near, near

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -240,3 +242,39 @@ def test_linkage_axis_evaluates_derivatives_of_each_linkage():
         one = evaluate(plan, Geometry.of(plan, many[k]), angle[k], order=2)
         for a, b in ((s.z, one.z), (s.dz, one.dz), (s.ddz, one.ddz), (s.ds, one.ds)):
             assert np.allclose(a[:, k], b, rtol=0, atol=1e-12 * np.abs(b).max(), equal_nan=True)
+
+
+def parallelogram(rest_deg: float) -> LinkageSpec:
+    """Crank 20, coupler 50, rocker 20, frame 50 (a parallelogram four-bar), the crank at ``rest_deg``:
+    all four joints are collinear at crank angles 0° and 180° (change points: the dyad at B touches
+    its toggle, d_s = 0, and every other angle assembles)."""
+    c, s = 20 * np.cos(np.radians(rest_deg)), 20 * np.sin(np.radians(rest_deg))
+    return LinkageSpec.model_validate({
+        "name": "parallelogram", "units": "mm", "joints": {"O": [0, 0], "D": [50, 0], "A": [c, s], "B": [50 + c, s]},
+        "ground": ["O", "D"], "links": {"crank": ["O", "A"], "coupler": ["A", "B"], "rocker": ["D", "B"]},
+        "motor": {"joint": "A", "pivot": "O"}})
+
+
+@pytest.mark.parametrize("samples", [36, 360, 1440])
+def test_a_toggle_passed_between_samples_is_reported_as_one_at_a_sample(samples):
+    """A change point between the samples (crank at 0.3° + k·360°/T, the toggles at 180° and 360°):
+    exit 1 as when a sample falls on it. It was passed silently: B kept its triangle's side, so the
+    parallelogram became an anti-parallelogram after 180° (B 40 mm off A + (50, 0), its velocity
+    jumping from (−0.2, −20) to (0, 8.6) mm/rad), exit 0."""
+    with pytest.raises(MechanismError, match="joint B reaches a toggle position") as info:
+        simulate(parallelogram(0.3), samples)
+    where = [float(a) for a in re.findall(r"motor angles ([\d.]+)°", str(info.value))]
+    assert sorted(where) == pytest.approx([180.0, 360.0], abs=0.3), str(info.value)
+    m = simulate(parallelogram(0.3), samples, partial=True)
+    assert len(m.lockups) == 2 and m.assembled.all()
+
+
+def test_a_linkage_that_only_comes_near_a_change_point_works():
+    """The parallelogram with B 0.05 mm higher (coupler 50.000025, rocker 20.05: not a change point,
+    shortest + longest 70.000025 < 70.05): B comes within 0.25° of its toggle (d_s ≈ 1.9e-5) and
+    back on its own branch; not a toggle."""
+    data = parallelogram(0.3).model_dump()
+    data["joints"]["B"] = (data["joints"]["B"][0], data["joints"]["B"][1] + 0.05)
+    m = simulate(LinkageSpec.model_validate(data), 1440)
+    assert not m.lockups and m.assembled.all()
+    assert 1e-5 < np.nanmin(m.singularity) < 3e-5

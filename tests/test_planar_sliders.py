@@ -241,6 +241,26 @@ def test_oscillating_rocker_input_goes_back_and_forth():
     assert m.cyclic
 
 
+def test_a_rocker_input_locked_around_its_turn_names_the_angles_it_swings_through(run_cli, tmp_path):
+    """The slider-crank with a 25 mm rod swinging 0° → 250° → 0°: the rod cannot reach the slot for
+    |20 sin θ − 12| > 25, θ past 220.5°, on the way out to 250° and back. The message said "motor
+    angles 221.3°…221.3°" (the first and last locked samples, both on the way back through 221.3°)."""
+    spec = catalog.slider_crank().model_dump()
+    n = SLIDER_CRANK
+    spec["joints"]["B"] = (n["r"] + np.sqrt(25.0**2 - n["e"] ** 2), n["e"])
+    spec["joints"]["C"] = (30.0, 8.0)
+    spec["motor"]["oscillate_deg"] = [0.0, 250.0]
+    path = tmp_path / "swing.yaml"
+    path.write_text(dump_linkage(LinkageSpec.model_validate(spec)))
+    r = run_cli("simulate", path, "-o", tmp_path / "swing.h5", "-n", "100")
+    assert r.exit_code == 1, r.output
+    found = re.search(r"motor angles ([\d.]+)°…([\d.]+)°…([\d.]+)°: slider piston cannot place joint B", r.output)
+    assert found, r.output
+    edge = 180 + np.degrees(np.arcsin((25.0 - n["e"]) / n["r"]))  # 220.5°
+    out, turn, back = (float(g) for g in found.groups())
+    assert edge < out <= edge + 1.0 and turn == 250.0 and back == out
+
+
 def test_linear_input_result_file_has_the_stroke(run_cli, tmp_path):
     out = tmp_path / "arm.h5"
     r = run_cli("simulate", EXAMPLES / "lifting-arm.yaml", "-o", out, "--samples", "11", "--svg", tmp_path / "arm.svg")
@@ -411,6 +431,25 @@ def test_piston_driven_crank_matches_two_circles():
     assert np.abs(v[:, 0] + 1j * v[:, 1] - (crank_pin(b + h) - crank_pin(b - h)) / (2 * h)).max() <= 1e-6
 
 
+def test_transmission_warning_of_a_linear_input_says_the_stroke(run_cli, tmp_path):
+    """validate's transmission warning names where the angle is worst: for a cylinder the stroke in
+    the spec's units (it said "motor angle" and the stroke read as radians: -2 mm → -114.6°)."""
+    data = piston_driven().model_dump()
+    data["motor"]["stroke"] = [-25.0, -2.0]  # B at 88.96 − 25 … 88.96 − 2 mm: the rod nearly in line at the end
+    path = tmp_path / "piston.yaml"
+    path.write_text(dump_linkage(LinkageSpec.model_validate(data)))
+    # the angle O–A–B at the crank pin, from the two circles: cos α = (r² + l² − |OB|²) / (2 r l)
+    n = SLIDER_CRANK
+    stroke = np.linspace(-25.0, -2.0, 24)
+    ob2 = (n["r"] + np.sqrt(n["l"] ** 2 - n["e"] ** 2) + stroke) ** 2 + n["e"] ** 2
+    alpha = np.degrees(np.arccos((n["r"] ** 2 + n["l"] ** 2 - ob2) / (2 * n["r"] * n["l"])))
+    worst = int(np.argmax(np.abs(alpha - 90)))
+    r = run_cli("validate", path, "-n", "24")
+    assert r.exit_code == 0, r.output
+    assert (f"transmission angle at joint A leaves 40°–140°: {alpha[worst]:.1f}° at stroke {stroke[worst]:g} mm"
+            in r.output), r.output
+
+
 # ---------------------------------------------------------------- a joint in two slots
 
 
@@ -530,3 +569,20 @@ def test_slotted_link_rates_are_closed_form_and_match_differences(monkeypatch, m
     assert np.array_equal(s.z, near[2])
     scale = np.abs(near[2]).max()
     assert np.abs(s.dz - v).max() <= 1e-9 * scale and np.abs(s.ddz - a).max() <= 1e-6 * scale
+
+
+def test_a_rod_passing_perpendicular_to_its_slot_between_samples_is_a_toggle():
+    """Crank 20, rod 25, slot 5 mm below the pivot: r sin θ − e reaches l at θ = 90° (the rod
+    perpendicular to the slot, d_s = 0) and falls back. Sampled at 0.3° + k°, B kept its side of A
+    and its velocity jumped from −42 to +2.4 mm/rad between 89.3° and 90.3°, exit 0; now the toggle
+    is reported there, as when a sample falls on it."""
+    r, l, e = 20.0, 25.0, -5.0
+    a = r * np.exp(1j * np.radians(0.3))
+    data = catalog.slider_crank().model_dump()
+    data["joints"] = {"O": (0.0, 0.0), "A": (a.real, a.imag), "B": (a.real + np.sqrt(l * l - (a.imag - e) ** 2), e),
+                      "C": (a.real + 1.0, a.imag + 1.0)}
+    spec = LinkageSpec.model_validate(data)
+    with pytest.raises(MechanismError, match="slider piston reaches a toggle position") as info:
+        simulate(spec, 360)
+    (where,) = re.findall(r"motor angles ([\d.]+)°", str(info.value))
+    assert float(where) == pytest.approx(90.0, abs=0.3)

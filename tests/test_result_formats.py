@@ -261,3 +261,22 @@ def test_curve_tables_neutralize_formulas_and_keep_columns_apart(run_cli, tmp_pa
     assert [row[0] for row in rows[1:]] == ["'=cmd", "curve", "plain"]
     dist = np.array([[float(v) for v in row[1:]] for row in rows[1:]])
     assert (np.diag(dist) < 1e-6).all() and (dist + np.eye(3) > 0.1).all()  # rows and columns agree
+
+
+def test_dxf_track_of_a_partial_cycle_runs_through_the_rest_pose(run_cli, tmp_path):
+    """A full turn that locks between two angles away from the rest pose: each track is one polyline
+    from where the linkage frees to where it locks, through the rest pose (the last sample joins the
+    first). It was two, with the segment between the last sample and the rest pose left out."""
+    ezdxf = pytest.importorskip("ezdxf")
+    spec, out, h5 = tmp_path / "lock.yaml", tmp_path / "lock.dxf", tmp_path / "lock.h5"
+    spec.write_text(LOCKING)
+    assert run_cli("simulate", spec, "-o", out, "-n", "36", "--partial").exit_code == 0
+    assert run_cli("simulate", spec, "-o", h5, "-n", "36", "--partial").exit_code == 0
+    with h5py.File(h5) as f:
+        ok = f["diagnostics/assembled"][()]
+        tip = f["tracks/tip/position"][()] - f["joints/position"][0, 0]
+    assert ok[0] and ok[-1] and not ok.all()
+    freed = int(np.flatnonzero(~ok)[-1]) + 1  # the first sample after the locked run
+    expected = np.roll(tip, -freed, axis=0)[:int(ok.sum())]
+    (curve,) = [e for e in ezdxf.readfile(out).modelspace() if e.dxftype() == "LWPOLYLINE" and e.dxf.layer == "TRACK-tip"]
+    assert not curve.closed and np.allclose([p[:2] for p in curve.get_points()], expected, atol=1e-12)

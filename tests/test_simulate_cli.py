@@ -84,6 +84,18 @@ def test_validate_prints_levels_and_mobility(run_cli, four_bar):
     assert "mobility 1" in r.output and "level 1: B ← (A, D) dyad" in r.output
 
 
+def test_validate_names_the_spec_of_a_linkage_that_cannot_move(run_cli, four_bar, tmp_path):
+    """An over-constrained linkage in a batch: validate's error line names its file, as simulate's does
+    (it printed 'linkedit: error: the linkage cannot move: …' with no file)."""
+    braced = tmp_path / "braced.yaml"
+    braced.write_text(FOURBAR.replace("  rocker: [D, B]", "  rocker: [D, B]\n  brace: [O, B]"))
+    r = run_cli("validate", four_bar, braced)
+    assert r.exit_code == 1, r.output
+    assert f"linkedit: error: {braced}: the linkage cannot move: it is over-constrained" in r.output, r.output
+    simulated = run_cli("simulate", braced, "-o", tmp_path / "b.h5")
+    assert f"linkedit: error: {braced}: the linkage cannot move: it is over-constrained" in simulated.output
+
+
 def test_json_summary(run_cli, four_bar, tmp_path):
     import json
 

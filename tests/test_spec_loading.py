@@ -67,3 +67,22 @@ def test_a_bad_track_name_and_python_reference_are_explained_in_words(run_cli, t
     r = run_cli("solve3d", spec, "--allow-python", "-o", tmp_path / "o.h5")
     assert r.exit_code == 2 and "constraints.circle.python: 'os.path/join' is not module:function: " in r.output
     assert "pattern" not in r.output and "\\w" not in r.output
+
+
+@pytest.mark.parametrize("at, expected", [
+    ("[20.5, 44.6, 1]", ":19: tracks.coupler_point.at: Tuple should have at most 2 items after validation, not 3"),
+    ("[.nan, 44.6]", ":19: tracks.coupler_point.at[0]: Input should be a finite number"),
+])
+def test_a_bad_point_of_a_link_track_is_named_not_a_missing_joint(run_cli, tmp_path, at, expected):
+    """A track is a joint ({joint}) or a point on a link ({link, at}): a bad ``at`` of the second kind
+    was reported as the first kind's missing field ('tracks.coupler_point.joint: required field is
+    missing'), the union member whose keys do not fit the entry."""
+    from tests.conftest import EXAMPLES
+
+    spec = tmp_path / "s.yaml"
+    text = (EXAMPLES / "crank-rocker.yaml").read_text()
+    old = "at: [20.48489846928149, 44.59387691339814]"
+    assert old in text
+    spec.write_text(text.replace(old, f"at: {at}"))
+    r = run_cli("validate", spec)
+    assert r.exit_code == 2 and r.output.strip().startswith(f"linkedit: error: {spec}{expected}"), r.output

@@ -454,7 +454,7 @@ def test_partial_plot_breaks_curves_and_marks_the_lockup(run_cli, tmp_path):
     assert run_cli("simulate", spec, "--partial", "-o", tmp_path / "l.h5", "--svg", pic).exit_code == 0
     root = ET.parse(pic).getroot()
     tip = [el for el in root.iter() if el.get("class") == "track" and el.get("data-name") == "tip"]
-    assert len(tip) == 2 and all(el.tag.endswith("polyline") for el in tip)  # broken, not closed
+    assert len(tip) == 1 and tip[0].tag.endswith("polyline")  # broken at the lock-up only (through the rest pose), not closed
     pieces = _lines(root, "track")
     steps = np.concatenate([np.linalg.norm(np.diff(p, axis=0), axis=1) for p in pieces])
     assert steps.max() < 10 * np.median(steps)  # no straight line across the locked gap
@@ -559,3 +559,29 @@ def test_lockup_labels_at_neighbouring_samples_do_not_overlap():
     anchors = np.vstack([np.column_stack([ax + sx * tracer[:, 0], ay + sy * tracer[:, 1]]), list(px.values())])
     assert len(starts) >= 1
     assert all(np.hypot(*(anchors - q).T).min() < 0.05 for q in starts)
+
+
+def test_a_partial_cycle_curve_runs_through_the_rest_pose(run_cli, tmp_path):
+    """A full turn that locks away from the rest pose (--partial): the track is one polyline from where
+    the linkage frees, through the rest pose, to where it locks. It was two pieces, the stretch from
+    the last sample to the rest pose left out."""
+    import h5py
+
+    from tests.planar_specs import LOCKING
+
+    spec = tmp_path / "lock.yaml"
+    spec.write_text(LOCKING)
+    out, svg = tmp_path / "lock.h5", tmp_path / "lock.svg"
+    assert run_cli("simulate", spec, "-o", out, "--svg", svg, "-n", "36", "--partial").exit_code == 0
+    with h5py.File(out) as f:
+        ok = f["diagnostics/assembled"][()]
+        tip = f["tracks/tip/position"][()]
+    assert ok[0] and ok[-1] and not ok.all()
+    root = parse(svg.read_text())
+    (el,) = [e for e in find(root, "track") if e.get("data-name") == "tip"]
+    assert el.tag == NS + "polyline"
+    got = np.array([tuple(map(float, q.split(","))) for q in el.get("points").split()])
+    freed = int(np.flatnonzero(~ok)[-1]) + 1
+    world = np.roll(tip, -freed, axis=0)[:int(ok.sum())]  # freed … last sample, rest pose … locked
+    ax, sx, ay, sy = fit_map(world, got)
+    np.testing.assert_allclose(got, np.column_stack([ax + sx * world[:, 0], ay + sy * world[:, 1]]), atol=0.02)

@@ -163,7 +163,7 @@ def register(app: typer.Typer) -> None:
     @guard
     def validate(
         specs: list[Path] = typer.Argument(..., help="Linkage spec YAML files."),
-        samples: int = typer.Option(None, "--samples", "-n", min=1, help="Samples for the diagnostics [default: 360]."),
+        samples: int = typer.Option(None, "--samples", "-n", min=1, help="Samples for the diagnostics [default: spec's, else 360]."),
         as_json: bool = JSON,
         quiet: bool = QUIET,
     ) -> None:
@@ -181,10 +181,11 @@ def register(app: typer.Typer) -> None:
                 check_memory(samples, spec, path)
                 plan = compile_plan(spec)
                 motion = run(plan, samples, partial=True)
-            except LinkeditError as exc:  # name the bad file, go on with the others
-                typer.echo(f"linkedit: error: {exc}", err=True)
-                errors.append(error_json(exc, path))
-                worst = max(worst, exc.exit_code)
+            except LinkeditError as exc:  # name the bad file (as simulate does), go on with the others
+                err = MechanismError(f"{path}: {exc}") if isinstance(exc, MechanismError) else exc
+                typer.echo(f"linkedit: error: {err}", err=True)
+                errors.append(error_json(err, path))
+                worst = max(worst, err.exit_code)
                 continue
             levels = plan.describe()
             reports.append({"spec": str(path)} | motion.summary() | {"grubler": plan.mobility.grubler,
@@ -229,12 +230,13 @@ def transmission_warnings(motion: Any, before: Any = None) -> list[str]:
         if (angle < lo or angle > hi) and not (joint in was and abs(angle - 90) <= abs(was[joint][0] - 90) + 0.05):
             note = f" ({was[joint][0]:.1f}° before the edit)" if joint in was else ""
             out.append(f"transmission angle at joint {joint} leaves {lo:g}°–{hi:g}°: "
-                       f"{angle:.1f}° at motor angle {where:.1f}°{note}")
+                       f"{angle:.1f}° at {where}{note}")
     return out
 
 
-def _worst_transmission(motion: Any) -> list[tuple[str, tuple[float, float]]]:
-    """(rebuilt joint, (its transmission angle furthest from 90°, motor angle there)) per dyad, degrees."""
+def _worst_transmission(motion: Any) -> list[tuple[str, tuple[float, str]]]:
+    """(rebuilt joint, (its transmission angle furthest from 90° in degrees, the input there in
+    words)) per dyad."""
     import numpy as np
 
     plan = motion.plan
@@ -242,7 +244,7 @@ def _worst_transmission(motion: Any) -> list[tuple[str, tuple[float, float]]]:
     for r in np.flatnonzero(~plan.table.rigid):
         a = np.where(motion.assembled, np.degrees(motion.transmission[:, r]), 90.0)
         t = int(np.argmax(np.abs(a - 90.0)))
-        out.append((plan.joint_names[plan.table.joints[r, 2]], (float(a[t]), float(np.degrees(motion.motor_angle[t])))))
+        out.append((plan.joint_names[plan.table.joints[r, 2]], (float(a[t]), motion.describe_input(motion.input_at(t)))))
     return out
 
 

@@ -222,8 +222,9 @@ def _warnings(operations: list[OperationReport], motion: Motion, eps: float) -> 
     out = [f"{op.name}: goal not met: {text}" for op in operations if not op.discarded for text in op.unmet]
     worst = motion.min_singularity()
     if worst is not None and worst[0] < eps / 10:
-        out.append(f"joint {worst[1]} comes within d_s = {worst[0]:.3g} of its toggle position at motor angle "
-                   f"{worst[2]:.1f}° (below singularity_epsilon/10 = {eps / 10:.3g}): it works, but only just")
+        out.append(f"joint {worst[1]} comes within d_s = {worst[0]:.3g} of its toggle position at "
+                   f"{motion.describe_input(worst[2])} (below singularity_epsilon/10 = {eps / 10:.3g}): "
+                   "it works, but only just")
     return out
 
 

@@ -12,7 +12,7 @@ Three forms, told apart by their keys:
   ``axis``; a tracker (a point at ``distance`` and ``angle`` from ``ref_joint1``, measured from
   the direction to ``ref_joint2``) becomes a track on the link carrying both references. An
   ``arc_driver`` sweeps once from ``arc_start`` to ``arc_end`` (``motor.range_deg``; pylinkage's
-  forward half-cycle, sample k its step k).
+  forward half-cycle, sample k the pose after its k-th step).
 * **graph** (pylinkage ≥ 1.0, ``graph_to_json`` of a hypergraph or an Assur graph): ``nodes``
   (``id``, ``role`` GROUND, DRIVER or DRIVEN, ``joint_type``), ``edges`` (``source``, ``target``,
   optional ``body_id``: edges of one body are one rigid link) and ``hyperedges`` (rigid links of

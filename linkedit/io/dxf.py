@@ -89,7 +89,7 @@ def write_motion_dxf(path: str | Path, motion: Motion) -> None:
     tracks = unique_layers([layer_name("TRACK", name) for name in motion.tracks], taken)
     for color, (layer, track) in enumerate(zip(tracks, motion.tracks.values()), start=1):
         doc.layers.add(layer, color=color % 255 or 1)
-        for piece in _assembled_runs(track.position - origin, motion.assembled):
+        for piece in _assembled_runs(track.position - origin, motion.assembled, motion.cyclic):
             if len(piece) > 1:
                 msp.add_lwpolyline([tuple(p) for p in piece], close=closed, dxfattribs={"layer": layer})
     with atomic_path(path) as tmp:
@@ -106,7 +106,11 @@ def _slot_outline(ends: np.ndarray, half: float) -> list[tuple[float, float, flo
     return [(*(a + n), 0.0), (*(b + n), -1.0), (*(b - n), 0.0), (*(a - n), -1.0)]
 
 
-def _assembled_runs(points: np.ndarray, ok: np.ndarray) -> list[np.ndarray]:
-    """The runs of consecutive assembled samples of ``points`` (T, 2)."""
+def _assembled_runs(points: np.ndarray, ok: np.ndarray, cyclic: bool) -> list[np.ndarray]:
+    """The runs of consecutive assembled samples of ``points`` (T, 2); of a ``cyclic`` motion (the
+    last sample followed by the first) a run through the last sample goes on into the first's."""
     edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(int), [0]])))
-    return [points[a:b] for a, b in zip(edges[::2], edges[1::2])]
+    runs = [points[a:b] for a, b in zip(edges[::2], edges[1::2])]
+    if cyclic and len(runs) > 1 and ok[0] and ok[-1]:
+        runs = [np.concatenate([runs[-1], runs[0]])] + runs[1:-1]
+    return runs

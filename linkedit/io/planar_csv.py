@@ -59,7 +59,7 @@ def motion_csv(motion: Motion) -> Iterator[str]:
     if motion.plan.linear:
         what = f"t the fraction of the stroke (0..1), {names[1]} in {units}"
     else:
-        what = "t the motor phase (0..1: a revolution, or the sweep), motor_angle_deg in degrees"
+        what = "t the motor phase (0..1: a revolution, the sweep, or the swing there and back), motor_angle_deg in degrees"
     per = units if motion.plan.linear else "rad"
     what += f", positions in {units}, velocities in {units}/{per}"
     return csv_chunks(names, table, comment=f"linkedit {__version__} planar result {motion.plan.spec.name}: {what}")

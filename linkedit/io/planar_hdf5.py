@@ -33,7 +33,8 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
         f.attrs["input"] = "linear" if plan.linear else "rotary"
         per = u if plan.linear else "rad"
         what = "stroke" if plan.linear else "motor angle"
-        scale(f, "t", motion.t, "motor phase: fraction of a revolution (or of the range_deg sweep or stroke)", units="1")
+        scale(f, "t", motion.t, "motor phase: fraction of a revolution (or of the range_deg sweep, "
+              "the oscillate_deg swing there and back, the stroke)", units="1")
         scale(f, "joint", names, "joint names, spec order")
         scale(f, "xy", ["x", "y"], "plane coordinate")
         scale(f, "link", list(plan.graph.link_names), "link names, spec order")

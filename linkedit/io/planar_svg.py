@@ -18,7 +18,7 @@ def drawing(motion: Motion) -> dict[str, Any]:
 
     A point tracked on a link is drawn as part of its link (an extra corner of the link's
     plate); sliders are drawn as rails, slots and blocks; where the linkage is locked (``--partial``) the curves break and the lock-up
-    angles are marked.
+    angles are marked (a full cycle's curves run on from its last sample into its first).
     """
     plan = motion.plan
     ok = motion.assembled
@@ -51,7 +51,7 @@ def drawing(motion: Motion) -> dict[str, Any]:
         ground=list(plan.graph.ground), motor=None if plan.linear else (plan.graph.motor, plan.graph.pivot),
         tracks={n: tr.position[ok] for n, tr in motion.tracks.items()},
         units=plan.spec.units, title=f"{plan.spec.name} ({int(np.sum(ok))} samples)", breaks=breaks, notes=notes,
-        sliders=slides.from_graph(plan.graph, positions[0]),
+        sliders=slides.from_graph(plan.graph, positions[0]), wrap=motion.cyclic and bool(ok[0] and ok[-1]),
     )
 
 

@@ -44,11 +44,15 @@ class Drawing:
     tracks: dict[str, np.ndarray]
     breaks: tuple[int, ...] = ()  #: sample indices that start a new piece of every curve
     sliders: tuple[Slide, ...] = ()
+    #: the last sample is followed by the first (a full cycle with breaks inside): the last piece
+    #: of a curve goes on into its first
+    wrap: bool = False
 
     @classmethod
     def check(cls, joint_names: Sequence[str], positions: np.ndarray, links: Mapping[str, Sequence[int]],
               ground: Sequence[int], motor: tuple[int, int] | None,
-              tracks: Mapping[str, np.ndarray], breaks: Sequence[int] = (), sliders: Sequence[Slide] = ()) -> Drawing:
+              tracks: Mapping[str, np.ndarray], breaks: Sequence[int] = (), sliders: Sequence[Slide] = (),
+              wrap: bool = False) -> Drawing:
         """Validate shapes, indices and finiteness (ValueError naming the offending input)."""
         names = [str(n) for n in joint_names]
         pos = finite("positions", positions, (None, len(names), 2))
@@ -76,11 +80,15 @@ class Drawing:
                 index(f"slider {s.name}", i)
             if not np.isfinite(s.angle):
                 raise ValueError(f"slider {s.name}: angle is not finite")
-        return cls(names, pos, body, [index("ground", i) for i in ground], pair, paths, cuts, tuple(sliders))
+        return cls(names, pos, body, [index("ground", i) for i in ground], pair, paths, cuts, tuple(sliders),
+                   bool(wrap) and bool(cuts))
 
     def pieces(self, curve: np.ndarray) -> list[np.ndarray]:
-        """``curve`` (T, ...) cut at the breaks."""
-        return np.split(curve, self.breaks) if self.breaks else [curve]
+        """``curve`` (T, ...) cut at the breaks (with :attr:`wrap`, its last piece joined to its first)."""
+        if not self.breaks:
+            return [curve]
+        parts = np.split(curve, self.breaks)
+        return [np.concatenate([parts[-1], parts[0]])] + parts[1:-1] if self.wrap else parts
 
     def motor_turns_ccw(self) -> bool:
         """Whether the motor joint turns counter-clockwise about its pivot over the samples."""
@@ -95,7 +103,7 @@ def motion_plot(path: str | Path | None, *, joint_names: Sequence[str], position
                 links: Mapping[str, Sequence[int]], ground: Sequence[int], motor: tuple[int, int] | None,
                 tracks: Mapping[str, np.ndarray], units: str = "", title: str = "", cyclic: bool = True,
                 breaks: Sequence[int] = (), notes: Sequence[tuple[int, str]] = (),
-                sliders: Sequence[Slide] = ()) -> str:
+                sliders: Sequence[Slide] = (), wrap: bool = False) -> str:
     """A static motion plot; returns the SVG text and writes it to ``path`` (atomically) if given.
 
     ``positions`` (T, J, 2): joint positions over the cycle in ``units``, sample 0 = rest pose;
@@ -105,12 +113,13 @@ def motion_plot(path: str | Path | None, *, joint_names: Sequence[str], position
     motor symbols, every track's curve (one colour each, in the legend), the other joints'
     paths faint, axes in ``units``. ``cyclic``: the samples are one full cycle (curves closed).
     ``breaks``: sample indices where a curve is broken (samples before and after are not
-    neighbours: the linkage was locked in between); ``notes``: (sample, text) marked on the
+    neighbours: the linkage was locked in between; ``wrap``: the last sample is followed by the
+    first, a full cycle); ``notes``: (sample, text) marked on the
     first track's curve (or the motor joint's path), e.g. the lock-up angles. ``sliders``: the
     prismatic pairs (:class:`~linkedit.io.slides.Slide`), drawn as a rail on the frame or a slot in
     their guide link over the stretch their joint travels, and a block at the joint.
     """
-    d = Drawing.check(joint_names, positions, links, ground, motor, tracks, breaks, sliders)
+    d = Drawing.check(joint_names, positions, links, ground, motor, tracks, breaks, sliders, wrap)
     fig = Figure(title=title, units=units, cyclic=cyclic)
     colors = _colors(d.tracks)
     _joint_paths(fig, d)
@@ -144,7 +153,7 @@ def animation(*, joint_names: Sequence[str], positions: np.ndarray, links: Mappi
               ground: Sequence[int], motor: tuple[int, int] | None, tracks: Mapping[str, np.ndarray],
               units: str = "", title: str = "", duration_s: float = 4.0, cyclic: bool = True,
               breaks: Sequence[int] = (), notes: Sequence[tuple[int, str]] = (),
-              sliders: Sequence[Slide] = ()) -> Figure:
+              sliders: Sequence[Slide] = (), wrap: bool = False) -> Figure:
     """The figure of an animated motion plot (written as SVG by :func:`animated_motion`, as GIF by
     :func:`linkedit.io.gif.write_gif`).
 
@@ -155,7 +164,7 @@ def animation(*, joint_names: Sequence[str], positions: np.ndarray, links: Mappi
     """
     if not (np.isfinite(duration_s) and duration_s > 0):
         raise ValueError(f"duration_s must be a positive number of seconds, got {duration_s}")
-    d = Drawing.check(joint_names, positions, links, ground, motor, tracks, breaks, sliders)
+    d = Drawing.check(joint_names, positions, links, ground, motor, tracks, breaks, sliders, wrap)
     samples = d.positions.shape[0]
     frames = np.arange(samples) if samples <= MAX_FRAMES else (
         np.round(np.linspace(0, samples, MAX_FRAMES, endpoint=False)).astype(int))
@@ -232,13 +241,13 @@ def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after
 
 def _drawing(which: str, kw: Mapping[str, object]) -> Drawing:
     fields = ("joint_names", "positions", "links", "ground", "motor", "tracks")
-    unknown = set(kw) - set(fields) - {"units", "title", "breaks", "notes", "sliders"}
+    unknown = set(kw) - set(fields) - {"units", "title", "breaks", "notes", "sliders", "wrap"}
     missing = set(fields) - set(kw)
     if unknown or missing:
         raise ValueError(f"{which}: unknown keys {sorted(unknown)}, missing keys {sorted(missing)}")
     try:
         return Drawing.check(**{k: kw[k] for k in fields}, breaks=kw.get("breaks", ()),  # type: ignore[arg-type]
-                             sliders=kw.get("sliders", ()))  # type: ignore[arg-type]
+                             sliders=kw.get("sliders", ()), wrap=bool(kw.get("wrap", False)))  # type: ignore[arg-type]
     except ValueError as exc:
         raise ValueError(f"{which}: {exc}") from None
 

@@ -28,12 +28,16 @@ class LockUp:
     stretched: bool  #: True: the known joints are too far apart; False: too close
     what: str = ""  #: for slider and group rules: why the joint(s) cannot be placed
     unit: str = "°"  #: unit of start/end: "°" (motor angle) or the spec's units (linear input)
+    #: where a rocker input (``oscillate_deg``) turns back inside the run: the furthest angle it
+    #: reaches there (None: the input runs one way from start to end)
+    turn_deg: float | None = None
 
     def describe(self) -> str:
         u = self.unit if self.unit == "°" else f" {self.unit}"
         lead = "motor angles" if self.unit == "°" else "input positions"
         fmt = ".1f" if self.unit == "°" else ".6g"
-        head = (f"the linkage cannot be assembled for {lead} {self.start_deg:{fmt}}{u}…"
+        turn = "" if self.turn_deg is None else f"{self.turn_deg:{fmt}}{u}…"
+        head = (f"the linkage cannot be assembled for {lead} {self.start_deg:{fmt}}{u}…{turn}"
                 f"{self.end_deg:{fmt}}{u}: ")
         return head + (self.what or self.because())
 
@@ -75,8 +79,18 @@ def lockups(bad: np.ndarray, own: np.ndarray, angle: np.ndarray, cyclic: bool,
         r = int(np.bincount(first[span]).argmax())
         joint, inputs, stretched, what = explain(r, int(span[first[span] == r][0]))
         out.append(LockUp(start_deg=float(angle[s]), end_deg=float(angle[e]), joint=joint, inputs=inputs,
-                          stretched=stretched, what=what, unit=unit))
+                          stretched=stretched, what=what, unit=unit, turn_deg=_turn(angle[span])))
     return out
+
+
+def _turn(angle: np.ndarray) -> float | None:
+    """The furthest of ``angle`` (a run's inputs in sample order) from its first where the input
+    turns back inside the run (steps of both signs; a full turn's wrap, over 180°, is no step); else None."""
+    steps = np.diff(angle)
+    steps = steps[np.abs(steps) < 180.0]
+    if not ((steps > 0).any() and (steps < 0).any()):
+        return None
+    return float(angle[np.argmax(np.abs(angle - angle[0]))])
 
 
 def triangle_orientation(p: np.ndarray, rules: np.ndarray) -> np.ndarray:

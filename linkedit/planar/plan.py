@@ -149,7 +149,9 @@ class Plan:
 
     def rebased(self, spec: LinkageSpec) -> "Plan":
         """This plan for ``spec``: the same topology and tracks at another rest pose, without
-        compiling again. Every dyad triangle must keep its orientation (ValueError otherwise)."""
+        compiling again, in the new rest pose's normalized frame (as :func:`compile_plan` takes it,
+        so both simulate alike, bit for bit). Every dyad triangle must keep its orientation
+        (ValueError otherwise)."""
         graph = dataclasses.replace(self.graph, rest=np.array([spec.joints[n] for n in self.joint_names], dtype=float))
         extra = [_link_point(spec.tracks[n]) for n, p in zip(self.track_names, self.track_points) if p >= self.n_joints]
         points = np.vstack([graph.rest, np.array(extra, dtype=float).reshape(-1, 2)])
@@ -157,8 +159,9 @@ class Plan:
         orientation = np.array([_orientation(graph.rest, i, j, k) for i, j, k in t.joints], dtype=int)
         if not np.array_equal(orientation[~t.rigid], t.orientation[~t.rigid]):
             raise ValueError("a dyad triangle changed orientation: compile the spec instead")
+        origin, scale = characteristic_frame(graph.rest, graph.ground)
         return dataclasses.replace(self, spec=spec, graph=graph, table=dataclasses.replace(t, orientation=orientation),
-                                   rest_points=points)
+                                   rest_points=points, origin=origin, scale=scale)
 
     def points_for(self, rest: np.ndarray) -> np.ndarray:
         """Rest positions of all points (P, 2) for new joint positions (J, 2).

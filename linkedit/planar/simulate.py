@@ -85,9 +85,13 @@ class Motion:
             return None
         return ds[:, np.array(rows, dtype=int)], joints
 
-    def _where(self, t: int) -> float:
+    def input_at(self, t: int) -> float:
         """The input at sample ``t``: motor angle in degrees, or a linear input's stroke."""
         return float(self.motor_angle[t] if self.plan.linear else np.degrees(self.motor_angle[t]))
+
+    def describe_input(self, value: float) -> str:
+        """An input ``value`` as :meth:`input_at` gives it, in words: ``motor angle 12.0°`` or ``stroke 5 mm``."""
+        return f"stroke {value:.6g} {self.plan.spec.units}" if self.plan.linear else f"motor angle {value:.1f}°"
 
     def min_singularity(self) -> tuple[float, str, float] | None:
         """(min d_s over dyad, slider and group rules and assembled samples, its joint, the input
@@ -97,7 +101,7 @@ class Motion:
             return None
         ds = np.where(self.assembled[:, None], found[0], np.inf)
         t, r = np.unravel_index(np.argmin(ds), ds.shape)
-        return float(ds[t, r]), found[1][r], self._where(int(t))
+        return float(ds[t, r]), found[1][r], self.input_at(int(t))
 
     def lowest_singularity(self) -> tuple[float, str, float] | None:
         """(the lower bound of d_s over the cycle, between samples too, its joint, the input at the
@@ -111,7 +115,7 @@ class Motion:
         low = lowest(ds, self.cyclic)
         r = int(np.argmin(low))
         t = int(np.argmin(np.nan_to_num(ds[r], nan=-np.inf)))
-        return float(low[r]), found[1][r], self._where(t)
+        return float(low[r]), found[1][r], self.input_at(t)
 
     def __repr__(self) -> str:
         s = self.summary()
@@ -269,8 +273,11 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
         found = _find_lockups(plan, pn, ds, shown, unit)
         if not partial or not ok.any():
             raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
-    elif samples < CHECK_SAMPLES and (not plan.has_groups or not state.between_ok):
-        found = _lockups_between(plan, geom, scale)
+    else:
+        if samples >= CHECK_SAMPLES:
+            found = _toggles_passed(plan, pn, ds, shown, unit)
+        elif not plan.has_groups or not state.between_ok:
+            found = _lockups_between(plan, geom, scale)
         if found and not partial:
             raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
     _check_constraints(plan, pn, ok, value, unit)
@@ -322,12 +329,51 @@ def _lockups_between(plan: Plan, geom: Geometry, scale: float) -> list[LockUp]:
     state = evaluate(plan, geom, value / scale if plan.linear else value, order=0)
     pn = _joint_order(plan, state.z)
     ds = state.ds.T
-    if _assembled(pn, ds).all():
-        return []
     shown = value if plan.linear else np.degrees(value)
+    if _assembled(pn, ds).all():
+        return _toggles_passed(plan, pn, ds, shown, _unit(plan))
     found = _find_lockups(plan, pn, ds, shown, _unit(plan))
     return [replace(lk, what=(lk.what or lk.because()) + " (found between the requested samples: "
                     "simulate with more samples to see it)") for lk in found]
+
+
+def _toggles_passed(plan: Plan, pn: np.ndarray, ds: np.ndarray, shown: np.ndarray, unit: str) -> list[LockUp]:
+    """Toggles that evenly spaced samples (CHECK_SAMPLES a cycle or more) step over while every
+    sample assembles: a change point, where a closed-form rule's d_s touches 0 and rises again (a
+    dyad stretched or folded, a rod perpendicular to its slot), and the side the rule keeps takes
+    the linkage onto another branch there. A sampled local minimum of such a d_s row (``ds`` (T, N))
+    whose parabola through its neighbours reaches 0 within the third difference (the parabola's own
+    error) is reported as a toggle at the parabola's vertex; ``shown`` (T,) the inputs. (A numeric
+    group's continuation watches its own determinant.)"""
+    cols = np.array([c for rule, own in zip(plan.rules, plan.ds_rows) if rule.watched and rule.kind != "group"
+                     for c in range(own.start, own.stop)], dtype=int)
+    count = ds.shape[0]
+    if cols.size == 0 or count < 5:
+        return []
+    d = ds[:, cols]
+    before, after = np.roll(d, 1, axis=0), np.roll(d, -1, axis=0)
+    second = before + after - 2.0 * d
+    third = np.maximum(np.abs(np.roll(d, -2, axis=0) - 3.0 * after + 3.0 * d - before),
+                       np.abs(after - 3.0 * d + 3.0 * before - np.roll(d, 2, axis=0)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vertex = d - (after - before) ** 2 / (8.0 * second)
+    touch = (d <= before) & (d < after) & (second > 0.0) & (vertex <= third + TOGGLE)
+    if not plan.spec.motor.cyclic:  # the ends have no neighbours on both sides
+        touch[:2] = touch[-2:] = False
+    owner, within = plan.ds_rule()
+    rest = plan_graph_normalized(plan).rest
+    out = []
+    for t, c in np.argwhere(touch):
+        r, shift = cols[c], (before - after)[t, c] / (2.0 * second[t, c])  # the vertex, in samples from t
+        step = shown[t + 1] - shown[t] if t + 1 < count else shown[t] - shown[t - 1]
+        rule = plan.rules[owner[r]]
+        joint, inputs, stretched, what = rule.explain(plan.joint_names, int(within[r]),
+                                                      Failure(pn, ds[:, plan.ds_rows[owner[r]]], rest, np.inf), int(t))
+        where = float(shown[t] + shift * step)
+        out.append(LockUp(start_deg=where, end_deg=where, joint=joint, inputs=inputs, stretched=stretched,
+                          what=what + " (between two samples: a change point, where it could leave its branch)",
+                          unit=unit))
+    return out
 
 
 def _find_lockups(plan: Plan, pn: np.ndarray, ds: np.ndarray, shown: np.ndarray, unit: str) -> list[LockUp]:

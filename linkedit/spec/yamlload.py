@@ -196,8 +196,9 @@ def _data_path(data: Any, loc: tuple) -> Path_:
 def first_problem(model: type[pydantic.BaseModel], exc: pydantic.ValidationError, data: Any) -> tuple[Path_, str]:
     """The problem to report of ``exc`` (``model`` validating ``data``): its field path in the data and
     what is wrong. A misspelt key (an unknown field close to one of its model's) comes first, with
-    ``did you mean 'joints'?``: the field it hides is reported missing too."""
-    errors = exc.errors(include_url=False)
+    ``did you mean 'joints'?``: the field it hides is reported missing too. Of a union of models
+    the members whose keys fit the entry are reported (see :func:`_fitting`)."""
+    errors = _fitting(exc.errors(include_url=False))
     typos = [(err, hint) for err in errors if err["type"] == "extra_forbidden"
              for hint in [_hint(model, tuple(err["loc"]), data)] if hint]
     err, hint = typos[0] if typos else (errors[0], "")
@@ -214,6 +215,20 @@ def first_problem(model: type[pydantic.BaseModel], exc: pydantic.ValidationError
     elif msg.startswith("Value error, "):
         msg = msg[len("Value error, "):]
     return loc, msg
+
+
+def _fitting(errors: list) -> list:
+    """``errors`` without those of a union's model members that the entry's keys do not fit (a field
+    missing or unknown there) when another member's keys do fit: ``{link, at: [1, 2, 3]}`` is a
+    link track with a bad ``at``, not a joint track without ``joint``."""
+    def member(err: dict) -> tuple | None:  # the location up to its union member's tag (a class name)
+        loc = tuple(err["loc"])
+        tags = [n for n, part in enumerate(loc) if isinstance(part, str) and part[:1].isupper()]
+        return loc[:tags[0] + 1] if tags else None
+
+    unfit = {member(err) for err in errors if err["type"] in ("missing", "extra_forbidden")}
+    fit = [err for err in errors if member(err) is None or member(err) not in unfit]
+    return fit or errors
 
 
 def _hint(model: type[pydantic.BaseModel], loc: tuple, data: Any) -> str:
