@@ -345,7 +345,7 @@ def _toggles_passed(plan: Plan, pn: np.ndarray, ds: np.ndarray, shown: np.ndarra
     whose parabola through its neighbours reaches 0 within the third difference (the parabola's own
     error) is reported as a toggle at the parabola's vertex; ``shown`` (T,) the inputs. (A numeric
     group's continuation watches its own determinant.)"""
-    cols = np.array([c for rule, own in zip(plan.rules, plan.ds_rows) if rule.watched and rule.kind != "group"
+    cols = np.array([c for rule, own in zip(plan.rules, plan.ds_rows) if rule.watched and not rule.numeric
                      for c in range(own.start, own.stop)], dtype=int)
     count = ds.shape[0]
     if cols.size == 0 or count < 5:
