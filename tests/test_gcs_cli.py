@@ -41,6 +41,12 @@ BAD = {
                               "inputs.drive.window", "window"),
     "steps < 2": (("steps: 361", "steps: 1"), "outputs.steps", "greater than or equal to 2"),
     "unknown field": (("units: m", "units: m\ncolour: red"), "colour", "unknown field"),
+    # an input named as a constraint: the result's /constraint scale and the diagnostics would name two
+    "input named as a constraint": (("  drive:", "  rocker_pivot: {type: location, member: rocker, point: pivot, "
+                                                 "keyframes: [[2, -3, 0], [2, -3, 0]]}\n  drive:"),
+                                    "inputs.rocker_pivot", "'rocker_pivot' is also a constraint's name"),
+    "coordinate beyond 1e150": (("position: [-3, 3, 0]", "position: [3e200, 3, 0]"),
+                                "members.crank.position[0]", "less than or equal to 1e+150"),
 }
 
 

@@ -130,6 +130,34 @@ def test_pylinkage_json_four_bar(run_cli, tmp_path):
         assert np.abs(got[n] - ref[n]).max() < 1e-9, n
 
 
+@pytest.mark.parametrize("saved, angle", [(None, 0.5), ([5.0, 5.0], 0.5), ([5.0, 5.0], -0.7), ([5.0, 5.0], math.pi)],
+                         ids=["no-xy", "stale-xy", "cw", "on-the-line"])
+def test_pylinkage_json_fixed_joint_follows_its_distance_and_angle(run_cli, tmp_path, saved, angle):
+    """A 0.x ``Fixed`` joint sits at ``distance`` from joint0, ``angle`` radians from the direction joint0 →
+    joint1 (pylinkage's own rule); its x, y are only a cache, left null before a first simulation or
+    saved from another pose. It was placed at its x, y: (0, 0) for null (refused as coinciding with A),
+    the stale point (exit 0, 4.3 off)."""
+    xy = {"x": saved[0], "y": saved[1]} if saved else {"x": None, "y": None}
+    data = {"name": "four-bar", "joints": [
+        {"type": "Static", "name": "A", "x": 0.0, "y": 0.0},
+        {"type": "Crank", "name": "B", "x": 0.0, "y": 1.0, "joint0": {"ref": "A"}, "distance": 1.0, "angle": 0.31},
+        {"type": "Static", "name": "D", "x": 3.0, "y": 0.0},
+        {"type": "Revolute", "name": "C", "x": 3.0, "y": 2.0, "joint0": {"ref": "B"}, "joint1": {"ref": "D"},
+         "distance0": 2.5, "distance1": 2.0},
+        {"type": "Fixed", "name": "E", **xy, "joint0": {"ref": "B"}, "joint1": {"ref": "C"}, "distance": 1.0,
+         "angle": angle}]}
+    src = tmp_path / "fixed.json"
+    src.write_text(json.dumps(data))
+    spec = tmp_path / "fixed.yaml"
+    r = run_cli("import", src, "-o", spec)
+    assert r.exit_code == 0, r.output
+    got = _simulated(run_cli, spec, tmp_path, 120)
+    ref = _reference({"A": 0j, "B": 1j, "D": 3 + 0j, "C": _circles(1j, 2.5, 3 + 0j, 2.0, 3 + 2j)}, "A", "B",
+                     [("C", "B", "D")], 120)
+    e = ref["B"] + (ref["C"] - ref["B"]) / np.abs(ref["C"] - ref["B"]) * np.exp(1j * angle)
+    assert np.abs(got["E"] - e).max() < 1e-9
+
+
 @pytest.mark.parametrize("source, pattern", [
     ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]], J[P, A[30], P[1, 0], L[L1]]]",
      r"joint P2 \(P\): a slider needs its slot link and a pinned link"),

@@ -24,7 +24,8 @@ Three forms, told apart by their keys:
 * **0.x** (``Linkage`` saved with ``save_to_json``): ``Static`` (a frame point), ``Crank`` (turns
   about ``joint0`` at ``distance``; the sign of ``angle``, its step, gives the direction),
   ``Revolute`` (at ``distance0`` from ``joint0`` and ``distance1`` from ``joint1``; its x, y pick
-  the branch), ``Fixed`` (rigid with ``joint0`` and ``joint1``). Links are given by length, so
+  the branch), ``Fixed`` (rigid with ``joint0`` and ``joint1``: at ``distance`` from joint0, ``angle`` from
+  the direction joint0 → joint1, as pylinkage places it; its own x, y are not read). Links are given by length, so
   lengths are pylinkage's to the last bit and the rest pose is assembled on the branch nearest
   the saved positions. ``Prismatic``/``Linear`` joints are not supported.
 """
@@ -365,8 +366,7 @@ def _legacy(file: JsonFile) -> dict[str, Any]:
             links[f"{e['joint1']}-{jn}"] = {"joints": [e["joint1"], jn], "length": file.number(j, "distance1", at)}
             tracks[jn] = {"joint": jn}
         elif kind == "Fixed":
-            joints[jn] = e["xy"]
-            links[f"{e['joint0']}-{e['joint1']}-{jn}"] = [e["joint0"], e["joint1"], jn]
+            joints[jn] = None  # placed below, once every link length is known
             tracks[jn] = {"joint": jn}
         else:
             raise file.error(j, f"joint {jn}: {kind} joints are not supported (Static, Crank, Revolute, Fixed)",
@@ -374,10 +374,40 @@ def _legacy(file: JsonFile) -> dict[str, Any]:
     if motor is None:
         raise file.error(data, "no Crank joint: nothing drives the linkage", ("joints",))
     for e in entries:
+        if e["type"] == "Fixed":
+            joints[e["name"]], links[f"{e['joint0']}-{e['joint1']}-{e['name']}"] = _fixed(file, e, links, ground, entries)
+    for e in entries:
         for key in ("x", "y", "distance", "distance0", "distance1"):
             if isinstance(e["obj"].get(key), (int, float)) and abs(e["obj"][key]) > _REACH:
                 raise file.error(e["obj"], f"beyond {_REACH:g}: too large to assemble from lengths", (*e["at"], key))
     return {"joints": joints, "ground": ground, "links": links, "motor": motor, "tracks": tracks}
+
+
+def _fixed(file: JsonFile, e: dict[str, Any], links: dict[str, Any], ground: list[str],
+           entries: list[dict[str, Any]]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """A ``Fixed`` joint and its plate, as pylinkage places it: at ``distance`` from joint0, ``angle`` radians
+    from the direction joint0 → joint1 (its own x, y are a cache: null before a first run, or another pose's)."""
+    p, q, jn = e["joint0"], e["joint1"], e["name"]
+    pq = next((size for lk in links.values() for size in [_length(lk, p, q)] if size is not None), None)
+    if pq is None and p in ground and q in ground:
+        pq = math.dist(*(x["xy"] for x in entries if x["name"] in (p, q)))
+    if pq is None:
+        raise file.error(e["obj"], f"joint {jn!r} (Fixed): {p!r} and {q!r} are not the two ends of one link, so it is "
+                                   "not rigid with them; linkedit takes a Fixed joint on a link", e["at"])
+    r, angle = file.number(e["obj"], "distance", e["at"]), file.number(e["obj"], "angle", e["at"])
+    qe = math.sqrt(max(pq * pq + r * r - 2 * pq * r * math.cos(angle), 0.0))
+    return {"from": [p, q], "branch": "ccw" if math.sin(angle) > 0 else "cw"}, {"joints": [p, q, jn], "lengths": [pq, r, qe]}
+
+
+def _length(link: dict[str, Any], p: str, q: str) -> float | None:
+    """The length between joints ``p`` and ``q`` that a bar or plate given by lengths fixes, if it holds both."""
+    members = link["joints"]
+    if p not in members or q not in members:
+        return None
+    if "length" in link:
+        return float(link["length"])
+    pairs = [{a, b} for i, a in enumerate(members) for b in members[i + 1:]]
+    return float(link["lengths"][pairs.index({p, q})])
 
 
 def _ref(file: JsonFile, obj: dict[str, Any], key: str, at: tuple[str | int, ...],

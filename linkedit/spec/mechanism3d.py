@@ -188,6 +188,9 @@ class MechanismSpec(SpecModel):
                                  field=field + ("axes",))
 
     def _check_input(self, inp: Any, field: tuple) -> None:
+        if field[-1] in self.constraints:
+            raise InputError(f"{field[-1]!r} is also a constraint's name: results and diagnostics name each "
+                             "constraint and input once; rename one", field=field)
         t0, t1 = inp.window
         if not (0.0 <= t0 < t1 <= 1.0):
             raise InputError("the window must be [t0, t1] with 0 <= t0 < t1 <= 1", field=field + ("window",))

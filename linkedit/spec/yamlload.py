@@ -193,6 +193,11 @@ def _data_path(data: Any, loc: tuple) -> Path_:
     return tuple(out)
 
 
+#: pydantic's bound errors: the bound's key in ``ctx`` and the words of the message.
+BOUNDS = {"less_than_equal": ("le", "less than or equal to"), "greater_than_equal": ("ge", "greater than or equal to"),
+          "less_than": ("lt", "less than"), "greater_than": ("gt", "greater than")}
+
+
 def first_problem(model: type[pydantic.BaseModel], exc: pydantic.ValidationError, data: Any) -> tuple[Path_, str]:
     """The problem to report of ``exc`` (``model`` validating ``data``): its field path in the data and
     what is wrong. A misspelt key (an unknown field close to one of its model's) comes first, with
@@ -212,6 +217,8 @@ def first_problem(model: type[pydantic.BaseModel], exc: pydantic.ValidationError
         msg = "required field is missing"
     elif err["type"] == "string_pattern_mismatch" and err.get("ctx", {}).get("pattern") in PATTERN_WORDS:
         msg = PATTERN_WORDS[err["ctx"]["pattern"]](str(err["input"]).strip()) or msg
+    elif err["type"] in BOUNDS and abs(bound := err["ctx"][BOUNDS[err["type"]][0]]) >= 1e16:
+        msg = f"Input should be {BOUNDS[err['type']][1]} {float(bound)!r}"  # pydantic writes 1e150 in 151 digits
     elif msg.startswith("Value error, "):
         msg = msg[len("Value error, "):]
     return loc, msg
