@@ -7,6 +7,7 @@ import h5py
 import numpy as np
 import pytest
 
+from linkedit.errors import MechanismError
 from linkedit.planar import catalog, simulate
 from linkedit.planar.kinematics import evaluate
 from linkedit.planar.plan import Geometry, compile_plan
@@ -257,3 +258,22 @@ def test_a_triad_is_traced_in_its_bodys_pose_through_its_fold_too(monkeypatch):
     assert m.assembled.all()
     m = simulate(load_model(LinkageSpec, "triad.yaml", TRIAD), 90, partial=True)
     assert not m.assembled.all() and m.assembled[0] and not calls
+
+
+def test_a_dyad_beside_a_group_passing_a_change_point_between_samples_is_a_toggle():
+    """The complex-loop six-bar with a parallelogram on its crank (E = A + G − O, G on the frame 60 mm
+    from O at −0.3°): E's dyad passes its change points at crank angles 179.7° and 359.7°, between
+    the 360 samples, and every sample assembles. It was exit 0 (the group's own continuation had
+    checked its samples between, so the closed-form rules were not checked there: E kept its side
+    and the parallelogram became an anti-parallelogram); it is reported as at 1440 samples."""
+    d = load_model(LinkageSpec, EXAMPLES / "complex-loop.yaml").model_dump()
+    g = 60.0 * np.exp(np.radians(-0.3) * 1j)
+    d["joints"] |= {"G": [g.real, g.imag], "E": [8.0 + g.real, g.imag]}
+    d["ground"] = [*d["ground"], "G"]
+    d["links"] |= {"coupler2": ["A", "E"], "rocker2": ["G", "E"]}
+    spec = LinkageSpec.model_validate(d)
+    for samples in (360, 1440):
+        with pytest.raises(MechanismError, match="joint E reaches a toggle position") as info:
+            simulate(spec, samples)
+        assert str(info.value).count("change point") == 2
+        assert "179.7°" in str(info.value) and "359.7°" in str(info.value)
