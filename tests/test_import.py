@@ -108,20 +108,28 @@ def test_pyslvs_input_option_picks_the_motor(run_cli, tmp_path):
     assert yaml.safe_load(spec.read_text())["motor"] == {"joint": "P2", "pivot": "P4"}
 
 
-def test_pylinkage_json_four_bar(run_cli, tmp_path):
-    # a Grashof crank-rocker in pylinkage's terms: crank B about A, pin C at 2.5 from B and 2 from D
-    data = {"name": "four-bar", "joints": [
+def _pylinkage_four_bar() -> list[dict]:
+    """A Grashof crank-rocker as pylinkage 0.x saves it: crank B about A, pin C at 2.5 from B and 2 from D."""
+    return [
         {"type": "Static", "name": "A", "x": 0.0, "y": 0.0},
         {"type": "Crank", "name": "B", "x": 0.0, "y": 1.0, "joint0": {"ref": "A"}, "distance": 1.0, "angle": 0.31},
         {"type": "Static", "name": "D", "x": 3.0, "y": 0.0},
         {"type": "Revolute", "name": "C", "x": 3.0, "y": 2.0, "joint0": {"ref": "B"}, "joint1": {"ref": "D"},
-         "distance0": 2.5, "distance1": 2.0}], "solve_order": ["A", "B", "D", "C"]}
-    src = tmp_path / "fourbar.json"
+         "distance0": 2.5, "distance1": 2.0}]
+
+
+def _imported(run_cli, tmp_path, data: dict, samples: int) -> dict:
+    """``linkedit import`` of pylinkage JSON ``data`` (exit 0), simulated at ``samples``: each joint's positions."""
+    src, spec = tmp_path / "pylinkage.json", tmp_path / "imported.yaml"
     src.write_text(json.dumps(data))
-    spec = tmp_path / "fourbar.yaml"
     r = run_cli("import", src, "-o", spec)
     assert r.exit_code == 0, r.output
-    got = _simulated(run_cli, spec, tmp_path, 120)
+    return _simulated(run_cli, spec, tmp_path, samples)
+
+
+def test_pylinkage_json_four_bar(run_cli, tmp_path):
+    data = {"name": "four-bar", "joints": _pylinkage_four_bar(), "solve_order": ["A", "B", "D", "C"]}
+    got = _imported(run_cli, tmp_path, data, 120)
     # rest pose: C at exactly 2.5 from B and 2 from D, on the side of the saved (3, 2)
     c = _circles(1j, 2.5, 3 + 0j, 2.0, 3 + 2j)
     assert abs(got["C"][0] - c) < 1e-12
@@ -138,20 +146,10 @@ def test_pylinkage_json_fixed_joint_follows_its_distance_and_angle(run_cli, tmp_
     saved from another pose. It was placed at its x, y: (0, 0) for null (refused as coinciding with A),
     the stale point (exit 0, 4.3 off)."""
     xy = {"x": saved[0], "y": saved[1]} if saved else {"x": None, "y": None}
-    data = {"name": "four-bar", "joints": [
-        {"type": "Static", "name": "A", "x": 0.0, "y": 0.0},
-        {"type": "Crank", "name": "B", "x": 0.0, "y": 1.0, "joint0": {"ref": "A"}, "distance": 1.0, "angle": 0.31},
-        {"type": "Static", "name": "D", "x": 3.0, "y": 0.0},
-        {"type": "Revolute", "name": "C", "x": 3.0, "y": 2.0, "joint0": {"ref": "B"}, "joint1": {"ref": "D"},
-         "distance0": 2.5, "distance1": 2.0},
-        {"type": "Fixed", "name": "E", **xy, "joint0": {"ref": "B"}, "joint1": {"ref": "C"}, "distance": 1.0,
-         "angle": angle}]}
-    src = tmp_path / "fixed.json"
-    src.write_text(json.dumps(data))
-    spec = tmp_path / "fixed.yaml"
-    r = run_cli("import", src, "-o", spec)
-    assert r.exit_code == 0, r.output
-    got = _simulated(run_cli, spec, tmp_path, 120)
+    data = {"name": "four-bar", "joints": [*_pylinkage_four_bar(), {
+        "type": "Fixed", "name": "E", **xy, "joint0": {"ref": "B"}, "joint1": {"ref": "C"}, "distance": 1.0,
+        "angle": angle}]}
+    got = _imported(run_cli, tmp_path, data, 120)
     ref = _reference({"A": 0j, "B": 1j, "D": 3 + 0j, "C": _circles(1j, 2.5, 3 + 0j, 2.0, 3 + 2j)}, "A", "B",
                      [("C", "B", "D")], 120)
     e = ref["B"] + (ref["C"] - ref["B"]) / np.abs(ref["C"] - ref["B"]) * np.exp(1j * angle)
