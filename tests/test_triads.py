@@ -287,6 +287,36 @@ def test_the_example_is_polished_in_two_newton_steps_from_its_prediction(monkeyp
     assert link_lengths_kept(spec, m.plan.joint_names, z) <= 1e-9 * size_of(spec)
 
 
+def test_samples_the_batch_steps_leave_off_go_on_alone_to_the_same_poses(monkeypatch):
+    """Three predictions spoiled by 0.02 of the size (their rows ≈ 1e-2, two Newton steps leave them
+    off): after the BATCH_STEPS steps of every sample, only those three go on, alone, and every
+    sample is accepted, each at the unspoiled run's pose (1e-12 of the size), the lengths held."""
+    from linkedit.planar.rules import triad as tr
+
+    spec = triad(LOOP, LINKS)
+    good = simulate(spec, 72)
+    polish, steps, alone = tr.polish, tr._steps, []
+
+    def spoiled(body, hung, centre, turn, tol):
+        centre = centre.copy()
+        centre[0, [10, 30, 50]] += 0.02 * np.exp(1j * np.array([0.3, 2.0, 4.0]))
+        now, turns, ok = polish(body, hung, centre, turn, tol)
+        assert ok.all()
+        return now, turns, ok
+
+    def counted(body, hung, centre, turn, tol, count):
+        alone.append(centre.size if count > tr.BATCH_STEPS else None)
+        return steps(body, hung, centre, turn, tol, count)
+
+    monkeypatch.setattr(tr, "polish", spoiled)
+    monkeypatch.setattr(tr, "_steps", counted)
+    m = simulate(spec, 72)
+    assert alone == [None, 3]
+    assert np.abs(m.positions - good.positions).max() <= 1e-12 * size_of(spec)
+    z = m.positions[..., 0] + 1j * m.positions[..., 1]
+    assert link_lengths_kept(spec, m.plan.joint_names, z) <= 1e-9 * size_of(spec)
+
+
 #: the example's triad hung from B, placed by a dyad (rod A–B, rocker Q–B) that comes apart at 85°
 #: of the crank: |Q − A| > rod + rocker from there on
 HUNG_FROM_A_DYAD_THAT_FAILS = triad({**LOOP, "Q": 25 - 5j, "B": 12 - 12j},
