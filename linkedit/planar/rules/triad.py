@@ -100,10 +100,10 @@ class Body:
     """K linkages' triad bodies: joints ``p`` (3, K, 1) complex about their centroid and links' lengths²
     ``r2`` (3, K, 1) at rest, where the body's centroid is at rest (K,) complex, det M's ``sign`` there
     (K,) (±1), d_s's constant denominator ``spread`` = det(NᵀN)·∏ r2_k = 9·Σ|p_k|²·∏ r2_k (K,) (the
-    binary rows' norms at a solution), its ``reach`` max |p_k| (K, 1) (a move of the body by a shift s
-    and a turn φ moves no joint further than |s| + |φ|·reach: :func:`moved`), and the Gram matrix J2·J2ᵀ of the body's rows at a turn u
-    = c + i·s as ``gram`` (K, 6, 6): its entries (00, 11, 22, 01, 02, 12) on (1, c, s, c², cs, s²)
-    (:meth:`with_rows`)."""
+    binary rows' norms at a solution), its ``reach`` max |p_k| (K, 1) (a move of the body by a
+    shift s and a turn φ moves no joint further than |s| + |φ|·reach: :func:`moved`), and the Gram
+    matrix J2·J2ᵀ of the body's rows at a turn u = c + i·s as ``gram`` (K, 6, 6): its entries (00,
+    11, 22, 01, 02, 12) on (1, c, s, c², cs, s²) (:meth:`with_rows`)."""
 
     p: np.ndarray
     r2: np.ndarray
@@ -216,10 +216,11 @@ def follow(body: Body, c: int, hung: np.ndarray, x: np.ndarray, path: np.ndarray
     Each move is a homotopy in ``hung`` (interpolated linearly,
     :func:`~linkedit.planar.rules.continuation.advance`), accepted when Newton converged close to
     where it started (:func:`~linkedit.planar.rules.continuation.accepted`, the body's move as
-    :func:`moved` measures it) with det M's sign of the rest pose. Its first attempt starts from the pose extrapolated from the
-    last three in ``travel`` (a parabola; the general group's from the last pose, Newton's first
-    step then being the tangent predictor), the others from the last pose. Returns the position in
-    ``path`` where it fails, or −1 (Python numbers throughout: a few of them per sample)."""
+    :func:`moved` measures it) with det M's sign of the rest pose. Its first attempt starts from the
+    pose extrapolated from the last three in ``travel`` (a parabola; the general group's from the
+    last pose, Newton's first step then being the tangent predictor), the others from the last pose.
+    Returns the position in ``path`` where it fails, or −1 (Python numbers throughout: a few of them
+    per sample)."""
     p, r2, sign, reach = body.linkage(c)
     goals, along = hung[:, path].T.tolist(), travel[path].tolist()
     centres, turns = [complex(x[0], x[1])], [float(x[2])]  # the poses reached, one per sample of path
@@ -341,10 +342,10 @@ def polish(body: Body, hung: np.ndarray, centre: np.ndarray, turn: np.ndarray,
     if off.any():
         k, t = np.nonzero(off)
         alone = replace(body, p=body.p[:, k, 0][:, None], r2=body.r2[:, k, 0][:, None], reach=body.reach[k, 0][None])
-        rest = _steps(alone, hung[:, k, t][:, None], centre[k, t][None], turn[k, t][None], tol,
+        more = _steps(alone, hung[:, k, t][:, None], centre[k, t][None], turn[k, t][None], tol,
                       GROUP_ITERATIONS - BATCH_STEPS)
         centre, turn = centre.copy(), turn.copy()
-        centre[k, t], turn[k, t] = rest[2][0], rest[3][0]
+        centre[k, t], turn[k, t] = more[2][0], more[3][0]
         now, res = pose(body, hung, centre, turn)
         worst = _worst(res)
     ok = (worst <= tol) & accepted(moved(body, centre - start, turn - spun), first)
