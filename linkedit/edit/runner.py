@@ -194,7 +194,8 @@ def _hold_back(problem: Problem, v: np.ndarray, goals: list[Goal]) -> None:
 
 
 def _check(plan: Plan, spec: LinkageSpec, samples: int, arm: complex | None) -> tuple[Motion | None, str | None]:
-    """Simulate ``spec`` (``plan`` re-based on it) at ``samples``; (motion, None) if it works.
+    """Simulate ``spec`` (``plan`` re-based on it) at ``samples``; (motion, None) if it works there
+    and between the samples, as ``simulate`` checks it.
     ``arm``: the crank direction the rest pose must keep, or None (its angle was free)."""
     rest = np.array([spec.joints[n] for n in plan.joint_names], dtype=float)
     z = rest[:, 0] + 1j * rest[:, 1]
@@ -205,7 +206,7 @@ def _check(plan: Plan, spec: LinkageSpec, samples: int, arm: complex | None) -> 
     if why is not None:
         return None, why
     motion = simulate(replan(plan, spec), samples, partial=True)
-    if not motion.assembled.all():
+    if motion.lockups:  # at the samples, or between them as simulate checks (CHECK_SAMPLES)
         return None, "; ".join(lk.describe() for lk in motion.lockups)
     return motion, failure(plan, z, motion.rule_ds()[0].T, turn, arm)
 
