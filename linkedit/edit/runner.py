@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from linkedit.edit import bfgs, gauss_newton
 from linkedit.edit.bfgs import BfgsResult as SolverResult
 from linkedit.edit.feasibility import failure
+from linkedit.edit.goals import Envelope
 from linkedit.edit.steps import check as check_steps
 from linkedit.edit.objectives import Problem
 from linkedit.edit.operation import build_problem
@@ -273,20 +274,34 @@ def _relaxed(script: EditScript, problem: Problem, op: Operation, tick: Callable
     return best, best_mu, best_goals, (int(spent[0]), int(spent[1]), int(spent[2]))
 
 
-def _fine_min_ds(reports: list[OperationReport], kept: int, motion: Motion, earlier: list[LinkageSpec],
-                 plan: Plan, fine: int) -> None:
-    """Report min d_s as the final check measures it (``fine`` samples): ``motion`` is the kept
-    result's (after operation ``kept``), ``earlier`` the rest poses before it (the original first)."""
+def _fine_measures(reports: list[OperationReport], kept: int, motion: Motion, earlier: list[LinkageSpec],
+                   plan: Plan, fine: int, boxes: list[Envelope | None]) -> None:
+    """Report min d_s and every envelope's largest excess as the final check measures them
+    (``fine`` samples: a box the script's samples straddle is not fitted): ``motion`` is the kept
+    result's (after operation ``kept``), ``earlier`` the rest poses before it (the original first);
+    ``boxes`` each operation's envelope over joint indices, or None."""
     def least(m: Motion) -> float:
         worst = m.min_singularity()
         return 1.0 if worst is None else worst[0]
 
-    ds = [least(simulate(replan(plan, spec), fine, partial=True)) for spec in earlier] + [least(motion)]
+    motions = [simulate(replan(plan, spec), fine, partial=True) for spec in earlier] + [motion]
     for n, report in enumerate(reports[:kept + 1]):
         if "min d_s" in report.before:
-            report.before["min d_s"] = ds[n]
+            report.before["min d_s"] = least(motions[n])
             if n < kept:
-                report.after["min d_s"] = ds[n + 1]
+                report.after["min d_s"] = least(motions[n + 1])
+        box, key = boxes[n], "envelope max excess"
+        if box is not None:
+            goal = next(g for g in report.goals if g.name == "envelope")
+            goal.before = report.before[key] = max(report.before[key], _excess(box, motions[n]))
+            if n < kept:
+                goal.error = report.after[key] = max(report.after[key], _excess(box, motions[n + 1]))
+
+
+def _excess(box: Envelope, motion: Motion) -> float:
+    """The largest distance of ``box``'s joints outside it over ``motion``'s samples (spec units)."""
+    z = (motion.positions[..., 0] + 1j * motion.positions[..., 1]).T  # (J, samples)
+    return float(np.nanmax(np.abs(box.outside(z, z.shape[1])), initial=0.0))
 
 
 def run_script(linkage: LinkageSpec, script: EditScript,
@@ -307,6 +322,7 @@ def run_script(linkage: LinkageSpec, script: EditScript,
     x = plan.graph.rest.copy()
     size = float(np.ptp(x, axis=0).max())
     reports: list[OperationReport] = []
+    boxes: list[Envelope | None] = []  # each operation's envelope over joint indices (motion positions)
     accepted = [x.copy()]
     for n, op in enumerate(script.operations):
         name = op.name or f"operation {n + 1}"
@@ -324,6 +340,8 @@ def run_script(linkage: LinkageSpec, script: EditScript,
                 progress(label, it, e)
 
         solved, mu, goals, spent = _relaxed(script, problem, op, tick, before, linkage.units)
+        boxes.append(None if problem.envelope is None else replace(problem.envelope, rows=np.array(
+            [index[j] for j in op.envelope.joints] if op.envelope and op.envelope.joints else range(len(index)))))
         seconds = time.perf_counter() - start
         x = var.rest(solved.x)
         accepted.append(x.copy())
@@ -344,8 +362,8 @@ def run_script(linkage: LinkageSpec, script: EditScript,
         edited = with_rest_pose(linkage, out_plan, accepted[k], note)
         motion, why = _check(out_plan, edited, fine, arm)
         if motion is not None and why is None:
-            _fine_min_ds(reports, k, motion, [with_rest_pose(linkage, out_plan, a, note) for a in accepted[:k]],
-                         out_plan, fine)
+            _fine_measures(reports, k, motion, [with_rest_pose(linkage, out_plan, a, note) for a in accepted[:k]],
+                           out_plan, fine, boxes)
             for report in reports[k:]:
                 report.discarded = True
             after_motion = simulate(replan(out_plan, edited), linkage.samples or DEFAULT_SAMPLES)
