@@ -497,3 +497,15 @@ def test_a_result_that_fails_between_the_final_checks_samples_is_discarded(run_c
     edited = tmp_path / "out" / "linkage-edited.yaml"
     assert load_model(LinkageSpec, edited).joints == catalog.crank_rocker().joints
     assert run_cli("simulate", edited, "-n", 3600, "-o", tmp_path / "sim.h5").exit_code == 0
+
+
+def test_an_edit_that_shrinks_the_crank_to_nothing_writes_a_spec_that_loads(run_cli, tmp_path):
+    # following a single point with the rocker tip: the only way there is a crank of length 0
+    # (A onto O, 2e-14 mm: still "along its rest direction"); that edited spec is not a linkage
+    # (A coincides with O: simulate refuses it, exit 2), so it must not be written as a success
+    p = linkage_file(tmp_path, catalog.crank_rocker())
+    s = write(tmp_path, "s.yaml", {"samples": 40, "lock": ["O"], "operations": [
+        {"follow": {"track": "rocker_tip", "curve": [[1, 2], [1, 2], [1, 2]]}}]})
+    r = run_cli("edit", p, s, "-o", tmp_path / "out", "--best-effort")
+    load_model(LinkageSpec, tmp_path / "out" / "linkage-edited.yaml")  # raises InputError if it does not load
+    assert run_cli("simulate", tmp_path / "out" / "linkage-edited.yaml", "-o", tmp_path / "sim.h5").exit_code == 0
