@@ -140,3 +140,18 @@ def test_an_envelope_is_measured_between_the_scripts_samples_too(run_cli, tmp_pa
     excess = max(-95.0 - x.min(), 0.0)  # mm, over 3600 samples
     assert excess > 3.0 and env["error"] >= 0.99 * excess, env
     assert env["met"] is False and r.exit_code == 1
+
+
+def test_a_preserved_curve_is_measured_between_the_scripts_samples_too(run_cli, tmp_path):
+    # samples: 8, a weak preserve: the foot passes near its 8 old points (RMS 1.15 mm there,
+    # tolerance 1.23 mm) but strays up to 3.7 mm between them, RMS 1.48 mm over the cycle
+    s = write(tmp_path, "s.yaml", {"linkage": str(EXAMPLES / "jansen.yaml"), "samples": 8, "lock": ["O"],
+                                   "operations": [{"preserve": ["foot"], "displace": {"joint": "C", "to": [-10, 50]},
+                                                   "terms": {"preserve": 1}}]})
+    r = run_cli("edit", s, "-o", tmp_path / "out", "--json")
+    kept = goal(report_of(r)["operations"][0], "preserve foot")
+    before = simulate(load_model(LinkageSpec, EXAMPLES / "jansen.yaml"), 3600).tracks["foot"].position
+    after = simulate(load_model(LinkageSpec, tmp_path / "out" / "jansen-edited.yaml"), 3600).tracks["foot"].position
+    rms = float(np.sqrt(np.mean(np.sum((after - before) ** 2, axis=1))))  # mm, over 3600 samples
+    assert rms > 1.4 and kept["error"] >= 0.98 * rms, kept
+    assert kept["met"] is False and r.exit_code == 1
