@@ -27,6 +27,8 @@ BAD = [
     ("locked joint displaced", lambda s: s.replace("lock: [O]", "lock: [O, B]"), r"^s\.yaml:7: operations\[0\]\.displace\.joint: joint 'B' is locked"),
     ("no goal", lambda s: s.replace("    displace: {joint: B, to: [2.0, 2.3]}\n", ""), r"^s\.yaml:5: operations\[0\]: an operation needs a goal"),
     ("unknown key", lambda s: s.replace("preserve:", "preserv:"), r"^s\.yaml:6: operations\[0\]\.preserv: unknown field"),
+    ("phases between samples", lambda s: s.replace("preserve: [tip]", "preserve: [{track: tip, phases: [0.51, 0.52]}]"), r"^s\.yaml:6: operations\[0\]\.preserve\[0\]\.phases: \[0\.51, 0\.52\] hold none of the 40 samples"),
+    ("transform of no joints", lambda s: s + "    transform: {joints: [], scale: 0.9}\n", r"^s\.yaml:8: operations\[0\]\.transform\.joints: name at least one joint, or all"),
 ]
 
 

@@ -12,6 +12,8 @@ import pytest
 
 from linkedit.planar import catalog
 from linkedit.planar.simulate import simulate
+from linkedit.spec.linkage import LinkageSpec
+from linkedit.spec.yamlload import load_model
 from tests.conftest import EXAMPLES, report_of
 from tests.test_edit_trust import EDITS, Edited, linkage_file, write
 
@@ -124,3 +126,32 @@ def test_a_goal_the_locks_make_unreachable_keeps_the_scripts_regularization(run_
     e = Edited(run_cli, tmp_path, p, s, "--best-effort")
     op = e.report["operations"][0]
     assert op["goals_met"] is False and op["regularization"] == 0.01
+
+
+def test_an_envelope_is_measured_between_the_scripts_samples_too(run_cli, tmp_path):
+    # samples: 8: the box holds C…F at the 8 samples (0.02 mm out), but between them the hip
+    # swings 3.9 mm out (tolerance 1.23 mm): that is not a fitted box, whatever 8 samples say
+    script = (EDITS / "jansen-envelope.yaml").read_text().replace("../jansen.yaml", str(EXAMPLES / "jansen.yaml"))
+    s = write(tmp_path, "s.yaml", script.replace("samples: 120", "samples: 8"))
+    r = run_cli("edit", s, "-o", tmp_path / "out", "--json")
+    env = goal(report_of(r)["operations"][0], "envelope")
+    motion = simulate(load_model(LinkageSpec, tmp_path / "out" / "jansen-edited.yaml"), 3600)
+    x = motion.positions[:, [motion.plan.joint_names.index(n) for n in "CDEF"], 0]
+    excess = max(-95.0 - x.min(), 0.0)  # mm, over 3600 samples
+    assert excess > 3.0 and env["error"] >= 0.99 * excess, env
+    assert env["met"] is False and r.exit_code == 1
+
+
+def test_a_preserved_curve_is_measured_between_the_scripts_samples_too(run_cli, tmp_path):
+    # samples: 8, a weak preserve: the foot passes near its 8 old points (RMS 1.15 mm there,
+    # tolerance 1.23 mm) but strays up to 3.7 mm between them, RMS 1.48 mm over the cycle
+    s = write(tmp_path, "s.yaml", {"linkage": str(EXAMPLES / "jansen.yaml"), "samples": 8, "lock": ["O"],
+                                   "operations": [{"preserve": ["foot"], "displace": {"joint": "C", "to": [-10, 50]},
+                                                   "terms": {"preserve": 1}}]})
+    r = run_cli("edit", s, "-o", tmp_path / "out", "--json")
+    kept = goal(report_of(r)["operations"][0], "preserve foot")
+    before = simulate(load_model(LinkageSpec, EXAMPLES / "jansen.yaml"), 3600).tracks["foot"].position
+    after = simulate(load_model(LinkageSpec, tmp_path / "out" / "jansen-edited.yaml"), 3600).tracks["foot"].position
+    rms = float(np.sqrt(np.mean(np.sum((after - before) ** 2, axis=1))))  # mm, over 3600 samples
+    assert rms > 1.4 and kept["error"] >= 0.98 * rms, kept
+    assert kept["met"] is False and r.exit_code == 1

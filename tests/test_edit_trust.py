@@ -479,3 +479,33 @@ def test_after_is_simulate_of_the_edited_spec_bit_for_bit_far_from_the_origin(ru
     sim = e.resimulated(run_cli, after["joints"].shape[0])
     assert np.array_equal(sim["joints"], after["joints"])
     assert all(np.array_equal(sim["tracks"][n], c) for n, c in after["tracks"].items())
+
+
+@pytest.mark.parametrize("to,where", [([-40, 0], "found between the requested samples"),
+                                      ([150, 0], "change point")])
+def test_a_result_that_fails_between_the_final_checks_samples_is_discarded(run_cli, tmp_path, to, where):
+    # samples: 8, no barrier: the crank-rocker's D pulled until B fails between the 32 samples
+    # of the final check (a lock-up just after the rest pose; a toggle at 180°): simulate finds
+    # it between its samples, so the edit must discard it and write the original, not fail
+    # writing nothing and blaming the original linkage (which works)
+    p = linkage_file(tmp_path, catalog.crank_rocker())
+    s = write(tmp_path, "s.yaml", {"samples": 8, "lock": ["O", "A", "B"], "weights": {"singularity": 0},
+                                   "operations": [{"displace": {"joint": "D", "to": to}}]})
+    r = run_cli("edit", p, s, "-o", tmp_path / "out")
+    assert r.exit_code == 1, r.output
+    assert "kept the original linkage unchanged" in r.output and where in r.output, r.output
+    edited = tmp_path / "out" / "linkage-edited.yaml"
+    assert load_model(LinkageSpec, edited).joints == catalog.crank_rocker().joints
+    assert run_cli("simulate", edited, "-n", 3600, "-o", tmp_path / "sim.h5").exit_code == 0
+
+
+def test_an_edit_that_shrinks_the_crank_to_nothing_writes_a_spec_that_loads(run_cli, tmp_path):
+    # following a single point with the rocker tip: the only way there is a crank of length 0
+    # (A onto O, 2e-14 mm: still "along its rest direction"); that edited spec is not a linkage
+    # (A coincides with O: simulate refuses it, exit 2), so it must not be written as a success
+    p = linkage_file(tmp_path, catalog.crank_rocker())
+    s = write(tmp_path, "s.yaml", {"samples": 40, "lock": ["O"], "operations": [
+        {"follow": {"track": "rocker_tip", "curve": [[1, 2], [1, 2], [1, 2]]}}]})
+    r = run_cli("edit", p, s, "-o", tmp_path / "out", "--best-effort")
+    load_model(LinkageSpec, tmp_path / "out" / "linkage-edited.yaml")  # raises InputError if it does not load
+    assert run_cli("simulate", tmp_path / "out" / "linkage-edited.yaml", "-o", tmp_path / "sim.h5").exit_code == 0

@@ -72,10 +72,12 @@ def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray,
 
 
 def _crank(plan: Plan, rest: np.ndarray, arm: complex | None) -> str | None:
-    """The crank keeps a length and, unless freed, its rest direction ``arm``."""
+    """The crank keeps a length (above 1e-9 of the linkage's size: a spec's joints closer than that
+    are one point) and, unless freed, its rest direction ``arm``."""
     names, g = plan.joint_names, plan.graph
     crank = rest[g.motor] - rest[g.pivot]
-    if (crank.conjugate() * (arm if arm is not None else crank)).real <= 0.0:
+    size = float(np.abs(rest - rest[g.ground[0]]).max())
+    if abs(crank) <= 1e-9 * size or (crank.conjugate() * (arm if arm is not None else crank)).real <= 0.0:
         return (f"the crank {names[g.pivot]}-{names[g.motor]} vanishes or turns away from its rest angle "
                 "(free it with motor: {free_angle: true})")
     return None

@@ -20,7 +20,8 @@ def _phase_distance(t: np.ndarray, at: float, cyclic: bool) -> np.ndarray:
     return np.minimum(d, 1.0 - d) if cyclic else np.abs(t - at)
 
 
-def _select(t: np.ndarray, phases: tuple[float, float] | None) -> np.ndarray:
+def select(t: np.ndarray, phases: tuple[float, float] | None) -> np.ndarray:
+    """Indices of the phases ``t`` (T,) inside the window ``[a, b]`` (a > b wraps round), or all."""
     if phases is None:
         return np.arange(t.size)
     a, b = phases
@@ -144,7 +145,7 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
         # a rocking input traces its curve out and back: its shape is the outward half, open
         shape = c[: (T + 1) // 2 + 1] if rocking else None
         problem.tracking.append(Track(f"preserve {p.track}", track_row[p.track], c, me * w.preserve * p.weight,
-                                      _select(t, p.phases), p.timing, cyclic and not rocking, shape=shape))
+                                      select(t, p.phases), p.timing, cyclic and not rocking, shape=shape))
     for r in op.listed("retarget"):
         c = curve(r.track)
         mid = c.mean()

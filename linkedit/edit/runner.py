@@ -11,21 +11,22 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from linkedit.edit import bfgs, gauss_newton
 from linkedit.edit.bfgs import BfgsResult as SolverResult
 from linkedit.edit.feasibility import failure
+from linkedit.edit.goals import Envelope, Track
 from linkedit.edit.steps import check as check_steps
 from linkedit.edit.objectives import Problem
-from linkedit.edit.operation import build_problem
+from linkedit.edit.operation import build_problem, select
 from linkedit.edit.variables import parametrize
 from linkedit.errors import InputError, MechanismError
 from linkedit.planar.plan import Plan, compile_plan
 from linkedit.planar.simulate import DEFAULT_SAMPLES, Motion, motor_input, motor_phases, motor_turn, simulate
-from linkedit.spec.edit_script import EditScript, Operation
+from linkedit.spec.edit_script import EditScript, Operation, Preserve
 from linkedit.spec.linkage import LinkageSpec, LinkTrack
 
 
@@ -194,7 +195,8 @@ def _hold_back(problem: Problem, v: np.ndarray, goals: list[Goal]) -> None:
 
 
 def _check(plan: Plan, spec: LinkageSpec, samples: int, arm: complex | None) -> tuple[Motion | None, str | None]:
-    """Simulate ``spec`` (``plan`` re-based on it) at ``samples``; (motion, None) if it works.
+    """Simulate ``spec`` (``plan`` re-based on it) at ``samples``; (motion, None) if it works there
+    and between the samples, as ``simulate`` checks it.
     ``arm``: the crank direction the rest pose must keep, or None (its angle was free)."""
     rest = np.array([spec.joints[n] for n in plan.joint_names], dtype=float)
     z = rest[:, 0] + 1j * rest[:, 1]
@@ -205,7 +207,7 @@ def _check(plan: Plan, spec: LinkageSpec, samples: int, arm: complex | None) -> 
     if why is not None:
         return None, why
     motion = simulate(replan(plan, spec), samples, partial=True)
-    if not motion.assembled.all():
+    if motion.lockups:  # at the samples, or between them as simulate checks (CHECK_SAMPLES)
         return None, "; ".join(lk.describe() for lk in motion.lockups)
     return motion, failure(plan, z, motion.rule_ds()[0].T, turn, arm)
 
@@ -272,20 +274,50 @@ def _relaxed(script: EditScript, problem: Problem, op: Operation, tick: Callable
     return best, best_mu, best_goals, (int(spent[0]), int(spent[1]), int(spent[2]))
 
 
-def _fine_min_ds(reports: list[OperationReport], kept: int, motion: Motion, earlier: list[LinkageSpec],
-                 plan: Plan, fine: int) -> None:
-    """Report min d_s as the final check measures it (``fine`` samples): ``motion`` is the kept
-    result's (after operation ``kept``), ``earlier`` the rest poses before it (the original first)."""
+def _fine_measures(reports: list[OperationReport], kept: int, motion: Motion, earlier: list[LinkageSpec],
+                   plan: Plan, fine: int, boxes: list[Envelope | None],
+                   kept_curves: list[list[tuple[Preserve, Track]]]) -> None:
+    """Report min d_s, every envelope's largest excess and every preserved curve's RMS as the final
+    check measures them too (``fine`` samples: a box or a curve kept only at the script's samples
+    is not kept): ``motion`` is the kept result's (after operation ``kept``), ``earlier`` the rest
+    poses before it (the original first); ``boxes`` each operation's envelope over joint indices,
+    or None; ``kept_curves`` each operation's preserved tracks and their goals."""
     def least(m: Motion) -> float:
         worst = m.min_singularity()
         return 1.0 if worst is None else worst[0]
 
-    ds = [least(simulate(replan(plan, spec), fine, partial=True)) for spec in earlier] + [least(motion)]
+    motions = [simulate(replan(plan, spec), fine, partial=True) for spec in earlier] + [motion]
     for n, report in enumerate(reports[:kept + 1]):
         if "min d_s" in report.before:
-            report.before["min d_s"] = ds[n]
+            report.before["min d_s"] = least(motions[n])
             if n < kept:
-                report.after["min d_s"] = ds[n + 1]
+                report.after["min d_s"] = least(motions[n + 1])
+        box, key = boxes[n], "envelope max excess"
+        if box is not None:
+            goal = next(g for g in report.goals if g.name == "envelope")
+            goal.before = report.before[key] = max(report.before[key], _excess(box, motions[n]))
+            if n < kept:
+                goal.error = report.after[key] = max(report.after[key], _excess(box, motions[n + 1]))
+        for item, track in kept_curves[n] if n < kept else ():
+            goal = next(g for g in report.goals if g.name == track.label)
+            goal.error = report.after[f"{track.label} RMS"] = max(goal.error, _strayed(track, item, motions[n:n + 2]))
+
+
+def _strayed(track: Track, item: Preserve, motions: list[Motion]) -> float:
+    """The RMS of preserved ``item`` from its curve before (``motions`` before and after, at the
+    same samples), over its window, in the sense (timing or shape) of its goal ``track``."""
+    before, after = ((m.tracks[item.track].position @ (1.0, 1j)) for m in motions)
+    t = motor_phases(motions[0].plan.spec, before.size)
+    shape = None if track.shape is None else before[: (before.size + 1) // 2 + 1]  # a rocking input's outward half
+    fine = replace(track, row=0, target=before, select=select(t, item.phases), shape=shape)
+    d, _ = fine.deviation(after[None, :])
+    return float(np.sqrt(np.mean(np.abs(d) ** 2)))
+
+
+def _excess(box: Envelope, motion: Motion) -> float:
+    """The largest distance of ``box``'s joints outside it over ``motion``'s samples (spec units)."""
+    z = (motion.positions[..., 0] + 1j * motion.positions[..., 1]).T  # (J, samples)
+    return float(np.nanmax(np.abs(box.outside(z, z.shape[1])), initial=0.0))
 
 
 def run_script(linkage: LinkageSpec, script: EditScript,
@@ -306,6 +338,8 @@ def run_script(linkage: LinkageSpec, script: EditScript,
     x = plan.graph.rest.copy()
     size = float(np.ptp(x, axis=0).max())
     reports: list[OperationReport] = []
+    boxes: list[Envelope | None] = []  # each operation's envelope over joint indices (motion positions)
+    kept_curves: list[list[tuple[Preserve, Track]]] = []  # each operation's preserved tracks and goals
     accepted = [x.copy()]
     for n, op in enumerate(script.operations):
         name = op.name or f"operation {n + 1}"
@@ -323,6 +357,9 @@ def run_script(linkage: LinkageSpec, script: EditScript,
                 progress(label, it, e)
 
         solved, mu, goals, spent = _relaxed(script, problem, op, tick, before, linkage.units)
+        boxes.append(None if problem.envelope is None else replace(problem.envelope, rows=np.array(
+            [index[j] for j in op.envelope.joints] if op.envelope and op.envelope.joints else range(len(index)))))
+        kept_curves.append(list(zip(op.preserved, problem.tracking)))
         seconds = time.perf_counter() - start
         x = var.rest(solved.x)
         accepted.append(x.copy())
@@ -343,8 +380,8 @@ def run_script(linkage: LinkageSpec, script: EditScript,
         edited = with_rest_pose(linkage, out_plan, accepted[k], note)
         motion, why = _check(out_plan, edited, fine, arm)
         if motion is not None and why is None:
-            _fine_min_ds(reports, k, motion, [with_rest_pose(linkage, out_plan, a, note) for a in accepted[:k]],
-                         out_plan, fine)
+            _fine_measures(reports, k, motion, [with_rest_pose(linkage, out_plan, a, note) for a in accepted[:k]],
+                           out_plan, fine, boxes, kept_curves)
             for report in reports[k:]:
                 report.discarded = True
             after_motion = simulate(replan(out_plan, edited), linkage.samples or DEFAULT_SAMPLES)

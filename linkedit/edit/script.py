@@ -2,7 +2,8 @@
 
 The CLI and the Python API (``le.edit``) read scripts through :func:`read_script` and check
 them with :meth:`Script.check`, so both raise the same :class:`~linkedit.errors.InputError`
-(``file:line: field: what is wrong``) for a name the linkage does not have.
+(``file:line: field: what is wrong``) for a name the linkage does not have, or a phase window
+that holds none of the script's samples.
 """
 
 from __future__ import annotations
@@ -12,7 +13,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from linkedit.edit.operation import select
 from linkedit.errors import InputError
+from linkedit.planar.simulate import motor_phases
 from linkedit.spec.edit_script import EditScript, check_against
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.yamlload import LineMap, load_yaml, validate
@@ -27,12 +30,27 @@ class Script:
     lines: LineMap = field(default_factory=LineMap)
 
     def check(self, linkage: LinkageSpec) -> None:
-        """Every name against ``linkage`` (:func:`check_against`); the error located in the file."""
+        """Every name against ``linkage`` (:func:`check_against`) and every phase window against the
+        samples; the error located in the file."""
         try:
             check_against(self.script, linkage)
+            _windows(self.script, linkage)
         except InputError as exc:
             exc.file, exc.line = (self.file or None), (self.lines.line_of(exc.field) if self.file else None)
             raise
+
+
+def _windows(script: EditScript, linkage: LinkageSpec) -> None:
+    """Every ``preserve`` window ``phases: [a, b]`` holds at least one of the script's samples."""
+    t = motor_phases(linkage, script.samples)
+    for o, op in enumerate(script.operations):
+        for n, kept in enumerate(op.preserve):
+            if isinstance(kept, str) or kept.phases is None or select(t, kept.phases).size:
+                continue
+            a, b = kept.phases
+            raise InputError(f"[{a:g}, {b:g}] hold none of the {t.size} samples (one every {t[1] - t[0]:.4g} "
+                             "of the cycle): widen the window or raise samples",
+                             field=("operations", o, "preserve", n, "phases"))
 
 
 def read_script(source: str | Path | Mapping[str, Any] | EditScript) -> Script:

@@ -162,6 +162,13 @@ class Transform(SpecModel):
     translate: Vec2 = (0.0, 0.0)
     about: Vec2 | None = None
 
+    @pydantic.field_validator("joints")
+    @classmethod
+    def _some(cls, joints: Literal["all"] | list[str]) -> Literal["all"] | list[str]:
+        if not joints:
+            raise ValueError("name at least one joint, or all (a transform of no joints has no goal)")
+        return joints
+
 
 class TermWeights(SpecModel):
     """Relative weights of an operation's objective terms (inside the edit weight)."""
