@@ -249,3 +249,69 @@ def test_partial_ranking_places_the_library_curve_on_the_open_query(run_cli, tmp
     size = np.ptp(part, axis=0).max()
     assert p["scale"] == pytest.approx(5.0, rel=0.02)
     assert gap.max() < 0.01 * size
+
+
+def _four_bar_coupler(theta: np.ndarray, px: float, py: float) -> np.ndarray:
+    """Closed form: the coupler point (px, py in the A→B frame) of the crank-rocker O=(0,0), D=(4,0), crank 1,
+    coupler 3.5, rocker 3 at crank angles ``theta`` (N,) → (N, 2)."""
+    a = np.stack([np.cos(theta), np.sin(theta)], axis=1)
+    v = np.array([4.0, 0.0]) - a
+    gap = np.linalg.norm(v, axis=1)
+    along = (3.5 ** 2 - 3.0 ** 2 + gap ** 2) / (2 * gap)
+    u = v / gap[:, None]
+    b = a + along[:, None] * u + np.sqrt(3.5 ** 2 - along ** 2)[:, None] * np.stack([-u[:, 1], u[:, 0]], axis=1)
+    e = (b - a) / 3.5
+    return a + px * e + py * np.stack([-e[:, 1], e[:, 0]], axis=1)
+
+
+def _spherical_coupler(theta: np.ndarray, beta_deg: float, gamma_deg: float) -> np.ndarray:
+    """Closed form: the coupler point of a unit-sphere four-bar (crank axis z, rocker axis 60° from it in the xz
+    plane; arcs: crank 20°, coupler 55°, rocker 45°), at arc ``beta`` from the coupler joint A and angle ``gamma``
+    from the great circle A→B, at crank angles ``theta`` (N,) → (N, 3)."""
+    from scipy.spatial.transform import Rotation
+
+    u1 = np.array([np.sin(np.radians(60)), 0.0, np.cos(np.radians(60))])
+    a = Rotation.from_rotvec(np.outer(theta, [0, 0, 1])).apply([np.sin(np.radians(20)), 0, np.cos(np.radians(20))])
+    n = np.cross(u1, a)
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    # B: on the sphere, B·u1 = cos 45°, B·A = cos 55°, on the side of n
+    dot = a @ u1
+    c1 = (np.cos(np.radians(45)) - dot * np.cos(np.radians(55))) / (1 - dot ** 2)
+    c2 = (np.cos(np.radians(55)) - dot * np.cos(np.radians(45))) / (1 - dot ** 2)
+    b0 = c1[:, None] * u1 + c2[:, None] * a
+    b = b0 + np.sqrt(1 - np.sum(b0 ** 2, axis=1))[:, None] * n
+    e2 = b - np.sum(b * a, axis=1)[:, None] * a
+    e2 /= np.linalg.norm(e2, axis=1)[:, None]
+    beta, gamma = np.radians(beta_deg), np.radians(gamma_deg)
+    return np.cos(beta) * a + np.sin(beta) * (np.cos(gamma) * e2 + np.sin(gamma) * np.cross(a, e2))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_an_exact_stretch_of_a_cycle_scores_near_zero_and_ranks_first(run_cli, tmp_path, dim):
+    """--partial: an open curve that is exactly 30 % of a closed one (turned, scaled, moved; 3D also reversed)
+    is at the distance of that stretch — the chords of the 256-point resampled cycle, ~1e-4 —, not the grid's
+    (its stretch lengths step by 10 %: the exact stretch scored 0.6 % and 0.9 % of the size, and the 2D one ranked
+    behind another coupler curve of a four-bar while its own placement put it 4e-5 from the query). Curves in
+    closed form: a planar crank-rocker's and a spherical four-bar's coupler points."""
+    from scipy.spatial.transform import Rotation
+
+    cycle = np.linspace(0, 2 * np.pi, 240, endpoint=False)
+    arc = np.linspace(1.0, 1.0 + 0.3 * 2 * np.pi, 60)
+    if dim == 2:
+        own, other = _four_bar_coupler(cycle, -1.0, 2.0), _four_bar_coupler(cycle, 1.5, 1.0)
+        turn = Rotation.from_euler("z", 0.8).as_matrix()[:2, :2]
+        part = _four_bar_coupler(arc, -1.0, 2.0) @ turn.T * 3.0 + [5.0, 7.0]
+    else:
+        own, other = _spherical_coupler(cycle, 50.0, -30.0), _spherical_coupler(cycle, 30.0, 40.0)
+        part = _spherical_coupler(arc, 50.0, -30.0)[::-1] @ Rotation.from_rotvec([0, 1.4, 1.4]).as_matrix().T * 0.2 - 4
+    header = "x,y,z" if dim == 3 else "x,y"
+    (tmp_path / "lib").mkdir()
+    for name, curve in (("own", own), ("other", other)):
+        np.savetxt(tmp_path / "lib" / f"{name}.csv", curve, delimiter=",", header=header, comments="")
+    np.savetxt(tmp_path / "part.csv", part, delimiter=",", header=header, comments="")
+    r = run_cli("compare-curves", "--query", tmp_path / "part.csv", "--library", tmp_path / "lib", "--partial",
+                "-n", "256", "--json")
+    assert r.exit_code == 0, r.output
+    ranking = report_of(r)["queries"][0]["ranking"]
+    assert [row["curve"] for row in ranking] == ["own", "other"]
+    assert ranking[0]["distance"] < 5e-4 < ranking[1]["distance"]

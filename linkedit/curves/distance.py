@@ -261,10 +261,10 @@ def term_distances(a: Descriptors, b: Descriptors | None = None, *, mirror: bool
                 out[name] = np.where(mixed, 0.0, out[name])
             ao, bc = ~a.closed, other.closed
             if ao.any() and bc.any():
-                block = partial_rms(a.points[ao], other.points[bc], mirror=mirror)
+                block = partial_rms(a.points[ao], other.points[bc], mirror=mirror, refine=True)
                 out["points"][np.ix_(ao, bc)] = block
             if a.closed.any() and (~other.closed).any():
-                block = partial_rms(other.points[~other.closed], a.points[a.closed], mirror=mirror).T
+                block = partial_rms(other.points[~other.closed], a.points[a.closed], mirror=mirror, refine=True).T
                 out["points"][np.ix_(a.closed, ~other.closed)] = block
     return out
 
@@ -382,7 +382,7 @@ PARTIAL_BATCH = 32
 
 
 def partial_rms(open_points: np.ndarray, closed_points: np.ndarray, *, mirror: bool = False,
-                grid: Grid = FINE) -> np.ndarray:
+                grid: Grid = FINE, refine: bool = False) -> np.ndarray:
     """RMS distance (units of the open curve's major extent) of open curves (Ca, N, D) from the
     best-fitting stretch of closed curves (Cb, N', D) → (Ca, Cb), D = 2 or 3.
 
@@ -390,7 +390,9 @@ def partial_rms(open_points: np.ndarray, closed_points: np.ndarray, *, mirror: b
     the mirror image) of the closed curve, sampled at the open curve's relative arc lengths, the
     best similarity transform (scale, rotation, translation: a complex least-squares fit in the plane,
     Umeyama's in space) places the stretch on the open curve; the smallest residual wins. The open
-    curves are sampled evenly along their length. ``grid``: :data:`FINE`, :data:`COARSE` or :data:`SCREEN`.
+    curves are sampled evenly along their length. ``grid``: :data:`FINE`, :data:`COARSE` or :data:`SCREEN`;
+    ``refine``: each pair's best stretch moved past the grid (:func:`_refined_windows`), so a distance is the
+    stretch's, not the grid's spacing (a screen may skip it: it only orders candidates).
     """
     q, _, index = _partial_setup(open_points, grid)
     outline = arc_resample(closed_points, PARTIAL_OUTLINE, True)  # (Cb, L, D)
@@ -398,14 +400,86 @@ def partial_rms(open_points: np.ndarray, closed_points: np.ndarray, *, mirror: b
     for start in range(0, len(outline), PARTIAL_BATCH):
         rings = outline[start:start + PARTIAL_BATCH]
         if q.shape[-1] == 3:
-            residual = _partial_fits3(q, rings, index, mirror)[0].min(axis=2)
+            residual = _partial_fits3(q, rings, index, mirror)[0]
         else:
             qc, rc = _complex(q), _complex(rings)
-            residual = _partial_fits(qc, rc, index)[0].min(axis=2)  # (B, Ca)
+            residual = _partial_fits(qc, rc, index)[0]  # (B, Ca, W)
             if mirror:
-                residual = np.minimum(residual, _partial_fits(qc, np.conj(rc), index)[0].min(axis=2))
-        out[:, start:start + PARTIAL_BATCH] = np.sqrt(np.maximum(residual, 0.0) / q.shape[1]).T
+                residual = np.minimum(residual, _partial_fits(qc, np.conj(rc), index)[0])
+        if refine:
+            best = _refined_windows(q, rings, residual.argmin(axis=2), grid, mirror, open_points.shape[1])
+        else:
+            best = residual.min(axis=2)
+        out[:, start:start + PARTIAL_BATCH] = np.sqrt(np.maximum(best, 0.0) / q.shape[1]).T
     return out
+
+
+#: Compass steps of :func:`_refined_windows` at most (each moves a stretch's end or halves the step), and the step
+#: (outline samples) below which a pair is done.
+REFINE_STEPS, REFINE_TOLERANCE = 40, 1e-4
+
+
+def _refined_windows(q: np.ndarray, rings: np.ndarray, best: np.ndarray, grid: Grid, mirror: bool, n: int
+                     ) -> np.ndarray:
+    """Residual² (B, Ca) of each pair's best stretch refined past the grid: from the grid's best window ``best``
+    (B, Ca), its start and end (continuous positions along the outline, linearly interpolated) moved by a compass
+    search, vectorized over the pairs, that keeps only improvements (the grid steps lengths by ~10 %: an exact
+    stretch would otherwise score the grid's misfit). The stretch is sampled where q's points lie along the open
+    curve of ``n`` even samples they were picked from (:func:`_partial_setup`)."""
+    offset_count, fractions, count = grid
+    f, s, way = np.unravel_index(best, (len(fractions), offset_count, 2))
+    start = (s * PARTIAL_OUTLINE // offset_count).astype(float)
+    span = fractions[f] * PARTIAL_OUTLINE * np.where(way == 0, 1.0, -1.0)
+    x = np.stack([start, start + span], axis=-1)  # (B, Ca, 2)
+    k = np.linspace(0, n - 1, count).round() / (n - 1)
+    planar = q.shape[-1] == 2
+    ring = _complex(rings) if planar else rings  # (B, L) or (B, L, 3)
+    pair_b, pair_c = (g.ravel() for g in np.indices(best.shape))  # the pairs, flat (P,)
+
+    def residual(ends: np.ndarray, live: np.ndarray) -> np.ndarray:
+        """Residual² (M, P') of the stretches ``ends`` (M, P', 2) of the pairs ``live`` (P',)."""
+        at = ends[..., :1] + (ends[..., 1:] - ends[..., :1]) * k  # (M, P', n)
+        low = np.floor(at)
+        frac = at - low
+        i = low.astype(int) % PARTIAL_OUTLINE
+        rb, qp = pair_b[live][:, None], q[pair_c[live]]  # (P', 1), (P', n, D)
+        if planar:
+            w = ring[rb, i] * (1.0 - frac) + ring[rb, (i + 1) % PARTIAL_OUTLINE] * frac  # (M, P', n)
+            w -= w.mean(axis=-1, keepdims=True)
+            energy = np.sum(w.real ** 2 + w.imag ** 2, axis=-1)
+            fit = np.abs(np.sum(np.conj(w) * _complex(qp), axis=-1)) ** 2
+            if mirror:
+                fit = np.maximum(fit, np.abs(np.sum(w * _complex(qp), axis=-1)) ** 2)
+        else:
+            w = ring[rb, i] * (1.0 - frac[..., None]) + ring[rb, (i + 1) % PARTIAL_OUTLINE] * frac[..., None]
+            w -= w.mean(axis=-2, keepdims=True)
+            energy = np.einsum("mpnd,mpnd->mp", w, w)
+            cross = np.swapaxes(w, -1, -2) @ qp  # (M, P', 3, 3)
+            sigma = _singular3(cross)
+            if not mirror:
+                sigma[..., 2] *= np.sign(_det3(cross))
+            fit = sigma.sum(axis=-1) ** 2
+        return np.einsum("pnd,pnd->p", qp, qp) - fit / np.maximum(energy, 1e-300)
+
+    x = x.reshape(-1, 2)
+    every = np.arange(len(x))
+    value = residual(x[None], every)[0]
+    step = np.maximum(PARTIAL_OUTLINE / offset_count, 0.11 * np.abs(span)).ravel()  # (P,)
+    moves = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0],  # one end
+                      [1.0, 1.0], [-1.0, -1.0], [-1.0, 1.0], [1.0, -1.0]])  # both: shift, stretch
+    for _ in range(REFINE_STEPS):
+        live = every[step > REFINE_TOLERANCE]
+        if not live.size:
+            break
+        tries = x[live] + moves[:, None, :] * step[live][None, :, None]  # (8, P', 2)
+        values = residual(tries, live)
+        pick = values.argmin(axis=0)
+        got = values[pick, np.arange(live.size)]
+        better = got < value[live]
+        x[live[better]] = tries[pick[better], np.flatnonzero(better)]
+        value[live[better]] = got[better]
+        step[live[~better]] /= 2
+    return value.reshape(best.shape)
 
 
 def partial_placement(open_points: np.ndarray, closed_points: np.ndarray, *,
