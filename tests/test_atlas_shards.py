@@ -325,3 +325,25 @@ def test_an_interrupted_cluster_build_says_when_its_tasks_did_not_stop(run_cli, 
     assert result.exit_code == 130 and len(lines) == 1, result.output
     assert re.fullmatch(r"linkedit: error: interrupted; [1-9]\d* Dask task\(s\) had not stopped 0 s later and may still "
                         r"write their shards", lines[0]), lines[0]
+
+
+def test_a_new_folder_whose_build_stops_before_its_manifest_is_not_left(run_cli, tmp_path, small_chunks, monkeypatch):
+    """Ctrl-C while the second family's quantizer is trained (before the manifest is first saved): the new
+    folder is not left behind (it held the first family's quantizer and no manifest, and every later build
+    into it was refused as "not a sharded atlas"); the same command then builds it."""
+    write_quantizer = shards.write_quantizer
+
+    def interrupted(folder, name, seed, count):
+        if name == "slider-crank":
+            raise KeyboardInterrupt
+        return write_quantizer(folder, name, seed, count)
+
+    monkeypatch.setattr(shards, "write_quantizer", interrupted)
+    out = tmp_path / "new"
+    args = ("atlas", "build", "--family", "four-bar,slider-crank", "-n", "300", "-o", out, "--seed", "8")
+    assert run_cli(*args).exit_code == 130
+    assert not out.exists()
+    monkeypatch.setattr(shards, "write_quantizer", write_quantizer)
+    again = run_cli(*args)
+    assert again.exit_code == 0, again.output
+    assert shards.counts(json.loads((out / shards.MANIFEST).read_text())) == {"four-bar": 300, "slider-crank": 300}

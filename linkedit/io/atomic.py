@@ -109,6 +109,9 @@ def together() -> Iterator[None]:
             yield
         except BaseException:
             _discard(pending)
+            locks = _HELD.get() if held is not None else None
+            if locks is not None:  # nothing is renamed: the locks go first, so that the folders they made are empty
+                locks.release(written_only=False)
             _unmake(made)
             raise
         finally:
@@ -248,9 +251,13 @@ def _lock(target: Path, wait: float) -> Callable[[], None]:
 
     check_target(target)
     try:
+        missing = [p for p in (target.parent, *target.parent.parents) if not p.exists()]
         target.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise OSError(exc.errno, exc.strerror, str(target)) from None
+    made = _MADE.get()
+    if made is not None:  # removed again, if empty, when the enclosing together() block fails
+        made.extend(missing)
     path = target.parent / f".{target.name}.lock"
     deadline = time.monotonic() + wait
     while True:

@@ -12,6 +12,7 @@ the family's closed form of the parameters, recomputed on demand. Layout: ``spec
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import re
@@ -280,8 +281,7 @@ def build(path: str | Path, names: list[str], count: int | None, *, seed: int = 
         with chunk_runner(scheduler, workers, connect_timeout=connect_timeout, verbose=verbose) as run, \
                 locked(path / MANIFEST):
             manifest = _checked(path, names, count, seed, resume)
-            jobs = _plan(path, manifest, names, count, resume)
-            save(path, manifest)
+            jobs = _planned(path, manifest, names, count, resume)
             _run(path, manifest, jobs, seed, progress, run)
     finally:
         if new and path.is_dir() and not any(path.iterdir()):  # refused before anything was written
@@ -347,6 +347,24 @@ def _plan(path: Path, manifest: dict[str, Any], names: list[str], count: int | N
         entry["chunks"] += len(jobs[name])
         entry["partial_chunk"] = bool(jobs[name]) and jobs[name][-1][1] < CHUNK
     manifest["build"] = {"count": count, "families": names}
+    return jobs
+
+
+def _planned(path: Path, manifest: dict[str, Any], names: list[str], count: int | None,
+             resume: bool) -> dict[str, list[tuple[int, int]]]:
+    """:func:`_plan`, then the manifest saved. Cut short before that (Ctrl-C while a quantizer is trained, an
+    error), the quantizers it wrote for families new to the manifest and their folders are removed: nothing the
+    manifest does not know is left (a new atlas folder holding only them was refused by every later build)."""
+    known = set(manifest["families"])
+    try:
+        jobs = _plan(path, manifest, names, count, resume)
+        save(path, manifest)
+    except BaseException:
+        for name in set(manifest["families"]) - known:
+            (path / folder_of(name) / "quantizer.h5").unlink(missing_ok=True)
+            with contextlib.suppress(OSError):  # not empty: not only this build's
+                (path / folder_of(name)).rmdir()
+        raise
     return jobs
 
 
