@@ -347,3 +347,18 @@ def test_a_new_folder_whose_build_stops_before_its_manifest_is_not_left(run_cli,
     again = run_cli(*args)
     assert again.exit_code == 0, again.output
     assert shards.counts(json.loads((out / shards.MANIFEST).read_text())) == {"four-bar": 300, "slider-crank": 300}
+
+
+def test_a_folder_of_atlas_files_holding_a_sharded_atlas_is_refused(run_cli, tmp_path):
+    """`--atlas atlas/` reads every *.h5 atlas in the folder; a sharded atlas built beside them (`-o atlas/legs`)
+    was silently left out of the search (exit 0, the report's atlas_size without its linkages). One line naming
+    it, exit 2."""
+    folder = tmp_path / "atlas"
+    for family, out in (("four-bar", folder / "four-bar.h5"), ("slider-crank", folder / "sliders")):
+        built = run_cli("atlas", "build", "--family", family, "-n", "200", "-o", out, "--seed", "3", "-q")
+        assert built.exit_code == 0, built.output
+    result = run_cli("synthesize", _target(tmp_path), "--atlas", folder, "-o", tmp_path / "out")
+    assert result.exit_code == 2, result.output
+    line = result.output.strip().splitlines()[-1]
+    assert "sliders" in line and "sharded atlas" in line and len(result.output.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists()

@@ -473,5 +473,13 @@ def read_shard(folder: Path, name: str, seed: int, cells: int, shard: dict[str, 
 
 
 def open_atlas(path: str | Path) -> Atlas:
-    """An atlas for queries: a sharded folder (with a manifest), else an atlas file or a folder of them."""
-    return load(path) if (Path(path) / MANIFEST).is_file() else load_file(path)
+    """An atlas for queries: a sharded folder (with a manifest), else an atlas file or a folder of them (InputError
+    if a sharded atlas is in that folder too: it would be left out of the search)."""
+    path = Path(path)
+    if (path / MANIFEST).is_file():
+        return load(path)
+    inside = sorted(p for p in path.iterdir() if (p / MANIFEST).is_file()) if path.is_dir() else []
+    if inside:
+        raise InputError(f"{inside[0].name} in it is a sharded atlas, which a folder of atlas files does not read: "
+                         f"give it on its own (--atlas {inside[0]})", file=str(path), field="--atlas")
+    return load_file(path)
