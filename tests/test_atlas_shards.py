@@ -362,3 +362,25 @@ def test_a_folder_of_atlas_files_holding_a_sharded_atlas_is_refused(run_cli, tmp
     line = result.output.strip().splitlines()[-1]
     assert "sliders" in line and "sharded atlas" in line and len(result.output.strip().splitlines()) == 1
     assert not (tmp_path / "out").exists()
+
+
+def test_a_new_folder_being_built_is_named_busy_and_a_killed_first_build_is_built_again(run_cli, tmp_path,
+                                                                                          monkeypatch):
+    """A second build into a new folder while the first trains its quantizers (the folder holds the manifest's
+    lock and no manifest yet): one line naming the other process (was: "exists and is not a sharded atlas").
+    A first build killed there (SIGKILL: its lock file and a quantizer left, no manifest): the same command
+    builds the atlas (was refused the same way, for good)."""
+    from linkedit.io import atomic
+
+    monkeypatch.setattr(atomic, "LOCK_WAIT", 0.1)
+    out = tmp_path / "new"
+    args = ("atlas", "build", "--family", "four-bar", "-n", "200", "-o", out, "--seed", "8")
+    with atomic.locked(out / shards.MANIFEST):
+        busy = run_cli(*args)
+        (out / "four-bar").mkdir()
+        (out / "four-bar" / "quantizer.h5").write_bytes(b"cut short")
+    assert busy.exit_code == 2 and f"pid {os.getpid()}" in busy.output, busy.output
+    (out / f".{shards.MANIFEST}.lock").write_text("12345\n")  # what a killed build leaves
+    again = run_cli(*args)
+    assert again.exit_code == 0, again.output
+    assert shards.counts(shards.read_manifest(out)) == {"four-bar": 200}

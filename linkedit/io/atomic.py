@@ -242,6 +242,12 @@ def hold(target: str | Path, wait: float | None = None) -> None:
     locks.held.append(_Held(_lock(Path(target), LOCK_WAIT if wait is None else wait)))
 
 
+def lock_path(target: str | Path) -> Path:
+    """The lock file of ``target`` (:func:`locked`): ``.<name>.lock`` beside it."""
+    target = Path(target)
+    return target.parent / f".{target.name}.lock"
+
+
 def _lock(target: Path, wait: float) -> Callable[[], None]:
     """Take the lock of :func:`locked`; return its release."""
     import fcntl
@@ -258,7 +264,7 @@ def _lock(target: Path, wait: float) -> Callable[[], None]:
     made = _MADE.get()
     if made is not None:  # removed again, if empty, when the enclosing together() block fails
         made.extend(missing)
-    path = target.parent / f".{target.name}.lock"
+    path = lock_path(target)
     deadline = time.monotonic() + wait
     while True:
         try:

@@ -27,7 +27,7 @@ import numpy as np
 
 from linkedit import __version__
 from linkedit.errors import InputError
-from linkedit.io.atomic import deferred_interrupts, durable_path, locked
+from linkedit.io.atomic import deferred_interrupts, durable_path, lock_path, locked
 from linkedit.io.h5read import open_result
 from linkedit.io.hdf5 import writing
 from linkedit.resources import require_disk, require_memory
@@ -270,7 +270,9 @@ def build(path: str | Path, names: list[str], count: int | None, *, seed: int = 
     Returns the linkage count per family."""
     path = Path(path)
     check_options(seed, scheduler, workers)
-    if not (path / MANIFEST).is_file() and path.exists() and (not path.is_dir() or any(path.iterdir())):
+    building = lock_path(path / MANIFEST).exists()  # a build's, under way or killed before its first manifest
+    if (not (path / MANIFEST).is_file() and path.exists() and not building
+            and (not path.is_dir() or any(path.iterdir()))):
         raise InputError(f"exists and is not a sharded atlas (no {MANIFEST}); refusing to write into it",
                          file=str(path))
     if not resume and count is not None:  # before the plan: a list of 10⁸ chunks would not fit either
