@@ -17,6 +17,7 @@ from linkedit.synthesis import atlas, chunks, fourbar, shards
 from linkedit.synthesis import cluster as runner
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.shard_search import remote_atlas
+from tests.conftest import EXAMPLES
 
 SMALL = 1000  # linkages per chunk here (a chunk is a pure function of its index and size)
 
@@ -319,3 +320,27 @@ def test_synthesize_a_3d_target_with_a_scheduler_writes_the_in_process_result(ru
     assert b["target"]["closed"] is closed
     assert curve_error(points, closed, track, b["target"]["size"])[0] == pytest.approx(b["error"]["after"]["rms"],
                                                                                         rel=1e-6)
+
+
+def test_a_cluster_searches_atlases_of_two_linkages_of_one_name(run_cli, tmp_path, cluster, monkeypatch):
+    """Two atlases of spec families called 'arm' (two users' linkages), each built and searched by its own
+    `linkedit` run: the same long-lived workers search both (they kept the first one's 'arm' and refused the
+    second's, exit 2 "--family: two different linkages are called 'arm'" though the input was right)."""
+    from linkedit.synthesis import families
+
+    text = (EXAMPLES / "crank-rocker.yaml").read_text().replace("name: crank-rocker", "name: arm")
+    z = 25 * fourbar.curves(atlas.build_chunk("four-bar", 991, 0, 1).params, 150, 0.2)[0]
+    target = tmp_path / "target.csv"
+    target.write_text("x,y\n" + "\n".join(f"{float(p.real)!r},{float(p.imag)!r}" for p in z) + "\n")
+    for k, spec in enumerate((text, text + "# the other user's arm\n")):
+        monkeypatch.setattr(families, "SPECS", {})  # a new `linkedit` process
+        monkeypatch.setattr(families, "SPEC_TEXTS", {})
+        for module in (atlas, shards, runner):
+            monkeypatch.setattr(module, "SPEC_TEXTS", families.SPEC_TEXTS)
+        (tmp_path / f"arm{k}.yaml").write_text(spec)
+        built = run_cli("atlas", "build", "--family", tmp_path / f"arm{k}.yaml", "-n", "100", "-o", tmp_path / f"a{k}",
+                        "--seed", "3", "-q")
+        assert built.exit_code == 0, built.output
+        found = run_cli("synthesize", target, "--atlas", tmp_path / f"a{k}", "-o", tmp_path / f"out{k}", "--top", "1",
+                        "--scheduler", cluster.scheduler_address)
+        assert found.exit_code == 0, found.output

@@ -325,3 +325,62 @@ def test_an_interrupted_cluster_build_says_when_its_tasks_did_not_stop(run_cli, 
     assert result.exit_code == 130 and len(lines) == 1, result.output
     assert re.fullmatch(r"linkedit: error: interrupted; [1-9]\d* Dask task\(s\) had not stopped 0 s later and may still "
                         r"write their shards", lines[0]), lines[0]
+
+
+def test_a_new_folder_whose_build_stops_before_its_manifest_is_not_left(run_cli, tmp_path, small_chunks, monkeypatch):
+    """Ctrl-C while the second family's quantizer is trained (before the manifest is first saved): the new
+    folder is not left behind (it held the first family's quantizer and no manifest, and every later build
+    into it was refused as "not a sharded atlas"); the same command then builds it."""
+    write_quantizer = shards.write_quantizer
+
+    def interrupted(folder, name, seed, count):
+        if name == "slider-crank":
+            raise KeyboardInterrupt
+        return write_quantizer(folder, name, seed, count)
+
+    monkeypatch.setattr(shards, "write_quantizer", interrupted)
+    out = tmp_path / "new"
+    args = ("atlas", "build", "--family", "four-bar,slider-crank", "-n", "300", "-o", out, "--seed", "8")
+    assert run_cli(*args).exit_code == 130
+    assert not out.exists()
+    monkeypatch.setattr(shards, "write_quantizer", write_quantizer)
+    again = run_cli(*args)
+    assert again.exit_code == 0, again.output
+    assert shards.counts(json.loads((out / shards.MANIFEST).read_text())) == {"four-bar": 300, "slider-crank": 300}
+
+
+def test_a_folder_of_atlas_files_holding_a_sharded_atlas_is_refused(run_cli, tmp_path):
+    """`--atlas atlas/` reads every *.h5 atlas in the folder; a sharded atlas built beside them (`-o atlas/legs`)
+    was silently left out of the search (exit 0, the report's atlas_size without its linkages). One line naming
+    it, exit 2."""
+    folder = tmp_path / "atlas"
+    for family, out in (("four-bar", folder / "four-bar.h5"), ("slider-crank", folder / "sliders")):
+        built = run_cli("atlas", "build", "--family", family, "-n", "200", "-o", out, "--seed", "3", "-q")
+        assert built.exit_code == 0, built.output
+    result = run_cli("synthesize", _target(tmp_path), "--atlas", folder, "-o", tmp_path / "out")
+    assert result.exit_code == 2, result.output
+    line = result.output.strip().splitlines()[-1]
+    assert "sliders" in line and "sharded atlas" in line and len(result.output.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_new_folder_being_built_is_named_busy_and_a_killed_first_build_is_built_again(run_cli, tmp_path,
+                                                                                          monkeypatch):
+    """A second build into a new folder while the first trains its quantizers (the folder holds the manifest's
+    lock and no manifest yet): one line naming the other process (was: "exists and is not a sharded atlas").
+    A first build killed there (SIGKILL: its lock file and a quantizer left, no manifest): the same command
+    builds the atlas (was refused the same way, for good)."""
+    from linkedit.io import atomic
+
+    monkeypatch.setattr(atomic, "LOCK_WAIT", 0.1)
+    out = tmp_path / "new"
+    args = ("atlas", "build", "--family", "four-bar", "-n", "200", "-o", out, "--seed", "8")
+    with atomic.locked(out / shards.MANIFEST):
+        busy = run_cli(*args)
+        (out / "four-bar").mkdir()
+        (out / "four-bar" / "quantizer.h5").write_bytes(b"cut short")
+    assert busy.exit_code == 2 and f"pid {os.getpid()}" in busy.output, busy.output
+    (out / f".{shards.MANIFEST}.lock").write_text("12345\n")  # what a killed build leaves
+    again = run_cli(*args)
+    assert again.exit_code == 0, again.output
+    assert shards.counts(shards.read_manifest(out)) == {"four-bar": 200}

@@ -214,3 +214,30 @@ def test_a_complex_loop_family_synthesizes_a_perturbed_design_of_it(run_cli, tmp
     size = target_size(xy, True)
     rms, _ = curve_error((z - z.mean()) / size, True, (drawn[:, 0] + 1j * drawn[:, 1] - z.mean()) / size, 1.0)
     assert abs(rms - error) <= 0.05 * error + 1e-4, (rms, error)
+
+
+def test_a_spec_tracking_a_point_on_a_link_is_a_family_of_its_first_joint_track(run_cli, tmp_path):
+    """examples/crank-rocker.yaml tracks a coupler point (a point on a link) before its joint track
+    `rocker_tip`: the family's curve is that joint's (the link point is not among the rest-pose
+    parameters). Was an IndexError traceback (the plan's extra point had no parameters). A stored row
+    written back as a spec draws the stored curve in `simulate`, above the family's margin."""
+    import h5py
+    import yaml
+
+    r = run_cli("atlas", "build", "--family", EXAMPLES / "crank-rocker.yaml", "-n", "40", "-o", tmp_path / "a.h5",
+                "--seed", "2", "-q")
+    assert r.exit_code == 0, r.output
+    with h5py.File(tmp_path / "a.h5") as f:
+        g = f["families/crank-rocker"]
+        row, curve, margin = g["params"][0], g["curves"][0], g.attrs["margin"]
+        columns = json.loads(g["params"].attrs["columns"])
+    spec = yaml.safe_load((EXAMPLES / "crank-rocker.yaml").read_text())
+    spec["joints"] = {j: [float(row[columns.index(f"{j}_x")]), float(row[columns.index(f"{j}_y")])]
+                      for j in spec["joints"]}
+    (tmp_path / "row.yaml").write_text(yaml.safe_dump(spec))
+    r = run_cli("simulate", tmp_path / "row.yaml", "-n", "64", "-o", tmp_path / "row.h5", "-q")
+    assert r.exit_code == 0, r.output
+    with h5py.File(tmp_path / "row.h5") as f:
+        drawn, lowest = f["tracks/rocker_tip/position"][::2], f["diagnostics"].attrs["min_singularity"]
+    np.testing.assert_allclose(drawn, curve, atol=1e-6)
+    assert lowest >= margin

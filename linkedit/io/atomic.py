@@ -109,6 +109,9 @@ def together() -> Iterator[None]:
             yield
         except BaseException:
             _discard(pending)
+            locks = _HELD.get() if held is not None else None
+            if locks is not None:  # nothing is renamed: the locks go first, so that the folders they made are empty
+                locks.release(written_only=False)
             _unmake(made)
             raise
         finally:
@@ -239,6 +242,12 @@ def hold(target: str | Path, wait: float | None = None) -> None:
     locks.held.append(_Held(_lock(Path(target), LOCK_WAIT if wait is None else wait)))
 
 
+def lock_path(target: str | Path) -> Path:
+    """The lock file of ``target`` (:func:`locked`): ``.<name>.lock`` beside it."""
+    target = Path(target)
+    return target.parent / f".{target.name}.lock"
+
+
 def _lock(target: Path, wait: float) -> Callable[[], None]:
     """Take the lock of :func:`locked`; return its release."""
     import fcntl
@@ -248,10 +257,14 @@ def _lock(target: Path, wait: float) -> Callable[[], None]:
 
     check_target(target)
     try:
+        missing = [p for p in (target.parent, *target.parent.parents) if not p.exists()]
         target.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise OSError(exc.errno, exc.strerror, str(target)) from None
-    path = target.parent / f".{target.name}.lock"
+    made = _MADE.get()
+    if made is not None:  # removed again, if empty, when the enclosing together() block fails
+        made.extend(missing)
+    path = lock_path(target)
     deadline = time.monotonic() + wait
     while True:
         try:

@@ -55,6 +55,14 @@ def family(name: str, field: str = "--family", spec: str | None = None) -> Any:
     raise InputError(f"unknown family {name!r} (families: {', '.join(FAMILIES)}, or a linkage spec file)", field=field)
 
 
+def adopt(name: str, spec: str | None) -> None:
+    """On a Dask worker, which serves many ``linkedit`` runs and atlases: let spec text ``spec`` make the family
+    called ``name`` (each task carries its atlas's text; another run's family of that name made before is
+    forgotten). A run's own two linkages of one name are still refused (:func:`from_spec_text`)."""
+    if spec is not None and SPEC_TEXTS.get(name, spec) != spec:
+        del SPECS[name], SPEC_TEXTS[name]
+
+
 def spec_family(path: Path, field: str = "--family") -> str:
     """Make the family of the linkage spec at ``path`` and return its name (the spec's ``name``)."""
     text = read_text(path)

@@ -53,6 +53,8 @@ class CatalogFamily:
     def __init__(self, name: str, family_id: int, build: Callable[[], LinkageSpec], track: str) -> None:
         self.NAME, self.ID, self.track = name, family_id, track
         spec = build()
+        # the family's curve is this track's alone: a point on a link would add a plan point no parameter gives
+        spec = spec.model_copy(update={"tracks": {track: spec.tracks[track]}})
         self.spec = spec
         self.plan = compile_plan(spec)
         names = self.plan.joint_names

@@ -25,7 +25,7 @@ from linkedit.errors import InputError
 from linkedit.synthesis.atlas import Atlas
 from linkedit.synthesis.chunks import dimension
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, connected
-from linkedit.synthesis.families import family
+from linkedit.synthesis.families import adopt, family
 from linkedit.synthesis.index import SCAN_LIMIT, Hit, Lists, nearest_rows
 from linkedit.synthesis.shards import MANIFEST, merge, read_manifest, read_quantizer, read_shard
 
@@ -43,6 +43,7 @@ def _prepared(folder: str, name: str, spec: str | None, seed: int, quantizer: di
     if key in _kept:
         _kept.move_to_end(key)
         return _kept[key]
+    adopt(name, spec)
     family(name, spec=spec)  # a spec family is made on the worker from its text
     arrays = merge([read_shard(Path(folder), name, seed, quantizer["cells"], shard) for shard in shards])
     v = arrays["index"]

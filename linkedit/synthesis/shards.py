@@ -12,6 +12,7 @@ the family's closed form of the parameters, recomputed on demand. Layout: ``spec
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import re
@@ -26,7 +27,7 @@ import numpy as np
 
 from linkedit import __version__
 from linkedit.errors import InputError
-from linkedit.io.atomic import deferred_interrupts, durable_path, locked
+from linkedit.io.atomic import deferred_interrupts, durable_path, lock_path, locked
 from linkedit.io.h5read import open_result
 from linkedit.io.hdf5 import writing
 from linkedit.resources import require_disk, require_memory
@@ -269,7 +270,9 @@ def build(path: str | Path, names: list[str], count: int | None, *, seed: int = 
     Returns the linkage count per family."""
     path = Path(path)
     check_options(seed, scheduler, workers)
-    if not (path / MANIFEST).is_file() and path.exists() and (not path.is_dir() or any(path.iterdir())):
+    building = lock_path(path / MANIFEST).exists()  # a build's, under way or killed before its first manifest
+    if (not (path / MANIFEST).is_file() and path.exists() and not building
+            and (not path.is_dir() or any(path.iterdir()))):
         raise InputError(f"exists and is not a sharded atlas (no {MANIFEST}); refusing to write into it",
                          file=str(path))
     if not resume and count is not None:  # before the plan: a list of 10⁸ chunks would not fit either
@@ -280,8 +283,7 @@ def build(path: str | Path, names: list[str], count: int | None, *, seed: int = 
         with chunk_runner(scheduler, workers, connect_timeout=connect_timeout, verbose=verbose) as run, \
                 locked(path / MANIFEST):
             manifest = _checked(path, names, count, seed, resume)
-            jobs = _plan(path, manifest, names, count, resume)
-            save(path, manifest)
+            jobs = _planned(path, manifest, names, count, resume)
             _run(path, manifest, jobs, seed, progress, run)
     finally:
         if new and path.is_dir() and not any(path.iterdir()):  # refused before anything was written
@@ -347,6 +349,24 @@ def _plan(path: Path, manifest: dict[str, Any], names: list[str], count: int | N
         entry["chunks"] += len(jobs[name])
         entry["partial_chunk"] = bool(jobs[name]) and jobs[name][-1][1] < CHUNK
     manifest["build"] = {"count": count, "families": names}
+    return jobs
+
+
+def _planned(path: Path, manifest: dict[str, Any], names: list[str], count: int | None,
+             resume: bool) -> dict[str, list[tuple[int, int]]]:
+    """:func:`_plan`, then the manifest saved. Cut short before that (Ctrl-C while a quantizer is trained, an
+    error), the quantizers it wrote for families new to the manifest and their folders are removed: nothing the
+    manifest does not know is left (a new atlas folder holding only them was refused by every later build)."""
+    known = set(manifest["families"])
+    try:
+        jobs = _plan(path, manifest, names, count, resume)
+        save(path, manifest)
+    except BaseException:
+        for name in set(manifest["families"]) - known:
+            (path / folder_of(name) / "quantizer.h5").unlink(missing_ok=True)
+            with contextlib.suppress(OSError):  # not empty: not only this build's
+                (path / folder_of(name)).rmdir()
+        raise
     return jobs
 
 
@@ -455,5 +475,13 @@ def read_shard(folder: Path, name: str, seed: int, cells: int, shard: dict[str, 
 
 
 def open_atlas(path: str | Path) -> Atlas:
-    """An atlas for queries: a sharded folder (with a manifest), else an atlas file or a folder of them."""
-    return load(path) if (Path(path) / MANIFEST).is_file() else load_file(path)
+    """An atlas for queries: a sharded folder (with a manifest), else an atlas file or a folder of them (InputError
+    if a sharded atlas is in that folder too: it would be left out of the search)."""
+    path = Path(path)
+    if (path / MANIFEST).is_file():
+        return load(path)
+    inside = sorted(p for p in path.iterdir() if (p / MANIFEST).is_file()) if path.is_dir() else []
+    if inside:
+        raise InputError(f"{inside[0].name} in it is a sharded atlas, which a folder of atlas files does not read: "
+                         f"give it on its own (--atlas {inside[0]})", file=str(path), field="--atlas")
+    return load_file(path)
