@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from linkedit.curves import distance
+from linkedit.curves import partial
 from linkedit.curves.polyline import arc_resample
 from linkedit.gcs import check_solved, solve_spec
 from linkedit.io.gcs_hdf5 import read_result
@@ -228,16 +228,16 @@ def test_a_3d_stretch_is_placed_by_the_similarity_that_made_it(mirrored):
     t = np.linspace(0, 2 * np.pi, 500, endpoint=False)
     closed = np.stack([np.cos(t) + 0.3 * np.cos(2 * t) + 0.2 * np.sin(2 * t), np.sin(t) + 0.1 * np.cos(3 * t),
                        0.4 * np.sin(3 * t) + 0.2 * np.cos(t)], axis=1)  # no symmetry: one stretch fits
-    ring = arc_resample(closed, distance.PARTIAL_OUTLINE, True)
-    k = np.arange(distance.PARTIAL_POINTS) / (distance.PARTIAL_POINTS - 1)
-    stretch = ring[np.round(distance.FINE[1][-5] * k * distance.PARTIAL_OUTLINE).astype(int)]
+    ring = arc_resample(closed, partial.PARTIAL_OUTLINE, True)
+    k = np.arange(partial.PARTIAL_POINTS) / (partial.PARTIAL_POINTS - 1)
+    stretch = ring[np.round(partial.FINE[1][-5] * k * partial.PARTIAL_OUTLINE).astype(int)]
     matrix = Rotation.random(random_state=4).as_matrix() @ np.diag([1.0, 1.0, -1.0 if mirrored else 1.0])
     shift = np.array([2.0, -1.0, 0.5])
     arc = shift + 3.0 * stretch @ matrix.T
-    rms, scale, found, moved = distance.partial_placement3(arc, closed, mirror=True)
+    rms, scale, found, moved = partial.partial_placement3(arc, closed, mirror=True)
     assert rms < 1e-9 and scale == pytest.approx(3.0, rel=1e-9)
     np.testing.assert_allclose(found, matrix, atol=1e-9)
     np.testing.assert_allclose(moved, shift, atol=1e-9)
-    assert distance.partial_rms(arc[None], closed[None], mirror=True)[0, 0] < 1e-6 * 3.0
-    proper = distance.partial_rms(arc[None], closed[None], mirror=False)[0, 0]
+    assert partial.partial_rms(arc[None], closed[None], mirror=True)[0, 0] < 1e-6 * 3.0
+    proper = partial.partial_rms(arc[None], closed[None], mirror=False)[0, 0]
     assert (proper > 1e-2) if mirrored else (proper < 1e-6 * 3.0)

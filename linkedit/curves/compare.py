@@ -12,8 +12,8 @@ from typing import cast
 import numpy as np
 
 from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES, Descriptors, describe_ragged
-from linkedit.curves.distance import (alignment, partial_placement, partial_placement3, term_distances, term_names,
-                                     weighted)
+from linkedit.curves.distance import alignment, term_distances, term_names, weighted
+from linkedit.curves.partial import partial_placement, partial_placement3
 from linkedit.curves.smooth import smooth as smooth_curve
 from linkedit.curves.learn import Inseparable, LearnedWeights, learn_weights
 from linkedit.curves.sources import Curve
@@ -86,7 +86,7 @@ def placements(query: Descriptors, library: Descriptors, *, mirror: bool = False
     p_query ≈ translation + scale · matrix · p_library, and where the query's start meets the
     library curve (``phase``: a fraction of the library curve's length from its canonical start,
     ``reversed``: travelled the other way). ``partial``: an open query is placed on the best-fitting
-    stretch of each closed library curve (:func:`~linkedit.curves.distance.partial_placement`)."""
+    stretch of each closed library curve (:func:`~linkedit.curves.partial.partial_placement`)."""
     al = alignment(query.points[0], bool(query.closed[0]), library.points, library.closed, mirror=mirror)
     qn, ln = query.normalized, library.normalized
     n, dim = library.points.shape[1], library.points.shape[2]

@@ -9,13 +9,13 @@
    that turn with the singularity margin; an open arc, whose whole-cycle descriptor says little about which
    cycles hold a stretch like it, takes ``SCREEN_POOL`` for each of its descriptors (closed by its chord,
    retraced there and back) and keeps the ``OPEN_POOL`` best by partial matching on the atlas's stored coarse
-   curves (:data:`~linkedit.curves.distance.SCREEN`);
+   curves (:data:`~linkedit.curves.partial.SCREEN`);
 3. they are re-ranked by the full 3D curve distance (:func:`linkedit.curves.distance.term_distances`, pose
    normalized: invariant to the target's rotation, translation and scale, mirror images included) and each
    of the best ``top`` distinct ones is placed on the target by its aligning similarity
    (:func:`linkedit.curves.compare.placements`: p ↦ shift + scale·matrix·p, matrix orthogonal); an open arc
-   by the best-fitting stretch of each candidate's cycle instead (:func:`linkedit.curves.distance.partial_rms`,
-   :func:`~linkedit.curves.distance.partial_placement3`, as planar open targets);
+   by the best-fitting stretch of each candidate's cycle instead (:func:`linkedit.curves.partial.partial_rms`,
+   :func:`~linkedit.curves.partial.partial_placement3`, as planar open targets);
 4. each is refined by least squares on the closed form: the family parameters (the branch stays) and the
    placement (log scale, a rotation vector, the shift) against the two-sided point-to-curve distances (an open
    arc: the arc's distances to the cycle only, it may be part of it), every kept iterate turning with the margin
@@ -42,7 +42,8 @@ from scipy.spatial.transform import Rotation
 from linkedit import __version__
 from linkedit.curves.compare import placements
 from linkedit.curves.descriptors import describe
-from linkedit.curves.distance import COARSE, SCREEN, partial_placement3, partial_rms, term_distances, weighted
+from linkedit.curves.distance import term_distances, weighted
+from linkedit.curves.partial import COARSE, SCREEN, partial_placement3, partial_rms
 from linkedit.curves.polyline import arc_resample, near_distances
 from linkedit.curves.sources import Curve
 from linkedit.errors import InputError, MechanismError
@@ -70,7 +71,7 @@ FILES = ("result.yaml", "result.h5", "overlay.svg", "history.svg", "report.json"
 POOL = 256
 OPEN_POOL = 512
 #: An open arc's index candidates (each of its two descriptors: closed by its chord, retraced there and back),
-#: screened by partial matching on the atlas's stored coarse curves (:data:`~linkedit.curves.distance.SCREEN`)
+#: screened by partial matching on the atlas's stored coarse curves (:data:`~linkedit.curves.partial.SCREEN`)
 #: down to the ``OPEN_POOL`` re-ranked: the index describes whole cycles, and the linkages with the best
 #: stretch for an arc are often far down its ranking.
 SCREEN_POOL = 2048
@@ -229,7 +230,7 @@ def _ranked(t_desc: Any, unit: np.ndarray, size: float, hits: list[Any], spatial
 
 def _screened(unit: np.ndarray, spatial: Atlas, index: Any, margin_deg: float) -> list[Any]:
     """The open arc ``unit`` (M, 3)'s hits in ``index`` (``SCREEN_POOL`` for each of its descriptors) that turn with
-    the margin, the best ``OPEN_POOL`` by partial matching (:data:`~linkedit.curves.distance.SCREEN`) on the atlas's
+    the margin, the best ``OPEN_POOL`` by partial matching (:data:`~linkedit.curves.partial.SCREEN`) on the atlas's
     coarse curves (stored in an atlas file; a sharded atlas stores none: made from the params as a build makes
     them), best first."""
     found: dict[tuple[str, int], Any] = {}

@@ -31,7 +31,8 @@ import numpy as np
 
 from linkedit.curves.compare import describe_curves, placements
 from linkedit.curves.descriptors import Descriptors, describe
-from linkedit.curves.distance import COARSE, partial_placement, partial_rms, term_distances, weighted
+from linkedit.curves.distance import term_distances, weighted
+from linkedit.curves.partial import COARSE, partial_placement, partial_rms
 from linkedit.curves.smooth import smooth as smooth_curve
 from linkedit.curves.sources import Curve
 from linkedit.errors import InputError, MechanismError
