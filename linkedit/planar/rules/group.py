@@ -80,21 +80,23 @@ class Group(Step):
 
     def constants(self, z: np.ndarray, many: bool) -> tuple[Any, ...]:
         """(its :class:`RealForm` at each of the K rest poses ``z`` (P, K) complex, twice (K, m·W, W);
-        the sign (K,) of its Jacobian's determinant at each; a triad's :class:`~.triad.Body` at each):
+        the sign (K,) of its Jacobian's determinant at each, or for a triad None and its
+        :class:`~.triad.Body` at each):
         each linkage's own rows and branch."""
         assert self.graph is not None
         rest = z[: self.graph.n_joints]
         rows = self.rows_at(linkage_rows(self.graph, rest=rest), rest)
-        form, signs = RealForm.of(rows.columns(self._columns)), det_signs(rows, rest[:, :, None], self.joints)
+        form = RealForm.of(rows.columns(self._columns))
         if self.triad is None:
-            return form, signs
+            return form, det_signs(rows, rest[:, :, None], self.joints)
         body = self.triad.constants(rest, self.joints, self.inputs)
         turns = body.p * np.array([0.0, 1.0, 1j])  # the body about the origin, turned by u = 0, 1, i
         grad = form.gradient(variables(turns, np.zeros((self.inputs.size, *turns.shape[1:]))))
-        return form, signs, body.with_rows(grad[..., self.triad.body, : 2 * self.joints.size])
+        return form, None, body.with_rows(grad[..., self.triad.body, : 2 * self.joints.size])
 
-    def _parts(self, const: tuple[Any, ...]) -> tuple[RealForm, np.ndarray, Body | None]:
-        """(form, signs, body) of ``const``, by default at the rest pose it was compiled at."""
+    def _parts(self, const: tuple[Any, ...]) -> tuple[RealForm, Any, Body | None]:
+        """(form, signs (None for a triad: its body holds det M's), body) of ``const``, by default at the
+        rest pose it was compiled at."""
         const = const or self.compiled
         return const[0], const[1], const[2] if len(const) > 2 else None
 
