@@ -384,3 +384,26 @@ def test_a_new_folder_being_built_is_named_busy_and_a_killed_first_build_is_buil
     again = run_cli(*args)
     assert again.exit_code == 0, again.output
     assert shards.counts(shards.read_manifest(out)) == {"four-bar": 200}
+
+
+def test_a_sharded_atlas_too_large_for_memory_is_refused_before_it_is_read(run_cli, tmp_path, small_chunks, monkeypatch):
+    """`synthesize --atlas FOLDER` whose linkages (shard bytes + a query's 20 per linkage) exceed the memory
+    available: exit 2 naming the bytes, before any shard is read (was a MemoryError, or the kernel's OOM kill, while
+    the shards were concatenated); with the memory there, the same command finds its linkage."""
+    from linkedit import resources
+
+    _build(run_cli, tmp_path / "folder", 2 * SMALL)
+    need = 2 * SMALL * (shards.shard_bytes("four-bar") + shards.QUERY_BYTES)
+    memory, read_shard = resources.available_memory, shards.read_shard
+    monkeypatch.setattr(resources, "available_memory", lambda: need - 1)
+    read = []
+    monkeypatch.setattr(shards, "read_shard", lambda *a: read.append(a))
+    refused = run_cli("synthesize", _target(tmp_path), "--atlas", tmp_path / "folder", "-o", tmp_path / "out")
+    assert refused.exit_code == 2 and read == [] and not (tmp_path / "out").exists()
+    assert refused.output.strip() == (f"linkedit: error: {tmp_path / 'folder'}: a query over its 2,000 linkages would "
+                                      f"need about {resources.size_text(need)} of memory; "
+                                      f"{resources.size_text(need - 1)} are available")
+    monkeypatch.setattr(resources, "available_memory", memory)
+    monkeypatch.setattr(shards, "read_shard", read_shard)
+    assert run_cli("synthesize", _target(tmp_path), "--atlas", tmp_path / "folder", "-o", tmp_path / "out",
+                   "--top", "1").exit_code == 0

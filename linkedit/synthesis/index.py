@@ -150,15 +150,14 @@ class Lists:
     """Inverted lists of descriptors ``vectors`` (K, D): ``centroids`` (C, D), ``rows`` (atlas rows
     grouped by cell) and ``offsets`` (C + 1,) into them, as :func:`cells_of` makes them (or as a sharded
     family's cells give them: :meth:`of_cells`). :meth:`query` scans the cells nearest to each variant and
-    ranks those rows exactly (:func:`nearest_rows`)."""
+    ranks those rows exactly (:func:`nearest_rows`). The descriptors are kept as given (a reference, in atlas
+    order: no second copy of a 100,000,000-row family), with their norms; a query gathers its cells' rows."""
 
     def __init__(self, vectors: np.ndarray, centroids: np.ndarray, rows: np.ndarray, offsets: np.ndarray) -> None:
-        self.centroids, self.rows, self.offsets = centroids, rows, offsets
+        self.vectors, self.centroids, self.rows, self.offsets = vectors, centroids, rows, offsets
         self.centroid_columns = np.ascontiguousarray(centroids.T)
         self.centroid_norms = np.einsum("cd,cd->c", centroids, centroids)
-        ordered = vectors[rows]
-        self.columns = np.ascontiguousarray(ordered.T)
-        self.norms = np.einsum("kd,kd->k", ordered, ordered)
+        self.norms = np.einsum("kd,kd->k", vectors, vectors)
 
     @classmethod
     def trained(cls, vectors: np.ndarray, cells: int | None = None, seed: int = 0) -> Lists:
@@ -181,10 +180,10 @@ class Lists:
         the ``probe`` cells nearest to any variant are scanned (:data:`PROBE` by default)."""
         with single_threaded():  # small products (~10⁴–10⁵ rows): OpenBLAS's threads cost 2–5× on a loaded machine
             cells = self.probed(variants, probe)
-            spans = [np.arange(self.offsets[c], self.offsets[c + 1]) for c in cells]
-            at = np.concatenate(spans) if spans else np.zeros(0, dtype=int)
-            found, dist = nearest_rows(variants, self.columns[:, at], self.norms[at], count)
-        return self.rows[at[found]], dist
+            spans = [self.rows[self.offsets[c]:self.offsets[c + 1]] for c in cells]
+            at = np.concatenate(spans) if spans else np.zeros(0, dtype=int)  # atlas rows, cell by cell
+            found, dist = nearest_rows(variants, self.vectors[at].T, self.norms[at], count)
+        return at[found], dist
 
 
 def _nearest(vectors: np.ndarray, centroids: np.ndarray, block: int = 32768) -> np.ndarray:

@@ -156,6 +156,11 @@ def shard_bytes(name: str) -> int:
     return 8 * len(family(name).PARAMETERS) + 4 + 4 * WIDTH + 2
 
 
+#: Bytes per linkage a query holds beyond a shard's (:func:`shard_bytes`): its cell's list (int64 row), its
+#: descriptor's norm (float32) and the sort that groups the rows by cell (int64)
+QUERY_BYTES = 20
+
+
 # --- the manifest ---------------------------------------------------------------------------------------
 
 
@@ -435,17 +440,37 @@ def load(path: str | Path, threads: int | None = None) -> Atlas:
     if manifest["build"] is not None:
         raise InputError(f"a build was interrupted: {sum(len(e['pending']) for e in manifest['families'].values())} "
                          "chunks are missing; finish it with `linkedit atlas build ... --resume`", file=str(path))
+    rows = {name: sum(shard["rows"] for shard in entry["shards"]) for name, entry in manifest["families"].items()}
+    require_memory(sum(n * (shard_bytes(name) + QUERY_BYTES) for name, n in rows.items()),
+                   f"a query over its {sum(rows.values()):,} linkages", file=str(path))
     families: dict[str, dict[str, np.ndarray]] = {}
     with ThreadPoolExecutor(threads) as pool:
         for name, entry in manifest["families"].items():
             if not entry["shards"]:
                 continue
-            families[name] = merge(list(pool.map(partial(read_shard, path, name, manifest["seed"],
-                                                         entry["quantizer"]["cells"]), entry["shards"])))
+            families[name] = _read_family(pool, path, name, manifest["seed"], entry)
             families[name]["centroids"] = read_quantizer(path, name, entry["quantizer"])[1]
     if not families:
         raise InputError("the atlas is empty", file=str(path))
     return Atlas(path, families, manifest["seed"])
+
+
+def _read_family(pool: ThreadPoolExecutor, folder: Path, name: str, seed: int,
+                 entry: dict[str, Any]) -> dict[str, np.ndarray]:
+    """A family's shards (:func:`read_shard`, on ``pool``'s threads) as one array per key, in chunk order: each
+    shard copied into its rows of arrays allocated once (memory: the family, not twice it as a concatenation)."""
+    starts = np.cumsum([0] + [shard["rows"] for shard in entry["shards"]]).tolist()
+    out: dict[str, np.ndarray] = {}
+
+    def put(k: int) -> None:
+        part = read_shard(folder, name, seed, entry["quantizer"]["cells"], entry["shards"][k])
+        for key, array in part.items():
+            if key not in out:  # the first shard read sets the layout (setdefault: one array if two threads race)
+                out.setdefault(key, np.empty((starts[-1], *array.shape[1:]), dtype=array.dtype))
+            out[key][starts[k]:starts[k + 1]] = array
+
+    list(pool.map(put, range(len(entry["shards"]))))
+    return out
 
 
 def merge(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
