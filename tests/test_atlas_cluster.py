@@ -153,7 +153,39 @@ def test_the_bench_times_a_query_over_a_large_sharded_atlas(cluster, monkeypatch
     assert "extrapolated to 100,000,000: " in text and "the line through the 5,000 and 20,000 figures" in text
 
 
-@pytest.mark.parametrize("option", ["--large", "--workers"])
+def test_the_bench_times_the_query_over_an_atlas_built_before(folder, cluster, monkeypatch, run_cli):
+    """`bench -s synthesis --large-atlas FOLDER`'s section on a folder built before (7,500 four-bars): no build, the
+    same figures (its peak memory per linkage among them); its exact top 10, found block by block over the family
+    (a 100,000,000 one has no room for a second copy), is the whole scan's; --large and --large-atlas together, or a
+    folder without four-bars, are refused."""
+    from linkedit.synthesis import bench_scale
+    from linkedit.synthesis.index import Lists, nearest_rows
+
+    for module in (atlas, chunks, shards, bench_scale):
+        monkeypatch.setattr(module, "CHUNK", SMALL)
+    monkeypatch.setattr(bench_scale, "SMALL", 5 * SMALL)
+    monkeypatch.setattr(bench_scale, "TARGETS", 5)
+    lines: list[str] = []
+    bench_scale.run(lines.append, None, 2, scheduler=cluster.scheduler_address, folder=folder)
+    text = "\n".join(lines)
+    assert re.search(rf"sharded atlas of 7,500 four-bars .*: built before in {re.escape(str(folder))}, 1\d\d bytes per "
+                     r"linkage on disk .* peak memory then [\d.,]+ [MG]iB \(\d+ bytes per linkage\)", text), text
+    assert float(re.search(r"recall of the exact top 10 (\d\.\d+)", text).group(1)) >= 0.8, text
+    assert re.search(r"on the cluster at 7,500: \d+ ms median \(2 workers", text), text
+    lists = Index(shards.load(folder), scan_limit=0).lists[0]
+    assert isinstance(lists, Lists)
+    for v in _variants(3):
+        whole = nearest_rows(v, np.ascontiguousarray(lists.vectors.T), lists.norms, 10)[0]
+        np.testing.assert_array_equal(bench_scale._exact_top(lists, v, 10, block=1234), whole)
+    both = run_cli("bench", "-s", "synthesis", "--large", "5", "--large-atlas", folder)
+    assert both.exit_code == 2 and both.output.strip() == (
+        "linkedit: error: --large-atlas: give --large N (build one) or --large-atlas FOLDER (one built before), not both")
+    assert run_cli("atlas", "build", "--family", "slider-crank", "-n", "100", "-o", folder.parent / "sc").exit_code == 0
+    with pytest.raises(shards.InputError, match="holds no four-bars"):
+        bench_scale.run(lines.append, None, 2, scheduler=cluster.scheduler_address, folder=folder.parent / "sc")
+
+
+@pytest.mark.parametrize("option", ["--large", "--large-atlas", "--workers"])
 def test_bench_large_and_workers_apply_to_the_synthesis_section(run_cli, option):
     refused = run_cli("bench", "-s", "planar", option, "5")
     assert refused.exit_code == 2

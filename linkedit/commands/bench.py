@@ -7,6 +7,7 @@ baseline measured in the same run where possible. ``--quick`` runs tiny sizes (f
 from __future__ import annotations
 
 import importlib
+from pathlib import Path
 
 import typer
 
@@ -30,6 +31,9 @@ def register(app: typer.Typer) -> None:
         large: int = typer.Option(None, "--large", metavar="N", min=1, max=10**9,
                                   help="synthesis: also build a sharded atlas of N four-bars and time the query over "
                                        "it, with the extrapolation to 100M (opt-in: 10M take minutes)."),
+        large_atlas: Path = typer.Option(None, "--large-atlas", metavar="FOLDER",
+                                         help="synthesis: time the query at scale over this sharded four-bar atlas "
+                                              "(built before by `atlas build`) instead of building --large N."),
         workers: int = typer.Option(None, "--workers", metavar="N", min=1, max=1024,
                                     help="synthesis: worker processes of the local Dask clusters (and in-process "
                                          "builds side by side) [default: the cores this process may use]; with "
@@ -45,7 +49,10 @@ def register(app: typer.Typer) -> None:
         for name in chosen:
             if name not in SECTIONS:
                 raise InputError(f"unknown section {name!r} (choose from {', '.join(SECTIONS)})", field="--section")
-        for field, value in (("--large", large), ("--workers", workers)):
+        if large is not None and large_atlas is not None:
+            raise InputError("give --large N (build one) or --large-atlas FOLDER (one built before), not both",
+                             field="--large-atlas")
+        for field, value in (("--large", large), ("--large-atlas", large_atlas), ("--workers", workers)):
             if value is not None and "synthesis" not in chosen:
                 raise InputError("applies to the synthesis section (-s synthesis)", field=field)
         if workers is not None and quick and large is None:
@@ -65,6 +72,6 @@ def register(app: typer.Typer) -> None:
                 lines.append(text)
                 say(text)
 
-            options = {"large": large, "workers": workers} if name == "synthesis" else {}
+            options = {"large": large, "large_atlas": large_atlas, "workers": workers} if name == "synthesis" else {}
             module.run(line, quick=quick, **options)
         report({"sections": figures})

@@ -207,9 +207,11 @@ def lists_figures(echo: Callable[[str], None], parts: list[atlas.Chunk], repeats
          f"of the exact top 10 {np.mean(shard_recall):.3f} (target ≥ 0.99)")
 
 
-def run(echo: Callable[[str], None], quick: bool = False, large: int | None = None, workers: int | None = None) -> None:
+def run(echo: Callable[[str], None], quick: bool = False, large: int | None = None, workers: int | None = None,
+        large_atlas: Path | None = None) -> None:
     """The section's figures; ``large``: also the query at scale over a sharded atlas of that many four-bars
-    (:mod:`linkedit.synthesis.bench_scale`, opt-in: minutes to build); ``workers``: the local Dask clusters'
+    (:mod:`linkedit.synthesis.bench_scale`, opt-in: minutes to build), or over the one in folder ``large_atlas``;
+    ``workers``: the local Dask clusters'
     worker processes (default: the cores this process may use, :func:`~linkedit.synthesis.cluster.usable_cores`)."""
     workers = workers or usable_cores()
     chunks, big, repeats = (1, 2 * atlas.CHUNK, 1) if quick else (10, 1_000_000, 5)
@@ -245,8 +247,8 @@ def run(echo: Callable[[str], None], quick: bool = False, large: int | None = No
          f"{1e3 * t_query:.1f} ms median (target ≤ {1e3 * QUERY_TARGET:.0f} ms)")
     if not quick:
         lists_figures(echo, parts, repeats)
-    if large:
-        bench_scale.run(echo, large, workers)
+    if large or large_atlas:
+        bench_scale.run(echo, large, workers, folder=large_atlas)
 
     runs, top = [], bench_points.top_of(quick)
     for z in targets[: 1 if quick else 4]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import importlib.util
 import os
+import resource
 import statistics
 import tempfile
 import time
@@ -19,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from linkedit.errors import InputError
+from linkedit.resources import available_memory, size_text
 from linkedit.synthesis import fourbar, shards
 from linkedit.synthesis.atlas import Atlas, stored_bytes
 from linkedit.synthesis.chunks import CHUNK, build_chunk
@@ -38,10 +41,8 @@ TARGETS = 50
 def _first(book: Atlas, folder: Path, shard_count: int) -> Atlas:
     """The atlas of the first ``shard_count`` shards of the four-bar family of ``folder``."""
     entry = shards.read_manifest(folder)["families"]["four-bar"]
-    parts = [shards.read_shard(folder, "four-bar", book.seed, entry["quantizer"]["cells"], s)
-             for s in entry["shards"][:shard_count]]
-    return Atlas(folder, {"four-bar": shards.merge(parts) | {"centroids": book.families["four-bar"]["centroids"]}},
-                 book.seed)
+    head = shards.read_family(folder, "four-bar", book.seed, entry["quantizer"]["cells"], entry["shards"][:shard_count])
+    return Atlas(folder, {"four-bar": head | {"centroids": book.families["four-bar"]["centroids"]}}, book.seed)
 
 
 def _scanned(index: Index, variants: list[np.ndarray]) -> float:
@@ -49,6 +50,16 @@ def _scanned(index: Index, variants: list[np.ndarray]) -> float:
     lists = index.lists[0]
     assert isinstance(lists, Lists)
     return float(np.mean([np.sum(np.diff(lists.offsets)[lists.probed(v)]) for v in variants]))
+
+
+def _exact_top(lists: Lists, variants: np.ndarray, count: int, block: int = 2_000_000) -> np.ndarray:
+    """The exact ``count`` nearest rows of the family ``lists`` indexes (every row, block by block: no copy of
+    the family's descriptors), nearest first."""
+    found = [nearest_rows(variants, lists.vectors[b:b + block].T, lists.norms[b:b + block], count)
+             for b in range(0, len(lists.vectors), block)]
+    rows = np.concatenate([r + b for (r, _), b in zip(found, range(0, len(lists.vectors), block))])
+    dist = np.concatenate([d for _, d in found])
+    return rows[np.argsort(dist, kind="stable")[:count]]
 
 
 def _median_query(index: Index | ClusterIndex, variants: list[np.ndarray]) -> float:
@@ -60,11 +71,11 @@ def _median_query(index: Index | ClusterIndex, variants: list[np.ndarray]) -> fl
     return statistics.median(times)
 
 
-def run(echo: Callable[[str], None], count: int, workers: int, scheduler: str | None = None) -> None:
+def run(echo: Callable[[str], None], count: int | None, workers: int, scheduler: str | None = None,
+        folder: Path | None = None) -> None:
     """Build a sharded atlas of ``count`` four-bars on the Dask cluster at ``scheduler`` (of ``workers`` worker
-    threads), else on a local cluster of ``workers`` when Dask is installed, else in-process; then time and
-    check queries over it (see the module docstring)."""
-    small = min(count, SMALL)
+    threads), else on a local cluster of ``workers`` when Dask is installed, else in-process — or take the one built
+    before in ``folder`` —; then time and check queries over it (see the module docstring)."""
     held = build_chunk("four-bar", 988, 0, TARGETS).params
     variants = [target_variants(fourbar.curves(row[None], 300, 0.1 * k)[0]) for k, row in enumerate(held)]
     dask = importlib.util.find_spec("distributed") is not None
@@ -73,28 +84,43 @@ def run(echo: Callable[[str], None], count: int, workers: int, scheduler: str | 
             (local_cluster(workers, verbose=False) if start else contextlib.nullcontext()) as cluster, \
             tempfile.TemporaryDirectory() as tmp:
         address = scheduler or (cluster.scheduler_address if cluster is not None else None)
-        folder = Path(tmp) / "atlas"
         load = os.getloadavg()[0]
-        t0 = time.perf_counter()
-        shards.build(folder, ["four-bar"], count, seed=1, scheduler=address)
-        t_build = time.perf_counter() - t0
+        if folder is None:
+            assert count is not None
+            folder = Path(tmp) / "atlas"
+            t0 = time.perf_counter()
+            shards.build(folder, ["four-bar"], count, seed=1, scheduler=address)
+            t_build = time.perf_counter() - t0
+            built = (f"built in {t_build:.0f} s ({count / t_build:,.0f} linkages/s, "
+                     f"{f'{workers} Dask workers' if address else 'in-process'})")
+        else:
+            count = shards.counts(shards.read_manifest(folder)).get("four-bar", 0)
+            if not count:
+                raise InputError("holds no four-bars (build it with `linkedit atlas build --family four-bar`)",
+                                 file=str(folder), field="--large-atlas")
+            built = f"built before in {folder}"
+        small = min(count, SMALL)
         on_disk = sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())
         t0 = time.perf_counter()
         book = shards.load(folder)
         t_load = time.perf_counter() - t0
+        held_bytes = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
         index = Index(book, scan_limit=0)
         t_large, rows_large = _median_query(index, variants), _scanned(index, variants)
         head = Index(_first(book, folder, -(-small // CHUNK)), scan_limit=0)
         t_small, rows_small = _median_query(head, variants), _scanned(head, variants)
         cells = len(book.families["four-bar"]["centroids"])
         del head
-        vectors = book.families["four-bar"]["index"]
-        columns, norms = np.ascontiguousarray(vectors.T), np.einsum("kd,kd->k", vectors, vectors)
-        recall = [len(set(nearest_rows(v, columns, norms, 10)[0].tolist()) & {h.row for h in index.query(v, 10)}) / 10
+        lists = index.lists[0]
+        assert isinstance(lists, Lists)
+        recall = [len(set(_exact_top(lists, v, 10).tolist()) & {h.row for h in index.query(v, 10)}) / 10
                   for v in variants]
-        del columns, norms, index, book
+        del lists, index, book
         remote = "not measured (pip install 'linkedit[cluster]')"
-        if address is not None:
+        need = count * (shards.shard_bytes("four-bar") + shards.QUERY_BYTES)
+        if address is not None and need > available_memory() / 2:
+            remote = f"not measured (its workers would hold {size_text(need)}; {size_text(available_memory())} free)"
+        elif address is not None:
             with remote_atlas(folder, address, scan_limit=0) as (_, far):
                 t0 = time.perf_counter()
                 far.query(variants[0], 64)
@@ -113,18 +139,19 @@ def run(echo: Callable[[str], None], count: int, workers: int, scheduler: str | 
     big_cells = quantizer_side(HUNDRED_MILLION) ** 2
     rows_100m = rows_large * HUNDRED_MILLION / count * cells / big_cells  # a 100M build's quantizer: big_cells
     t_100m = t_large + per * (rows_100m - rows_large)
-    echo(f"query at scale, sharded atlas of {count:,} four-bars ({cores} cores usable of the machine's {os.cpu_count()}, load average {load:.2f} before, "
-         f"{os.getloadavg()[0]:.2f} after): built in {t_build:.0f} s ({count / t_build:,.0f} linkages/s, "
-         f"{f'{workers} Dask workers' if address else 'in-process'}), {on_disk / count:.0f} bytes per linkage on "
-         f"disk ({shards.shard_bytes('four-bar')} stored + HDF5 overhead; an atlas file: "
-         f"{stored_bytes('four-bar')}), loaded in {t_load:.1f} s")
+    echo(f"query at scale, sharded atlas of {count:,} four-bars ({cores} cores usable of the machine's "
+         f"{os.cpu_count()}, load average {load:.2f} before, {os.getloadavg()[0]:.2f} after): {built}, "
+         f"{on_disk / count:.0f} bytes per linkage on disk ({shards.shard_bytes('four-bar')} stored + HDF5 overhead; "
+         f"an atlas file: {stored_bytes('four-bar')}), loaded in {t_load:.1f} s, this process's peak memory then "
+         f"{size_text(held_bytes)} ({held_bytes / count:.0f} bytes per linkage)")
     echo(f"  query through the family's quantizer ({cells:,} cells, {PROBE} probed), median of {TARGETS} held-out targets: "
          f"{f'{1e3 * t_small:.0f} ms at {small:,}, ' if count > small else ''}{1e3 * t_large:.0f} ms at {count:,} "
          f"(recall of the exact top 10 "
          f"{np.mean(recall):.3f}, target ≥ 0.99); on the cluster at {count:,}: {remote}")
+    if count >= HUNDRED_MILLION:
+        return
     echo(f"  extrapolated to {HUNDRED_MILLION:,}: {t_100m:.2f} s in-process on these {cores} cores (target ≤ "
          f"{LARGE_QUERY_TARGET:g} s) — basis: the time grows with the rows of the {PROBE} probed cells, "
          f"{basis}; a 100,000,000 build's quantizer has {big_cells:,} cells, so ≈ {rows_100m:,.0f} rows scanned "
-         f"(the {count:,} figure's × {HUNDRED_MILLION // count} × {cells:,}/{big_cells:,}; its {big_cells:,} "
-         f"centroids add < 1 ms); memory in-process ≈ 300 bytes per linkage (30 GB at 100M: specs/atlas-hdf5.md), "
-         f"spread over the workers on a cluster")
+         f"(the {count:,} figure's × {HUNDRED_MILLION / count:,.0f} × {cells:,}/{big_cells:,}; its {big_cells:,} "
+         f"centroids add < 1 ms)")

@@ -27,7 +27,7 @@ from linkedit.synthesis.chunks import dimension
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, connected
 from linkedit.synthesis.families import adopt, family
 from linkedit.synthesis.index import SCAN_LIMIT, Hit, Lists, nearest_rows
-from linkedit.synthesis.shards import MANIFEST, merge, read_manifest, read_quantizer, read_shard
+from linkedit.synthesis.shards import MANIFEST, read_family, read_manifest, read_quantizer
 
 #: Shard runs a worker keeps read between queries (a worker of a cluster serves many ``synthesize`` runs).
 KEEP = 64
@@ -45,7 +45,7 @@ def _prepared(folder: str, name: str, spec: str | None, seed: int, quantizer: di
         return _kept[key]
     adopt(name, spec)
     family(name, spec=spec)  # a spec family is made on the worker from its text
-    arrays = merge([read_shard(Path(folder), name, seed, quantizer["cells"], shard) for shard in shards])
+    arrays = read_family(Path(folder), name, seed, quantizer["cells"], shards)
     v = arrays["index"]
     ready: dict[str, Any] = {"index": v, "params": arrays["params"]}
     if exact:

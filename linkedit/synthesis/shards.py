@@ -448,34 +448,30 @@ def load(path: str | Path, threads: int | None = None) -> Atlas:
         for name, entry in manifest["families"].items():
             if not entry["shards"]:
                 continue
-            families[name] = _read_family(pool, path, name, manifest["seed"], entry)
+            families[name] = read_family(path, name, manifest["seed"], entry["quantizer"]["cells"], entry["shards"], pool)
             families[name]["centroids"] = read_quantizer(path, name, entry["quantizer"])[1]
     if not families:
         raise InputError("the atlas is empty", file=str(path))
     return Atlas(path, families, manifest["seed"])
 
 
-def _read_family(pool: ThreadPoolExecutor, folder: Path, name: str, seed: int,
-                 entry: dict[str, Any]) -> dict[str, np.ndarray]:
-    """A family's shards (:func:`read_shard`, on ``pool``'s threads) as one array per key, in chunk order: each
-    shard copied into its rows of arrays allocated once (memory: the family, not twice it as a concatenation)."""
-    starts = np.cumsum([0] + [shard["rows"] for shard in entry["shards"]]).tolist()
+def read_family(folder: Path, name: str, seed: int, cells: int, shards: list[dict[str, Any]],
+                pool: ThreadPoolExecutor | None = None) -> dict[str, np.ndarray]:
+    """The ``shards`` (manifest entries) of family ``name`` (a quantizer of ``cells`` cells) as one array per key,
+    in their order (:func:`read_shard`, on ``pool``'s threads when given): each shard copied into its rows of arrays
+    allocated once (memory: the family's, not twice it as a concatenation would take)."""
+    starts = np.cumsum([0] + [shard["rows"] for shard in shards]).tolist()
     out: dict[str, np.ndarray] = {}
 
     def put(k: int) -> None:
-        part = read_shard(folder, name, seed, entry["quantizer"]["cells"], entry["shards"][k])
+        part = read_shard(folder, name, seed, cells, shards[k])
         for key, array in part.items():
             if key not in out:  # the first shard read sets the layout (setdefault: one array if two threads race)
                 out.setdefault(key, np.empty((starts[-1], *array.shape[1:]), dtype=array.dtype))
             out[key][starts[k]:starts[k + 1]] = array
 
-    list(pool.map(put, range(len(entry["shards"]))))
+    list((pool.map if pool is not None else map)(put, range(len(shards))))
     return out
-
-
-def merge(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """A family's shards' arrays (in chunk order) as one: each concatenated."""
-    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
 
 
 def read_shard(folder: Path, name: str, seed: int, cells: int, shard: dict[str, Any]) -> dict[str, np.ndarray]:
