@@ -163,30 +163,38 @@ def edit(spec: SpecLike, script: str | Path | Mapping[str, Any] | EditScript) ->
     return out
 
 
-def solve3d(spec: str | Path | MechanismSpec, *, steps: int | None = None, solver: str = "lm") -> Solution:
+def solve3d(spec: str | Path | MechanismSpec, *, steps: int | None = None, solver: str = "lm",
+            partial: bool = False) -> Solution:
     """Solve a 3D mechanism (YAML path or :class:`~linkedit.spec.mechanism3d.MechanismSpec`) at every step.
 
     Returns a :class:`Solution` (a :class:`~linkedit.gcs.result.GcsResult` that draws itself).
+    Raises :class:`~linkedit.errors.MechanismError` at the first step that does not converge, naming
+    its constraints (as ``linkedit solve3d``), unless ``partial``: then every step is solved and
+    ``diagnostics.status`` says which converged.
     """
-    from linkedit.gcs import solve_spec
+    from linkedit.gcs import check_solved, solve_spec
     from linkedit.spec.yamlload import load_model
 
     model = spec if isinstance(spec, MechanismSpec) else load_model(MechanismSpec, spec)
-    res = solve_spec(model, steps=steps, solver=solver)
+    res = solve_spec(model, steps=steps, solver=solver, stop_at_failure=not partial)
+    if not partial:
+        check_solved(res)
     return Solution(**{f.name: getattr(res, f.name) for f in dataclasses.fields(res)})
 
 
 def features(*curves: str, samples: int | None = None, harmonics: int | None = None) -> Any:
     """Features of motion curves (inputs as for ``linkedit features``: ``result.h5:track``, .csv, curve sets).
 
-    Returns a pandas DataFrame (one row per curve) if pandas is installed, else a list of dicts.
+    ``samples`` in [8, 4096], ``harmonics`` in [1, 64] (else InputError). Returns a pandas DataFrame
+    (one row per curve) if pandas is installed, else a list of dicts.
     """
     from linkedit.curves.compare import describe_curves
     from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES
     from linkedit.curves.sources import load_inputs
 
     loaded = load_inputs([str(c) for c in curves])
-    desc = describe_curves(loaded, samples=samples or DEFAULT_SAMPLES, harmonics=harmonics or DEFAULT_HARMONICS)
+    desc = describe_curves(loaded, samples=DEFAULT_SAMPLES if samples is None else samples,
+                           harmonics=DEFAULT_HARMONICS if harmonics is None else harmonics)
     rows = [{"name": c.name, "closed": bool(c.closed)} | {n: float(v) for n, v in zip(desc.names, desc.features[i])}
             for i, c in enumerate(loaded)]
     try:

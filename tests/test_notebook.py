@@ -89,3 +89,69 @@ def test_import_linkedit_is_light():
     code = "import sys, linkedit; print('numpy' in sys.modules, 'scipy' in sys.modules)"
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert r.stdout.split() == ["False", "False"]
+
+
+# A four-bar that cannot turn its crank fully (crank 3, coupler 2, rocker 2.5, ground 4): the
+# crank tip reaches the rocker's reach only while |A - D| <= 2 + 2.5, i.e. cos θ >= 0.1979, θ <= 78.58°.
+# It starts at θ = 40° and turns 5° per step (73 steps): step 7 (75°) assembles, step 8 (80°) cannot.
+NON_GRASHOF = """\
+name: short-crank
+units: m
+shapes:
+  crank: {points: {O: [0, 0, 0], A: [2.298133329356934, 1.9283628290596178, 0]}}
+  coupler: {points: {A: [2.298133329356934, 1.9283628290596178, 0], B: [4.2175026795770805, 2.490520544861413, 0]}}
+  rocker: {points: {D: [4, 0, 0], B: [4.2175026795770805, 2.490520544861413, 0]}}
+members: {crank: {shape: crank}, coupler: {shape: coupler}, rocker: {shape: rocker}}
+joints:
+  O: {type: revolute, members: [crank, world], at: [0, 0, 0], axis: [0, 0, 1]}
+  A: {type: revolute, members: [coupler, crank], at: [2.298133329356934, 1.9283628290596178, 0], axis: [0, 0, 1]}
+  B: {type: revolute, members: [rocker, coupler], at: [4.2175026795770805, 2.490520544861413, 0], axis: [0, 0, 1]}
+  D: {type: revolute, members: [rocker, world], at: [4, 0, 0], axis: [0, 0, 1]}
+inputs:
+  drive: {type: orientation, member: crank, rotation: {axis: [0, 0, 1], angles_deg: [0, 360]}}
+outputs: {steps: 73}
+"""
+
+
+def test_solve3d_that_cannot_assemble_raises_naming_the_step_unless_partial(tmp_path):
+    """``le.solve3d`` returned the unassembled least-squares poses of steps 8..72 as a Solution, without
+    a word (the CLI exits 1 there); like ``le.simulate`` it raises unless asked for a partial result."""
+    from linkedit.errors import MechanismError
+
+    spec = tmp_path / "short-crank.yaml"
+    spec.write_text(NON_GRASHOF)
+    with pytest.raises(MechanismError, match=r"short-crank: inconsistent at step 8 \(t = 0\.1111\)"):
+        le.solve3d(spec)
+    partial = le.solve3d(spec, partial=True)
+    status = partial.diagnostics.status
+    reach = np.cos(np.radians(40 + 5 * np.arange(73))) >= (3**2 + 4**2 - 4.5**2) / (2 * 3 * 4)
+    assert np.array_equal(status == 0, reach)  # steps 8..48 fail, the crank is back in reach from 49 (285°)
+    assert np.isfinite(partial.position).all()
+
+
+@pytest.mark.parametrize("call", [
+    lambda: le.simulate(EXAMPLES / "crank-rocker.yaml", 0),       # was the default 360 samples
+    lambda: le.simulate(EXAMPLES / "crank-rocker.yaml", -5),      # was a Motion of 0 samples
+    lambda: le.simulate(EXAMPLES / "crank-rocker.yaml", 2.5),     # was 3 samples
+    lambda: le.solve3d(EXAMPLES / "3d" / "crank-rocker.yaml", steps=0),    # was the spec's 361
+    lambda: le.solve3d(EXAMPLES / "3d" / "crank-rocker.yaml", steps=4.5),
+    lambda: le.features(EXAMPLES / "curves" / "foot-paths.yaml", samples=1),    # was length 0.0 for every curve
+    lambda: le.features(EXAMPLES / "curves" / "foot-paths.yaml", samples=0),    # was the default
+    lambda: le.features(EXAMPLES / "curves" / "foot-paths.yaml", harmonics=-1),  # was numpy's "negative dimensions"
+    lambda: le.features(),                                                       # was KeyError 'pop from an empty set'
+], ids=["simulate-0", "simulate-negative", "simulate-fraction", "solve3d-0", "solve3d-fraction",
+        "features-1-sample", "features-0-samples", "features-negative-harmonics", "features-none"])
+def test_counts_out_of_range_are_input_errors(call):
+    """A count the CLI refuses (``--samples 0``, ``--steps 0``, ``-n 1``, ``--harmonics -1``) is a
+    clear InputError from the library too, naming the argument, not a default or a wrong answer."""
+    from linkedit.errors import InputError
+
+    with pytest.raises(InputError, match=r"samples|steps|harmonics|curve"):
+        call()
+
+
+def test_a_path_argument_that_is_not_a_path_is_a_type_error():
+    """``le.simulate(42)`` read (and closed) file descriptor 42 ('Bad file descriptor' at best)."""
+    for call in (lambda: le.simulate(42), lambda: le.solve3d(7), lambda: le.edit(EXAMPLES / "jansen.yaml", 3)):
+        with pytest.raises(TypeError, match="path"):
+            call()
