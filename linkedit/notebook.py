@@ -172,11 +172,23 @@ def solve3d(spec: str | Path | MechanismSpec, *, steps: int | None = None, solve
     its constraints (as ``linkedit solve3d``), unless ``partial``: then every step is solved and
     ``diagnostics.status`` says which converged.
     """
-    from linkedit.gcs import check_solved, solve_spec
-    from linkedit.spec.yamlload import load_model
+    import yaml
 
-    model = spec if isinstance(spec, MechanismSpec) else load_model(MechanismSpec, spec)
-    res = solve_spec(model, steps=steps, solver=solver, stop_at_failure=not partial)
+    from linkedit.errors import InputError
+    from linkedit.gcs import check_solved, solve_spec
+    from linkedit.spec.yamlload import load_yaml, located, read_text, validate
+
+    if isinstance(spec, MechanismSpec):  # the result records its spec: this one, as YAML
+        model, file, lines = spec, "", None
+        text = yaml.safe_dump(spec.model_dump(mode="json", exclude_defaults=True), sort_keys=False)
+    else:
+        file, text = str(spec), read_text(spec)
+        data, lines = load_yaml(spec, text)
+        model = validate(MechanismSpec, data, file=file, lines=lines)
+    try:
+        res = solve_spec(model, steps=steps, solver=solver, spec_text=text, stop_at_failure=not partial)
+    except InputError as exc:  # found compiling the spec (half-turn keyframes): its field's line
+        raise (exc if lines is None else located(exc, file, lines)) from None
     if not partial:
         check_solved(res)
     return Solution(**{f.name: getattr(res, f.name) for f in dataclasses.fields(res)})

@@ -155,3 +155,24 @@ def test_a_path_argument_that_is_not_a_path_is_a_type_error():
     for call in (lambda: le.simulate(42), lambda: le.solve3d(7), lambda: le.edit(EXAMPLES / "jansen.yaml", 3)):
         with pytest.raises(TypeError, match="path"):
             call()
+
+
+def test_a_solution_written_from_a_notebook_records_its_spec(tmp_path):
+    """Every result file records the spec it came from: a ``le.solve3d`` Solution written with
+    ``linkedit.io.gcs_hdf5.write_result`` had ``spec = ''`` (from a path and from a loaded spec)."""
+    import h5py
+    import yaml
+
+    from linkedit.io.gcs_hdf5 import write_result
+    from linkedit.spec.mechanism3d import MechanismSpec
+    from linkedit.spec.yamlload import load_model, validate
+
+    path = EXAMPLES / "3d" / "rssr.yaml"
+    model = load_model(MechanismSpec, path)
+    for given, out in ((path, tmp_path / "a.h5"), (model, tmp_path / "b.h5")):
+        write_result(out, le.solve3d(given, steps=5))
+        with h5py.File(out) as f:
+            text = f.attrs["spec"]
+        assert validate(MechanismSpec, yaml.safe_load(text), file=str(out)) == model
+    with h5py.File(tmp_path / "a.h5") as f:
+        assert f.attrs["spec"] == path.read_text(encoding="utf-8")
