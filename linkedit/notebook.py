@@ -27,8 +27,9 @@ SpecLike = str | Path | LinkageSpec
 class Motion(_Motion):
     """A simulated planar cycle (:class:`linkedit.planar.Motion`) that shows itself in a notebook.
 
-    Arrays: ``t`` (T,), ``motor_angle`` (T,) rad, ``positions``/``velocity``/``acceleration``
-    (T, J, 2) in the spec's units (derivatives per radian of motor angle), ``tracks[name]``
+    Arrays: ``t`` (T,), ``motor_angle`` (T,) rad (a linear input's stroke, spec units),
+    ``positions``/``velocity``/``acceleration`` (T, J, 2) in the spec's units (derivatives per
+    radian of motor angle, or per unit of stroke), ``tracks[name]``
     with (T, 2) arrays, diagnostics (T, R).
     """
 
@@ -47,26 +48,28 @@ class Motion(_Motion):
         return pd.DataFrame(table, columns=names).set_index("t")
 
     def to_xarray(self) -> Any:
-        """An xarray Dataset with dimensions ``t``, ``joint``, ``xy`` (and ``rule`` for diagnostics)."""
+        """An xarray Dataset with dimensions ``t``, ``joint``, ``xy`` (and ``rule`` for diagnostics);
+        the input is ``motor_angle`` (rad) or, for a linear input, ``stroke`` (the spec's units)."""
         import xarray as xr
 
-        plan = self.plan
+        plan, u = self.plan, self.plan.spec.units
+        per = u if plan.linear else "rad"  # a linear input's stroke, as the HDF5 result names it
         txy = ("t", "joint", "xy")
         data = {
-            "motor_angle": (("t",), self.motor_angle, {"units": "rad"}),
-            "position": (txy, self.positions, {"units": plan.spec.units}),
-            "velocity": (txy, self.velocity, {"units": f"{plan.spec.units}/rad"}),
-            "acceleration": (txy, self.acceleration, {"units": f"{plan.spec.units}/rad**2"}),
+            "stroke" if plan.linear else "motor_angle": (("t",), self.motor_angle, {"units": per}),
+            "position": (txy, self.positions, {"units": u}),
+            "velocity": (txy, self.velocity, {"units": f"{u}/{per}"}),
+            "acceleration": (txy, self.acceleration, {"units": f"{u}/{per}**2"}),
             "singularity": (("t", "rule"), self.singularity, {"units": "1"}),
             "transmission_angle": (("t", "rule"), self.transmission, {"units": "rad"}),
             "assembled": (("t",), self.assembled, {}),
         }
         for name, tr in self.tracks.items():
-            data[f"track_{name}"] = (("t", "xy"), tr.position, {"units": plan.spec.units})
+            data[f"track_{name}"] = (("t", "xy"), tr.position, {"units": u})
         coords = {"t": self.t, "joint": plan.joint_names, "xy": ["x", "y"],
                   "rule": [plan.joint_names[k] for k in plan.table.joints[:, 2]]}
         return xr.Dataset({k: xr.Variable(*v) for k, v in data.items()}, coords=coords,
-                          attrs={"name": plan.spec.name, "units": plan.spec.units})
+                          attrs={"name": plan.spec.name, "units": u})
 
 
 class Edit(EditResult):

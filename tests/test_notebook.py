@@ -176,3 +176,16 @@ def test_a_solution_written_from_a_notebook_records_its_spec(tmp_path):
         assert validate(MechanismSpec, yaml.safe_load(text), file=str(out)) == model
     with h5py.File(tmp_path / "a.h5") as f:
         assert f.attrs["spec"] == path.read_text(encoding="utf-8")
+
+
+def test_xarray_of_a_linear_input_is_its_stroke_in_length_units():
+    """A cylinder-driven linkage's to_xarray() called its stroke (0..25 mm) ``motor_angle`` in rad and
+    its velocities mm/rad; the HDF5 file and CSV have ``stroke`` in mm and velocities per mm."""
+    pytest.importorskip("xarray")
+    m = le.simulate(EXAMPLES / "lifting-arm.yaml", 5)
+    ds = m.to_xarray()
+    assert "motor_angle" not in ds and ds["stroke"].attrs["units"] == "mm"
+    assert np.allclose(ds["stroke"].values, [0, 6.25, 12.5, 18.75, 25])  # motor: stroke [0, 25], 5 samples
+    assert ds["velocity"].attrs["units"] == "mm/mm" and ds["acceleration"].attrs["units"] == "mm/mm**2"
+    rotary = le.simulate(EXAMPLES / "crank-rocker.yaml", 4).to_xarray()
+    assert rotary["motor_angle"].attrs["units"] == "rad" and rotary["velocity"].attrs["units"] == "mm/rad"
