@@ -138,12 +138,15 @@ def load(path: str | Path) -> Motion:
                   for n in f.names("tracks")}
         joints = [f.array(f"joints/{q}", shape=(T, J, 2)) for q in ("position", "velocity", "acceleration")]
         d = "diagnostics"
+        steps = f"{d}/step_singularity"  # sliders' and numeric groups' d_s (T, X), written where the plan has steps
+        step_ds = f.array(steps, shape=(T, len(plan.steps))) if plan.steps and f.has(steps) else None
         return Motion(plan=plan, t=t, motor_angle=f.array("stroke" if plan.linear else "motor_angle", shape=(T,)),
                       positions=joints[0], velocity=joints[1], acceleration=joints[2], tracks=tracks,
                       singularity=f.array(f"{d}/singularity", shape=(T, R)),
                       orientation=f.array(f"{d}/orientation", shape=(T, R), kinds="iu"),
                       transmission=f.array(f"{d}/transmission_angle", shape=(T, R)),
-                      assembled=f.array(f"{d}/assembled", shape=(T,), kinds="biu").astype(bool))
+                      assembled=f.array(f"{d}/assembled", shape=(T,), kinds="biu").astype(bool),
+                      step_singularity=step_ds)
 
 
 def edit(spec: SpecLike, script: str | Path | Mapping[str, Any] | EditScript) -> Edit:

@@ -189,3 +189,15 @@ def test_xarray_of_a_linear_input_is_its_stroke_in_length_units():
     assert ds["velocity"].attrs["units"] == "mm/mm" and ds["acceleration"].attrs["units"] == "mm/mm**2"
     rotary = le.simulate(EXAMPLES / "crank-rocker.yaml", 4).to_xarray()
     assert rotary["motor_angle"].attrs["units"] == "rad" and rotary["velocity"].attrs["units"] == "mm/rad"
+
+
+def test_load_reads_the_slider_and_group_singularities_back(run_cli, tmp_path):
+    """le.load left out the file's /diagnostics/step_singularity, so a slider-crank read back lost
+    its slider's d_s: no ``min d_s`` in its summary, and rule_ds() all 1 where the slider's rod
+    comes nearest the slot normal (d_s 0.791 at 36 samples)."""
+    for spec in ("slider-crank.yaml", "complex-loop.yaml"):
+        out = tmp_path / spec.replace(".yaml", ".h5")
+        assert run_cli("simulate", EXAMPLES / spec, "-o", out, "-n", "36", "-q").exit_code == 0
+        m, back = le.simulate(EXAMPLES / spec, 36), le.load(out)
+        assert m.step_singularity is not None and np.array_equal(back.step_singularity, m.step_singularity)
+        assert repr(back) == repr(m) and back.summary() == m.summary()
