@@ -27,8 +27,9 @@ SpecLike = str | Path | LinkageSpec
 class Motion(_Motion):
     """A simulated planar cycle (:class:`linkedit.planar.Motion`) that shows itself in a notebook.
 
-    Arrays: ``t`` (T,), ``motor_angle`` (T,) rad, ``positions``/``velocity``/``acceleration``
-    (T, J, 2) in the spec's units (derivatives per radian of motor angle), ``tracks[name]``
+    Arrays: ``t`` (T,), ``motor_angle`` (T,) rad (a linear input's stroke, spec units),
+    ``positions``/``velocity``/``acceleration`` (T, J, 2) in the spec's units (derivatives per
+    radian of motor angle, or per unit of stroke), ``tracks[name]``
     with (T, 2) arrays, diagnostics (T, R).
     """
 
@@ -47,26 +48,28 @@ class Motion(_Motion):
         return pd.DataFrame(table, columns=names).set_index("t")
 
     def to_xarray(self) -> Any:
-        """An xarray Dataset with dimensions ``t``, ``joint``, ``xy`` (and ``rule`` for diagnostics)."""
+        """An xarray Dataset with dimensions ``t``, ``joint``, ``xy`` (and ``rule`` for diagnostics);
+        the input is ``motor_angle`` (rad) or, for a linear input, ``stroke`` (the spec's units)."""
         import xarray as xr
 
-        plan = self.plan
+        plan, u = self.plan, self.plan.spec.units
+        per = u if plan.linear else "rad"  # a linear input's stroke, as the HDF5 result names it
         txy = ("t", "joint", "xy")
         data = {
-            "motor_angle": (("t",), self.motor_angle, {"units": "rad"}),
-            "position": (txy, self.positions, {"units": plan.spec.units}),
-            "velocity": (txy, self.velocity, {"units": f"{plan.spec.units}/rad"}),
-            "acceleration": (txy, self.acceleration, {"units": f"{plan.spec.units}/rad**2"}),
+            "stroke" if plan.linear else "motor_angle": (("t",), self.motor_angle, {"units": per}),
+            "position": (txy, self.positions, {"units": u}),
+            "velocity": (txy, self.velocity, {"units": f"{u}/{per}"}),
+            "acceleration": (txy, self.acceleration, {"units": f"{u}/{per}**2"}),
             "singularity": (("t", "rule"), self.singularity, {"units": "1"}),
             "transmission_angle": (("t", "rule"), self.transmission, {"units": "rad"}),
             "assembled": (("t",), self.assembled, {}),
         }
         for name, tr in self.tracks.items():
-            data[f"track_{name}"] = (("t", "xy"), tr.position, {"units": plan.spec.units})
+            data[f"track_{name}"] = (("t", "xy"), tr.position, {"units": u})
         coords = {"t": self.t, "joint": plan.joint_names, "xy": ["x", "y"],
                   "rule": [plan.joint_names[k] for k in plan.table.joints[:, 2]]}
         return xr.Dataset({k: xr.Variable(*v) for k, v in data.items()}, coords=coords,
-                          attrs={"name": plan.spec.name, "units": plan.spec.units})
+                          attrs={"name": plan.spec.name, "units": u})
 
 
 class Edit(EditResult):
@@ -135,12 +138,15 @@ def load(path: str | Path) -> Motion:
                   for n in f.names("tracks")}
         joints = [f.array(f"joints/{q}", shape=(T, J, 2)) for q in ("position", "velocity", "acceleration")]
         d = "diagnostics"
+        steps = f"{d}/step_singularity"  # sliders' and numeric groups' d_s (T, X), written where the plan has steps
+        step_ds = f.array(steps, shape=(T, len(plan.steps))) if plan.steps and f.has(steps) else None
         return Motion(plan=plan, t=t, motor_angle=f.array("stroke" if plan.linear else "motor_angle", shape=(T,)),
                       positions=joints[0], velocity=joints[1], acceleration=joints[2], tracks=tracks,
                       singularity=f.array(f"{d}/singularity", shape=(T, R)),
                       orientation=f.array(f"{d}/orientation", shape=(T, R), kinds="iu"),
                       transmission=f.array(f"{d}/transmission_angle", shape=(T, R)),
-                      assembled=f.array(f"{d}/assembled", shape=(T,), kinds="biu").astype(bool))
+                      assembled=f.array(f"{d}/assembled", shape=(T,), kinds="biu").astype(bool),
+                      step_singularity=step_ds)
 
 
 def edit(spec: SpecLike, script: str | Path | Mapping[str, Any] | EditScript) -> Edit:
@@ -163,30 +169,50 @@ def edit(spec: SpecLike, script: str | Path | Mapping[str, Any] | EditScript) ->
     return out
 
 
-def solve3d(spec: str | Path | MechanismSpec, *, steps: int | None = None, solver: str = "lm") -> Solution:
+def solve3d(spec: str | Path | MechanismSpec, *, steps: int | None = None, solver: str = "lm",
+            partial: bool = False) -> Solution:
     """Solve a 3D mechanism (YAML path or :class:`~linkedit.spec.mechanism3d.MechanismSpec`) at every step.
 
     Returns a :class:`Solution` (a :class:`~linkedit.gcs.result.GcsResult` that draws itself).
+    Raises :class:`~linkedit.errors.MechanismError` at the first step that does not converge, naming
+    its constraints (as ``linkedit solve3d``), unless ``partial``: then every step is solved and
+    ``diagnostics.status`` says which converged.
     """
-    from linkedit.gcs import solve_spec
-    from linkedit.spec.yamlload import load_model
+    import yaml
 
-    model = spec if isinstance(spec, MechanismSpec) else load_model(MechanismSpec, spec)
-    res = solve_spec(model, steps=steps, solver=solver)
+    from linkedit.errors import InputError
+    from linkedit.gcs import check_solved, solve_spec
+    from linkedit.spec.yamlload import load_yaml, located, read_text, validate
+
+    if isinstance(spec, MechanismSpec):  # the result records its spec: this one, as YAML
+        model, file, lines = spec, "", None
+        text = yaml.safe_dump(spec.model_dump(mode="json", exclude_defaults=True), sort_keys=False)
+    else:
+        file, text = str(spec), read_text(spec)
+        data, lines = load_yaml(spec, text)
+        model = validate(MechanismSpec, data, file=file, lines=lines)
+    try:
+        res = solve_spec(model, steps=steps, solver=solver, spec_text=text, stop_at_failure=not partial)
+    except InputError as exc:  # found compiling the spec (half-turn keyframes): its field's line
+        raise (exc if lines is None else located(exc, file, lines)) from None
+    if not partial:
+        check_solved(res)
     return Solution(**{f.name: getattr(res, f.name) for f in dataclasses.fields(res)})
 
 
 def features(*curves: str, samples: int | None = None, harmonics: int | None = None) -> Any:
     """Features of motion curves (inputs as for ``linkedit features``: ``result.h5:track``, .csv, curve sets).
 
-    Returns a pandas DataFrame (one row per curve) if pandas is installed, else a list of dicts.
+    ``samples`` in [8, 4096], ``harmonics`` in [1, 64] (else InputError). Returns a pandas DataFrame
+    (one row per curve) if pandas is installed, else a list of dicts.
     """
     from linkedit.curves.compare import describe_curves
     from linkedit.curves.descriptors import DEFAULT_HARMONICS, DEFAULT_SAMPLES
     from linkedit.curves.sources import load_inputs
 
     loaded = load_inputs([str(c) for c in curves])
-    desc = describe_curves(loaded, samples=samples or DEFAULT_SAMPLES, harmonics=harmonics or DEFAULT_HARMONICS)
+    desc = describe_curves(loaded, samples=DEFAULT_SAMPLES if samples is None else samples,
+                           harmonics=DEFAULT_HARMONICS if harmonics is None else harmonics)
     rows = [{"name": c.name, "closed": bool(c.closed)} | {n: float(v) for n, v in zip(desc.names, desc.features[i])}
             for i, c in enumerate(loaded)]
     try:

@@ -18,12 +18,18 @@ from linkedit.curves.smooth import smooth as smooth_curve
 from linkedit.curves.learn import Inseparable, LearnedWeights, learn_weights
 from linkedit.curves.sources import Curve
 from linkedit.errors import InputError
+from linkedit.spec.common import HARMONICS_RANGE, SAMPLES_RANGE, require_count
 
 
 def describe_curves(curves: list[Curve], *, samples: int = DEFAULT_SAMPLES, harmonics: int = DEFAULT_HARMONICS,
                     anchor: np.ndarray | None = None, smooth: float = 0.0) -> Descriptors:
     """Describe loaded curves (all 2D or all 3D); ``anchor`` applies to curves without their own;
-    ``smooth`` > 0 smooths every curve first (σ as a fraction of its points, :mod:`linkedit.curves.smooth`)."""
+    ``smooth`` > 0 smooths every curve first (σ as a fraction of its points, :mod:`linkedit.curves.smooth`).
+    InputError for no curves, or ``samples`` / ``harmonics`` outside the CLI's ranges (``specs/curve-set.md``)."""
+    if not curves:
+        raise InputError("no curves to describe: give at least one curve")
+    require_count(samples, "samples", *SAMPLES_RANGE)
+    require_count(harmonics, "harmonics", *HARMONICS_RANGE)
     dims = {c.points.shape[1] for c in curves}
     if len(dims) > 1:
         two = next(c for c in curves if c.points.shape[1] == 2)

@@ -8,13 +8,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from linkedit.errors import InputError, MechanismError
+from linkedit.errors import MechanismError
 from linkedit.gcs.diagnostics import run_diagnostics
 from linkedit.gcs.members import compile_mechanism
 from linkedit.gcs.result import GcsResult
 from linkedit.gcs.solve import Run, solve_run
 from linkedit.gcs.tolerances import CONVERGED, STATUS_NAMES, Options
 from linkedit.gcs.system import System
+from linkedit.spec.common import require_count
 from linkedit.spec.mechanism3d import MAX_STEPS, MechanismSpec
 
 
@@ -32,9 +33,7 @@ def solve_spec(spec: MechanismSpec, *, steps: int | None = None, solver: str = "
 
     Raises :class:`MechanismError` when a step's state or residual is not finite (overflow):
     a result never holds NaN or inf."""
-    steps = steps or spec.outputs.steps
-    if not 2 <= steps <= MAX_STEPS:
-        raise InputError(f"steps must be between 2 and {MAX_STEPS:,}, not {steps:,}", field="steps")
+    steps = spec.outputs.steps if steps is None else require_count(steps, "steps", 2, MAX_STEPS)
     system, tracks = compile_mechanism(spec, allow_python=allow_python)
     t = np.linspace(0.0, 1.0, steps)
     table = system.step_table(t)

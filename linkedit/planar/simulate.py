@@ -18,6 +18,7 @@ from linkedit.planar.feasibility import CHECK_SAMPLES, TOGGLE, assembles, lowest
 from linkedit.planar.kinematics import State, evaluate
 from linkedit.planar.plan import Geometry, Plan, compile_plan
 from linkedit.planar.rules import Failure
+from linkedit.spec.common import require_count
 from linkedit.spec.linkage import LinkageSpec, Motor
 
 DEFAULT_SAMPLES = 360
@@ -235,7 +236,8 @@ def _unit(plan: Plan) -> str:
 
 def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial: bool = False,
              geometry: Geometry | None = None, phases: np.ndarray | None = None) -> Motion:
-    """Simulate one motor cycle with ``samples`` samples (default: the spec's, else 360), or at the
+    """Simulate one motor cycle with ``samples`` samples (a whole number ≥ 1, else InputError;
+    default: the spec's, else 360), or at the
     motor phases ``phases`` (T,), increasing from 0 within the cycle.
 
     With ``partial=True`` a linkage that locks up somewhere is still returned; its positions
@@ -245,7 +247,10 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
     """
     plan = linkage if isinstance(linkage, Plan) else compile_plan(linkage)
     spec = plan.spec
-    samples = len(phases) if phases is not None else samples or spec.samples or DEFAULT_SAMPLES
+    if phases is not None:
+        samples = len(phases)
+    else:
+        samples = spec.samples or DEFAULT_SAMPLES if samples is None else require_count(samples, "samples", 1)
     t, value = motor_angles(spec, samples, phases)
     if geometry is None:
         geom, origin, scale = Geometry.of(plan, plan.normalized_points()), plan.origin, plan.scale

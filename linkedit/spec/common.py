@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Callable
 from typing import Annotated
 
 import pydantic
+
+from linkedit.errors import InputError
 
 #: Every spec model: unknown keys are errors, NaN/inf are errors, models are immutable.
 STRICT = pydantic.ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
@@ -14,6 +17,8 @@ STRICT = pydantic.ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
 Finite = Annotated[float, pydantic.Strict(), pydantic.Field(allow_inf_nan=False)]
 #: A whole number (sample counts, sizes); booleans and 3.0 are errors (strict).
 Count = Annotated[int, pydantic.Strict()]
+#: Sample counts of a curve's descriptors (``--samples``) and its elliptic Fourier harmonics (``--harmonics``).
+SAMPLES_RANGE, HARMONICS_RANGE = (8, 4096), (1, 64)
 #: Largest weight of an objective or distance term: beyond it, sums of squares overflow.
 MAX_WEIGHT = 1e12
 Vec2 = tuple[Finite, Finite]
@@ -56,3 +61,16 @@ class SpecModel(pydantic.BaseModel):
     """Base of every spec model."""
 
     model_config = STRICT
+
+
+def require_count(value: object, field: str, low: int, high: int | None = None) -> int:
+    """``value`` as a whole number in [low, high] (a library caller's count, as the CLI's options
+    check theirs); InputError naming ``field`` otherwise: 0, 2.5 or True is not a count."""
+    try:
+        count = operator.index(value) if not isinstance(value, bool) else None  # type: ignore[arg-type]
+    except TypeError:
+        count = None
+    if count is None or count < low or (high is not None and count > high):
+        span = f"between {low:,} and {high:,}" if high is not None else f"at least {low:,}"
+        raise InputError(f"{field} must be a whole number {span}, not {value!r}", field=field)
+    return count

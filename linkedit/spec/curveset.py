@@ -12,12 +12,12 @@ from typing import Annotated
 import pydantic
 
 from linkedit.errors import InputError
-from linkedit.spec.common import MAX_WEIGHT, Count, Finite, Name, SpecModel
+from linkedit.spec.common import HARMONICS_RANGE, MAX_WEIGHT, SAMPLES_RANGE, Count, Finite, Name, SpecModel
 
 NonNegative = Annotated[float, pydantic.Strict(), pydantic.Field(ge=0.0, allow_inf_nan=False)]
 Weight = Annotated[float, pydantic.Strict(), pydantic.Field(ge=0.0, le=MAX_WEIGHT, allow_inf_nan=False)]
-Samples = Annotated[Count, pydantic.Field(ge=8, le=4096)]
-Harmonics = Annotated[Count, pydantic.Field(ge=1, le=64)]
+Samples = Annotated[Count, pydantic.Field(ge=SAMPLES_RANGE[0], le=SAMPLES_RANGE[1])]
+Harmonics = Annotated[Count, pydantic.Field(ge=HARMONICS_RANGE[0], le=HARMONICS_RANGE[1])]
 
 #: Term names of the curve distance (per-curve features and pairwise terms, 2D and 3D).
 TERMS = ("length", "area", "ellipticity", "area_xy", "area_yz", "area_xz", "ellipticity_xy", "ellipticity_yz",

@@ -78,7 +78,10 @@ def _walk(loader: SpecLoader, node: yaml.Node, path: Path_, lines: LineMap, file
 
 
 def require_regular_file(source: str | Path) -> os.stat_result:
-    """Stat an input file; InputError unless it is a regular file (a FIFO or device would hang or never end)."""
+    """Stat an input file; InputError unless it is a regular file (a FIFO or device would hang or never end).
+    TypeError for a ``source`` that is not a path (os.stat would take an int as an open file descriptor)."""
+    if not isinstance(source, (str, os.PathLike)):
+        raise TypeError(f"expected a file path (str or pathlib.Path), not {type(source).__name__}: {source!r}")
     try:
         info = os.stat(source)
     except OSError as exc:
