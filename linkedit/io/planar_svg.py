@@ -36,16 +36,17 @@ def drawing(motion: Motion) -> dict[str, Any]:
     kept = np.flatnonzero(ok)
     breaks = [int(i) for i in np.flatnonzero(np.diff(kept) > 1) + 1]
     notes = []
-    degrees = np.degrees(motion.motor_angle)
+
+    def near(value: float) -> int:  # the sample nearest to an input (a lock-up between the samples)
+        if plan.linear:
+            return int(np.argmin(np.abs(motion.motor_angle - value)))
+        return int(np.argmin(np.abs((np.degrees(motion.motor_angle) - value + 180.0) % 360.0 - 180.0)))
+
     for lk in motion.lockups:  # mark the assembled samples either side of each locked run
-
-        def at(deg: float) -> int:
-            return int(np.argmin(np.abs((degrees - deg + 180.0) % 360.0 - 180.0)))
-
-        first, last = at(lk.start_deg), at(lk.end_deg)
+        first, last = lk.run if lk.run is not None else (near(lk.start_deg), near(lk.end_deg))
         notes.append((int(np.searchsorted(kept, first)) - 1 if first > kept[0] else len(kept) - 1,
-                      f"locks at {lk.start_deg:.1f}° ({lk.joint})"))
-        notes.append((int(np.searchsorted(kept, last)) % len(kept), f"free again after {lk.end_deg:.1f}°"))
+                      f"locks at {lk.show(lk.start_deg)} ({lk.joint})"))
+        notes.append((int(np.searchsorted(kept, last)) % len(kept), f"free again after {lk.show(lk.end_deg)}"))
     return dict(
         joint_names=names, positions=positions, links=links,
         ground=list(plan.graph.ground), motor=None if plan.linear else (plan.graph.motor, plan.graph.pivot),
