@@ -377,8 +377,9 @@ def _toggles_passed(plan: Plan, pn: np.ndarray, ds: np.ndarray, shown: np.ndarra
     return out
 
 
-#: halvings of the phase between the last assembled and the first failing sample (2^-52 of it)
-BISECTIONS = 52
+#: a lock-up's edge is bracketed between its last assembled and first failing sample, and each
+#: bracket is cut in SPLIT pieces REFINES times (to 2^-54 of it: the rounding of the phase)
+SPLIT, REFINES = 64, 9
 
 
 def _edges(plan: Plan, geom: Geometry, scale: float, t: np.ndarray) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, bool]]:
@@ -387,7 +388,7 @@ def _edges(plan: Plan, geom: Geometry, scale: float, t: np.ndarray) -> Callable[
     Each run's start lies between its first failing sample and the assembled one before it, its
     end between its last and the one after (a full cycle wraps; a sweep's end bounds its run):
     the phase where it stops assembling (every d_s above TOGGLE, :func:`_assembled`) is found by
-    bisection on the same evaluator, all boundaries in one batch per halving. A plan with numeric
+    cutting the bracket (:data:`SPLIT`) on the same evaluator, all boundaries in one batch per cut. A plan with numeric
     groups is continued from the rest pose and cannot be restarted between two samples: its
     edges are the assembled samples either side (not exact). A swing (``oscillate_deg``) turns
     back inside a run that holds phase 0 or ½."""
@@ -404,14 +405,16 @@ def _edges(plan: Plan, geom: Geometry, scale: float, t: np.ndarray) -> Callable[
         good = np.stack([t[prev % count] - (prev < 0), t[after % count] + (after >= count)], axis=1)
         inside = cyclic | np.stack([prev >= 0, after < count], axis=1)  # else the sweep's end bounds the run
         phase = np.where(inside, good, bad)
-        if not plan.has_groups:
+        if not plan.has_groups and inside.any():
             lo, hi = good[inside], bad[inside]
-            for _ in range(BISECTIONS):
-                mid = 0.5 * (lo + hi)
-                value = motor_angles(spec, count, mid)[1]
+            cut = np.arange(1, SPLIT) / SPLIT
+            for _ in range(REFINES):  # each bracket cut in SPLIT: the first failing piece is kept
+                at = lo[:, None] + (hi - lo)[:, None] * cut  # (B, SPLIT − 1)
+                value = motor_angles(spec, count, at.ravel())[1]
                 state = evaluate(plan, geom, value / scale if plan.linear else value, order=0)
-                ok = _assembled(_joint_order(plan, state.z), state.ds.T)
-                lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
+                ok = np.c_[_assembled(_joint_order(plan, state.z), state.ds.T).reshape(at.shape), np.zeros(len(lo), bool)]
+                k = ok.argmin(axis=1)  # the first failing point (SPLIT − 1: hi itself)
+                lo, hi = np.where(k > 0, at[np.arange(len(lo)), k - 1], lo), np.c_[at, hi][np.arange(len(lo)), k]
             phase[inside] = 0.5 * (lo + hi)
         turns = np.full(len(run), np.nan)
         if spec.motor.oscillate_deg is not None:
