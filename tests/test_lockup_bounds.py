@@ -79,3 +79,23 @@ def test_a_swing_reports_where_it_locks_and_its_exact_turn(run_cli, tmp_path):
     found = re.search(r"motor angles ([\d.]+)°…([\d.]+)°…([\d.]+)°: slider piston", r.output)
     assert found, r.output
     assert [float(g) for g in found.groups()] == [round(180 + SLIDER_EDGE, 1), 250.0, round(180 + SLIDER_EDGE, 1)]
+
+
+@pytest.mark.parametrize(("sweep", "locks", "frees"), [("[180, 340]", True, True), ("[230, 340]", False, True),
+                                                      ("[180, 300]", True, False)])
+def test_a_sweeps_picture_marks_only_the_edges_inside_it(run_cli, tmp_path, sweep, locks, frees):
+    """A sweep that starts locked does not lock there, and one locked to its end never frees: the picture
+    said "free again after 300.0°" at the rest pose for a sweep locked from 220.5° to its end."""
+    path, pic = tmp_path / "sweep.yaml", tmp_path / "s.svg"
+    path.write_text(SLIDER.read_text().replace("motor: {joint: A, pivot: O}",
+                                               f"motor: {{joint: A, pivot: O, range_deg: {sweep}}}"))
+    assert run_cli("simulate", path, "-n", "9", "--partial", "-o", tmp_path / "s.h5", "--svg", pic).exit_code == 0
+    svg = pic.read_text()
+    assert ("locks at 220.5° (B)" in svg) is locks and ("locks" in svg) is locks
+    assert ("free again after 319.5°" in svg) is frees and ("free again" in svg) is frees
+
+
+def test_a_clockwise_crank_reports_its_lock_up_in_its_own_angles():
+    text = SLIDER.read_text().replace("motor: {joint: A, pivot: O}", "motor: {joint: A, pivot: O, direction: cw}")
+    (lk,) = simulate(load_model(LinkageSpec, "cw.yaml", text), 8, partial=True).lockups
+    assert abs(lk.start_deg + SLIDER_EDGE) < 1e-9 and abs(lk.end_deg + (180 - SLIDER_EDGE)) < 1e-9

@@ -18,7 +18,9 @@ def drawing(motion: Motion) -> dict[str, Any]:
 
     A point tracked on a link is drawn as part of its link (an extra corner of the link's
     plate); sliders are drawn as rails, slots and blocks; where the linkage is locked (``--partial``) the curves break and the lock-up
-    angles are marked (a full cycle's curves run on from its last sample into its first).
+    angles are marked: where it locks and frees (a numeric group's: the assembled samples either side, "locks after", "free
+    again by"); a sweep's run from its start or to its end has no such mark there (a full cycle's curves run on from its last
+    sample into its first).
     """
     plan = motion.plan
     ok = motion.assembled
@@ -43,10 +45,13 @@ def drawing(motion: Motion) -> dict[str, Any]:
         return int(np.argmin(np.abs((np.degrees(motion.motor_angle) - value + 180.0) % 360.0 - 180.0)))
 
     for lk in motion.lockups:  # mark the assembled samples either side of each locked run
+        at, free = ("at", "after") if lk.exact else ("after", "by")
         first, last = lk.run if lk.run is not None else (near(lk.start_deg), near(lk.end_deg))
-        notes.append((int(np.searchsorted(kept, first)) - 1 if first > kept[0] else len(kept) - 1,
-                      f"locks at {lk.show(lk.start_deg)} ({lk.joint})"))
-        notes.append((int(np.searchsorted(kept, last)) % len(kept), f"free again after {lk.show(lk.end_deg)}"))
+        if motion.cyclic or first > 0:  # (a sweep that starts locked does not lock: it starts so)
+            notes.append((int(np.searchsorted(kept, first)) - 1 if first > kept[0] else len(kept) - 1,
+                          f"locks {at} {lk.show(lk.start_deg)} ({lk.joint})"))
+        if motion.cyclic or last < ok.size - 1:  # (nor is one locked to its end ever free again)
+            notes.append((int(np.searchsorted(kept, last)) % len(kept), f"free again {free} {lk.show(lk.end_deg)}"))
     return dict(
         joint_names=names, positions=positions, links=links,
         ground=list(plan.graph.ground), motor=None if plan.linear else (plan.graph.motor, plan.graph.pivot),
