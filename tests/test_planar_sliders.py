@@ -265,6 +265,7 @@ def test_linear_input_result_file_has_the_stroke(run_cli, tmp_path):
     out = tmp_path / "arm.h5"
     r = run_cli("simulate", EXAMPLES / "lifting-arm.yaml", "-o", out, "--samples", "11", "--svg", tmp_path / "arm.svg")
     assert r.exit_code == 0, r.output
+    assert "(joint Q at stroke 0 mm)" in r.output  # the stroke's unit (was "at stroke 0")
     with h5py.File(out) as f:
         assert f.attrs["input"] == "linear" and "motor_angle" not in f
         assert np.allclose(f["stroke"][()], np.linspace(0, 25, 11))

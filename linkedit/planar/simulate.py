@@ -129,7 +129,8 @@ class Motion:
     def summary(self) -> dict:
         """Key figures for printing or JSON."""
         out: dict = {
-            "name": self.plan.spec.name, "samples": int(self.t.size), "joints": self.plan.n_joints,
+            "name": self.plan.spec.name, "units": self.plan.spec.units, "samples": int(self.t.size),
+            "joints": self.plan.n_joints,
             "rules": int(len(self.plan.table.joints) + len(self.plan.steps)),
             "levels": int(self.plan.levels),
             "mobility": self.plan.mobility.rank, "assembled": bool(self.assembled.all()),
