@@ -33,8 +33,8 @@ class LockUp:
     stretched: bool  #: True: the known joints are too far apart; False: too close
     what: str = ""  #: for slider and group rules: why the joint(s) cannot be placed
     unit: str = "°"  #: unit of start/end: "°" (motor angle) or the spec's units (linear input)
-    #: where a rocker input (``oscillate_deg``) turns back inside the run: the furthest angle it
-    #: reaches there (None: the input runs one way from start to end)
+    #: where a rocker input (``oscillate_deg``) turns back inside the run: the end of its swing
+    #: (None: the input runs one way from start to end)
     turn_deg: float | None = None
     exact: bool = True  #: see the class
     #: the failing run's first and last sample (indices into the motion's samples; None: the run
@@ -60,7 +60,7 @@ class LockUp:
         return f"joint {self.joint} cannot be placed ({i} and {j} are {how} for its links)"
 
 
-def runs(mask: np.ndarray, cyclic: bool) -> list[tuple[int, int]]:
+def _runs(mask: np.ndarray, cyclic: bool) -> list[tuple[int, int]]:
     """Inclusive (start, end) index runs of True in ``mask``; a run may wrap when ``cyclic``."""
     idx = np.flatnonzero(mask)
     if idx.size == 0:
@@ -88,7 +88,7 @@ def lockups(bad: np.ndarray, own: np.ndarray, cyclic: bool,
     """
     failing = np.asarray(bad.any(axis=1))
     first = np.where(own.any(axis=1), own.argmax(axis=1), bad.argmax(axis=1))
-    found = runs(failing, cyclic)
+    found = _runs(failing, cyclic)
     ends, turns, exact = edges(np.array(found, dtype=int).reshape(-1, 2))
     out = []
     for (s, e), (start, end), turn in zip(found, ends, turns):
