@@ -40,6 +40,7 @@ def test_a_coarse_partial_simulation_reports_the_exact_lock_up_everywhere_it_is_
         assert f["diagnostics/assembled"][()].tolist() == [True] * 5 + [False] * 3  # 225°, 270°, 315°
     svg = pic.read_text()
     assert "locks at 220.5°" in svg and "free again after 319.5°" in svg
+    assert "locking-slider-crank (5 of 8 samples assembled)" in svg  # was "(5 samples)", as if 5 were asked
     r = run_cli("simulate", SLIDER, "-n", "8", "-o", tmp_path / "x.h5")
     assert r.exit_code == 1 and want in r.output, r.output
     r = run_cli("validate", SLIDER, "-n", "8")

@@ -56,9 +56,15 @@ def drawing(motion: Motion) -> dict[str, Any]:
         joint_names=names, positions=positions, links=links,
         ground=list(plan.graph.ground), motor=None if plan.linear else (plan.graph.motor, plan.graph.pivot),
         tracks={n: tr.position[ok] for n, tr in motion.tracks.items()},
-        units=plan.spec.units, title=f"{plan.spec.name} ({int(np.sum(ok))} samples)", breaks=breaks, notes=notes,
+        units=plan.spec.units, title=f"{plan.spec.name} ({_count(ok)})", breaks=breaks, notes=notes,
         sliders=slides.from_graph(plan.graph, positions[0]), wrap=motion.cyclic and bool(ok[0] and ok[-1]),
     )
+
+
+def _count(ok: np.ndarray) -> str:
+    """The samples drawn, in words: ``360 samples``, or ``5 of 8 samples assembled`` (``--partial``)."""
+    kept = int(np.sum(ok))
+    return f"{kept} of {ok.size} samples assembled" if kept < ok.size else f"{ok.size} sample" + "s" * (ok.size != 1)
 
 
 def draw_gif(path: str | Path, motion: Motion) -> None:
