@@ -100,3 +100,16 @@ def test_a_clockwise_crank_reports_its_lock_up_in_its_own_angles():
     text = SLIDER.read_text().replace("motor: {joint: A, pivot: O}", "motor: {joint: A, pivot: O, direction: cw}")
     (lk,) = simulate(load_model(LinkageSpec, "cw.yaml", text), 8, partial=True).lockups
     assert abs(lk.start_deg + SLIDER_EDGE) < 1e-9 and abs(lk.end_deg + (180 - SLIDER_EDGE)) < 1e-9
+
+
+def test_the_picture_marks_the_samples_next_to_each_lock_up():
+    """Locked samples (-n 8: 225°, 270°, 315°): the marks are on the assembled samples either side,
+    180° and 0°. A lock-up between samples (the four-bar NARROW, 166.8°…193.2°, -n 7 every 51.4°):
+    on the samples nearest to its ends, 154.3° and 205.7° (the first mark was a sample early, 102.9°)."""
+    from linkedit.io.planar_svg import drawing
+    from tests.test_planar_scale import NARROW
+
+    slider = drawing(simulate(load_model(LinkageSpec, SLIDER), 8, partial=True))
+    assert slider["notes"] == [(4, "locks at 220.5° (B)"), (0, "free again after 319.5°")]
+    narrow = drawing(simulate(load_model(LinkageSpec, "narrow.yaml", NARROW), 7, partial=True))
+    assert narrow["notes"] == [(3, "locks at 166.8° (B)"), (4, "free again after 193.2°")]

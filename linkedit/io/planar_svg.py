@@ -46,7 +46,11 @@ def drawing(motion: Motion) -> dict[str, Any]:
 
     for lk in motion.lockups:  # mark the assembled samples either side of each locked run
         at, free = ("at", "after") if lk.exact else ("after", "by")
-        first, last = lk.run if lk.run is not None else (near(lk.start_deg), near(lk.end_deg))
+        if lk.run is None:  # between the samples, which all assemble: at the samples nearest to it
+            notes += [(int(np.searchsorted(kept, near(lk.start_deg))), f"locks {at} {lk.show(lk.start_deg)} ({lk.joint})"),
+                      (int(np.searchsorted(kept, near(lk.end_deg))), f"free again {free} {lk.show(lk.end_deg)}")]
+            continue
+        first, last = lk.run
         if motion.cyclic or first > 0:  # (a sweep that starts locked does not lock: it starts so)
             notes.append((int(np.searchsorted(kept, first)) - 1 if first > kept[0] else len(kept) - 1,
                           f"locks {at} {lk.show(lk.start_deg)} ({lk.joint})"))
