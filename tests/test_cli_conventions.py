@@ -85,7 +85,7 @@ def test_quiet_prints_the_errors_and_nothing_else(run_cli, tmp_path):
     locking = EXAMPLES / "invalid" / "locking-slider-crank.yaml"
     failures = [
         (("validate", locking), 1, "locking-slider-crank.yaml: locks up: the linkage cannot be assembled for motor "
-                                   "angles 221.0°…319.0°: slider piston cannot place joint B"),
+                                   "angles 220.5°…319.5°: slider piston cannot place joint B"),  # 180° ± asin(13/20) from 0°, 360°
         (("validate", EXAMPLES / "crank-rocker.yaml", bad), 2, "bad.yaml:3: malformed YAML"),
         (("simulate", locking, "-o", tmp_path / "l.h5"), 1, "slider piston cannot place joint B"),
         (("simulate", EXAMPLES / "crank-rocker.yaml", "--samples", "0"), 2, "--samples: must be ≥ 1"),

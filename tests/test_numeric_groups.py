@@ -115,7 +115,10 @@ def test_a_group_that_locks_up_inside_the_cycle_fails_at_the_first_sample_past_i
     assert np.abs(z[:fold][:, [names.index(k) for k in group]] - ref[:fold]).max() <= 1e-12 * size_of(spec)
     assert link_lengths_kept(spec, names, z[:fold]) <= 1e-9 * size_of(spec)
     (lock,) = m.lockups
-    assert f"motor angles {np.degrees(m.motor_angle[fold]):.1f}°" in lock.describe()
+    # the fold lies between the last assembled sample and the first failing one: the interval
+    # reported holds it (a group's continuation cannot restart between the samples to find it)
+    assert f"motor angles within {np.degrees(m.motor_angle[fold - 1]):.1f}°…" in lock.describe()
+    assert lock.run == (fold, samples - 1) and not lock.exact
     assert "the numeric group T1, T2, T3 cannot be assembled on its rest-pose branch" in lock.describe()
 
 

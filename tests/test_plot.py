@@ -156,3 +156,57 @@ def test_no_attribute_of_a_partial_result_plot_is_nan_and_lines_break_at_the_gap
     # the 125°…235° gap splits every curve of the position panel into a run before and a run after it
     lines = _panel(root, "position").findall(".//s:polyline[@class='series']", NS)
     assert len(lines) == 2 * len({line.get("data-name") for line in lines})
+
+
+def _values(root, panel_name, series):
+    """The drawn values of one series of a panel (pixels mapped back through its ticks)."""
+    panel = _panel(root, panel_name)
+    y_of = _y_map(panel)
+    lo, hi = y_of(0.0), y_of(1.0)
+    return (_series(panel, series)[:, 1] - lo) / (hi - lo)
+
+
+@pytest.mark.parametrize("direction", ["ccw", "cw"])
+def test_a_crank_pins_derivatives_per_second_and_jerk_follow_its_direction(run_cli, tmp_path, direction):
+    """The crank pin A = 25 (cos θ, sin θ) mm at θ = ±ωt (ω = 2π/s at 60 rpm, c = ωt the crank angle
+    from rest): dA/dt = ±25ω (−sin θ, cos θ), d³A/dθ³ = 25 (sin θ, −cos θ). A clockwise crank's
+    velocity per second was drawn with the sign of a counter-clockwise one, and its jerk per radian
+    (the difference of the accelerations over the samples) with the opposite sign."""
+    spec = tmp_path / "crank.yaml"
+    spec.write_text((EXAMPLES / "crank-rocker.yaml").read_text().replace(
+        "motor: {joint: A, pivot: O}", f"motor: {{joint: A, pivot: O, direction: {direction}}}"))
+    h5, rad, sec = tmp_path / "c.h5", tmp_path / "rad.svg", tmp_path / "sec.svg"
+    assert run_cli("simulate", spec, "-o", h5, "-n", "720").exit_code == 0
+    assert run_cli("plot", h5, "--joint", "A", "-o", rad).exit_code == 0
+    assert run_cli("plot", h5, "--joint", "A", "--per-second", "--rpm", "60", "-o", sec).exit_code == 0
+    s = 1.0 if direction == "ccw" else -1.0
+    c = np.radians(np.arange(720) / 2)
+    theta, w = s * c, 2 * np.pi
+    velocity = s * 25 * w * np.stack([-np.sin(theta), np.cos(theta)])
+    jerk = 25 * np.stack([np.sin(theta), -np.cos(theta)])
+    per_sec, per_rad = ET.parse(sec).getroot(), ET.parse(rad).getroot()
+    for i, axis in enumerate("xy"):
+        assert np.abs(_values(per_sec, "velocity", axis) - velocity[i]).max() < 0.01 * 25 * w
+        assert np.abs(_values(per_rad, "jerk", axis) - jerk[i]).max() < 0.01 * 25
+
+
+def test_a_swings_jerk_is_its_derivative_and_it_has_no_rpm(run_cli, tmp_path):
+    """Swinging 0° → 120° → 0° (θ = 60° (1 − cos 2πt), samples unevenly spaced in θ): the jerk is
+    d acc / dθ of the crank pin, 25 (sin θ, −cos θ), away from the two turns; --rpm is refused."""
+    spec = tmp_path / "swing.yaml"
+    spec.write_text((EXAMPLES / "crank-rocker.yaml").read_text().replace(
+        "motor: {joint: A, pivot: O}", "motor: {joint: A, pivot: O, oscillate_deg: [0, 120]}"))
+    h5, rad = tmp_path / "s.h5", tmp_path / "rad.svg"
+    assert run_cli("simulate", spec, "-o", h5, "-n", "720").exit_code == 0
+    assert run_cli("plot", h5, "--joint", "A", "-o", rad).exit_code == 0
+    theta = np.radians(60 * (1 - np.cos(2 * np.pi * np.arange(720) / 720)))
+    root = ET.parse(rad).getroot()
+    away = (np.arange(720) % 360 > 20) & (np.arange(720) % 360 < 340)  # away from the turns at t = 0, ½
+    for i, axis in enumerate("xy"):
+        want = 25 * np.stack([np.sin(theta), -np.cos(theta)])[i]
+        drawn = _values(root, "jerk", axis)
+        assert drawn.size == 720 - 2  # no point at the two turning samples
+        kept = np.delete(np.arange(720), [0, 360])
+        assert np.abs(drawn - want[kept])[away[kept]].max() < 0.01 * 25
+    r = run_cli("plot", h5, "--per-second", "--rpm", "60", "-o", tmp_path / "sec.svg")
+    assert r.exit_code == 2 and "oscillate_deg" in r.output and not (tmp_path / "sec.svg").exists()

@@ -74,7 +74,8 @@ def test_complex_loop_that_locks_up_exits_1_naming_the_group_and_angles(run_cli,
     out = tmp_path / "t.h5"
     r = run_cli("simulate", path, "-o", out)
     assert r.exit_code == 1 and "Traceback" not in r.output, r.output
-    assert re.search(r"motor angles [\d.]+°…[\d.]+°: the numeric group T1, T2, T3 cannot be assembled", r.output)
+    assert re.search(r"motor angles within [\d.]+°…[\d.]+° \(the assembled samples either side; more samples "
+                     r"narrow it\): the numeric group T1, T2, T3 cannot be assembled", r.output), r.output
     assert not out.exists()
 
 

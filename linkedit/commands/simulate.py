@@ -92,9 +92,9 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
     return result
 
 
-def _at(m: dict[str, Any]) -> str:
-    """Where a minimum occurs: the motor angle, or a linear input's stroke."""
-    return f"{m['motor_angle_deg']:.1f}°" if "motor_angle_deg" in m else f"stroke {m['stroke']:.6g}"
+def _at(m: dict[str, Any], units: str) -> str:
+    """Where a minimum occurs: the motor angle, or a linear input's stroke (in ``units``)."""
+    return f"{m['motor_angle_deg']:.1f}°" if "motor_angle_deg" in m else f"stroke {m['stroke']:.6g} {units}"
 
 
 def _line(r: dict[str, Any]) -> str:
@@ -102,7 +102,7 @@ def _line(r: dict[str, Any]) -> str:
     parts = [f"{r['spec']}: {samples}, {r['rules']} rules in {r['levels']} levels"]
     if "min_singularity" in r:
         m = r["min_singularity"]
-        parts.append(f"min d_s {m['value']:.4f} (joint {m['joint']} at {_at(m)})")
+        parts.append(f"min d_s {m['value']:.4f} (joint {m['joint']} at {_at(m, r['units'])})")
     if r.get("lockups"):
         parts.append("PARTIAL: " + "; ".join(r["lockups"]))
     out = ", ".join(parts) + f"\n  → {r['output']}"
@@ -207,7 +207,7 @@ def register(app: typer.Typer) -> None:
                 if "min_singularity" in r:
                     m = r["min_singularity"]
                     alpha = r.get("worst_transmission_angle_deg")
-                    typer.echo(f"  min d_s {m['value']:.4f} (joint {m['joint']} at {_at(m)})"
+                    typer.echo(f"  min d_s {m['value']:.4f} (joint {m['joint']} at {_at(m, r['units'])})"
                                + (f", worst transmission angle {alpha:.1f}°" if alpha is not None else ""))
                 for lk in r.get("lockups", []):
                     typer.echo(f"  LOCK-UP: {lk}")

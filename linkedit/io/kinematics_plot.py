@@ -5,7 +5,7 @@ joint; the transmission angle of every dyad with the 40°–140° band and its w
 sample marked where it leaves the band; d_s = sin²(transmission angle). Derivatives are per
 radian of motor angle, or per second for a motor at constant ``rpm``. Velocity and
 acceleration are the result's (analytic for the symbolic engine); jerk is the central
-difference of the acceleration (periodic for a full turn).
+difference of the acceleration over the inputs (periodic for a full turn; left out where a swing turns back).
 """
 
 from __future__ import annotations
@@ -40,6 +40,9 @@ class Kinematics:
     transmission_deg: np.ndarray
     singularity: np.ndarray
     linear: bool = False  #: a linear input (a cylinder): derivatives per unit of stroke
+    #: the sign of d(input)/d(sample order): −1 for a clockwise motor (its angle falls as it turns)
+    #: or a stroke that retracts, 0 for a swing (``oscillate_deg``: both); d/dt = sign · ω · d/dθ
+    sign: float = 1.0
 
     @property
     def input_label(self) -> str:
@@ -88,22 +91,39 @@ def read_kinematics(path: str | Path, *, track: str | None = None, joint: str | 
         ok = f.array("diagnostics/assembled", shape=(T,), kinds="biu").astype(bool)
         cyclic = bool(t[-1] < 1.0) and T > 2  # a full turn samples t = n/T; a sweep ends at 1
         units, name = f.attr("units"), f.attr("name", default=Path(path).stem)
-    if linear:
-        crank = np.abs(angle - angle[0])
-        step = float(np.abs(np.diff(angle)).mean()) if T > 1 else 1.0
-    else:
-        crank = np.degrees(np.abs(np.unwrap(angle) - angle[0]))
-        step = float(np.abs(np.diff(np.unwrap(angle))).mean()) if T > 1 else 1.0
-    step = step if step > 0.0 else 1.0
-    if cyclic and ok.all():
-        jerk = (np.roll(acc, -1, axis=0) - np.roll(acc, 1, axis=0)) / (2.0 * step)
-    else:
-        jerk = np.gradient(acc, step, axis=0) if acc.shape[0] > 1 else np.zeros_like(acc)
+    turned = angle if linear else np.unwrap(angle)
+    crank = np.abs(turned - turned[0]) if linear else np.degrees(np.abs(turned - turned[0]))
+    steps = np.diff(turned)
+    swings = bool((steps > 0).any() and (steps < 0).any())
+    jerk = _jerk(acc, turned, bool(cyclic and ok.all()), 0.0 if swings or linear else 2.0 * np.pi)
     alpha = np.where(ok[:, None], np.degrees(alpha), np.nan)
     return Kinematics(name=name, units=units, point=str(track or joint), crank_deg=crank, position=pos,
                       velocity=vel, acceleration=acc, jerk=jerk,
                       dyad_joints=[n for n, d in zip(rebuilt, dyads) if d], transmission_deg=alpha,
-                      singularity=np.where(ok[:, None], ds, np.nan), linear=linear)
+                      singularity=np.where(ok[:, None], ds, np.nan), linear=linear,
+                      sign=0.0 if swings else float(np.sign(steps.sum())) or 1.0)
+
+
+def _jerk(acc: np.ndarray, x: np.ndarray, cyclic: bool, turn: float) -> np.ndarray:
+    """d acc / d input, (T, 2), by central differences over the inputs ``x`` (T,) (radians or
+    stroke, in sample order; one-sided at a sweep's ends). ``cyclic``: the last sample is followed
+    by the first, ``turn`` (2π for a full revolution, 0 for a swing) further on. NaN at a sample
+    where the input turns back (a swing's ends): the difference there does not measure it."""
+    if x.size < 2:
+        return np.zeros_like(acc)
+    if cyclic:
+        ahead, behind = np.roll(acc, -1, axis=0), np.roll(acc, 1, axis=0)
+        way = np.sign(x[-1] - x[0]) if turn else 0.0
+        xa, xb = np.r_[x[1:], x[0] + way * turn], np.r_[x[-1] - way * turn, x[:-1]]
+    else:
+        ahead, behind = np.r_[acc[1:], acc[-1:]], np.r_[acc[:1], acc[:-1]]
+        xa, xb = np.r_[x[1:], x[-1]], np.r_[x[0], x[:-1]]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        jerk = (ahead - behind) / (xa - xb)[:, None]
+    inner = slice(None) if cyclic else slice(1, -1)
+    back = np.zeros(x.size, dtype=bool)
+    back[inner] = ((xa - x) * (x - xb))[inner] <= 0.0
+    return np.where(back[:, None], np.nan, jerk)
 
 
 def worst_transmission(k: Kinematics) -> list[tuple[str, float, float]]:
@@ -126,9 +146,12 @@ def kinematics_svg(k: Kinematics, *, rpm: float | None = None) -> str:
     u = k.units
     if rpm is not None and k.linear:
         raise InputError("a linear input has no rpm: its derivatives are per unit of stroke", field="--rpm")
+    if rpm is not None and not k.sign:
+        raise InputError("an oscillate_deg input swings at a varying speed, not at a constant rpm: plot it per "
+                         "radian (drop --per-second)", field="--rpm")
     if rpm is not None:
         w = rpm * 2.0 * math.pi / 60.0
-        scales, per = (w, w ** 2, w ** 3), ("/s", "/s²", "/s³")
+        scales, per = (k.sign * w, w ** 2, k.sign * w ** 3), ("/s", "/s²", "/s³")
     else:
         scales, per = (1.0, 1.0, 1.0), (f"/{u}", f"/{u}²", f"/{u}³") if k.linear else ("/rad", "/rad²", "/rad³")
     panels = [Panel(f"position ({u})", name="position")]

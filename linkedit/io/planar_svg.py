@@ -18,7 +18,9 @@ def drawing(motion: Motion) -> dict[str, Any]:
 
     A point tracked on a link is drawn as part of its link (an extra corner of the link's
     plate); sliders are drawn as rails, slots and blocks; where the linkage is locked (``--partial``) the curves break and the lock-up
-    angles are marked (a full cycle's curves run on from its last sample into its first).
+    angles are marked: where it locks and frees (a numeric group's: the assembled samples either side, "locks after", "free
+    again by"); a sweep's run from its start or to its end has no such mark there (a full cycle's curves run on from its last
+    sample into its first).
     """
     plan = motion.plan
     ok = motion.assembled
@@ -36,23 +38,37 @@ def drawing(motion: Motion) -> dict[str, Any]:
     kept = np.flatnonzero(ok)
     breaks = [int(i) for i in np.flatnonzero(np.diff(kept) > 1) + 1]
     notes = []
-    degrees = np.degrees(motion.motor_angle)
+
+    def near(value: float) -> int:  # the sample nearest to an input (a lock-up between the samples)
+        if plan.linear:
+            return int(np.argmin(np.abs(motion.motor_angle - value)))
+        return int(np.argmin(np.abs((np.degrees(motion.motor_angle) - value + 180.0) % 360.0 - 180.0)))
+
     for lk in motion.lockups:  # mark the assembled samples either side of each locked run
-
-        def at(deg: float) -> int:
-            return int(np.argmin(np.abs((degrees - deg + 180.0) % 360.0 - 180.0)))
-
-        first, last = at(lk.start_deg), at(lk.end_deg)
-        notes.append((int(np.searchsorted(kept, first)) - 1 if first > kept[0] else len(kept) - 1,
-                      f"locks at {lk.start_deg:.1f}° ({lk.joint})"))
-        notes.append((int(np.searchsorted(kept, last)) % len(kept), f"free again after {lk.end_deg:.1f}°"))
+        at, free = ("at", "after") if lk.exact else ("after", "by")
+        if lk.run is None:  # between the samples, which all assemble: at the samples nearest to it
+            notes += [(int(np.searchsorted(kept, near(lk.start_deg))), f"locks {at} {lk.show(lk.start_deg)} ({lk.joint})"),
+                      (int(np.searchsorted(kept, near(lk.end_deg))), f"free again {free} {lk.show(lk.end_deg)}")]
+            continue
+        first, last = lk.run
+        if motion.cyclic or first > 0:  # (a sweep that starts locked does not lock: it starts so)
+            notes.append((int(np.searchsorted(kept, first)) - 1 if first > kept[0] else len(kept) - 1,
+                          f"locks {at} {lk.show(lk.start_deg)} ({lk.joint})"))
+        if motion.cyclic or last < ok.size - 1:  # (nor is one locked to its end ever free again)
+            notes.append((int(np.searchsorted(kept, last)) % len(kept), f"free again {free} {lk.show(lk.end_deg)}"))
     return dict(
         joint_names=names, positions=positions, links=links,
         ground=list(plan.graph.ground), motor=None if plan.linear else (plan.graph.motor, plan.graph.pivot),
         tracks={n: tr.position[ok] for n, tr in motion.tracks.items()},
-        units=plan.spec.units, title=f"{plan.spec.name} ({int(np.sum(ok))} samples)", breaks=breaks, notes=notes,
+        units=plan.spec.units, title=f"{plan.spec.name} ({_count(ok)})", breaks=breaks, notes=notes,
         sliders=slides.from_graph(plan.graph, positions[0]), wrap=motion.cyclic and bool(ok[0] and ok[-1]),
     )
+
+
+def _count(ok: np.ndarray) -> str:
+    """The samples drawn, in words: ``360 samples``, or ``5 of 8 samples assembled`` (``--partial``)."""
+    kept = int(np.sum(ok))
+    return f"{kept} of {ok.size} samples assembled" if kept < ok.size else f"{ok.size} sample" + "s" * (ok.size != 1)
 
 
 def draw_gif(path: str | Path, motion: Motion) -> None:

@@ -19,27 +19,39 @@ import numpy as np
 
 @dataclass(frozen=True)
 class LockUp:
-    """A run of samples where the linkage cannot be assembled, and the joint responsible."""
+    """An interval of the input where the linkage cannot be assembled, and the joint responsible.
 
-    start_deg: float  #: motor angle at the first failing sample, degrees
-    end_deg: float  #: motor angle at the last failing sample, degrees
+    ``exact``: start and end are where it stops and starts assembling again (the boundaries between
+    the samples, found on the evaluator; a sweep's end where the run reaches it). Not ``exact`` (a
+    plan with a numeric group, whose continuation cannot restart between samples): they are the
+    assembled samples either side of the failing run, bounds that hold the true interval."""
+
+    start_deg: float  #: motor angle where the linkage stops assembling, degrees
+    end_deg: float  #: motor angle where it assembles again, degrees
     joint: str  #: the joint whose triangle cannot close first (in evaluation order)
     inputs: tuple[str, str]  #: the two known joints it is rebuilt from
     stretched: bool  #: True: the known joints are too far apart; False: too close
     what: str = ""  #: for slider and group rules: why the joint(s) cannot be placed
     unit: str = "°"  #: unit of start/end: "°" (motor angle) or the spec's units (linear input)
-    #: where a rocker input (``oscillate_deg``) turns back inside the run: the furthest angle it
-    #: reaches there (None: the input runs one way from start to end)
+    #: where a rocker input (``oscillate_deg``) turns back inside the run: the end of its swing
+    #: (None: the input runs one way from start to end)
     turn_deg: float | None = None
+    exact: bool = True  #: see the class
+    #: the failing run's first and last sample (indices into the motion's samples; None: the run
+    #: was found at other samples than the motion's, or is a toggle passed between two samples)
+    run: tuple[int, int] | None = None
 
     def describe(self) -> str:
-        u = self.unit if self.unit == "°" else f" {self.unit}"
         lead = "motor angles" if self.unit == "°" else "input positions"
-        fmt = ".1f" if self.unit == "°" else ".6g"
-        turn = "" if self.turn_deg is None else f"{self.turn_deg:{fmt}}{u}…"
-        head = (f"the linkage cannot be assembled for {lead} {self.start_deg:{fmt}}{u}…{turn}"
-                f"{self.end_deg:{fmt}}{u}: ")
-        return head + (self.what or self.because())
+        turn = "" if self.turn_deg is None else f"{self.show(self.turn_deg)}…"
+        span = f"{self.show(self.start_deg)}…{turn}{self.show(self.end_deg)}"
+        if not self.exact:
+            span = f"within {span} (the assembled samples either side; more samples narrow it)"
+        return f"the linkage cannot be assembled for {lead} {span}: " + (self.what or self.because())
+
+    def show(self, value: float) -> str:
+        """An input ``value`` as :meth:`describe` writes it: ``12.3°`` or ``5.25 mm``."""
+        return f"{value:.1f}°" if self.unit == "°" else f"{value:.6g} {self.unit}"
 
     def because(self) -> str:
         """Why a dyad's joint cannot be placed."""
@@ -62,35 +74,31 @@ def _runs(mask: np.ndarray, cyclic: bool) -> list[tuple[int, int]]:
     return runs
 
 
-def lockups(bad: np.ndarray, own: np.ndarray, angle: np.ndarray, cyclic: bool,
-            explain: Callable[[int, int], tuple[str, tuple[str, str], bool, str]], unit: str = "°") -> list[LockUp]:
+def lockups(bad: np.ndarray, own: np.ndarray, cyclic: bool,
+            explain: Callable[[int, int], tuple[str, tuple[str, str], bool, str]],
+            edges: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, bool]], unit: str = "°") -> list[LockUp]:
     """Lock-up intervals from the rules' failures, (T, N) each, N rules in evaluation order.
 
     ``bad``: the rule cannot place its joint(s) (< 0 or NaN d_s); ``own``: it fails on its own,
     not from a failed input. Each run of failing samples is blamed on the rule that fails
     first most often; ``explain(rule, sample)`` gives its (joint, inputs, stretched, what).
-    ``angle`` (T,): the input at each sample (degrees, or spec units for a linear input).
+    ``edges(runs)``: from the runs' first and last failing samples (R, 2), the inputs where each
+    run starts and ends (R, 2) (degrees, or spec units for a linear input), the input where a
+    swing turns back inside it (R,) (NaN: none) and whether the ends are exact (:class:`LockUp`).
     """
     failing = np.asarray(bad.any(axis=1))
     first = np.where(own.any(axis=1), own.argmax(axis=1), bad.argmax(axis=1))
+    found = _runs(failing, cyclic)
+    ends, turns, exact = edges(np.array(found, dtype=int).reshape(-1, 2))
     out = []
-    for s, e in _runs(failing, cyclic):
+    for (s, e), (start, end), turn in zip(found, ends, turns):
         span = np.arange(s, e + 1) if s <= e else np.r_[s:failing.size, 0:e + 1]
         r = int(np.bincount(first[span]).argmax())
         joint, inputs, stretched, what = explain(r, int(span[first[span] == r][0]))
-        out.append(LockUp(start_deg=float(angle[s]), end_deg=float(angle[e]), joint=joint, inputs=inputs,
-                          stretched=stretched, what=what, unit=unit, turn_deg=_turn(angle[span])))
+        out.append(LockUp(start_deg=float(start), end_deg=float(end), joint=joint, inputs=inputs,
+                          stretched=stretched, what=what, unit=unit,
+                          turn_deg=None if np.isnan(turn) else float(turn), exact=exact, run=(s, e)))
     return out
-
-
-def _turn(angle: np.ndarray) -> float | None:
-    """The furthest of ``angle`` (a run's inputs in sample order) from its first where the input
-    turns back inside the run (steps of both signs; a full turn's wrap, over 180°, is no step); else None."""
-    steps = np.diff(angle)
-    steps = steps[np.abs(steps) < 180.0]
-    if not ((steps > 0).any() and (steps < 0).any()):
-        return None
-    return float(angle[np.argmax(np.abs(angle - angle[0]))])
 
 
 def triangle_orientation(p: np.ndarray, rules: np.ndarray) -> np.ndarray:

@@ -8,6 +8,7 @@ unless ``partial=True``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -129,7 +130,8 @@ class Motion:
     def summary(self) -> dict:
         """Key figures for printing or JSON."""
         out: dict = {
-            "name": self.plan.spec.name, "samples": int(self.t.size), "joints": self.plan.n_joints,
+            "name": self.plan.spec.name, "units": self.plan.spec.units, "samples": int(self.t.size),
+            "joints": self.plan.n_joints,
             "rules": int(len(self.plan.table.joints) + len(self.plan.steps)),
             "levels": int(self.plan.levels),
             "mobility": self.plan.mobility.rank, "assembled": bool(self.assembled.all()),
@@ -275,7 +277,7 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
     ok = _assembled(pn, ds)
     found: list[LockUp] = []
     if not ok.all():
-        found = _find_lockups(plan, pn, ds, shown, unit)
+        found = _find_lockups(plan, pn, ds, unit, _edges(plan, geom, scale, t))
         if not partial or not ok.any():
             raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
     else:
@@ -337,8 +339,8 @@ def _lockups_between(plan: Plan, geom: Geometry, scale: float) -> list[LockUp]:
     shown = value if plan.linear else np.degrees(value)
     if _assembled(pn, ds).all():
         return _toggles_passed(plan, pn, ds, shown, _unit(plan))
-    found = _find_lockups(plan, pn, ds, shown, _unit(plan))
-    return [replace(lk, what=(lk.what or lk.because()) + " (found between the requested samples: "
+    found = _find_lockups(plan, pn, ds, _unit(plan), _edges(plan, geom, scale, t))
+    return [replace(lk, run=None, what=(lk.what or lk.because()) + " (found between the requested samples: "
                     "simulate with more samples to see it)") for lk in found]
 
 
@@ -381,7 +383,58 @@ def _toggles_passed(plan: Plan, pn: np.ndarray, ds: np.ndarray, shown: np.ndarra
     return out
 
 
-def _find_lockups(plan: Plan, pn: np.ndarray, ds: np.ndarray, shown: np.ndarray, unit: str) -> list[LockUp]:
+#: a lock-up's edge is bracketed between its last assembled and first failing sample, and each
+#: bracket is cut in SPLIT pieces REFINES times (to 2^-54 of it: the rounding of the phase)
+SPLIT, REFINES = 64, 9
+
+
+def _edges(plan: Plan, geom: Geometry, scale: float, t: np.ndarray) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, bool]]:
+    """The ``edges`` of :func:`linkedit.planar.diagnostics.lockups` for samples at phases ``t`` (T,).
+
+    Each run's start lies between its first failing sample and the assembled one before it, its
+    end between its last and the one after (a full cycle wraps; a sweep's end bounds its run):
+    the phase where it stops assembling (every d_s above TOGGLE, :func:`_assembled`) is found by
+    cutting the bracket (:data:`SPLIT`) on the same evaluator, all boundaries in one batch per cut. A plan with numeric
+    groups is continued from the rest pose and cannot be restarted between two samples: its
+    edges are the assembled samples either side (not exact). A swing (``oscillate_deg``) turns
+    back inside a run that holds phase 0 or ½."""
+    spec, count = plan.spec, t.size
+    cyclic = spec.motor.cyclic
+
+    def shown(phase: np.ndarray) -> np.ndarray:
+        value = motor_angles(spec, count, np.where((phase < 0.0) | (phase > 1.0), phase % 1.0, phase))[1]
+        return value if plan.linear else np.degrees(value)
+
+    def edges(run: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+        bad = t[run]  # (R, 2) phases of the first and last failing samples
+        prev, after = run[:, 0] - 1, run[:, 1] + 1
+        good = np.stack([t[prev % count] - (prev < 0), t[after % count] + (after >= count)], axis=1)
+        inside = cyclic | np.stack([prev >= 0, after < count], axis=1)  # else the sweep's end bounds the run
+        phase = np.where(inside, good, bad)
+        if not plan.has_groups and inside.any():
+            lo, hi = good[inside], bad[inside]
+            cut = np.arange(1, SPLIT) / SPLIT
+            for _ in range(REFINES):  # each bracket cut in SPLIT: the first failing piece is kept
+                at = lo[:, None] + (hi - lo)[:, None] * cut  # (B, SPLIT − 1)
+                value = motor_angles(spec, count, at.ravel())[1]
+                state = evaluate(plan, geom, value / scale if plan.linear else value, order=0)
+                ok = np.c_[_assembled(_joint_order(plan, state.z), state.ds.T).reshape(at.shape), np.zeros(len(lo), bool)]
+                k = ok.argmin(axis=1)  # the first failing point (SPLIT − 1: hi itself)
+                lo, hi = np.where(k > 0, at[np.arange(len(lo)), k - 1], lo), np.c_[at, hi][np.arange(len(lo)), k]
+            phase[inside] = 0.5 * (lo + hi)
+        turns = np.full(len(run), np.nan)
+        if spec.motor.oscillate_deg is not None:
+            start = phase[:, 0] % 1.0
+            end = start + (phase[:, 1] - phase[:, 0]) % 1.0  # the run's phases, start ≤ end
+            back = np.ceil(2.0 * start) / 2.0  # the first turning phase (a multiple of ½) from its start
+            turns = np.where(back <= end, shown(back), np.nan)
+        return shown(phase), turns, not plan.has_groups
+
+    return edges
+
+
+def _find_lockups(plan: Plan, pn: np.ndarray, ds: np.ndarray, unit: str,
+                  edges: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, bool]]) -> list[LockUp]:
     """Lock-up intervals of the rules' d_s rows (T, N), in evaluation order (see :func:`lockups`);
     each rule explains its own rows."""
     finite = np.isfinite(pn).all(axis=2)  # (T, J)
@@ -397,7 +450,7 @@ def _find_lockups(plan: Plan, pn: np.ndarray, ds: np.ndarray, shown: np.ndarray,
         rule = plan.rules[owner[r]]
         return rule.explain(names, int(within[r]), Failure(pn, ds[:, plan.ds_rows[owner[r]]], rest, TOGGLE), t)
 
-    return lockups(bad, own, shown, plan.spec.motor.cyclic, explain, unit)
+    return lockups(bad, own, plan.spec.motor.cyclic, explain, edges, unit)
 
 
 def _check_closure(plan: Plan, state: State) -> None:
