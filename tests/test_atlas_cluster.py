@@ -344,3 +344,38 @@ def test_a_cluster_searches_atlases_of_two_linkages_of_one_name(run_cli, tmp_pat
         found = run_cli("synthesize", target, "--atlas", tmp_path / f"a{k}", "-o", tmp_path / f"out{k}", "--top", "1",
                         "--scheduler", cluster.scheduler_address)
         assert found.exit_code == 0, found.output
+
+
+def test_a_threaded_worker_builds_two_linkages_of_one_name_at_once(monkeypatch):
+    """One worker of 4 threads builds chunks of two atlases' spec families both called 'arm' at the same time (two
+    `linkedit` runs sharing a cluster): each chunk is its own linkage's (the worker kept one family per name: a task
+    adopting its 'arm' threw out the other's under a running task, which then failed, 'two different linkages are
+    called arm', or raised KeyError)."""
+    distributed = pytest.importorskip("dask.distributed")
+    from linkedit.synthesis import families
+
+    text = (EXAMPLES / "crank-rocker.yaml").read_text().replace("name: crank-rocker", "name: arm")
+    specs = [text, text + "# the other user's arm\n"]
+    jobs = [(spec, k) for k in range(12) for spec in specs]
+    expected = {}
+    for spec in specs:  # each as its own `linkedit` process builds it
+        monkeypatch.setattr(families, "SPECS", {})
+        monkeypatch.setattr(families, "SPEC_TEXTS", {})
+        for k in range(12):
+            expected[spec, k] = chunks.build_chunk("arm", 3, k, 4, spec).params
+    monkeypatch.setattr(families, "SPECS", {})
+    monkeypatch.setattr(families, "SPEC_TEXTS", {})
+
+    class Slow(runner._Published):  # a task starts slowly (a busy worker): the others run meanwhile
+        def __init__(self, *args):
+            time.sleep(0.02)
+            super().__init__(*args)
+
+    monkeypatch.setattr(runner, "_Published", Slow)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=4, processes=False, dashboard_address=":0") as c, \
+            distributed.Client(c) as client:
+        for _ in range(3):
+            futures = [client.submit(runner._timed, chunks.build_chunks, "b", "arm", 3, [(k, 4)], spec, 60.0,
+                                     pure=False) for spec, k in jobs]
+            for (spec, k), (built, _) in zip(jobs, client.gather(futures)):
+                np.testing.assert_array_equal(built[0].params, expected[spec, k])

@@ -38,7 +38,7 @@ TARGETS = 50
 def _first(book: Atlas, folder: Path, shard_count: int) -> Atlas:
     """The atlas of the first ``shard_count`` shards of the four-bar family of ``folder``."""
     entry = shards.read_manifest(folder)["families"]["four-bar"]
-    parts = [shards.read_shard(folder, "four-bar", book.seed, entry["quantizer"]["cells"], s)
+    parts = [shards.read_shard(folder, "four-bar", book.seed, entry["quantizer"]["cells"], len(entry["columns"]), s)
              for s in entry["shards"][:shard_count]]
     return Atlas(folder, {"four-bar": shards.merge(parts) | {"centroids": book.families["four-bar"]["centroids"]}},
                  book.seed)

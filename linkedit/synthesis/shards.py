@@ -507,7 +507,8 @@ def load(path: str | Path, threads: int | None = None) -> Atlas:
             if not entry["shards"]:
                 continue
             families[name] = merge(list(pool.map(partial(read_shard, path, name, manifest["seed"],
-                                                         entry["quantizer"]["cells"]), entry["shards"])))
+                                                         entry["quantizer"]["cells"], len(entry["columns"])),
+                                                 entry["shards"])))
             families[name]["centroids"] = read_quantizer(path, name, entry["quantizer"])[1]
     if not families:
         raise InputError("the atlas is empty", file=str(path))
@@ -519,13 +520,13 @@ def merge(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
 
 
-def read_shard(folder: Path, name: str, seed: int, cells: int, shard: dict[str, Any]) -> dict[str, np.ndarray]:
-    """One shard's arrays, checked against its manifest entry (layout, rows, checksum) and the family's quantizer
-    of ``cells`` cells."""
+def read_shard(folder: Path, name: str, seed: int, cells: int, width: int,
+               shard: dict[str, Any]) -> dict[str, np.ndarray]:
+    """One shard's arrays, checked against its manifest entry (layout, rows, checksum), the family's quantizer
+    of ``cells`` cells and its ``width`` parameters."""
     file, rows = folder / shard["file"], shard["rows"]
     if not file.is_file():
         raise InputError(f"shard {shard['file']} listed in {MANIFEST} is missing", file=str(folder))
-    width = len(family(name).PARAMETERS)
     with open_result(file, kind="atlas-shard") as f:
         if (f.attr("family"), f.attr("chunk", kind=int), f.attr("seed", kind=int)) != (name, shard["chunk"], seed):
             raise f.error("/", f"not chunk {shard['chunk']} of {name} with seed {seed}")
