@@ -253,7 +253,8 @@ def _check_family(name: str, entry: object, build: dict[str, Any] | None, path: 
     need(spec is None or isinstance(spec, str), (*where, "spec"), "expected null or a spec's text")
     need(spec is None or name not in FAMILIES, (*where, "spec"), f"expected null: {name} is a built-in family")
     fam = family(name, field=f"{path}: families/{name}", spec=spec)
-    need(entry["family_id"] == fam.ID, (*where, "family_id"), f"expected {fam.ID}, the family's")
+    need(entry["family_id"] == fam.ID, (*where, "family_id"),
+         f"expected {fam.ID}, the family's (its spec text or the manifest changed since the atlas was built)")
     need(isinstance(entry["margin"], float) and np.isclose(entry["margin"], fam.margin(), rtol=1e-12, atol=0),
          (*where, "margin"), f"expected {fam.margin()!r}, the family's")
     need(entry["columns"] == list(fam.PARAMETERS), (*where, "columns"), f"expected {list(fam.PARAMETERS)}")
