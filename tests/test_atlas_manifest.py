@@ -1,7 +1,8 @@
 """A sharded atlas's manifest edited by hand: `synthesize` and `atlas build` check it against the family it
 names and against itself, and refuse an inconsistent one in one line ``manifest.json:LINE: field: why``, exit 2
 (it was read as it stood: wrong columns, a family's id or margin, a shard left out or chunks made up, a spec on a
-built-in family, a build record naming another family were all accepted, with exit 0)."""
+built-in family, a build record naming another family were all accepted, with exit 0; quantizer cells
+were blamed on a shard)."""
 
 from __future__ import annotations
 
@@ -56,6 +57,7 @@ EDITS = {
     "build": lambda m: m.update(build={"count": 100, "families": ["slider-crank"]}),
     "pending": lambda m: _four_bar(m).update(pending=[[3, 100]], chunks=4),
     "distribution": lambda m: _four_bar(m).pop("distribution"),
+    "cells": lambda m: _four_bar(m)["quantizer"].update(cells=81),
 }
 
 

@@ -266,6 +266,11 @@ def _check_family(name: str, entry: object, build: dict[str, Any] | None, path: 
     need(isinstance(q, dict) and q.get("file") == f"{folder_of(name)}/quantizer.h5"
          and integer(q.get("cells"), 1, 2**16) and isinstance(q.get("sha256"), str), (*where, "quantizer"),
          "expected {file (<folder>/quantizer.h5), cells, sha256}")
+    if (path.parent / q["file"]).is_file():  # a missing one is named when it is read
+        with open_result(path.parent / q["file"], kind="atlas-quantizer") as f:
+            held = f.dataset("centroids").shape[:1]
+        need(held == (q["cells"],), (*where, "quantizer", "cells"), f"expected {held[0] if held else 0}, the cells "
+             f"{q['file']} holds")
     for key in ("shards", "pending"):
         need(isinstance(entry[key], list), (*where, key), "expected a list")
     for k, shard in enumerate(entry["shards"]):
