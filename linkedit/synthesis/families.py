@@ -91,7 +91,8 @@ def from_spec_text(name: str, text: str, *, field: str = "--family", file: str |
     with _MAKING:
         if register and name in SPECS:
             if SPEC_TEXTS[name] != text:
-                raise InputError(f"two different linkages are called {name!r}", file=file, field=field)
+                raise InputError(f"two different linkages are called {name!r} (their spec texts differ; an atlas keeps "
+                                 "the text it was built from): rename one", file=file, field=field)
             return SPECS[name]
         if (name, text) in _MADE:
             fam = _MADE[name, text]
