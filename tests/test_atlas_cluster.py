@@ -376,3 +376,83 @@ def test_a_cluster_searches_atlases_of_two_linkages_of_one_name(run_cli, tmp_pat
         found = run_cli("synthesize", target, "--atlas", tmp_path / f"a{k}", "-o", tmp_path / f"out{k}", "--top", "1",
                         "--scheduler", cluster.scheduler_address)
         assert found.exit_code == 0, found.output
+
+
+def test_a_threaded_worker_builds_two_linkages_of_one_name_at_once(monkeypatch):
+    """One worker of 4 threads builds chunks of two atlases' spec families both called 'arm' at the same time (two
+    `linkedit` runs sharing a cluster): each chunk is its own linkage's (the worker kept one family per name: a task
+    adopting its 'arm' threw out the other's under a running task, which then failed, 'two different linkages are
+    called arm', or raised KeyError)."""
+    distributed = pytest.importorskip("dask.distributed")
+    from linkedit.synthesis import families
+
+    text = (EXAMPLES / "crank-rocker.yaml").read_text().replace("name: crank-rocker", "name: arm")
+    specs = [text, text + "# the other user's arm\n"]
+    jobs = [(spec, k) for k in range(12) for spec in specs]
+    expected = {}
+    for spec in specs:  # each as its own `linkedit` process builds it
+        monkeypatch.setattr(families, "SPECS", {})
+        monkeypatch.setattr(families, "SPEC_TEXTS", {})
+        for k in range(12):
+            expected[spec, k] = chunks.build_chunk("arm", 3, k, 4, spec).params
+    monkeypatch.setattr(families, "SPECS", {})
+    monkeypatch.setattr(families, "SPEC_TEXTS", {})
+
+    class Slow(runner._Published):  # a task starts slowly (a busy worker): the others run meanwhile
+        def __init__(self, *args):
+            time.sleep(0.02)
+            super().__init__(*args)
+
+    monkeypatch.setattr(runner, "_Published", Slow)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=4, processes=False, dashboard_address=":0") as c, \
+            distributed.Client(c) as client:
+        for _ in range(3):
+            futures = [client.submit(runner._timed, chunks.build_chunks, "b", "arm", 3, [(k, 4)], spec, 60.0,
+                                     pure=False) for spec, k in jobs]
+            for (spec, k), (built, _) in zip(jobs, client.gather(futures)):
+                np.testing.assert_array_equal(built[0].params, expected[spec, k])
+
+
+def test_a_threaded_worker_searches_two_linkages_of_one_name_at_once(run_cli, tmp_path, monkeypatch):
+    """Two sharded atlases of different linkages both called 'arm' (a four-bar and a six-bar: 8 and 12 columns),
+    searched at once on one worker of 4 threads: every shard is read with its own linkage's columns
+    (the worker looked the family up by name in a registry the other atlas's tasks were replacing: "unknown family
+    'arm'", or the other's columns)."""
+    distributed = pytest.importorskip("dask.distributed")
+    from linkedit.synthesis import families, shard_search
+
+    for module in (atlas, chunks, shards):
+        monkeypatch.setattr(module, "CHUNK", 25)
+    texts = [(EXAMPLES / f"{stem}.yaml").read_text().replace(f"name: {stem}", "name: arm")
+             for stem in ("crank-rocker", "watt-six-bar")]
+    runs = []
+    for k, text in enumerate(texts):
+        monkeypatch.setattr(families, "SPECS", {})  # a new `linkedit` process
+        monkeypatch.setattr(families, "SPEC_TEXTS", {})
+        for module in (atlas, shards, runner):
+            monkeypatch.setattr(module, "SPEC_TEXTS", families.SPEC_TEXTS)
+        (tmp_path / f"arm{k}.yaml").write_text(text)
+        assert run_cli("atlas", "build", "--family", tmp_path / f"arm{k}.yaml", "-n", "200", "-o", tmp_path / f"a{k}",
+                       "--seed", "3", "-q").exit_code == 0
+        entry = shards.read_manifest(tmp_path / f"a{k}")["families"]["arm"]
+        runs += [(str((tmp_path / f"a{k}").absolute()), text, entry["quantizer"], shard, len(entry["columns"]))
+                 for shard in entry["shards"]]
+    assert len({run[-1] for run in runs}) == 2
+    half = len(runs) // 2
+    runs = [run for pair in zip(runs[:half], runs[half:]) for run in pair]  # the two atlases by turns
+    read_shard = shard_search.read_shard
+
+    def slow(*args):  # a shard on a slow file system: the other threads run meanwhile
+        time.sleep(0.05)
+        return read_shard(*args)
+
+    monkeypatch.setattr(shard_search, "read_shard", slow)
+    monkeypatch.setattr(families, "SPECS", {})
+    monkeypatch.setattr(families, "SPEC_TEXTS", {})
+    variants = np.zeros((1, shards.WIDTH), dtype=np.float32)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=4, processes=False, dashboard_address=":0") as c, \
+            distributed.Client(c) as client:
+        futures = [client.submit(shard_search.search_shards, folder, "arm", text, 3, quantizer, [shard], 0, variants, 5,
+                                 True, pure=False) for folder, text, quantizer, shard, _ in runs]
+        for (*_, width), found in zip(runs, client.gather(futures)):
+            assert found["params"].shape == (5, width)

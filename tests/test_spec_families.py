@@ -241,3 +241,24 @@ def test_a_spec_tracking_a_point_on_a_link_is_a_family_of_its_first_joint_track(
         drawn, lowest = f["tracks/rocker_tip/position"][::2], f["diagnostics"].attrs["min_singularity"]
     np.testing.assert_allclose(drawn, curve, atol=1e-6)
     assert lowest >= margin
+
+
+def test_appending_an_edited_spec_to_its_atlas_is_refused_saying_why(run_cli, tmp_path, monkeypatch):
+    """A spec family's atlas appended with the spec edited since (one comment added), by a new `linkedit` process: one
+    line naming the atlas and the family, saying the texts differ and what to do (was only "two different linkages
+    are called ...")."""
+    from linkedit.synthesis import atlas, cluster, families, shards
+
+    spec = tmp_path / "arm.yaml"
+    spec.write_text((EXAMPLES / "crank-rocker.yaml").read_text())
+    assert run_cli("atlas", "build", "--family", spec, "-n", "100", "-o", tmp_path / "a.h5", "-q").exit_code == 0
+    spec.write_text(spec.read_text() + "# moved the coupler point\n")
+    monkeypatch.setattr(families, "SPECS", {})  # a new `linkedit` process
+    monkeypatch.setattr(families, "SPEC_TEXTS", {})
+    for module in (atlas, shards, cluster):
+        monkeypatch.setattr(module, "SPEC_TEXTS", families.SPEC_TEXTS)
+    before = (tmp_path / "a.h5").read_bytes()
+    r = run_cli("atlas", "build", "--family", spec, "-n", "100", "-o", tmp_path / "a.h5")
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert "a.h5" in r.output and "crank-rocker" in r.output and "spec texts differ" in r.output, r.output
+    assert "rename one" in r.output and (tmp_path / "a.h5").read_bytes() == before

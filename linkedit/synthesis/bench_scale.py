@@ -41,7 +41,8 @@ TARGETS = 50
 def _first(book: Atlas, folder: Path, shard_count: int) -> Atlas:
     """The atlas of the first ``shard_count`` shards of the four-bar family of ``folder``."""
     entry = shards.read_manifest(folder)["families"]["four-bar"]
-    head = shards.read_family(folder, "four-bar", book.seed, entry["quantizer"]["cells"], entry["shards"][:shard_count])
+    head = shards.read_family(folder, "four-bar", book.seed, entry["quantizer"]["cells"], len(entry["columns"]),
+                              entry["shards"][:shard_count])
     return Atlas(folder, {"four-bar": head | {"centroids": book.families["four-bar"]["centroids"]}}, book.seed)
 
 

@@ -21,7 +21,7 @@ import numpy as np
 from linkedit.curves.efd import polyline_efd
 from linkedit.curves.normalize import normalize
 from linkedit.planar.feasibility import works
-from linkedit.synthesis.families import family
+from linkedit.synthesis.families import of_text
 
 #: Linkages per chunk (the unit of work and of seeding).
 CHUNK = 10_000
@@ -72,8 +72,8 @@ class Chunk:
 
 def build_chunk(name: str, seed: int, index: int, size: int = CHUNK, spec: str | None = None) -> Chunk:
     """Chunk ``index`` of family ``name``'s atlas from ``seed`` (a pure function); ``spec``: the
-    linkage spec text of a family made from a spec (:func:`~linkedit.synthesis.families.spec_family`)."""
-    fam = family(name, spec=spec)
+    linkage spec text of a family made from a spec (:func:`~linkedit.synthesis.families.of_text`)."""
+    fam = of_text(name, spec)
     rng = np.random.default_rng([seed, fam.ID, index])
     margin = fam.margin()
     kept: list[np.ndarray] = []

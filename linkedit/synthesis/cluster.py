@@ -26,7 +26,7 @@ from typing import Any, NamedTuple, Protocol
 from linkedit.errors import InputError, LinkeditError
 from linkedit.io.atomic import Interrupted
 from linkedit.synthesis.chunks import build_chunks, report_kept, reporting
-from linkedit.synthesis.families import SPEC_TEXTS, adopt
+from linkedit.synthesis.families import SPEC_TEXTS
 
 #: Seconds a Dask scheduler has to answer (``--connect-timeout``).
 CONNECT_TIMEOUT = 10.0
@@ -230,7 +230,6 @@ def _timed(task: Task, build: str, name: str, seed: int, jobs: list[tuple[int, i
     """``task``'s results, chunk by chunk, with its :class:`TaskTime` (the chunks' build and, for a shard, its
     write); the linkages it has screened are published every ``every`` seconds at most (:class:`_Published`), and
     it stops (:class:`Stopped`) there and before each chunk once ``build`` is stopped (:func:`_stop`)."""
-    adopt(name, spec)
     wall, cpu = time.perf_counter(), time.thread_time()
     published = _Published(every, build)
     results: list[Any] = []

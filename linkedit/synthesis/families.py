@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import threading
 import zlib
 from pathlib import Path
 
@@ -41,6 +42,9 @@ FAMILIES: dict[str, Any] = {fourbar.NAME: fourbar, slidercrank.NAME: slidercrank
 SPECS: dict[str, CatalogFamily] = {}
 #: the spec text each of them was made from (stored in an atlas, sent to Dask workers)
 SPEC_TEXTS: dict[str, str] = {}
+#: every family made from a spec in this process, by (name, text) (:func:`of_text`), and the lock of both registers
+_MADE: dict[tuple[str, str], CatalogFamily] = {}
+_MAKING = threading.RLock()
 
 
 def family(name: str, field: str = "--family", spec: str | None = None) -> Any:
@@ -55,12 +59,15 @@ def family(name: str, field: str = "--family", spec: str | None = None) -> Any:
     raise InputError(f"unknown family {name!r} (families: {', '.join(FAMILIES)}, or a linkage spec file)", field=field)
 
 
-def adopt(name: str, spec: str | None) -> None:
-    """On a Dask worker, which serves many ``linkedit`` runs and atlases: let spec text ``spec`` make the family
-    called ``name`` (each task carries its atlas's text; another run's family of that name made before is
-    forgotten). A run's own two linkages of one name are still refused (:func:`from_spec_text`)."""
-    if spec is not None and SPEC_TEXTS.get(name, spec) != spec:
-        del SPECS[name], SPEC_TEXTS[name]
+def of_text(name: str, spec: str | None) -> Any:
+    """The family called ``name`` of spec text ``spec`` (a built-in one when None), whatever this process knows by
+    that name: what a task uses (each carries its atlas's text; a Dask worker's threads serve many ``linkedit`` runs
+    and atlases at once, two of whose linkages may share a name). Made once per text, shared by the threads."""
+    if spec is None:
+        return family(name)
+    with _MAKING:
+        fam = _MADE.get((name, spec))
+    return fam if fam is not None else from_spec_text(name, spec, register=False)
 
 
 def spec_family(path: Path, field: str = "--family") -> str:
@@ -71,18 +78,27 @@ def spec_family(path: Path, field: str = "--family") -> str:
     return from_spec_text(spec.name, text, field=field, file=str(path)).NAME
 
 
-def from_spec_text(name: str, text: str, *, field: str = "--family", file: str | None = None) -> CatalogFamily:
+def from_spec_text(name: str, text: str, *, field: str = "--family", file: str | None = None,
+                   register: bool = True) -> CatalogFamily:
     """The family ``name`` of the linkage spec ``text``: a cyclic input (a crank's full turn or
     swing, a linear input's stroke out and back), a joint track (its
     first) as the curve. InputError (one line naming the spec and why) otherwise, or when a
-    different spec was already made under that name or it is a built-in family's name."""
+    different spec was already made under that name (``register``: this run's family of that name from now on)
+    or it is a built-in family's name."""
     where = file or field
     if name in FAMILIES:
         raise InputError(f"the spec's name {name!r} is a built-in family's: rename the linkage", file=file, field=field)
-    if name in SPECS:
-        if SPEC_TEXTS[name] != text:
-            raise InputError(f"two different linkages are called {name!r}", file=file, field=field)
-        return SPECS[name]
+    with _MAKING:
+        if register and name in SPECS:
+            if SPEC_TEXTS[name] != text:
+                raise InputError(f"two different linkages are called {name!r} (their spec texts differ; an atlas keeps "
+                                 "the text it was built from): rename one", file=file, field=field)
+            return SPECS[name]
+        if (name, text) in _MADE:
+            fam = _MADE[name, text]
+            if register:
+                SPECS[name], SPEC_TEXTS[name] = fam, text
+            return fam
     data, lines = load_yaml(where, text)
     spec = validate(LinkageSpec, data, file=where, lines=lines)
     cannot = f"linkage {name!r} cannot be a family"
@@ -97,6 +113,9 @@ def from_spec_text(name: str, text: str, *, field: str = "--family", file: str |
         compile_plan(spec)
     except LinkeditError as exc:
         raise InputError(f"{cannot}: {exc}", file=file, field=field) from None
-    fam = CatalogFamily(name, 1000 + zlib.crc32(text.encode()) % 100_000, lambda: spec, track)
-    SPECS[name], SPEC_TEXTS[name] = fam, text
+    with _MAKING:
+        fam = _MADE.setdefault((name, text), CatalogFamily(name, 1000 + zlib.crc32(text.encode()) % 100_000,
+                                                           lambda: spec, track))
+        if register:
+            SPECS[name], SPEC_TEXTS[name] = fam, text
     return fam

@@ -14,6 +14,7 @@ Memory on the client: the manifest and the hits.
 from __future__ import annotations
 
 import contextlib
+import threading
 from collections import OrderedDict
 from collections.abc import Iterator
 from pathlib import Path
@@ -25,13 +26,14 @@ from linkedit.errors import InputError
 from linkedit.synthesis.atlas import Atlas
 from linkedit.synthesis.chunks import dimension
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, connected
-from linkedit.synthesis.families import adopt, family
+from linkedit.synthesis.families import family, of_text
 from linkedit.synthesis.index import SCAN_LIMIT, Hit, Lists, nearest_rows
 from linkedit.synthesis.shards import MANIFEST, read_family, read_manifest, read_quantizer
 
 #: Shard runs a worker keeps read between queries (a worker of a cluster serves many ``synthesize`` runs).
 KEEP = 64
 _kept: OrderedDict[tuple[Any, ...], dict[str, Any]] = OrderedDict()
+_keeping = threading.Lock()
 
 
 def _prepared(folder: str, name: str, spec: str | None, seed: int, quantizer: dict[str, Any],
@@ -39,22 +41,23 @@ def _prepared(folder: str, name: str, spec: str | None, seed: int, quantizer: di
     """The shards ``shards`` of family ``name`` (``spec``: a spec family's text; ``quantizer``: its manifest entry)
     read and checked from ``folder``, ready to search: kept for the next query on this worker (the :data:`KEEP` runs
     used last)."""
-    key = (folder, name, seed, exact, quantizer["sha256"], tuple(s["sha256"] for s in shards))
-    if key in _kept:
-        _kept.move_to_end(key)
-        return _kept[key]
-    adopt(name, spec)
-    family(name, spec=spec)  # a spec family is made on the worker from its text
-    arrays = read_family(Path(folder), name, seed, quantizer["cells"], shards)
+    key = (folder, name, spec, seed, exact, quantizer["sha256"], tuple(s["sha256"] for s in shards))
+    with _keeping:  # the worker's threads run queries at once
+        if key in _kept:
+            _kept.move_to_end(key)
+            return _kept[key]
+    width = len(of_text(name, spec).PARAMETERS)  # a spec family is made on the worker from its text
+    arrays = read_family(Path(folder), name, seed, quantizer["cells"], width, shards)
     v = arrays["index"]
     ready: dict[str, Any] = {"index": v, "params": arrays["params"]}
     if exact:
         ready["columns"], ready["norms"] = np.ascontiguousarray(v.T), np.einsum("kd,kd->k", v, v)
     else:
         ready["lists"] = Lists.of_cells(v, read_quantizer(Path(folder), name, quantizer)[1], arrays["cell"])
-    _kept[key] = ready
-    while len(_kept) > KEEP:
-        _kept.popitem(last=False)
+    with _keeping:
+        _kept[key] = ready
+        while len(_kept) > KEEP:
+            _kept.popitem(last=False)
     return ready
 
 

@@ -36,7 +36,7 @@ from linkedit.synthesis.atlas import load as load_file
 from linkedit.synthesis.chunks import (CHUNK, HARMONICS, SAMPLES, Chunk, build_chunk, build_memory, chunk_sizes,
                                       report_kept, reporting)
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, Runner, chunk_runner
-from linkedit.synthesis.families import SPEC_TEXTS, family
+from linkedit.synthesis.families import FAMILIES, SPEC_TEXTS, family
 from linkedit.synthesis.index import SAMPLE_PER_CELL, assign, quantizer_side, train_quantizer
 
 FORMAT_VERSION = "3"
@@ -205,10 +205,13 @@ def manifest_text(manifest: dict[str, Any]) -> str:
 
 
 def read_manifest(folder: Path) -> dict[str, Any]:
-    """The manifest of the atlas folder ``folder``, checked (InputError naming it and the field otherwise)."""
+    """The manifest of the atlas folder ``folder``, checked field by field, against itself (every chunk listed once,
+    as a shard or pending; pending ones only under an interrupted build's record) and against the families it names
+    (their id, margin, columns; a spec only for a spec family): an InputError naming its line and field otherwise."""
     path = folder / MANIFEST
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        text = path.read_text(encoding="utf-8")
+        data = json.loads(text)
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read ({exc})", file=str(path)) from None
     except json.JSONDecodeError as exc:
@@ -216,7 +219,7 @@ def read_manifest(folder: Path) -> dict[str, Any]:
 
     def need(ok: bool, field: tuple[str | int, ...], what: str) -> None:
         if not ok:
-            raise InputError(what, file=str(path), field=field)
+            raise InputError(what, file=str(path), line=line_of(text, field), field=field)
 
     def integer(value: object, low: int, high: int) -> bool:
         return isinstance(value, int) and not isinstance(value, bool) and low <= value <= high
@@ -228,38 +231,107 @@ def read_manifest(folder: Path) -> dict[str, Any]:
          "(`linkedit atlas build -o NAME --family ... -n ...`)")
     need(data.get("format_version") == FORMAT_VERSION, ("format_version",),
          f"not a linkedit atlas manifest of format {FORMAT_VERSION}")
-    need((data.get("chunk"), data.get("samples"), data.get("harmonics")) == (CHUNK, SAMPLES, HARMONICS), ("chunk",),
-         "an atlas of another layout version (chunk, samples or harmonics differ); rebuild it")
+    for key, value in (("chunk", CHUNK), ("samples", SAMPLES), ("harmonics", HARMONICS)):
+        need(data.get(key) == value, (key,), f"expected {value} (another layout version: rebuild the atlas)")
     need(integer(data.get("seed"), 0, 2**63 - 1), ("seed",), "expected an integer from 0 to 2**63 - 1")
+    need(isinstance(data.get("families"), dict), ("families",), "expected an object of families")
     build = data.get("build")
     need(build is None or (isinstance(build, dict) and integer(build.get("count"), 1, 2**62)
-                           and isinstance(build.get("families"), list)), ("build",), "expected null or a build record")
-    need(isinstance(data.get("families"), dict), ("families",), "expected an object of families")
+                           and isinstance(build.get("families"), list) and len(build["families"]) > 0
+                           and all(isinstance(n, str) and n in data["families"] for n in build["families"])),
+         ("build",), "expected null or a build record {count, families (names of families listed here)}")
     for name, entry in data["families"].items():
-        where: tuple[str | int, ...] = ("families", name)
-        need(isinstance(entry, dict), where, "expected an object")
-        spec = entry.get("spec")
-        need(spec is None or isinstance(spec, str), (*where, "spec"), "expected null or a spec's text")
-        family(name, field=f"{path}: families/{name}", spec=spec)
-        need(entry.get("folder") == folder_of(name), (*where, "folder"), f"expected {folder_of(name)!r}")
-        need(integer(entry.get("chunks"), 0, 2**62), (*where, "chunks"), "expected a chunk count")
-        q = entry.get("quantizer")
-        need(isinstance(q, dict) and q.get("file") == f"{folder_of(name)}/quantizer.h5"
-             and integer(q.get("cells"), 1, 2**16) and isinstance(q.get("sha256"), str), (*where, "quantizer"),
-             "expected {file (<folder>/quantizer.h5), cells, sha256}")
-        for key in ("shards", "pending"):
-            need(isinstance(entry.get(key), list), (*where, key), "expected a list")
-        for k, shard in enumerate(entry["shards"]):
-            ok = (isinstance(shard, dict) and integer(shard.get("chunk"), 0, entry["chunks"] - 1)
-                  and integer(shard.get("rows"), 1, CHUNK) and shard.get("file") == shard_file(name, shard["chunk"])
-                  and isinstance(shard.get("sha256"), str))
-            need(ok, (*where, "shards", k), "expected {chunk, rows (1..chunk), file (<folder>/<chunk:08d>.h5), sha256}")
-        for k, job in enumerate(entry["pending"]):
-            need(isinstance(job, list) and len(job) == 2 and integer(job[0], 0, entry["chunks"] - 1)
-                 and integer(job[1], 1, CHUNK), (*where, "pending", k), "expected [chunk, size]")
-        need(len({s["chunk"] for s in entry["shards"]} | {j[0] for j in entry["pending"]})
-             == len(entry["shards"]) + len(entry["pending"]), (*where, "shards"), "a chunk is listed twice")
+        _check_family(name, entry, build, path, need, integer)
     return data
+
+
+def _check_family(name: str, entry: object, build: dict[str, Any] | None, path: Path,
+                  need: Callable[[bool, tuple[str | int, ...], str], None], integer: Callable[[object, int, int], bool]
+                  ) -> None:
+    """:func:`read_manifest`'s checks of family ``name``'s ``entry`` (``need(ok, field, why)`` refuses)."""
+    where: tuple[str | int, ...] = ("families", name)
+    need(isinstance(entry, dict), where, "expected an object")
+    assert isinstance(entry, dict)
+    missing = [key for key in _new_family_keys() if key not in entry]
+    need(not missing, where, f"{', '.join(missing)} missing")
+    spec = entry["spec"]
+    need(spec is None or isinstance(spec, str), (*where, "spec"), "expected null or a spec's text")
+    need(spec is None or name not in FAMILIES, (*where, "spec"), f"expected null: {name} is a built-in family")
+    fam = family(name, field=f"{path}: families/{name}", spec=spec)
+    need(entry["family_id"] == fam.ID, (*where, "family_id"),
+         f"expected {fam.ID}, the family's (its spec text or the manifest changed since the atlas was built)")
+    need(isinstance(entry["margin"], float) and np.isclose(entry["margin"], fam.margin(), rtol=1e-12, atol=0),
+         (*where, "margin"), f"expected {fam.margin()!r}, the family's")
+    need(entry["columns"] == list(fam.PARAMETERS), (*where, "columns"), f"expected {list(fam.PARAMETERS)}")
+    need(isinstance(entry["distribution"], str), (*where, "distribution"), "expected a text")
+    need(entry["folder"] == folder_of(name), (*where, "folder"), f"expected {folder_of(name)!r}")
+    need(integer(entry["chunks"], 0, 2**62), (*where, "chunks"), "expected a chunk count")
+    need(isinstance(entry["partial_chunk"], bool), (*where, "partial_chunk"), "expected true or false")
+    q = entry["quantizer"]
+    need(isinstance(q, dict) and q.get("file") == f"{folder_of(name)}/quantizer.h5"
+         and integer(q.get("cells"), 1, 2**16) and isinstance(q.get("sha256"), str), (*where, "quantizer"),
+         "expected {file (<folder>/quantizer.h5), cells, sha256}")
+    if (path.parent / q["file"]).is_file():  # a missing one is named when it is read
+        with open_result(path.parent / q["file"], kind="atlas-quantizer") as f:
+            held = f.dataset("centroids").shape[:1]
+        need(held == (q["cells"],), (*where, "quantizer", "cells"), f"expected {held[0] if held else 0}, the cells "
+             f"{q['file']} holds")
+    for key in ("shards", "pending"):
+        need(isinstance(entry[key], list), (*where, key), "expected a list")
+    for k, shard in enumerate(entry["shards"]):
+        ok = (isinstance(shard, dict) and integer(shard.get("chunk"), 0, entry["chunks"] - 1)
+              and integer(shard.get("rows"), 1, CHUNK) and shard.get("file") == shard_file(name, shard["chunk"])
+              and isinstance(shard.get("sha256"), str))
+        need(ok, (*where, "shards", k), "expected {chunk, rows (1..chunk), file (<folder>/<chunk:08d>.h5), sha256}")
+    for k, job in enumerate(entry["pending"]):
+        need(isinstance(job, list) and len(job) == 2 and integer(job[0], 0, entry["chunks"] - 1)
+             and integer(job[1], 1, CHUNK), (*where, "pending", k), "expected [chunk, size]")
+    need(not entry["pending"] or (build is not None and name in build["families"]), (*where, "pending"),
+         "chunks pending with no build of this family interrupted (build)")
+    listed = [s["chunk"] for s in entry["shards"]] + [j[0] for j in entry["pending"]]
+    need(len(set(listed)) == len(listed), (*where, "shards"), "a chunk is listed twice")
+    absent = sorted(set(range(entry["chunks"])) - set(listed))
+    if absent and absent[0] > max(listed, default=-1):  # the count raised past the chunks listed
+        need(False, (*where, "chunks"), f"expected {absent[0]}: chunks {absent[0]}..{absent[-1]} are listed neither "
+             "in shards nor pending")
+    need(not absent, (*where, "shards"), f"chunk {absent[0] if absent else 0} is listed neither here nor in pending")
+
+
+def _new_family_keys() -> tuple[str, ...]:
+    """The keys of a family's manifest entry (:func:`_new_family`)."""
+    return ("family_id", "margin", "distribution", "columns", "spec", "folder", "chunks", "partial_chunk",
+            "quantizer", "shards", "pending")
+
+
+def line_of(text: str, field: tuple[str | int, ...]) -> int | None:
+    """The line (from 1) in JSON ``text`` where the value at ``field`` (keys and list indices) starts, or where
+    the deepest part of it that exists does; None if ``text`` is not a JSON object."""
+    decoder = json.JSONDecoder()
+    space = re.compile(r"[\s,:]*")
+
+    def skip(at: int) -> int:
+        return space.match(text, at).end()  # type: ignore[union-attr]
+
+    at = skip(0)
+    try:
+        for step in field:
+            opening = text[at]
+            at = skip(at + 1)
+            k = 0
+            while text[at] not in "]}":
+                key = None
+                if opening == "{":
+                    key, at = decoder.raw_decode(text, at)
+                    at = skip(at)
+                if (key if opening == "{" else k) == step:
+                    break
+                _, at = decoder.raw_decode(text, at)
+                at, k = skip(at), k + 1
+            else:
+                break
+    except (IndexError, ValueError):
+        return None
+    return text.count("\n", 0, at) + 1
 
 
 # --- building -------------------------------------------------------------------------------------------
@@ -448,23 +520,25 @@ def load(path: str | Path, threads: int | None = None) -> Atlas:
         for name, entry in manifest["families"].items():
             if not entry["shards"]:
                 continue
-            families[name] = read_family(path, name, manifest["seed"], entry["quantizer"]["cells"], entry["shards"], pool)
+            families[name] = read_family(path, name, manifest["seed"], entry["quantizer"]["cells"],
+                                         len(entry["columns"]), entry["shards"], pool)
             families[name]["centroids"] = read_quantizer(path, name, entry["quantizer"])[1]
     if not families:
         raise InputError("the atlas is empty", file=str(path))
     return Atlas(path, families, manifest["seed"])
 
 
-def read_family(folder: Path, name: str, seed: int, cells: int, shards: list[dict[str, Any]],
+def read_family(folder: Path, name: str, seed: int, cells: int, width: int, shards: list[dict[str, Any]],
                 pool: ThreadPoolExecutor | None = None) -> dict[str, np.ndarray]:
-    """The ``shards`` (manifest entries) of family ``name`` (a quantizer of ``cells`` cells) as one array per key,
+    """The ``shards`` (manifest entries) of family ``name`` (a quantizer of ``cells`` cells, ``width`` parameters)
+    as one array per key,
     in their order (:func:`read_shard`, on ``pool``'s threads when given): each shard copied into its rows of arrays
     allocated once (memory: the family's, not twice it as a concatenation would take)."""
     starts = np.cumsum([0] + [shard["rows"] for shard in shards]).tolist()
     out: dict[str, np.ndarray] = {}
 
     def put(k: int) -> None:
-        part = read_shard(folder, name, seed, cells, shards[k])
+        part = read_shard(folder, name, seed, cells, width, shards[k])
         for key, array in part.items():
             if key not in out:  # the first shard read sets the layout (setdefault: one array if two threads race)
                 out.setdefault(key, np.empty((starts[-1], *array.shape[1:]), dtype=array.dtype))
@@ -474,13 +548,13 @@ def read_family(folder: Path, name: str, seed: int, cells: int, shards: list[dic
     return out
 
 
-def read_shard(folder: Path, name: str, seed: int, cells: int, shard: dict[str, Any]) -> dict[str, np.ndarray]:
-    """One shard's arrays, checked against its manifest entry (layout, rows, checksum) and the family's quantizer
-    of ``cells`` cells."""
+def read_shard(folder: Path, name: str, seed: int, cells: int, width: int,
+               shard: dict[str, Any]) -> dict[str, np.ndarray]:
+    """One shard's arrays, checked against its manifest entry (layout, rows, checksum), the family's quantizer
+    of ``cells`` cells and its ``width`` parameters."""
     file, rows = folder / shard["file"], shard["rows"]
     if not file.is_file():
         raise InputError(f"shard {shard['file']} listed in {MANIFEST} is missing", file=str(folder))
-    width = len(family(name).PARAMETERS)
     with open_result(file, kind="atlas-shard") as f:
         if (f.attr("family"), f.attr("chunk", kind=int), f.attr("seed", kind=int)) != (name, shard["chunk"], seed):
             raise f.error("/", f"not chunk {shard['chunk']} of {name} with seed {seed}")

@@ -49,8 +49,9 @@ from linkedit.synthesis.refine import ITERATIONS, Frame, Placement, Refined, cur
 from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
 from linkedit.synthesis.timed import TimedTarget, timed_fit, timed_target
 
-#: Candidates taken from the index for re-ranking (closed targets; open ones, which the
-#: index describes retraced there and back, take more and re-rank them by partial matching).
+#: Candidates taken from the index for re-ranking (closed targets; open ones take more and re-rank them by
+#: partial matching: OPEN_POOL of the arc retraced there and back, as many of it closed by its chord, whose
+#: descriptors are near those of a long arc's whole curve).
 POOL = 64
 OPEN_POOL = 512
 #: With --timing: candidates taken from the index (a close shape may have the wrong timing).
@@ -218,7 +219,10 @@ def _search(target: Curve, atlas: Atlas, index: Index | None, *, top: int, timin
     asked = precision.spline(z_target, target.closed) if points else z_target
     closed_target = asked if target.closed else np.concatenate([asked, asked[-2:0:-1]])
     pool = TIMED_POOL if timed else POINTS_POOL if points else POOL if target.closed else OPEN_POOL
-    hits = within(index.query(target_variants(closed_target), pool), atlas, margin_deg)
+    hits = index.query(target_variants(closed_target), pool)
+    if not (target.closed or points or timed):  # and closed by its chord: a long arc's descriptors are its curve's
+        hits = union(hits, index.query(target_variants(asked), pool))
+    hits = within(hits, atlas, margin_deg)
     clock["query"] = time.perf_counter()
     if points:
         chosen = _screened(_point_candidates(z_target, hits, atlas, SCREEN * top), z_target, size, margin_deg, top)
@@ -255,6 +259,15 @@ def _search(target: Curve, atlas: Atlas, index: Index | None, *, top: int, timin
         c.placement = (_placement(placements(t_desc, desc.take([k]), mirror=True)[0]) if target.closed
                        else _partial_placement(t_desc, desc, k))
     return _finish(target, z_target, size, chosen, None, clock, name, units, margin_deg, frame)
+
+
+def union(*found: list[Hit]) -> list[Hit]:
+    """The hits of several queries, each linkage once (at its smallest distance), nearest first."""
+    best: dict[tuple[str, int], Hit] = {}
+    for h in (h for hits in found for h in hits):
+        if (h.family, h.row) not in best or h.distance < best[h.family, h.row].distance:
+            best[h.family, h.row] = h
+    return sorted(best.values(), key=lambda h: h.distance)
 
 
 def within(hits: list[Hit], atlas: Atlas, margin_deg: float) -> list[Hit]:
