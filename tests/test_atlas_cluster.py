@@ -440,13 +440,13 @@ def test_a_threaded_worker_searches_two_linkages_of_one_name_at_once(run_cli, tm
     assert len({run[-1] for run in runs}) == 2
     half = len(runs) // 2
     runs = [run for pair in zip(runs[:half], runs[half:]) for run in pair]  # the two atlases by turns
-    read_shard = shard_search.read_shard
+    read_shard = shards.read_shard
 
     def slow(*args):  # a shard on a slow file system: the other threads run meanwhile
         time.sleep(0.05)
         return read_shard(*args)
 
-    monkeypatch.setattr(shard_search, "read_shard", slow)
+    monkeypatch.setattr(shards, "read_shard", slow)
     monkeypatch.setattr(families, "SPECS", {})
     monkeypatch.setattr(families, "SPEC_TEXTS", {})
     variants = np.zeros((1, shards.WIDTH), dtype=np.float32)
