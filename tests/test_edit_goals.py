@@ -155,3 +155,41 @@ def test_a_preserved_curve_is_measured_between_the_scripts_samples_too(run_cli, 
     rms = float(np.sqrt(np.mean(np.sum((after - before) ** 2, axis=1))))  # mm, over 3600 samples
     assert rms > 1.4 and kept["error"] >= 0.98 * rms, kept
     assert kept["met"] is False and r.exit_code == 1
+
+
+def _crank_rocker(tmp_path, metres: bool):
+    """examples/crank-rocker.yaml (size 75 mm), or the same linkage in m; its file and spec."""
+    spec = load_model(LinkageSpec, EXAMPLES / "crank-rocker.yaml")
+    if metres:
+        d = spec.model_dump()
+        d["units"], d["joints"] = "m", {k: [x / 1000, y / 1000] for k, (x, y) in d["joints"].items()}
+        d["tracks"]["coupler_point"]["at"] = [c / 1000 for c in d["tracks"]["coupler_point"]["at"]]
+        del d["tracks"]["rocker_tip"]
+        spec = LinkageSpec.model_validate(d)
+    return linkage_file(tmp_path, spec), spec
+
+
+@pytest.mark.parametrize("metres", [False, True])
+def test_a_dragged_curve_is_measured_between_the_scripts_samples_too(run_cli, tmp_path, metres):
+    # samples: 8 (t = 0, 1/8, …): a narrow drag (radius 0.01) at t = 0.6 falls between the samples
+    # 0.5 and 0.625, where it lifts the target by 4 % of `by` at most; the edit barely moves the
+    # linkage and meets that (0.14 mm RMS, tolerance 0.75 mm), but at t = 0.6 the coupler point
+    # stays 9.9 mm below its target: RMS 1.3 mm over the cycle. Not a dragged curve.
+    k = 1e-3 if metres else 1.0
+    path, spec = _crank_rocker(tmp_path, metres)
+    s = write(tmp_path, "s.yaml", {"linkage": str(path), "samples": 8, "lock": ["O", "D"], "operations": [
+        {"name": "bump", "drag": {"track": "coupler_point", "at": 0.6, "by": [0, 10 * k], "radius": 0.01}}]})
+    r = run_cli("edit", s, "-o", tmp_path / "out", "--json")
+    g = goal(report_of(r)["operations"][0], "drag coupler_point")
+    edited = load_model(LinkageSpec, tmp_path / "out" / "linkage-edited.yaml")
+
+    def rms(samples: int) -> float:  # the coupler point's RMS from the dragged curve, spec units
+        t = np.arange(samples) / samples
+        before, after = (simulate(x, samples).tracks["coupler_point"].position @ (1, 1j) for x in (spec, edited))
+        d = np.minimum(np.abs(t - 0.6), 1 - np.abs(t - 0.6))
+        target = before + 10j * k * np.exp(-0.5 * (d / 0.01) ** 2)
+        return float(np.sqrt(np.mean(np.abs(after - target) ** 2)))
+
+    assert rms(1440) > 1.2 * k and g["tolerance"] == pytest.approx(0.75 * k)
+    assert g["error"] == pytest.approx(rms(32), rel=1e-9)  # the final check's 4 × 8 samples
+    assert g["met"] is False and r.exit_code == 1

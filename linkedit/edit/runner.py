@@ -26,7 +26,7 @@ from linkedit.edit.variables import parametrize
 from linkedit.errors import InputError, MechanismError
 from linkedit.planar.plan import Plan, compile_plan
 from linkedit.planar.simulate import DEFAULT_SAMPLES, Motion, motor_input, motor_phases, motor_turn, simulate
-from linkedit.spec.edit_script import EditScript, Operation, Preserve
+from linkedit.spec.edit_script import EditScript, Operation
 from linkedit.spec.linkage import LinkageSpec, LinkTrack
 
 
@@ -275,13 +275,12 @@ def _relaxed(script: EditScript, problem: Problem, op: Operation, tick: Callable
 
 
 def _fine_measures(reports: list[OperationReport], kept: int, motion: Motion, earlier: list[LinkageSpec],
-                   plan: Plan, fine: int, boxes: list[Envelope | None],
-                   kept_curves: list[list[tuple[Preserve, Track]]]) -> None:
-    """Report min d_s, every envelope's largest excess and every preserved curve's RMS as the final
-    check measures them too (``fine`` samples: a box or a curve kept only at the script's samples
-    is not kept): ``motion`` is the kept result's (after operation ``kept``), ``earlier`` the rest
-    poses before it (the original first); ``boxes`` each operation's envelope over joint indices,
-    or None; ``kept_curves`` each operation's preserved tracks and their goals."""
+                   plan: Plan, fine: int, boxes: list[Envelope | None], curves: list[list[Track]]) -> None:
+    """Report min d_s, every envelope's largest excess and every curve goal's RMS as the final
+    check measures them too (``fine`` samples: a box or a curve met only at the script's samples
+    is not met), the larger of the two kept: ``motion`` is the kept result's (after operation
+    ``kept``), ``earlier`` the rest poses before it (the original first); ``boxes`` each operation's
+    envelope over joint indices, or None; ``curves`` each operation's curve goals."""
     def least(m: Motion) -> float:
         worst = m.min_singularity()
         return 1.0 if worst is None else worst[0]
@@ -298,20 +297,24 @@ def _fine_measures(reports: list[OperationReport], kept: int, motion: Motion, ea
             goal.before = report.before[key] = max(report.before[key], _excess(box, motions[n]))
             if n < kept:
                 goal.error = report.after[key] = max(report.after[key], _excess(box, motions[n + 1]))
-        for item, track in kept_curves[n] if n < kept else ():
-            goal = next(g for g in report.goals if g.name == track.label)
-            goal.error = report.after[f"{track.label} RMS"] = max(goal.error, _strayed(track, item, motions[n:n + 2]))
+        for track in curves[n] if n < kept else ():
+            goal, key = next(g for g in report.goals if g.name == track.label), f"{track.label} RMS"
+            before, after = _off_target(track, motions[n:n + 2])
+            goal.before = report.before[key] = max(goal.before, before)
+            goal.error = report.after[key] = max(goal.error, after)
 
 
-def _strayed(track: Track, item: Preserve, motions: list[Motion]) -> float:
-    """The RMS of preserved ``item`` from its curve before (``motions`` before and after, at the
-    same samples), over its window, in the sense (timing or shape) of its goal ``track``."""
-    before, after = ((m.tracks[item.track].position @ (1.0, 1j)) for m in motions)
+def _off_target(track: Track, motions: list[Motion]) -> tuple[float, float]:
+    """The RMS of curve goal ``track`` from its target before and after its operation (``motions``,
+    at the same samples), over its window, in the sense (timing or shape) of the goal; its target
+    aimed again from the curve at these samples."""
+    before, after = ((m.tracks[track.track].position @ (1.0, 1j)) for m in motions)
     t = motor_phases(motions[0].plan.spec, before.size)
-    shape = None if track.shape is None else before[: (before.size + 1) // 2 + 1]  # a rocking input's outward half
-    fine = replace(track, row=0, target=before, select=select(t, item.phases), shape=shape)
-    d, _ = fine.deviation(after[None, :])
-    return float(np.sqrt(np.mean(np.abs(d) ** 2)))
+    target = track.aim(before, t) if track.aim is not None else before
+    shape = None if track.shape is None else target[: (target.size + 1) // 2 + 1]  # a rocking input's outward half
+    fine = replace(track, row=0, target=target, select=select(t, track.phases), shape=shape)
+    d = [fine.deviation(c[None, :])[0] for c in (before, after)]
+    return float(np.sqrt(np.mean(np.abs(d[0]) ** 2))), float(np.sqrt(np.mean(np.abs(d[1]) ** 2)))
 
 
 def _excess(box: Envelope, motion: Motion) -> float:
@@ -339,7 +342,7 @@ def run_script(linkage: LinkageSpec, script: EditScript,
     size = float(np.ptp(x, axis=0).max())
     reports: list[OperationReport] = []
     boxes: list[Envelope | None] = []  # each operation's envelope over joint indices (motion positions)
-    kept_curves: list[list[tuple[Preserve, Track]]] = []  # each operation's preserved tracks and goals
+    curves: list[list[Track]] = []  # each operation's curve goals
     accepted = [x.copy()]
     for n, op in enumerate(script.operations):
         name = op.name or f"operation {n + 1}"
@@ -359,7 +362,7 @@ def run_script(linkage: LinkageSpec, script: EditScript,
         solved, mu, goals, spent = _relaxed(script, problem, op, tick, before, linkage.units)
         boxes.append(None if problem.envelope is None else replace(problem.envelope, rows=np.array(
             [index[j] for j in op.envelope.joints] if op.envelope and op.envelope.joints else range(len(index)))))
-        kept_curves.append(list(zip(op.preserved, problem.tracking)))
+        curves.append(problem.tracking)
         seconds = time.perf_counter() - start
         x = var.rest(solved.x)
         accepted.append(x.copy())
@@ -381,7 +384,7 @@ def run_script(linkage: LinkageSpec, script: EditScript,
         motion, why = _check(out_plan, edited, fine, arm)
         if motion is not None and why is None:
             _fine_measures(reports, k, motion, [with_rest_pose(linkage, out_plan, a, note) for a in accepted[:k]],
-                           out_plan, fine, boxes, kept_curves)
+                           out_plan, fine, boxes, curves)
             for report in reports[k:]:
                 report.discarded = True
             after_motion = simulate(replan(out_plan, edited), linkage.samples or DEFAULT_SAMPLES)
