@@ -82,3 +82,21 @@ def test_a_near_toggle_warning_of_a_linear_input_says_the_stroke(run_cli, tmp_pa
     assert e.result.exit_code == 0, e.output
     (near,) = [w for w in json.loads(e.output)["warnings"] if "toggle" in w]
     assert "of its toggle position at stroke 0.2 mm (below" in near, near
+
+
+def test_a_follow_polyline_is_written_as_its_own_points_beside_the_sampled_targets(run_cli, tmp_path):
+    # a retarget's target has one point per script sample (16), a follow curve (timing: false)
+    # the 3 points given: written on the retarget's 16-sample axis it read back as 16 rows, 13 of
+    # them (0, 0) that nobody gave
+    import xarray as xr
+
+    path = EDITS.parent / "crank-rocker.yaml"
+    given = [[60.0, 55.0], [66.0, 58.0], [70.0, 56.0]]
+    e = Edited(run_cli, tmp_path, path, write(tmp_path, "s.yaml", {"samples": 16, "lock": ["O", "D"], "operations": [
+        {"retarget": {"track": "coupler_point", "scale": [1.02, 1.0]},
+         "follow": {"track": "rocker_tip", "curve": given, "closed": False}}]}), "--best-effort")
+    assert e.result.exit_code == 0, e.output
+    with xr.open_datatree(e.h5, engine="h5netcdf") as tree:
+        targets = tree["operations/000/targets"]
+        assert targets["follow rocker_tip"].values.tolist() == given
+        assert targets["retarget coupler_point"].shape == (16, 2)

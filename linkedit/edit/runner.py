@@ -83,6 +83,7 @@ class OperationReport:
     goals: list[Goal] = field(default_factory=list)
     regularization: float = 0.0  # μ_r of the result kept: the script's, or relaxed (:data:`RELAXED`)
     targets: dict[str, np.ndarray] = field(default_factory=dict)  # label → (T, 2) target curve
+    polylines: frozenset[str] = frozenset()  # labels of targets given as points (follow, timing: false): (P, 2)
     discarded: bool = False  # its result did not pass the final check
     stalled: bool = False  # the solver stopped for slow progress, not converged
 
@@ -372,7 +373,8 @@ def run_script(linkage: LinkageSpec, script: EditScript,
         reports.append(OperationReport(name=name, iterations=spent[0], evaluations=spent[1], rejected_steps=spent[2],
                                        seconds=seconds, converged=solved.converged, stalled=solved.stalled,
                                        energy=solved.history, before=before, after=after, goals=goals,
-                                       regularization=mu, targets=targets))
+                                       regularization=mu, targets=targets, polylines=frozenset(
+                                           tr.label for tr in problem.tracking if not tr.timing and tr.label in targets)))
 
     fine = 4 * T
     g = out_plan.graph
