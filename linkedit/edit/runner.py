@@ -84,6 +84,7 @@ class OperationReport:
     regularization: float = 0.0  # μ_r of the result kept: the script's, or relaxed (:data:`RELAXED`)
     targets: dict[str, np.ndarray] = field(default_factory=dict)  # label → (T, 2) target curve
     polylines: frozenset[str] = frozenset()  # labels of targets given as points (follow, timing: false): (P, 2)
+    open_targets: frozenset[str] = frozenset()  # labels of targets that are open curves (follow, closed: false)
     discarded: bool = False  # its result did not pass the final check
     stalled: bool = False  # the solver stopped for slow progress, not converged
 
@@ -374,7 +375,9 @@ def run_script(linkage: LinkageSpec, script: EditScript,
                                        seconds=seconds, converged=solved.converged, stalled=solved.stalled,
                                        energy=solved.history, before=before, after=after, goals=goals,
                                        regularization=mu, targets=targets, polylines=frozenset(
-                                           tr.label for tr in problem.tracking if not tr.timing and tr.label in targets)))
+                                           tr.label for tr in problem.tracking if not tr.timing and tr.label in targets),
+                                       open_targets=frozenset(
+                                           tr.label for tr in problem.tracking if not tr.cyclic and tr.label in targets)))
 
     fine = 4 * T
     g = out_plan.graph
