@@ -193,3 +193,26 @@ def test_a_dragged_curve_is_measured_between_the_scripts_samples_too(run_cli, tm
     assert rms(1440) > 1.2 * k and g["tolerance"] == pytest.approx(0.75 * k)
     assert g["error"] == pytest.approx(rms(32), rel=1e-9)  # the final check's 4 × 8 samples
     assert g["met"] is False and r.exit_code == 1
+
+
+@pytest.mark.parametrize("metres", [False, True])
+def test_a_followed_shape_must_be_traced_whole_not_only_approached(run_cli, tmp_path, metres):
+    # follow (timing: false) the coupler curve itself with one spike 16.3 mm (22 % of the size) off
+    # it: every point of the linkage's curve lies on that polyline, so it was met (0.016 mm RMS,
+    # exit 0), yet the linkage never goes near the spike. Measured the other way too, from the
+    # target's points (evenly by arc length) to the traced curve, it is not met.
+    k = 1e-3 if metres else 1.0
+    path, spec = _crank_rocker(tmp_path, metres)
+    curve = simulate(spec, 48).tracks["coupler_point"].position
+    mid = curve.mean(axis=0)
+    spike = mid + 1.6 * (curve[12] - mid)
+    given = np.vstack([curve[:13], [spike], curve[12:]])
+    s = write(tmp_path, "s.yaml", {"linkage": str(path), "samples": 120, "lock": ["O", "D"], "operations": [
+        {"follow": {"track": "coupler_point", "curve": given.tolist()}}]})
+    r = run_cli("edit", s, "-o", tmp_path / "out", "--json")
+    g = goal(report_of(r)["operations"][0], "follow coupler_point")
+    traced = simulate(load_model(LinkageSpec, tmp_path / "out" / "linkage-edited.yaml"), 1440)
+    traced = traced.tracks["coupler_point"].position
+    # the spike's tip is as far from the traced curve as it was from the old one: it was never reached
+    assert np.sqrt(np.sum((traced - spike) ** 2, axis=1)).min() > 10.0 * k
+    assert g["error"] > g["tolerance"] and g["met"] is False and r.exit_code == 1, g

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from linkedit.curves.polyline import arc_resample, distances_to
 from linkedit.edit import bfgs, gauss_newton
 from linkedit.edit.bfgs import BfgsResult as SolverResult
 from linkedit.edit.feasibility import failure
@@ -164,8 +165,9 @@ def _probes(linkage: LinkageSpec, script: EditScript) -> tuple[LinkageSpec, list
 def _goals(problem: Problem, before: dict[str, float], after: dict[str, float], units: str) -> list[Goal]:
     """Every goal of the operation with its error before and after (see :data:`GOAL_TOLERANCE`)."""
     tol = GOAL_TOLERANCE * problem.size
-    out = [Goal(tr.label, "RMS from its target", before[f"{tr.label} RMS"], after[f"{tr.label} RMS"], tol, units)
-           for tr in problem.tracking]
+    out = [Goal(tr.label, "RMS from its target" if tr.timing or tr.phases is not None else
+                "RMS from its target shape (each curve to the other)", before[f"{tr.label} RMS"],
+                after[f"{tr.label} RMS"], tol, units) for tr in problem.tracking]
     out += [Goal(d.label, "from its target", before[f"{d.label} error"], after[f"{d.label} error"], tol, units)
             for d in problem.displacements if not d.label.startswith("transform")]
     moved = [f"{d.label} error" for d in problem.displacements if d.label.startswith("transform")]
@@ -309,14 +311,21 @@ def _fine_measures(reports: list[OperationReport], kept: int, motion: Motion, ea
 def _off_target(track: Track, motions: list[Motion]) -> tuple[float, float]:
     """The RMS of curve goal ``track`` from its target before and after its operation (``motions``,
     at the same samples), over its window, in the sense (timing or shape) of the goal; its target
-    aimed again from the curve at these samples."""
+    aimed again from the curve at these samples. A shape (``timing: false``, whole cycle) is
+    measured both ways, the larger kept: the curve's samples to the target, and the target's points
+    (as many, evenly by arc length) to the curve: the whole shape must be traced, not only approached."""
     before, after = ((m.tracks[track.track].position @ (1.0, 1j)) for m in motions)
     t = motor_phases(motions[0].plan.spec, before.size)
     target = track.aim(before, t) if track.aim is not None else before
     shape = None if track.shape is None else target[: (target.size + 1) // 2 + 1]  # a rocking input's outward half
     fine = replace(track, row=0, target=target, select=select(t, track.phases), shape=shape)
-    d = [fine.deviation(c[None, :])[0] for c in (before, after)]
-    return float(np.sqrt(np.mean(np.abs(d[0]) ** 2))), float(np.sqrt(np.mean(np.abs(d[1]) ** 2)))
+    rms = [float(np.sqrt(np.mean(np.abs(fine.deviation(c[None, :])[0]) ** 2))) for c in (before, after)]
+    if not track.timing and track.phases is None:
+        line = target if shape is None else shape
+        points = arc_resample(line, before.size, track.cyclic and shape is None)
+        back = [float(np.sqrt(np.mean(distances_to(points, c, motions[0].cyclic) ** 2))) for c in (before, after)]
+        rms = [max(a, b) for a, b in zip(rms, back)]
+    return rms[0], rms[1]
 
 
 def _excess(box: Envelope, motion: Motion) -> float:
