@@ -197,6 +197,12 @@ def test_a_followed_curve_is_measured_between_the_scripts_samples_too(run_cli, t
     assert rms(1440) > 1.25 * k and g["tolerance"] == pytest.approx(0.75 * k)
     assert g["error"] == pytest.approx(rms(32), rel=1e-9)  # the final check's 4 × 8 samples
     assert g["met"] is False and r.exit_code == 1
+    # the target written and drawn is the one measured: at the 32 samples, spike included
+    import h5py
+
+    with h5py.File(tmp_path / "out" / "linkage-edit.h5") as f:
+        written = f["operations/000/targets/follow coupler_point"][()]
+    assert written.shape == (32, 2) and np.abs(written - given).max() <= 1e-12 * k
 
 
 @pytest.mark.parametrize("metres", [False, True])

@@ -99,7 +99,7 @@ def test_a_follow_polyline_is_written_as_its_own_points_beside_the_sampled_targe
     with xr.open_datatree(e.h5, engine="h5netcdf") as tree:
         targets = tree["operations/000/targets"]
         assert targets["follow rocker_tip"].values.tolist() == given
-        assert targets["retarget coupler_point"].shape == (16, 2)
+        assert targets["retarget coupler_point"].shape == (64, 2)  # at the final check's 4 × 16 samples
 
 
 def _drawn(svg_path, cls: str) -> dict[str, str]:

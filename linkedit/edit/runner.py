@@ -83,7 +83,7 @@ class OperationReport:
     after: dict[str, float]
     goals: list[Goal] = field(default_factory=list)
     regularization: float = 0.0  # μ_r of the result kept: the script's, or relaxed (:data:`RELAXED`)
-    targets: dict[str, np.ndarray] = field(default_factory=dict)  # label → (T, 2) target curve
+    targets: dict[str, np.ndarray] = field(default_factory=dict)  # label → (T, 2) target curve (4T once checked)
     polylines: frozenset[str] = frozenset()  # labels of targets given as points (follow, timing: false): (P, 2)
     open_targets: frozenset[str] = frozenset()  # labels of targets that are open curves (follow, closed: false)
     discarded: bool = False  # its result did not pass the final check
@@ -303,17 +303,20 @@ def _fine_measures(reports: list[OperationReport], kept: int, motion: Motion, ea
                 goal.error = report.after[key] = max(report.after[key], _excess(box, motions[n + 1]))
         for track in curves[n] if n < kept else ():
             goal, key = next(g for g in report.goals if g.name == track.label), f"{track.label} RMS"
-            before, after = _off_target(track, motions[n:n + 2])
+            before, after, target = _off_target(track, motions[n:n + 2])
+            if track.label in report.targets and track.label not in report.polylines:  # the target measured
+                report.targets[track.label] = np.column_stack([target.real, target.imag])
             goal.before = report.before[key] = max(goal.before, before)
             goal.error = report.after[key] = max(goal.error, after)
 
 
-def _off_target(track: Track, motions: list[Motion]) -> tuple[float, float]:
+def _off_target(track: Track, motions: list[Motion]) -> tuple[float, float, np.ndarray]:
     """The RMS of curve goal ``track`` from its target before and after its operation (``motions``,
     at the same samples), over its window, in the sense (timing or shape) of the goal; its target
     aimed again from the curve at these samples. A shape (``timing: false``, whole cycle) is
     measured both ways, the larger kept: the curve's samples to the target, and the target's points
-    (as many, evenly by arc length) to the curve: the whole shape must be traced, not only approached."""
+    (as many, evenly by arc length) to the curve: the whole shape must be traced, not only approached.
+    Returns the RMS before, after, and the target (N,) complex at these samples."""
     before, after = ((m.tracks[track.track].position @ (1.0, 1j)) for m in motions)
     t = motor_phases(motions[0].plan.spec, before.size)
     target = track.aim(before, t) if track.aim is not None else before
@@ -325,7 +328,7 @@ def _off_target(track: Track, motions: list[Motion]) -> tuple[float, float]:
         points = arc_resample(line, before.size, track.cyclic and shape is None)
         back = [float(np.sqrt(np.mean(distances_to(points, c, motions[0].cyclic) ** 2))) for c in (before, after)]
         rms = [max(a, b) for a, b in zip(rms, back)]
-    return rms[0], rms[1]
+    return rms[0], rms[1], target
 
 
 def _excess(box: Envelope, motion: Motion) -> float:

@@ -68,9 +68,9 @@ def write_edit(path: str | Path, result: EditResult, *, script_text: str, linkag
             sampled = [label for label in op.targets if label not in op.polylines]
             if sampled:
                 samples = len(op.targets[sampled[0]])
-                scale(f, f"{g}/sample", np.arange(samples), "sample of the script's target curves")
+                scale(f, f"{g}/sample", np.arange(samples), "sample of the target curves (the final check's)")
             entries += [Entry(f"{g}/targets/{label}", op.targets[label], (f"{g}/sample", "xy"),
-                              f"target curve {label} at the script's samples", units) for label in sampled]
+                              f"target curve {label} at the final check's samples", units) for label in sampled]
             for k, label in enumerate(sorted(op.polylines)):
                 curve = op.targets[label]
                 scale(f, f"{g}/point_{k}", np.arange(len(curve)), f"point of the curve given to {label}")
