@@ -155,3 +155,87 @@ def test_a_preserved_curve_is_measured_between_the_scripts_samples_too(run_cli, 
     rms = float(np.sqrt(np.mean(np.sum((after - before) ** 2, axis=1))))  # mm, over 3600 samples
     assert rms > 1.4 and kept["error"] >= 0.98 * rms, kept
     assert kept["met"] is False and r.exit_code == 1
+
+
+def _crank_rocker(tmp_path, metres: bool):
+    """examples/crank-rocker.yaml (size 75 mm), or the same linkage in m; its file and spec."""
+    spec = load_model(LinkageSpec, EXAMPLES / "crank-rocker.yaml")
+    if metres:
+        d = spec.model_dump()
+        d["units"], d["joints"] = "m", {k: [x / 1000, y / 1000] for k, (x, y) in d["joints"].items()}
+        d["tracks"]["coupler_point"]["at"] = [c / 1000 for c in d["tracks"]["coupler_point"]["at"]]
+        del d["tracks"]["rocker_tip"]
+        spec = LinkageSpec.model_validate(d)
+    return linkage_file(tmp_path, spec), spec
+
+
+@pytest.mark.parametrize("metres", [False, True])
+def test_a_followed_curve_is_measured_between_the_scripts_samples_too(run_cli, tmp_path, metres):
+    # samples: 8 (t = 0, 1/8, …): follow (timing: true) the coupler curve given at 32 phases, one
+    # of them (t = 13/32, between the samples 3/8 and 1/2) a spike 8.9 mm (12 % of the size) off
+    # it. At the 8 samples the target is the curve itself: met (0 mm RMS, exit 0); yet at
+    # t = 13/32 the coupler point stays 8.9 mm from its target, RMS 1.27 mm over the cycle.
+    k = 1e-3 if metres else 1.0
+    path, spec = _crank_rocker(tmp_path, metres)
+    curve = simulate(spec, 32).tracks["coupler_point"].position
+    given = curve.copy()
+    given[13] = curve.mean(axis=0) + 1.6 * (curve[13] - curve.mean(axis=0))
+    s = write(tmp_path, "s.yaml", {"linkage": str(path), "samples": 8, "lock": ["O", "D"], "operations": [
+        {"name": "spike", "follow": {"track": "coupler_point", "curve": given.tolist(), "timing": True}}]})
+    r = run_cli("edit", s, "-o", tmp_path / "out", "--json")
+    g = goal(report_of(r)["operations"][0], "follow coupler_point")
+    edited = load_model(LinkageSpec, tmp_path / "out" / "linkage-edited.yaml")
+
+    def rms(samples: int) -> float:  # the coupler point's RMS from the given curve, spread over the cycle
+        t = np.arange(samples) / samples
+        ring = np.vstack([given, given[:1]])
+        u = np.arange(33) / 32
+        target = np.interp(t, u, ring[:, 0]) + 1j * np.interp(t, u, ring[:, 1])
+        after = simulate(edited, samples).tracks["coupler_point"].position @ (1, 1j)
+        return float(np.sqrt(np.mean(np.abs(after - target) ** 2)))
+
+    assert rms(1440) > 1.25 * k and g["tolerance"] == pytest.approx(0.75 * k)
+    assert g["error"] == pytest.approx(rms(32), rel=1e-9)  # the final check's 4 × 8 samples
+    assert g["met"] is False and r.exit_code == 1
+    # the target written and drawn is the one measured: at the 32 samples, spike included
+    import h5py
+
+    with h5py.File(tmp_path / "out" / "linkage-edit.h5") as f:
+        written = f["operations/000/targets/follow coupler_point"][()]
+    assert written.shape == (32, 2) and np.abs(written - given).max() <= 1e-12 * k
+
+
+@pytest.mark.parametrize("metres", [False, True])
+def test_a_followed_shape_must_be_traced_whole_not_only_approached(run_cli, tmp_path, metres):
+    # follow (timing: false) the coupler curve itself with one spike 16.3 mm (22 % of the size) off
+    # it: every point of the linkage's curve lies on that polyline, so it was met (0.016 mm RMS,
+    # exit 0), yet the linkage never goes near the spike. Measured the other way too, from the
+    # target's points (evenly by arc length) to the traced curve, it is not met.
+    k = 1e-3 if metres else 1.0
+    path, spec = _crank_rocker(tmp_path, metres)
+    curve = simulate(spec, 48).tracks["coupler_point"].position
+    mid = curve.mean(axis=0)
+    spike = mid + 1.6 * (curve[12] - mid)
+    given = np.vstack([curve[:13], [spike], curve[12:]])
+    s = write(tmp_path, "s.yaml", {"linkage": str(path), "samples": 120, "lock": ["O", "D"], "operations": [
+        {"follow": {"track": "coupler_point", "curve": given.tolist()}}]})
+    r = run_cli("edit", s, "-o", tmp_path / "out", "--json")
+    g = goal(report_of(r)["operations"][0], "follow coupler_point")
+    traced = simulate(load_model(LinkageSpec, tmp_path / "out" / "linkage-edited.yaml"), 1440)
+    traced = traced.tracks["coupler_point"].position
+    # the spike's tip is as far from the traced curve as it was from the old one: it was never reached
+    assert np.sqrt(np.sum((traced - spike) ** 2, axis=1)).min() > 10.0 * k
+    assert g["error"] > g["tolerance"] and g["met"] is False and r.exit_code == 1, g
+
+
+def test_a_drag_narrower_than_the_samples_spacing_is_an_input_error(run_cli, tmp_path):
+    # samples: 8 (one every 0.125 of the cycle), radius 0.01: the bump at t = 0.6 lies between the
+    # samples, where the objective never looks (4 % of `by` at the nearest one): the edit did nothing and said so
+    s = write(tmp_path, "s.yaml", {"linkage": str(EXAMPLES / "crank-rocker.yaml"), "samples": 8, "lock": ["O", "D"],
+                                   "operations": [{"drag": {"track": "coupler_point", "at": 0.6, "by": [0, 10],
+                                                            "radius": 0.01}}]})
+    r = run_cli("edit", s, "-o", tmp_path / "out")
+    assert r.exit_code == 2, r.output
+    (line,) = [ln for ln in r.output.splitlines() if ln.strip()]
+    assert f"{s}:" in line and "radius" in line and "samples: 100" in line and "Traceback" not in r.output
+    assert not (tmp_path / "out").exists()

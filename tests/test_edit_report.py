@@ -82,3 +82,54 @@ def test_a_near_toggle_warning_of_a_linear_input_says_the_stroke(run_cli, tmp_pa
     assert e.result.exit_code == 0, e.output
     (near,) = [w for w in json.loads(e.output)["warnings"] if "toggle" in w]
     assert "of its toggle position at stroke 0.2 mm (below" in near, near
+
+
+def test_a_follow_polyline_is_written_as_its_own_points_beside_the_sampled_targets(run_cli, tmp_path):
+    # a retarget's target has one point per script sample (16), a follow curve (timing: false)
+    # the 3 points given: written on the retarget's 16-sample axis it read back as 16 rows, 13 of
+    # them (0, 0) that nobody gave
+    import xarray as xr
+
+    path = EDITS.parent / "crank-rocker.yaml"
+    given = [[60.0, 55.0], [66.0, 58.0], [70.0, 56.0]]
+    e = Edited(run_cli, tmp_path, path, write(tmp_path, "s.yaml", {"samples": 16, "lock": ["O", "D"], "operations": [
+        {"retarget": {"track": "coupler_point", "scale": [1.02, 1.0]},
+         "follow": {"track": "rocker_tip", "curve": given, "closed": False}}]}), "--best-effort")
+    assert e.result.exit_code == 0, e.output
+    with xr.open_datatree(e.h5, engine="h5netcdf") as tree:
+        targets = tree["operations/000/targets"]
+        assert targets["follow rocker_tip"].values.tolist() == given
+        assert targets["retarget coupler_point"].shape == (64, 2)  # at the final check's 4 × 16 samples
+
+
+def _drawn(svg_path, cls: str) -> dict[str, str]:
+    """data-name → SVG element tag (``polygon``: drawn closed, ``polyline``: open) of the picture's
+    ``cls`` marks."""
+    from tests.test_svg import NS, find, parse
+
+    return {e.get("data-name"): e.tag.removeprefix(NS) for e in find(parse(svg_path.read_text()), cls)}
+
+
+def test_the_edit_picture_of_a_partial_sweep_draws_its_curves_open(run_cli, tmp_path):
+    # a 0…120° sweep traces arcs: closed, every curve of the picture got a chord from its end
+    # back to its start that the linkage never travels (simulate draws the same linkage open)
+    cr = catalog.crank_rocker()
+    spec = cr.model_copy(update={"motor": cr.motor.model_copy(update={"range_deg": (0.0, 120.0)})})
+    e = Edited(run_cli, tmp_path, linkage_file(tmp_path, spec), write(tmp_path, "s.yaml", {
+        "samples": 60, "lock": ["O", "D"], "operations": [{"retarget": {"track": "coupler_point", "scale": [1.05, 1.0]}}]}),
+        "--best-effort")
+    svg = e.out / f"{e.stem}-edit.svg"
+    assert e.result.exit_code == 0, e.output
+    assert set(_drawn(svg, "track").values()) == {"polyline"}
+    assert _drawn(svg, "target") == {"retarget coupler_point": "polyline"}
+    assert set(_drawn(svg, "joint-path").values()) == {"polyline"}
+
+
+def test_the_edit_picture_draws_an_open_follow_curve_open(run_cli, tmp_path):
+    path = EDITS.parent / "crank-rocker.yaml"
+    e = Edited(run_cli, tmp_path, path, write(tmp_path, "s.yaml", {"samples": 16, "lock": ["O", "D"], "operations": [
+        {"retarget": {"track": "coupler_point", "scale": [1.02, 1.0]},
+         "follow": {"track": "rocker_tip", "curve": [[60, 55], [66, 58], [70, 56]], "closed": False}}]}),
+        "--best-effort")
+    assert _drawn(e.out / "crank-rocker-edit.svg", "target") == {"retarget coupler_point": "polygon",
+                                                                 "follow rocker_tip": "polyline"}

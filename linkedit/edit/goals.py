@@ -3,6 +3,7 @@ stay inside a box (envelope). Each block is (r, ∂r, columns) over the sample's
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -10,6 +11,9 @@ import numpy as np
 from linkedit.edit.kinematics import Evaluation
 
 Block = tuple[np.ndarray, np.ndarray | None, np.ndarray]  # r (m,), ∂r (m, C) per colour, columns (m, C)
+#: A curve goal's target from the track's curve (N,) complex at the start of the operation, sampled
+#: at the phases t (N,): the same goal at any sampling (the final check's too).
+Aim = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
 def as_real(values: np.ndarray) -> np.ndarray:
@@ -19,7 +23,8 @@ def as_real(values: np.ndarray) -> np.ndarray:
 
 @dataclass
 class Track:
-    """Follow a target curve (T,) complex with point row ``row`` over samples ``select``."""
+    """Follow a target curve (T,) complex with point row ``row`` over samples ``select``: track
+    ``track``'s, aimed at ``aim`` (its curve at the start) over the phase window ``phases``."""
 
     label: str
     row: int
@@ -30,6 +35,9 @@ class Track:
     cyclic: bool = True
     size: float = 0.0  # size of the track's curve at the start of the operation (for reports)
     shape: np.ndarray | None = None  # the polyline for ``timing: false`` when not ``target`` itself
+    track: str = ""
+    aim: Aim | None = None
+    phases: tuple[float, float] | None = None
 
     def deviation(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(signed deviation (S,) complex or real, unit direction) of the selected samples."""

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from linkedit.edit.goals import Displacement, Envelope, Track
+from linkedit.edit.goals import Aim, Displacement, Envelope, Track
 from linkedit.edit.kinematics import RestPoseKinematics
 from linkedit.edit.objectives import Problem
 from linkedit.edit.variables import Variables, colour, column_map, seeds
 from linkedit.planar.plan import Plan
 from linkedit.planar.simulate import motor_input
-from linkedit.spec.edit_script import EditScript, Operation
+from linkedit.spec.edit_script import Drag, EditScript, Follow, Operation, Retarget
 
 
 def _phase_distance(t: np.ndarray, at: float, cyclic: bool) -> np.ndarray:
@@ -134,39 +134,27 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
                       mirror_cols=column_map(mirror_dep, colours, C), mirror_ground=ground_pairs,
                       mirror_ground_cols=column_map(ground_dep, colours, C), mirror_axis=axis, mirror_centre=centre)
     track_row = {n: int(plan.row_of[p]) for n, p in zip(plan.track_names, plan.track_points)}
-    everywhere = np.arange(T)
 
     def curve(name: str) -> np.ndarray:
         return start.z[track_row[name], :T].copy()
 
     rocking = plan.spec.motor.oscillate_deg is not None
+    goals: list[tuple[str, str, Aim, float, tuple[float, float] | None, bool, bool]] = []  # label, track, …
     for p in op.preserved:
-        c = curve(p.track)
-        # a rocking input traces its curve out and back: its shape is the outward half, open
-        shape = c[: (T + 1) // 2 + 1] if rocking else None
-        problem.tracking.append(Track(f"preserve {p.track}", track_row[p.track], c, me * w.preserve * p.weight,
-                                      select(t, p.phases), p.timing, cyclic and not rocking, shape=shape))
+        goals.append(("preserve", p.track, _kept, w.preserve * p.weight, p.phases, p.timing, cyclic and not rocking))
     for r in op.listed("retarget"):
-        c = curve(r.track)
-        mid = c.mean()
-        q = (c - mid).real * r.scale[0] + 1j * (c - mid).imag * r.scale[1]
-        target = mid + complex(*r.translate) + np.exp(1j * np.radians(r.rotate_deg)) * q
-        problem.tracking.append(Track(f"retarget {r.track}", track_row[r.track], target,
-                                      me * w.retarget * r.weight, everywhere))
+        goals.append(("retarget", r.track, _retargeted(r, curve(r.track).mean()), w.retarget * r.weight, None,
+                      True, True))
     for f in op.listed("follow"):
-        pts = np.array([complex(*p) for p in f.curve])
-        if f.timing:  # the curve's points evenly over the cycle, interpolated at the samples
-            u = np.arange(pts.size + f.closed) / (pts.size - (not f.closed))
-            ring = np.append(pts, pts[0]) if f.closed else pts
-            target = np.interp(t, u, ring.real) + 1j * np.interp(t, u, ring.imag)
-        else:
-            target = pts
-        problem.tracking.append(Track(f"follow {f.track}", track_row[f.track], target, me * w.follow * f.weight,
-                                      everywhere, f.timing, f.closed))
+        goals.append(("follow", f.track, _followed(f), w.follow * f.weight, None, f.timing, f.closed))
     for d in op.listed("drag"):
-        falloff = np.exp(-0.5 * (_phase_distance(t, d.at, cyclic) / d.radius) ** 2)
-        problem.tracking.append(Track(f"drag {d.track}", track_row[d.track], curve(d.track) + complex(*d.by) * falloff,
-                                      me * w.drag * d.weight, everywhere))
+        goals.append(("drag", d.track, _dragged(d, cyclic), w.drag * d.weight, None, True, True))
+    for kind, name, aim, weight, phases, timing, closed in goals:
+        c = curve(name)
+        # a rocking input traces its curve out and back: its shape is the outward half, open
+        shape = c[: (T + 1) // 2 + 1] if kind == "preserve" and rocking else None
+        problem.tracking.append(Track(f"{kind} {name}", track_row[name], aim(c, t), me * weight, select(t, phases),
+                                      timing, closed, shape=shape, track=name, aim=aim, phases=phases))
     column = T + 1
     for n, d in enumerate(displaces):
         point = index[d.joint] if d.joint is not None else probes[n]
@@ -197,6 +185,41 @@ def build_problem(plan: Plan, script: EditScript, op: Operation, var: Variables,
         c = start.z[tr.row, :T]
         tr.size = float(max(np.ptp(c.real), np.ptp(c.imag)))
     return problem
+
+
+def _kept(c: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """A preserved curve's target: the curve itself."""
+    return c
+
+
+def _retargeted(r: Retarget, mid: complex) -> Aim:
+    """The curve scaled (per axis), rotated and translated about ``mid`` (its centroid at the
+    script's samples, so that every sampling aims at the same curve)."""
+    def aim(c: np.ndarray, t: np.ndarray) -> np.ndarray:
+        q = (c - mid).real * r.scale[0] + 1j * (c - mid).imag * r.scale[1]
+        return mid + complex(*r.translate) + np.exp(1j * np.radians(r.rotate_deg)) * q
+    return aim
+
+
+def _followed(f: Follow) -> Aim:
+    """The given curve: its points spread evenly over the cycle, interpolated at ``t`` (``timing``),
+    or the polyline itself."""
+    pts = np.array([complex(*p) for p in f.curve])
+
+    def aim(c: np.ndarray, t: np.ndarray) -> np.ndarray:
+        if not f.timing:
+            return pts
+        u = np.arange(pts.size + f.closed) / (pts.size - (not f.closed))
+        ring = np.append(pts, pts[0]) if f.closed else pts
+        return np.interp(t, u, ring.real) + 1j * np.interp(t, u, ring.imag)
+    return aim
+
+
+def _dragged(d: Drag, cyclic: bool) -> Aim:
+    """The curve displaced by ``by``·exp(−Δt²/2r²), Δt the phase distance to ``at``."""
+    def aim(c: np.ndarray, t: np.ndarray) -> np.ndarray:
+        return c + complex(*d.by) * np.exp(-0.5 * (_phase_distance(t, d.at, cyclic) / d.radius) ** 2)
+    return aim
 
 
 def _turn_at(plan: Plan, phase: float) -> float:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from linkedit.curves.polyline import arc_resample, distances_to
 from linkedit.edit import bfgs, gauss_newton
 from linkedit.edit.bfgs import BfgsResult as SolverResult
 from linkedit.edit.feasibility import failure
@@ -26,7 +27,7 @@ from linkedit.edit.variables import parametrize
 from linkedit.errors import InputError, MechanismError
 from linkedit.planar.plan import Plan, compile_plan
 from linkedit.planar.simulate import DEFAULT_SAMPLES, Motion, motor_input, motor_phases, motor_turn, simulate
-from linkedit.spec.edit_script import EditScript, Operation, Preserve
+from linkedit.spec.edit_script import EditScript, Operation
 from linkedit.spec.linkage import LinkageSpec, LinkTrack
 
 
@@ -82,7 +83,9 @@ class OperationReport:
     after: dict[str, float]
     goals: list[Goal] = field(default_factory=list)
     regularization: float = 0.0  # μ_r of the result kept: the script's, or relaxed (:data:`RELAXED`)
-    targets: dict[str, np.ndarray] = field(default_factory=dict)  # label → (T, 2) target curve
+    targets: dict[str, np.ndarray] = field(default_factory=dict)  # label → (T, 2) target curve (4T once checked)
+    polylines: frozenset[str] = frozenset()  # labels of targets given as points (follow, timing: false): (P, 2)
+    open_targets: frozenset[str] = frozenset()  # labels of targets that are open curves (follow, closed: false)
     discarded: bool = False  # its result did not pass the final check
     stalled: bool = False  # the solver stopped for slow progress, not converged
 
@@ -162,8 +165,9 @@ def _probes(linkage: LinkageSpec, script: EditScript) -> tuple[LinkageSpec, list
 def _goals(problem: Problem, before: dict[str, float], after: dict[str, float], units: str) -> list[Goal]:
     """Every goal of the operation with its error before and after (see :data:`GOAL_TOLERANCE`)."""
     tol = GOAL_TOLERANCE * problem.size
-    out = [Goal(tr.label, "RMS from its target", before[f"{tr.label} RMS"], after[f"{tr.label} RMS"], tol, units)
-           for tr in problem.tracking]
+    out = [Goal(tr.label, "RMS from its target" if tr.timing or tr.phases is not None else
+                "RMS from its target shape (each curve to the other)", before[f"{tr.label} RMS"],
+                after[f"{tr.label} RMS"], tol, units) for tr in problem.tracking]
     out += [Goal(d.label, "from its target", before[f"{d.label} error"], after[f"{d.label} error"], tol, units)
             for d in problem.displacements if not d.label.startswith("transform")]
     moved = [f"{d.label} error" for d in problem.displacements if d.label.startswith("transform")]
@@ -275,13 +279,12 @@ def _relaxed(script: EditScript, problem: Problem, op: Operation, tick: Callable
 
 
 def _fine_measures(reports: list[OperationReport], kept: int, motion: Motion, earlier: list[LinkageSpec],
-                   plan: Plan, fine: int, boxes: list[Envelope | None],
-                   kept_curves: list[list[tuple[Preserve, Track]]]) -> None:
-    """Report min d_s, every envelope's largest excess and every preserved curve's RMS as the final
-    check measures them too (``fine`` samples: a box or a curve kept only at the script's samples
-    is not kept): ``motion`` is the kept result's (after operation ``kept``), ``earlier`` the rest
-    poses before it (the original first); ``boxes`` each operation's envelope over joint indices,
-    or None; ``kept_curves`` each operation's preserved tracks and their goals."""
+                   plan: Plan, fine: int, boxes: list[Envelope | None], curves: list[list[Track]]) -> None:
+    """Report min d_s, every envelope's largest excess and every curve goal's RMS as the final
+    check measures them too (``fine`` samples: a box or a curve met only at the script's samples
+    is not met), the larger of the two kept: ``motion`` is the kept result's (after operation
+    ``kept``), ``earlier`` the rest poses before it (the original first); ``boxes`` each operation's
+    envelope over joint indices, or None; ``curves`` each operation's curve goals."""
     def least(m: Motion) -> float:
         worst = m.min_singularity()
         return 1.0 if worst is None else worst[0]
@@ -298,20 +301,34 @@ def _fine_measures(reports: list[OperationReport], kept: int, motion: Motion, ea
             goal.before = report.before[key] = max(report.before[key], _excess(box, motions[n]))
             if n < kept:
                 goal.error = report.after[key] = max(report.after[key], _excess(box, motions[n + 1]))
-        for item, track in kept_curves[n] if n < kept else ():
-            goal = next(g for g in report.goals if g.name == track.label)
-            goal.error = report.after[f"{track.label} RMS"] = max(goal.error, _strayed(track, item, motions[n:n + 2]))
+        for track in curves[n] if n < kept else ():
+            goal, key = next(g for g in report.goals if g.name == track.label), f"{track.label} RMS"
+            before, after, target = _off_target(track, motions[n:n + 2])
+            if track.label in report.targets and track.label not in report.polylines:  # the target measured
+                report.targets[track.label] = np.column_stack([target.real, target.imag])
+            goal.before = report.before[key] = max(goal.before, before)
+            goal.error = report.after[key] = max(goal.error, after)
 
 
-def _strayed(track: Track, item: Preserve, motions: list[Motion]) -> float:
-    """The RMS of preserved ``item`` from its curve before (``motions`` before and after, at the
-    same samples), over its window, in the sense (timing or shape) of its goal ``track``."""
-    before, after = ((m.tracks[item.track].position @ (1.0, 1j)) for m in motions)
+def _off_target(track: Track, motions: list[Motion]) -> tuple[float, float, np.ndarray]:
+    """The RMS of curve goal ``track`` from its target before and after its operation (``motions``,
+    at the same samples), over its window, in the sense (timing or shape) of the goal; its target
+    aimed again from the curve at these samples. A shape (``timing: false``, whole cycle) is
+    measured both ways, the larger kept: the curve's samples to the target, and the target's points
+    (as many, evenly by arc length) to the curve: the whole shape must be traced, not only approached.
+    Returns the RMS before, after, and the target (N,) complex at these samples."""
+    before, after = ((m.tracks[track.track].position @ (1.0, 1j)) for m in motions)
     t = motor_phases(motions[0].plan.spec, before.size)
-    shape = None if track.shape is None else before[: (before.size + 1) // 2 + 1]  # a rocking input's outward half
-    fine = replace(track, row=0, target=before, select=select(t, item.phases), shape=shape)
-    d, _ = fine.deviation(after[None, :])
-    return float(np.sqrt(np.mean(np.abs(d) ** 2)))
+    target = track.aim(before, t) if track.aim is not None else before
+    shape = None if track.shape is None else target[: (target.size + 1) // 2 + 1]  # a rocking input's outward half
+    fine = replace(track, row=0, target=target, select=select(t, track.phases), shape=shape)
+    rms = [float(np.sqrt(np.mean(np.abs(fine.deviation(c[None, :])[0]) ** 2))) for c in (before, after)]
+    if not track.timing and track.phases is None:
+        line = target if shape is None else shape
+        points = arc_resample(line, before.size, track.cyclic and shape is None)
+        back = [float(np.sqrt(np.mean(distances_to(points, c, motions[0].cyclic) ** 2))) for c in (before, after)]
+        rms = [max(a, b) for a, b in zip(rms, back)]
+    return rms[0], rms[1], target
 
 
 def _excess(box: Envelope, motion: Motion) -> float:
@@ -339,7 +356,7 @@ def run_script(linkage: LinkageSpec, script: EditScript,
     size = float(np.ptp(x, axis=0).max())
     reports: list[OperationReport] = []
     boxes: list[Envelope | None] = []  # each operation's envelope over joint indices (motion positions)
-    kept_curves: list[list[tuple[Preserve, Track]]] = []  # each operation's preserved tracks and goals
+    curves: list[list[Track]] = []  # each operation's curve goals
     accepted = [x.copy()]
     for n, op in enumerate(script.operations):
         name = op.name or f"operation {n + 1}"
@@ -359,7 +376,7 @@ def run_script(linkage: LinkageSpec, script: EditScript,
         solved, mu, goals, spent = _relaxed(script, problem, op, tick, before, linkage.units)
         boxes.append(None if problem.envelope is None else replace(problem.envelope, rows=np.array(
             [index[j] for j in op.envelope.joints] if op.envelope and op.envelope.joints else range(len(index)))))
-        kept_curves.append(list(zip(op.preserved, problem.tracking)))
+        curves.append(problem.tracking)
         seconds = time.perf_counter() - start
         x = var.rest(solved.x)
         accepted.append(x.copy())
@@ -369,7 +386,10 @@ def run_script(linkage: LinkageSpec, script: EditScript,
         reports.append(OperationReport(name=name, iterations=spent[0], evaluations=spent[1], rejected_steps=spent[2],
                                        seconds=seconds, converged=solved.converged, stalled=solved.stalled,
                                        energy=solved.history, before=before, after=after, goals=goals,
-                                       regularization=mu, targets=targets))
+                                       regularization=mu, targets=targets, polylines=frozenset(
+                                           tr.label for tr in problem.tracking if not tr.timing and tr.label in targets),
+                                       open_targets=frozenset(
+                                           tr.label for tr in problem.tracking if not tr.cyclic and tr.label in targets)))
 
     fine = 4 * T
     g = out_plan.graph
@@ -381,7 +401,7 @@ def run_script(linkage: LinkageSpec, script: EditScript,
         motion, why = _check(out_plan, edited, fine, arm)
         if motion is not None and why is None:
             _fine_measures(reports, k, motion, [with_rest_pose(linkage, out_plan, a, note) for a in accepted[:k]],
-                           out_plan, fine, boxes, kept_curves)
+                           out_plan, fine, boxes, curves)
             for report in reports[k:]:
                 report.discarded = True
             after_motion = simulate(replan(out_plan, edited), linkage.samples or DEFAULT_SAMPLES)

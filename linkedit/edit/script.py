@@ -2,8 +2,8 @@
 
 The CLI and the Python API (``le.edit``) read scripts through :func:`read_script` and check
 them with :meth:`Script.check`, so both raise the same :class:`~linkedit.errors.InputError`
-(``file:line: field: what is wrong``) for a name the linkage does not have, or a phase window
-that holds none of the script's samples.
+(``file:line: field: what is wrong``) for a name the linkage does not have, a phase window
+that holds none of the script's samples, or a drag narrower than their spacing.
 """
 
 from __future__ import annotations
@@ -12,6 +12,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from linkedit.edit.operation import select
 from linkedit.errors import InputError
@@ -41,9 +43,18 @@ class Script:
 
 
 def _windows(script: EditScript, linkage: LinkageSpec) -> None:
-    """Every ``preserve`` window ``phases: [a, b]`` holds at least one of the script's samples."""
+    """Every ``preserve`` window ``phases: [a, b]`` holds at least one of the script's samples, and
+    every ``drag`` is at least as wide (``radius``) as their spacing: narrower, it falls between them."""
     t = motor_phases(linkage, script.samples)
+    spacing = float(t[1] - t[0])
     for o, op in enumerate(script.operations):
+        for n, d in enumerate(op.listed("drag")):
+            if d.radius < spacing:
+                where = ("drag", n) if isinstance(op.drag, list) else ("drag",)
+                need = int(np.ceil(1.0 / d.radius)) + (not linkage.motor.cyclic)
+                raise InputError(f"a drag of radius {d.radius:g} is narrower than the samples' spacing "
+                                 f"(one every {spacing:.4g} of the cycle): it falls between them; raise "
+                                 f"samples: {need} or more, or widen it", field=("operations", o, *where, "radius"))
         for n, kept in enumerate(op.preserve):
             if isinstance(kept, str) or kept.phases is None or select(t, kept.phases).size:
                 continue

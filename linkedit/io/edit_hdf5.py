@@ -65,12 +65,17 @@ def write_edit(path: str | Path, result: EditResult, *, script_text: str, linkag
             scale(f, f"{g}/iteration", np.arange(len(op.energy)), "accepted iterations (0: the start)")
             entries.append(Entry(f"{g}/energy", np.array(op.energy), (f"{g}/iteration",),
                                  "total energy after each accepted iteration"))
-            if op.targets:
-                samples = len(next(iter(op.targets.values())))
-                scale(f, f"{g}/sample", np.arange(samples), "sample of the script's target curves")
-            entries += [Entry(f"{g}/targets/{label}", curve, (f"{g}/sample", "xy"),
-                              f"target curve {label} (retarget or drag term)", units)
-                        for label, curve in op.targets.items()]
+            sampled = [label for label in op.targets if label not in op.polylines]
+            if sampled:
+                samples = len(op.targets[sampled[0]])
+                scale(f, f"{g}/sample", np.arange(samples), "sample of the target curves (the final check's)")
+            entries += [Entry(f"{g}/targets/{label}", op.targets[label], (f"{g}/sample", "xy"),
+                              f"target curve {label} at the final check's samples", units) for label in sampled]
+            for k, label in enumerate(sorted(op.polylines)):
+                curve = op.targets[label]
+                scale(f, f"{g}/point_{k}", np.arange(len(curve)), f"point of the curve given to {label}")
+                entries.append(Entry(f"{g}/targets/{label}", curve, (f"{g}/point_{k}", "xy"),
+                                     f"the curve given to {label} (timing: false): its points", units))
             ops.require_group(f"{n:03d}").attrs.update(
                 name=op.name, iterations=op.iterations, evaluations=op.evaluations, rejected_steps=op.rejected_steps,
                 seconds=op.seconds, converged=op.converged, discarded=op.discarded, unmet=json.dumps(op.unmet),

@@ -19,7 +19,9 @@ def edit_picture(path: str | Path | None, result: EditResult, script: EditScript
     targets = {label: curve for op in result.operations for label, curve in op.targets.items()}
     boxes = [op.envelope for op in script.operations if op.envelope is not None] if script else []
     envelope = (boxes[-1].xmin, boxes[-1].xmax, boxes[-1].ymin, boxes[-1].ymax) if boxes else None
+    opened = {label for op in result.operations for label in op.open_targets}
     return edit_overlay(path, before=drawing(result.before), after=drawing(result.after), targets=targets,
+                        cyclic=result.before.cyclic, open_targets=opened,
                         envelope=envelope, units=result.original.units, title=f"{result.original.name}: edit",
                         displacements=_displacements(result, script) if script else [])
 

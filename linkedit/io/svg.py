@@ -14,7 +14,7 @@ the edit overlay adds ``before`` or ``after`` to the class list.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -189,7 +189,8 @@ def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after
                  targets: Mapping[str, np.ndarray],
                  envelope: tuple[float | None, float | None, float | None, float | None] | None,
                  units: str = "", title: str = "",
-                 displacements: Sequence[tuple[str, Sequence[float] | None, Sequence[float]]] = ()) -> str:
+                 displacements: Sequence[tuple[str, Sequence[float] | None, Sequence[float]]] = (),
+                 cyclic: bool = True, open_targets: Collection[str] = ()) -> str:
     """The edit picture: before faint, after solid, targets dashed, envelope box; returns the SVG text.
 
     ``before`` / ``after``: the keyword arguments of :func:`motion_plot` for the linkage before
@@ -199,18 +200,19 @@ def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after
     like the track whose name is a word of the label (``"retarget foot"`` → ``foot``).
     ``envelope``: (xmin, xmax, ymin, ymax) with None for an open side (drawn to the plot edge),
     or None for no box. ``displacements``: (label, old position or None, target) of each
-    displaced point: a marker at the target and an arrow from the old position. Writes ``path``
-    atomically if given.
+    displaced point: a marker at the target and an arrow from the old position. ``cyclic``: the
+    samples are one full cycle (curves closed; else open, as a partial sweep's); ``open_targets``:
+    labels of targets drawn open all the same (a curve given open). Writes ``path`` atomically if given.
     """
     old, new = _drawing("before", before), _drawing("after", after)
-    fig = Figure(title=title, units=units)
+    fig = Figure(title=title, units=units, cyclic=cyclic)
     colors = _colors({**new.tracks, **old.tracks})
     if envelope is not None:
         if len(envelope) != 4:
             raise ValueError(f"envelope: expected (xmin, xmax, ymin, ymax), got {envelope!r}")
         fig.box(*envelope)
     for name, curve in old.tracks.items():
-        fig.polyline(curve, Stroke(colors[name], 1.6, "faint"), closed=True, cls="track before", name=name)
+        fig.polyline(curve, Stroke(colors[name], 1.6, "faint"), closed=cyclic, cls="track before", name=name)
     for link, members in old.links.items():
         fig.link(old.positions[0][members], name=link, style="faint", cls="link before")
     _joint_paths(fig, new, cls="joint-path after")
@@ -218,9 +220,10 @@ def edit_overlay(path: str | Path | None, *, before: Mapping[str, object], after
     for label, curve in targets.items():
         words = str(label).split()
         color = next((colors[w] for w in words if w in colors), None) or next(spare)
-        fig.polyline(finite(f"target {label}", curve, (None, 2)), Stroke(color, 1.6, "dashed"), closed=True,
+        fig.polyline(finite(f"target {label}", curve, (None, 2)), Stroke(color, 1.6, "dashed"),
+                     closed=cyclic and label not in open_targets,
                      cls="target", name=str(label))
-    _tracks(fig, new, colors, closed=True, cls="track after")
+    _tracks(fig, new, colors, closed=cyclic, cls="track after")
     _mechanism(fig, new, cls="after")
     for label, old_at, target in displacements:
         if old_at is not None:
