@@ -216,3 +216,19 @@ def test_load_of_a_partial_result_keeps_its_lock_ups(run_cli, tmp_path):
     assert abs(lk.start_deg - (180 + edge)) < 1e-6 and abs(lk.end_deg - (360 - edge)) < 1e-6
     assert lk.joint == "B" and lk.unit == "°"
     assert "1 lock-up(s)" in repr(back) and back.summary()["lockups"] == m.summary()["lockups"]
+
+
+@pytest.mark.parametrize("bad", ["not json", '[{"start": 1}]', "[5]"])
+def test_load_refuses_a_damaged_lockup_list_in_one_line(run_cli, tmp_path, bad):
+    """A result whose ``lockup_intervals`` attribute is not the list simulate wrote is an InputError naming it."""
+    import h5py
+
+    from linkedit.errors import InputError
+
+    out = tmp_path / "lock.h5"
+    spec = EXAMPLES / "invalid" / "locking-slider-crank.yaml"
+    assert run_cli("simulate", spec, "-o", out, "-n", "12", "--partial").exit_code == 0
+    with h5py.File(out, "a") as f:
+        f["diagnostics"].attrs["lockup_intervals"] = bad
+    with pytest.raises(InputError, match="lockup_intervals"):
+        le.load(out)
