@@ -140,13 +140,27 @@ def load(path: str | Path) -> Motion:
         d = "diagnostics"
         steps = f"{d}/step_singularity"  # sliders' and numeric groups' d_s (T, X), written where the plan has steps
         step_ds = f.array(steps, shape=(T, len(plan.steps))) if plan.steps and f.has(steps) else None
+        lockups = _lockups(f, d)
         return Motion(plan=plan, t=t, motor_angle=f.array("stroke" if plan.linear else "motor_angle", shape=(T,)),
                       positions=joints[0], velocity=joints[1], acceleration=joints[2], tracks=tracks,
                       singularity=f.array(f"{d}/singularity", shape=(T, R)),
                       orientation=f.array(f"{d}/orientation", shape=(T, R), kinds="iu"),
                       transmission=f.array(f"{d}/transmission_angle", shape=(T, R)),
                       assembled=f.array(f"{d}/assembled", shape=(T,), kinds="biu").astype(bool),
-                      step_singularity=step_ds)
+                      step_singularity=step_ds, lockups=lockups)
+
+
+def _lockups(f: Any, where: str) -> list[Any]:
+    """The lock-ups of a planar result's ``lockup_intervals`` attribute (format 3; none in a format 2 file)."""
+    import json
+
+    from linkedit.planar.diagnostics import LockUp
+
+    text = f.attr("lockup_intervals", where, default="[]")
+    try:
+        return [LockUp.from_record(r) for r in json.loads(text)]
+    except (ValueError, TypeError, KeyError, IndexError) as exc:
+        raise f.error(where, f"attribute 'lockup_intervals' is not the list of lock-ups it should be ({exc})") from None
 
 
 def edit(spec: SpecLike, script: str | Path | Mapping[str, Any] | EditScript) -> Edit:

@@ -145,3 +145,21 @@ def test_usage_error_with_json_is_a_report(run_cli):
     data = json.loads(r.stdout)
     assert r.exit_code == 2 and data["command"] == "simulate" and data["exit_code"] == 2
     assert "--samples" in data["errors"][0]["message"]
+
+
+def test_simulate_json_gives_lock_ups_as_numbers(run_cli, tmp_path):
+    """A program reading ``simulate --partial --json`` gets each lock-up's interval as numbers with
+    units and the joint to blame: the locking slider-crank (crank 20, rod 25, offset 12) cannot
+    close where 20 sin θ < −13, θ in (180° + asin(13/20), 360° − asin(13/20)), at its piston B."""
+    import math
+
+    spec = EXAMPLES / "invalid" / "locking-slider-crank.yaml"
+    r = run_cli("simulate", spec, "-o", tmp_path / "l.h5", "-n", "72", "--partial", "--json")
+    assert r.exit_code == 0, r.output
+    result = json.loads(r.stdout)["result"][0]
+    (lk,) = result["lockup_intervals"]
+    edge = math.degrees(math.asin(13 / 20))
+    assert lk["units"] == "deg" and lk["joint"] == "B" and lk["exact"] is True and lk["turn"] is None
+    assert abs(lk["start"] - (180 + edge)) < 1e-6 and abs(lk["end"] - (360 - edge)) < 1e-6
+    assert lk["reason"].startswith("slider piston") and lk["samples"] == [45, 63]
+    assert result["lockups"] == [f"the linkage cannot be assembled for motor angles 220.5°…319.5°: {lk['reason']}"]

@@ -377,3 +377,38 @@ def test_the_expression_reader_takes_time_linear_in_its_length():
     joints = parse_expression("M[" + ",\n".join(parts) + "]")
     assert len(joints) == 32_000 and joints[-1].position == (31_999 * 1.5, 31_999 % 7 * 0.25)
     assert time.perf_counter() - start < 30
+
+
+def test_pylinkage_graph_with_a_linear_actuator_follows_its_stroke(run_cli, tmp_path):
+    """A pylinkage ``LinearActuator`` (anchor O, direction 0.5 rad, stroke 2, speed 0.1, here extended 1)
+    driving a dyad to G2, as ``graph_to_json`` and ``Dimensions.to_dict()`` write it: a DRIVER node of
+    joint_type PRISMATIC, its edge to the anchor carrying the stroke, ``driver_angles`` its speed and
+    direction. It imports as a linear input over the whole stroke (extension 0 … 2, one sample per
+    pylinkage step), not as a refused slider nor a crank: the pin follows A(e) = O + e (cos 0.5, sin 0.5)."""
+    direction = complex(math.cos(0.5), math.sin(0.5))
+    o, g2, a = 0j, 3 + 0j, 1.0 * direction
+    c = _circles(a, 2.0, g2, 2.5, 3 + 3j)  # the dyad's upper branch
+    graph = {"name": "lin", "nodes": [
+        {"id": "O", "role": "GROUND", "joint_type": "REVOLUTE", "name": "O"},
+        {"id": "G2", "role": "GROUND", "joint_type": "REVOLUTE", "name": "G2"},
+        {"id": "A", "role": "DRIVER", "joint_type": "PRISMATIC", "name": "A"},
+        {"id": "C", "role": "DRIVEN", "joint_type": "REVOLUTE", "name": "C"}],
+        "edges": [{"id": "e0", "source": "O", "target": "A"}, {"id": "e1", "source": "A", "target": "C"},
+                  {"id": "e2", "source": "G2", "target": "C"}], "hyperedges": []}
+    dims = {"node_positions": {n: [p.real, p.imag] for n, p in (("O", o), ("G2", g2), ("A", a), ("C", c))},
+            "driver_angles": {"A": {"angular_velocity": 0.1, "initial_angle": 0.5}},
+            "edge_distances": {"e0": 2.0, "e1": 2.0, "e2": 2.5}, "hyperedge_constraints": {}, "name": "lin"}
+    (tmp_path / "g.json").write_text(json.dumps(graph, indent=2))
+    (tmp_path / "d.json").write_text(json.dumps(dims, indent=2))
+    spec = tmp_path / "lin.yaml"
+    r = run_cli("import", tmp_path / "g.json", "--dimensions", tmp_path / "d.json", "-o", spec)
+    assert r.exit_code == 0, r.output
+    got = _simulated(run_cli, spec, tmp_path, 21)
+    e = np.linspace(0.0, 2.0, 21)
+    assert np.abs(got["A"] - e * direction).max() <= 1e-12
+    now, want = c, []
+    for pin in e * direction:
+        now = _circles(pin, 2.0, g2, 2.5, now)
+        want.append(now)
+    assert np.abs(got["C"] - np.array(want)).max() <= 1e-12
+    assert yaml.safe_load(spec.read_text())["samples"] == 21  # 2 / 0.1 steps, both ends

@@ -201,3 +201,34 @@ def test_load_reads_the_slider_and_group_singularities_back(run_cli, tmp_path):
         m, back = le.simulate(EXAMPLES / spec, 36), le.load(out)
         assert m.step_singularity is not None and np.array_equal(back.step_singularity, m.step_singularity)
         assert repr(back) == repr(m) and back.summary() == m.summary()
+
+
+def test_load_of_a_partial_result_keeps_its_lock_ups(run_cli, tmp_path):
+    """The locking slider-crank (crank 20, rod 25, offset 12) cannot close where 20 sin θ < −13:
+    θ in (180° + asin(13/20), 360° − asin(13/20)), piston B to blame. ``le.load`` of its
+    ``--partial`` result gives that lock-up back, as ``le.simulate`` had it."""
+    spec, out = EXAMPLES / "invalid" / "locking-slider-crank.yaml", tmp_path / "lock.h5"
+    assert run_cli("simulate", spec, "-o", out, "-n", "72", "--partial").exit_code == 0
+    back, m = le.load(out), le.simulate(spec, 72, partial=True)
+    assert back.lockups == m.lockups and len(back.lockups) == 1
+    lk = back.lockups[0]
+    edge = np.degrees(np.arcsin(13 / 20))
+    assert abs(lk.start_deg - (180 + edge)) < 1e-6 and abs(lk.end_deg - (360 - edge)) < 1e-6
+    assert lk.joint == "B" and lk.unit == "°"
+    assert "1 lock-up(s)" in repr(back) and back.summary()["lockups"] == m.summary()["lockups"]
+
+
+@pytest.mark.parametrize("bad", ["not json", '[{"start": 1}]', "[5]"])
+def test_load_refuses_a_damaged_lockup_list_in_one_line(run_cli, tmp_path, bad):
+    """A result whose ``lockup_intervals`` attribute is not the list simulate wrote is an InputError naming it."""
+    import h5py
+
+    from linkedit.errors import InputError
+
+    out = tmp_path / "lock.h5"
+    spec = EXAMPLES / "invalid" / "locking-slider-crank.yaml"
+    assert run_cli("simulate", spec, "-o", out, "-n", "12", "--partial").exit_code == 0
+    with h5py.File(out, "a") as f:
+        f["diagnostics"].attrs["lockup_intervals"] = bad
+    with pytest.raises(InputError, match="lockup_intervals"):
+        le.load(out)

@@ -25,7 +25,7 @@ def test_result_file_layout(run_cli, four_bar, tmp_path):
     r = run_cli("simulate", four_bar, "-o", out, "--samples", "90")
     assert r.exit_code == 0, r.output
     with h5py.File(out) as f:
-        assert f.attrs["format_version"] == "2" and f.attrs["kind"] == "planar"
+        assert f.attrs["format_version"] == "3" and f.attrs["kind"] == "planar"
         assert f.attrs["units"] == "mm" and f.attrs["generator"].startswith("linkedit ")
         assert f.attrs["spec"] == FOURBAR
         assert f["t"].shape == (90,) and f["motor_angle"].shape == (90,)

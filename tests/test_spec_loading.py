@@ -86,3 +86,26 @@ def test_a_bad_point_of_a_link_track_is_named_not_a_missing_joint(run_cli, tmp_p
     spec.write_text(text.replace(old, f"at: {at}"))
     r = run_cli("validate", spec)
     assert r.exit_code == 2 and r.output.strip().startswith(f"linkedit: error: {spec}{expected}"), r.output
+
+
+@pytest.mark.parametrize("command, spec, field, line, use", [
+    ("simulate", "3d/compound-crank-rocker.yaml", "shapes", 11, "this is a 3D mechanism spec, not a planar linkage spec: use `linkedit solve3d`"),
+    ("validate", "3d/crank-rocker.yaml", None, None, "this is a 3D mechanism spec, not a planar linkage spec: use `linkedit solve3d`"),
+    ("solve3d", "crank-rocker.yaml", None, None, "this is a planar linkage spec, not a 3D mechanism spec: use `linkedit simulate`"),
+])
+def test_a_spec_of_the_other_kind_is_named_with_the_command_to_use(run_cli, tmp_path, command, spec, field, line, use):
+    """A 3D mechanism spec given to ``simulate`` (a planar one to ``solve3d``) says what it is and which
+    command reads it, at the first key only the other format has, not ``shapes: unknown field;
+    did you mean 'samples'?``."""
+    from tests.conftest import EXAMPLES
+    from linkedit.spec.yamlload import load_yaml
+
+    path = EXAMPLES / spec
+    data, lines = load_yaml(path)
+    first = field or next(k for k in data if k in {"shapes", "members", "constraints", "inputs", "outputs",
+                                                   "ground", "links", "motor", "sliders"})
+    args = (command, path) if command == "validate" else (command, path, "-o", tmp_path / "x.h5")
+    r = run_cli(*args)
+    assert r.exit_code == 2 and "Traceback" not in r.output, r.output
+    assert r.stderr.strip() == f"linkedit: error: {path}:{line or lines[(first,)]}: {first}: {use}"
+    assert not (tmp_path / "x.h5").exists()

@@ -20,7 +20,10 @@ Three forms, told apart by their keys:
   ``Dimensions.to_dict()`` saved as JSON (``node_positions``, ``driver_angles``,
   ``edge_distances``). The positions define the lengths, as in pylinkage's ``to_mechanism``; a
   distance that disagrees with them is refused. A prismatic node slides on the line through the
-  two ground nodes of its three-node hyperedge (how pylinkage writes a slider).
+  two ground nodes of its three-node hyperedge (how pylinkage writes a slider). A PRISMATIC DRIVER node
+  is a ``LinearActuator``: its edge to the anchor holds the stroke, ``driver_angles`` its speed
+  (``angular_velocity``) and direction (``initial_angle``); it becomes a linear input over the whole
+  stroke (``motor: {slider, stroke}``, extension 0 … stroke, one sample per step), the anchor dropped.
 * **0.x** (``Linkage`` saved with ``save_to_json``): ``Static`` (a frame point), ``Crank`` (turns
   about ``joint0`` at ``distance``; the sign of ``angle``, its step, gives the direction),
   ``Revolute`` (at ``distance0`` from ``joint0`` and ``distance1`` from ``joint1``; its x, y pick
@@ -252,13 +255,18 @@ def _graph(file: JsonFile, dims: JsonFile) -> dict[str, Any]:
     xy = {nid: v["xy"] for nid, v in nodes.items()}
     size = _size(xy.values())
     distances = dims.mapping(sizes, "edge_distances", (), {})
+    pushed = {nid for nid, v in nodes.items() if v["role"] == "DRIVER" and v["kind"] == "PRISMATIC"}  # linear actuators
     edges: list[tuple[str, str, str, Any]] = []  # id, source, target, body
+    actuator: tuple[str, str] | None = None  # (edge, anchor) of a linear actuator: its distance is the stroke
     for n, e in enumerate(file.objects(data, "edges", (), [])):
         ends = [file.name(e, key, ("edges", n)) for key in ("source", "target")]
         eid = file.name(e, "id", ("edges", n))
         for end in ends:
             if end not in nodes:
                 raise file.error(e, f"edge {eid!r}: unknown node {end!r}", ("edges", n))
+        if set(ends) & pushed and set(ends) - pushed <= ground and actuator is None:
+            actuator = (eid, ends[1] if ends[0] in pushed else ends[0])
+            continue
         if eid in distances:
             _agree(dims, distances, eid, math.dist(xy[ends[0]], xy[ends[1]]), size, ("edge_distances", eid))
         edges.append((eid, ends[0], ends[1], e.get("body_id")))
@@ -284,25 +292,37 @@ def _graph(file: JsonFile, dims: JsonFile) -> dict[str, Any]:
         elif not set(members) <= ground:
             bodies[hid] = list(dict.fromkeys(members))
     for nid, v in nodes.items():
-        if v["kind"] == "PRISMATIC" and nid not in sliders:
+        if v["kind"] == "PRISMATIC" and nid not in sliders and nid not in pushed:
             raise file.error(v["obj"], f"prismatic node {nid!r}: its slide line is not in the file (pylinkage writes it as "
                                        "a hyperedge with two ground nodes; an Assur graph keeps no line)")
-    used = {m for members in bodies.values() for m in members}
-    xy = {nid: p for nid, p in xy.items() if nid in used or nid not in rails}
     drivers = [nid for nid, v in nodes.items() if v["role"] == "DRIVER"]
     if len(drivers) != 1:
         raise file.error(data, f"{len(drivers)} DRIVER nodes: linkedit drives one motor", ("nodes",))
     driver = drivers[0]
+    angles = dims.mapping(sizes, "driver_angles", (), {})
+    if driver in pushed:
+        if actuator is None:
+            raise file.error(nodes[driver]["obj"], f"linear actuator {driver!r} has no edge to a GROUND node (its anchor)")
+        sliders[driver], motor, steps = _actuator(dims, distances, angles, driver, actuator, xy, size)
+        rails.add(actuator[1])  # the anchor only places the line
+    used = {m for members in bodies.values() for m in members}
+    xy = {nid: p for nid, p in xy.items() if nid in used or nid not in rails}
+    if driver in pushed:
+        doc: dict[str, Any] = {"joints": xy, "ground": [nid for nid in xy if nid in ground], "links": bodies,
+                               "motor": motor, "sliders": sliders}
+        doc["tracks"] = default_tracks(list(xy), doc["ground"], bodies)
+        if steps:
+            doc["samples"] = steps
+        return doc
     pivot = next((a if b == driver else b for _, a, b, _ in edges if driver in (a, b) and ({a, b} - {driver}) <= ground), None)
     if pivot is None:
         raise file.error(nodes[driver]["obj"], f"DRIVER node {driver!r} has no edge to a GROUND node (its crank)")
-    angles = dims.mapping(sizes, "driver_angles", (), {})
     omega = math.tau / 360
     if driver in angles:
         omega = dims.number(dims.mapping(angles, driver, ("driver_angles",)), "angular_velocity", ("driver_angles", driver))
     if omega == 0:
         raise dims.error(angles, "angular_velocity is 0: the crank does not turn", ("driver_angles", driver))
-    doc: dict[str, Any] = {"joints": xy, "ground": [nid for nid in xy if nid in ground], "links": bodies,
+    doc = {"joints": xy, "ground": [nid for nid in xy if nid in ground], "links": bodies,
                            "motor": {"joint": driver, "pivot": pivot, "direction": "cw" if omega < 0 else "ccw"}}
     if sliders:
         doc["sliders"] = sliders
@@ -310,6 +330,28 @@ def _graph(file: JsonFile, dims: JsonFile) -> dict[str, Any]:
     if _steps(omega):
         doc["samples"] = _steps(omega)
     return doc
+
+
+def _actuator(dims: JsonFile, distances: dict[str, Any], angles: dict[str, Any], driver: str, edge: tuple[str, str],
+              xy: dict[str, list[float]], size: float) -> tuple[dict[str, Any], dict[str, Any], int | None]:
+    """A pylinkage ``LinearActuator`` (a DRIVER node of joint_type PRISMATIC): its slider on the frame line from
+    its anchor at ``initial_angle`` (radians), the linear input over its whole stroke (the edge's distance, from
+    extension 0 to the stroke, as displacements from the saved extension) and its steps (stroke / speed, + 1)."""
+    eid, anchor = edge
+    if eid not in distances:
+        raise dims.error(distances, f"the stroke of linear actuator {driver!r} (edge {eid!r}) is missing", ("edge_distances",))
+    stroke = dims.number(distances, eid, ("edge_distances",))
+    table = dims.mapping(angles, driver, ("driver_angles",)) if driver in angles else {}
+    angle = dims.number(table, "initial_angle", ("driver_angles", driver), 0.0) if "initial_angle" in table else 0.0
+    speed = dims.number(table, "angular_velocity", ("driver_angles", driver), 0.1) if "angular_velocity" in table else 0.1
+    slider = _slide_line(dims, {"axis": [math.cos(angle), math.sin(angle)], "line_point": xy[anchor]},
+                         ("node_positions", driver), driver, xy[driver], size)
+    extension = (xy[driver][0] - xy[anchor][0]) * math.cos(angle) + (xy[driver][1] - xy[anchor][1]) * math.sin(angle)
+    if not (stroke > 0 and -_AGREE * size <= extension <= stroke + _AGREE * size):
+        raise dims.error(distances, f"linear actuator {driver!r}: stroke {stroke!r} must be positive and hold its "
+                                    f"extension {extension!r}", ("edge_distances", eid))
+    steps = _steps(speed, stroke) if speed else None
+    return slider, {"slider": driver, "stroke": [-extension, stroke - extension]}, steps + 1 if steps else None
 
 
 def _agree(dims: JsonFile, table: dict[str, Any], key: str, actual: float, size: float,

@@ -8,6 +8,7 @@ parses (``mm``, ``mm/rad``, ``mm/rad**2``).
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +17,7 @@ import numpy as np
 from linkedit.io.hdf5 import put, result_file, scale
 from linkedit.planar.simulate import Motion
 
-FORMAT_VERSION = "2"
+FORMAT_VERSION = "3"
 TXY = ("t", "xy")
 
 
@@ -109,3 +110,4 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
             d.attrs["min_singularity_joint"] = worst[1]
             d.attrs["min_singularity_motor_angle_deg" if not plan.linear else "min_singularity_stroke"] = worst[2]
         d.attrs["lockups"] = "; ".join(lk.describe() for lk in motion.lockups)
+        d.attrs["lockup_intervals"] = json.dumps([lk.record() for lk in motion.lockups])

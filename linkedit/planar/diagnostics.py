@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -48,6 +49,28 @@ class LockUp:
         if not self.exact:
             span = f"within {span} (the assembled samples either side; more samples narrow it)"
         return f"the linkage cannot be assembled for {lead} {span}: " + (self.what or self.because())
+
+    def record(self) -> dict:
+        """This lock-up as numbers for a program (``simulate --json``'s ``lockup_intervals``, the HDF5
+        result's ``lockup_intervals``): ``start``/``end``/``turn`` in ``units`` ("deg", or a linear
+        input's spec units), ``joint``, ``inputs`` (null for slider and group rules), ``stretched``,
+        ``reason`` (the text after the colon of :meth:`describe`), ``exact``, ``samples`` (the run)."""
+        return {"start": self.start_deg, "end": self.end_deg, "turn": self.turn_deg,
+                "units": "deg" if self.unit == "°" else self.unit, "joint": self.joint,
+                "inputs": list(self.inputs) if any(self.inputs) else None, "stretched": self.stretched,
+                "reason": self.what or self.because(), "exact": self.exact,
+                "samples": None if self.run is None else list(self.run)}
+
+    @classmethod
+    def from_record(cls, r: dict) -> "LockUp":
+        """The lock-up :meth:`record` wrote."""
+        run, inputs = r["samples"], r["inputs"] or ("", "")
+        lk = cls(start_deg=float(r["start"]), end_deg=float(r["end"]), joint=str(r["joint"]),
+                 inputs=(str(inputs[0]), str(inputs[1])), stretched=bool(r["stretched"]),
+                 unit="°" if r["units"] == "deg" else str(r["units"]),
+                 turn_deg=None if r["turn"] is None else float(r["turn"]), exact=bool(r["exact"]),
+                 run=None if run is None else (int(run[0]), int(run[1])))
+        return lk if lk.because() == r["reason"] else dataclasses.replace(lk, what=str(r["reason"]))
 
     def show(self, value: float) -> str:
         """An input ``value`` as :meth:`describe` writes it: ``12.3°`` or ``5.25 mm``."""

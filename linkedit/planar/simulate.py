@@ -146,6 +146,7 @@ class Motion:
                 out["worst_transmission_angle_deg"] = float(90.0 - np.degrees(dev.max()))
         if self.lockups:
             out["lockups"] = [lk.describe() for lk in self.lockups]
+            out["lockup_intervals"] = [lk.record() for lk in self.lockups]
         return out
 
 

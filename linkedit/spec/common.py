@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import operator
 from collections.abc import Callable
-from typing import Annotated
+from typing import Annotated, ClassVar
 
 import pydantic
 
@@ -57,10 +57,19 @@ PATTERN_WORDS: dict[str, Callable[[str], str]] = {
 }
 
 
+#: the kinds of mechanism spec: (what it is, the command that reads it, the top-level keys only it has)
+SPEC_KINDS: dict[str, tuple[str, str, tuple[str, ...]]] = {
+    "planar": ("a planar linkage spec", "linkedit simulate", ("ground", "links", "motor", "sliders")),
+    "3d": ("a 3D mechanism spec", "linkedit solve3d", ("shapes", "members", "constraints", "inputs", "outputs")),
+}
+
+
 class SpecModel(pydantic.BaseModel):
     """Base of every spec model."""
 
     model_config = STRICT
+    #: for a top-level mechanism spec, its key in :data:`SPEC_KINDS` (a document of another kind is named so)
+    spec_kind: ClassVar[str | None] = None
 
 
 def require_count(value: object, field: str, low: int, high: int | None = None) -> int:

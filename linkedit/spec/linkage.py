@@ -8,7 +8,7 @@ the offending field so the loader can point at its line.
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 import pydantic
 
@@ -143,6 +143,8 @@ class Slider(SpecModel):
 
 class LinkageSpec(SpecModel):
     """A planar linkage: rest pose, ground, rigid links, one motor and tracked points."""
+
+    spec_kind: ClassVar[str | None] = "planar"
 
     name: Name
     units: Name

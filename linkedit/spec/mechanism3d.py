@@ -18,7 +18,7 @@ This module holds the spec and its cross-reference checks; the parts are in
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import pydantic
 
@@ -64,6 +64,8 @@ class Outputs(SpecModel):
 
 class MechanismSpec(SpecModel):
     """A 3D mechanism: members, constraints, inputs and outputs."""
+
+    spec_kind: ClassVar[str | None] = "3d"
 
     name: Name
     units: Name

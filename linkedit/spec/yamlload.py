@@ -23,7 +23,7 @@ import pydantic
 import yaml
 
 from linkedit.errors import InputError
-from linkedit.spec.common import PATTERN_WORDS
+from linkedit.spec.common import PATTERN_WORDS, SPEC_KINDS
 
 Path_ = tuple[str | int, ...]
 
@@ -227,6 +227,19 @@ def first_problem(model: type[pydantic.BaseModel], exc: pydantic.ValidationError
     return loc, msg
 
 
+def _other_kind(model: type[pydantic.BaseModel], data: Any) -> tuple[Path_, str] | None:
+    """A mechanism spec of another kind than ``model`` reads (a 3D one given to ``simulate``): its
+    first top-level key only that kind has, and what it is; None if ``data`` is not one."""
+    own = SPEC_KINDS.get(str(getattr(model, "spec_kind", None)))
+    if own is None or not isinstance(data, dict) or any(k in data for k in own[2]):
+        return None
+    for what, command, keys in SPEC_KINDS.values():
+        found = [k for k in data if k in keys]
+        if found:
+            return (found[0],), f"this is {what}, not {own[0]}: use `{command}`"
+    return None
+
+
 def _fitting(errors: list) -> list:
     """``errors`` without those of a union's model members that the entry's keys do not fit (a field
     missing or unknown there) when another member's keys do fit: ``{link, at: [1, 2, 3]}`` is a
@@ -299,7 +312,7 @@ def validate(model: type[M], data: Any, *, file: str, lines: LineMap | None = No
     try:
         return model.model_validate(data, context=context)
     except pydantic.ValidationError as exc:
-        loc, msg = first_problem(model, exc, data)
+        loc, msg = _other_kind(model, data) or first_problem(model, exc, data)
         raise InputError(msg, file=file, line=lines.line_of(loc), field=loc) from None
     except InputError as exc:
         # semantic checks raise InputError(field=...) from inside validators
