@@ -315,3 +315,32 @@ def test_an_exact_stretch_of_a_cycle_scores_near_zero_and_ranks_first(run_cli, t
     ranking = report_of(r)["queries"][0]["ranking"]
     assert [row["curve"] for row in ranking] == ["own", "other"]
     assert ranking[0]["distance"] < 5e-4 < ranking[1]["distance"]
+
+
+def test_the_distance_is_symmetric_and_zero_for_the_same_shape_to_rounding(run_cli, tmp_path):
+    """A shape moved, turned, scaled, started elsewhere and reversed: d(a, b) = d(b, a) and ≈ 0 to rounding
+    (not the ~1e-8 of ‖a‖² + ‖b‖² - 2 a·b under a square root), in the ranking (both ways) as in the matrix."""
+    import json
+
+    import yaml
+
+    base = rounded_triangle(150, lobe=(0.2, 0.05, 0))
+    t = np.linspace(0, 2 * np.pi, 150, endpoint=False)
+    other = np.stack([np.cos(t) + 0.3 * np.cos(2 * t), 0.6 * np.sin(t) + 0.1 * np.sin(3 * t)], axis=1)
+    turn = np.radians(37.0)
+    rot = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    moved = np.roll(2.5 * base @ rot.T + [40.0, -7.0], 41, axis=0)[::-1]
+    curves = {"a": base, "a-moved": moved, "b": other, "b-turned": np.roll(other @ rot.T, 17, axis=0)}
+    path = tmp_path / "set.yaml"
+    path.write_text(yaml.safe_dump({"curves": [{"name": k, "points": v.tolist()} for k, v in curves.items()]}))
+    names = list(curves)
+    assert run_cli("compare-curves", path, "-o", tmp_path / "m.json").exit_code == 0
+    matrix = np.array(json.loads((tmp_path / "m.json").read_text())["values"])
+    queries = sum((["--query", f"{path}:{n}"] for n in names), [])
+    assert run_cli("compare-curves", *queries, "--library", path, "-o", tmp_path / "r.json").exit_code == 0
+    ranked = json.loads((tmp_path / "r.json").read_text())
+    assert ranked["curves"] == names
+    both = np.array(ranked["values"])  # rows library, columns queries
+    assert np.abs(both - both.T).max() < 1e-13
+    assert np.abs(both - matrix).max() < 1e-13
+    assert both[0, 1] < 1e-12 and both[2, 3] < 1e-12 and np.abs(np.diag(both)).max() < 1e-12

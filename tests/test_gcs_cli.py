@@ -47,6 +47,11 @@ BAD = {
                                     "inputs.rocker_pivot", "'rocker_pivot' is also a constraint's name"),
     "coordinate beyond 1e150": (("position: [-3, 3, 0]", "position: [3e200, 3, 0]"),
                                 "members.crank.position[0]", "less than or equal to 1e+150"),
+    # an absurd angle was a lock-up ("the step could not be cut small enough") or a run of hours
+    "rotation beyond 1000 turns": (("angles_deg: [0, 360]", "angles_deg: [0, 1e300]"),
+                                   "inputs.drive.rotation.angles_deg[1]", "less than or equal to 360000"),
+    "rotation below -1000 turns": (("angles_deg: [0, 360]", "angles_deg: [-1e300, 360]"),
+                                   "inputs.drive.rotation.angles_deg[0]", "greater than or equal to -360000"),
 }
 
 

@@ -751,3 +751,16 @@ def test_a_result_updated_in_place_through_a_link_updates_its_target(run_cli, tm
     with h5py.File(tmp_path / "g.h5") as f:
         assert "p" in f["tracks"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["g.h5", "link.h5"]
+
+
+@pytest.mark.parametrize("samples", [10**11])
+def test_the_library_simulate_refuses_samples_beyond_memory(monkeypatch, samples):
+    """The CLI refused `--samples` beyond memory; the library's (and the notebook's) simulate went on to
+    allocate them (10**11: a MemoryError traceback from numpy; fewer: until the machine swapped). Now the
+    same InputError, naming the memory, before anything is allocated."""
+    from linkedit import notebook, resources
+    from linkedit.errors import InputError
+
+    monkeypatch.setattr(resources, "available_memory", lambda: 2 << 30)
+    with pytest.raises(InputError, match=f"samples: {samples:,} samples of 8 joints would need about .* of memory"):
+        notebook.simulate(EXAMPLES / "jansen.yaml", samples)

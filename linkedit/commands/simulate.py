@@ -248,21 +248,14 @@ def _worst_transmission(motion: Any) -> list[tuple[str, tuple[float, str]]]:
     return out
 
 
-#: Bytes held per sample and joint while simulating (positions, velocities, accelerations and
-#: their working copies, float64), for the memory check of :func:`check_memory`.
-BYTES_PER_SAMPLE_JOINT = 2 * 3 * 8 * 8
-
-
 def check_memory(samples: int | None, spec: Any, path: Path) -> None:
     """InputError (exit 2) if ``samples`` samples of ``spec`` would not fit in the memory available
-    (:func:`linkedit.resources.require_memory`: cgroup and ``ulimit -v`` limits included)."""
-    from linkedit.planar.simulate import DEFAULT_SAMPLES
-    from linkedit.resources import require_memory
+    (:func:`linkedit.planar.simulate.require_sample_memory`)."""
+    from linkedit.planar.simulate import DEFAULT_SAMPLES, require_sample_memory
 
     count = samples or spec.samples or DEFAULT_SAMPLES
     where: dict[str, Any] = {"field": "--samples"} if samples else {"file": str(path), "field": "samples"}
-    require_memory(count * len(spec.joints) * BYTES_PER_SAMPLE_JOINT, f"{count:,} samples of {len(spec.joints)} joints",
-                   **where)
+    require_sample_memory(count, len(spec.joints), **where)
 
 
 def _progress(total: int):

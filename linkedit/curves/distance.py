@@ -16,7 +16,9 @@ Terms (each a (Ca, Cb) matrix of nonnegative numbers):
 The alignment over all N cyclic shifts is an FFT cross-correlation, batched over blocks of
 curve pairs: ‖a - shift_s(b)‖² = ‖a‖² + ‖b‖² - 2 (a ⋆ b)(s); for 2D curves as complex numbers
 z = x + iy the best rotation gives ‖a‖² + ‖b‖² - 2 |(a ⋆ b)(s)|. The best whole shift is
-refined by the parabola through the correlation at it and its two neighbours. An open curve
+refined by the parabola through the correlation at it and its two neighbours. The distance is then
+summed from the differences at the best alignment (less the refinement's gain), not from the energies:
+a pair of one shape scores 0, and d(a, b) = d(b, a), to rounding. An open curve
 against a closed one is matched to the closed one's best-fitting stretch (:mod:`.partial`).
 
 The weighted distance is d = sqrt(Σ_m w_m Δ_m²).
@@ -96,14 +98,16 @@ def _spectrum(x: np.ndarray, complex_mode: bool) -> np.ndarray:
 class Peak:
     """The best alignment of each pair (arrays of one shape)."""
 
-    score: np.ndarray  #: best correlation (refined below one sample for closed pairs)
     variant: np.ndarray  #: index into the compared versions (direction × frame pattern)
     shift: np.ndarray  #: shift in samples (fractional for closed pairs)
+    whole: np.ndarray  #: int: the best whole shift in samples
+    gain: np.ndarray  #: what the sub-sample refinement adds to the whole shift's correlation (≥ 0)
 
 
-def _best(scores: np.ndarray, both_closed: np.ndarray) -> Peak:
-    """Best alignment over versions and shifts of scores (…, V, N); open pairs: start to start
-    (forward versions, shift 0) or start to end (reversed versions, shift 1)."""
+def _best(scores: np.ndarray, both_closed: np.ndarray) -> tuple[Peak, np.ndarray]:
+    """Best alignment over versions and shifts of scores (…, V, N), and its correlation (refined below one
+    sample for closed pairs); open pairs: start to start (forward versions, shift 0) or start to end
+    (reversed versions, shift 1)."""
     n = scores.shape[-1]
     half = scores.shape[-2] // 2
     lead = scores.shape[:-2]
@@ -120,24 +124,55 @@ def _best(scores: np.ndarray, both_closed: np.ndarray) -> Peak:
     curve = cm - 2.0 * c0 + cp
     delta = np.divide(cm - cp, 2.0 * curve, out=np.zeros_like(c0), where=curve < 0)
     refined = c0 - 0.25 * (cm - cp) * delta
-    score = np.where(both_closed, np.maximum(refined, c0), np.take_along_axis(open_scores, open_best[..., None], -1)[..., 0])
-    return Peak(score, variant, np.where(both_closed, shift + delta, shift))
+    gain = np.where(both_closed, np.maximum(refined - c0, 0.0), 0.0)
+    score = np.where(both_closed, c0, np.take_along_axis(open_scores, open_best[..., None], -1)[..., 0]) + gain
+    return Peak(variant, np.where(both_closed, shift + delta, shift), shift.astype(int), gain), score
+
+
+def _squared_residual(a: np.ndarray, b: np.ndarray, reverse_sign: np.ndarray, signs: np.ndarray, mirror: bool,
+                      peak: Peak, score: np.ndarray, complex_mode: bool) -> np.ndarray:
+    """Σ |a_k - u v_{k+s}|² (r, c) of each pair at its best version v and whole shift s (2D: u the best unit
+    turn; real mode: u = 1), less twice the refinement's gain. ‖a‖² + ‖v‖² - 2·score loses ~ε(‖a‖² + ‖v‖²):
+    the pairs whose result is below a sixteenth of that sum (a pair of one shape: ~1e-8 under the square root,
+    unequal both ways) are summed from their differences instead, so every result is good to rounding.
+    a: (r, N) complex or (r, N, D); b: (c, N, D) (its versions as :func:`_variants` makes them); score: (r, c)
+    the refined correlation."""
+    n = a.shape[1]
+    energy_a = np.sum(np.abs(a.reshape(len(a), -1)) ** 2, axis=1)
+    total = energy_a[:, None] + np.einsum("cnd,cnd->c", b, b)[None, :]
+    d2 = total - 2.0 * score
+    r, c = np.nonzero(d2 < total / 16.0)
+    if not len(r):
+        return np.maximum(d2, 0.0)
+    used, k = np.unique(c, return_inverse=True)  # the versions of the columns needed
+    v = _variants(b[used], reverse_sign, complex_mode, signs, mirror)[k, peak.variant[r, c]]  # (P, N[, D])
+    index = (np.arange(n)[None, :] + peak.whole[r, c][:, None]) % n
+    if complex_mode:
+        v = np.take_along_axis(v, index, axis=-1)
+        corr = np.einsum("pn,pn->p", np.conj(a[r]), v)
+        size = np.abs(corr)
+        turn = np.divide(np.conj(corr), size, out=np.ones_like(corr), where=size > 0)
+        diff = a[r] - turn[:, None] * v
+        near = np.einsum("pn,pn->p", diff.real, diff.real) + np.einsum("pn,pn->p", diff.imag, diff.imag)
+    else:
+        diff = a[r] - np.take_along_axis(v, index[..., None], axis=-2)
+        near = np.einsum("pnd,pnd->p", diff, diff)
+    d2[r, c] = near - 2.0 * peak.gain[r, c]
+    return np.maximum(d2, 0.0)
 
 
 def _peaks(a: np.ndarray, b: np.ndarray, closed_a: np.ndarray, closed_b: np.ndarray, reverse_sign: np.ndarray,
-           frame_flips: bool, mirror: bool, rows: slice, cols: slice) -> Peak:
-    """Best alignments of a[rows] against b[cols] as (r, c) arrays."""
+           frame_flips: bool, mirror: bool, rows: slice, cols: slice) -> tuple[Peak, np.ndarray]:
+    """Best alignments of a[rows] against b[cols] as (r, c) arrays, and the squared residual (r, c) at them
+    (:func:`_squared_residual`)."""
     n, dim = a.shape[1], a.shape[2]
     complex_mode = dim == 2 and frame_flips
     signs = _frame_signs(dim, frame_flips, mirror)
-    if complex_mode:
-        a_spec = np.conj(_spectrum(a[rows, :, 0] + 1j * a[rows, :, 1], True))
-        v_spec = _spectrum(_variants(b[cols], reverse_sign, True, signs, mirror), True)
-    else:
-        a_spec = np.conj(_spectrum(a[rows], False))
-        v_spec = _spectrum(_variants(b[cols], reverse_sign, False, signs, mirror), False)
-    scores = _scores(a_spec, v_spec, complex_mode, n)
-    return _best(scores, closed_a[rows, None] & closed_b[None, cols])
+    ar = a[rows, :, 0] + 1j * a[rows, :, 1] if complex_mode else a[rows]
+    v_spec = _spectrum(_variants(b[cols], reverse_sign, complex_mode, signs, mirror), complex_mode)
+    scores = _scores(np.conj(_spectrum(ar, complex_mode)), v_spec, complex_mode, n)
+    peak, score = _best(scores, closed_a[rows, None] & closed_b[None, cols])
+    return peak, _squared_residual(ar, b[cols], reverse_sign, signs, mirror, peak, score, complex_mode)
 
 
 def _block_rows(n_b: int, versions: int, n: int) -> int:
@@ -163,15 +198,13 @@ def aligned_rms(a: np.ndarray, b: np.ndarray | None, closed_a: np.ndarray, close
     n, dim = a.shape[1], a.shape[2]
     sigma = np.broadcast_to(np.asarray(reverse_sign, dtype=float), (dim,))
     versions = 2 * len(_frame_signs(dim, frame_flips, mirror))
-    energy_a, energy_b = np.einsum("cnd,cnd->c", a, a), np.einsum("cnd,cnd->c", b, b)
     out = np.empty((len(a), len(b)))
     rows = _block_rows(len(b), versions, n)
     for start in range(0, len(a), rows):
         stop = min(start + rows, len(a))
         cols = slice(start, None) if symmetric else slice(None)
-        peak = _peaks(a, b, closed_a, closed_b, sigma, frame_flips, mirror, slice(start, stop), cols)
-        d2 = (energy_a[start:stop, None] + energy_b[None, cols] - 2.0 * peak.score) / n
-        out[start:stop, cols] = np.sqrt(np.maximum(d2, 0.0))
+        _, d2 = _peaks(a, b, closed_a, closed_b, sigma, frame_flips, mirror, slice(start, stop), cols)
+        out[start:stop, cols] = np.sqrt(d2 / n)
     if symmetric:
         upper = np.triu(out)
         out = upper + np.triu(upper, 1).T
@@ -193,7 +226,7 @@ def alignment(reference: np.ndarray, closed_ref: bool, points: np.ndarray, close
     """The best alignment of curves (C, N, D) onto a reference (N, D), as :func:`aligned_rms` finds it."""
     n, dim = points.shape[1], points.shape[2]
     signs = _frame_signs(dim, True, mirror)
-    peak = _peaks(reference[None], points, np.array([closed_ref]), np.asarray(closed), np.ones(dim), True, mirror,
+    peak, _ = _peaks(reference[None], points, np.array([closed_ref]), np.asarray(closed), np.ones(dim), True, mirror,
                   slice(0, 1), slice(None))
     variant, shift = peak.variant[0], peak.shift[0]
     if dim == 2:

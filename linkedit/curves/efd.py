@@ -86,6 +86,10 @@ def variant_signs(harmonics: int) -> np.ndarray:
     return np.stack([ones, half, reverse, half * reverse])
 
 
+#: Numbers of the differences formed per block in :func:`efd_distance` (bounds memory).
+EFD_BLOCK = 1 << 21
+
+
 def efd_distance(a: np.ndarray, b: np.ndarray, *, mirror: bool = False) -> np.ndarray:
     """Euclidean distance of normalized descriptors, smallest over the variants: (Ca, H, 4), (Cb, H, 4) → (Ca, Cb).
 
@@ -96,9 +100,13 @@ def efd_distance(a: np.ndarray, b: np.ndarray, *, mirror: bool = False) -> np.nd
     if mirror:
         signs = np.concatenate([signs, signs * np.array([1.0, 1.0, -1.0, -1.0])])
     signs = signs.reshape(len(signs), -1)
-    best = np.max(np.stack([fa @ (fb * s).T for s in signs]), axis=0)
-    d2 = np.sum(fa**2, axis=1)[:, None] + np.sum(fb**2, axis=1)[None, :] - 2 * best
-    return np.sqrt(np.maximum(d2, 0.0))
+    best = np.argmax(np.stack([fa @ (fb * s).T for s in signs]), axis=0)
+    out = np.empty(best.shape)
+    rows = max(1, EFD_BLOCK // max(fb.size, 1))
+    for start in range(0, len(fa), rows):  # summed from the differences: one shape scores 0 to rounding
+        diff = fa[start:start + rows, None] - fb[None] * signs[best[start:start + rows]]
+        out[start:start + rows] = np.sqrt(np.einsum("abk,abk->ab", diff, diff))
+    return out
 
 
 def polyline_efd(z: np.ndarray, harmonics: int) -> np.ndarray:

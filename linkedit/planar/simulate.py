@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -237,6 +238,21 @@ def _unit(plan: Plan) -> str:
     return plan.spec.units if plan.linear else "°"
 
 
+#: Bytes held per sample and joint while simulating (positions, velocities, accelerations and
+#: their working copies, float64), for :func:`require_sample_memory`.
+BYTES_PER_SAMPLE_JOINT = 2 * 3 * 8 * 8
+#: Below this many bytes :func:`simulate` skips the memory check (reading the limits costs ~0.4 ms a call).
+CHECK_MEMORY_FROM = 1 << 28
+
+
+def require_sample_memory(samples: int, joints: int, **where: Any) -> None:
+    """InputError (exit 2, placed by ``where``) if ``samples`` samples of ``joints`` joints would not fit in the
+    memory available (:func:`linkedit.resources.require_memory`: cgroup and ``ulimit -v`` limits included)."""
+    from linkedit.resources import require_memory
+
+    require_memory(samples * joints * BYTES_PER_SAMPLE_JOINT, f"{samples:,} samples of {joints} joints", **where)
+
+
 def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial: bool = False,
              geometry: Geometry | None = None, phases: np.ndarray | None = None) -> Motion:
     """Simulate one motor cycle with ``samples`` samples (a whole number ≥ 1, else InputError;
@@ -254,6 +270,8 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
         samples = len(phases)
     else:
         samples = spec.samples or DEFAULT_SAMPLES if samples is None else require_count(samples, "samples", 1)
+    if samples * len(spec.joints) * BYTES_PER_SAMPLE_JOINT > CHECK_MEMORY_FROM:
+        require_sample_memory(samples, len(spec.joints), field="samples")
     t, value = motor_angles(spec, samples, phases)
     if geometry is None:
         geom, origin, scale = Geometry.of(plan, plan.normalized_points()), plan.origin, plan.scale

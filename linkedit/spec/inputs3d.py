@@ -27,12 +27,18 @@ class LocationInput(_InputBase):
     keyframes: list[Point3] = pydantic.Field(min_length=1)
 
 
+#: Largest rotation input angle, degrees (1,000 turns, like a planar stroke's 1,000 sizes): the solver follows
+#: every turn (36,000° takes ~10 s), and 1e300° is no angle a double can step through.
+MAX_ANGLE_DEG = 360_000.0
+Angle = Annotated[Finite, pydantic.Field(ge=-MAX_ANGLE_DEG, le=MAX_ANGLE_DEG)]
+
+
 class Rotation(SpecModel):
     """A turn about ``axis`` (world, or ``other``'s space) through ``angles_deg`` (linear in time;
     0 → 360 is one full turn), applied to ``base`` (default: the rest orientation)."""
 
     axis: Direction
-    angles_deg: list[Finite] = pydantic.Field(min_length=1)
+    angles_deg: list[Angle] = pydantic.Field(min_length=1)
     base: Orientation | None = None
 
 
