@@ -26,7 +26,7 @@ from linkedit.synthesis import fourbar, shards
 from linkedit.synthesis.atlas import Atlas, stored_bytes
 from linkedit.synthesis.chunks import CHUNK, build_chunk
 from linkedit.synthesis.cluster import dask_logs, local_cluster, usable_cores
-from linkedit.synthesis.index import PROBE, Index, Lists, nearest_rows, quantizer_side, target_variants
+from linkedit.synthesis.index import Index, Lists, nearest_rows, probe_count, quantizer_side, target_variants
 from linkedit.synthesis.shard_search import ClusterIndex, remote_atlas
 
 #: Curves the extrapolation aims at, and the issue's target for a query over them.
@@ -138,21 +138,22 @@ def run(echo: Callable[[str], None], count: int | None, workers: int, scheduler:
         per = t_large / rows_large
         basis = f"proportional to the {count:,} figure's {rows_large:,.0f} rows (give --large above {SMALL:,} for a line)"
     big_cells = quantizer_side(HUNDRED_MILLION) ** 2
-    rows_100m = rows_large * HUNDRED_MILLION / count * cells / big_cells  # a 100M build's quantizer: big_cells
+    probes, big_probes = probe_count(cells), probe_count(big_cells)
+    rows_100m = rows_large * HUNDRED_MILLION / count * cells / big_cells * big_probes / probes  # a 100M build's cells
     t_100m = t_large + per * (rows_100m - rows_large)
     echo(f"query at scale, sharded atlas of {count:,} four-bars ({cores} cores usable of the machine's "
          f"{os.cpu_count()}, load average {load:.2f} before, {os.getloadavg()[0]:.2f} after): {built}, "
          f"{on_disk / count:.0f} bytes per linkage on disk ({shards.shard_bytes('four-bar')} stored + HDF5 overhead; "
          f"an atlas file: {stored_bytes('four-bar')}), loaded in {t_load:.1f} s, this process's peak memory then "
          f"{size_text(held_bytes)} ({held_bytes / count:.0f} bytes per linkage)")
-    echo(f"  query through the family's quantizer ({cells:,} cells, {PROBE} probed), median of {TARGETS} held-out targets: "
+    echo(f"  query through the family's quantizer ({cells:,} cells, {probes} probed), median of {TARGETS} held-out targets: "
          f"{f'{1e3 * t_small:.0f} ms at {small:,}, ' if count > small else ''}{1e3 * t_large:.0f} ms at {count:,} "
          f"(recall of the exact top 10 "
          f"{np.mean(recall):.3f}, target ≥ 0.99); on the cluster at {count:,}: {remote}")
     if count >= HUNDRED_MILLION:
         return
     echo(f"  extrapolated to {HUNDRED_MILLION:,}: {t_100m:.2f} s in-process on these {cores} cores (target ≤ "
-         f"{LARGE_QUERY_TARGET:g} s) — basis: the time grows with the rows of the {PROBE} probed cells, "
-         f"{basis}; a 100,000,000 build's quantizer has {big_cells:,} cells, so ≈ {rows_100m:,.0f} rows scanned "
-         f"(the {count:,} figure's × {HUNDRED_MILLION / count:,.0f} × {cells:,}/{big_cells:,}; its {big_cells:,} "
-         f"centroids add < 1 ms)")
+         f"{LARGE_QUERY_TARGET:g} s) — basis: the time grows with the rows of the probed cells, "
+         f"{basis}; a 100,000,000 build's quantizer has {big_cells:,} cells, {big_probes} probed, so ≈ "
+         f"{rows_100m:,.0f} rows scanned (the {count:,} figure's × {HUNDRED_MILLION / count:,.0f} × "
+         f"{cells:,}/{big_cells:,} × {big_probes}/{probes}; its {big_cells:,} centroids add < 1 ms)")

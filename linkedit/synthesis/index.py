@@ -13,7 +13,7 @@ variants, then ranks those linkages exactly): the scanned fraction, not the atla
 time, with the exact top-10 found ≥ 99 % of the time (``linkedit bench -s synthesis`` measures
 the recall). A sharded atlas (:mod:`linkedit.synthesis.shards`) has one quantizer per family
 (:func:`train_quantizer`, two levels so a shard's rows are assigned cheaply: :func:`assign`), and each
-shard stores its rows' cells: the query probes the :data:`PROBE` cells nearest to the target over the
+shard stores its rows' cells: the query probes the :func:`probe_count` cells nearest to the target over the
 whole family, so its work grows with the rows of those cells, not with the number of shards.
 """
 
@@ -47,9 +47,18 @@ def target_variants(z: np.ndarray) -> np.ndarray:
 
 #: families up to this many linkages are scanned whole (1M in ≤ 50 ms); larger ones through :class:`Lists`
 SCAN_LIMIT = 2_000_000
-#: cells a query scans (of ~2·√K; those nearest to any variant of the target): the exact top-10 is found
-#: ≥ 99 % of the time (of 400,000 four-bars: 0.996 in 1,296 cells, 0.993 in 16,384; 32 cells: 0.987 in 16,384)
+#: cells a query scans (of ~2·√K; those nearest to any variant of the target), at least: the exact top-10 is
+#: found ≥ 99 % of the time (of 400,000 four-bars: 0.996 in 1,296 cells, 0.993 in 16,384; 32 cells: 0.987 in 16,384)
 PROBE = 64
+#: ... and at least this share of the cells (16,384 cells: 128 scanned): of 100,000,000 four-bars in 16,384 cells,
+#: 64 found 0.991 of the exact top 10 of 100 held-out targets (0.986 of the first 50), 96 0.999, 128 all of them,
+#: in 259, 387 and 548 ms (medians, 2 loaded cores)
+PROBE_SHARE = 1 / 128
+
+
+def probe_count(cells: int) -> int:
+    """The cells a query of a family quantized in ``cells`` cells scans (:data:`PROBE`, :data:`PROBE_SHARE`)."""
+    return min(cells, max(PROBE, round(PROBE_SHARE * cells)))
 
 
 def nearest_rows(variants: np.ndarray, columns: np.ndarray, norms: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
@@ -170,14 +179,14 @@ class Lists:
         return cls(vectors, centroids, *grouped(cell, len(centroids)))
 
     def probed(self, variants: np.ndarray, probe: int | None = None) -> np.ndarray:
-        """The ``probe`` cells (:data:`PROBE` by default) nearest to any of ``variants`` (V, D), in order."""
+        """The ``probe`` cells (:func:`probe_count` by default) nearest to any of ``variants`` (V, D), in order."""
         d2 = self.centroid_norms - 2.0 * (variants @ self.centroid_columns).max(axis=0)
-        p = min(probe or PROBE, len(d2))
+        p = min(probe or probe_count(len(d2)), len(d2))
         return np.sort(np.argpartition(d2, p - 1)[:p])
 
     def query(self, variants: np.ndarray, count: int, probe: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Rows (atlas order) and squared distances less |q|², nearest first (see :func:`nearest_rows`):
-        the ``probe`` cells nearest to any variant are scanned (:data:`PROBE` by default)."""
+        the ``probe`` cells nearest to any variant are scanned (:func:`probe_count` by default)."""
         with single_threaded():  # small products (~10⁴–10⁵ rows): OpenBLAS's threads cost 2–5× on a loaded machine
             cells = self.probed(variants, probe)
             spans = [self.rows[self.offsets[c]:self.offsets[c + 1]] for c in cells]
