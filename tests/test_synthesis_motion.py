@@ -104,6 +104,7 @@ def test_five_poses_are_interpolated_exactly(run_cli, tmp_path):
     assert done["mode"] == "motion" and done["family"] == "four-bar"
     report = check_poses(run_cli, out, points, angles, tmp_path, 1e-6)
     assert report["linkage"]["units"] == "cm" and yaml.safe_load((out / "result.yaml").read_text())["units"] == "cm"
+    assert report["note"] == ""  # a compact linkage: no note
 
 
 @pytest.mark.parametrize("count", [3, 4])
@@ -171,13 +172,21 @@ def test_moving_pivots_three_sizes_out_are_found(run_cli, tmp_path):
 
 def test_a_translation_along_a_line_is_met_closely(run_cli, tmp_path):
     """A coupler translating along a straight line (every circle point at infinity): least squares
-    through 12 poses with long links, within the tolerance."""
+    through 12 poses with long links, within the tolerance — and a note that says how long: its longest link
+    (read from result.yaml) over the poses' size, the coupler's turn 0° (it said nothing of a 1 km linkage
+    for 100 mm of poses)."""
     points = np.linspace(0, 100, 12) + 0j
     write_poses(tmp_path / "line.csv", points, np.zeros(12))
     result = run_cli("synthesize", "--motion", tmp_path / "line.csv", "-o", tmp_path / "mo")
     assert result.exit_code == 0, result.output
     report = check_poses(run_cli, tmp_path / "mo", points, np.zeros(12), tmp_path, 0.005, 0.5)
-    assert not report["note"]
+    joints = {k: complex(*v) for k, v in yaml.safe_load((tmp_path / "mo" / "result.yaml").read_text())["joints"].items()}
+    links = [abs(joints[a] - joints[b]) for a, b in (("O", "D"), ("O", "A"), ("A", "B"), ("B", "D"))]
+    times = max(links) / report["poses"]["size"]
+    assert times > 1000 and report["note"] == (
+        f"its longest link is {times:,.0f}× the poses' size ({max(links):.4g} mm): the coupler turns only 0° over the "
+        "poses, so its pivots lie far out; poses that turn the coupler more give a compact linkage")
+    assert f"note: its longest link is {times:,.0f}×" in result.output
 
 
 @pytest.mark.parametrize("text, message", [

@@ -39,6 +39,8 @@ UNITS = "mm"
 RESULT_SAMPLES = 361
 #: a motion generator whose coupler point misses a pose by more than this fraction of the size gets a note
 POSITION_TOLERANCE = 0.005
+#: ... and one whose longest link is more than this many times the poses' size (a coupler that barely turns)
+FAR = 100.0
 #: the units a poses file's angle_deg column may name (any other is refused: the column is in degrees)
 DEGREES = ("deg", "degree", "degrees", "°")
 #: the units a poses file's t column may name (t is the motor's phase: one turn = 1)
@@ -356,9 +358,15 @@ def run_motion(path: Path, out: Path, *, margin_deg: float, tolerance_deg: float
     simulated = simulate(spec, RESULT_SAMPLES)
     length, (lo, hi) = _motion_linkage(found, spec)
     worst_pos, worst_angle = float(gap.max()), float(np.abs(turn_error).max())
-    note = "" if worst_pos <= POSITION_TOLERANCE and worst_angle <= tolerance_deg else (
+    notes = [] if worst_pos <= POSITION_TOLERANCE and worst_angle <= tolerance_deg else [
         f"no {family} found passes the poses within {100 * POSITION_TOLERANCE:g} % of their size and "
-        f"{tolerance_deg:g}°: the best is off by {100 * worst_pos:.3g} % and {worst_angle:.3g}° (max)")
+        f"{tolerance_deg:g}°: the best is off by {100 * worst_pos:.3g} % and {worst_angle:.3g}° (max)"]
+    longest = max(abs(v) for k, v in length.items() if not k.endswith("_deg"))  # lengths, not the guide's angle
+    if longest > FAR * size:
+        notes.append(f"its longest link is {longest / size:,.0f}× the poses' size ({longest:.4g} {units}): the coupler "
+                     f"turns only {float(np.degrees(np.ptp(theta))):.3g}° over the poses, so its pivots lie far out; "
+                     "poses that turn the coupler more give a compact linkage")
+    note = "; ".join(notes)
     sweep = float(np.degrees(found.turns[-1]))
     report = {
         "generator": f"linkedit {__version__}", "mode": "motion", "family": family,
