@@ -15,6 +15,7 @@ import yaml
 
 from linkedit.synthesis import atlas, chunks, fourbar, shards
 from linkedit.synthesis import cluster as runner
+from linkedit.synthesis import manifest as atlas_manifest
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.shard_search import remote_atlas
 from tests.conftest import EXAMPLES
@@ -367,7 +368,7 @@ def test_a_cluster_searches_atlases_of_two_linkages_of_one_name(run_cli, tmp_pat
     for k, spec in enumerate((text, text + "# the other user's arm\n")):
         monkeypatch.setattr(families, "SPECS", {})  # a new `linkedit` process
         monkeypatch.setattr(families, "SPEC_TEXTS", {})
-        for module in (atlas, shards, runner):
+        for module in (atlas, shards, atlas_manifest, runner):
             monkeypatch.setattr(module, "SPEC_TEXTS", families.SPEC_TEXTS)
         (tmp_path / f"arm{k}.yaml").write_text(spec)
         built = run_cli("atlas", "build", "--family", tmp_path / f"arm{k}.yaml", "-n", "100", "-o", tmp_path / f"a{k}",
@@ -429,7 +430,7 @@ def test_a_threaded_worker_searches_two_linkages_of_one_name_at_once(run_cli, tm
     for k, text in enumerate(texts):
         monkeypatch.setattr(families, "SPECS", {})  # a new `linkedit` process
         monkeypatch.setattr(families, "SPEC_TEXTS", {})
-        for module in (atlas, shards, runner):
+        for module in (atlas, shards, atlas_manifest, runner):
             monkeypatch.setattr(module, "SPEC_TEXTS", families.SPEC_TEXTS)
         (tmp_path / f"arm{k}.yaml").write_text(text)
         assert run_cli("atlas", "build", "--family", tmp_path / f"arm{k}.yaml", "-n", "200", "-o", tmp_path / f"a{k}",

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from linkedit.synthesis import atlas, chunks, fourbar, shards, spatial, spherical
+from linkedit.synthesis import manifest as atlas_manifest
 from linkedit.synthesis.index import Index, nearest_rows, target_variants
 from tests.conftest import report_of
 
@@ -171,8 +172,8 @@ def test_the_manifest_bookkeeping_is_linear_in_the_shards(tmp_path, monkeypatch)
 
     for folder, stop in ((tmp_path / "whole", None), (tmp_path / "cut", cut)):
         folder.mkdir()
-        manifest = shards._new_manifest(8)
-        jobs = manifest["families"]["four-bar"] = shards._new_family("four-bar")
+        manifest = atlas_manifest.new_manifest(8)
+        jobs = manifest["families"]["four-bar"] = atlas_manifest.new_family("four-bar")
         jobs.update(chunks=n, pending=[[k, 10] for k in range(n)],
                     quantizer={"file": "four-bar/quantizer.h5", "cells": 16, "sha256": "0" * 64})
         manifest["build"] = {"count": 10 * n, "families": ["four-bar"]}

@@ -247,7 +247,7 @@ def test_appending_an_edited_spec_to_its_atlas_is_refused_saying_why(run_cli, tm
     """A spec family's atlas appended with the spec edited since (one comment added), by a new `linkedit` process: one
     line naming the atlas and the family, saying the texts differ and what to do (was only "two different linkages
     are called ...")."""
-    from linkedit.synthesis import atlas, cluster, families, shards
+    from linkedit.synthesis import atlas, cluster, families, manifest, shards
 
     spec = tmp_path / "arm.yaml"
     spec.write_text((EXAMPLES / "crank-rocker.yaml").read_text())
@@ -255,7 +255,7 @@ def test_appending_an_edited_spec_to_its_atlas_is_refused_saying_why(run_cli, tm
     spec.write_text(spec.read_text() + "# moved the coupler point\n")
     monkeypatch.setattr(families, "SPECS", {})  # a new `linkedit` process
     monkeypatch.setattr(families, "SPEC_TEXTS", {})
-    for module in (atlas, shards, cluster):
+    for module in (atlas, shards, manifest, cluster):
         monkeypatch.setattr(module, "SPEC_TEXTS", families.SPEC_TEXTS)
     before = (tmp_path / "a.h5").read_bytes()
     r = run_cli("atlas", "build", "--family", spec, "-n", "100", "-o", tmp_path / "a.h5")

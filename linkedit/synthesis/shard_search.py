@@ -28,7 +28,8 @@ from linkedit.synthesis.chunks import dimension
 from linkedit.synthesis.cluster import CONNECT_TIMEOUT, connected
 from linkedit.synthesis.families import family, of_text
 from linkedit.synthesis.index import SCAN_LIMIT, Hit, Lists, nearest_rows
-from linkedit.synthesis.shards import MANIFEST, read_family, read_manifest, read_quantizer
+from linkedit.synthesis.manifest import MANIFEST, read_manifest
+from linkedit.synthesis.shards import read_family, read_quantizer
 
 #: Shard runs a worker keeps read between queries (a worker of a cluster serves many ``synthesize`` runs).
 KEEP = 64
