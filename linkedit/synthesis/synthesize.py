@@ -56,7 +56,8 @@ POOL = 64
 OPEN_POOL = 512
 #: With --timing: candidates taken from the index (a close shape may have the wrong timing).
 TIMED_POOL = 512
-#: Precision points: candidates taken from the index, placed and ranked by the point distances.
+#: Precision points: candidates taken from the index, placed and ranked by the point distances (points on an open
+#: arc: as many from each of the open curve's two queries).
 POINTS_POOL = 256
 #: Open targets: candidates ranked on the fine partial grid after the coarse screening.
 SCREENED = 48
@@ -220,7 +221,7 @@ def _search(target: Curve, atlas: Atlas, index: Index | None, *, top: int, timin
     closed_target = asked if target.closed else np.concatenate([asked, asked[-2:0:-1]])
     pool = TIMED_POOL if timed else POINTS_POOL if points else POOL if target.closed else OPEN_POOL
     hits = index.query(target_variants(closed_target), pool)
-    if not (target.closed or points or timed):  # and closed by its chord: a long arc's descriptors are its curve's
+    if not (target.closed or timed):  # and closed by its chord: a long arc's descriptors are its curve's
         hits = union(hits, index.query(target_variants(asked), pool))
     hits = within(hits, atlas, margin_deg)
     clock["query"] = time.perf_counter()
