@@ -379,12 +379,10 @@ def test_the_expression_reader_takes_time_linear_in_its_length():
     assert time.perf_counter() - start < 30
 
 
-def test_pylinkage_graph_with_a_linear_actuator_follows_its_stroke(run_cli, tmp_path):
-    """A pylinkage ``LinearActuator`` (anchor O, direction 0.5 rad, stroke 2, speed 0.1, here extended 1)
-    driving a dyad to G2, as ``graph_to_json`` and ``Dimensions.to_dict()`` write it: a DRIVER node of
-    joint_type PRISMATIC, its edge to the anchor carrying the stroke, ``driver_angles`` its speed and
-    direction. It imports as a linear input over the whole stroke (extension 0 … 2, one sample per
-    pylinkage step), not as a refused slider nor a crank: the pin follows A(e) = O + e (cos 0.5, sin 0.5)."""
+def _actuator_files(tmp_path, driver_angle: dict) -> tuple:
+    """A pylinkage ``LinearActuator`` (anchor O, direction 0.5 rad, stroke 2, here extended 1) driving a dyad to
+    G2, as ``graph_to_json`` and ``Dimensions.to_dict()`` write it, ``driver_angle`` its ``driver_angles`` entry:
+    the graph, the dimensions and C's rest position."""
     direction = complex(math.cos(0.5), math.sin(0.5))
     o, g2, a = 0j, 3 + 0j, 1.0 * direction
     c = _circles(a, 2.0, g2, 2.5, 3 + 3j)  # the dyad's upper branch
@@ -396,12 +394,21 @@ def test_pylinkage_graph_with_a_linear_actuator_follows_its_stroke(run_cli, tmp_
         "edges": [{"id": "e0", "source": "O", "target": "A"}, {"id": "e1", "source": "A", "target": "C"},
                   {"id": "e2", "source": "G2", "target": "C"}], "hyperedges": []}
     dims = {"node_positions": {n: [p.real, p.imag] for n, p in (("O", o), ("G2", g2), ("A", a), ("C", c))},
-            "driver_angles": {"A": {"angular_velocity": 0.1, "initial_angle": 0.5}},
+            "driver_angles": {"A": driver_angle},
             "edge_distances": {"e0": 2.0, "e1": 2.0, "e2": 2.5}, "hyperedge_constraints": {}, "name": "lin"}
     (tmp_path / "g.json").write_text(json.dumps(graph, indent=2))
     (tmp_path / "d.json").write_text(json.dumps(dims, indent=2))
+    return tmp_path / "g.json", tmp_path / "d.json", c
+
+
+def test_pylinkage_graph_with_a_linear_actuator_follows_its_stroke(run_cli, tmp_path):
+    """A pylinkage ``LinearActuator`` (speed 0.1) imports as a linear input over the whole stroke (extension
+    0 … 2, one sample per pylinkage step), not as a refused slider nor a crank: the pin follows
+    A(e) = O + e (cos 0.5, sin 0.5)."""
+    graph, dims, c = _actuator_files(tmp_path, {"angular_velocity": 0.1, "initial_angle": 0.5})
+    direction, g2 = complex(math.cos(0.5), math.sin(0.5)), 3 + 0j
     spec = tmp_path / "lin.yaml"
-    r = run_cli("import", tmp_path / "g.json", "--dimensions", tmp_path / "d.json", "-o", spec)
+    r = run_cli("import", graph, "--dimensions", dims, "-o", spec)
     assert r.exit_code == 0, r.output
     got = _simulated(run_cli, spec, tmp_path, 21)
     e = np.linspace(0.0, 2.0, 21)
@@ -412,3 +419,22 @@ def test_pylinkage_graph_with_a_linear_actuator_follows_its_stroke(run_cli, tmp_
         want.append(now)
     assert np.abs(got["C"] - np.array(want)).max() <= 1e-12
     assert yaml.safe_load(spec.read_text())["samples"] == 21  # 2 / 0.1 steps, both ends
+
+
+@pytest.mark.parametrize("speed, message", [
+    (0, "linear actuator 'A': speed 0 never moves"),
+    (-0.1, r"linear actuator 'A': speed -0.1 is negative \(a speed, units per step; initial_angle gives the direction\)"),
+    (..., "required field is missing"),  # pylinkage's DriverAngle.from_dict needs it too
+    (math.nan, "expected a finite number, got nan"),
+])
+def test_pylinkage_linear_actuator_that_never_moves_is_refused(run_cli, tmp_path, speed, message):
+    """pylinkage's actuator speed is a magnitude (units per step): at 0 the actuator stands still, below 0 it
+    jitters between extension 0 and |speed|. Both imported with exit 0 as a sweep of the whole stroke (speed 0
+    also without samples); now one line naming the field, exit 2, nothing written."""
+    graph, dims, _ = _actuator_files(tmp_path, {"initial_angle": 0.5} if speed is ... else
+                                     {"angular_velocity": speed, "initial_angle": 0.5})
+    r = run_cli("import", graph, "--dimensions", dims, "-o", tmp_path / "x.yaml")
+    line = next(n for n, text in enumerate(dims.read_text().splitlines(), 1) if '"A": {' in text and n > 10)
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert re.search(re.escape(f"{dims}:{line}: driver_angles.A.angular_velocity: ") + message, r.output), r.output
+    assert not (tmp_path / "x.yaml").exists()

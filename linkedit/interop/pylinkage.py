@@ -22,7 +22,7 @@ Three forms, told apart by their keys:
   distance that disagrees with them is refused. A prismatic node slides on the line through the
   two ground nodes of its three-node hyperedge (how pylinkage writes a slider). A PRISMATIC DRIVER node
   is a ``LinearActuator``: its edge to the anchor holds the stroke, ``driver_angles`` its speed
-  (``angular_velocity``) and direction (``initial_angle``); it becomes a linear input over the whole
+  (``angular_velocity``, > 0) and direction (``initial_angle``); it becomes a linear input over the whole
   stroke (``motor: {slider, stroke}``, extension 0 … stroke, one sample per step), the anchor dropped.
 * **0.x** (``Linkage`` saved with ``save_to_json``): ``Static`` (a frame point), ``Crank`` (turns
   about ``joint0`` at ``distance``; the sign of ``angle``, its step, gives the direction),
@@ -343,14 +343,18 @@ def _actuator(dims: JsonFile, distances: dict[str, Any], angles: dict[str, Any],
     stroke = dims.number(distances, eid, ("edge_distances",))
     table = dims.mapping(angles, driver, ("driver_angles",)) if driver in angles else {}
     angle = dims.number(table, "initial_angle", ("driver_angles", driver), 0.0) if "initial_angle" in table else 0.0
-    speed = dims.number(table, "angular_velocity", ("driver_angles", driver), 0.1) if "angular_velocity" in table else 0.1
+    speed = dims.number(table, "angular_velocity", ("driver_angles", driver)) if table else 0.1  # pylinkage's default
+    if not speed > 0:  # pylinkage's speed is a magnitude: at 0 it stands still, below 0 it jitters at one end
+        raise dims.error(table, f"linear actuator {driver!r}: speed {speed:g} " + (
+            "never moves" if speed == 0 else "is negative (a speed, units per step; initial_angle gives the direction)"),
+            ("driver_angles", driver, "angular_velocity"))
     slider = _slide_line(dims, {"axis": [math.cos(angle), math.sin(angle)], "line_point": xy[anchor]},
                          ("node_positions", driver), driver, xy[driver], size)
     extension = (xy[driver][0] - xy[anchor][0]) * math.cos(angle) + (xy[driver][1] - xy[anchor][1]) * math.sin(angle)
     if not (stroke > 0 and -_AGREE * size <= extension <= stroke + _AGREE * size):
         raise dims.error(distances, f"linear actuator {driver!r}: stroke {stroke!r} must be positive and hold its "
                                     f"extension {extension!r}", ("edge_distances", eid))
-    steps = _steps(speed, stroke) if speed else None
+    steps = _steps(speed, stroke)
     return slider, {"slider": driver, "stroke": [-extension, stroke - extension]}, steps + 1 if steps else None
 
 
