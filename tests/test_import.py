@@ -257,6 +257,35 @@ def test_pylinkage_files_simulate_to_pylinkages_own_trajectories(run_cli, tmp_pa
     assert np.abs(got - reference["position"]).max() <= 1e-9 * size
 
 
+@pytest.mark.parametrize("name", ["linear-slider-crank", "prismatic-coupler-slot"])
+def test_pylinkage_0x_prismatic_joints_simulate_to_pylinkages_own_trajectories(run_cli, tmp_path, name):
+    """pylinkage 0.x ``Linear`` / ``Prismatic`` joints (at ``revolute_radius`` from joint0, on the line through
+    joint1 and joint2) were refused; they are sliders: on the frame when both line joints are ``Static``
+    (``linear-slider-crank``: a rod from the crank pin B, 3 long, to P on the frame line L1-L2, a rocker C hung
+    from P), on the link carrying both otherwise (``prismatic-coupler-slot``: a four-bar turning cw whose
+    coupler B-C carries a slot, P on it 1.2 from the frame joint E). Both files and their trajectories were
+    written by pylinkage 0.8.0 (``pip install pylinkage==0.8.0``): the joints built with
+    ``pylinkage.joints`` (``Crank(angle=±2π/90)``, ``Linear``/``Prismatic(joint0, joint1, joint2,
+    revolute_radius)``), ``Linkage(joints, order)`` saved with ``linkage.serialization.save_to_json``, then
+    ``numpy.savez_compressed(joint=names, position=list(linkage.step(iterations=90)))``: step k, the pose after
+    k crank steps, is linkedit's sample k mod 90, to 1e-9 of the linkage's size."""
+    spec = tmp_path / "imported.yaml"
+    r = run_cli("import", PYLINKAGE / f"{name}.legacy.json", "-o", spec)
+    assert r.exit_code == 0, r.output
+    reference = np.load(PYLINKAGE / f"{name}.trajectory.npz")
+    steps = reference["position"].shape[0]
+    out = tmp_path / "sim.h5"
+    r = run_cli("simulate", spec, "-o", out, "-n", str(steps))
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        joints = list(f["joint"].asstr()[()])
+        position = f["joints/position"][()]
+    got = np.roll(position, -1, axis=0)[:, [joints.index(j) for j in reference["joint"]]]
+    size = np.ptp(reference["position"].reshape(-1, 2), axis=0).max()
+    assert np.abs(got - reference["position"]).max() <= 1e-9 * size
+    assert np.ptp(reference["position"][:, list(reference["joint"]).index("P")], axis=0).max() > 0.1 * size  # P slides
+
+
 def test_pylinkage_graph_needs_its_dimensions(run_cli, tmp_path):
     r = run_cli("import", PYLINKAGE / "fourbar.graph.json", "-o", tmp_path / "x.yaml")
     assert r.exit_code == 2 and "give its Dimensions" in r.output and "--dimensions" in r.output, r.output
@@ -295,6 +324,17 @@ def _legacy(joint: int, key: str, value=...) -> str:
 def _mechanism(change) -> str:
     data = json.loads((PYLINKAGE / "fourbar.mechanism.json").read_text())
     change(data)
+    return json.dumps(data, indent=2)
+
+
+def _prismatic(key: str, value=...) -> str:
+    """pylinkage's 0.x slider-crank (``linear-slider-crank.legacy.json``) with one field of its Linear joint P
+    (``joints[4]``, line 33) changed (``...``: removed)."""
+    data = json.loads((PYLINKAGE / "linear-slider-crank.legacy.json").read_text())
+    if value is ...:
+        del data["joints"][4][key]
+    else:
+        data["joints"][4][key] = value
     return json.dumps(data, indent=2)
 
 
@@ -339,6 +379,12 @@ MALFORMED = [
     ("new.json", _mechanism(lambda d: next(j for j in d["joints"] if j["id"] == "crank.motor_ground.A").update(
         position=[1e308, 0.0])), 1,  # the crank's pivot, far away
      r"saved away from its initial_angle, with coordinates beyond 1e\+150"),
+    ("old.json", _prismatic("joint2", {"ref": "B"}), 33,  # a line through a frame point and the crank pin
+     r"joints\[4\]: joint 'P' \(Linear\): its line through 'L1' and 'B' is fixed neither to the frame nor to one link"),
+    ("old.json", _prismatic("joint2", {"ref": "L1"}), 33, r"joints\[4\]: joint 'P' \(Linear\): joint1 and joint2 must be two other"),
+    ("old.json", _prismatic("revolute_radius"), 33, r"joints\[4\]\.revolute_radius: required field is missing"),
+    ("old.json", _prismatic("revolute_radius", 0.5), None,
+     r"joints\.P: cannot be assembled: P-B = 0\.5 cannot reach the line it slides on \(1\.32317 from B\)"),  # |BL1 × L1L2| / |L1L2|
     ("new.json", _mechanism(lambda d: d["joints"][1].update(position=["0.9", 0.3])), 12,
      r"joints\[1\]\.position\[0\]: expected a finite number, got \"0.9\""),
     ("new.json", _mechanism(lambda d: d["links"][1].update(joints=["crank.motor_ground.A", "nowhere"])), 46,
