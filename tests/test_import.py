@@ -257,6 +257,35 @@ def test_pylinkage_files_simulate_to_pylinkages_own_trajectories(run_cli, tmp_pa
     assert np.abs(got - reference["position"]).max() <= 1e-9 * size
 
 
+@pytest.mark.parametrize("name", ["linear-slider-crank", "prismatic-coupler-slot"])
+def test_pylinkage_0x_prismatic_joints_simulate_to_pylinkages_own_trajectories(run_cli, tmp_path, name):
+    """pylinkage 0.x ``Linear`` / ``Prismatic`` joints (at ``revolute_radius`` from joint0, on the line through
+    joint1 and joint2) were refused; they are sliders: on the frame when both line joints are ``Static``
+    (``linear-slider-crank``: a rod from the crank pin B, 3 long, to P on the frame line L1-L2, a rocker C hung
+    from P), on the link carrying both otherwise (``prismatic-coupler-slot``: a four-bar turning cw whose
+    coupler B-C carries a slot, P on it 1.2 from the frame joint E). Both files and their trajectories were
+    written by pylinkage 0.8.0 (``pip install pylinkage==0.8.0``): the joints built with
+    ``pylinkage.joints`` (``Crank(angle=±2π/90)``, ``Linear``/``Prismatic(joint0, joint1, joint2,
+    revolute_radius)``), ``Linkage(joints, order)`` saved with ``linkage.serialization.save_to_json``, then
+    ``numpy.savez_compressed(joint=names, position=list(linkage.step(iterations=90)))``: step k, the pose after
+    k crank steps, is linkedit's sample k mod 90, to 1e-9 of the linkage's size."""
+    spec = tmp_path / "imported.yaml"
+    r = run_cli("import", PYLINKAGE / f"{name}.legacy.json", "-o", spec)
+    assert r.exit_code == 0, r.output
+    reference = np.load(PYLINKAGE / f"{name}.trajectory.npz")
+    steps = reference["position"].shape[0]
+    out = tmp_path / "sim.h5"
+    r = run_cli("simulate", spec, "-o", out, "-n", str(steps))
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        joints = list(f["joint"].asstr()[()])
+        position = f["joints/position"][()]
+    got = np.roll(position, -1, axis=0)[:, [joints.index(j) for j in reference["joint"]]]
+    size = np.ptp(reference["position"].reshape(-1, 2), axis=0).max()
+    assert np.abs(got - reference["position"]).max() <= 1e-9 * size
+    assert np.ptp(reference["position"][:, list(reference["joint"]).index("P")], axis=0).max() > 0.1 * size  # P slides
+
+
 def test_pylinkage_graph_needs_its_dimensions(run_cli, tmp_path):
     r = run_cli("import", PYLINKAGE / "fourbar.graph.json", "-o", tmp_path / "x.yaml")
     assert r.exit_code == 2 and "give its Dimensions" in r.output and "--dimensions" in r.output, r.output
@@ -295,6 +324,17 @@ def _legacy(joint: int, key: str, value=...) -> str:
 def _mechanism(change) -> str:
     data = json.loads((PYLINKAGE / "fourbar.mechanism.json").read_text())
     change(data)
+    return json.dumps(data, indent=2)
+
+
+def _prismatic(key: str, value=...) -> str:
+    """pylinkage's 0.x slider-crank (``linear-slider-crank.legacy.json``) with one field of its Linear joint P
+    (``joints[4]``, line 33) changed (``...``: removed)."""
+    data = json.loads((PYLINKAGE / "linear-slider-crank.legacy.json").read_text())
+    if value is ...:
+        del data["joints"][4][key]
+    else:
+        data["joints"][4][key] = value
     return json.dumps(data, indent=2)
 
 
@@ -339,6 +379,12 @@ MALFORMED = [
     ("new.json", _mechanism(lambda d: next(j for j in d["joints"] if j["id"] == "crank.motor_ground.A").update(
         position=[1e308, 0.0])), 1,  # the crank's pivot, far away
      r"saved away from its initial_angle, with coordinates beyond 1e\+150"),
+    ("old.json", _prismatic("joint2", {"ref": "B"}), 33,  # a line through a frame point and the crank pin
+     r"joints\[4\]: joint 'P' \(Linear\): its line through 'L1' and 'B' is fixed neither to the frame nor to one link"),
+    ("old.json", _prismatic("joint2", {"ref": "L1"}), 33, r"joints\[4\]: joint 'P' \(Linear\): joint1 and joint2 must be two other"),
+    ("old.json", _prismatic("revolute_radius"), 33, r"joints\[4\]\.revolute_radius: required field is missing"),
+    ("old.json", _prismatic("revolute_radius", 0.5), None,
+     r"joints\.P: cannot be assembled: P-B = 0\.5 cannot reach the line it slides on \(1\.32317 from B\)"),  # |BL1 × L1L2| / |L1L2|
     ("new.json", _mechanism(lambda d: d["joints"][1].update(position=["0.9", 0.3])), 12,
      r"joints\[1\]\.position\[0\]: expected a finite number, got \"0.9\""),
     ("new.json", _mechanism(lambda d: d["links"][1].update(joints=["crank.motor_ground.A", "nowhere"])), 46,
@@ -379,12 +425,10 @@ def test_the_expression_reader_takes_time_linear_in_its_length():
     assert time.perf_counter() - start < 30
 
 
-def test_pylinkage_graph_with_a_linear_actuator_follows_its_stroke(run_cli, tmp_path):
-    """A pylinkage ``LinearActuator`` (anchor O, direction 0.5 rad, stroke 2, speed 0.1, here extended 1)
-    driving a dyad to G2, as ``graph_to_json`` and ``Dimensions.to_dict()`` write it: a DRIVER node of
-    joint_type PRISMATIC, its edge to the anchor carrying the stroke, ``driver_angles`` its speed and
-    direction. It imports as a linear input over the whole stroke (extension 0 … 2, one sample per
-    pylinkage step), not as a refused slider nor a crank: the pin follows A(e) = O + e (cos 0.5, sin 0.5)."""
+def _actuator_files(tmp_path, driver_angle: dict) -> tuple:
+    """A pylinkage ``LinearActuator`` (anchor O, direction 0.5 rad, stroke 2, here extended 1) driving a dyad to
+    G2, as ``graph_to_json`` and ``Dimensions.to_dict()`` write it, ``driver_angle`` its ``driver_angles`` entry:
+    the graph, the dimensions and C's rest position."""
     direction = complex(math.cos(0.5), math.sin(0.5))
     o, g2, a = 0j, 3 + 0j, 1.0 * direction
     c = _circles(a, 2.0, g2, 2.5, 3 + 3j)  # the dyad's upper branch
@@ -396,12 +440,21 @@ def test_pylinkage_graph_with_a_linear_actuator_follows_its_stroke(run_cli, tmp_
         "edges": [{"id": "e0", "source": "O", "target": "A"}, {"id": "e1", "source": "A", "target": "C"},
                   {"id": "e2", "source": "G2", "target": "C"}], "hyperedges": []}
     dims = {"node_positions": {n: [p.real, p.imag] for n, p in (("O", o), ("G2", g2), ("A", a), ("C", c))},
-            "driver_angles": {"A": {"angular_velocity": 0.1, "initial_angle": 0.5}},
+            "driver_angles": {"A": driver_angle},
             "edge_distances": {"e0": 2.0, "e1": 2.0, "e2": 2.5}, "hyperedge_constraints": {}, "name": "lin"}
     (tmp_path / "g.json").write_text(json.dumps(graph, indent=2))
     (tmp_path / "d.json").write_text(json.dumps(dims, indent=2))
+    return tmp_path / "g.json", tmp_path / "d.json", c
+
+
+def test_pylinkage_graph_with_a_linear_actuator_follows_its_stroke(run_cli, tmp_path):
+    """A pylinkage ``LinearActuator`` (speed 0.1) imports as a linear input over the whole stroke (extension
+    0 … 2, one sample per pylinkage step), not as a refused slider nor a crank: the pin follows
+    A(e) = O + e (cos 0.5, sin 0.5)."""
+    graph, dims, c = _actuator_files(tmp_path, {"angular_velocity": 0.1, "initial_angle": 0.5})
+    direction, g2 = complex(math.cos(0.5), math.sin(0.5)), 3 + 0j
     spec = tmp_path / "lin.yaml"
-    r = run_cli("import", tmp_path / "g.json", "--dimensions", tmp_path / "d.json", "-o", spec)
+    r = run_cli("import", graph, "--dimensions", dims, "-o", spec)
     assert r.exit_code == 0, r.output
     got = _simulated(run_cli, spec, tmp_path, 21)
     e = np.linspace(0.0, 2.0, 21)
@@ -412,3 +465,22 @@ def test_pylinkage_graph_with_a_linear_actuator_follows_its_stroke(run_cli, tmp_
         want.append(now)
     assert np.abs(got["C"] - np.array(want)).max() <= 1e-12
     assert yaml.safe_load(spec.read_text())["samples"] == 21  # 2 / 0.1 steps, both ends
+
+
+@pytest.mark.parametrize("speed, message", [
+    (0, "linear actuator 'A': speed 0 never moves"),
+    (-0.1, r"linear actuator 'A': speed -0.1 is negative \(a speed, units per step; initial_angle gives the direction\)"),
+    (..., "required field is missing"),  # pylinkage's DriverAngle.from_dict needs it too
+    (math.nan, "expected a finite number, got nan"),
+])
+def test_pylinkage_linear_actuator_that_never_moves_is_refused(run_cli, tmp_path, speed, message):
+    """pylinkage's actuator speed is a magnitude (units per step): at 0 the actuator stands still, below 0 it
+    jitters between extension 0 and |speed|. Both imported with exit 0 as a sweep of the whole stroke (speed 0
+    also without samples); now one line naming the field, exit 2, nothing written."""
+    graph, dims, _ = _actuator_files(tmp_path, {"initial_angle": 0.5} if speed is ... else
+                                     {"angular_velocity": speed, "initial_angle": 0.5})
+    r = run_cli("import", graph, "--dimensions", dims, "-o", tmp_path / "x.yaml")
+    line = next(n for n, text in enumerate(dims.read_text().splitlines(), 1) if '"A": {' in text and n > 10)
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert re.search(re.escape(f"{dims}:{line}: driver_angles.A.angular_velocity: ") + message, r.output), r.output
+    assert not (tmp_path / "x.yaml").exists()

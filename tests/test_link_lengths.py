@@ -105,3 +105,50 @@ def test_bad_lengths_one_line_exit_2(run_cli, tmp_path, old, new, pattern):
         assert r.exit_code == 2, r.output
         assert re.search(pattern, r.output), r.output
         assert len(r.output.strip().splitlines()) == 1
+
+
+SLIDER = """name: slider
+units: mm
+joints:
+  A: [0, 0]
+  L1: [-10, -5]
+  L2: [40, 3]
+  B: {from: [A], angle_deg: 90}
+  P: {line: [L1, L2], near: NEAR}
+ground: [A, L1, L2]
+links:
+  crank: {joints: [A, B], length: 10}
+  rod: {joints: [B, P], length: 30}
+sliders:
+  P: {joint: P, guide: ground, angle_deg: 9.090276920822323}
+motor: {joint: B, pivot: A}
+"""
+
+
+@pytest.mark.parametrize("near, sign", [("[30, 0]", 1), ("[-30, 0]", -1)])
+def test_line_places_a_joint_on_a_line_at_its_length(tmp_path, near, sign):
+    """``{line: [L1, L2], near: …}``: on the line L1-L2 at the rod's 30 from B = (0, 10), the crossing nearer
+    ``near``: foot F of the perpendicular from B plus or minus √(30² − |BF|²) along the line."""
+    from linkedit.spec import load_model
+    from linkedit.spec.linkage import LinkageSpec
+
+    (tmp_path / "s.yaml").write_text(SLIDER.replace("NEAR", near))
+    p = load_model(LinkageSpec, tmp_path / "s.yaml").joints["P"]
+    u = complex(50, 8) / abs(complex(50, 8))
+    foot = -10 - 5j + u * ((10j - (-10 - 5j)) * u.conjugate()).real
+    want = foot + sign * u * math.sqrt(900 - abs(10j - foot) ** 2)
+    assert abs(complex(*p) - want) < 1e-12
+
+
+@pytest.mark.parametrize("old, new, pattern", [
+    ("P: {line: [L1, L2], near: NEAR}", "P: {line: [L1, L2]}", r":\d+: joints\.P: line: \[P, Q\] needs near"),
+    ("P: {line: [L1, L2], near: NEAR}", "P: {line: [L1, L1], near: [30, 0]}",
+     r":\d+: joints\.P\.line: the line it slides on has no direction"),
+    ("L1: [-10, -5]\n  L2: [40, 3]", "L1: [-10, 70]\n  L2: [40, 70]",  # 60 above B
+     r":\d+: joints\.P: cannot be assembled: P-B = 30 cannot reach the line it slides on \(60 from B\)"),
+])
+def test_bad_line_one_line_exit_2(run_cli, tmp_path, old, new, pattern):
+    (tmp_path / "bad.yaml").write_text(SLIDER.replace(old, new).replace("NEAR", "[30, 0]"))
+    r = run_cli("simulate", tmp_path / "bad.yaml", "-o", tmp_path / "x.h5")
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert re.search(pattern, r.output), r.output

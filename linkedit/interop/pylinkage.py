@@ -22,7 +22,7 @@ Three forms, told apart by their keys:
   distance that disagrees with them is refused. A prismatic node slides on the line through the
   two ground nodes of its three-node hyperedge (how pylinkage writes a slider). A PRISMATIC DRIVER node
   is a ``LinearActuator``: its edge to the anchor holds the stroke, ``driver_angles`` its speed
-  (``angular_velocity``) and direction (``initial_angle``); it becomes a linear input over the whole
+  (``angular_velocity``, > 0) and direction (``initial_angle``); it becomes a linear input over the whole
   stroke (``motor: {slider, stroke}``, extension 0 … stroke, one sample per step), the anchor dropped.
 * **0.x** (``Linkage`` saved with ``save_to_json``): ``Static`` (a frame point), ``Crank`` (turns
   about ``joint0`` at ``distance``; the sign of ``angle``, its step, gives the direction),
@@ -30,7 +30,9 @@ Three forms, told apart by their keys:
   the branch), ``Fixed`` (rigid with ``joint0`` and ``joint1``: at ``distance`` from joint0, ``angle`` from
   the direction joint0 → joint1, as pylinkage places it; its own x, y are not read). Links are given by length, so
   lengths are pylinkage's to the last bit and the rest pose is assembled on the branch nearest
-  the saved positions. ``Prismatic``/``Linear`` joints are not supported.
+  the saved positions. ``Prismatic`` (or ``Linear``, its older name): at ``revolute_radius`` from ``joint0`` on the
+  line through ``joint1`` and ``joint2``, the crossing nearest its x, y; a slider on the frame when both are
+  ``Static``, else on the link carrying both (a line through two joints on no common link is refused).
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from typing import Any
 
 from linkedit.errors import InputError
 from linkedit.interop.document import JsonFile, default_tracks
+from linkedit.spec.lengths import assemble
 
 #: How far (radians) a saved crank may sit from its ``initial_angle`` and still count as there.
 _SAME_ANGLE = 1e-9
@@ -343,14 +346,18 @@ def _actuator(dims: JsonFile, distances: dict[str, Any], angles: dict[str, Any],
     stroke = dims.number(distances, eid, ("edge_distances",))
     table = dims.mapping(angles, driver, ("driver_angles",)) if driver in angles else {}
     angle = dims.number(table, "initial_angle", ("driver_angles", driver), 0.0) if "initial_angle" in table else 0.0
-    speed = dims.number(table, "angular_velocity", ("driver_angles", driver), 0.1) if "angular_velocity" in table else 0.1
+    speed = dims.number(table, "angular_velocity", ("driver_angles", driver)) if table else 0.1  # pylinkage's default
+    if not speed > 0:  # pylinkage's speed is a magnitude: at 0 it stands still, below 0 it jitters at one end
+        raise dims.error(table, f"linear actuator {driver!r}: speed {speed:g} " + (
+            "never moves" if speed == 0 else "is negative (a speed, units per step; initial_angle gives the direction)"),
+            ("driver_angles", driver, "angular_velocity"))
     slider = _slide_line(dims, {"axis": [math.cos(angle), math.sin(angle)], "line_point": xy[anchor]},
                          ("node_positions", driver), driver, xy[driver], size)
     extension = (xy[driver][0] - xy[anchor][0]) * math.cos(angle) + (xy[driver][1] - xy[anchor][1]) * math.sin(angle)
     if not (stroke > 0 and -_AGREE * size <= extension <= stroke + _AGREE * size):
         raise dims.error(distances, f"linear actuator {driver!r}: stroke {stroke!r} must be positive and hold its "
                                     f"extension {extension!r}", ("edge_distances", eid))
-    steps = _steps(speed, stroke) if speed else None
+    steps = _steps(speed, stroke)
     return slider, {"slider": driver, "stroke": [-extension, stroke - extension]}, steps + 1 if steps else None
 
 
@@ -374,7 +381,7 @@ def _legacy(file: JsonFile) -> dict[str, Any]:
         entries.append({"obj": j, "at": at, "type": kind, "name": jid,
                         "xy": [file.number(j, "x", at, 0.0) if j.get("x") is not None else 0.0,
                                file.number(j, "y", at, 0.0) if j.get("y") is not None else 0.0],
-                        "joint0": _ref(file, j, "joint0", at, inline), "joint1": _ref(file, j, "joint1", at, inline)})
+                        **{key: _ref(file, j, key, at, inline) for key in ("joint0", "joint1", "joint2")}})
     entries = list(inline.values()) + entries
     names = {e["name"] for e in entries}
     joints: dict[str, Any] = {}
@@ -386,7 +393,8 @@ def _legacy(file: JsonFile) -> dict[str, Any]:
         kind, jn, j, at = e["type"], e["name"], e["obj"], e["at"]
         if jn in joints:
             raise file.error(j, f"joint {jn!r} given twice", (*at, "name"))
-        needs = {"Crank": ["joint0"], "Revolute": ["joint0", "joint1"], "Fixed": ["joint0", "joint1"]}.get(kind, [])
+        needs = {"Crank": ["joint0"], "Revolute": ["joint0", "joint1"], "Fixed": ["joint0", "joint1"],
+                 "Prismatic": ["joint0", "joint1", "joint2"], "Linear": ["joint0", "joint1", "joint2"]}.get(kind, [])
         for key in needs:
             if e[key] is None or e[key] not in names:
                 raise file.error(j, f"joint {jn!r} ({kind}) needs {key}, the name of another joint"
@@ -410,19 +418,49 @@ def _legacy(file: JsonFile) -> dict[str, Any]:
         elif kind == "Fixed":
             joints[jn] = None  # placed below, once every link length is known
             tracks[jn] = {"joint": jn}
+        elif kind in ("Prismatic", "Linear"):  # at revolute_radius from joint0, on the line joint1-joint2
+            if jn in (e["joint1"], e["joint2"]) or e["joint1"] == e["joint2"]:
+                raise file.error(j, f"joint {jn!r} ({kind}): joint1 and joint2 must be two other joints", at)
+            joints[jn] = {"line": [e["joint1"], e["joint2"]], "near": e["xy"]}
+            links[f"{e['joint0']}-{jn}"] = {"joints": [e["joint0"], jn], "length": file.number(j, "revolute_radius", at)}
+            tracks[jn] = {"joint": jn}
         else:
-            raise file.error(j, f"joint {jn}: {kind} joints are not supported (Static, Crank, Revolute, Fixed)",
-                             (*at, "type"))
+            raise file.error(j, f"joint {jn}: {kind} joints are not supported (Static, Crank, Revolute, Fixed, "
+                                "Prismatic)", (*at, "type"))
     if motor is None:
         raise file.error(data, "no Crank joint: nothing drives the linkage", ("joints",))
     for e in entries:
         if e["type"] == "Fixed":
             joints[e["name"]], links[f"{e['joint0']}-{e['joint1']}-{e['name']}"] = _fixed(file, e, links, ground, entries)
     for e in entries:
-        for key in ("x", "y", "distance", "distance0", "distance1"):
+        for key in ("x", "y", "distance", "distance0", "distance1", "revolute_radius"):
             if isinstance(e["obj"].get(key), (int, float)) and abs(e["obj"][key]) > _REACH:
                 raise file.error(e["obj"], f"beyond {_REACH:g}: too large to assemble from lengths", (*e["at"], key))
-    return {"joints": joints, "ground": ground, "links": links, "motor": motor, "tracks": tracks}
+    doc = {"joints": joints, "ground": ground, "links": links, "motor": motor, "tracks": tracks}
+    slides = [e for e in entries if e["type"] in ("Prismatic", "Linear")]
+    if slides:
+        doc["sliders"] = _slots(file, slides, doc)
+    return doc
+
+
+def _slots(file: JsonFile, slides: list[dict[str, Any]], doc: dict[str, Any]) -> dict[str, Any]:
+    """The sliders of 0.x ``Prismatic`` joints: each on the line through its joint1 and joint2, on the frame
+    when both are, else on the link that carries both (at its direction in the assembled rest pose)."""
+    try:
+        rest = assemble(doc)["joints"]
+    except InputError as exc:  # lengths that cannot close, as validating the document would say it
+        raise InputError(exc.message, file=file.source, field=exc.field) from None
+    sliders: dict[str, Any] = {}
+    for e in slides:
+        jn, p, q = e["name"], e["joint1"], e["joint2"]
+        guide = "ground" if p in doc["ground"] and q in doc["ground"] else next(
+            (name for name, lk in doc["links"].items() if {p, q} <= set(lk["joints"]) and jn not in lk["joints"]), None)
+        if guide is None:
+            raise file.error(e["obj"], f"joint {jn!r} ({e['type']}): its line through {p!r} and {q!r} is fixed neither "
+                                       "to the frame nor to one link, so it is no slot linkedit can slide in", e["at"])
+        (x1, y1), (x2, y2) = rest[p], rest[q]
+        sliders[jn] = {"joint": jn, "guide": guide, "angle_deg": math.degrees(math.atan2(y2 - y1, x2 - x1))}
+    return sliders
 
 
 def _fixed(file: JsonFile, e: dict[str, Any], links: dict[str, Any], ground: list[str],

@@ -7,6 +7,7 @@ A spec may give a link by its length instead of leaving it to the joints' coordi
       A: {from: [O], angle_deg: 0}               # at its link length from O, at this angle
       C: {from: [A, B], branch: cw}              # from its lengths to A and B; triangle A, B, C clockwise
       D: {near: [-27, -45]}                      # from its lengths to two placed joints; the solution nearer this point
+      S: {line: [O, D], near: [5, 1]}            # on the line O-D at its length from a placed joint; the nearer one
     links:
       crank: {joints: [O, A], length: 15}
       upper: {joints: [B, C, E], lengths: [41.5, 40.1, 55.8]}   # BC, BE, CE: pairs in list order
@@ -39,12 +40,15 @@ class Placement(SpecModel):
     model_config = pydantic.ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True, populate_by_name=True)
 
     near: Vec2 | None = None
+    line: list[Name] | None = pydantic.Field(default=None, min_length=2, max_length=2)
     from_: list[Name] | None = pydantic.Field(default=None, alias="from", min_length=1, max_length=2)
     branch: Literal["ccw", "cw"] | None = None
     angle_deg: Finite | None = None
 
     @pydantic.model_validator(mode="after")
     def _one_way(self) -> "Placement":
+        if self.line is not None and self.near is None:
+            raise ValueError("line: [P, Q] needs near: [x, y] (which of the two crossings of the line)")
         if self.near is not None:
             if self.from_ or self.branch or self.angle_deg is not None:
                 raise ValueError("give either near, or from with branch / angle_deg")
@@ -152,7 +156,12 @@ def _place(known: dict[str, complex], pending: dict[str, Placement],
             anchors = how.from_ or [a for a in known if r(a, name) is not None]
             if how.from_ and not all(a in known for a in anchors):
                 continue
-            if how.from_ and len(anchors) == 1:
+            if how.line:
+                if not anchors or not all(a in known for a in how.line):
+                    continue
+                known[name] = _on_line(name, anchors[0], known[anchors[0]], r(anchors[0], name) or 0.0,
+                                       [known[a] for a in how.line], complex(*(how.near or (0.0, 0.0))))
+            elif how.from_ and len(anchors) == 1:
                 (p,) = anchors
                 rp = r(p, name)
                 if rp is None:
@@ -198,6 +207,22 @@ def _intersect(name: str, p: str, zp: complex, rp: float, q: str, zq: complex, r
         target = complex(*how.near)
         return left if abs(left - target) <= abs(right - target) else right
     return left if how.branch == "ccw" else right
+
+
+def _on_line(name: str, p: str, zp: complex, rp: float, line: list[complex], near: complex) -> complex:
+    """The point of the line through ``line``'s two points at ``rp`` from p, the crossing nearer ``near``."""
+    a, b = line
+    if a == b:
+        raise InputError("the line it slides on has no direction: its two joints coincide",
+                         field=("joints", name, "line"))
+    u = (b - a) / abs(b - a)
+    foot = a + u * ((zp - a) * u.conjugate()).real  # the foot of the perpendicular from p
+    h2 = rp * rp - abs(zp - foot) ** 2
+    if not math.isfinite(h2) or h2 < 0:
+        raise InputError(f"cannot be assembled: {name}-{p} = {rp:g} cannot reach the line it slides on "
+                         f"({abs(zp - foot):g} from {p})", field=("joints", name))
+    ends = (foot + u * math.sqrt(h2), foot - u * math.sqrt(h2))
+    return min(ends, key=lambda z: abs(z - near))
 
 
 def _check_lengths(placed: dict[str, complex], length: dict[frozenset[str], tuple[float, str]]) -> None:
