@@ -50,3 +50,30 @@ def test_script_without_linkage_needs_one(run_cli, tmp_path, monkeypatch):
     (tmp_path / "s.yaml").write_text(SCRIPT)
     r = run_cli("edit", "s.yaml")
     assert r.exit_code == 2 and "no linkage" in r.output
+
+
+@pytest.mark.parametrize("operation, field", [
+    ("displace: {joint: B, to: [63, 68]}", "displace.to"),
+    ("drag: {track: coupler_point, at: 0.3, by: [0, 10], radius: 0.1}", "drag.by"),
+    ("envelope: {ymax: 55}", "envelope"),  # a box 0.055 m above would hold nothing back: exit 0, nothing done
+    ("follow: {track: coupler_point, curve: [[20, 40], [30, 50], [25, 60]], timing: false}", "follow.curve[0]"),
+])
+def test_a_script_in_mm_on_a_spec_in_m_is_refused_naming_the_units(run_cli, tmp_path, operation, field):
+    """The crank-rocker in m (0.075 m across) and a script written for it in mm: the displacement was
+    run (exit 1, 'goal not met: 92.6 m'; exit 0 with --best-effort and a distorted linkage written)."""
+    from tests.conftest import EXAMPLES
+
+    text = (EXAMPLES / "crank-rocker.yaml").read_text().replace("units: mm", "units: m")
+    spec = tmp_path / "m.yaml"
+    spec.write_text(re.sub(r"-?\d+(\.\d+)?(?=[,\]])", lambda m: repr(float(m.group()) / 1000), text))
+    script = tmp_path / "mm.yaml"
+    script.write_text(f"lock: [O, D]\noperations:\n  - {operation}\n")
+    r = run_cli("edit", spec, script, "-o", tmp_path / "out", "--best-effort")
+    assert r.exit_code == 2, r.output
+    line = r.output.strip()
+    assert f"mm.yaml:3: operations[0].{field}:" in line and "the spec is in m; is the script in other units?" in line
+    assert "× the linkage's size (0.075 m)" in line and not (tmp_path / "out").exists()
+    scaled = script.read_text().replace("[63, 68]", "[0.063, 0.068]")  # the same in m: accepted
+    if scaled != script.read_text():
+        script.write_text(scaled)
+        assert run_cli("edit", spec, script, "-o", tmp_path / "out", "--best-effort").exit_code == 0

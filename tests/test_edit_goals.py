@@ -239,3 +239,33 @@ def test_a_drag_narrower_than_the_samples_spacing_is_an_input_error(run_cli, tmp
     (line,) = [ln for ln in r.output.splitlines() if ln.strip()]
     assert f"{s}:" in line and "radius" in line and "samples: 100" in line and "Traceback" not in r.output
     assert not (tmp_path / "out").exists()
+
+
+def test_a_shape_kept_without_timing_keeps_its_whole_swing(run_cli, tmp_path):
+    """The crank-rocker's rocker tip B swings on its arc about D; shortening the crank (a displace of A,
+    weight 1) shrinks that swing while preserving B's shape (timing: false, weight 100). The objective
+    measured only the curve's samples to the target: a shorter swing on the same arc was 0 away, so
+    the swing shrank unopposed (4.07 mm RMS the other way, the goal not met) and the displace was met.
+    Both ways, the preserved shape wins: re-simulated, the swing's ends stay within 1% of the size."""
+    from linkedit.planar.simulate import simulate
+    from linkedit.spec.linkage import LinkageSpec
+    from linkedit.spec.yamlload import load_model
+    from tests.conftest import EXAMPLES
+
+    script = tmp_path / "s.yaml"
+    script.write_text("lock: [O, D]\noperations:\n  - preserve: [{track: rocker_tip, timing: false}]\n"
+                      "    displace: {joint: A, to: [15, 0]}\n")
+    r = run_cli("edit", EXAMPLES / "crank-rocker.yaml", script, "-o", tmp_path / "out", "--best-effort")
+    assert r.exit_code == 0 and "goal not met: displace A" in r.output, r.output
+    assert "goal not met: preserve rocker_tip" not in r.output, r.output
+
+    from linkedit.curves.polyline import arc_resample, distances_to
+
+    def curve(path):  # B's curve re-simulated, (720,) complex
+        b = simulate(load_model(LinkageSpec, path), 720).tracks["rocker_tip"].position
+        return b[:, 0] + 1j * b[:, 1]
+
+    before, after = curve(EXAMPLES / "crank-rocker.yaml"), curve(tmp_path / "out" / "crank-rocker-edited.yaml")
+    assert np.sqrt(np.mean(distances_to(after, before, True) ** 2)) <= 0.75  # on the arc (was 0.002 mm)
+    back = np.sqrt(np.mean(distances_to(arc_resample(before, 720, True), after, True) ** 2))
+    assert back <= 0.75, back  # and the whole swing traced (was 4.07 mm RMS: 1% of the size is 0.75 mm)

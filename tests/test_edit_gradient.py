@@ -27,6 +27,7 @@ OPS = {
     "link point": {"displace": {"link": "{link}", "at": "{point}", "to": [1, 2], "phase": 0.4}},
     "preserve part, no timing": {"preserve": [{"track": "{track}", "phases": [0.8, 0.3], "timing": False, "weight": 2}],
                                  "displace": {"joint": "{joint}", "to": [1, 2]}},
+    "preserve, no timing": {"preserve": [{"track": "{track}", "timing": False}], "displace": {"joint": "{joint}", "to": [1, 2]}},
     "envelope": {"envelope": {"xmin": "{xmin}", "ymax": "{ymax}"}},
     "retarget+drag": {"retarget": {"track": "{track}", "scale": [1.2, 0.9], "rotate_deg": 10},
                       "drag": {"track": "{track}", "at": 0.6, "by": [0.5, 1], "radius": 0.1}},

@@ -49,7 +49,7 @@ UNKNOWN_JOINT = _file("bad.yaml", CRANK_ROCKER.read_text().replace("rocker: [D, 
 LOCKS = _file("lock.yaml", LOCKING)
 #: the rocker's pivot so far off that no pose satisfies the pins: the solver cannot assemble it
 APART = _file("apart.yaml", ROCKER_3D.read_text().replace("world: [2, -3, 0]}", "world: [40, -3, 0]}"))
-KNEE = "operations:\n  - displace: {joint: B, to: [50, 25]}\n"
+KNEE = "operations:\n  - displace: {joint: B, to: [12, 6]}\n"  # within 10 sizes of the 3 mm LOCKING: a target, not other units
 
 #: command → (exit 2 case, exit 1 case); a case: argument builder (tmp folder → args), "disk" (the
 #: exit 1 case is a full disk: a 100-byte file size limit) or None (the command has no such case)

@@ -8,6 +8,7 @@ ground 3, coupler + rocker c) for |A − D| > c, cos θ < (1.9² + 3² − c²) 
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 import h5py
@@ -17,7 +18,7 @@ import pytest
 from linkedit.planar import simulate
 from linkedit.spec.linkage import LinkageSpec
 from linkedit.spec.yamlload import load_model
-from tests.conftest import EXAMPLES
+from tests.conftest import EXAMPLES, report_of
 from tests.planar_specs import LOCKING
 
 SLIDER = EXAMPLES / "invalid" / "locking-slider-crank.yaml"
@@ -113,3 +114,43 @@ def test_the_picture_marks_the_samples_next_to_each_lock_up():
     assert slider["notes"] == [(4, "locks at 220.5° (B)"), (0, "free again after 319.5°")]
     narrow = drawing(simulate(load_model(LinkageSpec, "narrow.yaml", NARROW), 7, partial=True))
     assert narrow["notes"] == [(3, "locks at 166.8° (B)"), (4, "free again after 193.2°")]
+
+
+def test_a_lock_up_past_0_degrees_is_written_between_0_and_360(run_cli, tmp_path):
+    """LOCKING turned by 180° (its rest crank at 180°) locks for 180° + 124.60° … 180° + 235.40°: that
+    was written "304.6°…415.4°"; a designer reads 304.6°…55.4°, through 0°. The numbers (--json, HDF5)
+    keep running on from the rest angle, as ``/motor_angle`` does (304.6…415.4, start < end)."""
+    turned = LOCKING.replace("A: [1.9, 0]", "A: [-1.9, 0]").replace("B: [2.2, 2.1]", "B: [-2.2, -2.1]") \
+        .replace("D: [3, 0]", "D: [-3, 0]")
+    spec = tmp_path / "turned.yaml"
+    spec.write_text(turned)
+    start, end = 180 + FOUR_BAR_EDGE, 180 + 360 - FOUR_BAR_EDGE
+    want = f"motor angles {start:.1f}°…{end - 360:.1f}° (through 0°): joint B cannot be placed"
+    assert want == "motor angles 304.6°…55.4° (through 0°): joint B cannot be placed"
+    r = run_cli("simulate", spec, "--partial", "-n", "36", "-o", tmp_path / "t.h5", "--json")
+    assert r.exit_code == 0, r.output
+    (result,) = report_of(r)
+    assert want in result["lockups"][0], result["lockups"]
+    (record,) = result["lockup_intervals"]
+    assert abs(record["start"] - start) < 1e-9 and abs(record["end"] - end) < 1e-9
+    with h5py.File(tmp_path / "t.h5") as f:
+        assert want in f["diagnostics"].attrs["lockups"]
+    r = run_cli("validate", spec, "-n", "36")
+    assert r.exit_code == 1 and want in r.output and "415.4" not in r.output, r.output
+    pic = tmp_path / "t.svg"
+    assert run_cli("simulate", spec, "--partial", "-n", "36", "-o", tmp_path / "u.h5", "--svg", pic).exit_code == 0
+    assert "free again after 55.4°" in pic.read_text()
+
+
+def test_motor_angles_in_words_are_reduced_and_a_wrap_is_said():
+    from linkedit.planar.diagnostics import degrees_text
+
+    assert [degrees_text(v) for v in (460.9, -40.5, 359.96, -0.01, 0.0, 720.0)] == \
+        ["100.9°", "319.5°", "0.0°", "0.0°", "0.0°", "0.0°"]
+    (lk,) = simulate(load_model(LinkageSpec, SLIDER), 8, partial=True).lockups
+    cw = dataclasses.replace(lk, start_deg=-lk.start_deg, end_deg=-lk.end_deg)  # turning the other way
+    assert "motor angles 139.5°…40.5°: slider" in cw.describe()
+    ends = dataclasses.replace(lk, start_deg=300.0, end_deg=360.0, exact=False)  # ending at 0°: not through it
+    assert "within 300.0°…0.0° (the assembled samples either side;" in ends.describe()
+    swing = dataclasses.replace(lk, start_deg=350.0, turn_deg=370.0, end_deg=350.0, exact=False)
+    assert "within 350.0°…10.0°…350.0° (through 0°; the assembled samples" in swing.describe()

@@ -7,6 +7,7 @@ import io
 import h5py
 import numpy as np
 import pytest
+import yaml
 
 from tests.conftest import EXAMPLES
 from tests.planar_specs import FOURBAR, LOCKING
@@ -280,3 +281,35 @@ def test_dxf_track_of_a_partial_cycle_runs_through_the_rest_pose(run_cli, tmp_pa
     expected = np.roll(tip, -freed, axis=0)[:int(ok.sum())]
     (curve,) = [e for e in ezdxf.readfile(out).modelspace() if e.dxftype() == "LWPOLYLINE" and e.dxf.layer == "TRACK-tip"]
     assert not curve.closed and np.allclose([p[:2] for p in curve.get_points()], expected, atol=1e-12)
+
+
+@pytest.mark.parametrize("spec", ["crank-rocker.yaml", "stephenson-slider.yaml"])
+def test_every_axis_of_a_planar_result_is_named(run_cli, tmp_path, spec):
+    """``/links/joints/<link>``, ``/steps/*``, ``/sliders/*`` and ``step_singularity``'s second axis had no
+    dimension scale: h5py showed no name for the axis and xarray made up ``phony_dim_0`` (with a warning)."""
+    import warnings
+
+    out = tmp_path / "r.h5"
+    assert run_cli("simulate", EXAMPLES / spec, "-o", out, "-n", "12").exit_code == 0
+    unnamed: list[tuple[str, int]] = []
+    with h5py.File(out) as f:
+        f.visititems(lambda name, obj: unnamed.extend((name, k) for k, d in enumerate(obj.dims) if len(d) == 0)
+                     if isinstance(obj, h5py.Dataset) and not obj.is_scale else None)
+        assert unnamed == []
+        names = f["joint"].asstr()[()]
+        for link, members in yaml.safe_load((EXAMPLES / spec).read_text())["links"].items():
+            indices = f[f"links/joints/{link}"]
+            axis = indices.dims[0][0]  # the scale: the names of the joints on the link
+            assert axis.name == f"/links/{link}.joint" and list(axis.asstr()[()]) == list(names[indices[()]])
+            assert sorted(axis.asstr()[()]) == sorted(members)
+        if "steps" in f:
+            assert f["diagnostics/step_singularity"].dims[1][0].name == "/step"
+            assert list(f["step"].asstr()[()]) == list(f["steps/name"].asstr()[()])
+    xr = pytest.importorskip("xarray")
+    pytest.importorskip("h5netcdf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the phony_dims warning among them
+        tree = xr.open_datatree(out, engine="h5netcdf")
+    assert not [str(d) for node in tree.subtree for d in node.dims if str(d).startswith("phony")]
+    crank = tree["links/joints"]["crank"]
+    assert crank.dims == ("crank.joint",) and list(crank["crank.joint"].values) == ["O", "A"]

@@ -13,6 +13,7 @@ from linkedit.commands.common import JSON, QUIET, check_outputs, error_entry, er
 from linkedit.errors import InputError, LinkeditError, MechanismError
 from linkedit.io.atomic import together
 from linkedit.io.formats import is_stdout, output_format, require, write_out
+from linkedit.planar.diagnostics import degrees_text
 
 
 class Engine(str, Enum):
@@ -94,7 +95,7 @@ def _simulate_one(spec_path: Path, h5: Path, svg: Path | None, *, samples: int |
 
 def _at(m: dict[str, Any], units: str) -> str:
     """Where a minimum occurs: the motor angle, or a linear input's stroke (in ``units``)."""
-    return f"{m['motor_angle_deg']:.1f}°" if "motor_angle_deg" in m else f"stroke {m['stroke']:.6g} {units}"
+    return degrees_text(m['motor_angle_deg']) if "motor_angle_deg" in m else f"stroke {m['stroke']:.6g} {units}"
 
 
 def _line(r: dict[str, Any]) -> str:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from linkedit.planar.diagnostics import degrees_text
 from linkedit.planar.feasibility import assembles
 from linkedit.planar.plan import Plan
 
@@ -67,7 +68,7 @@ def failure(plan: Plan, rest: np.ndarray, ds: np.ndarray, turn_deg: np.ndarray,
         angle = f"stroke {turn_deg[t]:.6g} {plan.spec.units}"
     else:
         rest_deg = np.degrees(np.angle(rest[g.motor] - rest[g.pivot]))
-        angle = f"motor angle {(rest_deg + turn_deg[t] + 180.0) % 360.0 - 180.0:.1f}°"
+        angle = f"motor angle {degrees_text(rest_deg + turn_deg[t])}"
     return f"{plan.rules[owner[row]].culprit(names, int(within[row]))} cannot be assembled at {angle}"
 
 

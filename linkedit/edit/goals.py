@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from linkedit.curves.polyline import arc_resample
 from linkedit.edit.kinematics import Evaluation
 
 Block = tuple[np.ndarray, np.ndarray | None, np.ndarray]  # r (m,), ∂r (m, C) per colour, columns (m, C)
@@ -60,11 +61,38 @@ class Track:
         direction = np.where(dist > 0.0, side * d / np.where(dist > 0.0, dist, 1.0), normal)
         return side * dist, direction
 
+    @property
+    def both_ways(self) -> bool:
+        """A shape over the whole cycle (``timing: false``, no window): measured both ways, as the goal is."""
+        return not self.timing and self.phases is None
+
+    def back(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The way back: the target's points, as many as the samples, evenly by arc length, to the curve of
+        the selected samples (closed over a cycle). Returns (distance (N,), unit direction
+        from the curve's nearest point to the target point (N,) complex (0 on the curve), that point's
+        segment k (N,) from sample k to k + 1, and its place on it u ∈ [0, 1] (N,))."""
+        p = z[self.row, self.select]
+        line = self.target if self.shape is None else self.shape
+        q = arc_resample(line, p.size, self.cyclic and self.shape is None)
+        seg = np.roll(p, -1) - p
+        if not (self.cyclic or self.shape is not None):
+            seg[-1] = 0.0  # an open curve (a sweep): no segment back to its start
+        rel = q[:, None] - p[None, :]
+        u = np.clip((rel * seg.conj()).real / np.maximum(np.abs(seg) ** 2, 1e-300), 0.0, 1.0)
+        k = np.argmin(np.abs(rel - u * seg), axis=1)
+        rows = np.arange(q.size)
+        d = rel[rows, k] - u[rows, k] * seg[k]
+        dist = np.abs(d)
+        return dist, np.where(dist > 0.0, d / np.where(dist > 0.0, dist, 1.0), 0.0), k, u[rows, k]
+
     def rms(self, ev: Evaluation) -> float:
         d, _ = self.deviation(ev.z)
-        return float(np.sqrt(np.mean(np.abs(d) ** 2)))
+        out = float(np.sqrt(np.mean(np.abs(d) ** 2)))
+        return max(out, float(np.sqrt(np.mean(self.back(ev.z)[0] ** 2)))) if self.both_ways else out
 
     def block(self, ev: Evaluation, cols: np.ndarray, scale: float) -> Block:
+        """The residuals; a whole-cycle shape both ways (the curve's samples to the target, then the
+        target's points to the curve): a curve shrunk onto a part of its target is not a match."""
         d, normal = self.deviation(ev.z)
         s = np.sqrt(self.weight / self.select.size) * scale
         dz = None if ev.dz is None else ev.dz[self.row][:, self.select].T  # (S, C)
@@ -72,6 +100,12 @@ class Track:
             r, D = s * as_real(d), None if dz is None else s * as_real(dz)
         else:
             r, D = s * d, None if dz is None else s * (normal.conj()[:, None] * dz).real
+        if self.both_ways:
+            dist, unit, k, u = self.back(ev.z)
+            r = np.concatenate([r, s * dist])
+            if D is not None and dz is not None:  # the nearest point p_k + u·(p_k+1 − p_k) moves, the target's does not
+                near = (1.0 - u)[:, None] * dz[k] + u[:, None] * dz[(k + 1) % dz.shape[0]]
+                D = np.concatenate([D, -s * (unit.conj()[:, None] * near).real])
         return r, D, np.broadcast_to(cols[self.row], (r.size, cols.shape[1]))
 
 

@@ -5,7 +5,8 @@ not depend on the units (the same edit in mm or m gives the same linkage, scaled
 
 * tracking: √(w/S)·(p(t) − p̂(t))/L over the S selected samples (preserve: p̂ = the curve at the
   start of the operation; retarget: that curve transformed about its centroid; drag: displaced
-  with a Gaussian falloff in phase); without timing, the distance to the curve p̂ instead;
+  with a Gaussian falloff in phase); without timing, the distance to the curve p̂ instead, and over
+  the whole cycle also the distance of p̂'s points (S, evenly by arc length) to the curve p;
 * displacement: √w·(x_i(t) − x̂_i)/L at the rest pose or at a phase (transforms give targets to a
   set of joints);
 * envelope: √(w/T)·(distance outside the box)/L per joint and sample;

@@ -1,7 +1,8 @@
 """The planar result file (kind="planar"), layout documented in ``specs/planar-hdf5.md``.
 
 Every axis is a named dimension (HDF5 dimension scales ``/t``, ``/joint``, ``/xy``, ``/rule``,
-``/link``, ``/ground_joint``, ``/pair``, ``/end``, ``/ijk`` at the root), so ``xarray.open_dataset(path,
+``/link``, ``/ground_joint``, ``/pair``, ``/end``, ``/ijk``, ``/step``, ``/slider`` at the root; a
+link's joints have the scale ``/links/<link>.joint``, a step's lists are their own scales), so ``xarray.open_dataset(path,
 group="joints", engine="h5netcdf")`` shows ``t``, ``joint``, ``xy``; units are strings pint
 parses (``mm``, ``mm/rad``, ``mm/rad**2``).
 """
@@ -44,6 +45,10 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
         scale(f, "pair", np.arange(len(plan.pairs)), "index of a joint pair held at constant distance")
         scale(f, "end", [0, 1], "first or second joint of a pair")
         scale(f, "ijk", ["i", "j", "k"], "joints of a rule: k rebuilt from i and j")
+        if plan.steps:
+            scale(f, "step", [st.name for st in plan.steps], "the slider, or the group's joints, of each step, evaluation order")
+        if plan.spec.sliders:
+            scale(f, "slider", list(plan.spec.sliders), "slider names, spec order")
         if plan.linear:
             put(f, "stroke", motion.motor_angle, dims=("t",), units=u,
                 description="linear input: the driven joint's displacement along its slot from rest")
@@ -61,7 +66,10 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
         links = f.create_group("links")
         put(links, "pairs", plan.pairs, dims=("pair", "end"), description="joint index pairs held at constant distance")
         for name, members in zip(plan.graph.link_names, plan.graph.links):
-            put(links, f"joints/{name}", np.array(members, dtype=int), description=f"joint indices on link {name}")
+            # its axis: the scale /links/<link>.joint (the joints' names), never a root scale's name
+            scale(f, f"links/{name}.joint", [names[k] for k in members], f"names of the joints on link {name}")
+            put(links, f"joints/{name}", np.array(members, dtype=int), dims=(f"links/{name}.joint",),
+                description=f"joint indices on link {name}")
         tracks = f.create_group("tracks")
         for name, track in motion.tracks.items():
             g = tracks.create_group(name)
@@ -79,19 +87,21 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
             description="orientation of triangle (i, j, k) at rest: +1 ccw, -1 cw, 0 collinear")
         if plan.steps:
             steps = f.create_group("steps")
-            put(steps, "kind", [st.kind for st in plan.steps], description="slider, drive, lines, rotate, yoke or group")
-            put(steps, "name", [st.name for st in plan.steps], description="the slider, or the group's joints")
-            put(steps, "level", np.array([st.level for st in plan.steps], dtype=int), description="level of each step")
+            put(steps, "kind", [st.kind for st in plan.steps], dims=("step",),
+                description="slider, drive, lines, rotate, yoke or group")
+            put(steps, "name", [st.name for st in plan.steps], dims=("step",), description="the slider, or the group's joints")
+            put(steps, "level", np.array([st.level for st in plan.steps], dtype=int), dims=("step",),
+                description="level of each step")
             for n, st in enumerate(plan.steps):
-                put(steps, f"joints/{n}", np.asarray(st.joints, dtype=int), description="joints the step writes")
-                put(steps, f"inputs/{n}", np.asarray(st.inputs, dtype=int), description="joints the step reads")
+                scale(f, f"steps/joints/{n}", np.asarray(st.joints, dtype=int), "joints the step writes")
+                scale(f, f"steps/inputs/{n}", np.asarray(st.inputs, dtype=int), "joints the step reads")
         if plan.spec.sliders:
             sl = f.create_group("sliders")
-            put(sl, "names", list(plan.spec.sliders), description="slider names, spec order")
-            put(sl, "joint", np.array([s.joint for s in plan.graph.sliders], dtype=int), description="joint in the slot, -1: a translating link")
-            put(sl, "link", np.array([s.link for s in plan.graph.sliders], dtype=int), description="translating link, -1: a joint slider")
-            put(sl, "guide", np.array([s.guide for s in plan.graph.sliders], dtype=int), description="guide link, -1: the frame")
-            put(sl, "angle", np.array([s.angle for s in plan.graph.sliders]), units="rad", description="slot direction at rest")
+            put(sl, "names", list(plan.spec.sliders), dims=("slider",), description="slider names, spec order")
+            put(sl, "joint", np.array([s.joint for s in plan.graph.sliders], dtype=int), dims=("slider",), description="joint in the slot, -1: a translating link")
+            put(sl, "link", np.array([s.link for s in plan.graph.sliders], dtype=int), dims=("slider",), description="translating link, -1: a joint slider")
+            put(sl, "guide", np.array([s.guide for s in plan.graph.sliders], dtype=int), dims=("slider",), description="guide link, -1: the frame")
+            put(sl, "angle", np.array([s.angle for s in plan.graph.sliders]), dims=("slider",), units="rad", description="slot direction at rest")
         d = f.create_group("diagnostics")
         put(d, "assembled", motion.assembled, dims=("t",), description="the linkage closes at this sample")
         put(d, "singularity", motion.singularity, dims=("t", "rule"), units="1",
@@ -102,7 +112,7 @@ def write_motion(path: str | Path, motion: Motion, *, spec_text: str, options: d
         put(d, "orientation", motion.orientation, dims=("t", "rule"),
             description="orientation sign of each rule's triangle at each sample")
         if plan.steps and motion.step_singularity is not None:
-            put(d, "step_singularity", motion.step_singularity, dims=("t", None), units="1",
+            put(d, "step_singularity", motion.step_singularity, dims=("t", "step"), units="1",
                 description="per step: slider sin^2 of the rod's angle to the slot normal; group (smin/smax)^2; else 1")
         worst = motion.min_singularity()
         if worst is not None:

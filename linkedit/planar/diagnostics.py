@@ -18,6 +18,18 @@ from dataclasses import dataclass
 import numpy as np
 
 
+def degrees_text(value: float) -> str:
+    """A motor angle in degrees as a designer reads it, reduced to [0°, 360°): ``460.9`` → ``100.9°``.
+    (The numbers of a result, ``/motor_angle`` and a lock-up's ``record``, run on from the rest angle.)"""
+    return f"{round(float(value) % 360.0, 1) % 360.0 + 0.0:.1f}°"
+
+
+def passes_zero(values: list[float]) -> bool:
+    """Whether a motor turning through the angles ``values`` (degrees, in order, as recorded) passes
+    0° (a multiple of 360°) strictly between two of them."""
+    return any(360.0 * (np.floor(min(a, b) / 360.0) + 1.0) < max(a, b) for a, b in zip(values, values[1:]))
+
+
 @dataclass(frozen=True)
 class LockUp:
     """An interval of the input where the linkage cannot be assembled, and the joint responsible.
@@ -43,11 +55,17 @@ class LockUp:
     run: tuple[int, int] | None = None
 
     def describe(self) -> str:
+        """``the linkage cannot be assembled for motor angles 304.6°…55.4° (through 0°): why``; the angles
+        reduced to [0°, 360°) (:func:`degrees_text`), "through 0°" where the interval wraps past it."""
         lead = "motor angles" if self.unit == "°" else "input positions"
-        turn = "" if self.turn_deg is None else f"{self.show(self.turn_deg)}…"
-        span = f"{self.show(self.start_deg)}…{turn}{self.show(self.end_deg)}"
+        path = [self.start_deg] + ([] if self.turn_deg is None else [self.turn_deg]) + [self.end_deg]
+        span = "…".join(self.show(v) for v in path)
+        notes = ["through 0°"] if self.unit == "°" and passes_zero(path) else []
         if not self.exact:
-            span = f"within {span} (the assembled samples either side; more samples narrow it)"
+            span = f"within {span}"
+            notes.append("the assembled samples either side; more samples narrow it")
+        if notes:
+            span += f" ({'; '.join(notes)})"
         return f"the linkage cannot be assembled for {lead} {span}: " + (self.what or self.because())
 
     def record(self) -> dict:
@@ -73,8 +91,8 @@ class LockUp:
         return lk if lk.because() == r["reason"] else dataclasses.replace(lk, what=str(r["reason"]))
 
     def show(self, value: float) -> str:
-        """An input ``value`` as :meth:`describe` writes it: ``12.3°`` or ``5.25 mm``."""
-        return f"{value:.1f}°" if self.unit == "°" else f"{value:.6g} {self.unit}"
+        """An input ``value`` as :meth:`describe` writes it: ``12.3°`` (:func:`degrees_text`) or ``5.25 mm``."""
+        return degrees_text(value) if self.unit == "°" else f"{value:.6g} {self.unit}"
 
     def because(self) -> str:
         """Why a dyad's joint cannot be placed."""

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from linkedit.errors import MechanismError
-from linkedit.planar.diagnostics import LockUp, lockups, transmission_angle, triangle_orientation
+from linkedit.planar.diagnostics import LockUp, degrees_text, lockups, transmission_angle, triangle_orientation
 from linkedit.planar.feasibility import CHECK_SAMPLES, TOGGLE, assembles, lowest
 from linkedit.planar.kinematics import State, evaluate
 from linkedit.planar.plan import Geometry, Plan, compile_plan
@@ -94,7 +94,7 @@ class Motion:
 
     def describe_input(self, value: float) -> str:
         """An input ``value`` as :meth:`input_at` gives it, in words: ``motor angle 12.0°`` or ``stroke 5 mm``."""
-        return f"stroke {value:.6g} {self.plan.spec.units}" if self.plan.linear else f"motor angle {value:.1f}°"
+        return f"stroke {value:.6g} {self.plan.spec.units}" if self.plan.linear else f"motor angle {degrees_text(value)}"
 
     def min_singularity(self) -> tuple[float, str, float] | None:
         """(min d_s over dyad, slider and group rules and assembled samples, its joint, the input
@@ -222,7 +222,7 @@ def _check_constraints(plan: Plan, p: np.ndarray, ok: np.ndarray, value: np.ndar
     if err.size and err.max() > 1e-7:
         r, t = np.unravel_index(np.argmax(err), err.shape)
         where = value[ok][t]
-        at = f"motor angle {np.degrees(where):.1f}°" if unit == "°" else f"input position {where:.6g} {unit}"
+        at = f"motor angle {degrees_text(np.degrees(where))}" if unit == "°" else f"input position {where:.6g} {unit}"
         raise MechanismError(
             f"{rows.labels[r]} cannot be kept at {at} (off by {err[r, t]:.3g} relative to its size): "
             f"the linkage is over-constrained ({plan.mobility.describe()})")

@@ -255,14 +255,16 @@ class EditScript(SpecModel):
         return out
 
 
-#: How far (in linkage sizes) a target may lie, and how much a scale may grow: beyond, the
-#: objective's squares overflow long before the edit could get there.
+#: How much a scale may grow: beyond, the objective's squares overflow long before the edit could get there.
 REACH = 1e6
+#: How far (in linkage sizes, grown by earlier transforms' scales) a target may lie, or a move or box edge
+#: reach: further is a script written in other units than its spec (mm on a spec in m: 1000×) or a slip.
+FAR = 10.0
 
 
 def check_against(script: EditScript, linkage: LinkageSpec) -> None:
     """Check every joint, link and track name of ``script`` against ``linkage``, and that every
-    target is within :data:`REACH` linkage sizes; InputError names the field."""
+    target is within :data:`FAR` linkage sizes; InputError names the field."""
     _check_reach(script, linkage)
     joints, tracks, links = set(linkage.joints), set(linkage.tracks), set(linkage.links)
     locked = {name for name, axes in script.locked().items() if axes == "xy"}
@@ -318,11 +320,16 @@ def _check_reach(script: EditScript, linkage: LinkageSpec) -> None:
     centre = [(a + b) / 2 for a, b in zip(lo, hi)]
     size = max(max(b - a for a, b in zip(lo, hi)), 1e-300)
 
+    grown = 1.0  # the linkage's growth by the transforms before the operation at hand
+
     def near(values: tuple, field: tuple, relative_to: list[float] | None) -> None:
         for k, v in enumerate(values):
-            if v is not None and abs(v - (relative_to[k % 2] if relative_to else 0.0)) > REACH * size:
-                raise InputError(f"{v:g} is more than {REACH:g} times the linkage's size ({size:g} {linkage.units}) "
-                                 "away: out of reach of an edit", field=field)
+            off = None if v is None else abs(v - (relative_to[k % 2] if relative_to else 0.0))
+            if off is not None and not off <= FAR * size * grown:
+                what = "away from its centre" if relative_to else "long"
+                raise InputError(f"{v:g} is {off / size:.3g}× the linkage's size ({size:g} {linkage.units}) {what} "
+                                 f"(at most {FAR:g}×): the spec is in {linkage.units}; is the script in other units? "
+                                 "(its lengths are in the spec's)", field=field)
 
     def scale(values: tuple, field: tuple) -> None:
         for v in values:
@@ -353,3 +360,4 @@ def _check_reach(script: EditScript, linkage: LinkageSpec) -> None:
             if t.about is not None:
                 near(t.about, base + ("transform", "about"), centre)
             scale((t.scale,), base + ("transform", "scale"))
+            grown *= max(1.0, abs(t.scale))
