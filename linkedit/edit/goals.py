@@ -22,6 +22,17 @@ def as_real(values: np.ndarray) -> np.ndarray:
     return np.concatenate([values.real, values.imag])
 
 
+def closest(points: np.ndarray, a: np.ndarray, seg: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each of ``points`` (N,) complex against the segments from ``a`` (M,) by ``seg`` (M,) complex: the
+    offset (N,) complex from its nearest point on them to it, that segment k (N,) and its place u ∈ [0, 1] (N,)
+    along it."""
+    rel = points[:, None] - a[None, :]
+    u = np.clip((rel * seg.conj()).real / np.maximum(np.abs(seg) ** 2, 1e-300), 0.0, 1.0)
+    k = np.argmin(np.abs(rel - u * seg), axis=1)
+    rows = np.arange(points.size)
+    return rel[rows, k] - u[rows, k] * seg[k], k, u[rows, k]
+
+
 @dataclass
 class Track:
     """Follow a target curve (T,) complex with point row ``row`` over samples ``select``: track
@@ -49,11 +60,7 @@ class Track:
         a = line if self.cyclic else line[:-1]
         b = np.roll(line, -1) if self.cyclic else line[1:]
         seg = b - a
-        rel = p[:, None] - a[None, :]
-        s = np.clip((rel * seg.conj()).real / np.maximum(np.abs(seg) ** 2, 1e-300), 0.0, 1.0)
-        k = np.argmin(np.abs(rel - s * seg), axis=1)
-        rows = np.arange(p.size)
-        d = rel[rows, k] - s[rows, k] * seg[k]  # from the nearest point of the curve to p
+        d, k, _ = closest(p, a, seg)  # from the nearest point of the curve to p
         normal = 1j * seg[k] / np.maximum(np.abs(seg[k]), 1e-300)
         side = np.where((d * normal.conj()).real < 0.0, -1.0, 1.0)
         dist = np.abs(d)
@@ -77,13 +84,9 @@ class Track:
         seg = np.roll(p, -1) - p
         if not (self.cyclic or self.shape is not None):
             seg[-1] = 0.0  # an open curve (a sweep): no segment back to its start
-        rel = q[:, None] - p[None, :]
-        u = np.clip((rel * seg.conj()).real / np.maximum(np.abs(seg) ** 2, 1e-300), 0.0, 1.0)
-        k = np.argmin(np.abs(rel - u * seg), axis=1)
-        rows = np.arange(q.size)
-        d = rel[rows, k] - u[rows, k] * seg[k]
+        d, k, u = closest(q, p, seg)
         dist = np.abs(d)
-        return dist, np.where(dist > 0.0, d / np.where(dist > 0.0, dist, 1.0), 0.0), k, u[rows, k]
+        return dist, np.where(dist > 0.0, d / np.where(dist > 0.0, dist, 1.0), 0.0), k, u
 
     def rms(self, ev: Evaluation) -> float:
         d, _ = self.deviation(ev.z)
