@@ -183,14 +183,16 @@ class Lists:
         self.cell_norms: np.ndarray | None = self.norms[rows] if ordered else None
 
     @classmethod
-    def trained(cls, vectors: np.ndarray, cells: int | None = None, seed: int = 0) -> Lists:
+    def trained(cls, vectors: np.ndarray, cells: int | None = None, seed: int = 0,
+                ordered: bool | None = None) -> Lists:
         """Lists of ``vectors`` with a quantizer trained on them (:func:`cells_of`)."""
-        return cls(vectors, *cells_of(vectors, cells, seed))
+        return cls(vectors, *cells_of(vectors, cells, seed), ordered=ordered)
 
     @classmethod
-    def of_cells(cls, vectors: np.ndarray, centroids: np.ndarray, cell: np.ndarray) -> Lists:
+    def of_cells(cls, vectors: np.ndarray, centroids: np.ndarray, cell: np.ndarray,
+                 ordered: bool | None = None) -> Lists:
         """Lists of ``vectors`` (K, D) whose rows lie in cells ``cell`` (K,) of ``centroids`` (C, D)."""
-        return cls(vectors, centroids, *grouped(cell, len(centroids)))
+        return cls(vectors, centroids, *grouped(cell, len(centroids)), ordered=ordered)
 
     def probed(self, variants: np.ndarray, probe: int | None = None) -> np.ndarray:
         """The ``probe`` cells (:func:`probe_count` by default) nearest to any of ``variants`` (V, D), in order."""
@@ -225,9 +227,9 @@ def _nearest(vectors: np.ndarray, centroids: np.ndarray, block: int = 32768) -> 
 class Index:
     """An atlas's index descriptors, ready for queries: scanned whole, or for a family of more than
     ``scan_limit`` linkages through :class:`Lists` — a sharded family's stored quantizer and cells, else
-    one trained here."""
+    one trained here (``ordered``: as :class:`Lists`')."""
 
-    def __init__(self, atlas: Atlas, scan_limit: int = SCAN_LIMIT) -> None:
+    def __init__(self, atlas: Atlas, scan_limit: int = SCAN_LIMIT, ordered: bool | None = None) -> None:
         self.names = list(atlas.families)
         self.lists: list[Lists | None] = []
         self.columns: list[np.ndarray | None] = []
@@ -236,8 +238,8 @@ class Index:
             arrays = atlas.families[name]
             v = arrays["index"]
             scanned = len(v) <= scan_limit
-            self.lists.append(None if scanned else Lists.of_cells(v, arrays["centroids"], arrays["cell"])
-                              if "cell" in arrays else Lists.trained(v))
+            self.lists.append(None if scanned else Lists.of_cells(v, arrays["centroids"], arrays["cell"], ordered)
+                              if "cell" in arrays else Lists.trained(v, ordered=ordered))
             self.norms.append(np.einsum("kd,kd->k", v, v) if scanned else None)
             self.columns.append(np.ascontiguousarray(v.T) if scanned else None)  # (D, K): the product runs along K
 
