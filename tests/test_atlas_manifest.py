@@ -10,6 +10,7 @@ import json
 import re
 import shutil
 
+import h5py
 import pytest
 
 from linkedit.synthesis import atlas, chunks, fourbar, shards
@@ -93,3 +94,54 @@ def test_the_unedited_manifest_is_read(run_cli, built, tmp_path, small_chunks):
     (folder / shards.MANIFEST).write_text(json.dumps(json.loads((folder / shards.MANIFEST).read_text()), indent=2))
     assert run_cli("atlas", "build", "--family", "four-bar", "-n", "100", "-o", folder, "-q").exit_code == 0
     assert shards.counts(shards.read_manifest(folder)) == {"four-bar": 350}
+
+
+def _shard_rows(folder, chunk: int, rows: int) -> None:
+    """Shard ``chunk``'s datasets cut to their first ``rows`` (its attributes and the manifest left as they were)."""
+    with h5py.File(folder / "four-bar" / f"{chunk:08d}.h5", "r+") as f:
+        for key in ("params", "min_ds", "index", "cell"):
+            data = f[key][:rows]
+            del f[key]
+            f.create_dataset(key, data=data)
+
+
+def _rows_attribute(folder, chunk: int, rows: int) -> None:
+    with h5py.File(folder / "four-bar" / f"{chunk:08d}.h5", "r+") as f:
+        f.attrs["rows"] = rows
+
+
+ROW_EDITS = {  # (edit, the shard named)
+    "manifest rows": (lambda folder: _edit_manifest(folder, lambda m: _four_bar(m)["shards"][1].update(rows=50)), 1),
+    "manifest rows of the last": (lambda folder: _edit_manifest(folder, lambda m: _four_bar(m)["shards"][2]
+                                                                .update(rows=100)), 2),
+    "shard rows attribute": (lambda folder: _rows_attribute(folder, 1, 60), 1),
+    "shard datasets cut": (lambda folder: _shard_rows(folder, 1, 60), 1),
+}
+
+
+def _edit_manifest(folder, edit) -> None:
+    manifest = json.loads((folder / shards.MANIFEST).read_text())
+    edit(manifest)
+    (folder / shards.MANIFEST).write_text(json.dumps(manifest, indent=2))
+
+
+@pytest.mark.parametrize("edit", list(ROW_EDITS))
+@pytest.mark.parametrize("command", ["synthesize", "atlas build"])
+def test_a_shard_whose_rows_disagree_is_refused_naming_it(run_cli, built, tmp_path, small_chunks, edit, command):
+    """An append (`atlas build -n` into the folder) checks the shards as a query reads them: a shard whose rows
+    disagree with its manifest entry (the entry's rows, its file's ``rows`` attribute, its datasets' length) is
+    refused naming the shard's file, exit 2, nothing written (an append went through, exit 0, and listed 50 more
+    or fewer linkages than the folder held; an edited ``rows`` attribute was read by queries too)."""
+    folder = tmp_path / "atlas"
+    shutil.copytree(built / "atlas", folder)
+    change, chunk = ROW_EDITS[edit]
+    change(folder)
+    before = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+    args = (["synthesize", built / "t.csv", "--atlas", folder, "-o", tmp_path / "out"] if command == "synthesize"
+            else ["atlas", "build", "--family", "four-bar", "-n", "100", "-o", folder])
+    r = run_cli(*args)
+    assert r.exit_code == 2, r.output
+    assert "Traceback" not in r.output and len(r.output.strip().splitlines()) == 1, r.output
+    assert f"four-bar/{chunk:08d}.h5: " in r.output and ("rows" in r.output or "shape" in r.output), r.output
+    assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before  # nothing written
+    assert not (tmp_path / "out").exists()

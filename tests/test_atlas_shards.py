@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from linkedit.synthesis import atlas, chunks, fourbar, shards, spatial, spherical
+from linkedit.synthesis import index as atlas_index
 from linkedit.synthesis import manifest as atlas_manifest
 from linkedit.synthesis.index import Index, nearest_rows, target_variants
 from tests.conftest import report_of
@@ -408,3 +409,27 @@ def test_a_sharded_atlas_too_large_for_memory_is_refused_before_it_is_read(run_c
     monkeypatch.setattr(shards, "read_shard", read_shard)
     assert run_cli("synthesize", _target(tmp_path), "--atlas", tmp_path / "folder", "-o", tmp_path / "out",
                    "--top", "1").exit_code == 0
+
+
+def test_a_query_through_the_cell_ordered_copy_equals_the_one_in_atlas_order(monkeypatch):
+    """A family's lists keep a copy of its descriptors in cell order when it fits (a query's cells are then
+    contiguous runs: ~4x faster than gathering rows at 2,000,000 four-bars) and gather from the atlas-order
+    descriptors otherwise (100,000,000 four-bars): the same rows and distances either way, for any probe, and
+    every cell probed is the exact scan."""
+    vectors = atlas.build_chunk("four-bar", 3, 0, 6000).index
+    centroids, rows, offsets = atlas_index.cells_of(vectors, 40)
+    monkeypatch.setattr(atlas_index, "available_memory", lambda: 10**12)
+    fits = atlas_index.Lists(vectors, centroids, rows, offsets)
+    monkeypatch.setattr(atlas_index, "available_memory", lambda: 3 * vectors.nbytes)  # the copy beyond a quarter of it
+    lean = atlas_index.Lists(vectors, centroids, rows, offsets)
+    assert fits.cell_vectors is not None and lean.cell_vectors is None
+    columns, norms = np.ascontiguousarray(vectors.T), np.einsum("kd,kd->k", vectors, vectors)
+    for k, row in enumerate(atlas.build_chunk("four-bar", 992, 0, 12).params):
+        v = target_variants(fourbar.curves(row[None], 300, 0.1 * k)[0])
+        for probe in (None, 3, 40):
+            (a, da), (b, db) = fits.query(v, 10, probe=probe), lean.query(v, 10, probe=probe)
+            np.testing.assert_array_equal(a, b)
+            np.testing.assert_array_equal(da, db)
+        truth, d2 = nearest_rows(v, columns, norms, 10)
+        np.testing.assert_allclose(da, d2, rtol=0, atol=1e-9)
+        np.testing.assert_array_equal(b, truth)

@@ -108,12 +108,20 @@ def run(echo: Callable[[str], None], count: int | None, workers: int, scheduler:
         held_bytes = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
         index = Index(book, scan_limit=0)
         t_large, rows_large = _median_query(index, variants), _scanned(index, variants)
-        head = Index(_first(book, folder, -(-small // CHUNK)), scan_limit=0)
+        book_small = _first(book, folder, -(-small // CHUNK))
+        head = Index(book_small, scan_limit=0)
         t_small, rows_small = _median_query(head, variants), _scanned(head, variants)
         cells = len(book.families["four-bar"]["centroids"])
         del head
         lists = index.lists[0]
         assert isinstance(lists, Lists)
+        # the extrapolation's figures: rows gathered from the atlas order, as a 100,000,000 family's are (its
+        # cell-ordered copy, 12 GB, is made only where it takes at most a quarter of the memory then available)
+        copied = lists.cell_vectors is not None
+        g_small, g_large = ((_median_query(Index(book_small, scan_limit=0, ordered=False), variants),
+                             _median_query(Index(book, scan_limit=0, ordered=False), variants)) if copied
+                            else (t_small, t_large))
+        del book_small
         recall = [len(set(_exact_top(lists, v, 10).tolist()) & {h.row for h in index.query(v, 10)}) / 10
                   for v in variants]
         del lists, index, book
@@ -129,18 +137,20 @@ def run(echo: Callable[[str], None], count: int | None, workers: int, scheduler:
                 remote = (f"{1e3 * _median_query(far, variants):.0f} ms median ({workers} workers; the first query, "
                           f"reading the shards onto the workers, {first:.1f} s)")
     cores = usable_cores()
+    gathered = (f"; {1e3 * g_small:.0f} and {1e3 * g_large:.0f} ms with the rows gathered from the atlas order, "
+                "as a 100,000,000 family's are where its cell-ordered copy does not fit" if copied else "")
     # the time grows with the rows scanned, N/C·(a probed cell's share): the line through both figures
     if count > small and rows_large > rows_small:
-        per = (t_large - t_small) / (rows_large - rows_small)
+        per = (g_large - g_small) / (rows_large - rows_small)
         basis = (f"the line through the {small:,} and {count:,} figures ({rows_small:,.0f} and {rows_large:,.0f} rows "
                  f"scanned), {1e9 * per:.0f} ms per million rows scanned")
     else:
-        per = t_large / rows_large
+        per = g_large / rows_large
         basis = f"proportional to the {count:,} figure's {rows_large:,.0f} rows (give --large above {SMALL:,} for a line)"
     big_cells = quantizer_side(HUNDRED_MILLION) ** 2
     probes, big_probes = probe_count(cells), probe_count(big_cells)
     rows_100m = rows_large * HUNDRED_MILLION / count * cells / big_cells * big_probes / probes  # a 100M build's cells
-    t_100m = t_large + per * (rows_100m - rows_large)
+    t_100m = g_large + per * (rows_100m - rows_large)
     echo(f"query at scale, sharded atlas of {count:,} four-bars ({cores} cores usable of the machine's "
          f"{os.cpu_count()}, load average {load:.2f} before, {os.getloadavg()[0]:.2f} after): {built}, "
          f"{on_disk / count:.0f} bytes per linkage on disk ({shards.shard_bytes('four-bar')} stored + HDF5 overhead; "
@@ -149,7 +159,7 @@ def run(echo: Callable[[str], None], count: int | None, workers: int, scheduler:
     echo(f"  query through the family's quantizer ({cells:,} cells, {probes} probed), median of {TARGETS} held-out targets: "
          f"{f'{1e3 * t_small:.0f} ms at {small:,}, ' if count > small else ''}{1e3 * t_large:.0f} ms at {count:,} "
          f"(recall of the exact top 10 "
-         f"{np.mean(recall):.3f}, target ≥ 0.99); on the cluster at {count:,}: {remote}")
+         f"{np.mean(recall):.3f}, target ≥ 0.99){gathered}; on the cluster at {count:,}: {remote}")
     if count >= HUNDRED_MILLION:
         return
     echo(f"  extrapolated to {HUNDRED_MILLION:,}: {t_100m:.2f} s in-process on these {cores} cores (target ≤ "

@@ -169,7 +169,7 @@ def build(path: str | Path, names: list[str], count: int | None, *, seed: int = 
                          file=str(path))
     if not resume and count is not None:  # before the plan: a list of 10⁸ chunks would not fit either
         _require_room(path, {name: count for name in names})
-    _checked(path, names, count, seed, resume)  # a refusal needs no cluster
+    check_shards(path, _checked(path, names, count, seed, resume))  # a refusal needs no cluster
     new = not path.exists()
     try:  # connected before anything is written: a scheduler that does not answer leaves the folder as it was
         with chunk_runner(scheduler, workers, connect_timeout=connect_timeout, verbose=verbose) as run, \
@@ -343,6 +343,25 @@ def load(path: str | Path, threads: int | None = None) -> Atlas:
     return Atlas(path, families, manifest["seed"])
 
 
+def check_shards(folder: Path, manifest: dict[str, Any], threads: int | None = None) -> None:
+    """Check every shard and quantizer ``manifest`` lists in ``folder`` as a query reads them (:func:`read_shard`,
+    :func:`read_quantizer`; none kept): an InputError naming the first that disagrees, the other reads cancelled.
+    An append or ``--resume`` does this before it writes anything."""
+
+    def check(name: str, cells: int, width: int, shard: dict[str, Any]) -> None:
+        read_shard(folder, name, manifest["seed"], cells, width, shard)
+
+    with ThreadPoolExecutor(threads) as pool:
+        try:
+            for name, entry in manifest["families"].items():
+                read_quantizer(folder, name, entry["quantizer"])
+                list(pool.map(partial(check, name, entry["quantizer"]["cells"], len(entry["columns"])),
+                              entry["shards"]))
+        except BaseException:
+            pool.shutdown(cancel_futures=True)
+            raise
+
+
 def read_family(folder: Path, name: str, seed: int, cells: int, width: int, shards: list[dict[str, Any]],
                 pool: ThreadPoolExecutor | None = None) -> dict[str, np.ndarray]:
     """The ``shards`` (manifest entries) of family ``name`` (a quantizer of ``cells`` cells, ``width`` parameters)
@@ -373,6 +392,9 @@ def read_shard(folder: Path, name: str, seed: int, cells: int, width: int,
     with open_result(file, kind="atlas-shard") as f:
         if (f.attr("family"), f.attr("chunk", kind=int), f.attr("seed", kind=int)) != (name, shard["chunk"], seed):
             raise f.error("/", f"not chunk {shard['chunk']} of {name} with seed {seed}")
+        if f.attr("rows", kind=int) != rows:
+            raise f.error("/", f"its rows attribute is {f.attr('rows', kind=int)}, {MANIFEST} lists {rows} rows for "
+                          "it (one of them changed since it was built)")
         out = {"params": f.array("params", shape=(rows, width), kinds="f"),
                "min_ds": f.array("min_ds", shape=(rows,), kinds="f"),
                "index": f.array("index", shape=(rows, WIDTH), kinds="f").astype(np.float32, copy=False),
