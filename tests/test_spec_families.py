@@ -262,3 +262,29 @@ def test_appending_an_edited_spec_to_its_atlas_is_refused_saying_why(run_cli, tm
     assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
     assert "a.h5" in r.output and "crank-rocker" in r.output and "spec texts differ" in r.output, r.output
     assert "rename one" in r.output and (tmp_path / "a.h5").read_bytes() == before
+
+
+#: a four-bar whose crank (85) cannot turn fully (85 + 100 > 80.6 + 89.4): it locks at 138.8°…221.2°, and about
+#: one linkage in 2,000 drawn around it turns with the margin
+LOCKING = """name: locking-four-bar
+units: mm
+joints: {O: [0, 0], A: [85, 0], B: [60, 80], D: [100, 0], P: [50, 100]}
+ground: [O, D]
+links: {crank: [O, A], coupler: [A, B, P], rocker: [D, B]}
+motor: {joint: A, pivot: O}
+tracks: {tip: {joint: P}}
+"""
+
+
+def test_a_family_whose_linkages_do_not_work_is_one_line(run_cli, tmp_path):
+    """A spec family around a design that locks up, almost none of whose drawn linkages turn the full cycle: the
+    build stops after a bounded number of draws with one line naming the family and saying why, exit 1, and no
+    atlas written. (Was an endless loop of draws whose screening block doubled each round until an OverflowError
+    traceback.)"""
+    spec = tmp_path / "locking.yaml"
+    spec.write_text(LOCKING)
+    r = run_cli("atlas", "build", "--family", spec, "-n", "200", "-o", tmp_path / "a.h5")
+    assert r.exit_code == 1 and "Traceback" not in r.output, r.output
+    assert len(r.output.strip().splitlines()) == 1, r.output
+    assert "'locking-four-bar'" in r.output and "turn the full cycle" in r.output, r.output
+    assert not (tmp_path / "a.h5").exists()
