@@ -337,3 +337,15 @@ def test_an_open_arc_of_a_perturbed_design_is_synthesized_from_its_spec_family(r
     s = np.clip(((z[:, None] - a[None]) * ab.conj()).real / np.maximum(np.abs(ab) ** 2, 1e-300), 0.0, 1.0)
     gap = np.abs(z[:, None] - a[None] - s * ab[None]).min(axis=1)
     assert gap.max() <= 1e-4 * max(np.ptp(z.real), np.ptp(z.imag)), gap.max()
+
+
+def test_a_spec_tracking_a_joint_that_does_not_move_cannot_be_a_family(run_cli, tmp_path):
+    """A spec whose first joint track is a ground joint: its curve is one point, whose descriptor is NaN. One line
+    naming the spec, the track and why, exit 2, no atlas. (Was exit 0 with NaN written into the atlas's index, and
+    then synthesize said "none of the 0 nearest atlas linkages turns the full cycle".)"""
+    spec = tmp_path / "still.yaml"
+    spec.write_text(SWINGING.replace("name: swinging-arm", "name: still").replace("tip: {joint: P}", "pin: {joint: D}"))
+    r = run_cli("atlas", "build", "--family", spec, "-n", "100", "-o", tmp_path / "a.h5")
+    assert r.exit_code == 2 and "Traceback" not in r.output and len(r.output.strip().splitlines()) == 1, r.output
+    assert "still.yaml" in r.output and "'pin'" in r.output and "does not move" in r.output, r.output
+    assert not (tmp_path / "a.h5").exists()
