@@ -349,3 +349,49 @@ def test_a_spec_tracking_a_joint_that_does_not_move_cannot_be_a_family(run_cli, 
     assert r.exit_code == 2 and "Traceback" not in r.output and len(r.output.strip().splitlines()) == 1, r.output
     assert "still.yaml" in r.output and "'pin'" in r.output and "does not move" in r.output, r.output
     assert not (tmp_path / "a.h5").exists()
+
+
+@pytest.mark.parametrize("example", ["klann.yaml", "lifting-arm.yaml"])
+def test_a_spec_family_evaluates_an_empty_batch(example):
+    """No linkages in, no curves out, (0, T): precision points ask for the curve points of the brackets left, none
+    once a refinement iterate's curve breaks. (Was a ValueError traceback reshaping the empty rows, ending
+    ``synthesize --points`` against a spec family.)"""
+    from linkedit.synthesis import families
+
+    fam = families.family(families.spec_family(EXAMPLES / example))
+    assert fam.curves(np.empty((0, len(fam.PARAMETERS))), 1, np.empty(0)).shape == (0, 1)
+    assert fam.curves(np.empty((0, len(fam.PARAMETERS))), 8).shape == (0, 8)
+
+
+@pytest.mark.slow  # about 10 s: the refinements
+def test_precision_points_on_a_swing_are_met_by_its_spec_family(run_cli, tmp_path):
+    """Seven points unevenly along the outward swing of a perturbed design, ``--points`` against 2,000 linkages of
+    its family: exit 0, and each point's distance to result.yaml's curve, measured here on `simulate -n 36000`,
+    is the one report.json gives, below 1e-4 of the points' radius. (Was a ValueError traceback.)"""
+    import csv
+
+    spec = tmp_path / "swinging.yaml"
+    spec.write_text(SWINGING)
+    assert run_cli("atlas", "build", "--family", spec, "-n", "2000", "-o", tmp_path / "a.h5", "-q").exit_code == 0
+    design = tmp_path / "design.yaml"
+    design.write_text(SWINGING.replace("B: [500, 450], D: [550, 0], P: [300, 600]",
+                                       "B: [510, 440], D: [545, 8], P: [320, 590]"))
+    assert run_cli("simulate", design, "-n", "180", "-o", tmp_path / "design.csv", "-q").exit_code == 0
+    rows = list(csv.DictReader(line for line in (tmp_path / "design.csv").read_text().splitlines()
+                               if not line.startswith("#")))
+    z = np.array([float(rows[k]["tip_x"]) + 1j * float(rows[k]["tip_y"]) for k in (0, 7, 18, 31, 48, 68, 89)])
+    target = tmp_path / "points.csv"
+    target.write_text("x,y\n" + "\n".join(f"{p.real!r},{p.imag!r}" for p in z.tolist()))
+    r = run_cli("synthesize", target, "--atlas", tmp_path / "a.h5", "-o", tmp_path / "syn", "--top", "2", "--points")
+    assert r.exit_code == 0, r.output
+    report = json.loads((tmp_path / "syn" / "report.json").read_text())["precision_points"]
+    assert run_cli("simulate", tmp_path / "syn" / "result.yaml", "-n", "36000", "-o", tmp_path / "again.csv",
+                   "-q").exit_code == 0
+    rows = list(csv.DictReader(line for line in (tmp_path / "again.csv").read_text().splitlines()
+                               if not line.startswith("#")))
+    drawn = np.array([float(w["target_x"]) + 1j * float(w["target_y"]) for w in rows])
+    a, ab = drawn[:-1], np.diff(drawn)
+    s = np.clip(((z[:, None] - a[None]) * ab.conj()).real / np.maximum(np.abs(ab) ** 2, 1e-300), 0.0, 1.0)
+    gap = np.abs(z[:, None] - a[None] - s * ab[None]).min(axis=1)
+    assert np.abs(gap - report["distances"]).max() <= 1e-3 * report["radius"] * 1e-3
+    assert gap.max() <= 1e-4 * report["radius"], gap
