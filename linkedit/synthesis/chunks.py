@@ -20,6 +20,7 @@ import numpy as np
 
 from linkedit.curves.efd import polyline_efd
 from linkedit.curves.normalize import normalize
+from linkedit.errors import MechanismError
 from linkedit.planar.feasibility import works
 from linkedit.synthesis.families import of_text
 
@@ -35,6 +36,9 @@ HARMONICS = 8
 BLOCK = 1024
 #: Drawn rows screened together first, and seconds a screening block aims at after that (see :func:`reporting`).
 FIRST_SCREEN, SCREEN_SECONDS = 32, 0.5
+#: A chunk gives up (MechanismError) once it has drawn at least ``HOPELESS_DRAWS`` rows and kept fewer than one in
+#: ``HOPELESS_RATIO`` of them: a family around a design that locks up, whose atlas would take hours.
+HOPELESS_DRAWS, HOPELESS_RATIO = 20_000, 1_000
 
 
 
@@ -72,16 +76,23 @@ class Chunk:
 
 def build_chunk(name: str, seed: int, index: int, size: int = CHUNK, spec: str | None = None) -> Chunk:
     """Chunk ``index`` of family ``name``'s atlas from ``seed`` (a pure function); ``spec``: the
-    linkage spec text of a family made from a spec (:func:`~linkedit.synthesis.families.of_text`)."""
+    linkage spec text of a family made from a spec (:func:`~linkedit.synthesis.families.of_text`). MechanismError
+    when its draws hardly ever work (:data:`HOPELESS_DRAWS`, :data:`HOPELESS_RATIO`)."""
     fam = of_text(name, spec)
     rng = np.random.default_rng([seed, fam.ID, index])
     margin = fam.margin()
     kept: list[np.ndarray] = []
     kept_ds: list[np.ndarray] = []
-    have = 0
+    have = drawn = 0
     step = FIRST_SCREEN
     while have < size:
+        if drawn >= HOPELESS_DRAWS and have * HOPELESS_RATIO < drawn:
+            raise MechanismError(f"family {name!r}: only {have} of {drawn:,} linkages drawn around its design turn the "
+                                 f"full cycle with the atlas's singularity margin (d_s >= {margin:.3g}); make the "
+                                 "design itself turn well clear of its lock-ups (`linkedit simulate` names them and "
+                                 "its lowest d_s)")
         draw = fam.sample(rng, 2 * (size - have) + 16)
+        drawn += len(draw)
         ds, screened, start = np.empty(len(draw)), have, 0
         while start < len(draw):  # a row's d_s is its own: the blocks change no byte
             began, part = time.perf_counter(), slice(start, start + step)
@@ -89,7 +100,8 @@ def build_chunk(name: str, seed: int, index: int, size: int = CHUNK, spec: str |
             screened += int(works(ds[part], margin).sum())
             report_kept(min(size, screened))
             start += step
-            step = int(np.clip(step * SCREEN_SECONDS / max(time.perf_counter() - began, 1e-6), step, 2 * step))
+            step = int(np.clip(step * SCREEN_SECONDS / max(time.perf_counter() - began, 1e-6), step,
+                               min(2 * step, len(draw))))
         keep = works(ds, margin)
         kept.append(draw[keep])
         kept_ds.append(ds[keep])

@@ -26,6 +26,8 @@ import threading
 import zlib
 from pathlib import Path
 
+import numpy as np
+
 from linkedit.errors import InputError, LinkeditError
 from linkedit.planar.plan import compile_plan
 from linkedit.spec.linkage import JointTrack, LinkageSpec
@@ -105,7 +107,7 @@ def from_spec_text(name: str, text: str, *, field: str = "--family", file: str |
     if spec.motor.range_deg is not None:
         raise InputError(f"{cannot}: its motor sweeps range_deg once, not a cycle (give oscillate_deg "
                          "for a swing back and forth)", file=file, field=field)
-    track = next((n for n, t in spec.tracks.items() if isinstance(t, JointTrack)), None)
+    track, joint = next(((n, t.joint) for n, t in spec.tracks.items() if isinstance(t, JointTrack)), (None, None))
     if track is None:
         raise InputError(f"{cannot}: it tracks no joint (a family's curve is its first joint track)",
                          file=file, field=field)
@@ -113,9 +115,15 @@ def from_spec_text(name: str, text: str, *, field: str = "--family", file: str |
         compile_plan(spec)
     except LinkeditError as exc:
         raise InputError(f"{cannot}: {exc}", file=file, field=field) from None
+    made = CatalogFamily(name, 1000 + zlib.crc32(text.encode()) % 100_000, lambda: spec, track)
+    z = made.curves(made.base[None], 64)[0]
+    z = z[np.isfinite(z)]
+    if z.size and np.abs(z - z[0]).max() <= 1e-9:  # family frame: the design's largest extent is 1
+        raise InputError(f"{cannot}: its first joint track {track!r} (joint {joint!r}) does "
+                         "not move over the cycle (its curve is one point): track a moving joint first",
+                         file=file, field=field)
     with _MAKING:
-        fam = _MADE.setdefault((name, text), CatalogFamily(name, 1000 + zlib.crc32(text.encode()) % 100_000,
-                                                           lambda: spec, track))
+        fam = _MADE.setdefault((name, text), made)
         if register:
             SPECS[name], SPEC_TEXTS[name] = fam, text
     return fam

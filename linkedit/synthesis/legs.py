@@ -164,7 +164,9 @@ class CatalogFamily:
         return out
 
     def curves(self, params: np.ndarray, samples: int, phase: np.ndarray | float = 0.0) -> np.ndarray:
-        """The tracked joint's curves (K, T) complex, family frame."""
+        """The tracked joint's curves (K, T) complex, family frame (K may be 0)."""
+        if not len(params):
+            return np.empty((0, samples), dtype=complex)
         return self._state(params, samples, phase, distances=False).z[self.plan.row_of[self.track_joint]].copy()
 
     def to_spec(self, row: np.ndarray, *, phase: float, scale: float, turn: complex, shift: complex, mirrored: bool,

@@ -112,7 +112,8 @@ def _normalized_by(result: Synthesis) -> str:
         return ("the precision points' RMS radius about their centroid; RMS and max over the points of each point's "
                 "distance to the linkage's whole curve (any crank phase); after: result.yaml simulated")
     return ("target size (major extent); RMS over target→result and result→target distances, "
-            "both curves sampled evenly along their length; after: result.yaml simulated")
+            "both curves sampled evenly along their length (the max also over each curve's own points); "
+            "after: result.yaml simulated")
 
 
 def _precision(result: Synthesis) -> dict[str, Any] | None:

@@ -112,13 +112,15 @@ class Refined:
 def curve_error(target: np.ndarray, closed: bool, curve: np.ndarray, size: float) -> tuple[float, float]:
     """(RMS, max) distance between a target polyline and a closed candidate curve (planar (M,) and (T,) complex,
     or spatial (M, D) and (T, D) real), over ``size``, each curve sampled evenly along its length: target → curve
-    and, for a closed target, curve → target (an open arc may be part of the cycle)."""
-    there = distances_to(arc_resample(target, 4 * POINTS, closed), curve, True)
-    parts = [there]
+    and, for a closed target, curve → target (an open arc may be part of the cycle). The max counts each curve's own
+    points too: a sharp tip, short but passed slowly, holds few of the evenly spaced ones."""
+    parts = [distances_to(arc_resample(target, 4 * POINTS, closed), curve, True)]
+    own = [distances_to(target, curve, True)]
     if closed:
         parts.append(distances_to(arc_resample(curve, 4 * POINTS, True), target, True))
+        own.append(distances_to(curve, target, True))
     d = np.concatenate(parts) / size
-    return float(np.sqrt(np.mean(d * d))), float(d.max())
+    return float(np.sqrt(np.mean(d * d))), max(float(d.max()), float(np.concatenate(own).max()) / size)
 
 
 def timed_error(timed: TimedTarget, fam: ModuleType, params: np.ndarray, placement: Placement) -> tuple[float, float]:

@@ -406,7 +406,8 @@ def _report(result: SpatialSynthesis, options: dict[str, Any]) -> dict[str, Any]
                                    + ("target→result and result→target distances, each curve"
                                       if result.target.closed else "target→result distances (an open arc: part of "
                                                                    "the cycle), the target")
-                                   + " sampled evenly along its length; after: result.yaml solved "
+                                   + " sampled evenly along its length (the max also over its own points); "
+                                   "after: result.yaml solved "
                                    "(linkedit solve3d), its track 'target'"},
         "note": result.note,
         "margin_deg": result.margin_deg,

@@ -257,8 +257,13 @@ def _search(target: Curve, atlas: Atlas, index: Index | None, *, top: int, timin
     chosen = diverse(candidates, top)
     for c in chosen:
         desc, k = curve_of[id(c)]
-        c.placement = (_placement(placements(t_desc, desc.take([k]), mirror=True)[0]) if target.closed
-                       else _partial_placement(t_desc, desc, k))
+        if target.closed:
+            c.placement = _placement(placements(t_desc, desc.take([k]), mirror=True)[0])
+            continue
+        c.placement = _partial_placement(t_desc, desc, k)
+        if not np.isfinite(c.distance):  # a distinct one from beyond the SCREENED: its fine distance too
+            c.distance = float(partial_rms(t_desc.points, desc.points[[k]], mirror=True)[0][0])
+    chosen.sort(key=lambda c: c.distance)
     return _finish(target, z_target, size, chosen, None, clock, name, units, margin_deg, frame)
 
 
