@@ -181,12 +181,12 @@ def test_precision_points_on_an_open_arc_are_reached(run_cli, four_bar_atlas, tm
     """9 precision points on an open arc of a held-out four-bar (`--points --open`): the atlas is searched with
     the arc closed by its chord too, as for an open curve, and every point ends within 1e-4 of the points' RMS
     radius of the result's curve, as `linkedit simulate result.yaml` draws it. The arc retraced alone found a
-    start that stalled at 0.089 % RMS (0.18 % max)."""
+    start that stalled at 0.097 % RMS (0.19 % max)."""
     row, samples = OPEN_ARC
     target = 5 + 3j + 37 * fourbar.curves(row[None], 2000)[0][samples]
     write_csv(tmp_path / "arc.csv", target)
     out = tmp_path / "out"
-    result = run_cli("synthesize", tmp_path / "arc.csv", "--atlas", four_bar_atlas, "-o", out, "--top", "3",
+    result = run_cli("synthesize", tmp_path / "arc.csv", "--atlas", four_bar_atlas, "-o", out, "--top", "1",
                      "--points", "--open")
     assert result.exit_code == 0, result.output
     radius = np.sqrt(np.mean(np.abs(target - target.mean()) ** 2))
