@@ -134,19 +134,28 @@ class Solver:
         small = factor.pivots() < FREE_PIVOT * top
         if not small.any():
             return Linear(ev, lin, factor, None, self.system.n_unknowns)
-        if not self._free(table, step, lin):
+        if not self._free(table, step, lin, ev.r):
             return Linear(ev, lin, factor, None, singular=True)
         return Linear(ev, lin, factor, *null_space(lin.JT.T, factor, int(small.sum()), top))
 
-    def _free(self, table: StepTable, step: int, lin: Linearization) -> bool:
+    def _key(self, table: StepTable, step: int) -> bytes:
+        """The set of inputs active at a step, as :attr:`structure` keys it."""
+        return table.at(step).inactive_rows.tobytes() if table.partial[step] else b""
+
+    def _free(self, table: StepTable, step: int, lin: Linearization, r: np.ndarray) -> bool:
         """Whether J has a null space for the inputs active at this step: its rank is taken
-        (block by block) the first time each set of active inputs is met, and kept."""
-        key = table.at(step).inactive_rows.tobytes() if table.partial[step] else b""
-        if key not in self.structure:
-            J = lin.JT.T
-            self.structure[key] = jacobian_rank(J.toarray() if hasattr(J, "toarray") else np.asarray(J)) \
-                < self.system.n_unknowns
-        return self.structure[key]
+        (block by block) at the first *solved* pose (residual ``r`` within tolerance) with each
+        set of active inputs, and kept. Off the constraints a residual hides a free direction
+        (a world-fixed turn is conjugated by an unsolved relative orientation: J's smallest
+        singular value is about the residual), so there it is taken afresh, not kept."""
+        key = self._key(table, step)
+        if key in self.structure:
+            return self.structure[key]
+        J = lin.JT.T
+        free = jacobian_rank(J.toarray() if hasattr(J, "toarray") else np.asarray(J)) < self.system.n_unknowns
+        if self.error(r) <= self.options.tol:
+            self.structure[key] = free
+        return free
 
     def moved(self, x: State, e: np.ndarray) -> State:
         return x.moved(e * self.col)
@@ -306,6 +315,8 @@ class Solver:
         change along it from the anchor (minimum change: what the input left free holds) with
         fresh Jacobians until below ``still_tol``."""
         opt = self.options
+        if isinstance(known, Linear) and known.singular and self._key(table, step) not in self.structure:
+            known = None  # taken off the constraints, where J's rank could not be told (:meth:`_free`)
         linear = known if isinstance(known, Linear) else self.linearize(x, table, step, known)
         if not table.partial[step]:
             return self.canonical(x, r, table, step, linear)
