@@ -54,3 +54,48 @@ def test_a_joint_whose_window_closed_holds_while_the_next_one_moves(run_cli, tmp
     assert res.exit_code == 0, res.output
     run = read_result(out)
     assert np.abs(run.tracks["E"].position - _forward(run.t)).max() < 1e-9 * (L1 + L2)
+
+
+def _arm3(tmp_path, steps: int):
+    """A three-joint arm whose joints move in turn, each locked by an input of one keyframe
+    while it is not moving (specs/mechanism3d.md, Inputs): yaw q1 0° → 120° → 60° over
+    [0, 0.4], pitch q2 0° → −45° over [0.3, 0.7], pitch q3 0° → 90° → 30° over [0.6, 1]."""
+    rot = lambda member, other, axis, angles, window: {  # noqa: E731
+        "type": "orientation", "member": member, **({"other": other} if other else {}),
+        "rotation": {"axis": axis, "angles_deg": angles}, "window": window}
+    z, y = [0, 0, 1], [0, 1, 0]
+    data = {
+        "name": "arm3", "units": "m",
+        "shapes": {"l1": {"points": {"e": [0.3, 0, 0]}}, "l2": {"points": {"e": [0.2, 0, 0]}},
+                   "l3": {"points": {"e": [0.1, 0, 0]}}},
+        "members": {"l1": {"shape": "l1"}, "l2": {"shape": "l2", "position": [0.3, 0, 0]},
+                    "l3": {"shape": "l3", "position": [0.5, 0, 0]}},
+        "joints": {"j1": {"type": "revolute", "members": ["l1", "world"], "at": [0, 0, 0], "axis": z},
+                   "j2": {"type": "revolute", "members": ["l2", "l1"], "at": [0.3, 0, 0], "axis": y},
+                   "j3": {"type": "revolute", "members": ["l3", "l2"], "at": [0.5, 0, 0], "axis": y}},
+        "inputs": {"q1": rot("l1", None, z, [0, 120, 60], [0, 0.4]), "h1": rot("l1", None, z, [60], [0.4, 1]),
+                   "q2": rot("l2", "l1", y, [0, -45], [0.3, 0.7]), "h2a": rot("l2", "l1", y, [0], [0, 0.3]),
+                   "h2b": rot("l2", "l1", y, [-45], [0.7, 1]),
+                   "q3": rot("l3", "l2", y, [0, 90, 30], [0.6, 1]), "h3": rot("l3", "l2", y, [0], [0, 0.6])},
+        "outputs": {"steps": steps, "tracks": {"E": {"member": "l3", "point": "e"}}},
+    }
+    path = tmp_path / "arm3.yaml"
+    path.write_text(yaml.safe_dump(data, default_flow_style=None, sort_keys=False))
+    return path
+
+
+@pytest.mark.parametrize("steps", [6, 21])
+def test_joints_locked_by_one_keyframe_inputs_follow_the_forward_kinematics(run_cli, tmp_path, steps):
+    """The recipe the spec page gives for a joint held between its moves: its angle is exact at
+    any --steps (minimum change alone would let a held joint turn as the next one moves)."""
+    out = tmp_path / "arm3.h5"
+    res = run_cli("solve3d", _arm3(tmp_path, steps), "-o", out, "--quiet")
+    assert res.exit_code == 0, res.output
+    run = read_result(out)
+    t = run.t
+    q1 = np.radians(np.interp(t, [0, 0.2, 0.4], [0, 120, 60]))
+    q2 = np.radians(np.interp(t, [0.3, 0.7], [0, -45]))
+    q3 = np.radians(np.interp(t, [0.6, 0.8, 1], [0, 90, 30]))
+    reach = 0.3 + 0.2 * np.cos(q2) + 0.1 * np.cos(q2 + q3)
+    tip = np.stack([reach * np.cos(q1), reach * np.sin(q1), -0.2 * np.sin(q2) - 0.1 * np.sin(q2 + q3)], axis=1)
+    assert np.abs(run.tracks["E"].position - tip).max() < 1e-9 * 0.6
