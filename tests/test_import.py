@@ -484,3 +484,28 @@ def test_pylinkage_linear_actuator_that_never_moves_is_refused(run_cli, tmp_path
     assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
     assert re.search(re.escape(f"{dims}:{line}: driver_angles.A.angular_velocity: ") + message, r.output), r.output
     assert not (tmp_path / "x.yaml").exists()
+
+
+@pytest.mark.parametrize("expression, rocker", [
+    # a Scotch yoke: the crank pin P1 turns in the yoke's vertical slot (RP), the yoke slides on the frame (P)
+    ("M[J[R, P[0, 0], L[ground, L1]], J[RP, A[90], P[20, 0], L[yoke, L1]], J[P, A[0], P[50, 0], L[ground, yoke]],"
+     " J[R, P[90, 0], L[yoke]]]", None),
+    # a Whitworth quick-return: the crank pin P1 slides in the arm P2-P3, which turns fully about P2 = (0, 15)
+    (f"M[J[R, P[0, 0], L[ground, L1]], J[RP, A[{math.degrees(math.atan2(-15, 40))!r}], P[40, 0], L[L2, L1]],"
+     " J[R, P[0, 15], L[ground, L2]], J[R, P[0, -30], L[L2]]]", 15j),
+])
+def test_pyslvs_default_motor_drives_a_crank_whose_pin_slides_in_a_slot(run_cli, tmp_path, expression, rocker):
+    """The default input is the first ground revolute joint and the first joint pinned to its link (P0, P1),
+    also when that joint's pin runs in a slot (a Scotch yoke's or a quick-return's crank pin)."""
+    spec = tmp_path / "crank.yaml"
+    r = run_cli("import", expression, "-o", spec)
+    assert r.exit_code == 0, r.output
+    assert yaml.safe_load(spec.read_text())["motor"] == {"joint": "P1", "pivot": "P0"}
+    got, theta = _motor_angle(run_cli, spec, tmp_path, 72)
+    r0 = abs(got["P1"][0])
+    assert np.abs(got["P1"] - r0 * np.exp(1j * theta)).max() < 1e-9 * r0
+    if rocker is None:  # the yoke moves by 20 cos θ
+        assert np.abs(got["P3"] - (70 + 20 * np.cos(theta))).max() < 1e-9 * 90
+    else:  # the arm turns with the line from its pivot to the crank pin
+        u = (got["P1"] - rocker) / np.abs(got["P1"] - rocker)
+        assert np.abs(got["P3"] - (rocker + (-30j - rocker) * u / u[0])).max() < 1e-9 * 90

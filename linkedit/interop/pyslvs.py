@@ -263,11 +263,13 @@ def _sliders(joints: list[Joint], names: list[str], links: dict[str, list[str]],
 
 
 def _default_motor(joints: list[Joint], source: str) -> tuple[int, int]:
-    """The first revolute ground joint and the first other revolute joint on a link with it (pyslvs' usual input)."""
-    moving: dict[str, list[int]] = {}  # link → its moving revolute joints, in order
+    """The first revolute ground joint and the first other moving joint pinned to a link with it (pyslvs'
+    usual input): a slider's pin links are its links after the slot's (a Scotch yoke's crank pin)."""
+    moving: dict[str, list[int]] = {}  # link → the moving joints pinned to it, in order
     for d, other in enumerate(joints):
-        if other.kind == "R" and FRAME not in other.links:
-            for link in other.links:
+        pins = other.links if other.kind == "R" else other.links[1:]
+        if FRAME not in pins:
+            for link in pins:
                 moving.setdefault(link, []).append(d)
     for b, base in enumerate(joints):
         if base.kind == "R" and FRAME in base.links:
