@@ -156,3 +156,24 @@ def test_a_slot_outline_is_on_its_guide_layer_in_dxf(run_cli, tmp_path):
     rail = outlines["FRAME"]
     assert sorted(set(np.round(rail[:, 0], 9))) == pytest.approx([10, 50])
     assert sorted(set(np.round(rail[:, 1], 9))) == pytest.approx([-hole, hole])
+
+
+def test_a_dxf_slot_on_a_moving_guide_is_cut_in_its_link_at_the_rest_pose(run_cli, tmp_path):
+    """DXF draws the links at the rest pose; a slotted rocker's slot must lie along that rocker. With a sweep
+    that starts away from the rest pose (range_deg [60, 150]) the slot was drawn where the rocker is at the
+    sweep's start (80° instead of its rest 63.4°), off the part it is cut in."""
+    ezdxf = pytest.importorskip("ezdxf")
+    spec, out = tmp_path / "qr.yaml", tmp_path / "qr.dxf"
+    doc = yaml.safe_load((EXAMPLES / "quick-return.yaml").read_text())
+    doc["motor"]["range_deg"] = [60, 150]
+    spec.write_text(yaml.safe_dump(doc))
+    assert run_cli("simulate", spec, "-o", out, "-n", "91").exit_code == 0
+    (slot,) = [np.array(list(e.get_points("xyb"))) for e in ezdxf.readfile(out).modelspace().query("LWPOLYLINE")
+               if e.closed and e.dxf.layer == "LINK-rocker"]
+    ends = (slot[[0, 1], :2] + slot[[3, 2], :2]) / 2  # the slot's centre line (O2, the first ground joint, at 0)
+    # the crank pin A = O + 15 (cos θ, sin θ), O = (0, 30), slides in the rocker at |A| from its pivot O2:
+    # 45 at θ = 90°, 39.7 at θ = 150° and 15√5 = 33.5 at rest (θ = 0), where the linkage is assembled
+    reach = [15 * 5**0.5, 45.0]
+    rest = np.arctan2(2, 1)  # the rocker O2 → C at rest
+    assert np.abs(np.arctan2(ends[:, 1], ends[:, 0]) - rest).max() < 1e-12
+    assert np.hypot(*ends.T) == pytest.approx(reach, rel=1e-12)

@@ -3,7 +3,7 @@
 Layers: ``FRAME`` (the ground joints and the links between them), ``LINK-<name>`` (one per
 moving link: its centre lines, a closed outline for a plate of 3 or more joints, and a pin
 hole circle per joint; a slider's slot outline, as wide as a pin hole, over the stretch its joint
-travels, is on its guide link's layer, or on ``FRAME`` for a guide on the frame), ``TRACK-<name>`` (each track's curve as a polyline, closed for a full
+travels and its rest position, in its guide at rest, is on its guide link's layer, or on ``FRAME`` for a guide on the frame), ``TRACK-<name>`` (each track's curve as a polyline, closed for a full
 cycle, broken where the linkage does not assemble). Coordinates are the rest pose in the
 spec's units, moved so the first ground joint is the origin; ``$INSUNITS`` says the unit.
 
@@ -80,8 +80,9 @@ def write_motion_dxf(path: str | Path, motion: Motion) -> None:
             msp.add_circle(p, hole, dxfattribs={"layer": layer})
     for g in graph.ground:
         msp.add_circle(tuple(rest[g]), hole, dxfattribs={"layer": "FRAME"})
-    moved = motion.positions[motion.assembled] - origin
-    for s, pair in zip(slides.from_graph(graph, moved[0]), graph.sliders):
+    # the rest pose first: slots are cut where their guide is at rest, as the links are drawn
+    moved = np.concatenate([rest[None], motion.positions[motion.assembled] - origin])
+    for s, pair in zip(slides.from_graph(graph, rest), graph.sliders):
         layer = "FRAME" if s.guide is None else links[pair.guide]
         msp.add_lwpolyline(_slot_outline(slides.slot(s, moved), hole), format="xyb", close=True,
                            dxfattribs={"layer": layer})
