@@ -197,6 +197,23 @@ def test_dxf_reopens_with_layers_units_origin(run_cli, tmp_path):
     assert curve.closed and np.allclose([p[:2] for p in curve.get_points()], foot - origin, atol=1e-12)
 
 
+
+def test_dxf_cuts_each_hole_once(run_cli, tmp_path):
+    """A spec with a frame link (``base: [O, D]``): its holes were drawn twice on FRAME, once as the link's
+    and once as the ground joints' (a laser cutter burns such a hole twice). Each layer's holes are distinct,
+    one per joint of its parts, spaced by the link lengths."""
+    ezdxf = pytest.importorskip("ezdxf")
+    spec, out = tmp_path / "frame.yaml", tmp_path / "frame.dxf"
+    spec.write_text(FOURBAR.replace("  crank: [O, A]\n", "  crank: [O, A]\n  base: [O, D]\n"))
+    assert run_cli("simulate", spec, "-o", out, "-n", "12").exit_code == 0
+    holes: dict[str, list[tuple[float, float]]] = {}
+    for c in ezdxf.readfile(out).modelspace().query("CIRCLE"):
+        holes.setdefault(c.dxf.layer, []).append((c.dxf.center.x, c.dxf.center.y))
+    assert holes["FRAME"] == [(0, 0), (3, 0)]
+    assert sorted(holes["LINK-coupler"]) == [(1, 0), (2.2, 2.1)]
+    assert {layer: len(h) for layer, h in holes.items()} == {"FRAME": 2, "LINK-crank": 2, "LINK-coupler": 2, "LINK-rocker": 2}
+
+
 def test_hdf5_named_dimensions_descriptions_and_units(run_cli, tmp_path):
     out = tmp_path / "j.h5"
     assert run_cli("simulate", JANSEN, "-o", out, "-n", "36").exit_code == 0

@@ -76,7 +76,7 @@ def write_motion_dxf(path: str | Path, motion: Motion) -> None:
             doc.layers.add(layer, color=color % 255 or 1)
         pts = [tuple(rest[m]) for m in members]
         msp.add_lwpolyline(pts, close=len(pts) > 2, dxfattribs={"layer": layer})
-        for p in pts:
+        for p in pts if layer != "FRAME" else ():  # the frame's holes: one per ground joint, below
             msp.add_circle(p, hole, dxfattribs={"layer": layer})
     for g in graph.ground:
         msp.add_circle(tuple(rest[g]), hole, dxfattribs={"layer": "FRAME"})
