@@ -509,3 +509,19 @@ def test_pyslvs_default_motor_drives_a_crank_whose_pin_slides_in_a_slot(run_cli,
     else:  # the arm turns with the line from its pivot to the crank pin
         u = (got["P1"] - rocker) / np.abs(got["P1"] - rocker)
         assert np.abs(got["P3"] - (rocker + (-30j - rocker) * u / u[0])).max() < 1e-9 * 90
+
+
+def test_pyslvs_comments_are_read_as_pyslvs_reads_them(run_cli, tmp_path):
+    """pyslvs' grammar has line comments ``# …`` and block comments ``#[ … #]`` (to the end of the line of the
+    closing ``#]``). Only line comments were stripped: a joint commented out by a block over several lines was
+    imported (exit 0, one joint too many, the later ones renumbered)."""
+    spec = tmp_path / "fourbar.yaml"
+    commented = FOURBAR.replace(" J[R, color[Blue]", "  # the coupler's far end\n #[ an old coupler point:\n"
+                                                     " J[R, P[40, 60], L[L2]],\n #] closed here, J[R, P[9, 9], L[x]],\n"
+                                                     " J[R, color[Blue]")
+    r = run_cli("import", commented, "-o", spec)
+    assert r.exit_code == 0, r.output
+    doc = yaml.safe_load(spec.read_text())
+    assert doc["joints"] == {"P0": [0, 0], "P1": [12.92, 32.53], "P2": [73.28, 67.97], "P3": [33.3, 66.95], "P4": [73.28, 0]}
+    r = run_cli("import", "M[#[ a\n#] J[R],\n  J[R, P[0, 0], L[ground, L1]], J[X]]", "-o", spec)
+    assert r.exit_code == 2 and "<expression>:3: column 35: joint P1: the joint type is R, P or RP" in r.output, r.output

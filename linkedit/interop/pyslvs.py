@@ -4,7 +4,8 @@ An expression lists joints ``J[type, (A[angle],) (color[…],) P[x, y], L[link, 
 ``M[…]``; a joint on the link ``ground`` is fixed to the frame. linkedit names the joints
 ``P0``, ``P1``, … in the expression's order and keeps the link names. The motor is a revolute
 pair (pivot, driven joint) given as ``input`` (point indices, as pyslvs' input pairs), by
-default the first ground joint and the first other joint that shares a link with it.
+default the first ground joint and the first other joint that shares a link with it. Comments are
+pyslvs' own: ``# …`` to the end of the line, ``#[ … #]`` over lines.
 
 Sliders: in ``J[P|RP, A[a], P[x, y], L[slot, pin, …]]`` the first link carries the slot (a line
 through (x, y) at ``a`` degrees from +x at the rest pose given), the others are pinned at the
@@ -54,7 +55,24 @@ def _what(term: _Term) -> str:
 
 
 def _strip_comments(text: str) -> str:
-    return "\n".join(line.split("#", 1)[0] for line in text.splitlines())
+    """``text`` with pyslvs' comments blanked out, line breaks kept (lines and columns stay where they were).
+
+    As pyslvs' grammar matches them: a line's first ``#`` opens a block ``#[`` up to the last ``#]`` of the
+    text and the rest of that line (the longer terminal, tried first; so there is at most one), else runs to
+    the end of its line. One pass over the lines.
+    """
+    last = text.rfind("#]")
+    out, offset = [], 0
+    for line in text.split("\n"):
+        k = line.find("#")
+        if k >= 0 and line.startswith("#[", k) and offset + k + 2 <= last:
+            end = text.find("\n", last)
+            end = len(text) if end < 0 else end
+            out.append(line[:k] + re.sub(r"[^\n]", " ", text[offset + k:end]) + _strip_comments(text[end:]))
+            return "\n".join(out)
+        out.append(line if k < 0 else line[:k] + " " * (len(line) - k))
+        offset += len(line) + 1
+    return "\n".join(out)
 
 
 def _tokens(body: str) -> Iterator[_Token]:
