@@ -177,3 +177,14 @@ def test_a_dxf_slot_on_a_moving_guide_is_cut_in_its_link_at_the_rest_pose(run_cl
     rest = np.arctan2(2, 1)  # the rocker O2 → C at rest
     assert np.abs(np.arctan2(ends[:, 1], ends[:, 0]) - rest).max() < 1e-12
     assert np.hypot(*ends.T) == pytest.approx(reach, rel=1e-12)
+
+
+def test_a_dxf_slot_off_its_link_is_joined_to_it_by_an_arm(run_cli, tmp_path):
+    """The Scotch yoke's slot (x = 20) lies off the yoke's bar Y1-Y2 (x 50…90): the pictures join them with an
+    arm, the DXF left the slot floating apart from its part; its layer now has the arm's centre line too."""
+    ezdxf = pytest.importorskip("ezdxf")
+    out = tmp_path / "yoke.dxf"
+    assert run_cli("simulate", EXAMPLES / "scotch-yoke.yaml", "-o", out, "-n", "36").exit_code == 0
+    lines = sorted(tuple(map(tuple, np.round([p[:2] for p in e.get_points()], 9)))
+                   for e in ezdxf.readfile(out).modelspace().query("LWPOLYLINE") if e.dxf.layer == "LINK-yoke" and not e.closed)
+    assert lines == [((20, 0), (50, 0)), ((50, 0), (90, 0))]  # the arm, the bar

@@ -3,7 +3,8 @@
 Layers: ``FRAME`` (the ground joints and the links between them), ``LINK-<name>`` (one per
 moving link: its centre lines, a closed outline for a plate of 3 or more joints, and a pin
 hole circle per joint; a slider's slot outline, as wide as a pin hole, over the stretch its joint
-travels and its rest position, in its guide at rest, is on its guide link's layer, or on ``FRAME`` for a guide on the frame), ``TRACK-<name>`` (each track's curve as a polyline, closed for a full
+travels and its rest position, in its guide at rest (with the centre line of the arm joining it to its
+link's bar or plate where they do not touch), is on its guide link's layer, or on ``FRAME`` for a guide on the frame), ``TRACK-<name>`` (each track's curve as a polyline, closed for a full
 cycle, broken where the linkage does not assemble). Coordinates are the rest pose in the
 spec's units, moved so the first ground joint is the origin; ``$INSUNITS`` says the unit.
 
@@ -86,6 +87,9 @@ def write_motion_dxf(path: str | Path, motion: Motion) -> None:
         layer = "FRAME" if s.guide is None else links[pair.guide]
         msp.add_lwpolyline(_slot_outline(slides.slot(s, moved), hole), format="xyb", close=True,
                            dxfattribs={"layer": layer})
+        arm = slides.arm(s, moved)  # a slot off its link's body is joined to it, as the pictures draw it
+        if arm is not None:
+            msp.add_lwpolyline([tuple(p) for p in arm], dxfattribs={"layer": layer})
     closed = motion.cyclic and bool(motion.assembled.all())
     tracks = unique_layers([layer_name("TRACK", name) for name in motion.tracks], taken)
     for color, (layer, track) in enumerate(zip(tracks, motion.tracks.values()), start=1):
