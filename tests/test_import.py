@@ -158,9 +158,11 @@ def test_pylinkage_json_fixed_joint_follows_its_distance_and_angle(run_cli, tmp_
 
 @pytest.mark.parametrize("source, pattern", [
     ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]], J[P, A[30], P[1, 0], L[L1]]]",
-     r"joint P2 \(P\): a slider needs its slot link and a pinned link"),
-    ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]], J[RP, P[3, 0], L[ground, L2]]]",
-     r"joint P2 \(RP\): a slider needs its slot angle"),
+     r"<expression>:1: column 80: joint P2 \(P\): a slider needs its slot link and a pinned link"),
+    ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]],\n J[RP, P[3, 0], L[ground, L2]]]",
+     r"<expression>:2: column 2: joint P2 \(RP\): a slider needs its slot angle"),
+    ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]], J[P, A[0], P[3, 0], L[ground, L2, L3]]]",
+     r"<expression>:1: column 79: joint P2 \(P\): a prismatic P joint imports with one moving pin link, not L2, L3"),
     ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0 L[L1]]]", r"expected ',' or '\]'"),
     ("M[J[R, P[0, 0], L[ground]], J[R, P[1, 0], L[L1]]]", r"no revolute pair on a ground link"),
     ("M[", r"column 3: the expression ends too early"),  # the parser read past its end: StopIteration

@@ -179,7 +179,22 @@ def _joint(term: _Term, n: int, parser: _Parser) -> Joint:
     for link in fields["L"][2]:
         if link[0] != "name":
             raise parser.fail(link[1], f"{where}: L[…] lists link names, got {_what(link)}")
-    return Joint(items[0][1][1], angle, (x, y), tuple(link[1][1] for link in fields["L"][2]))
+    joint = Joint(items[0][1][1], angle, (x, y), tuple(link[1][1] for link in fields["L"][2]))
+    if joint.kind != "R":
+        _check_slider(joint, f"{where} ({joint.kind})", at, fields["L"][1], parser)
+    return joint
+
+
+def _check_slider(joint: Joint, where: str, at: _Token, links: _Token, parser: _Parser) -> None:
+    """What linkedit needs of a P or RP joint: its slot angle, a slot link and pinned links (a P joint: one
+    moving one, which slides without turning)."""
+    if joint.angle is None:
+        raise parser.fail(at, f"{where}: a slider needs its slot angle A[degrees]")
+    if len(joint.links) < 2:
+        raise parser.fail(links, f"{where}: a slider needs its slot link and a pinned link: L[slot, pin]")
+    pinned = joint.links[1:]
+    if joint.kind == "P" and (len(pinned) != 1 or pinned[0] == FRAME):
+        raise parser.fail(links, f"{where}: a prismatic P joint imports with one moving pin link, not {', '.join(pinned)}")
 
 
 def _numbers(term: _Term, count: int, message: str, parser: _Parser) -> list[float]:
@@ -226,7 +241,7 @@ def to_document(joints: list[Joint], *, name: str, units: str, motor: tuple[int,
             if link != FRAME:
                 links.setdefault(link, []).append(names[n])
     positions = {n: list(j.position) for n, j in zip(names, joints)}
-    sliders = _sliders(joints, names, links, positions, source)
+    sliders = _sliders(joints, names, links, positions)
     if motor is None:
         motor = _default_motor(joints, source)
     pivot, driven = motor
@@ -250,8 +265,8 @@ def to_document(joints: list[Joint], *, name: str, units: str, motor: tuple[int,
     return doc
 
 
-def _sliders(joints: list[Joint], names: list[str], links: dict[str, list[str]], positions: dict[str, list[float]],
-             source: str) -> dict[str, dict[str, Any]]:
+def _sliders(joints: list[Joint], names: list[str], links: dict[str, list[str]],
+             positions: dict[str, list[float]]) -> dict[str, dict[str, Any]]:
     """linkedit sliders of the P and RP joints (``links`` and ``positions`` gain a slot joint where needed)."""
     xy = np.array([j.position for j in joints], dtype=float)
     size = float(np.ptp(xy, axis=0).max()) or 1.0
@@ -259,19 +274,12 @@ def _sliders(joints: list[Joint], names: list[str], links: dict[str, list[str]],
     for n, j in enumerate(joints):
         if j.kind == "R":
             continue
-        where = f"joint P{n} ({j.kind})"
-        if j.angle is None:
-            raise InputError(f"{where}: a slider needs its slot angle A[degrees]", file=source)
-        if len(j.links) < 2:
-            raise InputError(f"{where}: a slider needs its slot link and a pinned link: L[slot, pin]", file=source)
-        slot, pinned = j.links[0], [x for x in j.links[1:]]
+        assert j.angle is not None  # (checked as it was read: _check_slider)
+        slot = j.links[0]
         if j.kind == "RP":
             out[f"S{n}"] = {"joint": names[n], "guide": slot, "angle_deg": j.angle}
         else:
-            if len(pinned) != 1 or pinned[0] == FRAME:
-                raise InputError(f"{where}: a prismatic P joint imports with one moving pin link, not "
-                                 f"{', '.join(pinned)}", file=source)
-            out[f"S{n}"] = {"link": pinned[0], "guide": slot, "angle_deg": j.angle}
+            out[f"S{n}"] = {"link": j.links[1], "guide": slot, "angle_deg": j.angle}
         if slot != FRAME and len(links.get(slot, [])) < 2:
             extra = f"{names[n]}_slot"
             a = math.radians(j.angle)
