@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 import re
-from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -28,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from linkedit.errors import InputError
+from linkedit.interop.document import default_tracks
 from linkedit.spec.yamlload import load_yaml
 
 FRAME = "ground"
@@ -248,11 +248,7 @@ def to_document(joints: list[Joint], *, name: str, units: str, motor: tuple[int,
     for i in motor:
         if not 0 <= i < len(joints):
             raise InputError(f"input point {i} does not exist (P0..P{len(joints) - 1})", file=source, field="--input")
-    fixed = set(ground)
-    moving = [n for n in positions if n not in fixed]
-    count = Counter(n for members in links.values() for n in members)
-    on_one = [n for n in moving if count[n] == 1]
-    tracks = {n: {"joint": n} for n in on_one} or ({moving[-1]: {"joint": moving[-1]}} if moving else {})
+    tracks = default_tracks(list(positions), ground, links)
     doc = {
         "name": name, "units": units,
         "description": f"imported from pyslvs ({source}); joints P0.. in the expression's order",
