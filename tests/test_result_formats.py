@@ -188,6 +188,7 @@ def test_dxf_reopens_with_layers_units_origin(run_cli, tmp_path):
     origin = rest[0]  # O, the first ground joint
     upper = on("LWPOLYLINE", "LINK-upper")[0]
     pts = np.array([p[:2] for p in upper.get_points()])
+    pts = np.roll(pts, -int(np.argmin(np.hypot(*(pts - rest[2] + origin).T))), axis=0)  # from B round
     assert upper.closed and np.allclose(pts, rest[[2, 3, 5]] - origin, atol=1e-12)  # B, C, E
     holes = on("CIRCLE", "LINK-lower")
     assert len(holes) == 3
@@ -330,3 +331,31 @@ def test_every_axis_of_a_planar_result_is_named(run_cli, tmp_path, spec):
     assert not [str(d) for node in tree.subtree for d in node.dims if str(d).startswith("phony")]
     crank = tree["links/joints"]["crank"]
     assert crank.dims == ("crank.joint",) and list(crank["crank.joint"].values) == ["O", "A"]
+
+
+@pytest.mark.parametrize("base, joints, coupler, outline, closed", [
+    # Hoekens' coupler A-B-P is one straight bar: its outline is the bar A…P, not a closed A-B-P-A traced twice
+    (EXAMPLES / "hoekens.yaml", {}, ["A", "B", "P"], [[1, 0], [2, 4.898979485566356]], False),
+    # a plate listed in an order that crosses itself (A, B, E, F) is outlined around its corners A, E, B, F
+    (None, {"E": [2.4, 0.6], "F": [0.9, 1.6]}, ["A", "B", "E", "F"], [[1, 0], [2.4, 0.6], [2.2, 2.1], [0.9, 1.6]], True),
+])
+def test_dxf_link_outlines_are_simple(run_cli, tmp_path, base, joints, coupler, outline, closed):
+    """A part's outline in DXF is a bar between its outermost joints or a plate's corners in order around it
+    (as the SVG draws them); the joints' spec order was used, so a collinear link was a closed line traced
+    twice and a plate listed out of order a bow tie."""
+    ezdxf = pytest.importorskip("ezdxf")
+    doc = yaml.safe_load(base.read_text() if base else FOURBAR)
+    doc["joints"] |= joints
+    doc["links"]["coupler"] = coupler
+    spec, out = tmp_path / "c.yaml", tmp_path / "c.dxf"
+    spec.write_text(yaml.safe_dump(doc))
+    r = run_cli("simulate", spec, "-o", out, "-n", "12")
+    assert r.exit_code == 0, r.output
+    msp = ezdxf.readfile(out).modelspace()
+    (line,) = [e for e in msp.query("LWPOLYLINE") if e.dxf.layer == "LINK-coupler"]
+    pts = np.array([p[:2] for p in line.get_points()])
+    assert line.closed == closed
+    k = int(np.argmin(np.hypot(*(pts - outline[0]).T)))  # the same ring from the same corner, either way round
+    ring = np.roll(pts, -k, axis=0)
+    assert np.allclose(ring, outline, atol=1e-12) or np.allclose(np.roll(ring[::-1], 1, axis=0), outline, atol=1e-12)
+    assert len(msp.query('CIRCLE[layer=="LINK-coupler"]')) == len(coupler)

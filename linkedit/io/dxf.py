@@ -1,7 +1,8 @@
 """A planar linkage as DXF for CAD and laser cutting (needs the optional ``ezdxf``: ``pip install linkedit[dxf]``).
 
 Layers: ``FRAME`` (the ground joints and the links between them), ``LINK-<name>`` (one per
-moving link: its centre lines, a closed outline for a plate of 3 or more joints, and a pin
+moving link: its centre line — a bar between its outermost joints, or a plate's closed outline around its
+corners (:func:`~linkedit.io.figure_layout.link_outline`, as the pictures draw it) —, and a pin
 hole circle per joint; a slider's slot outline, as wide as a pin hole, over the stretch its joint
 travels and its rest position, in its guide at rest (with the centre line of the arm joining it to its
 link's bar or plate where they do not touch), is on its guide link's layer, or on ``FRAME`` for a guide on the frame), ``TRACK-<name>`` (each track's curve as a polyline, closed for a full
@@ -22,6 +23,7 @@ import numpy as np
 
 from linkedit.io import slides
 from linkedit.io.atomic import atomic_path
+from linkedit.io.figure_layout import link_outline
 from linkedit.io.formats import require
 from linkedit.planar.simulate import Motion
 
@@ -76,7 +78,8 @@ def write_motion_dxf(path: str | Path, motion: Motion) -> None:
         if layer != "FRAME":
             doc.layers.add(layer, color=color % 255 or 1)
         pts = [tuple(rest[m]) for m in members]
-        msp.add_lwpolyline(pts, close=len(pts) > 2, dxfattribs={"layer": layer})
+        order = link_outline(rest[list(members)])
+        msp.add_lwpolyline([pts[k] for k in order], close=len(order) > 2, dxfattribs={"layer": layer})
         for p in pts if layer != "FRAME" else ():  # the frame's holes: one per ground joint, below
             msp.add_circle(p, hole, dxfattribs={"layer": layer})
     for g in graph.ground:
