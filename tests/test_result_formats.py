@@ -211,8 +211,8 @@ def test_dxf_cuts_each_hole_once(run_cli, tmp_path):
     for c in ezdxf.readfile(out).modelspace().query("CIRCLE"):
         holes.setdefault(c.dxf.layer, []).append((c.dxf.center.x, c.dxf.center.y))
     assert holes["FRAME"] == [(0, 0), (3, 0)]
-    assert sorted(holes["LINK-coupler"]) == [(1, 0), (2.2, 2.1)]
-    assert {layer: len(h) for layer, h in holes.items()} == {"FRAME": 2, "LINK-crank": 2, "LINK-coupler": 2, "LINK-rocker": 2}
+    assert sorted(holes["LINK-coupler"]) == [(1, 0), (1.2, 1.6), (2.2, 2.1)]  # A, the coupler point, B
+    assert {layer: len(h) for layer, h in holes.items()} == {"FRAME": 2, "LINK-crank": 2, "LINK-coupler": 3, "LINK-rocker": 2}
 
 
 def test_hdf5_named_dimensions_descriptions_and_units(run_cli, tmp_path):
@@ -347,6 +347,7 @@ def test_dxf_link_outlines_are_simple(run_cli, tmp_path, base, joints, coupler, 
     doc = yaml.safe_load(base.read_text() if base else FOURBAR)
     doc["joints"] |= joints
     doc["links"]["coupler"] = coupler
+    doc["tracks"] = {"tip": {"joint": "B"}}
     spec, out = tmp_path / "c.yaml", tmp_path / "c.dxf"
     spec.write_text(yaml.safe_dump(doc))
     r = run_cli("simulate", spec, "-o", out, "-n", "12")
@@ -359,3 +360,20 @@ def test_dxf_link_outlines_are_simple(run_cli, tmp_path, base, joints, coupler, 
     ring = np.roll(pts, -k, axis=0)
     assert np.allclose(ring, outline, atol=1e-12) or np.allclose(np.roll(ring[::-1], 1, axis=0), outline, atol=1e-12)
     assert len(msp.query('CIRCLE[layer=="LINK-coupler"]')) == len(coupler)
+
+
+def test_dxf_part_carries_its_coupler_point(run_cli, tmp_path):
+    """A point tracked on a link (the crank-rocker's coupler point, given by ``at``) is a corner of that link's
+    part with a hole, as the pictures draw it; the DXF's coupler was the bar A-B alone, so the part cut from it
+    had no coupler point (only its curve, on TRACK-coupler_point, began there)."""
+    ezdxf = pytest.importorskip("ezdxf")
+    out = tmp_path / "cr.dxf"
+    assert run_cli("simulate", EXAMPLES / "crank-rocker.yaml", "-o", out, "-n", "12").exit_code == 0
+    msp = ezdxf.readfile(out).modelspace()
+    a, b, point = (25, 0), (63, 58.787753826796276), (20.48489846928149, 44.59387691339814)  # O at the origin
+    (plate,) = [e for e in msp.query("LWPOLYLINE") if e.dxf.layer == "LINK-coupler"]
+    assert plate.closed and np.allclose(sorted(tuple(p[:2]) for p in plate.get_points()), sorted([a, b, point]), atol=1e-12)
+    holes = sorted((c.dxf.center.x, c.dxf.center.y) for c in msp.query('CIRCLE[layer=="LINK-coupler"]'))
+    assert np.allclose(holes, sorted([a, b, point]), atol=1e-12)
+    curve = next(e for e in msp.query("LWPOLYLINE") if e.dxf.layer == "TRACK-coupler_point")
+    assert np.allclose(curve.get_points()[0][:2], point, atol=1e-12)

@@ -3,7 +3,7 @@
 Layers: ``FRAME`` (the ground joints and the links between them), ``LINK-<name>`` (one per
 moving link: its centre line — a bar between its outermost joints, or a plate's closed outline around its
 corners (:func:`~linkedit.io.figure_layout.link_outline`, as the pictures draw it) —, and a pin
-hole circle per joint; a slider's slot outline, as wide as a pin hole, over the stretch its joint
+hole circle per joint and per point tracked on it (a coupler point: a corner of its part); a slider's slot outline, as wide as a pin hole, over the stretch its joint
 travels and its rest position, in its guide at rest (with the centre line of the arm joining it to its
 link's bar or plate where they do not touch), is on its guide link's layer, or on ``FRAME`` for a guide on the frame), ``TRACK-<name>`` (each track's curve as a polyline, closed for a full
 cycle, broken where the linkage does not assemble). Coordinates are the rest pose in the
@@ -26,6 +26,7 @@ from linkedit.io.atomic import atomic_path
 from linkedit.io.figure_layout import link_outline
 from linkedit.io.formats import require
 from linkedit.planar.simulate import Motion
+from linkedit.spec.linkage import LinkTrack
 
 #: spec units → DXF $INSUNITS code (0 = unitless)
 INSUNITS = {"in": 1, "inch": 1, "ft": 2, "mi": 3, "mm": 4, "cm": 5, "m": 6, "km": 7, "um": 13, "µm": 13,
@@ -74,11 +75,16 @@ def write_motion_dxf(path: str | Path, motion: Motion) -> None:
     taken = {"frame"}
     links = unique_layers([layer_name("LINK", name) for name in graph.link_names], taken)
     links = ["FRAME" if set(members) <= ground else layer for layer, members in zip(links, graph.links)]
-    for color, (layer, members) in enumerate(zip(links, graph.links), start=1):
+    on_link: dict[str, list[np.ndarray]] = {}  # points tracked on a link: corners of its part, as in the pictures
+    for tracked in plan.spec.tracks.values():
+        if isinstance(tracked, LinkTrack):
+            on_link.setdefault(tracked.link, []).append(np.asarray(tracked.at, dtype=float) - origin)
+    for color, (layer, name, members) in enumerate(zip(links, graph.link_names, graph.links), start=1):
         if layer != "FRAME":
             doc.layers.add(layer, color=color % 255 or 1)
-        pts = [tuple(rest[m]) for m in members]
-        order = link_outline(rest[list(members)])
+        corners = np.concatenate([rest[list(members)], np.reshape(on_link.get(name, []), (-1, 2))])
+        pts = [tuple(p) for p in corners]
+        order = link_outline(corners)
         msp.add_lwpolyline([pts[k] for k in order], close=len(order) > 2, dxfattribs={"layer": layer})
         for p in pts if layer != "FRAME" else ():  # the frame's holes: one per ground joint, below
             msp.add_circle(p, hole, dxfattribs={"layer": layer})
