@@ -527,3 +527,31 @@ def test_pyslvs_comments_are_read_as_pyslvs_reads_them(run_cli, tmp_path):
     assert doc["joints"] == {"P0": [0, 0], "P1": [12.92, 32.53], "P2": [73.28, 67.97], "P3": [33.3, 66.95], "P4": [73.28, 0]}
     r = run_cli("import", "M[#[ a\n#] J[R],\n  J[R, P[0, 0], L[ground, L1]], J[X]]", "-o", spec)
     assert r.exit_code == 2 and "<expression>:3: column 35: joint P1: the joint type is R, P or RP" in r.output, r.output
+
+
+# pyslvs' "Slider lifter": the RP joint P0 slides on the frame's x axis, P2 joins the links L1 (about the ground
+# pivot P1) and L2 (carried by P0); its input pair (0, 0) is a slider input: P0 pushed along its slot
+SLIDER_LIFTER = ("M[J[RP, A[0.0], P[0.0, 0.0], L[ground, L2]], J[R, P[50.0, 0.0], L[ground, L1]],"
+                 " J[R, P[25.0, 27.0], L[L1, L2]], J[R, P[1.0, 54.0], L[L1]], J[R, P[50.0, 53.0], L[L2]]]")
+
+
+def test_pyslvs_slider_input_is_a_linear_input_over_the_stroke_given(run_cli, tmp_path):
+    """An input pair (n, n) is pyslvs' slider input. It was refused as a motor 'pivot not a ground joint';
+    with --stroke it is a linear input, P0 at x = s, and P2 where its two links meet (the rest branch)."""
+    spec = tmp_path / "lifter.yaml"
+    r = run_cli("import", SLIDER_LIFTER, "--input", "0,0", "-o", spec)
+    assert r.exit_code == 2 and "--stroke" in r.output and "slider input" in r.output, r.output
+    assert not spec.exists()
+    r = run_cli("import", SLIDER_LIFTER, "--input", "0,0", "--stroke", "0,20", "-o", spec)
+    assert r.exit_code == 0, r.output
+    assert yaml.safe_load(spec.read_text())["motor"] == {"slider": "S0", "stroke": [0, 20]}
+    got = _simulated(run_cli, spec, tmp_path, 41)
+    s = np.linspace(0, 20, 41)
+    assert np.abs(got["P0"] - s).max() < 1e-12 * 50
+    p1, r1, r0 = 50 + 0j, abs(25 + 27j - 50), abs(25 + 27j)  # P2 on circles about P1 and about P0
+    d = p1 - s
+    a = (r0**2 - r1**2 + np.abs(d) ** 2) / (2 * np.abs(d))
+    p2 = s + d / np.abs(d) * (a + 1j * np.sqrt(r0**2 - a**2))  # the upper crossing, as at rest
+    assert np.abs(got["P2"] - p2).max() < 1e-9 * 50
+    r = run_cli("import", SLIDER_LIFTER, "--input", "1,2", "--stroke", "0,20", "-o", spec)
+    assert r.exit_code == 2 and "--stroke" in r.output, r.output

@@ -230,8 +230,12 @@ def _index(value: Any) -> bool:
 
 
 def to_document(joints: list[Joint], *, name: str, units: str, motor: tuple[int, int] | None,
-                source: str) -> dict[str, Any]:
-    """A linkage document (``specs/linkage.md``) from parsed joints."""
+                source: str, stroke: tuple[float, float] | None = None) -> dict[str, Any]:
+    """A linkage document (``specs/linkage.md``) from parsed joints.
+
+    ``motor`` (n, n), pyslvs' slider input, is a linear input: the RP joint n pushed along its slot over
+    ``stroke`` (its displacement from rest towards the slot's angle, in ``units``; pyslvs does not save it).
+    """
     names = [f"P{n}" for n in range(len(joints))]
     pins = [j.links[1:] if j.kind != "R" else j.links for j in joints]  # the links a joint is pinned to
     ground = [names[n] for n in range(len(joints)) if FRAME in pins[n]]
@@ -253,12 +257,32 @@ def to_document(joints: list[Joint], *, name: str, units: str, motor: tuple[int,
         "name": name, "units": units,
         "description": f"imported from pyslvs ({source}); joints P0.. in the expression's order",
         "joints": positions, "ground": ground, "links": links,
-        "motor": {"joint": names[driven], "pivot": names[pivot]},
+        "motor": _motor(joints, pivot, driven, stroke, units, source),
         "tracks": tracks,
     }
     if sliders:
         doc["sliders"] = sliders
     return doc
+
+
+def _motor(joints: list[Joint], pivot: int, driven: int, stroke: tuple[float, float] | None, units: str,
+           source: str) -> dict[str, Any]:
+    """The motor of input pair (pivot, driven): a crank, or for (n, n) the linear input of RP joint n."""
+    if pivot != driven:
+        if stroke is not None:
+            raise InputError("goes with a slider input (--input N,N: pyslvs' input pair of one slider joint)",
+                             field="--stroke")
+        return {"joint": f"P{driven}", "pivot": f"P{pivot}"}
+    kind = joints[driven].kind
+    if kind != "RP":
+        what = "a revolute joint" if kind == "R" else "a P joint (its pin link slides without turning)"
+        raise InputError(f"input P{driven},P{driven} is pyslvs' slider input, but P{driven} is {what}: linkedit "
+                         "pushes a pin along its slot (an RP joint)", file=source, field="--input")
+    if stroke is None:
+        raise InputError(f"input P{driven},P{driven} is pyslvs' slider input, whose range pyslvs does not save: give "
+                         f"--stroke S0,S1 (P{driven}'s displacement from rest along its slot, in {units})",
+                         file=source, field="--stroke")
+    return {"slider": f"S{driven}", "stroke": list(stroke)}
 
 
 def _sliders(joints: list[Joint], names: list[str], links: dict[str, list[str]],
