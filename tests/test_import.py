@@ -555,3 +555,15 @@ def test_pyslvs_slider_input_is_a_linear_input_over_the_stroke_given(run_cli, tm
     assert np.abs(got["P2"] - p2).max() < 1e-9 * 50
     r = run_cli("import", SLIDER_LIFTER, "--input", "1,2", "--stroke", "0,20", "-o", spec)
     assert r.exit_code == 2 and "--stroke" in r.output, r.output
+
+
+def test_pyslvs_slot_joints_added_for_drawing_are_not_tracked(run_cli, tmp_path):
+    """pyslvs' 'Inverted slider': the block L2 slides (P joint) in the slot of L3, which has no other joint than
+    its pivot, so linkedit adds P3_slot on the slot line to carry it. That made-up joint was tracked like a
+    coupler point (a curve in every picture); the tracks are the source's points only (P3, the block's)."""
+    spec = tmp_path / "inverted.yaml"
+    r = run_cli("import", "M[J[R, P[0, 0], L[ground, L1]], J[R, P[56, 0], L[ground, L3]], J[R, P[7, 25], L[L1, L2]],"
+                " J[P, A[0.0], P[59, 41], L[L3, L2]]]", "--input", "0,2", "-o", spec)
+    assert r.exit_code == 0, r.output
+    doc = yaml.safe_load(spec.read_text())
+    assert doc["links"]["L3"] == ["P1", "P3_slot"] and doc["tracks"] == {"P3": {"joint": "P3"}}

@@ -252,7 +252,7 @@ def to_document(joints: list[Joint], *, name: str, units: str, motor: tuple[int,
     for i in motor:
         if not 0 <= i < len(joints):
             raise InputError(f"input point {i} does not exist (P0..P{len(joints) - 1})", file=source, field="--input")
-    tracks = default_tracks(list(positions), ground, links)
+    tracks = default_tracks(names, ground, links)  # (the source's points: not a slot's added joint)
     doc = {
         "name": name, "units": units,
         "description": f"imported from pyslvs ({source}); joints P0.. in the expression's order",
