@@ -6,6 +6,7 @@ import re
 
 import pytest
 
+from tests.conftest import EXAMPLES
 from tests.planar_specs import FOURBAR
 
 SCRIPT = """\
@@ -77,3 +78,13 @@ def test_a_script_in_mm_on_a_spec_in_m_is_refused_naming_the_units(run_cli, tmp_
     if scaled != script.read_text():
         script.write_text(scaled)
         assert run_cli("edit", spec, script, "-o", tmp_path / "out", "--best-effort").exit_code == 0
+
+
+@pytest.mark.parametrize("out", ["-", "knee.h5", "knee.YAML"])
+def test_edit_output_is_a_folder_not_stdout_or_a_file(run_cli, tmp_path, monkeypatch, out):
+    """``edit`` writes three files into the folder ``-o``: ``-o -`` (standard output elsewhere) made a folder
+    named ``-``, and ``-o knee.h5`` a folder named ``knee.h5``, both exit 0. Now one line, exit 2, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    r = run_cli("edit", EXAMPLES / "edits" / "jansen-move-knee.yaml", "-o", out)
+    assert r.exit_code == 2 and "--output" in r.output and "folder" in r.output, r.output
+    assert list(tmp_path.iterdir()) == []

@@ -158,9 +158,11 @@ def test_pylinkage_json_fixed_joint_follows_its_distance_and_angle(run_cli, tmp_
 
 @pytest.mark.parametrize("source, pattern", [
     ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]], J[P, A[30], P[1, 0], L[L1]]]",
-     r"joint P2 \(P\): a slider needs its slot link and a pinned link"),
-    ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]], J[RP, P[3, 0], L[ground, L2]]]",
-     r"joint P2 \(RP\): a slider needs its slot angle"),
+     r"<expression>:1: column 80: joint P2 \(P\): a slider needs its slot link and a pinned link"),
+    ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]],\n J[RP, P[3, 0], L[ground, L2]]]",
+     r"<expression>:2: column 2: joint P2 \(RP\): a slider needs its slot angle"),
+    ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0], L[L1, L2]], J[P, A[0], P[3, 0], L[ground, L2, L3]]]",
+     r"<expression>:1: column 79: joint P2 \(P\): a prismatic P joint imports with one moving pin link, not L2, L3"),
     ("M[J[R, P[0, 0], L[ground, L1]], J[R, P[1, 0 L[L1]]]", r"expected ',' or '\]'"),
     ("M[J[R, P[0, 0], L[ground]], J[R, P[1, 0], L[L1]]]", r"no revolute pair on a ground link"),
     ("M[", r"column 3: the expression ends too early"),  # the parser read past its end: StopIteration
@@ -484,3 +486,84 @@ def test_pylinkage_linear_actuator_that_never_moves_is_refused(run_cli, tmp_path
     assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
     assert re.search(re.escape(f"{dims}:{line}: driver_angles.A.angular_velocity: ") + message, r.output), r.output
     assert not (tmp_path / "x.yaml").exists()
+
+
+@pytest.mark.parametrize("expression, rocker", [
+    # a Scotch yoke: the crank pin P1 turns in the yoke's vertical slot (RP), the yoke slides on the frame (P)
+    ("M[J[R, P[0, 0], L[ground, L1]], J[RP, A[90], P[20, 0], L[yoke, L1]], J[P, A[0], P[50, 0], L[ground, yoke]],"
+     " J[R, P[90, 0], L[yoke]]]", None),
+    # a Whitworth quick-return: the crank pin P1 slides in the arm P2-P3, which turns fully about P2 = (0, 15)
+    (f"M[J[R, P[0, 0], L[ground, L1]], J[RP, A[{math.degrees(math.atan2(-15, 40))!r}], P[40, 0], L[L2, L1]],"
+     " J[R, P[0, 15], L[ground, L2]], J[R, P[0, -30], L[L2]]]", 15j),
+])
+def test_pyslvs_default_motor_drives_a_crank_whose_pin_slides_in_a_slot(run_cli, tmp_path, expression, rocker):
+    """The default input is the first ground revolute joint and the first joint pinned to its link (P0, P1),
+    also when that joint's pin runs in a slot (a Scotch yoke's or a quick-return's crank pin)."""
+    spec = tmp_path / "crank.yaml"
+    r = run_cli("import", expression, "-o", spec)
+    assert r.exit_code == 0, r.output
+    assert yaml.safe_load(spec.read_text())["motor"] == {"joint": "P1", "pivot": "P0"}
+    got, theta = _motor_angle(run_cli, spec, tmp_path, 72)
+    r0 = abs(got["P1"][0])
+    assert np.abs(got["P1"] - r0 * np.exp(1j * theta)).max() < 1e-9 * r0
+    if rocker is None:  # the yoke moves by 20 cos θ
+        assert np.abs(got["P3"] - (70 + 20 * np.cos(theta))).max() < 1e-9 * 90
+    else:  # the arm turns with the line from its pivot to the crank pin
+        u = (got["P1"] - rocker) / np.abs(got["P1"] - rocker)
+        assert np.abs(got["P3"] - (rocker + (-30j - rocker) * u / u[0])).max() < 1e-9 * 90
+
+
+def test_pyslvs_comments_are_read_as_pyslvs_reads_them(run_cli, tmp_path):
+    """pyslvs' grammar has line comments ``# …`` and block comments ``#[ … #]`` (to the end of the line of the
+    closing ``#]``). Only line comments were stripped: a joint commented out by a block over several lines was
+    imported (exit 0, one joint too many, the later ones renumbered)."""
+    spec = tmp_path / "fourbar.yaml"
+    commented = FOURBAR.replace(" J[R, color[Blue]", "  # the coupler's far end\n #[ an old coupler point:\n"
+                                                     " J[R, P[40, 60], L[L2]],\n #] closed here, J[R, P[9, 9], L[x]],\n"
+                                                     " J[R, color[Blue]")
+    r = run_cli("import", commented, "-o", spec)
+    assert r.exit_code == 0, r.output
+    doc = yaml.safe_load(spec.read_text())
+    assert doc["joints"] == {"P0": [0, 0], "P1": [12.92, 32.53], "P2": [73.28, 67.97], "P3": [33.3, 66.95], "P4": [73.28, 0]}
+    r = run_cli("import", "M[#[ a\n#] J[R],\n  J[R, P[0, 0], L[ground, L1]], J[X]]", "-o", spec)
+    assert r.exit_code == 2 and "<expression>:3: column 35: joint P1: the joint type is R, P or RP" in r.output, r.output
+
+
+# pyslvs' "Slider lifter": the RP joint P0 slides on the frame's x axis, P2 joins the links L1 (about the ground
+# pivot P1) and L2 (carried by P0); its input pair (0, 0) is a slider input: P0 pushed along its slot
+SLIDER_LIFTER = ("M[J[RP, A[0.0], P[0.0, 0.0], L[ground, L2]], J[R, P[50.0, 0.0], L[ground, L1]],"
+                 " J[R, P[25.0, 27.0], L[L1, L2]], J[R, P[1.0, 54.0], L[L1]], J[R, P[50.0, 53.0], L[L2]]]")
+
+
+def test_pyslvs_slider_input_is_a_linear_input_over_the_stroke_given(run_cli, tmp_path):
+    """An input pair (n, n) is pyslvs' slider input. It was refused as a motor 'pivot not a ground joint';
+    with --stroke it is a linear input, P0 at x = s, and P2 where its two links meet (the rest branch)."""
+    spec = tmp_path / "lifter.yaml"
+    r = run_cli("import", SLIDER_LIFTER, "--input", "0,0", "-o", spec)
+    assert r.exit_code == 2 and "--stroke" in r.output and "slider input" in r.output, r.output
+    assert not spec.exists()
+    r = run_cli("import", SLIDER_LIFTER, "--input", "0,0", "--stroke", "0,20", "-o", spec)
+    assert r.exit_code == 0, r.output
+    assert yaml.safe_load(spec.read_text())["motor"] == {"slider": "S0", "stroke": [0, 20]}
+    got = _simulated(run_cli, spec, tmp_path, 41)
+    s = np.linspace(0, 20, 41)
+    assert np.abs(got["P0"] - s).max() < 1e-12 * 50
+    p1, r1, r0 = 50 + 0j, abs(25 + 27j - 50), abs(25 + 27j)  # P2 on circles about P1 and about P0
+    d = p1 - s
+    a = (r0**2 - r1**2 + np.abs(d) ** 2) / (2 * np.abs(d))
+    p2 = s + d / np.abs(d) * (a + 1j * np.sqrt(r0**2 - a**2))  # the upper crossing, as at rest
+    assert np.abs(got["P2"] - p2).max() < 1e-9 * 50
+    r = run_cli("import", SLIDER_LIFTER, "--input", "1,2", "--stroke", "0,20", "-o", spec)
+    assert r.exit_code == 2 and "--stroke" in r.output, r.output
+
+
+def test_pyslvs_slot_joints_added_for_drawing_are_not_tracked(run_cli, tmp_path):
+    """pyslvs' 'Inverted slider': the block L2 slides (P joint) in the slot of L3, which has no other joint than
+    its pivot, so linkedit adds P3_slot on the slot line to carry it. That made-up joint was tracked like a
+    coupler point (a curve in every picture); the tracks are the source's points only (P3, the block's)."""
+    spec = tmp_path / "inverted.yaml"
+    r = run_cli("import", "M[J[R, P[0, 0], L[ground, L1]], J[R, P[56, 0], L[ground, L3]], J[R, P[7, 25], L[L1, L2]],"
+                " J[P, A[0.0], P[59, 41], L[L3, L2]]]", "--input", "0,2", "-o", spec)
+    assert r.exit_code == 0, r.output
+    doc = yaml.safe_load(spec.read_text())
+    assert doc["links"]["L3"] == ["P1", "P3_slot"] and doc["tracks"] == {"P3": {"joint": "P3"}}

@@ -188,6 +188,7 @@ def test_dxf_reopens_with_layers_units_origin(run_cli, tmp_path):
     origin = rest[0]  # O, the first ground joint
     upper = on("LWPOLYLINE", "LINK-upper")[0]
     pts = np.array([p[:2] for p in upper.get_points()])
+    pts = np.roll(pts, -int(np.argmin(np.hypot(*(pts - rest[2] + origin).T))), axis=0)  # from B round
     assert upper.closed and np.allclose(pts, rest[[2, 3, 5]] - origin, atol=1e-12)  # B, C, E
     holes = on("CIRCLE", "LINK-lower")
     assert len(holes) == 3
@@ -195,6 +196,23 @@ def test_dxf_reopens_with_layers_units_origin(run_cli, tmp_path):
     assert np.allclose(frame, [[0, 0], rest[2] - origin])
     curve = on("LWPOLYLINE", "TRACK-foot")[0]
     assert curve.closed and np.allclose([p[:2] for p in curve.get_points()], foot - origin, atol=1e-12)
+
+
+
+def test_dxf_cuts_each_hole_once(run_cli, tmp_path):
+    """A spec with a frame link (``base: [O, D]``): its holes were drawn twice on FRAME, once as the link's
+    and once as the ground joints' (a laser cutter burns such a hole twice). Each layer's holes are distinct,
+    one per joint of its parts, spaced by the link lengths."""
+    ezdxf = pytest.importorskip("ezdxf")
+    spec, out = tmp_path / "frame.yaml", tmp_path / "frame.dxf"
+    spec.write_text(FOURBAR.replace("  crank: [O, A]\n", "  crank: [O, A]\n  base: [O, D]\n"))
+    assert run_cli("simulate", spec, "-o", out, "-n", "12").exit_code == 0
+    holes: dict[str, list[tuple[float, float]]] = {}
+    for c in ezdxf.readfile(out).modelspace().query("CIRCLE"):
+        holes.setdefault(c.dxf.layer, []).append((c.dxf.center.x, c.dxf.center.y))
+    assert holes["FRAME"] == [(0, 0), (3, 0)]
+    assert sorted(holes["LINK-coupler"]) == [(1, 0), (1.2, 1.6), (2.2, 2.1)]  # A, the coupler point, B
+    assert {layer: len(h) for layer, h in holes.items()} == {"FRAME": 2, "LINK-crank": 2, "LINK-coupler": 3, "LINK-rocker": 2}
 
 
 def test_hdf5_named_dimensions_descriptions_and_units(run_cli, tmp_path):
@@ -313,3 +331,49 @@ def test_every_axis_of_a_planar_result_is_named(run_cli, tmp_path, spec):
     assert not [str(d) for node in tree.subtree for d in node.dims if str(d).startswith("phony")]
     crank = tree["links/joints"]["crank"]
     assert crank.dims == ("crank.joint",) and list(crank["crank.joint"].values) == ["O", "A"]
+
+
+@pytest.mark.parametrize("base, joints, coupler, outline, closed", [
+    # Hoekens' coupler A-B-P is one straight bar: its outline is the bar A…P, not a closed A-B-P-A traced twice
+    (EXAMPLES / "hoekens.yaml", {}, ["A", "B", "P"], [[1, 0], [2, 4.898979485566356]], False),
+    # a plate listed in an order that crosses itself (A, B, E, F) is outlined around its corners A, E, B, F
+    (None, {"E": [2.4, 0.6], "F": [0.9, 1.6]}, ["A", "B", "E", "F"], [[1, 0], [2.4, 0.6], [2.2, 2.1], [0.9, 1.6]], True),
+])
+def test_dxf_link_outlines_are_simple(run_cli, tmp_path, base, joints, coupler, outline, closed):
+    """A part's outline in DXF is a bar between its outermost joints or a plate's corners in order around it
+    (as the SVG draws them); the joints' spec order was used, so a collinear link was a closed line traced
+    twice and a plate listed out of order a bow tie."""
+    ezdxf = pytest.importorskip("ezdxf")
+    doc = yaml.safe_load(base.read_text() if base else FOURBAR)
+    doc["joints"] |= joints
+    doc["links"]["coupler"] = coupler
+    doc["tracks"] = {"tip": {"joint": "B"}}
+    spec, out = tmp_path / "c.yaml", tmp_path / "c.dxf"
+    spec.write_text(yaml.safe_dump(doc))
+    r = run_cli("simulate", spec, "-o", out, "-n", "12")
+    assert r.exit_code == 0, r.output
+    msp = ezdxf.readfile(out).modelspace()
+    (line,) = [e for e in msp.query("LWPOLYLINE") if e.dxf.layer == "LINK-coupler"]
+    pts = np.array([p[:2] for p in line.get_points()])
+    assert line.closed == closed
+    k = int(np.argmin(np.hypot(*(pts - outline[0]).T)))  # the same ring from the same corner, either way round
+    ring = np.roll(pts, -k, axis=0)
+    assert np.allclose(ring, outline, atol=1e-12) or np.allclose(np.roll(ring[::-1], 1, axis=0), outline, atol=1e-12)
+    assert len(msp.query('CIRCLE[layer=="LINK-coupler"]')) == len(coupler)
+
+
+def test_dxf_part_carries_its_coupler_point(run_cli, tmp_path):
+    """A point tracked on a link (the crank-rocker's coupler point, given by ``at``) is a corner of that link's
+    part with a hole, as the pictures draw it; the DXF's coupler was the bar A-B alone, so the part cut from it
+    had no coupler point (only its curve, on TRACK-coupler_point, began there)."""
+    ezdxf = pytest.importorskip("ezdxf")
+    out = tmp_path / "cr.dxf"
+    assert run_cli("simulate", EXAMPLES / "crank-rocker.yaml", "-o", out, "-n", "12").exit_code == 0
+    msp = ezdxf.readfile(out).modelspace()
+    a, b, point = (25, 0), (63, 58.787753826796276), (20.48489846928149, 44.59387691339814)  # O at the origin
+    (plate,) = [e for e in msp.query("LWPOLYLINE") if e.dxf.layer == "LINK-coupler"]
+    assert plate.closed and np.allclose(sorted(tuple(p[:2]) for p in plate.get_points()), sorted([a, b, point]), atol=1e-12)
+    holes = sorted((c.dxf.center.x, c.dxf.center.y) for c in msp.query('CIRCLE[layer=="LINK-coupler"]'))
+    assert np.allclose(holes, sorted([a, b, point]), atol=1e-12)
+    curve = next(e for e in msp.query("LWPOLYLINE") if e.dxf.layer == "TRACK-coupler_point")
+    assert np.allclose(curve.get_points()[0][:2], point, atol=1e-12)

@@ -156,3 +156,35 @@ def test_a_slot_outline_is_on_its_guide_layer_in_dxf(run_cli, tmp_path):
     rail = outlines["FRAME"]
     assert sorted(set(np.round(rail[:, 0], 9))) == pytest.approx([10, 50])
     assert sorted(set(np.round(rail[:, 1], 9))) == pytest.approx([-hole, hole])
+
+
+def test_a_dxf_slot_on_a_moving_guide_is_cut_in_its_link_at_the_rest_pose(run_cli, tmp_path):
+    """DXF draws the links at the rest pose; a slotted rocker's slot must lie along that rocker. With a sweep
+    that starts away from the rest pose (range_deg [60, 150]) the slot was drawn where the rocker is at the
+    sweep's start (80° instead of its rest 63.4°), off the part it is cut in."""
+    ezdxf = pytest.importorskip("ezdxf")
+    spec, out = tmp_path / "qr.yaml", tmp_path / "qr.dxf"
+    doc = yaml.safe_load((EXAMPLES / "quick-return.yaml").read_text())
+    doc["motor"]["range_deg"] = [60, 150]
+    spec.write_text(yaml.safe_dump(doc))
+    assert run_cli("simulate", spec, "-o", out, "-n", "91").exit_code == 0
+    (slot,) = [np.array(list(e.get_points("xyb"))) for e in ezdxf.readfile(out).modelspace().query("LWPOLYLINE")
+               if e.closed and e.dxf.layer == "LINK-rocker"]
+    ends = (slot[[0, 1], :2] + slot[[3, 2], :2]) / 2  # the slot's centre line (O2, the first ground joint, at 0)
+    # the crank pin A = O + 15 (cos θ, sin θ), O = (0, 30), slides in the rocker at |A| from its pivot O2:
+    # 45 at θ = 90°, 39.7 at θ = 150° and 15√5 = 33.5 at rest (θ = 0), where the linkage is assembled
+    reach = [15 * 5**0.5, 45.0]
+    rest = np.arctan2(2, 1)  # the rocker O2 → C at rest
+    assert np.abs(np.arctan2(ends[:, 1], ends[:, 0]) - rest).max() < 1e-12
+    assert np.hypot(*ends.T) == pytest.approx(reach, rel=1e-12)
+
+
+def test_a_dxf_slot_off_its_link_is_joined_to_it_by_an_arm(run_cli, tmp_path):
+    """The Scotch yoke's slot (x = 20) lies off the yoke's bar Y1-Y2 (x 50…90): the pictures join them with an
+    arm, the DXF left the slot floating apart from its part; its layer now has the arm's centre line too."""
+    ezdxf = pytest.importorskip("ezdxf")
+    out = tmp_path / "yoke.dxf"
+    assert run_cli("simulate", EXAMPLES / "scotch-yoke.yaml", "-o", out, "-n", "36").exit_code == 0
+    lines = sorted(tuple(map(tuple, np.round([p[:2] for p in e.get_points()], 9)))
+                   for e in ezdxf.readfile(out).modelspace().query("LWPOLYLINE") if e.dxf.layer == "LINK-yoke" and not e.closed)
+    assert lines == [((20, 0), (50, 0)), ((50, 0), (90, 0))]  # the arm, the bar

@@ -585,3 +585,24 @@ def test_a_partial_cycle_curve_runs_through_the_rest_pose(run_cli, tmp_path):
     world = np.roll(tip, -freed, axis=0)[:int(ok.sum())]  # freed … last sample, rest pose … locked
     ax, sx, ay, sy = fit_map(world, got)
     np.testing.assert_allclose(got, np.column_stack([ax + sx * world[:, 0], ay + sy * world[:, 1]]), atol=0.02)
+
+
+def test_animate_with_the_result_on_stdout_needs_a_picture_path(run_cli, tmp_path, monkeypatch):
+    """``-o - --animate`` without ``--svg``: the animation goes next to the result, which has no file; it was
+    dropped without a word (exit 0, no animation). Now one line, exit 2, before anything is written."""
+    monkeypatch.chdir(tmp_path)
+    r = run_cli("simulate", ROOT / "examples" / "crank-rocker.yaml", "-o", "-", "--animate", "-n", "8")
+    assert r.exit_code == 2 and "--animate: " in r.output and "--svg" in r.output, r.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_animation_of_a_linear_input_shows_the_stroke(run_cli, tmp_path):
+    """A cylinder-driven linkage's animation showed no input at all (a crank's shows its angle): each frame now
+    says the stroke from rest, in the spec's units, as the CSV's stroke column."""
+    pic = tmp_path / "a.svg"
+    assert run_cli("simulate", ROOT / "examples" / "lifting-arm.yaml", "--svg", pic, "--animate", "-n", "11",
+                   "-o", tmp_path / "a.h5").exit_code == 0
+    captions = [el for el in ET.parse(pic).getroot().iter() if el.get("class") == "frame-caption"]
+    assert captions, "no caption"
+    words = [t.text for t in captions[0] if t.tag.endswith("text")]
+    assert words == [f"stroke {2.5 * k:g} mm" for k in range(11)]  # stroke [0, 25]

@@ -96,9 +96,13 @@ def register(app: typer.Typer) -> None:
         from linkedit.io.atomic import commit, write_text
         from linkedit.io.edit_hdf5 import write_edit
         from linkedit.io.edit_picture import edit_picture
+        from linkedit.io.formats import SUFFIXES, is_stdout
         from linkedit.spec.linkage_yaml import dump_linkage
         from linkedit.spec.yamlload import read_text
 
+        if is_stdout(out_dir) or out_dir.suffix.lower() in SUFFIXES:
+            raise InputError(f"{out_dir}: edit writes the edited spec, its HDF5 report and its SVG into a folder: "
+                             "give a folder such as out/knee/", field="--output")
         spec_path, script_path = (None, spec) if script is None else (spec, script)
         spec_path, linkage, parsed = _load(spec_path, script_path)
         stem = Path(spec_path).stem

@@ -26,6 +26,16 @@ def _pair(text: str | None) -> tuple[int, int] | None:
     return a, b
 
 
+def _range(text: str | None) -> tuple[float, float] | None:
+    if text is None:
+        return None
+    try:
+        a, b = (float(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"{text!r}: give two lengths S0,S1 such as 0,25", field="--stroke") from None
+    return a, b  # (checked with the spec: finite, different)
+
+
 def register(app: typer.Typer) -> None:
     @app.command("import")
     @guard
@@ -37,6 +47,8 @@ def register(app: typer.Typer) -> None:
                                     show_default="- (stdout)"),
         motor: str = typer.Option(None, "--input", help="pyslvs: the motor as point indices PIVOT,JOINT "
                                                         "[default: the project's first input, else the first revolute pair on a ground link]."),
+        stroke: str = typer.Option(None, "--stroke", help="pyslvs: a slider input's (--input N,N) range S0,S1: the "
+                                                          "joint's displacement from rest along its slot, in --units."),
         dimensions: Path = typer.Option(None, "--dimensions", help="pylinkage graph (graph_to_json): its Dimensions "
                                                                   "(Dimensions.to_dict() saved as JSON)."),
         units: str = typer.Option("mm", "--units", help="Length unit of the source's numbers."),
@@ -56,7 +68,7 @@ def register(app: typer.Typer) -> None:
         refuse_json_with_stdout(output)
         which = tool.value if tool else guess_tool(source)
         spec = import_spec(source, which, units=units, name=name, motor=_pair(motor),  # type: ignore[arg-type]
-                           dimensions=str(dimensions) if dimensions else None)
+                           dimensions=str(dimensions) if dimensions else None, stroke=_range(stroke))
         write_out(output, import_yaml(spec, source, which))
         report({"source": source, "from": which, "output": str(output), "name": spec.name,
                 "joints": list(spec.joints), "links": list(spec.links), "sliders": list(spec.sliders)})

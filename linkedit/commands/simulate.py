@@ -43,7 +43,10 @@ def _outputs(specs: list[Path], out: Path | None, svg: Path | None, animate: boo
                 raise InputError(f"{pic}: a GIF is an animation: add --animate (or write .svg)", field="--svg")
             require(kind, pic)
         elif animate:
-            pic = h5.with_suffix(".svg") if not is_stdout(h5) else None
+            if is_stdout(h5):
+                raise InputError("the result goes to standard output: give the animation a file with --svg",
+                                 field="--animate")
+            pic = h5.with_suffix(".svg")
         pairs.append((h5, pic))
     if sum(is_stdout(p) for pair in pairs for p in pair) > 1:
         raise InputError("only one output can go to standard output ('-')", field="--svg")

@@ -19,18 +19,21 @@ def guess_tool(source: str) -> Tool:
 
 
 def import_spec(source: str, tool: Tool | None = None, *, units: str = "mm", name: str | None = None,
-                motor: tuple[int, int] | None = None, dimensions: str | None = None) -> LinkageSpec:
+                motor: tuple[int, int] | None = None, dimensions: str | None = None,
+                stroke: tuple[float, float] | None = None) -> LinkageSpec:
     """The linkage in ``source`` (a file path, or a pyslvs expression ``M[…]``) as a spec.
 
     ``motor`` (pyslvs only): (pivot, driven joint) point indices; default the project's first
-    input pair, else the first revolute pair on a ground link. ``dimensions`` (pylinkage graphs
-    only): the file of the graph's ``Dimensions``.
+    input pair, else the first revolute pair on a ground link; ``stroke`` the range of a slider input
+    (pivot = joint). ``dimensions`` (pylinkage graphs only): the file of the graph's ``Dimensions``.
     """
     from linkedit.interop import pylinkage, pyslvs
 
     tool = tool or guess_tool(source)
     if dimensions is not None and tool != "pylinkage":
         raise InputError("--dimensions goes with a pylinkage graph", field="--dimensions")
+    if stroke is not None and tool != "pyslvs":
+        raise InputError("goes with a pyslvs slider input (--input N,N)", field="--stroke")
     is_expression = source.lstrip().startswith("M[")
     text = source if is_expression else read_text(source)
     where = "<expression>" if is_expression else source
@@ -47,7 +50,7 @@ def import_spec(source: str, tool: Tool | None = None, *, units: str = "mm", nam
             text, line, pairs = pyslvs.read_project(text, where)
         joints = pyslvs.parse_expression(text, where, line)
         doc = pyslvs.to_document(joints, name=_name(stem), units=units, motor=motor or (pairs[0] if pairs else None),
-                                 source=where)
+                                 source=where, stroke=stroke)
     return validate(LinkageSpec, doc, file=where)
 
 

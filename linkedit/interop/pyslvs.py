@@ -4,7 +4,8 @@ An expression lists joints ``J[type, (A[angle],) (color[…],) P[x, y], L[link, 
 ``M[…]``; a joint on the link ``ground`` is fixed to the frame. linkedit names the joints
 ``P0``, ``P1``, … in the expression's order and keeps the link names. The motor is a revolute
 pair (pivot, driven joint) given as ``input`` (point indices, as pyslvs' input pairs), by
-default the first ground joint and the first other joint that shares a link with it.
+default the first ground joint and the first other joint that shares a link with it. Comments are
+pyslvs' own: ``# …`` to the end of the line, ``#[ … #]`` over lines.
 
 Sliders: in ``J[P|RP, A[a], P[x, y], L[slot, pin, …]]`` the first link carries the slot (a line
 through (x, y) at ``a`` degrees from +x at the rest pose given), the others are pinned at the
@@ -19,7 +20,6 @@ from __future__ import annotations
 
 import math
 import re
-from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from linkedit.errors import InputError
+from linkedit.interop.document import default_tracks
 from linkedit.spec.yamlload import load_yaml
 
 FRAME = "ground"
@@ -54,7 +55,24 @@ def _what(term: _Term) -> str:
 
 
 def _strip_comments(text: str) -> str:
-    return "\n".join(line.split("#", 1)[0] for line in text.splitlines())
+    """``text`` with pyslvs' comments blanked out, line breaks kept (lines and columns stay where they were).
+
+    As pyslvs' grammar matches them: a line's first ``#`` opens a block ``#[`` up to the last ``#]`` of the
+    text and the rest of that line (the longer terminal, tried first; so there is at most one), else runs to
+    the end of its line. One pass over the lines.
+    """
+    last = text.rfind("#]")
+    out, offset = [], 0
+    for line in text.split("\n"):
+        k = line.find("#")
+        if k >= 0 and line.startswith("#[", k) and offset + k + 2 <= last:
+            end = text.find("\n", last)
+            end = len(text) if end < 0 else end
+            out.append(line[:k] + re.sub(r"[^\n]", " ", text[offset + k:end]) + _strip_comments(text[end:]))
+            return "\n".join(out)
+        out.append(line if k < 0 else line[:k] + " " * (len(line) - k))
+        offset += len(line) + 1
+    return "\n".join(out)
 
 
 def _tokens(body: str) -> Iterator[_Token]:
@@ -161,7 +179,22 @@ def _joint(term: _Term, n: int, parser: _Parser) -> Joint:
     for link in fields["L"][2]:
         if link[0] != "name":
             raise parser.fail(link[1], f"{where}: L[…] lists link names, got {_what(link)}")
-    return Joint(items[0][1][1], angle, (x, y), tuple(link[1][1] for link in fields["L"][2]))
+    joint = Joint(items[0][1][1], angle, (x, y), tuple(link[1][1] for link in fields["L"][2]))
+    if joint.kind != "R":
+        _check_slider(joint, f"{where} ({joint.kind})", at, fields["L"][1], parser)
+    return joint
+
+
+def _check_slider(joint: Joint, where: str, at: _Token, links: _Token, parser: _Parser) -> None:
+    """What linkedit needs of a P or RP joint: its slot angle, a slot link and pinned links (a P joint: one
+    moving one, which slides without turning)."""
+    if joint.angle is None:
+        raise parser.fail(at, f"{where}: a slider needs its slot angle A[degrees]")
+    if len(joint.links) < 2:
+        raise parser.fail(links, f"{where}: a slider needs its slot link and a pinned link: L[slot, pin]")
+    pinned = joint.links[1:]
+    if joint.kind == "P" and (len(pinned) != 1 or pinned[0] == FRAME):
+        raise parser.fail(links, f"{where}: a prismatic P joint imports with one moving pin link, not {', '.join(pinned)}")
 
 
 def _numbers(term: _Term, count: int, message: str, parser: _Parser) -> list[float]:
@@ -197,8 +230,12 @@ def _index(value: Any) -> bool:
 
 
 def to_document(joints: list[Joint], *, name: str, units: str, motor: tuple[int, int] | None,
-                source: str) -> dict[str, Any]:
-    """A linkage document (``specs/linkage.md``) from parsed joints."""
+                source: str, stroke: tuple[float, float] | None = None) -> dict[str, Any]:
+    """A linkage document (``specs/linkage.md``) from parsed joints.
+
+    ``motor`` (n, n), pyslvs' slider input, is a linear input: the RP joint n pushed along its slot over
+    ``stroke`` (its displacement from rest towards the slot's angle, in ``units``; pyslvs does not save it).
+    """
     names = [f"P{n}" for n in range(len(joints))]
     pins = [j.links[1:] if j.kind != "R" else j.links for j in joints]  # the links a joint is pinned to
     ground = [names[n] for n in range(len(joints)) if FRAME in pins[n]]
@@ -208,23 +245,19 @@ def to_document(joints: list[Joint], *, name: str, units: str, motor: tuple[int,
             if link != FRAME:
                 links.setdefault(link, []).append(names[n])
     positions = {n: list(j.position) for n, j in zip(names, joints)}
-    sliders = _sliders(joints, names, links, positions, source)
+    sliders = _sliders(joints, names, links, positions)
     if motor is None:
         motor = _default_motor(joints, source)
     pivot, driven = motor
     for i in motor:
         if not 0 <= i < len(joints):
             raise InputError(f"input point {i} does not exist (P0..P{len(joints) - 1})", file=source, field="--input")
-    fixed = set(ground)
-    moving = [n for n in positions if n not in fixed]
-    count = Counter(n for members in links.values() for n in members)
-    on_one = [n for n in moving if count[n] == 1]
-    tracks = {n: {"joint": n} for n in on_one} or ({moving[-1]: {"joint": moving[-1]}} if moving else {})
+    tracks = default_tracks(names, ground, links)  # (the source's points: not a slot's added joint)
     doc = {
         "name": name, "units": units,
         "description": f"imported from pyslvs ({source}); joints P0.. in the expression's order",
         "joints": positions, "ground": ground, "links": links,
-        "motor": {"joint": names[driven], "pivot": names[pivot]},
+        "motor": _motor(joints, pivot, driven, stroke, units, source),
         "tracks": tracks,
     }
     if sliders:
@@ -232,8 +265,28 @@ def to_document(joints: list[Joint], *, name: str, units: str, motor: tuple[int,
     return doc
 
 
-def _sliders(joints: list[Joint], names: list[str], links: dict[str, list[str]], positions: dict[str, list[float]],
-             source: str) -> dict[str, dict[str, Any]]:
+def _motor(joints: list[Joint], pivot: int, driven: int, stroke: tuple[float, float] | None, units: str,
+           source: str) -> dict[str, Any]:
+    """The motor of input pair (pivot, driven): a crank, or for (n, n) the linear input of RP joint n."""
+    if pivot != driven:
+        if stroke is not None:
+            raise InputError("goes with a slider input (--input N,N: pyslvs' input pair of one slider joint)",
+                             field="--stroke")
+        return {"joint": f"P{driven}", "pivot": f"P{pivot}"}
+    kind = joints[driven].kind
+    if kind != "RP":
+        what = "a revolute joint" if kind == "R" else "a P joint (its pin link slides without turning)"
+        raise InputError(f"input P{driven},P{driven} is pyslvs' slider input, but P{driven} is {what}: linkedit "
+                         "pushes a pin along its slot (an RP joint)", file=source, field="--input")
+    if stroke is None:
+        raise InputError(f"input P{driven},P{driven} is pyslvs' slider input, whose range pyslvs does not save: give "
+                         f"--stroke S0,S1 (P{driven}'s displacement from rest along its slot, in {units})",
+                         file=source, field="--stroke")
+    return {"slider": f"S{driven}", "stroke": list(stroke)}
+
+
+def _sliders(joints: list[Joint], names: list[str], links: dict[str, list[str]],
+             positions: dict[str, list[float]]) -> dict[str, dict[str, Any]]:
     """linkedit sliders of the P and RP joints (``links`` and ``positions`` gain a slot joint where needed)."""
     xy = np.array([j.position for j in joints], dtype=float)
     size = float(np.ptp(xy, axis=0).max()) or 1.0
@@ -241,19 +294,12 @@ def _sliders(joints: list[Joint], names: list[str], links: dict[str, list[str]],
     for n, j in enumerate(joints):
         if j.kind == "R":
             continue
-        where = f"joint P{n} ({j.kind})"
-        if j.angle is None:
-            raise InputError(f"{where}: a slider needs its slot angle A[degrees]", file=source)
-        if len(j.links) < 2:
-            raise InputError(f"{where}: a slider needs its slot link and a pinned link: L[slot, pin]", file=source)
-        slot, pinned = j.links[0], [x for x in j.links[1:]]
+        assert j.angle is not None  # (checked as it was read: _check_slider)
+        slot = j.links[0]
         if j.kind == "RP":
             out[f"S{n}"] = {"joint": names[n], "guide": slot, "angle_deg": j.angle}
         else:
-            if len(pinned) != 1 or pinned[0] == FRAME:
-                raise InputError(f"{where}: a prismatic P joint imports with one moving pin link, not "
-                                 f"{', '.join(pinned)}", file=source)
-            out[f"S{n}"] = {"link": pinned[0], "guide": slot, "angle_deg": j.angle}
+            out[f"S{n}"] = {"link": j.links[1], "guide": slot, "angle_deg": j.angle}
         if slot != FRAME and len(links.get(slot, [])) < 2:
             extra = f"{names[n]}_slot"
             a = math.radians(j.angle)
@@ -263,11 +309,13 @@ def _sliders(joints: list[Joint], names: list[str], links: dict[str, list[str]],
 
 
 def _default_motor(joints: list[Joint], source: str) -> tuple[int, int]:
-    """The first revolute ground joint and the first other revolute joint on a link with it (pyslvs' usual input)."""
-    moving: dict[str, list[int]] = {}  # link → its moving revolute joints, in order
+    """The first revolute ground joint and the first other moving joint pinned to a link with it (pyslvs'
+    usual input): a slider's pin links are its links after the slot's (a Scotch yoke's crank pin)."""
+    moving: dict[str, list[int]] = {}  # link → the moving joints pinned to it, in order
     for d, other in enumerate(joints):
-        if other.kind == "R" and FRAME not in other.links:
-            for link in other.links:
+        pins = other.links if other.kind == "R" else other.links[1:]
+        if FRAME not in pins:
+            for link in pins:
                 moving.setdefault(link, []).append(d)
     for b, base in enumerate(joints):
         if base.kind == "R" and FRAME in base.links:

@@ -1,9 +1,11 @@
 """A planar linkage as DXF for CAD and laser cutting (needs the optional ``ezdxf``: ``pip install linkedit[dxf]``).
 
 Layers: ``FRAME`` (the ground joints and the links between them), ``LINK-<name>`` (one per
-moving link: its centre lines, a closed outline for a plate of 3 or more joints, and a pin
-hole circle per joint; a slider's slot outline, as wide as a pin hole, over the stretch its joint
-travels, is on its guide link's layer, or on ``FRAME`` for a guide on the frame), ``TRACK-<name>`` (each track's curve as a polyline, closed for a full
+moving link: its centre line — a bar between its outermost joints, or a plate's closed outline around its
+corners (:func:`~linkedit.io.figure_layout.link_outline`, as the pictures draw it) —, and a pin
+hole circle per joint and per point tracked on it (a coupler point: a corner of its part); a slider's slot outline, as wide as a pin hole, over the stretch its joint
+travels and its rest position, in its guide at rest (with the centre line of the arm joining it to its
+link's bar or plate where they do not touch), is on its guide link's layer, or on ``FRAME`` for a guide on the frame), ``TRACK-<name>`` (each track's curve as a polyline, closed for a full
 cycle, broken where the linkage does not assemble). Coordinates are the rest pose in the
 spec's units, moved so the first ground joint is the origin; ``$INSUNITS`` says the unit.
 
@@ -21,8 +23,10 @@ import numpy as np
 
 from linkedit.io import slides
 from linkedit.io.atomic import atomic_path
+from linkedit.io.figure_layout import link_outline
 from linkedit.io.formats import require
 from linkedit.planar.simulate import Motion
+from linkedit.spec.linkage import LinkTrack
 
 #: spec units → DXF $INSUNITS code (0 = unitless)
 INSUNITS = {"in": 1, "inch": 1, "ft": 2, "mi": 3, "mm": 4, "cm": 5, "m": 6, "km": 7, "um": 13, "µm": 13,
@@ -71,20 +75,30 @@ def write_motion_dxf(path: str | Path, motion: Motion) -> None:
     taken = {"frame"}
     links = unique_layers([layer_name("LINK", name) for name in graph.link_names], taken)
     links = ["FRAME" if set(members) <= ground else layer for layer, members in zip(links, graph.links)]
-    for color, (layer, members) in enumerate(zip(links, graph.links), start=1):
+    on_link: dict[str, list[np.ndarray]] = {}  # points tracked on a link: corners of its part, as in the pictures
+    for tracked in plan.spec.tracks.values():
+        if isinstance(tracked, LinkTrack):
+            on_link.setdefault(tracked.link, []).append(np.asarray(tracked.at, dtype=float) - origin)
+    for color, (layer, name, members) in enumerate(zip(links, graph.link_names, graph.links), start=1):
         if layer != "FRAME":
             doc.layers.add(layer, color=color % 255 or 1)
-        pts = [tuple(rest[m]) for m in members]
-        msp.add_lwpolyline(pts, close=len(pts) > 2, dxfattribs={"layer": layer})
-        for p in pts:
+        corners = np.concatenate([rest[list(members)], np.reshape(on_link.get(name, []), (-1, 2))])
+        pts = [tuple(p) for p in corners]
+        order = link_outline(corners)
+        msp.add_lwpolyline([pts[k] for k in order], close=len(order) > 2, dxfattribs={"layer": layer})
+        for p in pts if layer != "FRAME" else ():  # the frame's holes: one per ground joint, below
             msp.add_circle(p, hole, dxfattribs={"layer": layer})
     for g in graph.ground:
         msp.add_circle(tuple(rest[g]), hole, dxfattribs={"layer": "FRAME"})
-    moved = motion.positions[motion.assembled] - origin
-    for s, pair in zip(slides.from_graph(graph, moved[0]), graph.sliders):
+    # the rest pose first: slots are cut where their guide is at rest, as the links are drawn
+    moved = np.concatenate([rest[None], motion.positions[motion.assembled] - origin])
+    for s, pair in zip(slides.from_graph(graph, rest), graph.sliders):
         layer = "FRAME" if s.guide is None else links[pair.guide]
         msp.add_lwpolyline(_slot_outline(slides.slot(s, moved), hole), format="xyb", close=True,
                            dxfattribs={"layer": layer})
+        arm = slides.arm(s, moved)  # a slot off its link's body is joined to it, as the pictures draw it
+        if arm is not None:
+            msp.add_lwpolyline([tuple(p) for p in arm], dxfattribs={"layer": layer})
     closed = motion.cyclic and bool(motion.assembled.all())
     tracks = unique_layers([layer_name("TRACK", name) for name in motion.tracks], taken)
     for color, (layer, track) in enumerate(zip(tracks, motion.tracks.values()), start=1):

@@ -71,13 +71,21 @@ def _count(ok: np.ndarray) -> str:
     return f"{kept} of {ok.size} samples assembled" if kept < ok.size else f"{ok.size} sample" + "s" * (ok.size != 1)
 
 
+def captions(motion: Motion) -> list[str] | None:
+    """An animation's frame captions: a linear input's stroke from rest at each assembled sample (a crank's
+    turn is the animation's own default, None)."""
+    if not motion.plan.linear:
+        return None
+    return [f"stroke {s:.4g} {motion.plan.spec.units}" for s in motion.motor_angle[motion.assembled]]
+
+
 def draw_gif(path: str | Path, motion: Motion) -> None:
     """Write the animation of ``motion`` as a GIF (Pillow)."""
     from linkedit.io.gif import write_gif
 
     kw = drawing(motion)
     kw.pop("notes")
-    write_gif(path, cyclic=motion.cyclic and bool(motion.assembled.all()), **kw)
+    write_gif(path, cyclic=motion.cyclic and bool(motion.assembled.all()), captions=captions(motion), **kw)
 
 
 def draw_motion(path: str | Path | None, motion: Motion, *, animate: bool = False) -> str:
@@ -86,5 +94,6 @@ def draw_motion(path: str | Path | None, motion: Motion, *, animate: bool = Fals
     Curves are closed only for a full revolution that assembles at every sample.
     """
     cyclic = motion.cyclic and bool(motion.assembled.all())
-    draw = animated_motion if animate else motion_plot
-    return draw(path, cyclic=cyclic, **drawing(motion))
+    if animate:
+        return animated_motion(path, cyclic=cyclic, captions=captions(motion), **drawing(motion))
+    return motion_plot(path, cyclic=cyclic, **drawing(motion))

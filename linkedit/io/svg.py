@@ -153,9 +153,12 @@ def animation(*, joint_names: Sequence[str], positions: np.ndarray, links: Mappi
               ground: Sequence[int], motor: tuple[int, int] | None, tracks: Mapping[str, np.ndarray],
               units: str = "", title: str = "", duration_s: float = 4.0, cyclic: bool = True,
               breaks: Sequence[int] = (), notes: Sequence[tuple[int, str]] = (),
-              sliders: Sequence[Slide] = (), wrap: bool = False) -> Figure:
+              sliders: Sequence[Slide] = (), wrap: bool = False, captions: Sequence[str] | None = None) -> Figure:
     """The figure of an animated motion plot (written as SVG by :func:`animated_motion`, as GIF by
     :func:`linkedit.io.gif.write_gif`).
+
+    ``captions``: one per sample, shown as its frame plays (a cylinder's stroke); by default the crank's
+    turn from the first frame, where there is a motor.
 
     The cycle plays in ``duration_s`` seconds, forever; the T samples are thinned evenly to at
     most ``MAX_FRAMES`` frames (every element's ``<animate values=...>`` has one value per frame,
@@ -178,7 +181,11 @@ def animation(*, joint_names: Sequence[str], positions: np.ndarray, links: Mappi
                    cls="track-point")
     if len(d.joint_names) <= MAX_NAMED_JOINTS:
         fig.labels(d.positions[frames], d.joint_names)
-    if d.motor is not None:
+    if captions is not None:
+        if len(captions) != samples:
+            raise ValueError(f"captions: one per sample ({samples}), got {len(captions)}")
+        fig.frame_caption([captions[k] for k in frames])
+    elif d.motor is not None:
         r = d.positions[frames, d.motor[0]] - d.positions[frames, d.motor[1]]
         turn = np.degrees(np.unwrap(np.arctan2(r[:, 1], r[:, 0])))
         fig.frame_caption([f"crank {abs(a - turn[0]):.0f}°" for a in turn])

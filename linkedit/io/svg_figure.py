@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from linkedit.io import symbols
-from linkedit.io.figure_layout import View, axis_ticks, finite, place_labels, text_box, tick_label
+from linkedit.io.figure_layout import View, axis_ticks, finite, link_outline, place_labels, text_box, tick_label
 from linkedit.io.figure_style import (ENVELOPE_GREEN, FAINT_OPACITY, FONT_ATTRS, HALO_ATTRS, INK, LINK_FILL, SVG_NS,
                                       Stroke)
 from linkedit.io.marks import Mark, mark, path, still, svg, text
@@ -128,17 +128,14 @@ class Figure:
         if style not in ("solid", "faint"):
             raise ValueError(f"link style must be solid or faint, got {style!r}")
         opacity = FAINT_OPACITY if style == "faint" else None
-        first = p[0] - p[0].mean(axis=0)
-        _, sv, vt = np.linalg.svd(first)
-        if p.shape[1] == 2 or sv[1] <= 1e-9 * sv[0]:
-            along = first @ vt[0]
-            ends = p if p.shape[1] == 2 else p[:, [int(np.argmin(along)), int(np.argmax(along))]]
+        order = link_outline(p[0])
+        if len(order) == 2:
+            ends = p[:, order]
 
             def draw(v: View) -> Mark:
                 return symbols.bar(v.px(ends), cls=cls, data_name=name, stroke=color, stroke_width=f"{width:g}",
                             stroke_linecap="round", stroke_opacity=opacity or 0.85)
         else:
-            order = np.argsort(np.arctan2(first[:, 1], first[:, 0]))
             ring = p[:, order]
 
             def draw(v: View) -> Mark:
