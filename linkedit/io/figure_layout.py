@@ -22,7 +22,6 @@ def finite(name: str, a: object, shape: tuple[int | None, ...]) -> np.ndarray:
     return arr
 
 
-
 def link_outline(points: np.ndarray) -> np.ndarray:
     """The joint indices outlining a link whose joints are at ``points`` (n, 2): a bar's two ends (two
     joints, or all on one line: the outermost two), else a plate's corners by angle about their centroid
@@ -35,6 +34,7 @@ def link_outline(points: np.ndarray) -> np.ndarray:
         along = c @ vt[0]
         return np.array([int(np.argmin(along)), int(np.argmax(along))])
     return np.argsort(np.arctan2(c[:, 1], c[:, 0]))
+
 
 def nice_ticks(lo: float, hi: float, target: float = 6.0) -> tuple[float, np.ndarray]:
     """Round tick step (1, 2, 2.5 or 5 × 10^k) and the ticks ``k·step`` inside ``[lo, hi]``."""
