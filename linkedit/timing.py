@@ -24,6 +24,13 @@ def best_time(fn: Callable[[], object], repeats: int = 1, budget_s: float = 0.0)
     return best
 
 
+def alternating(fns: list[Callable[[], object]], rounds: int, budget_s: float) -> list[list[float]]:
+    """Best wall times (rounds, len(fns)) in seconds of ``fns`` measured in turn, ``rounds`` times, each a
+    :func:`best_time` of ``budget_s`` / rounds (``budget_s``: each one's time over all rounds): a burst of another process's load falls on one round of all of
+    them, so that medians of their ratios per round hold where ratios of separate bests do not."""
+    return [[best_time(fn, budget_s=budget_s / rounds) for fn in fns] for _ in range(rounds)]
+
+
 def median_time(fn: Callable[[], object], repeats: int) -> float:
     """Median wall time of ``repeats`` calls to ``fn``, in seconds (no warm-up call)."""
     times = []
