@@ -62,6 +62,20 @@ EDITS = {
 }
 
 
+def _refused(run_cli, command: str, built, folder, out):
+    """``command`` (synthesize, or an append by atlas build) on the atlas ``folder``: exit 2 in one line, the folder
+    left byte for byte and nothing written to ``out``. Returns the run."""
+    before = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+    args = (["synthesize", built / "t.csv", "--atlas", folder, "-o", out] if command == "synthesize"
+            else ["atlas", "build", "--family", "four-bar", "-n", "100", "-o", folder])
+    r = run_cli(*args)
+    assert r.exit_code == 2, r.output
+    assert "Traceback" not in r.output and len(r.output.strip().splitlines()) == 1, r.output
+    assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before  # nothing written
+    assert not out.exists()
+    return r
+
+
 @pytest.mark.parametrize("field", list(EDITS))
 @pytest.mark.parametrize("command", ["synthesize", "atlas build"])
 def test_an_edited_manifest_is_refused_naming_the_line_and_field(run_cli, built, tmp_path, small_chunks, field,
@@ -72,20 +86,13 @@ def test_an_edited_manifest_is_refused_naming_the_line_and_field(run_cli, built,
     EDITS[field](manifest)
     text = json.dumps(manifest, indent=2)
     (folder / shards.MANIFEST).write_text(text)
-    before = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
-    args = (["synthesize", built / "t.csv", "--atlas", folder, "-o", tmp_path / "out"] if command == "synthesize"
-            else ["atlas", "build", "--family", "four-bar", "-n", "100", "-o", folder])
-    r = run_cli(*args)
-    assert r.exit_code == 2, r.output
-    assert "Traceback" not in r.output and len(r.output.strip().splitlines()) == 1, r.output
+    r = _refused(run_cli, command, built, folder, tmp_path / "out")
     found = re.search(r"manifest\.json:(\d+): (\S+): ", r.output)
     assert found, r.output
     line, named = int(found.group(1)), found.group(2)
     assert named.split(".")[-1].split("[")[0] == field or (field, named) == ("distribution", "families.four-bar")
     shown = text.splitlines()[line - 1]
     assert f'"{field}"' in shown or (field == "distribution" and '"four-bar"' in shown), (shown, r.output)
-    assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before  # nothing written
-    assert not (tmp_path / "out").exists()
 
 
 def test_the_unedited_manifest_is_read(run_cli, built, tmp_path, small_chunks):
@@ -136,12 +143,6 @@ def test_a_shard_whose_rows_disagree_is_refused_naming_it(run_cli, built, tmp_pa
     shutil.copytree(built / "atlas", folder)
     change, chunk = ROW_EDITS[edit]
     change(folder)
-    before = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
-    args = (["synthesize", built / "t.csv", "--atlas", folder, "-o", tmp_path / "out"] if command == "synthesize"
-            else ["atlas", "build", "--family", "four-bar", "-n", "100", "-o", folder])
-    r = run_cli(*args)
-    assert r.exit_code == 2, r.output
-    assert "Traceback" not in r.output and len(r.output.strip().splitlines()) == 1, r.output
+    r = _refused(run_cli, command, built, folder, tmp_path / "out")
     assert f"four-bar/{chunk:08d}.h5: " in r.output and ("rows" in r.output or "shape" in r.output), r.output
-    assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before  # nothing written
     assert not (tmp_path / "out").exists()
