@@ -152,3 +152,53 @@ def test_bad_line_one_line_exit_2(run_cli, tmp_path, old, new, pattern):
     r = run_cli("simulate", tmp_path / "bad.yaml", "-o", tmp_path / "x.h5")
     assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
     assert re.search(pattern, r.output), r.output
+
+
+FOURBAR = """name: fourbar
+units: mm
+joints:
+  O: [X0, Y0]
+  B: [X1, Y0]
+  A: {from: [O], angle_deg: 60}
+  C: {from: [A, B], branch: ccw}
+ground: [O, B]
+links:
+  frame: {joints: [O, B], length: FRAME}
+  crank: {joints: [O, A], length: 10}
+  coupler: {joints: [A, C], length: 35}
+  rocker: {joints: [B, C], length: 30}
+motor: {joint: A, pivot: O}
+"""
+
+
+def _fourbar(tmp_path, x0: float, frame: str, x1: float | None = None, y0: str | None = None):
+    text = (FOURBAR.replace("X0", repr(x0)).replace("X1", repr(x0 + 40 if x1 is None else x1))
+            .replace("Y0", y0 or repr(x0)).replace("FRAME", frame))
+    (tmp_path / "f.yaml").write_text(text)
+    return tmp_path / "f.yaml"
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e7])
+def test_a_conflicting_length_is_refused_however_far_the_linkage_lies_from_the_origin(run_cli, tmp_path, offset):
+    """The frame O-B is 40 by its positions; a length of 40.01 (2.5e-4 of it) contradicts them, 14,000 km
+    from the origin as at it (the check was relative to the distance from the origin: 0.014 there)."""
+    r = run_cli("validate", _fourbar(tmp_path, offset, "40.01"))
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert re.search(r"f\.yaml:10: links\.frame: conflicting lengths: B-O is 40\.01 but .* make it 40\b", r.output), r.output
+    r = run_cli("validate", _fourbar(tmp_path, offset, "40"))
+    assert r.exit_code == 0, r.output
+
+
+@pytest.mark.parametrize("y0", ["true", "false"])
+def test_a_boolean_coordinate_is_refused_in_a_length_given_spec(run_cli, tmp_path, y0):
+    """``[40, true]`` is not [40, 1] (YAML reads true as a boolean): refused as in a coordinate spec."""
+    r = run_cli("validate", _fourbar(tmp_path, 0.0, "40", y0=y0))
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert re.search(r"f\.yaml:4: joints\.O\[1\]: ", r.output), r.output
+
+
+def test_a_conflicting_length_is_said_with_the_digits_that_differ(run_cli, tmp_path):
+    """40.000001 against 40 was said as "B-O is 40 but … make it 40"."""
+    r = run_cli("validate", _fourbar(tmp_path, 0.0, "40.000001"))
+    assert r.exit_code == 2, r.output
+    assert "B-O is 40.000001 but the other lengths and positions make it 40\n" in r.output, r.output

@@ -21,6 +21,7 @@ naming the link or joint (exit 2).
 from __future__ import annotations
 
 import math
+import sys
 from itertools import combinations
 from typing import Annotated, Any, Literal
 
@@ -119,7 +120,8 @@ def assemble(data: dict[str, Any]) -> dict[str, Any]:
     for name, v in data["joints"].items():
         if isinstance(v, dict):
             pending[name] = _model(Placement, v, ("joints", name))
-        elif isinstance(v, (list, tuple)) and len(v) == 2 and all(isinstance(c, (int, float)) for c in v):
+        elif isinstance(v, (list, tuple)) and len(v) == 2 and all(
+                isinstance(c, (int, float)) and not isinstance(c, bool) for c in v):
             known[name] = complex(float(v[0]), float(v[1]))
         else:
             return data  # let the spec model report the malformed position
@@ -131,7 +133,7 @@ def assemble(data: dict[str, Any]) -> dict[str, Any]:
                     raise InputError(f"unknown joint {j!r}", field=("links", link, "joints"))
             key = frozenset((a, b))
             if key in length and not math.isclose(length[key][0], value, rel_tol=1e-12):
-                raise InputError(f"conflicting lengths: {a}-{b} is {value:g} here but {length[key][0]:g} on link "
+                raise InputError(f"conflicting lengths: {a}-{b} is {value:.12g} here but {length[key][0]:.12g} on link "
                                  f"{length[key][1]}", field=("links", link))
             length.setdefault(key, (value, link))
     placed = _place(known, pending, length)
@@ -226,10 +228,14 @@ def _on_line(name: str, p: str, zp: complex, rp: float, line: list[complex], nea
 
 
 def _check_lengths(placed: dict[str, complex], length: dict[frozenset[str], tuple[float, str]]) -> None:
-    size = max((abs(z) for z in placed.values()), default=1.0) or 1.0
+    """Every given length within 1e-9 of the linkage's size of its joints' distance (plus the rounding
+    of coordinates far from the origin): relative to the linkage, not to where it lies."""
+    first = next(iter(placed.values()), 0j)
+    size = max((abs(z - first) for z in placed.values()), default=0.0)
+    rounding = 16 * sys.float_info.epsilon * max((abs(z) for z in placed.values()), default=0.0)
     for key, (value, link) in length.items():
         a, b = sorted(key)
         got = abs(placed[a] - placed[b])
-        if abs(got - value) > 1e-9 * max(size, value):
-            raise InputError(f"conflicting lengths: {a}-{b} is {value:g} but the other lengths and positions "
+        if abs(got - value) > 1e-9 * max(size, value) + rounding:
+            raise InputError(f"conflicting lengths: {a}-{b} is {value:.12g} but the other lengths and positions "
                              f"make it {got:.12g}", field=("links", link))
