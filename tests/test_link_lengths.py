@@ -202,3 +202,17 @@ def test_a_conflicting_length_is_said_with_the_digits_that_differ(run_cli, tmp_p
     r = run_cli("validate", _fourbar(tmp_path, 0.0, "40.000001"))
     assert r.exit_code == 2, r.output
     assert "B-O is 40.000001 but the other lengths and positions make it 40\n" in r.output, r.output
+
+
+@pytest.mark.parametrize("old, new, pattern", [
+    ("A: {from: [O], angle_deg: 60}", "A: {from: [Z], angle_deg: 60}", r"f\.yaml:6: joints\.A\.from\[0\]: 'Z' is an unknown joint"),
+    ("C: {from: [A, B], branch: ccw}", "C: {from: [A, C], branch: ccw}", r"f\.yaml:7: joints\.C\.from\[1\]: 'C' is the joint itself"),
+    ("C: {from: [A, B], branch: ccw}", "C: {line: [O, b], near: [30, 0]}", r"f\.yaml:7: joints\.C\.line\[1\]: 'b' is an unknown joint"),
+])
+def test_a_placement_naming_an_unknown_joint_says_so(run_cli, tmp_path, old, new, pattern):
+    """A misspelt joint in ``from``/``line`` was 'cannot be placed: it needs links with lengths to two placed joints'."""
+    spec = _fourbar(tmp_path, 0.0, "40")
+    spec.write_text(spec.read_text().replace(old, new))
+    r = run_cli("validate", spec)
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert re.search(pattern, r.output), r.output

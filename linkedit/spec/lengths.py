@@ -125,6 +125,12 @@ def assemble(data: dict[str, Any]) -> dict[str, Any]:
             known[name] = complex(float(v[0]), float(v[1]))
         else:
             return data  # let the spec model report the malformed position
+    for name, how in pending.items():
+        for key, refs in (("from", how.from_), ("line", how.line)):
+            for i, j in enumerate(refs or ()):
+                if j == name or (j not in known and j not in pending):
+                    what = "the joint itself" if j == name else "an unknown joint"
+                    raise InputError(f"{j!r} is {what}", field=("joints", name, key, i))
     length: dict[frozenset[str], tuple[float, str]] = {}
     for link, ll in given.items():
         for a, b, value in ll.pair_lengths():
