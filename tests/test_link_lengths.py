@@ -216,3 +216,19 @@ def test_a_placement_naming_an_unknown_joint_says_so(run_cli, tmp_path, old, new
     r = run_cli("validate", spec)
     assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
     assert re.search(pattern, r.output), r.output
+
+
+@pytest.mark.parametrize("angle, ok", [("9.090276920822323", True), ("189.09027692082232", True), ("10", False),
+                                       ("0", False)])
+def test_a_slot_not_along_the_line_its_joint_is_placed_on_is_refused(run_cli, tmp_path, angle, ok):
+    """P is placed on the line L1-L2 (atan(8/50) = 9.0903°); a slider slot at 10° moved it along another line
+    than the one it was placed on (exit 0)."""
+    text = SLIDER.replace("NEAR", "[30, 0]").replace("angle_deg: 9.090276920822323", f"angle_deg: {angle}")
+    (tmp_path / "s.yaml").write_text(text)
+    r = run_cli("validate", tmp_path / "s.yaml")
+    if ok:
+        assert r.exit_code == 0, r.output
+        return
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert re.search(r"s\.yaml:14: sliders\.P\.angle_deg: the slot points at [\d.]+° but joint 'P' is placed on the "
+                     r"line L1-L2 \(9\.09027692082°", r.output), r.output

@@ -144,6 +144,7 @@ def assemble(data: dict[str, Any]) -> dict[str, Any]:
             length.setdefault(key, (value, link))
     placed = _place(known, pending, length)
     _check_lengths(placed, length)
+    _check_slots(data.get("sliders"), pending, placed)
     joints = {n: [placed[n].real, placed[n].imag] for n in data["joints"]}
     links = {n: (list(v["joints"]) if isinstance(v, dict) else v) for n, v in data["links"].items()}
     return {**data, "joints": joints, "links": links}
@@ -231,6 +232,22 @@ def _on_line(name: str, p: str, zp: complex, rp: float, line: list[complex], nea
                          f"({abs(zp - foot):g} from {p})", field=("joints", name))
     ends = (foot + u * math.sqrt(h2), foot - u * math.sqrt(h2))
     return min(ends, key=lambda z: abs(z - near))
+
+
+def _check_slots(sliders: Any, pending: dict[str, Placement], placed: dict[str, complex]) -> None:
+    """A joint placed on the line P-Q whose slider's slot points another way (``angle_deg`` not along
+    P-Q at rest) is a contradiction, refused like conflicting lengths."""
+    for name, s in (sliders or {}).items() if isinstance(sliders, dict) else ():
+        how = pending.get(s.get("joint")) if isinstance(s, dict) and isinstance(s.get("joint"), str) else None
+        angle = s.get("angle_deg", 0.0) if how is not None and how.line else None
+        if not isinstance(angle, (int, float)) or isinstance(angle, bool) or not math.isfinite(angle):
+            continue  # no line placement, or a malformed angle the spec model reports
+        p, q = (placed[j] for j in how.line)  # type: ignore[union-attr]
+        line = math.degrees(math.atan2((q - p).imag, (q - p).real))
+        if abs(math.sin(math.radians(angle - line))) > 1e-9:
+            raise InputError(f"the slot points at {angle:g}° but joint {s['joint']!r} is placed on the line "
+                             f"{how.line[0]}-{how.line[1]} ({line % 180:.12g}° or {line % 180 + 180:.12g}°)",
+                             field=("sliders", name, "angle_deg"))
 
 
 def _check_lengths(placed: dict[str, complex], length: dict[frozenset[str], tuple[float, str]]) -> None:
