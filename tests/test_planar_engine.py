@@ -115,6 +115,20 @@ def test_collinear_dyad_at_rest_is_rejected():
         compile_plan(spec_of(text))
 
 
+def test_collinear_dyad_at_rest_says_the_motor_angle_in_0_to_360():
+    """The crank at 217° with the dyad C stretched at rest was said as 'motor angle -143.0°'."""
+    text = """name: stretched
+units: mm
+joints: {O: [0, 0], B: [32, 24], A: [-8, -6], C: [12, 9]}
+ground: [O, B]
+links: {crank: [O, A], coupler: [A, C], rocker: [B, C]}
+motor: {joint: A, pivot: O}
+"""
+    angle = np.degrees(np.arctan2(-6, -8)) % 360  # 216.87°
+    with pytest.raises(MechanismError, match=rf"collinear with B and A at the rest pose \(motor angle {angle:.1f}°\)"):
+        compile_plan(spec_of(text))
+
+
 def test_lockup_names_joint_and_motor_angles():
     spec = spec_of(LOCKING)
     with pytest.raises(MechanismError, match=r"cannot be assembled for motor angles \d+\.\d°…\d+\.\d°: joint B"):

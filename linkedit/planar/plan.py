@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from linkedit.errors import MechanismError
+from linkedit.planar.diagnostics import degrees_text
 from linkedit.planar.graph import LinkageGraph, Mobility, mobility
 from linkedit.planar.ordering import order_joints
 from linkedit.planar.rules import Dyad, Rigid, Rule, Step, compile_steps
@@ -280,7 +281,7 @@ def compile_plan(spec: LinkageSpec) -> Plan:
             n = graph.joint_names
             raise MechanismError(
                 f"joint {n[r.k]} is collinear with {n[r.i]} and {n[r.j]} at the rest pose (motor angle "
-                f"{_rest_input(graph):.1f}°): the branch of its triangle is undefined; move it off the line")
+                f"{degrees_text(_rest_input(graph))}): the branch of its triangle is undefined; move it off the line")
     if mob.rank < 1:
         raise MechanismError(f"the linkage cannot move: it is over-constrained ({mob.describe()})")
     if mob.rank > 1:
