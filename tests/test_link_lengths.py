@@ -232,3 +232,24 @@ def test_a_slot_not_along_the_line_its_joint_is_placed_on_is_refused(run_cli, tm
     assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
     assert re.search(r"s\.yaml:14: sliders\.P\.angle_deg: the slot points at [\d.]+° but joint 'P' is placed on the "
                      r"line L1-L2 \(9\.09027692082°", r.output), r.output
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e-160, 1e160, 1e200])
+def test_length_given_specs_assemble_at_any_magnitude_a_double_holds(tmp_path, scale):
+    """The four-bar and the line-placed slider scaled by 1e±200 assemble to their rest poses scaled (the
+    squares of the lengths under- or overflowed: 'conflicting lengths … make it 0', 'cannot close a
+    triangle'), as their coordinate specs load and simulate at that scale."""
+    from linkedit.spec import load_model
+    from linkedit.spec.linkage import LinkageSpec
+
+    def scaled(text: str) -> str:
+        return re.sub(r"(?<=[\[ ])(?<!angle_deg: )-?\d+(\.\d+)?(?=[,\]}\n])", lambda m: repr(float(m.group(0)) * scale), text)
+
+    for text in (FOURBAR.replace("X0", "0").replace("X1", "40").replace("Y0", "0").replace("FRAME", "40"),
+                 SLIDER.replace("NEAR", "[30, 0]")):
+        (tmp_path / "a.yaml").write_text(text)
+        (tmp_path / "b.yaml").write_text(scaled(text))
+        want = load_model(LinkageSpec, tmp_path / "a.yaml").joints
+        got = load_model(LinkageSpec, tmp_path / "b.yaml").joints
+        for n, p in want.items():
+            assert math.dist(p, (got[n][0] / scale, got[n][1] / scale)) < 1e-12, n

@@ -201,17 +201,19 @@ def _widest(anchors: list[str], known: dict[str, complex]) -> tuple[str, str]:
 
 
 def _intersect(name: str, p: str, zp: complex, rp: float, q: str, zq: complex, rq: float, how: Placement) -> complex:
-    """The point at ``rp`` from p and ``rq`` from q, on the branch ``how`` asks for."""
+    """The point at ``rp`` from p and ``rq`` from q, on the branch ``how`` asks for (computed in units
+    of |p-q|, so that no square over- or underflows at any magnitude a double holds)."""
     d = zq - zp
     dist = abs(d)
-    along = (rp * rp - rq * rq + dist * dist) / (2.0 * dist) if dist > 0 else math.inf
-    h2 = rp * rp - along * along
+    a, b = (rp / dist, rq / dist) if dist > 0 else (math.inf, math.inf)
+    along = (a * a - b * b + 1.0) / 2.0
+    h2 = a * a - along * along
     if not math.isfinite(h2) or h2 < 0:
         raise InputError(f"cannot be assembled: {name}-{p} = {rp:g} and {name}-{q} = {rq:g} cannot close a triangle "
                          f"with {p}-{q} = {dist:g}", field=("joints", name))
     across = math.sqrt(h2)
-    left = zp + d / dist * complex(along, across)
-    right = zp + d / dist * complex(along, -across)
+    left = zp + d * complex(along, across)
+    right = zp + d * complex(along, -across)
     if how.near is not None:
         target = complex(*how.near)
         return left if abs(left - target) <= abs(right - target) else right
@@ -226,11 +228,12 @@ def _on_line(name: str, p: str, zp: complex, rp: float, line: list[complex], nea
                          field=("joints", name, "line"))
     u = (b - a) / abs(b - a)
     foot = a + u * ((zp - a) * u.conjugate()).real  # the foot of the perpendicular from p
-    h2 = rp * rp - abs(zp - foot) ** 2
+    off = abs(zp - foot) / rp  # in units of rp: no square over- or underflows
+    h2 = (1.0 - off) * (1.0 + off)
     if not math.isfinite(h2) or h2 < 0:
         raise InputError(f"cannot be assembled: {name}-{p} = {rp:g} cannot reach the line it slides on "
                          f"({abs(zp - foot):g} from {p})", field=("joints", name))
-    ends = (foot + u * math.sqrt(h2), foot - u * math.sqrt(h2))
+    ends = (foot + u * rp * math.sqrt(h2), foot - u * rp * math.sqrt(h2))
     return min(ends, key=lambda z: abs(z - near))
 
 
