@@ -92,6 +92,8 @@ def test_brace_length_is_the_rest_pose_distance():
     ("G: {from: [D, F], branch: ccw}", "G: {from: [D, F]}", r":\d+: joints\.G: from two joints needs branch"),
     ("lengths: [36.7, 49, 65.7]", "lengths: [36.7, 49]", r":\d+: links\.lower: lengths needs 3 values"),
     ("crank: {joints: [O, A], length: 15}", "crank: {joints: [O, A], length: -15}", r":\d+: links\.crank(\.length)?: "),
+    ("crank: {joints: [O, A], length: 15}", "crank: {joints: [O, O], length: 15}",
+     r":\d+: links\.crank: a joint is listed twice"),  # was 'joints.A.from: no link gives the length O-A'
     ("F: {near: [-59, -28]}", "F: {near: [-59, -28]}\n  H: {near: [0, 9]}",
      r":\d+: joints\.H: joint 'H' cannot be placed"),
 ])

@@ -72,6 +72,8 @@ class LinkLengths(SpecModel):
     @pydantic.model_validator(mode="after")
     def _count(self) -> "LinkLengths":
         n = len(self.joints)
+        if len(set(self.joints)) != n:
+            raise ValueError("a joint is listed twice")
         if n == 2 and (self.length is None) == (self.lengths is None):
             raise ValueError("a link of 2 joints needs length (or lengths: [one value])")
         if n > 2 and (self.lengths is None or self.length is not None):
