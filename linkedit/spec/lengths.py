@@ -128,11 +128,11 @@ def assemble(data: dict[str, Any]) -> dict[str, Any]:
         else:
             return data  # let the spec model report the malformed position
     for name, how in pending.items():
-        for key, refs in (("from", how.from_), ("line", how.line)):
+        for field, refs in (("from", how.from_), ("line", how.line)):
             for i, j in enumerate(refs or ()):
                 if j == name or (j not in known and j not in pending):
                     what = "the joint itself" if j == name else "an unknown joint"
-                    raise InputError(f"{j!r} is {what}", field=("joints", name, key, i))
+                    raise InputError(f"{j!r} is {what}", field=("joints", name, field, i))
     length: dict[frozenset[str], tuple[float, str]] = {}
     for link, ll in given.items():
         for a, b, value in ll.pair_lengths():
@@ -243,14 +243,16 @@ def _check_slots(sliders: Any, pending: dict[str, Placement], placed: dict[str, 
     """A joint placed on the line P-Q whose slider's slot points another way (``angle_deg`` not along
     P-Q at rest) is a contradiction, refused like conflicting lengths."""
     for name, s in (sliders or {}).items() if isinstance(sliders, dict) else ():
-        how = pending.get(s.get("joint")) if isinstance(s, dict) and isinstance(s.get("joint"), str) else None
-        angle = s.get("angle_deg", 0.0) if how is not None and how.line else None
-        if not isinstance(angle, (int, float)) or isinstance(angle, bool) or not math.isfinite(angle):
+        joint = s.get("joint") if isinstance(s, dict) else None
+        how = pending.get(joint) if isinstance(joint, str) else None
+        angle = s.get("angle_deg", 0.0) if how is not None and how.line is not None else None
+        if how is None or how.line is None or not isinstance(angle, (int, float)) or isinstance(angle, bool) \
+                or not math.isfinite(angle):
             continue  # no line placement, or a malformed angle the spec model reports
-        p, q = (placed[j] for j in how.line)  # type: ignore[union-attr]
+        p, q = (placed[j] for j in how.line)
         line = math.degrees(math.atan2((q - p).imag, (q - p).real))
         if abs(math.sin(math.radians(angle - line))) > 1e-9:
-            raise InputError(f"the slot points at {angle:g}° but joint {s['joint']!r} is placed on the line "
+            raise InputError(f"the slot points at {angle:g}° but joint {joint!r} is placed on the line "
                              f"{how.line[0]}-{how.line[1]} ({line % 180:.12g}° or {line % 180 + 180:.12g}°)",
                              field=("sliders", name, "angle_deg"))
 
