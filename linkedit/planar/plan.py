@@ -283,7 +283,9 @@ def compile_plan(spec: LinkageSpec) -> Plan:
                 f"joint {n[r.k]} is collinear with {n[r.i]} and {n[r.j]} at the rest pose (motor angle "
                 f"{degrees_text(_rest_input(graph))}): the branch of its triangle is undefined; move it off the line")
     if mob.rank < 1:
-        raise MechanismError(f"the linkage cannot move: it is over-constrained ({mob.describe()})")
+        held = graph.joint_names[graph.motor]
+        raise MechanismError(f"the linkage cannot move: it is over-constrained ({mob.describe()}): its links hold "
+                             f"the motor's joint {held} still")
     if mob.rank > 1:
         raise MechanismError(f"the linkage is under-constrained ({mob.describe()}; one motor drives 1)")
     initial = set(graph.ground) | ({graph.motor} if graph.pivot >= 0 else set())
