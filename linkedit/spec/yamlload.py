@@ -222,6 +222,9 @@ def first_problem(model: type[pydantic.BaseModel], exc: pydantic.ValidationError
         msg = "unknown field (not part of this format)" + hint
     elif err["type"] == "missing":
         msg = "required field is missing"
+    elif err["type"] == "too_short" and "min_length" in err.get("ctx", {}):
+        least = err["ctx"]["min_length"]
+        msg = f"needs at least {least} {'entry' if least == 1 else 'entries'}, not {err['ctx'].get('actual_length', 0)}"
     elif err["type"] == "string_pattern_mismatch" and err.get("ctx", {}).get("pattern") in PATTERN_WORDS:
         msg = PATTERN_WORDS[err["ctx"]["pattern"]](str(err["input"]).strip()) or msg
     elif err["type"] in BOUNDS and abs(bound := err["ctx"][BOUNDS[err["type"]][0]]) >= 1e16:
