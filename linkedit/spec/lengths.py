@@ -210,6 +210,8 @@ def _intersect(name: str, p: str, zp: complex, rp: float, q: str, zq: complex, r
     a, b = (rp / dist, rq / dist) if dist > 0 else (math.inf, math.inf)
     along = (a * a - b * b + 1.0) / 2.0
     h2 = a * a - along * along
+    if -8 * sys.float_info.epsilon * (a * a + b * b + 1.0) <= h2 < 0:
+        h2 = 0.0  # a flat triangle (1 + 2.5 = 3.5), negative only by rounding
     if not math.isfinite(h2) or h2 < 0:
         raise InputError(f"cannot be assembled: {name}-{p} = {rp:g} and {name}-{q} = {rq:g} cannot close a triangle "
                          f"with {p}-{q} = {dist:g}", field=("joints", name))
@@ -232,6 +234,8 @@ def _on_line(name: str, p: str, zp: complex, rp: float, line: list[complex], nea
     foot = a + u * ((zp - a) * u.conjugate()).real  # the foot of the perpendicular from p
     off = abs(zp - foot) / rp  # in units of rp: no square over- or underflows
     h2 = (1.0 - off) * (1.0 + off)
+    if -4 * sys.float_info.epsilon <= h2 < 0:
+        h2 = 0.0  # the rod just touches the line, past it only by rounding
     if not math.isfinite(h2) or h2 < 0:
         raise InputError(f"cannot be assembled: {name}-{p} = {rp:g} cannot reach the line it slides on "
                          f"({abs(zp - foot):g} from {p})", field=("joints", name))
