@@ -92,6 +92,8 @@ def test_brace_length_is_the_rest_pose_distance():
     ("G: {from: [D, F], branch: ccw}", "G: {from: [D, F]}", r":\d+: joints\.G: from two joints needs branch"),
     ("lengths: [36.7, 49, 65.7]", "lengths: [36.7, 49]", r":\d+: links\.lower: lengths needs 3 values"),
     ("crank: {joints: [O, A], length: 15}", "crank: {joints: [O, A], length: -15}", r":\d+: links\.crank(\.length)?: "),
+    ("crank: {joints: [O, A], length: 15}", "crank: {joints: [O, O], length: 15}",
+     r":\d+: links\.crank: a joint is listed twice"),  # was 'joints.A.from: no link gives the length O-A'
     ("F: {near: [-59, -28]}", "F: {near: [-59, -28]}\n  H: {near: [0, 9]}",
      r":\d+: joints\.H: joint 'H' cannot be placed"),
 ])
@@ -152,3 +154,104 @@ def test_bad_line_one_line_exit_2(run_cli, tmp_path, old, new, pattern):
     r = run_cli("simulate", tmp_path / "bad.yaml", "-o", tmp_path / "x.h5")
     assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
     assert re.search(pattern, r.output), r.output
+
+
+FOURBAR = """name: fourbar
+units: mm
+joints:
+  O: [X0, Y0]
+  B: [X1, Y0]
+  A: {from: [O], angle_deg: 60}
+  C: {from: [A, B], branch: ccw}
+ground: [O, B]
+links:
+  frame: {joints: [O, B], length: FRAME}
+  crank: {joints: [O, A], length: 10}
+  coupler: {joints: [A, C], length: 35}
+  rocker: {joints: [B, C], length: 30}
+motor: {joint: A, pivot: O}
+"""
+
+
+def _fourbar(tmp_path, x0: float, frame: str, x1: float | None = None, y0: str | None = None):
+    text = (FOURBAR.replace("X0", repr(x0)).replace("X1", repr(x0 + 40 if x1 is None else x1))
+            .replace("Y0", y0 or repr(x0)).replace("FRAME", frame))
+    (tmp_path / "f.yaml").write_text(text)
+    return tmp_path / "f.yaml"
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e7])
+def test_a_conflicting_length_is_refused_however_far_the_linkage_lies_from_the_origin(run_cli, tmp_path, offset):
+    """The frame O-B is 40 by its positions; a length of 40.01 (2.5e-4 of it) contradicts them, 14,000 km
+    from the origin as at it (the check was relative to the distance from the origin: 0.014 there)."""
+    r = run_cli("validate", _fourbar(tmp_path, offset, "40.01"))
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert re.search(r"f\.yaml:10: links\.frame: conflicting lengths: B-O is 40\.01 but .* make it 40\b", r.output), r.output
+    r = run_cli("validate", _fourbar(tmp_path, offset, "40"))
+    assert r.exit_code == 0, r.output
+
+
+@pytest.mark.parametrize("y0", ["true", "false"])
+def test_a_boolean_coordinate_is_refused_in_a_length_given_spec(run_cli, tmp_path, y0):
+    """``[40, true]`` is not [40, 1] (YAML reads true as a boolean): refused as in a coordinate spec."""
+    r = run_cli("validate", _fourbar(tmp_path, 0.0, "40", y0=y0))
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert re.search(r"f\.yaml:4: joints\.O\[1\]: ", r.output), r.output
+
+
+def test_a_conflicting_length_is_said_with_the_digits_that_differ(run_cli, tmp_path):
+    """40.000001 against 40 was said as "B-O is 40 but … make it 40"."""
+    r = run_cli("validate", _fourbar(tmp_path, 0.0, "40.000001"))
+    assert r.exit_code == 2, r.output
+    assert "B-O is 40.000001 but the other lengths and positions make it 40\n" in r.output, r.output
+
+
+@pytest.mark.parametrize("old, new, pattern", [
+    ("A: {from: [O], angle_deg: 60}", "A: {from: [Z], angle_deg: 60}", r"f\.yaml:6: joints\.A\.from\[0\]: 'Z' is an unknown joint"),
+    ("C: {from: [A, B], branch: ccw}", "C: {from: [A, C], branch: ccw}", r"f\.yaml:7: joints\.C\.from\[1\]: 'C' is the joint itself"),
+    ("C: {from: [A, B], branch: ccw}", "C: {line: [O, b], near: [30, 0]}", r"f\.yaml:7: joints\.C\.line\[1\]: 'b' is an unknown joint"),
+])
+def test_a_placement_naming_an_unknown_joint_says_so(run_cli, tmp_path, old, new, pattern):
+    """A misspelt joint in ``from``/``line`` was 'cannot be placed: it needs links with lengths to two placed joints'."""
+    spec = _fourbar(tmp_path, 0.0, "40")
+    spec.write_text(spec.read_text().replace(old, new))
+    r = run_cli("validate", spec)
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert re.search(pattern, r.output), r.output
+
+
+@pytest.mark.parametrize("angle, ok", [("9.090276920822323", True), ("189.09027692082232", True), ("10", False),
+                                       ("0", False)])
+def test_a_slot_not_along_the_line_its_joint_is_placed_on_is_refused(run_cli, tmp_path, angle, ok):
+    """P is placed on the line L1-L2 (atan(8/50) = 9.0903°); a slider slot at 10° moved it along another line
+    than the one it was placed on (exit 0)."""
+    text = SLIDER.replace("NEAR", "[30, 0]").replace("angle_deg: 9.090276920822323", f"angle_deg: {angle}")
+    (tmp_path / "s.yaml").write_text(text)
+    r = run_cli("validate", tmp_path / "s.yaml")
+    if ok:
+        assert r.exit_code == 0, r.output
+        return
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert re.search(r"s\.yaml:14: sliders\.P\.angle_deg: the slot points at [\d.]+° but joint 'P' is placed on the "
+                     r"line L1-L2 \(9\.09027692082°", r.output), r.output
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e-160, 1e160, 1e200])
+def test_length_given_specs_assemble_at_any_magnitude_a_double_holds(tmp_path, scale):
+    """The four-bar and the line-placed slider scaled by 1e±200 assemble to their rest poses scaled (the
+    squares of the lengths under- or overflowed: 'conflicting lengths … make it 0', 'cannot close a
+    triangle'), as their coordinate specs load and simulate at that scale."""
+    from linkedit.spec import load_model
+    from linkedit.spec.linkage import LinkageSpec
+
+    def scaled(text: str) -> str:
+        return re.sub(r"(?<=[\[ ])(?<!angle_deg: )-?\d+(\.\d+)?(?=[,\]}\n])", lambda m: repr(float(m.group(0)) * scale), text)
+
+    for text in (FOURBAR.replace("X0", "0").replace("X1", "40").replace("Y0", "0").replace("FRAME", "40"),
+                 SLIDER.replace("NEAR", "[30, 0]")):
+        (tmp_path / "a.yaml").write_text(text)
+        (tmp_path / "b.yaml").write_text(scaled(text))
+        want = load_model(LinkageSpec, tmp_path / "a.yaml").joints
+        got = load_model(LinkageSpec, tmp_path / "b.yaml").joints
+        for n, p in want.items():
+            assert math.dist(p, (got[n][0] / scale, got[n][1] / scale)) < 1e-12, n

@@ -105,13 +105,27 @@ def test_under_constrained_linkage_reports_mobility():
 
 def test_over_constrained_structure_is_rejected():
     text = FOURBAR.replace("  rocker: [D, B]\n", "  rocker: [D, B]\n  brace: [O, B]\n")
-    with pytest.raises(MechanismError, match=r"over-constrained \(mobility 0"):
+    with pytest.raises(MechanismError, match=r"over-constrained \(mobility 0 .*\): its links hold the motor's joint A still$"):
         compile_plan(spec_of(text))
 
 
 def test_collinear_dyad_at_rest_is_rejected():
     text = FOURBAR.replace("B: [2.2, 2.1]", "B: [2.2, 0]").replace("at: [1.2, 1.6]", "at: [1.2, 0.5]")
     with pytest.raises(MechanismError, match="collinear"):
+        compile_plan(spec_of(text))
+
+
+def test_collinear_dyad_at_rest_says_the_motor_angle_in_0_to_360():
+    """The crank at 217° with the dyad C stretched at rest was said as 'motor angle -143.0°'."""
+    text = """name: stretched
+units: mm
+joints: {O: [0, 0], B: [32, 24], A: [-8, -6], C: [12, 9]}
+ground: [O, B]
+links: {crank: [O, A], coupler: [A, C], rocker: [B, C]}
+motor: {joint: A, pivot: O}
+"""
+    angle = np.degrees(np.arctan2(-6, -8)) % 360  # 216.87°
+    with pytest.raises(MechanismError, match=rf"collinear with B and A at the rest pose \(motor angle {angle:.1f}°\)"):
         compile_plan(spec_of(text))
 
 

@@ -23,6 +23,36 @@ def test_duplicate_key_is_an_error_with_its_line():
     assert str(info.value) == "x.yaml:3: joints.A: duplicate key 'A'"
 
 
+def test_names_that_differ_only_by_surrounding_spaces_are_duplicate_keys(run_cli, tmp_path):
+    """A name is read without its surrounding spaces, so ``"B "`` is B: the second silently replaced the
+    other (joint B of crank-rocker.yaml: the first one, [41, 5], was dropped, exit 0)."""
+    from tests.conftest import EXAMPLES
+
+    text = (EXAMPLES / "crank-rocker.yaml").read_text()
+    spec = tmp_path / "s.yaml"
+    spec.write_text(text.replace("  B: [63", '  " B": [41, 5]\n  B: [63', 1))
+    r = run_cli("validate", spec)
+    assert r.exit_code == 2, r.output
+    assert r.output.strip() == (f"linkedit: error: {spec}:12: joints.B: duplicate key 'B' "
+                                "(' B' above is the same name: names are read without surrounding spaces)")
+
+
+@pytest.mark.parametrize("old, new, expected", [
+    ("  D: [75, 0]\n  A: [25, 0]\n  B: [63, 58.787753826796276]\n", "  D: [75, 0]\n", ":7: joints: needs at least 3 entries, not 2"),
+    ("ground: [O, D]", "ground: []", ":12: ground: needs at least 1 entry, not 0"),
+])
+def test_too_few_entries_are_said_in_words(run_cli, tmp_path, old, new, expected):
+    """Two joints were 'Dictionary should have at least 3 items after validation, not 2'."""
+    from tests.conftest import EXAMPLES
+
+    text = (EXAMPLES / "crank-rocker.yaml").read_text()
+    assert old in text
+    spec = tmp_path / "s.yaml"
+    spec.write_text(text.replace(old, new, 1))
+    r = run_cli("validate", spec)
+    assert r.exit_code == 2 and r.output.strip() == f"linkedit: error: {spec}{expected}", r.output
+
+
 def test_malformed_yaml_names_the_line():
     with pytest.raises(InputError) as info:
         load_yaml("x.yaml", "a: [1, 2\nb: 3\n")

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from linkedit.errors import MechanismError
+from linkedit.planar.diagnostics import degrees_text
 from linkedit.planar.graph import LinkageGraph, Mobility, mobility
 from linkedit.planar.ordering import order_joints
 from linkedit.planar.rules import Dyad, Rigid, Rule, Step, compile_steps
@@ -280,9 +281,11 @@ def compile_plan(spec: LinkageSpec) -> Plan:
             n = graph.joint_names
             raise MechanismError(
                 f"joint {n[r.k]} is collinear with {n[r.i]} and {n[r.j]} at the rest pose (motor angle "
-                f"{_rest_input(graph):.1f}°): the branch of its triangle is undefined; move it off the line")
+                f"{degrees_text(_rest_input(graph))}): the branch of its triangle is undefined; move it off the line")
     if mob.rank < 1:
-        raise MechanismError(f"the linkage cannot move: it is over-constrained ({mob.describe()})")
+        held = graph.joint_names[graph.motor]
+        raise MechanismError(f"the linkage cannot move: it is over-constrained ({mob.describe()}): its links hold "
+                             f"the motor's joint {held} still")
     if mob.rank > 1:
         raise MechanismError(f"the linkage is under-constrained ({mob.describe()}; one motor drives 1)")
     initial = set(graph.ground) | ({graph.motor} if graph.pivot >= 0 else set())

@@ -21,6 +21,7 @@ naming the link or joint (exit 2).
 from __future__ import annotations
 
 import math
+import sys
 from itertools import combinations
 from typing import Annotated, Any, Literal
 
@@ -71,6 +72,8 @@ class LinkLengths(SpecModel):
     @pydantic.model_validator(mode="after")
     def _count(self) -> "LinkLengths":
         n = len(self.joints)
+        if len(set(self.joints)) != n:
+            raise ValueError("a joint is listed twice")
         if n == 2 and (self.length is None) == (self.lengths is None):
             raise ValueError("a link of 2 joints needs length (or lengths: [one value])")
         if n > 2 and (self.lengths is None or self.length is not None):
@@ -119,10 +122,17 @@ def assemble(data: dict[str, Any]) -> dict[str, Any]:
     for name, v in data["joints"].items():
         if isinstance(v, dict):
             pending[name] = _model(Placement, v, ("joints", name))
-        elif isinstance(v, (list, tuple)) and len(v) == 2 and all(isinstance(c, (int, float)) for c in v):
+        elif isinstance(v, (list, tuple)) and len(v) == 2 and all(
+                isinstance(c, (int, float)) and not isinstance(c, bool) for c in v):
             known[name] = complex(float(v[0]), float(v[1]))
         else:
             return data  # let the spec model report the malformed position
+    for name, how in pending.items():
+        for field, refs in (("from", how.from_), ("line", how.line)):
+            for i, j in enumerate(refs or ()):
+                if j == name or (j not in known and j not in pending):
+                    what = "the joint itself" if j == name else "an unknown joint"
+                    raise InputError(f"{j!r} is {what}", field=("joints", name, field, i))
     length: dict[frozenset[str], tuple[float, str]] = {}
     for link, ll in given.items():
         for a, b, value in ll.pair_lengths():
@@ -131,11 +141,12 @@ def assemble(data: dict[str, Any]) -> dict[str, Any]:
                     raise InputError(f"unknown joint {j!r}", field=("links", link, "joints"))
             key = frozenset((a, b))
             if key in length and not math.isclose(length[key][0], value, rel_tol=1e-12):
-                raise InputError(f"conflicting lengths: {a}-{b} is {value:g} here but {length[key][0]:g} on link "
+                raise InputError(f"conflicting lengths: {a}-{b} is {value:.12g} here but {length[key][0]:.12g} on link "
                                  f"{length[key][1]}", field=("links", link))
             length.setdefault(key, (value, link))
     placed = _place(known, pending, length)
     _check_lengths(placed, length)
+    _check_slots(data.get("sliders"), pending, placed)
     joints = {n: [placed[n].real, placed[n].imag] for n in data["joints"]}
     links = {n: (list(v["joints"]) if isinstance(v, dict) else v) for n, v in data["links"].items()}
     return {**data, "joints": joints, "links": links}
@@ -192,17 +203,21 @@ def _widest(anchors: list[str], known: dict[str, complex]) -> tuple[str, str]:
 
 
 def _intersect(name: str, p: str, zp: complex, rp: float, q: str, zq: complex, rq: float, how: Placement) -> complex:
-    """The point at ``rp`` from p and ``rq`` from q, on the branch ``how`` asks for."""
+    """The point at ``rp`` from p and ``rq`` from q, on the branch ``how`` asks for (computed in units
+    of |p-q|, so that no square over- or underflows at any magnitude a double holds)."""
     d = zq - zp
     dist = abs(d)
-    along = (rp * rp - rq * rq + dist * dist) / (2.0 * dist) if dist > 0 else math.inf
-    h2 = rp * rp - along * along
+    a, b = (rp / dist, rq / dist) if dist > 0 else (math.inf, math.inf)
+    along = (a * a - b * b + 1.0) / 2.0
+    h2 = a * a - along * along
+    if -8 * sys.float_info.epsilon * (a * a + b * b + 1.0) <= h2 < 0:
+        h2 = 0.0  # a flat triangle (1 + 2.5 = 3.5), negative only by rounding
     if not math.isfinite(h2) or h2 < 0:
         raise InputError(f"cannot be assembled: {name}-{p} = {rp:g} and {name}-{q} = {rq:g} cannot close a triangle "
                          f"with {p}-{q} = {dist:g}", field=("joints", name))
     across = math.sqrt(h2)
-    left = zp + d / dist * complex(along, across)
-    right = zp + d / dist * complex(along, -across)
+    left = zp + d * complex(along, across)
+    right = zp + d * complex(along, -across)
     if how.near is not None:
         target = complex(*how.near)
         return left if abs(left - target) <= abs(right - target) else right
@@ -217,19 +232,44 @@ def _on_line(name: str, p: str, zp: complex, rp: float, line: list[complex], nea
                          field=("joints", name, "line"))
     u = (b - a) / abs(b - a)
     foot = a + u * ((zp - a) * u.conjugate()).real  # the foot of the perpendicular from p
-    h2 = rp * rp - abs(zp - foot) ** 2
+    off = abs(zp - foot) / rp  # in units of rp: no square over- or underflows
+    h2 = (1.0 - off) * (1.0 + off)
+    if -4 * sys.float_info.epsilon <= h2 < 0:
+        h2 = 0.0  # the rod just touches the line, past it only by rounding
     if not math.isfinite(h2) or h2 < 0:
         raise InputError(f"cannot be assembled: {name}-{p} = {rp:g} cannot reach the line it slides on "
                          f"({abs(zp - foot):g} from {p})", field=("joints", name))
-    ends = (foot + u * math.sqrt(h2), foot - u * math.sqrt(h2))
+    ends = (foot + u * rp * math.sqrt(h2), foot - u * rp * math.sqrt(h2))
     return min(ends, key=lambda z: abs(z - near))
 
 
+def _check_slots(sliders: Any, pending: dict[str, Placement], placed: dict[str, complex]) -> None:
+    """A joint placed on the line P-Q whose slider's slot points another way (``angle_deg`` not along
+    P-Q at rest) is a contradiction, refused like conflicting lengths."""
+    for name, s in (sliders or {}).items() if isinstance(sliders, dict) else ():
+        joint = s.get("joint") if isinstance(s, dict) else None
+        how = pending.get(joint) if isinstance(joint, str) else None
+        angle = s.get("angle_deg", 0.0) if how is not None and how.line is not None else None
+        if how is None or how.line is None or not isinstance(angle, (int, float)) or isinstance(angle, bool) \
+                or not math.isfinite(angle):
+            continue  # no line placement, or a malformed angle the spec model reports
+        p, q = (placed[j] for j in how.line)
+        line = math.degrees(math.atan2((q - p).imag, (q - p).real))
+        if abs(math.sin(math.radians(angle - line))) > 1e-9:
+            raise InputError(f"the slot points at {angle:g}° but joint {joint!r} is placed on the line "
+                             f"{how.line[0]}-{how.line[1]} ({line % 180:.12g}° or {line % 180 + 180:.12g}°)",
+                             field=("sliders", name, "angle_deg"))
+
+
 def _check_lengths(placed: dict[str, complex], length: dict[frozenset[str], tuple[float, str]]) -> None:
-    size = max((abs(z) for z in placed.values()), default=1.0) or 1.0
+    """Every given length within 1e-9 of the linkage's size of its joints' distance (plus the rounding
+    of coordinates far from the origin): relative to the linkage, not to where it lies."""
+    first = next(iter(placed.values()), 0j)
+    size = max((abs(z - first) for z in placed.values()), default=0.0)
+    rounding = 16 * sys.float_info.epsilon * max((abs(z) for z in placed.values()), default=0.0)
     for key, (value, link) in length.items():
         a, b = sorted(key)
         got = abs(placed[a] - placed[b])
-        if abs(got - value) > 1e-9 * max(size, value):
-            raise InputError(f"conflicting lengths: {a}-{b} is {value:g} but the other lengths and positions "
+        if abs(got - value) > 1e-9 * max(size, value) + rounding:
+            raise InputError(f"conflicting lengths: {a}-{b} is {value:.12g} but the other lengths and positions "
                              f"make it {got:.12g}", field=("links", link))

@@ -22,10 +22,12 @@ def _given(v: Any) -> Any:
 
 
 #: In a YAML file a joint may be placed from link lengths and a link given by length
-#: (:mod:`linkedit.spec.lengths`); the validated model always holds positions and joint lists.
-RestPose = Annotated[dict[Name, Vec2], pydantic.BeforeValidator(_given, json_schema_input_type=dict[Name, Vec2 | Placement])]
-Links = Annotated[dict[Name, list[Name]],
-                  pydantic.BeforeValidator(_given, json_schema_input_type=dict[Name, list[Name] | LinkLengths])]
+#: (:mod:`linkedit.spec.lengths`); the validated model always holds positions and joint lists. The schema
+#: describes the file: its input types carry the least sizes too.
+RestPose = Annotated[dict[Name, Vec2], pydantic.Field(min_length=3), pydantic.BeforeValidator(
+    _given, json_schema_input_type=Annotated[dict[Name, Vec2 | Placement], pydantic.Field(min_length=3)])]
+Links = Annotated[dict[Name, list[Name]], pydantic.Field(min_length=1), pydantic.BeforeValidator(
+    _given, json_schema_input_type=Annotated[dict[Name, list[Name] | LinkLengths], pydantic.Field(min_length=1)])]
 
 
 #: a linear input's stroke may reach this many linkage sizes (see specs/limits.md)
@@ -149,9 +151,9 @@ class LinkageSpec(SpecModel):
     name: Name
     units: Name
     description: str | None = None
-    joints: RestPose = pydantic.Field(min_length=3)
+    joints: RestPose
     ground: list[Name] = pydantic.Field(min_length=1)
-    links: Links = pydantic.Field(min_length=1)
+    links: Links
     motor: Motor
     tracks: dict[Name, JointTrack | LinkTrack] = pydantic.Field(default_factory=dict)
     #: Prismatic pairs (sliders), by name.

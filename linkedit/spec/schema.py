@@ -7,6 +7,8 @@ import json
 from pathlib import Path
 
 import pydantic
+from pydantic.json_schema import GenerateJsonSchema, JsonSchemaValue
+from pydantic_core import core_schema
 
 from linkedit.io.atomic import write_text
 
@@ -38,9 +40,20 @@ def available_formats() -> dict[str, type]:
     return out
 
 
+class _Schema(GenerateJsonSchema):
+    """pydantic's schema, with a map keyed by names (``patternProperties``) closed to other keys: the
+    loader refuses a joint named ``a/b``, and a pattern alone constrains only the keys it matches."""
+
+    def dict_schema(self, schema: core_schema.DictSchema) -> JsonSchemaValue:
+        out = super().dict_schema(schema)
+        if "patternProperties" in out:
+            out.setdefault("additionalProperties", False)
+        return out
+
+
 def schema_text(model: type[pydantic.BaseModel]) -> str:
     """The JSON Schema of a model, as stable pretty-printed text."""
-    return json.dumps(model.model_json_schema(), indent=2, sort_keys=True) + "\n"
+    return json.dumps(model.model_json_schema(schema_generator=_Schema), indent=2, sort_keys=True) + "\n"
 
 
 def write_schemas(out_dir: str | Path) -> list[Path]:

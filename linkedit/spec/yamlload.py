@@ -60,16 +60,20 @@ class LineMap(dict[Path_, int]):
 def _walk(loader: SpecLoader, node: yaml.Node, path: Path_, lines: LineMap, file: str) -> None:
     lines.setdefault(path, node.start_mark.line + 1)
     if isinstance(node, yaml.MappingNode):
-        seen: set[Any] = set()
+        seen: dict[Any, Any] = {}  # a name is read without surrounding spaces: " B" is B
         for key_node, value_node in node.value:
             key = loader.construct_object(key_node, deep=True)
             line = key_node.start_mark.line + 1
             if not isinstance(key, (str, int, float, bool)) or key is None:
                 raise InputError("mapping keys must be plain names", file=file, line=line, field=path)
             sub = cast(Path_, (*path, key))  # YAML keys may also be numbers or booleans
-            if key in seen:
-                raise InputError(f"duplicate key {key!r}", file=file, line=line, field=sub)
-            seen.add(key)
+            same = key.strip() if isinstance(key, str) else key
+            if same in seen:
+                other = seen[same]
+                spaces = "" if other == key else (f" ({other!r} above is the same name: names are read without "
+                                                  "surrounding spaces)")
+                raise InputError(f"duplicate key {key!r}{spaces}", file=file, line=line, field=sub)
+            seen[same] = key
             lines[sub] = line
             _walk(loader, value_node, sub, lines, file)
     elif isinstance(node, yaml.SequenceNode):
@@ -218,6 +222,9 @@ def first_problem(model: type[pydantic.BaseModel], exc: pydantic.ValidationError
         msg = "unknown field (not part of this format)" + hint
     elif err["type"] == "missing":
         msg = "required field is missing"
+    elif err["type"] == "too_short" and "min_length" in err.get("ctx", {}):
+        least = err["ctx"]["min_length"]
+        msg = f"needs at least {least} {'entry' if least == 1 else 'entries'}, not {err['ctx'].get('actual_length', 0)}"
     elif err["type"] == "string_pattern_mismatch" and err.get("ctx", {}).get("pattern") in PATTERN_WORDS:
         msg = PATTERN_WORDS[err["ctx"]["pattern"]](str(err["input"]).strip()) or msg
     elif err["type"] in BOUNDS and abs(bound := err["ctx"][BOUNDS[err["type"]][0]]) >= 1e16:
