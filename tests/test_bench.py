@@ -9,7 +9,12 @@ import pytest
 from linkedit.commands.bench import SECTIONS
 
 
-@pytest.mark.parametrize("section", sorted(SECTIONS))
+#: the synthesis section builds its atlases and refines every family's targets (about a minute here): `make test-all`
+SLOW = {"synthesis"}
+
+
+@pytest.mark.parametrize("section", [pytest.param(s, marks=pytest.mark.slow) if s in SLOW else s
+                                     for s in sorted(SECTIONS)])
 def test_bench_section_prints_figures(run_cli, section):
     r = run_cli("bench", "--quick", "--section", section)
     assert r.exit_code == 0, r.output
