@@ -293,3 +293,16 @@ def test_a_dyad_beside_a_group_passing_a_change_point_between_samples_is_a_toggl
             simulate(spec, samples)
         assert str(info.value).count("change point") == 2
         assert "179.7°" in str(info.value) and "359.7°" in str(info.value)
+
+
+def test_one_sample_of_a_group_that_locks_up_inside_the_cycle_is_refused(run_cli, tmp_path):
+    """``-n 1`` samples only the rest pose, where the triad assembles: the cycle is still checked
+    between (as at more samples), so its lock-up is one line naming the group, exit 1, and nothing
+    is written (it used to exit 0: a group's continuation checks between samples, none with one)."""
+    path = tmp_path / "triad.yaml"
+    path.write_text(TRIAD)
+    out = tmp_path / "t.h5"
+    r = run_cli("simulate", path, "-n", "1", "-o", out)
+    assert r.exit_code == 1 and "Traceback" not in r.output, r.output
+    assert "the numeric group T1, T2, T3 cannot be assembled" in r.output and "between the requested samples" in r.output
+    assert not out.exists()
