@@ -101,24 +101,33 @@ def test_the_complex_loop_example_stays_on_its_rest_branch_at_every_sample(run_c
 
 
 @pytest.mark.parametrize("samples", [360, 97, 90])
-def test_a_group_that_locks_up_inside_the_cycle_fails_at_the_first_sample_past_its_fold(samples):
-    """The triad folds between two samples: every sample before the fold is on the rest branch
-    (the independent continuation), the first one after it and every one later are reported as
-    the group's lock-up, starting at that sample's motor angle."""
+def test_a_group_that_locks_up_inside_the_cycle_is_assembled_on_both_sides_of_the_lock(samples):
+    """The triad folds between two samples turning forward from rest, and again turning backward
+    (the cycle's last samples are the ones before its first): every sample the independent
+    continuation reaches either way is on the rest branch, the samples between the two folds are
+    the group's one lock-up, its motor angles the assembled samples either side. (It used to
+    report every sample from the first fold to the cycle's end as locked: `--partial` wrote NaN
+    where the linkage assembles, and the interval ended at 0°.)"""
     spec = load_model(LinkageSpec, "triad.yaml", TRIAD)
     m = simulate(spec, samples, partial=True)
     names = m.plan.joint_names
-    group, ref, fold = rest_branch(spec, m.motor_angle - m.motor_angle[0], step_deg=0.125)
-    assert 0 < fold < samples
-    assert m.assembled[:fold].all() and not m.assembled[fold:].any()
+    turn = m.motor_angle - m.motor_angle[0]
+    group, ref, fold = rest_branch(spec, turn, step_deg=0.125)
+    _, back, stop = rest_branch(spec, turn[:0:-1] - 2 * np.pi, step_deg=0.125)  # samples T-1, T-2, … turning back
+    assert 0 < fold < samples and 0 < stop < samples - fold
+    free = samples - stop  # the first sample of the cycle's end that the backward turn reaches
+    assert m.assembled[:fold].all() and not m.assembled[fold:free].any() and m.assembled[free:].all()
     z = m.positions[..., 0] + 1j * m.positions[..., 1]
-    assert np.abs(z[:fold][:, [names.index(k) for k in group]] - ref[:fold]).max() <= 1e-12 * size_of(spec)
-    assert link_lengths_kept(spec, names, z[:fold]) <= 1e-9 * size_of(spec)
+    cols = [names.index(k) for k in group]
+    assert np.abs(z[:fold][:, cols] - ref[:fold]).max() <= 1e-12 * size_of(spec)
+    assert np.abs(z[free:][::-1][:, cols] - back[:stop]).max() <= 1e-12 * size_of(spec)
+    assert link_lengths_kept(spec, names, z[m.assembled]) <= 1e-9 * size_of(spec)
     (lock,) = m.lockups
-    # the fold lies between the last assembled sample and the first failing one: the interval
-    # reported holds it (a group's continuation cannot restart between the samples to find it)
-    assert f"motor angles within {np.degrees(m.motor_angle[fold - 1]):.1f}°…" in lock.describe()
-    assert lock.run == (fold, samples - 1) and not lock.exact
+    # each fold lies between an assembled sample and a failing one: the interval reported holds
+    # both (a group's continuation cannot restart between the samples to find them)
+    first, last = (np.degrees(m.motor_angle[k]) % 360 for k in (fold - 1, free))
+    assert f"motor angles within {first:.1f}°…{last:.1f}° (the assembled" in lock.describe()
+    assert lock.run == (fold, free - 1) and not lock.exact
     assert "the numeric group T1, T2, T3 cannot be assembled on its rest-pose branch" in lock.describe()
 
 
@@ -212,7 +221,8 @@ def test_k_linkages_through_a_group_in_one_evaluation_are_each_linkage_alone(exa
     velocities, accelerations and d_s of its evaluation alone (to 1e-12); the batch's group
     joints are the independent continuation's (rest_branch) of each perturbed spec. One linkage
     that cannot assemble the whole cycle (a longer crank: it folds at 37.5°; for the lifting arm driven over twice
-    its stroke, a boom pivoted nearer its rod end) is NaN from its fold on, alone: the others are whole."""
+    its stroke, a boom pivoted nearer its rod end) is NaN from its fold on, alone (the crank's up to
+    its fold turning back from rest: the cycle's last samples), the others whole."""
     spec = load_model(LinkageSpec, EXAMPLES / f"{example}.yaml")
     plan = compile_plan(spec)
     rng = np.random.default_rng(7)
@@ -241,7 +251,10 @@ def test_k_linkages_through_a_group_in_one_evaluation_are_each_linkage_alone(exa
         folds += not placed.all()
         if not plan.linear and k in (0, K - 1):  # the independent continuation of the perturbed spec, in its units
             group, ref, fold = rest_branch(specs[k], turn)
-            assert placed.sum() == (fold if fold >= 0 else T) and placed[: placed.sum()].all()
+            _, back, stop = rest_branch(specs[k], turn[:0:-1] - 2.0 * np.pi)  # turning back from rest
+            free = T if fold < 0 else T - stop  # the cycle's end is the turn back's start
+            assert np.array_equal(placed, (np.arange(T) < (fold if fold >= 0 else T)) | (np.arange(T) >= free))
+            ref[free:] = back[:T - free][::-1]
             z = both.z[plan.row_of[[names.index(g) for g in group]], k].T * plan.scale + plan.origin
             assert np.abs(z[placed] - ref[placed]).max() <= 1e-12 * size_of(specs[k])
     assert folds == 1
@@ -280,3 +293,16 @@ def test_a_dyad_beside_a_group_passing_a_change_point_between_samples_is_a_toggl
             simulate(spec, samples)
         assert str(info.value).count("change point") == 2
         assert "179.7°" in str(info.value) and "359.7°" in str(info.value)
+
+
+def test_one_sample_of_a_group_that_locks_up_inside_the_cycle_is_refused(run_cli, tmp_path):
+    """``-n 1`` samples only the rest pose, where the triad assembles: the cycle is still checked
+    between (as at more samples), so its lock-up is one line naming the group, exit 1, and nothing
+    is written (it used to exit 0: a group's continuation checks between samples, none with one)."""
+    path = tmp_path / "triad.yaml"
+    path.write_text(TRIAD)
+    out = tmp_path / "t.h5"
+    r = run_cli("simulate", path, "-n", "1", "-o", out)
+    assert r.exit_code == 1 and "Traceback" not in r.output, r.output
+    assert "the numeric group T1, T2, T3 cannot be assembled" in r.output and "between the requested samples" in r.output
+    assert not out.exists()

@@ -328,8 +328,9 @@ HUNG_FROM_A_DYAD_THAT_FAILS = triad({**LOOP, "Q": 25 - 5j, "B": 12 - 12j},
 def test_a_group_whose_inputs_come_apart_is_placed_up_to_there_and_the_dyad_is_blamed(monkeypatch, run_cli, tmp_path,
                                                                                      solver):
     """A group hung from a joint that cannot be placed from some sample on (its inputs NaN there:
-    their travel too) is continued up to that sample and no further: ``simulate`` assembles the
-    samples before the dyad comes apart (|Q − A| ≤ rod + rocker, closed form), keeping every
+    their travel too) is continued up to that sample, and back from rest through the cycle's end
+    to where the dyad closes again: ``simulate`` assembles exactly the samples where the dyad does
+    (|Q − A| ≤ rod + rocker, closed form), keeping every
     link's length there, and the CLI reports the dyad's joint B (exit 1, one line), not a crash."""
     from linkedit.spec.linkage_yaml import dump_linkage
 
@@ -342,9 +343,11 @@ def test_a_group_whose_inputs_come_apart_is_placed_up_to_there_and_the_dyad_is_b
     reach = abs(z["A"] - z["B"]) + abs(z["Q"] - z["B"])
     apart = np.abs(z["Q"] - z["A"] * np.exp(1j * theta)) > reach
     first = int(np.argmax(apart))
-    assert 0 < first < 72 and np.array_equal(m.assembled, np.arange(72) < first)
+    again = 72 - int(np.argmax(apart[::-1]))  # the first sample after the dyad closes again (the cycle's end)
+    assert 0 < first < again < 72 and apart[first:again].all()
+    assert np.array_equal(m.assembled, ~apart)  # the group continued back from rest through the cycle's end too
     xy = m.positions[..., 0] + 1j * m.positions[..., 1]
-    assert link_lengths_kept(spec, m.plan.joint_names, xy[:first]) <= 1e-9 * size_of(spec)
+    assert link_lengths_kept(spec, m.plan.joint_names, xy[~apart]) <= 1e-9 * size_of(spec)
     path = tmp_path / "apart.yaml"
     path.write_text(dump_linkage(spec))
     res = run_cli("simulate", path, "-n", 72, "-o", tmp_path / "apart.h5")

@@ -302,8 +302,10 @@ def simulate(linkage: LinkageSpec | Plan, samples: int | None = None, *, partial
     else:
         if samples >= CHECK_SAMPLES:
             found = _toggles_passed(plan, pn, ds, shown, unit)
-        elif not plan.has_groups or not state.between_ok or any(r.watched and not r.numeric for r in plan.rules):
-            found = _lockups_between(plan, geom, scale)  # (a group's own continuation checked it between samples)
+        elif samples < 2 or not plan.has_groups or not state.between_ok or \
+                any(r.watched and not r.numeric for r in plan.rules):
+            # (a group's own continuation checked it between two samples or more, not round the cycle from one)
+            found = _lockups_between(plan, geom, scale)
         if found and not partial:
             raise MechanismError(f"{spec.name}: " + "; ".join(lk.describe() for lk in found))
     _check_constraints(plan, pn, ok, value, unit)

@@ -124,6 +124,14 @@ def coarse(known: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.array([nodes[0], *(n for n, a, b in zip(nodes[1:], along[1:], along) if not a <= b)]), travel
 
 
+def closes(known: np.ndarray, s: np.ndarray) -> bool:
+    """Whether the samples of the inputs ``known`` (J_in, T) complex and ``s`` (T,) close a cycle: the
+    last sample's inputs within GROUP_STRIDE (of the linkage's size) of the first's (a full turn, a
+    rocker's swing there and back), so that the samples before the first are the last ones."""
+    gap = max(float(np.abs(known[:, -1] - known[:, 0]).max(initial=0.0)), abs(float(s[-1] - s[0])))
+    return gap <= GROUP_STRIDE
+
+
 class Continued(Protocol):
     """A group's unknowns along the samples of K linkages."""
 
@@ -158,7 +166,9 @@ def trace(group: Continued, known: np.ndarray, s: np.ndarray) -> tuple[np.ndarra
     (``group.polish``), the ones between from the polynomial through those (:func:`predict`), each checked
     like a sequential move; a sample that fails the check is continued sequentially from the one
     before it, and a linkage whose coarse continuation stopped is continued sample by sample from
-    there. Returns the unknowns (K, T, width) (NaN from the first sample where a linkage fails),
+    there; a linkage that fails inside a cycle that closes (:func:`closes`) is continued back from
+    its first sample through the last ones, down to where it fails that way (the samples between
+    the two failures are its lock-up). Returns the unknowns (K, T, width) (NaN where a linkage fails),
     ``group.polish``'s value (K, T) at each polished sample (NaN elsewhere), and which samples are
     placed (K, T): a linkage that fails does not spoil the others."""
     K, T = s.shape
@@ -197,6 +207,10 @@ def trace(group: Continued, known: np.ndarray, s: np.ndarray) -> tuple[np.ndarra
             at = group.follow(c, x, path, out[c], travel, GROUP_TOLERANCE)
             fail = int(path[at]) if at >= 0 else -1
         placed[c, : fail if fail >= 0 else T] = True
+        if fail > 0 and closes(known[:, c], s[c]):  # back from sample 0 through the cycle's end to the lock-up
+            back = np.arange(T - 1, fail, -1)
+            at = group.follow(c, out[c, 0], np.concatenate([[0], back]), out[c], travel, GROUP_TOLERANCE)
+            placed[c, back[: at - 1 if at > 0 else (None if at < 0 else 0)]] = True
     out[~placed] = np.nan
     value[~placed] = np.nan
     return out, value, placed
