@@ -155,7 +155,8 @@ def test_a_complex_loop_spec_is_a_family_of_linkages_that_work(run_cli, tmp_path
     from linkedit.synthesis import families
     from linkedit.synthesis.atlas import load
     from linkedit.synthesis.index import Hit
-    from linkedit.synthesis.synthesize import MARGIN_DEG, within
+    from linkedit.synthesis.shortlist import within
+    from linkedit.synthesis.synthesize import MARGIN_DEG
 
     r = run_cli("atlas", "build", "--family", EXAMPLES / "complex-loop.yaml", "-n", "12", "-o", tmp_path / "a.h5", "-q")
     assert r.exit_code == 0, r.output

@@ -62,7 +62,8 @@ from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Index, target_variants
 from linkedit.synthesis.outputs import DRAWN, history_chart
 from linkedit.synthesis.refine import POINTS, SAMPLES, WALL, curve_error, kept_least_squares
-from linkedit.synthesis.synthesize import MARGIN_DEG, POOR, SCREENED, diverse, margin_of, within
+from linkedit.synthesis.shortlist import diverse, within
+from linkedit.synthesis.synthesize import MARGIN_DEG, POOR, SCREENED, margin_of
 
 FILES = ("result.yaml", "result.h5", "overlay.svg", "history.svg", "report.json")
 #: Candidates taken from the index for re-ranking (closed targets; an open arc, whose index descriptor is that

@@ -25,7 +25,6 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import ModuleType
-from typing import Protocol, TypeVar
 
 import numpy as np
 
@@ -46,6 +45,7 @@ from linkedit.synthesis.families import family
 from linkedit.synthesis.index import Hit, Index, target_variants
 from linkedit.synthesis.polish import Polish, measure, polish
 from linkedit.synthesis.refine import ITERATIONS, Frame, Placement, Refined, curve_error, refine, timed_error
+from linkedit.synthesis.shortlist import diverse, union, within
 from linkedit.synthesis.timed import SAMPLES as TIMED_SAMPLES
 from linkedit.synthesis.timed import TimedTarget, timed_fit, timed_target
 
@@ -71,9 +71,6 @@ POINT_ITERATIONS = 200
 #: --top of them go on (a start outside the right basin stalls in a nearby linkage, so more starts are tried).
 SCREEN = 4
 SCREEN_ITERATIONS = 30
-#: Candidates of one family whose parameters differ by less than this (RMS, family frame) are near-copies:
-#: the refined shortlist takes distinct ones first (several starts, not one start several times).
-NEAR = 0.05
 #: Normalized RMS error above which the result carries a note that no family draws the target well.
 POOR = 0.03
 #: The transmission band's edge μ (degrees) by default: the atlas families' own margin, d_s ≥ sin² μ.
@@ -267,34 +264,6 @@ def _search(target: Curve, atlas: Atlas, index: Index | None, *, top: int, timin
     return _finish(target, z_target, size, chosen, None, clock, name, units, margin_deg, frame)
 
 
-def union(*found: list[Hit]) -> list[Hit]:
-    """The hits of several queries, each linkage once (at its smallest distance), nearest first."""
-    best: dict[tuple[str, int], Hit] = {}
-    for h in (h for hits in found for h in hits):
-        if (h.family, h.row) not in best or h.distance < best[h.family, h.row].distance:
-            best[h.family, h.row] = h
-    return sorted(best.values(), key=lambda h: h.distance)
-
-
-def within(hits: list[Hit], atlas: Atlas, margin_deg: float) -> list[Hit]:
-    """The hits whose linkage turns the full cycle with its lowest d_s ≥ its family's margin at the band
-    ``margin_deg`` (``fam.margin(margin_deg)``: sin² μ, a numeric group's at most its design's own; by the
-    one planar predicate: the atlas may have been built by a version that checked fewer samples);
-    MechanismError if none does (a band narrower than the atlas's, or an atlas edited by hand)."""
-    kept = []
-    for fam_name in dict.fromkeys(h.family for h in hits):
-        mine = [h for h in hits if h.family == fam_name]
-        fam = family(fam_name)
-        margin = fam.margin(margin_deg)
-        ds = fam.min_singularity(atlas.families[fam_name]["params"][[h.row for h in mine]], margin)
-        kept += [h for h, ok in zip(mine, feasibility.works(ds, margin)) if ok]
-    if not kept:
-        raise MechanismError(f"none of the {len(hits)} nearest atlas linkages turns the full cycle with the "
-                             f"transmission angle within [{margin_deg:g}°, {180 - margin_deg:g}°] (--margin "
-                             f"{margin_deg:g}): rebuild the atlas with `linkedit atlas build`, or ask for a wider band")
-    return sorted(kept, key=lambda h: h.distance)
-
-
 def _point_candidates(z: np.ndarray, hits: list[Hit], atlas: Atlas, top: int) -> list[Candidate]:
     """The index hits placed on the precision points ``z`` (N,) complex and ranked by their RMS distance to the
     points (:func:`linkedit.synthesis.points.fit`, over the points' RMS radius); the best ``top`` distinct ones."""
@@ -446,29 +415,6 @@ def _finish(target: Curve, z_target: np.ndarray, size: float, chosen: list[Candi
                "check": clock["check"] - clock["polish"], "total": clock["check"] - clock["start"]}
     return Synthesis(target, size, target.points, 0.0, chosen, best, spec, motion, seconds, note, shape, timed_final,
                      polished, margin_deg, point_distances=point_distances)
-
-
-class _Choice(Protocol):
-    family: str
-    params: np.ndarray
-
-
-#: a candidate of any kind :func:`diverse` chooses among (planar, or spatial: :mod:`linkedit.synthesis.spatial`)
-C = TypeVar("C", bound=_Choice)
-
-
-def diverse(candidates: list[C], count: int) -> list[C]:
-    """The first ``count`` of ``candidates`` (best first) that are not near-copies of one taken
-    before: same family and parameters within ``NEAR`` (RMS over the parameters, family frame);
-    near-copies fill up the list only if too few distinct ones remain."""
-    taken: list[C] = []
-    for c in candidates:
-        if len(taken) == count:
-            break
-        if all(t.family != c.family or np.sqrt(np.mean((t.params - c.params) ** 2)) > NEAR for t in taken):
-            taken.append(c)
-    rest = [c for c in candidates if all(c is not t for t in taken)]
-    return taken + rest[:count - len(taken)]
 
 
 def _placement(place: dict) -> Placement:
